@@ -1,0 +1,20 @@
+# dronewind: drone-borne wind and turbulence validated against mast sonics.
+# Stages live in workflow/rules/; config is validated in workflow/rules/common.smk.
+
+
+configfile: "config/config.yaml"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/simulate.smk"
+include: "workflow/rules/ingest.smk"
+include: "workflow/rules/payload.smk"
+include: "workflow/rules/mast.smk"
+include: "workflow/rules/analysis.smk"
+include: "workflow/rules/report.smk"
+
+
+rule all:
+    default_target: True
+    input:
+        all_outputs(),

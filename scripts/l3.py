@@ -1,0 +1,7 @@
+"""Snakemake script: L2 -> L3 (drone-mast alignment, decimation, rotation)."""
+
+from dronewind.pipeline import l3, logged
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    l3(sm.input.manifest, sm.wildcards.flight, sm.input.drone, sm.input.mast, sm.output[0], sm.config)

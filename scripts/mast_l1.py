@@ -1,0 +1,7 @@
+"""Snakemake script: one mast sonic, TOA5 (L0) -> L1."""
+
+from dronewind.pipeline import logged, mast_l1
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    mast_l1(sm.input.manifest, sm.wildcards.sonic, list(sm.input.files), sm.output[0], sm.config)

@@ -1,0 +1,7 @@
+"""Snakemake script: reference mast sonic L1 -> L2 over one flight's hover window."""
+
+from dronewind.pipeline import logged, mast_l2
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    mast_l2(sm.input.manifest, sm.wildcards.flight, sm.input.mast, sm.input.drone, sm.output[0], sm.config)

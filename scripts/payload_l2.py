@@ -1,0 +1,7 @@
+"""Snakemake script: payload L1 -> L2 (synchronised, motion-corrected east/north/up)."""
+
+from dronewind.pipeline import logged, payload_l2
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    payload_l2(sm.input.manifest, sm.wildcards.flight, sm.input.sonic, sm.input.ins, sm.output[0], sm.config)

@@ -1,0 +1,292 @@
+"""Campaign manifests: loading and validation before any job runs.
+
+A manifest (YAML, format in ../shared/DESIGN.md "Campaign manifest") is validated in two
+passes and every problem is reported with the manifest file, the key path and what was
+expected:
+
+1. structure, against the JSON schema ``dronewind/schemas/campaign.schema.json``
+   (missing keys, wrong types, bad identifiers and times);
+2. meaning: duplicate flight, mast or sensor ids; a payload flight whose ``reference`` is
+   not a mast sonic id; a window whose end is not after its start; and, for measured
+   campaigns (no ``simulation:`` section), files that do not exist and globs that match
+   nothing.
+
+A manifest with a ``simulation:`` section describes a virtual campaign: its L0 files are
+written by the simulator (under ``results/<name>/L0/``), so they need not exist yet.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import glob
+import json
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+import numpy as np
+import yaml
+
+from dronewind.errors import ManifestError
+
+__all__ = ["Campaign", "load_campaign", "campaign_schema", "parse_utc"]
+
+
+def campaign_schema() -> dict[str, Any]:
+    """The JSON schema of campaign manifests (draft 2020-12)."""
+    text = resources.files("dronewind").joinpath("schemas/campaign.schema.json").read_text("utf-8")
+    return json.loads(text)
+
+
+def parse_utc(value: str, where: str = "time") -> np.datetime64:
+    """Parse an ISO 8601 UTC time (trailing ``Z`` optional) to ``datetime64[us]``.
+
+    Parameters
+    ----------
+    value : str
+        Time such as ``2023-08-21T14:05:32Z`` or ``2023-08-21T14:05:32.25Z``.
+    where : str
+        Name used in the error message.
+
+    Returns
+    -------
+    numpy.datetime64
+        Naive time meaning UTC, microsecond resolution.
+    """
+    text = str(value).strip()
+    if text.endswith("Z"):
+        text = text[:-1]
+    for suffix in ("+00:00", "+0000", "-00:00"):
+        if text.endswith(suffix):
+            text = text[: -len(suffix)]
+    try:
+        return np.datetime64(text.replace(" ", "T"), "us")
+    except ValueError as exc:
+        raise ValueError(f"{where}: {value!r} is not an ISO 8601 UTC time") from exc
+
+
+def _normalise(node: Any) -> Any:
+    """YAML turns ISO times into datetime objects: turn them back into ISO strings."""
+    if isinstance(node, dict):
+        return {str(k): _normalise(v) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_normalise(v) for v in node]
+    if isinstance(node, _dt.datetime):
+        if node.tzinfo is not None:
+            node = node.astimezone(_dt.timezone.utc).replace(tzinfo=None)
+        return node.isoformat() + "Z"
+    if isinstance(node, _dt.date):
+        return node.isoformat()
+    return node
+
+
+def _key_path(parts: Any) -> str:
+    out = ""
+    for part in parts:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "(top level)"
+
+
+@dataclass
+class Campaign:
+    """A validated campaign manifest.
+
+    Attributes
+    ----------
+    path : Path
+        The manifest file (absolute).
+    data : dict
+        The manifest content (times as ISO strings; absent sections as empty lists).
+    """
+
+    path: Path
+    data: dict[str, Any] = field(repr=False)
+
+    @property
+    def name(self) -> str:
+        """Campaign name (results go to ``results/<name>/``)."""
+        return str(self.data["name"])
+
+    @property
+    def directory(self) -> Path:
+        """Folder that manifest-relative paths refer to."""
+        return self.path.parent
+
+    @property
+    def simulated(self) -> bool:
+        """True when the manifest has a ``simulation:`` section (a virtual campaign)."""
+        return bool(self.data.get("simulation"))
+
+    @property
+    def payload_flights(self) -> list[dict[str, Any]]:
+        """Payload (SAMURAI-S) flights."""
+        return list(self.data.get("payload_flights") or [])
+
+    @property
+    def quadrotor_flights(self) -> list[dict[str, Any]]:
+        """Quadrotor (SWUF-3D) flights."""
+        return list(self.data.get("quadrotor_flights") or [])
+
+    def mast_sonics(self) -> dict[str, dict[str, Any]]:
+        """Mast sonics by id, each with its mast's id and position merged in."""
+        out: dict[str, dict[str, Any]] = {}
+        for mast in self.data.get("masts") or []:
+            for sonic in mast["sonics"]:
+                entry = dict(sonic)
+                entry["mast_id"] = mast["id"]
+                entry["latitude"] = mast.get("latitude", self.data["site"]["latitude"])
+                entry["longitude"] = mast.get("longitude", self.data["site"]["longitude"])
+                out[str(sonic["id"])] = entry
+        return out
+
+    def payload_flight(self, flight_id: str) -> dict[str, Any]:
+        """The payload flight with this id."""
+        for flight in self.payload_flights:
+            if flight["id"] == flight_id:
+                return flight
+        raise KeyError(f"{self.path}: no payload flight {flight_id!r}")
+
+    def quadrotor_flight(self, flight_id: str) -> dict[str, Any]:
+        """The quadrotor flight with this id."""
+        for flight in self.quadrotor_flights:
+            if flight["id"] == flight_id:
+                return flight
+        raise KeyError(f"{self.path}: no quadrotor flight {flight_id!r}")
+
+    def mast_files(self, sonic_id: str, root: Path | None = None) -> list[Path]:
+        """Files of a mast sonic, in time order (globs expanded, sorted by name).
+
+        For a simulated campaign, each ``*`` of a glob stands for a payload-flight id whose
+        reference is this sonic (the simulator writes one file per flight and sonic).
+        """
+        root = Path(root) if root is not None else self.directory
+        sonic = self.mast_sonics()[sonic_id]
+        files: list[Path] = []
+        for pattern in sonic["files"]:
+            if self.simulated:
+                if "*" in pattern:
+                    files += [root / pattern.replace("*", f["id"]) for f in self.payload_flights]
+                else:
+                    files.append(root / pattern)
+            else:
+                matches = sorted(glob.glob(str(root / pattern)))
+                files += [Path(m) for m in matches]
+        return list(dict.fromkeys(files))
+
+
+def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> list[tuple[str, str]]:
+    problems: list[tuple[str, str]] = []
+    root = path.parent
+    sonic_ids: dict[str, str] = {}
+    for i, mast in enumerate(data.get("masts") or []):
+        for j, sonic in enumerate(mast["sonics"]):
+            key = f"masts[{i}].sonics[{j}]"
+            if sonic["id"] in sonic_ids:
+                problems.append((f"{key}.id", f"duplicate sensor id {sonic['id']!r} (also {sonic_ids[sonic['id']]})"))
+            sonic_ids.setdefault(sonic["id"], key)
+            if check_files:
+                for k, pattern in enumerate(sonic["files"]):
+                    if not glob.glob(str(root / pattern)):
+                        kind = "glob" if any(c in pattern for c in "*?[") else "file"
+                        problems.append((f"{key}.files[{k}]", f"{kind} {pattern!r} matches no file under {root}"))
+    mast_ids = [m["id"] for m in data.get("masts") or []]
+    for dup in sorted({m for m in mast_ids if mast_ids.count(m) > 1}):
+        problems.append(("masts", f"duplicate mast id {dup!r}"))
+
+    seen_flights: dict[str, str] = {}
+    for section in ("payload_flights", "quadrotor_flights"):
+        for i, flight in enumerate(data.get(section) or []):
+            key = f"{section}[{i}]"
+            fid = flight["id"]
+            if fid in seen_flights:
+                problems.append((f"{key}.id", f"duplicate flight id {fid!r} (also {seen_flights[fid]})"))
+            seen_flights.setdefault(fid, key)
+            if section == "payload_flights":
+                if flight["reference"] not in sonic_ids:
+                    known = ", ".join(sorted(sonic_ids)) or "none defined"
+                    problems.append((f"{key}.reference", f"unknown mast sonic id {flight['reference']!r}; expected one of: {known}"))
+                window = flight.get("window")
+                if window:
+                    start = parse_utc(window["start"], f"{key}.window.start")
+                    end = parse_utc(window["end"], f"{key}.window.end")
+                    if end <= start:
+                        problems.append((f"{key}.window.end", f"end {window['end']} is not after start {window['start']}"))
+                if check_files:
+                    for part in ("sonic", "ins"):
+                        if not (root / flight[part]["file"]).is_file():
+                            problems.append((f"{key}.{part}.file", f"file {flight[part]['file']!r} does not exist under {root}"))
+            else:
+                uav_ids = [u["id"] for u in flight["uavs"]]
+                for dup in sorted({u for u in uav_ids if uav_ids.count(u) > 1}):
+                    problems.append((f"{key}.uavs", f"duplicate UAV id {dup!r}"))
+                if check_files:
+                    if not (root / flight["reference"]).is_file():
+                        problems.append((f"{key}.reference", f"file {flight['reference']!r} does not exist under {root}"))
+                    for j, uav in enumerate(flight["uavs"]):
+                        if not (root / uav["file"]).is_file():
+                            problems.append((f"{key}.uavs[{j}].file", f"file {uav['file']!r} does not exist under {root}"))
+    return problems
+
+
+def load_campaign(path: str | Path, *, check_files: bool | None = None) -> Campaign:
+    """Load and validate a campaign manifest.
+
+    Parameters
+    ----------
+    path : str or Path
+        The manifest (YAML).
+    check_files : bool, optional
+        Check that data files exist and globs match. Default: only for measured campaigns
+        (no ``simulation:`` section).
+
+    Returns
+    -------
+    Campaign
+        The validated campaign.
+
+    Raises
+    ------
+    ManifestError
+        Naming the manifest, the key path of the first problem and what was expected;
+        the message lists every problem found.
+    """
+    path = Path(path).resolve()
+    if not path.is_file():
+        raise ManifestError(path, "(file)", "manifest file does not exist")
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}" if mark is not None else "(file)"
+        raise ManifestError(path, where, f"not valid YAML: {exc}") from exc
+    if not isinstance(raw, dict):
+        raise ManifestError(path, "(top level)", "expected a mapping (name:, site:, masts:, ...)")
+    data = _normalise(raw)
+
+    validator = jsonschema.Draft202012Validator(campaign_schema())
+    errors = sorted(validator.iter_errors(data), key=lambda e: [str(p) for p in e.absolute_path])
+    problems: list[tuple[str, str]] = []
+    for error in errors:
+        key = _key_path(error.absolute_path)
+        if error.validator == "required":
+            missing = error.message.split("'")[1] if "'" in error.message else error.message
+            problems.append((f"{key}.{missing}" if error.absolute_path else missing, f"missing required key: {error.message}"))
+        elif error.validator == "type":
+            problems.append((key, f"wrong type: expected {error.validator_value}, got {type(error.instance).__name__} ({error.instance!r})"))
+        elif error.validator == "pattern":
+            hint = error.schema.get("description", f"pattern {error.validator_value}")
+            problems.append((key, f"{error.instance!r} is not valid: expected {hint}"))
+        else:
+            problems.append((key, error.message))
+    if not problems:
+        if check_files is None:
+            check_files = not bool(data.get("simulation"))
+        problems = _semantic_checks(path, data, check_files)
+    if problems:
+        key, what = problems[0]
+        if len(problems) > 1:
+            what += "\n" + "\n".join(f"  also [{k}]: {w}" for k, w in problems[1:])
+        raise ManifestError(path, key, what)
+    return Campaign(path=path, data=data)

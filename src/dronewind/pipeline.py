@@ -1,0 +1,524 @@
+"""The orchestrator: one function per workflow step, from files to files.
+
+Each function reads its inputs, calls the pure library functions and writes its outputs
+(NetCDF through :mod:`dronewind.cf`, tables atomically). The Snakemake scripts in
+``scripts/`` and the ``dronewind`` command line both call these functions, so a step can be
+rerun and debugged by hand without Snakemake. This is the only module besides ``cli`` that
+does file I/O for the workflow; the science lives in the topical modules.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import sys
+import time
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from dronewind import __version__
+from dronewind.cf import atomic_write_text, config_hash, sha256_file
+from dronewind.manifest import load_campaign
+
+LOG = logging.getLogger("dronewind")
+
+
+@contextlib.contextmanager
+def logged(log_file: str | Path | None) -> Iterator[logging.Logger]:
+    """Send dronewind's log (and Python warnings) to a file for the duration of a step.
+
+    Parameters
+    ----------
+    log_file : str or Path or None
+        Log file (created with its folder); ``None`` logs to standard error only.
+
+    Yields
+    ------
+    logging.Logger
+        The ``dronewind`` logger.
+    """
+    handlers: list[logging.Handler] = [logging.StreamHandler(sys.stderr)]
+    if log_file is not None:
+        Path(log_file).parent.mkdir(parents=True, exist_ok=True)
+        handlers.append(logging.FileHandler(log_file, mode="w", encoding="utf-8"))
+    fmt = logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s")
+    for handler in handlers:
+        handler.setFormatter(fmt)
+        LOG.addHandler(handler)
+    LOG.setLevel(logging.INFO)
+    logging.captureWarnings(True)
+    warn_logger = logging.getLogger("py.warnings")
+    for handler in handlers:
+        warn_logger.addHandler(handler)
+    start = time.perf_counter()
+    try:
+        yield LOG
+        LOG.info("done in %.2f s", time.perf_counter() - start)
+    except Exception:
+        LOG.exception("failed after %.2f s", time.perf_counter() - start)
+        raise
+    finally:
+        for handler in handlers:
+            LOG.removeHandler(handler)
+            warn_logger.removeHandler(handler)
+            handler.close()
+        logging.captureWarnings(False)
+
+
+def campaign_record(manifest: str | Path, output: str | Path, config: Mapping[str, Any]) -> Path:
+    """Validate a manifest and record it with provenance as JSON.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Campaign manifest.
+    output : str or Path
+        JSON file to write (``results/<name>/campaign.json``).
+    config : mapping
+        Workflow configuration (hashed into the record).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    campaign = load_campaign(manifest)
+    record = {
+        "campaign": campaign.name,
+        "manifest": str(campaign.path),
+        "manifest_sha256": sha256_file(campaign.path),
+        "simulated": campaign.simulated,
+        "dronewind_version": __version__,
+        "config_sha256": config_hash(dict(config)),
+        "payload_flights": [f["id"] for f in campaign.payload_flights],
+        "quadrotor_flights": [f["id"] for f in campaign.quadrotor_flights],
+        "mast_sonics": sorted(campaign.mast_sonics()),
+        "manifest_content": campaign.data,
+    }
+    LOG.info(
+        "campaign %s: %d payload flight(s), %d quadrotor flight(s), %d mast sonic(s)",
+        campaign.name,
+        len(record["payload_flights"]),
+        len(record["quadrotor_flights"]),
+        len(record["mast_sonics"]),
+    )
+    return atomic_write_text(output, json.dumps(record, indent=2, sort_keys=True) + "\n")
+
+
+# ----------------------------------------------------------------------------- payload chain
+
+
+def _processing(config: Mapping[str, Any]) -> Mapping[str, Any]:
+    return config.get("processing", {})
+
+
+def _window(flight: Mapping[str, Any]) -> tuple[Any, Any] | None:
+    window = flight.get("window")
+    if not window:
+        return None
+    from dronewind.manifest import parse_utc
+
+    return parse_utc(window["start"]), parse_utc(window["end"])
+
+
+def payload_l1(
+    manifest: str | Path,
+    flight_id: str,
+    sonic_file: str | Path,
+    ins_file: str | Path,
+    out_sonic: str | Path,
+    out_ins: str | Path,
+    config: Mapping[str, Any],
+) -> tuple[Path, Path]:
+    """L0 -> L1 for one payload flight: sonic and INS to UTC with range/spike/gap QC.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Campaign manifest.
+    flight_id : str
+        Payload flight id.
+    sonic_file, ins_file : str or Path
+        Raw payload sonic and INS CSV files.
+    out_sonic, out_ins : str or Path
+        L1 NetCDF files to write.
+    config : mapping
+        Workflow configuration.
+
+    Returns
+    -------
+    tuple of Path
+        The written files.
+    """
+    from dronewind.cf import write_netcdf
+    from dronewind.io import payload as io_payload
+
+    campaign = load_campaign(manifest)
+    site = campaign.data["site"]
+    proc = _processing(config)
+    despike = proc.get("despike", {})
+    LOG.info("flight %s: reading %s and %s", flight_id, sonic_file, ins_file)
+    sonic = io_payload.payload_sonic_l1(
+        sonic_file,
+        ins_file,
+        despike_window_s=float(despike.get("window_s", 10.0)),
+        despike_n_mad=float(despike.get("n_mad", 7.0)),
+    )
+    ins = io_payload.ins_l1(ins_file)
+    LOG.info("sonic L1: %d samples; %s", sonic.sizes["time"], sonic.attrs.get("processing_log", ""))
+    LOG.info("INS L1: %d samples; %s", ins.sizes["time"], ins.attrs.get("processing_log", ""))
+    common = dict(config=config, latitude=site["latitude"], longitude=site["longitude"],
+                  extra_attrs={"campaign": campaign.name, "flight": flight_id})
+    a = write_netcdf(
+        sonic, out_sonic, title=f"{campaign.name} flight {flight_id}: payload sonic, L1",
+        summary="RM Young 81000 sonic on the SAMURAI-S sling load, sensor frame, logger clock "
+        "converted to UTC through the INS; range, spike and missing-data flags.",
+        processing_level="L1: UTC time, QC flags, flagged values set to NaN",
+        history=f"payload_l1 flight {flight_id}", inputs=[sonic_file, ins_file],
+        station_id=f"{flight_id}_payload_sonic", **common,
+    )
+    ins_out = _track_to_cf(ins)
+    b = write_netcdf(
+        ins_out, out_ins, title=f"{campaign.name} flight {flight_id}: INS, L1",
+        summary="SBG Ellipse-D EKF output on the SAMURAI-S payload from the first stable valid GNSS time.",
+        processing_level="L1: UTC time, QC flags", history=f"payload_l1 flight {flight_id}",
+        inputs=[ins_file], station_id=f"{flight_id}_payload_ins", **common,
+    )
+    return a, b
+
+
+def _track_to_cf(ds: Any) -> Any:
+    """GNSS track of a hovering platform as CF H.5 ``precise_lat/precise_lon`` (time)."""
+    rename = {k: v for k, v in (("lat_deg", "precise_lat"), ("lon_deg", "precise_lon"), ("alt_m", "altitude"))
+              if k in ds.variables}
+    out = ds.rename(rename)
+    if "precise_lat" in out:
+        out["precise_lat"].attrs.update(standard_name="latitude", units="degrees_north",
+                                        long_name="GNSS latitude of the platform")
+    if "precise_lon" in out:
+        out["precise_lon"].attrs.update(standard_name="longitude", units="degrees_east",
+                                        long_name="GNSS longitude of the platform")
+    if "altitude" in out:
+        out["altitude"].attrs.update(standard_name="altitude", units="m", positive="up",
+                                     long_name="GNSS altitude above mean sea level")
+    return out
+
+
+def _track_from_cf(ds: Any) -> Any:
+    """Inverse of :func:`_track_to_cf`: back to the library's variable names."""
+    pairs = (("precise_lat", "lat_deg"), ("precise_lon", "lon_deg"), ("altitude", "alt_m"))
+    return ds.rename({k: v for k, v in pairs if k in ds.variables})
+
+
+def mast_l1(
+    manifest: str | Path,
+    sonic_id: str,
+    files: list[str | Path],
+    output: str | Path,
+    config: Mapping[str, Any],
+) -> Path:
+    """L0 -> L1 for one mast sonic: TOA5 files to east/north/up with QC flags.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Campaign manifest.
+    sonic_id : str
+        Mast sonic id.
+    files : list of path
+        TOA5 files of the sonic (concatenated in time order).
+    output : str or Path
+        L1 NetCDF file.
+    config : mapping
+        Workflow configuration.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    from dronewind.cf import write_netcdf
+    from dronewind.io import toa5
+
+    campaign = load_campaign(manifest)
+    sonic = campaign.mast_sonics()[sonic_id]
+    despike = _processing(config).get("despike", {})
+    ds = toa5.mast_l1(
+        files, azimuth_deg=float(sonic["azimuth_deg"]), height_m=float(sonic["height_m"]), sensor_id=sonic_id,
+        despike_window_s=float(despike.get("window_s", 10.0)), despike_n_mad=float(despike.get("n_mad", 7.0)),
+    )
+    LOG.info("mast %s L1: %d samples from %d file(s); %s", sonic_id, ds.sizes["time"], len(files),
+             ds.attrs.get("processing_log", ""))
+    return write_netcdf(
+        ds, output, title=f"{campaign.name} mast sonic {sonic_id}, L1",
+        summary=f"{sonic.get('model', 'CSAT3')} sonic at {sonic['height_m']} m on mast {sonic['mast_id']}, "
+        "rotated from the sensor frame to east/north/up; range, spike and diagnostic flags.",
+        processing_level="L1: UTC time, east/north/up, QC flags", history=f"mast_l1 {sonic_id}",
+        inputs=files, config=config, station_id=sonic_id, latitude=sonic["latitude"],
+        longitude=sonic["longitude"], height_m=float(sonic["height_m"]),
+        extra_attrs={"campaign": campaign.name, "mast": sonic["mast_id"]},
+    )
+
+
+def _open(path: str | Path) -> Any:
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        return ds.load()
+
+
+def _strip_cf(ds: Any) -> Any:
+    """Drop the writer's station coordinates so a dataset can be processed and re-written."""
+    drop = [c for c in ("station", "lat", "lon", "alt") if c in ds.variables]
+    out = ds.drop_vars(drop)
+    for var in out.data_vars.values():
+        var.attrs.pop("coordinates", None)
+    return out
+
+
+def payload_l2(
+    manifest: str | Path,
+    flight_id: str,
+    sonic_l1: str | Path,
+    ins_l1: str | Path,
+    output: str | Path,
+    config: Mapping[str, Any],
+) -> Path:
+    """L1 -> L2 for one payload flight: hover window, sonic-INS lag, motion correction.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Campaign manifest.
+    flight_id : str
+        Payload flight id.
+    sonic_l1, ins_l1 : str or Path
+        L1 files of the flight.
+    output : str or Path
+        L2 NetCDF file.
+    config : mapping
+        Workflow configuration.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    from dronewind import sync
+    from dronewind.cf import split_standard, write_netcdf
+
+    campaign = load_campaign(manifest)
+    flight = campaign.payload_flight(flight_id)
+    proc = _processing(config)
+    lag_cfg = proc.get("sonic_ins_lag", {})
+    sonic = _strip_cf(_open(sonic_l1))
+    ins = _track_from_cf(_strip_cf(_open(ins_l1)))
+    ds = sync.payload_l2(
+        sonic, ins, mount=flight["sonic"].get("mount", "upside_down"),
+        max_lag_s=float(lag_cfg.get("max_lag_s", 2.0)), lag_step_s=float(lag_cfg.get("step_s", 1 / 32)),
+        window=_window(flight), max_missing_fraction=float(proc.get("max_missing_fraction", 0.02)),
+    )
+    ds.attrs["height_m"] = float(flight.get("target_height_m", float("nan")))
+    LOG.info("flight %s L2: lag_sonic_ins_s = %.4f, usable = %s %s", flight_id, ds.attrs["lag_sonic_ins_s"],
+             ds.attrs["usable"], ds.attrs.get("unusable_reason", ""))
+    ds = _track_to_cf(ds)
+    root, groups = split_standard(ds, "synchronisation")
+    lat = float(root["precise_lat"].median()) if "precise_lat" in root else campaign.data["site"]["latitude"]
+    lon = float(root["precise_lon"].median()) if "precise_lon" in root else campaign.data["site"]["longitude"]
+    return write_netcdf(
+        root, output, title=f"{campaign.name} flight {flight_id}: drone wind, L2",
+        summary="Synchronised (sonic-INS lag of minimum TKE) and motion-corrected wind from the "
+        "SAMURAI-S payload in east/north/up at the sonic rate, hover window only.",
+        processing_level="L2: synchronised, motion-corrected, east/north/up", history=f"payload_l2 {flight_id}",
+        inputs=[sonic_l1, ins_l1], config=config, station_id=f"{flight_id}_drone", latitude=lat, longitude=lon,
+        height_m=ds.attrs["height_m"], extra_attrs={"campaign": campaign.name, "flight": flight_id},
+        groups=groups,
+    )
+
+
+def mast_l2(
+    manifest: str | Path,
+    flight_id: str,
+    mast_l1_file: str | Path,
+    drone_l2_file: str | Path,
+    output: str | Path,
+    config: Mapping[str, Any],
+    margin_s: float = 30.0,
+    min_coverage: float = 0.9,
+) -> Path:
+    """Mast L1 -> L2 for one flight: the reference sonic over the flight's hover window.
+
+    The window is the drone's L2 span widened by the drone-mast lag search range and a
+    margin, so that alignment can shift the drone by up to ``max_lag_s`` either way.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Campaign manifest.
+    flight_id : str
+        Payload flight id (its ``reference`` names the mast sonic).
+    mast_l1_file : str or Path
+        L1 file of the reference mast sonic.
+    drone_l2_file : str or Path
+        L2 file of the drone (gives the hover window).
+    output : str or Path
+        L2 mast file to write.
+    config : mapping
+        Workflow configuration.
+    margin_s : float
+        Extra margin on each side [s].
+    min_coverage : float
+        Minimum fraction of the hover window the mast record must cover [-].
+
+    Returns
+    -------
+    Path
+        The written file.
+
+    Raises
+    ------
+    InputError
+        When the mast record does not cover the flight.
+    """
+    import numpy as np
+
+    from dronewind.cf import write_netcdf
+    from dronewind.errors import InputError
+
+    campaign = load_campaign(manifest)
+    flight = campaign.payload_flight(flight_id)
+    sonic = campaign.mast_sonics()[flight["reference"]]
+    max_lag_s = float(_processing(config).get("drone_mast", {}).get("max_lag_s", 6.0))
+    mast = _strip_cf(_open(mast_l1_file))
+    drone = _open(drone_l2_file)
+    t0, t1 = drone["time"].values[0], drone["time"].values[-1]
+    pad = np.timedelta64(int((max_lag_s + margin_s) * 1e6), "us")
+    cut = mast.sel(time=slice(t0 - pad, t1 + pad))
+    inside = cut.sel(time=slice(t0, t1))
+    span_s = float((t1 - t0) / np.timedelta64(1, "s"))
+    covered_s = 0.0
+    if inside.sizes["time"] > 1:
+        valid = np.isfinite(inside["u_east_ms"].values)
+        covered_s = valid.sum() / float(mast.attrs.get("sampling_rate_hz", 10.0))
+    coverage = covered_s / span_s if span_s > 0 else 0.0
+    if coverage < min_coverage:
+        raise InputError(
+            mast_l1_file,
+            f"mast sonic {flight['reference']} covers {100 * coverage:.0f} % of flight {flight_id}'s hover "
+            f"window {np.datetime_as_string(t0, 's')}Z to {np.datetime_as_string(t1, 's')}Z; expected at least "
+            f"{100 * min_coverage:.0f} % (check the mast files and the flight times)",
+        )
+    cut.attrs.update(mast.attrs)
+    cut.attrs["flight_coverage_fraction"] = round(coverage, 4)
+    cut.attrs["processing_log"] = (
+        str(mast.attrs.get("processing_log", "")) + f"\nmast_l2: cut to flight {flight_id} hover window "
+        f"+/- {max_lag_s + margin_s:g} s; valid data cover {100 * coverage:.1f} % of the window"
+    ).strip()
+    LOG.info("flight %s mast L2: %d samples, coverage %.1f %%", flight_id, cut.sizes["time"], 100 * coverage)
+    return write_netcdf(
+        cut, output, title=f"{campaign.name} flight {flight_id}: reference mast sonic, L2",
+        summary=f"Mast sonic {flight['reference']} in east/north/up over the hover window of flight {flight_id}.",
+        processing_level="L2: east/north/up, flight window", history=f"mast_l2 {flight_id}",
+        inputs=[mast_l1_file, drone_l2_file], config=config, station_id=flight["reference"],
+        latitude=sonic["latitude"], longitude=sonic["longitude"], height_m=float(sonic["height_m"]),
+        extra_attrs={"campaign": campaign.name, "flight": flight_id},
+    )
+
+
+def l3(
+    manifest: str | Path,
+    flight_id: str,
+    drone_l2_file: str | Path,
+    mast_l2_file: str | Path,
+    output: str | Path,
+    config: Mapping[str, Any],
+) -> Path:
+    """L2 -> L3 for one flight: drone-mast lag, common 8 Hz base, streamline rotation.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Campaign manifest.
+    flight_id : str
+        Payload flight id.
+    drone_l2_file, mast_l2_file : str or Path
+        L2 files of the flight.
+    output : str or Path
+        L3 NetCDF file.
+    config : mapping
+        Workflow configuration.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    from dronewind import sync
+    from dronewind.cf import split_standard, write_netcdf
+
+    campaign = load_campaign(manifest)
+    flight = campaign.payload_flight(flight_id)
+    proc = _processing(config)
+    dm = proc.get("drone_mast", {})
+    drone = _track_from_cf(_strip_cf(_open(drone_l2_file)))
+    mast = _strip_cf(_open(mast_l2_file))
+    rotation = str(proc.get("rotation", "double"))
+    ds = sync.align_drone_mast(
+        drone, mast, max_lag_s=float(dm.get("max_lag_s", 6.0)), decimate=int(dm.get("decimation", 4)),
+        rotation="double" if rotation == "planar_fit" else rotation,
+        drone_height_m=float(flight.get("target_height_m", drone.attrs.get("height_m", float("nan")))),
+    )
+    ds.attrs["lag_sonic_ins_s"] = float(drone.attrs.get("lag_sonic_ins_s", float("nan")))
+    ds.attrs["drone_usable"] = int(drone.attrs.get("usable", 1))
+    ds.attrs["drone_unusable_reason"] = str(drone.attrs.get("unusable_reason", ""))
+    # Streamline components: CF x_wind/y_wind are components along the axes of the
+    # coordinate system in use; here x points along the mean wind of each sensor.
+    ds["u_ms"].attrs.update(standard_name="x_wind", comment="x axis along the mean wind (streamline coordinates)")
+    ds["v_ms"].attrs.update(standard_name="y_wind", comment="y axis 90 degrees counter-clockwise from x")
+    ds["w_ms"].attrs.update(standard_name="upward_air_velocity", comment="normal to the mean streamline plane")
+    LOG.info("flight %s L3: lag_drone_mast_s = %.3f, %d samples at %g Hz", flight_id, ds.attrs["lag_drone_mast_s"],
+             ds.sizes["time"], ds.attrs["sampling_rate_hz"])
+    root, groups = split_standard(ds, "alignment")
+    sonic = campaign.mast_sonics()[flight["reference"]]
+    return write_netcdf(
+        root, output, title=f"{campaign.name} flight {flight_id}: drone and mast aligned, L3",
+        summary="Drone and reference mast sonic aligned by the advection lag, decimated to a common rate "
+        "with an FIR anti-alias filter and rotated into streamline coordinates.",
+        processing_level="L3: aligned, decimated, streamline coordinates", history=f"l3 {flight_id}",
+        inputs=[drone_l2_file, mast_l2_file], config=config, station_id=f"{flight_id}_drone_and_mast",
+        latitude=sonic["latitude"], longitude=sonic["longitude"], height_m=float(sonic["height_m"]),
+        extra_attrs={"campaign": campaign.name, "flight": flight_id, "reference": flight["reference"]},
+        groups=groups,
+    )
+
+
+# ----------------------------------------------------------------------------- simulation
+
+
+def simulate_payload(manifest: str | Path, flight_id: str, out_dir: str | Path) -> list[Path]:
+    """Write the raw files of one simulated payload flight (sonic, INS, mast TOA5).
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Manifest with a ``simulation:`` section.
+    flight_id : str
+        Payload flight id.
+    out_dir : str or Path
+        L0 folder of the campaign (``results/<name>/L0``); files go to the manifest's
+        relative paths below it.
+
+    Returns
+    -------
+    list of Path
+        The written files.
+    """
+    from dronewind.simulate.payload import simulate_payload_flight
+
+    campaign = load_campaign(manifest)
+    paths = simulate_payload_flight(campaign.data, campaign.directory, flight_id, Path(out_dir))
+    for path in paths:
+        LOG.info("wrote %s", path)
+    return paths

@@ -1,0 +1,100 @@
+"""The NetCDF writer: CF-1.11/ACDD-1.3 compliance, provenance, atomic write, reproducibility."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pandas as pd
+import pytest
+import xarray as xr
+
+from dronewind.cf import check_compliance, config_hash, write_netcdf
+
+
+def sample_dataset(n: int = 200) -> xr.Dataset:
+    rng = np.random.default_rng(3)
+    time = pd.date_range("2023-08-21T14:05:00", periods=n, freq="100ms").values
+    return xr.Dataset(
+        {
+            "u_east_ms": ("time", rng.normal(2, 1, n), {"units": "m s-1", "standard_name": "eastward_wind"}),
+            "w_up_ms": ("time", rng.normal(0, 0.3, n), {"units": "m s-1", "standard_name": "upward_air_velocity"}),
+            "t_sonic_k": ("time", 290 + rng.normal(0, 0.2, n),
+                          {"units": "K", "standard_name": "virtual_temperature", "comment": "sonic temperature"}),
+            "qc_mast": ("time", np.zeros(n, np.int8),
+                        {"standard_name": "status_flag", "flag_masks": np.array([1, 2, 4], np.int8),
+                         "flag_meanings": "out_of_range spike missing"}),
+        },
+        coords={"time": time},
+        attrs={"n_spikes": 0, "processing_log": "ingest: test"},
+    )
+
+
+def write(path, ds=None, **kw):
+    args = dict(title="test", summary="test record", processing_level="L1 test", history="unit test",
+                station_id="mast30", latitude=43.1247, longitude=0.3628, height_m=30.0)
+    args.update(kw)
+    return write_netcdf(sample_dataset() if ds is None else ds, path, **args)
+
+
+def test_timeseries_file_passes_compliance_checker(tmp_path):
+    path = write(tmp_path / "mast.nc")
+    ok, report = check_compliance(path)
+    assert ok, report
+
+
+def test_groups_for_quantities_without_standard_name(tmp_path):
+    freq = np.linspace(0.01, 4, 50)
+    spectra = xr.Dataset({"psd_u": ("frequency", freq ** (-5 / 3), {"units": "m2 s-1", "long_name": "PSD of u"})},
+                         coords={"frequency": ("frequency", freq, {"units": "Hz", "long_name": "frequency"})})
+    path = write(tmp_path / "spec.nc", groups={"spectra": spectra})
+    ok, report = check_compliance(path)
+    assert ok, report
+    with xr.open_dataset(path, group="spectra") as back:
+        np.testing.assert_allclose(back["psd_u"].values, freq ** (-5 / 3))
+        assert back["psd_u"].attrs["long_name"] == "PSD of u"
+    with xr.open_dataset(path) as root:
+        assert root.attrs["groups"] == "spectra"
+
+
+def test_time_encoding_and_provenance(tmp_path):
+    inp = tmp_path / "raw.dat"
+    inp.write_bytes(b"raw bytes")
+    path = write(tmp_path / "x.nc", inputs=[inp], config={"a": 1})
+    with xr.open_dataset(path, decode_times=False) as raw:
+        t = raw["time"]
+        assert "_FillValue" not in t.encoding and "_FillValue" not in t.attrs
+        assert t.attrs["units_metadata"] == "leap_seconds: none"
+        assert raw["t_sonic_k"].attrs["units_metadata"] == "temperature: on_scale"
+        assert raw.attrs["Conventions"] == "CF-1.11, ACDD-1.3"
+        assert raw.attrs["config_sha256"] == config_hash({"a": 1})
+        assert hashlib.sha256(b"raw bytes").hexdigest() in raw.attrs["input_checksums"]
+        assert raw.attrs["featureType"] == "timeSeries"
+        assert raw["station"].attrs["cf_role"] == "timeseries_id"
+    with xr.open_dataset(path) as ds:
+        np.testing.assert_array_equal(ds["time"].values, sample_dataset()["time"].values)
+
+
+def test_config_hash_ignores_key_order():
+    assert config_hash({"a": 1, "b": {"c": 2, "d": 3}}) == config_hash({"b": {"d": 3, "c": 2}, "a": 1})
+    assert config_hash({"a": 1}) != config_hash({"a": 2})
+
+
+def test_same_inputs_give_bit_identical_files(tmp_path, monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    a = write(tmp_path / "x.nc").read_bytes()
+    b = write(tmp_path / "x.nc").read_bytes()
+    assert hashlib.sha256(a).hexdigest() == hashlib.sha256(b).hexdigest()
+
+
+def test_interrupted_write_leaves_no_file(tmp_path, monkeypatch):
+    target = tmp_path / "out.nc"
+
+    def boom(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", boom)
+    with pytest.raises(KeyboardInterrupt):
+        write(target)
+    assert not target.exists()
+    assert list(tmp_path.iterdir()) == [], "no temporary file is left behind"

@@ -1,0 +1,173 @@
+"""Campaign manifests: a valid one loads; each kind of mistake is named (file, key path, expectation)."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+import yaml
+
+from dronewind.cli import main as cli_main
+from dronewind.errors import ManifestError
+from dronewind.manifest import load_campaign
+
+VALID = {
+    "name": "testcamp",
+    "site": {"name": "P2OA", "latitude": 43.1247, "longitude": 0.3628, "altitude_m": 603},
+    "masts": [
+        {
+            "id": "p2oa",
+            "latitude": 43.1247,
+            "longitude": 0.3628,
+            "sonics": [
+                {"id": "mast30", "height_m": 30, "model": "CSAT3", "azimuth_deg": 218.0, "files": ["mast/mast30_*.dat"]},
+                {"id": "mast60", "height_m": 60, "model": "CSAT3", "azimuth_deg": 230.5, "files": ["mast/mast60_*.dat"]},
+            ],
+        }
+    ],
+    "payload_flights": [
+        {
+            "id": "s01",
+            "reference": "mast30",
+            "target_height_m": 30,
+            "sonic": {"file": "flights/s01/sonic.csv", "mount": "upside_down"},
+            "ins": {"file": "flights/s01/ins.csv"},
+            "window": {"start": "2023-08-21T14:05:32Z", "end": "2023-08-21T14:33:32Z"},
+        }
+    ],
+    "quadrotor_flights": [
+        {"id": "f31", "reference": "tower/f31_reference.csv", "uavs": [{"id": "q01", "file": "quad/f31/q01.csv"}]}
+    ],
+}
+
+
+def write_campaign(tmp_path: Path, data: dict, make_files: bool = True) -> Path:
+    if make_files:
+        for rel in ("mast/mast30_a.dat", "mast/mast60_a.dat", "flights/s01/sonic.csv", "flights/s01/ins.csv",
+                    "tower/f31_reference.csv", "quad/f31/q01.csv"):
+            (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+            (tmp_path / rel).write_text("x\n")
+    path = tmp_path / "campaign.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def expect_error(tmp_path: Path, data: dict, key: str, fragment: str, make_files: bool = True) -> ManifestError:
+    path = write_campaign(tmp_path, data, make_files)
+    with pytest.raises(ManifestError) as info:
+        load_campaign(path)
+    err = info.value
+    assert str(path) in str(err), "the message names the manifest file"
+    assert err.key_path == key, f"key path: got {err.key_path!r}, expected {key!r}\n{err}"
+    assert fragment in str(err), f"expected {fragment!r} in: {err}"
+    return err
+
+
+def test_valid_manifest_loads(tmp_path):
+    campaign = load_campaign(write_campaign(tmp_path, VALID))
+    assert campaign.name == "testcamp"
+    assert not campaign.simulated
+    assert set(campaign.mast_sonics()) == {"mast30", "mast60"}
+    assert campaign.mast_files("mast30") == [tmp_path / "mast/mast30_a.dat"]
+    assert campaign.payload_flight("s01")["sonic"]["mount"] == "upside_down"
+
+
+def test_yaml_timestamps_are_normalised(tmp_path):
+    path = write_campaign(tmp_path, VALID)
+    # unquoted ISO times are parsed by YAML into datetimes; they must come back as UTC strings
+    text = path.read_text().replace("'2023-08-21T14:05:32Z'", "2023-08-21T14:05:32Z")
+    path.write_text(text)
+    window = load_campaign(path).payload_flight("s01")["window"]
+    assert window["start"] == "2023-08-21T14:05:32Z"
+
+
+def test_missing_key(tmp_path):
+    data = copy.deepcopy(VALID)
+    del data["payload_flights"][0]["ins"]
+    expect_error(tmp_path, data, "payload_flights[0].ins", "missing required key")
+
+
+def test_missing_top_level_key(tmp_path):
+    data = copy.deepcopy(VALID)
+    del data["site"]
+    expect_error(tmp_path, data, "site", "missing required key")
+
+
+def test_wrong_type(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["masts"][0]["sonics"][0]["height_m"] = "thirty"
+    expect_error(tmp_path, data, "masts[0].sonics[0].height_m", "expected number")
+
+
+def test_unknown_sensor_id(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["payload_flights"][0]["reference"] = "mast45"
+    err = expect_error(tmp_path, data, "payload_flights[0].reference", "unknown mast sonic id 'mast45'")
+    assert "mast30" in str(err) and "mast60" in str(err), "the known ids are listed"
+
+
+def test_file_does_not_exist(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["payload_flights"][0]["sonic"]["file"] = "flights/s01/missing.csv"
+    expect_error(tmp_path, data, "payload_flights[0].sonic.file", "does not exist")
+
+
+def test_glob_matches_nothing(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["masts"][0]["sonics"][1]["files"] = ["mast/other_*.dat"]
+    expect_error(tmp_path, data, "masts[0].sonics[1].files[0]", "glob 'mast/other_*.dat' matches no file")
+
+
+def test_duplicate_flight_ids(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["payload_flights"].append(copy.deepcopy(data["payload_flights"][0]))
+    expect_error(tmp_path, data, "payload_flights[1].id", "duplicate flight id 's01'")
+
+
+def test_duplicate_ids_across_sections(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["quadrotor_flights"][0]["id"] = "s01"
+    expect_error(tmp_path, data, "quadrotor_flights[0].id", "duplicate flight id 's01'")
+
+
+def test_window_end_before_start(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["payload_flights"][0]["window"]["end"] = "2023-08-21T14:00:00Z"
+    expect_error(tmp_path, data, "payload_flights[0].window.end", "is not after start")
+
+
+def test_bad_time_string(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["payload_flights"][0]["window"]["start"] = "21/08/2023 14:05"
+    expect_error(tmp_path, data, "payload_flights[0].window.start", "ISO 8601")
+
+
+def test_bad_mount(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["payload_flights"][0]["sonic"]["mount"] = "sideways"
+    expect_error(tmp_path, data, "payload_flights[0].sonic.mount", "sideways")
+
+
+def test_simulated_campaign_needs_no_files(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["simulation"] = {"seed": 1}
+    campaign = load_campaign(write_campaign(tmp_path, data, make_files=False))
+    assert campaign.simulated
+    # one generated mast file per payload flight, '*' standing for the flight id
+    assert campaign.mast_files("mast30", tmp_path / "L0") == [tmp_path / "L0/mast/mast30_s01.dat"]
+
+
+def test_only_quadrotor_section(tmp_path):
+    data = {k: v for k, v in copy.deepcopy(VALID).items() if k not in ("masts", "payload_flights")}
+    campaign = load_campaign(write_campaign(tmp_path, data))
+    assert campaign.payload_flights == [] and len(campaign.quadrotor_flights) == 1
+
+
+def test_cli_validate_campaign(tmp_path, capsys):
+    assert cli_main(["validate-campaign", str(write_campaign(tmp_path, VALID))]) == 0
+    assert "valid measured campaign 'testcamp'" in capsys.readouterr().out
+    data = copy.deepcopy(VALID)
+    data["payload_flights"][0]["reference"] = "nope"
+    assert cli_main(["validate-campaign", str(write_campaign(tmp_path, data))]) == 1
+    assert "payload_flights[0].reference" in capsys.readouterr().err

@@ -1,0 +1,35 @@
+# L0 -> L1: raw records to UTC, CF NetCDF with range/spike/gap QC flags.
+
+
+rule payload_l1:
+    input:
+        manifest=str(CAMPAIGN.path),
+        sonic=payload_file("sonic"),
+        ins=payload_file("ins"),
+    output:
+        sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
+        ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
+    log:
+        log_path("payload_l1", "flight"),
+    benchmark:
+        bench_path("payload_l1", "flight")
+    conda:
+        ENV
+    script:
+        "../../scripts/payload_l1.py"
+
+
+rule mast_l1:
+    input:
+        manifest=str(CAMPAIGN.path),
+        files=lambda wc: mast_files(wc.sonic),
+    output:
+        RESULTS / "netcdf" / "L1" / "mast_{sonic}.nc",
+    log:
+        log_path("mast_l1", "sonic"),
+    benchmark:
+        bench_path("mast_l1", "sonic")
+    conda:
+        ENV
+    script:
+        "../../scripts/mast_l1.py"

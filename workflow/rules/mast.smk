@@ -1,0 +1,18 @@
+# Mast L1 -> L2: the reference sonic over each flight's hover window.
+
+
+rule mast_l2:
+    input:
+        manifest=str(CAMPAIGN.path),
+        mast=reference_of,
+        drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
+    output:
+        RESULTS / "netcdf" / "L2" / "{flight}_mast.nc",
+    log:
+        log_path("mast_l2", "flight"),
+    benchmark:
+        bench_path("mast_l2", "flight")
+    conda:
+        ENV
+    script:
+        "../../scripts/mast_l2.py"
