@@ -1,0 +1,384 @@
+r"""Fitting catalog mechanisms to per-flight residual features, and scoring them honestly.
+
+The diagnosis compares, flight by flight, a vector of *features* measured on processed
+data (ratios of drone to mast standard deviations, spectral ratios, direction and tilt
+differences, lags, energy at the pendulum frequency, ...) with what the forward model
+predicts for the same flight. The forward model is the simulator; its response to a
+mechanism is tabulated by simulating every flight at a few parameter *levels* with common
+random numbers (same seed as the baseline), so the table isolates the mechanism's effect
+from sampling noise. This module is the statistics on top of those tables:
+
+* :class:`ResponseModel` interpolates the tabulated responses: piecewise linear in each
+  parameter, effects of the parameters of one mechanism added (first-order
+  superposition about the baseline);
+* :func:`fit_parameters` estimates a mechanism's parameters by bounded weighted least
+  squares (``scipy.optimize.least_squares``, ``method="trf"``) over a set of flights;
+* :func:`score_candidate` refits with each flight left out in turn and predicts it: the
+  *gain* is the relative reduction of the held-out misfit against the baseline;
+* significance combines a likelihood-ratio test on the fitted flights (the misfit drop
+  against :math:`\chi^2_k`, :math:`k` the number of parameters, Bonferroni-corrected for
+  the number of candidates tried) with a positive held-out gain;
+* :func:`ambiguity_sets` groups significant candidates whose held-out predictions the
+  data cannot tell apart.
+
+Misfit: :math:`\chi^2 = \sum_i \sum_f ((y_{if} - \hat y_{if}) / s_{if})^2` with
+:math:`s_{if}` the sampling standard error of feature :math:`f` of flight :math:`i`
+(seed 000, Eqs 10-13 for variance-type features; the spread of baseline simulations with
+different seeds otherwise; see :mod:`dronewind.diagnose.features`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.optimize
+import scipy.stats
+
+__all__ = [
+    "ParameterResponse",
+    "ResponseModel",
+    "FitResult",
+    "CandidateScore",
+    "chi2",
+    "fit_parameters",
+    "score_candidate",
+    "ambiguity_sets",
+]
+
+
+@dataclass(frozen=True)
+class ParameterResponse:
+    """Simulated features of every flight at several levels of one parameter.
+
+    Attributes
+    ----------
+    name : str
+        Parameter name (e.g. ``lag_s``).
+    levels : numpy.ndarray
+        Parameter values, strictly increasing, including the baseline value (shape ``(k,)``).
+    features : numpy.ndarray
+        Feature values, shape ``(n_flights, k, n_features)``.
+    baseline_level : float
+        The level at which the mechanism is off (0 for most, 1 for gains).
+    lower, upper : float
+        Physical bounds of the parameter for fitting.
+    """
+
+    name: str
+    levels: np.ndarray
+    features: np.ndarray
+    baseline_level: float
+    lower: float
+    upper: float
+
+    def __post_init__(self) -> None:
+        levels = np.asarray(self.levels, dtype=float)
+        if levels.ndim != 1 or levels.size < 2 or np.any(np.diff(levels) <= 0):
+            raise ValueError(f"{self.name}: levels must be strictly increasing with at least two values")
+        if not np.any(np.isclose(levels, self.baseline_level)):
+            raise ValueError(f"{self.name}: levels must include the baseline level {self.baseline_level}")
+        if self.features.ndim != 3 or self.features.shape[1] != levels.size:
+            raise ValueError(f"{self.name}: features must have shape (n_flights, {levels.size}, n_features)")
+
+    def effect(self, value: float, flights: np.ndarray) -> np.ndarray:
+        """Feature change against the baseline at ``value`` for the given flights.
+
+        Piecewise-linear interpolation between levels, linear extrapolation beyond the
+        outermost levels (the fit is bounded, so this stays within physical ranges).
+
+        Parameters
+        ----------
+        value : float
+            Parameter value [its unit].
+        flights : numpy.ndarray
+            Integer indices of the flights.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(len(flights), n_features)``.
+        """
+        levels = np.asarray(self.levels, dtype=float)
+        table = self.features[flights]  # (n, k, f)
+        base_index = int(np.argmin(np.abs(levels - self.baseline_level)))
+        j = int(np.clip(np.searchsorted(levels, value) - 1, 0, levels.size - 2))
+        w = (value - levels[j]) / (levels[j + 1] - levels[j])
+        at_value = table[:, j, :] * (1.0 - w) + table[:, j + 1, :] * w
+        return at_value - table[:, base_index, :]
+
+
+@dataclass
+class ResponseModel:
+    """The forward model's features for one mechanism as a function of its parameters.
+
+    Attributes
+    ----------
+    mechanism : str
+        Catalog name.
+    baseline : numpy.ndarray
+        Baseline (no mechanism) features, shape ``(n_flights, n_features)``.
+    parameters : list of ParameterResponse
+        One table per parameter (empty for ``none``).
+    """
+
+    mechanism: str
+    baseline: np.ndarray
+    parameters: list[ParameterResponse] = field(default_factory=list)
+
+    @property
+    def n_parameters(self) -> int:
+        """Number of fitted parameters."""
+        return len(self.parameters)
+
+    def predict(self, theta: Sequence[float], flights: np.ndarray) -> np.ndarray:
+        """Predicted features of ``flights`` for parameter vector ``theta``.
+
+        Parameters
+        ----------
+        theta : sequence of float
+            One value per parameter, in :attr:`parameters` order.
+        flights : numpy.ndarray
+            Integer flight indices.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(len(flights), n_features)``.
+        """
+        out = np.array(self.baseline[flights], dtype=float, copy=True)
+        for value, response in zip(theta, self.parameters, strict=True):
+            out += response.effect(float(value), flights)
+        return out
+
+    def baseline_theta(self) -> np.ndarray:
+        """Parameter vector at which the mechanism is off."""
+        return np.array([p.baseline_level for p in self.parameters], dtype=float)
+
+
+def chi2(y: np.ndarray, prediction: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Per-flight misfit :math:`\\sum_f ((y - \\hat y)/s)^2`, ignoring missing features.
+
+    Parameters
+    ----------
+    y, prediction, sigma : numpy.ndarray
+        Shape ``(n_flights, n_features)``; NaN in ``y`` or ``sigma`` marks a feature
+        that could not be measured for that flight.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_flights,)``.
+    """
+    z = (y - prediction) / sigma
+    return np.nansum(np.where(np.isfinite(z), z * z, np.nan), axis=1)
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Outcome of :func:`fit_parameters`."""
+
+    theta: np.ndarray
+    theta_std: np.ndarray
+    chi2: float
+    chi2_baseline: float
+    converged: bool
+    message: str
+
+
+def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, flights: np.ndarray) -> FitResult:
+    """Bounded weighted least-squares estimate of a mechanism's parameters.
+
+    Parameters
+    ----------
+    model : ResponseModel
+        Tabulated responses.
+    y : numpy.ndarray
+        Measured features, shape ``(n_flights_total, n_features)``.
+    sigma : numpy.ndarray
+        Their standard errors, same shape.
+    flights : numpy.ndarray
+        Indices of the flights to fit.
+
+    Returns
+    -------
+    FitResult
+        Parameters, their standard errors (from the Jacobian at the optimum, scaled by
+        the reduced misfit when it exceeds 1), the misfit and the baseline misfit.
+    """
+    base_theta = model.baseline_theta()
+    base_chi2 = float(chi2(y[flights], model.predict(base_theta, flights), sigma[flights]).sum())
+    if model.n_parameters == 0:
+        return FitResult(base_theta, base_theta, base_chi2, base_chi2, True, "no parameters")
+    mask = np.isfinite(y[flights]) & np.isfinite(sigma[flights]) & (sigma[flights] > 0)
+
+    def residuals(theta: np.ndarray) -> np.ndarray:
+        r = (y[flights] - model.predict(theta, flights)) / np.where(mask, sigma[flights], 1.0)
+        return r[mask]
+
+    lower = np.array([p.lower for p in model.parameters])
+    upper = np.array([p.upper for p in model.parameters])
+    best = None
+    # A few starts: the tabulated response can be non-monotonic (e.g. a lag beyond the
+    # search window), so a single local start could stop at a poor optimum.
+    starts = [base_theta]
+    for p in model.parameters:
+        for level in p.levels:
+            if not np.isclose(level, p.baseline_level):
+                start = base_theta.copy()
+                start[model.parameters.index(p)] = np.clip(level, p.lower, p.upper)
+                starts.append(start)
+    for start in starts:
+        res = scipy.optimize.least_squares(residuals, np.clip(start, lower, upper), bounds=(lower, upper),
+                                           method="trf", x_scale="jac")
+        if best is None or res.cost < best.cost:
+            best = res
+    assert best is not None
+    value = float(2.0 * best.cost)
+    dof = max(int(mask.sum()) - model.n_parameters, 1)
+    try:
+        cov = np.linalg.pinv(best.jac.T @ best.jac)
+        theta_std = np.sqrt(np.clip(np.diag(cov), 0, None) * max(1.0, value / dof))
+    except np.linalg.LinAlgError:
+        theta_std = np.full(model.n_parameters, np.nan)
+    return FitResult(best.x, theta_std, value, base_chi2, bool(best.success), str(best.message))
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    """A fitted and cross-validated candidate mechanism."""
+
+    mechanism: str
+    parameter_names: tuple[str, ...]
+    fit: FitResult
+    heldout_chi2: np.ndarray
+    heldout_chi2_baseline: np.ndarray
+    heldout_prediction: np.ndarray
+    gain: float
+    lr_statistic: float
+    p_value: float
+    significant: bool
+
+    def estimate(self) -> dict[str, float]:
+        """Fitted parameters by name."""
+        return {n: float(v) for n, v in zip(self.parameter_names, self.fit.theta, strict=True)}
+
+    def uncertainty(self) -> dict[str, float]:
+        """Standard errors of the fitted parameters by name."""
+        return {n: float(v) for n, v in zip(self.parameter_names, self.fit.theta_std, strict=True)}
+
+
+def score_candidate(
+    model: ResponseModel,
+    y: np.ndarray,
+    sigma: np.ndarray,
+    alpha: float = 0.01,
+    n_candidates: int = 1,
+) -> CandidateScore:
+    """Fit a mechanism on all flights and cross-validate it leaving one flight out.
+
+    Parameters
+    ----------
+    model : ResponseModel
+        Tabulated responses.
+    y, sigma : numpy.ndarray
+        Measured features and their standard errors, ``(n_flights, n_features)``.
+    alpha : float
+        Family-wise false-alarm rate of the likelihood-ratio test.
+    n_candidates : int
+        Number of candidates tried (Bonferroni correction: each is tested at
+        ``alpha / n_candidates``).
+
+    Returns
+    -------
+    CandidateScore
+        The fit on all flights, the held-out misfits, the gain
+
+        .. math:: G = 1 - \\frac{\\sum_i \\chi^2_{i,\\mathrm{held-out}}(m)}{\\sum_i \\chi^2_{i}(0)},
+
+        and significance: the misfit drop on the fitted flights,
+        :math:`\\Lambda = \\chi^2(0) - \\chi^2(\\hat\\theta)`, exceeds the
+        :math:`1 - \\alpha/M` quantile of :math:`\\chi^2_k`, and :math:`G > 0`.
+    """
+    n = y.shape[0]
+    flights = np.arange(n)
+    fit = fit_parameters(model, y, sigma, flights)
+    held = np.empty(n)
+    held_base = np.empty(n)
+    prediction = np.empty_like(y, dtype=float)
+    base_theta = model.baseline_theta()
+    for i in range(n):
+        train = flights[flights != i] if n > 1 else flights
+        theta = fit_parameters(model, y, sigma, train).theta if model.n_parameters else base_theta
+        one = np.array([i])
+        prediction[i] = model.predict(theta, one)[0]
+        held[i] = chi2(y[one], prediction[i:i + 1], sigma[one])[0]
+        held_base[i] = chi2(y[one], model.predict(base_theta, one), sigma[one])[0]
+    total_base = float(held_base.sum())
+    gain = 1.0 - float(held.sum()) / total_base if total_base > 0 else 0.0
+    lr = max(fit.chi2_baseline - fit.chi2, 0.0)
+    k = model.n_parameters
+    p_value = float(scipy.stats.chi2.sf(lr, k)) if k else 1.0
+    significant = bool(k and p_value < alpha / max(n_candidates, 1) and gain > 0)
+    return CandidateScore(
+        mechanism=model.mechanism,
+        parameter_names=tuple(p.name for p in model.parameters),
+        fit=fit,
+        heldout_chi2=held,
+        heldout_chi2_baseline=held_base,
+        heldout_prediction=prediction,
+        gain=gain,
+        lr_statistic=lr,
+        p_value=p_value,
+        significant=significant,
+    )
+
+
+def ambiguity_sets(
+    scores: Sequence[CandidateScore],
+    y: np.ndarray,
+    sigma: np.ndarray,
+    threshold_chi2: float = 4.0,
+) -> list[list[str]]:
+    """Group significant candidates the data cannot tell apart.
+
+    Two candidates are indistinguishable when their fitted predictions differ, over all
+    flights and features, by less than ``threshold_chi2`` in units of the sampling
+    errors (:math:`\\sum ((\\hat y_a - \\hat y_b)/s)^2 <` threshold, 4 ≈ a 2σ difference),
+    or when their held-out misfits differ by less than that.
+
+    Parameters
+    ----------
+    scores : sequence of CandidateScore
+        Scored candidates (only significant ones are grouped).
+    y, sigma : numpy.ndarray
+        Measured features and their standard errors (to mask missing features).
+    threshold_chi2 : float
+        Distinguishability threshold.
+
+    Returns
+    -------
+    list of list of str
+        Groups (each of two or more names), best candidate first in each group.
+    """
+    sig = sorted((s for s in scores if s.significant), key=lambda s: -s.gain)
+    groups: list[list[str]] = []
+    used: set[str] = set()
+    ok = np.isfinite(y) & np.isfinite(sigma) & (sigma > 0)
+    for i, a in enumerate(sig):
+        if a.mechanism in used:
+            continue
+        group = [a.mechanism]
+        for b in sig[i + 1:]:
+            if b.mechanism in used:
+                continue
+            d = np.where(ok, (a.heldout_prediction - b.heldout_prediction) / np.where(ok, sigma, 1.0), 0.0)
+            close_predictions = float(np.sum(d * d)) < threshold_chi2
+            close_misfit = abs(float(a.heldout_chi2.sum() - b.heldout_chi2.sum())) < threshold_chi2
+            if close_predictions or close_misfit:
+                group.append(b.mechanism)
+        if len(group) > 1:
+            groups.append(group)
+            used.update(group)
+    return groups
