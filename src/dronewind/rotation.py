@@ -1,0 +1,337 @@
+"""Coordinate rotations of sonic records into streamline coordinates.
+
+Single, double and triple rotation (McMillen, 1988; seed 000, Sect. 4.4) per record and
+the planar fit (Wilczak et al., 2001) over many records. Input components are a
+right-handed earth-fixed triplet with z up (east, north, up for dronewind's L2 data);
+outputs are streamline components u (along the mean wind), v (cross-wind, positive to
+the left of the mean wind) and w (normal). All angles are in degrees.
+
+Sign conventions of the returned angles (rotations of the coordinate frame):
+
+* ``yaw_deg``: counter-clockwise angle (about z) from x to the mean horizontal wind,
+  ``atan2(mean v, mean u)``;
+* ``pitch_deg``: angle (about the new y) from the horizontal to the mean wind vector,
+  ``atan2(mean w1, mean u1)``;
+* ``roll_deg``: angle (about the new x) that zeroes ``cov(v, w)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dronewind.errors import InputError, ProcessingError
+
+__all__ = [
+    "ROTATION_METHODS",
+    "PlanarFit",
+    "single_rotation",
+    "double_rotation",
+    "triple_rotation",
+    "planar_fit_tilt",
+    "apply_planar_fit",
+    "rotate",
+]
+
+ROTATION_METHODS = ("none", "single", "double", "triple", "planar_fit")
+
+
+def _check(u: np.ndarray, v: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    u, v, w = (np.asarray(a, dtype=float) for a in (u, v, w))
+    if not (u.shape == v.shape == w.shape) or u.ndim != 1 or u.size < 2:
+        raise InputError("u, v, w",
+                         f"expected three 1-D arrays of equal length >= 2, got {u.shape}, {v.shape}, {w.shape}")
+    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v)) and np.all(np.isfinite(w))):
+        raise InputError("u, v, w", "rotation needs finite values (fill gaps first)")
+    return u, v, w
+
+
+def single_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]:
+    """Rotate about z so that the mean cross-wind component vanishes.
+
+    Parameters
+    ----------
+    u_ms, v_ms, w_ms : numpy.ndarray
+        Components in a right-handed frame with z up [m s-1], shape (n,).
+
+    Returns
+    -------
+    u, v, w : numpy.ndarray
+        Rotated components [m s-1]; mean v = 0, mean u >= 0.
+    angles : dict
+        ``{"yaw_deg": alpha}``.
+
+    Notes
+    -----
+    .. math::
+
+        \\alpha = \\operatorname{atan2}(\\bar v, \\bar u), \\quad
+        u_1 = u\\cos\\alpha + v\\sin\\alpha, \\quad v_1 = -u\\sin\\alpha + v\\cos\\alpha.
+
+    References
+    ----------
+    McMillen (1988), Boundary-Layer Meteorol. 43, 231-245; seed 000, Sect. 4.4.
+    """
+    u, v, w = _check(u_ms, v_ms, w_ms)
+    alpha = np.arctan2(v.mean(), u.mean())
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    return u * ca + v * sa, -u * sa + v * ca, w.copy(), {"yaw_deg": float(np.rad2deg(alpha))}
+
+
+def double_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]:
+    """Single rotation followed by a pitch rotation so that mean w = 0.
+
+    Parameters
+    ----------
+    u_ms, v_ms, w_ms : numpy.ndarray
+        Components in a right-handed frame with z up [m s-1].
+
+    Returns
+    -------
+    u, v, w : numpy.ndarray
+        Rotated components [m s-1]; mean v = mean w = 0.
+    angles : dict
+        ``{"yaw_deg", "pitch_deg"}``.
+
+    Notes
+    -----
+    .. math::
+
+        \\beta = \\operatorname{atan2}(\\bar w_1, \\bar u_1), \\quad
+        u_2 = u_1\\cos\\beta + w_1\\sin\\beta, \\quad w_2 = -u_1\\sin\\beta + w_1\\cos\\beta.
+
+    References
+    ----------
+    McMillen (1988); seed 000, Sect. 4.4 (the method used for all its statistics).
+    """
+    u1, v1, w1, angles = single_rotation(u_ms, v_ms, w_ms)
+    beta = np.arctan2(w1.mean(), u1.mean())
+    cb, sb = np.cos(beta), np.sin(beta)
+    angles["pitch_deg"] = float(np.rad2deg(beta))
+    return u1 * cb + w1 * sb, v1, -u1 * sb + w1 * cb, angles
+
+
+def triple_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]:
+    """Double rotation followed by a roll rotation so that cov(v, w) = 0.
+
+    Parameters
+    ----------
+    u_ms, v_ms, w_ms : numpy.ndarray
+        Components in a right-handed frame with z up [m s-1].
+
+    Returns
+    -------
+    u, v, w : numpy.ndarray
+        Rotated components [m s-1]; mean v = mean w = 0 and v'w' = 0.
+    angles : dict
+        ``{"yaw_deg", "pitch_deg", "roll_deg"}``.
+
+    Notes
+    -----
+    .. math::
+
+        \\gamma = \\tfrac12 \\operatorname{atan2}\\left(2\\overline{v_2'w_2'},
+            \\overline{v_2'^2} - \\overline{w_2'^2}\\right), \\quad
+        v_3 = v_2\\cos\\gamma + w_2\\sin\\gamma, \\quad w_3 = -v_2\\sin\\gamma + w_2\\cos\\gamma .
+
+    The means stay zero because the roll mixes only v and w, both of zero mean.
+
+    References
+    ----------
+    McMillen (1988); seed 000, Sect. 4.4.
+    """
+    u2, v2, w2, angles = double_rotation(u_ms, v_ms, w_ms)
+    vp, wp = v2 - v2.mean(), w2 - w2.mean()
+    gamma = 0.5 * np.arctan2(2.0 * np.mean(vp * wp), np.mean(vp * vp) - np.mean(wp * wp))
+    cg, sg = np.cos(gamma), np.sin(gamma)
+    angles["roll_deg"] = float(np.rad2deg(gamma))
+    return u2, v2 * cg + w2 * sg, -v2 * sg + w2 * cg, angles
+
+
+@dataclass(frozen=True)
+class PlanarFit:
+    """Result of a planar fit (Wilczak et al., 2001, Eq. 39-45).
+
+    Attributes
+    ----------
+    b0_ms : float
+        Offset of the fitted plane, the instrument's w offset [m s-1].
+    b1, b2 : float
+        Plane slopes: :math:`\\bar w = b_0 + b_1 \\bar u + b_2 \\bar v` [-].
+    normal : numpy.ndarray
+        Unit normal of the plane (x, y, z), z > 0.
+    tilt_deg : float
+        Angle between the plane normal and the instrument z axis [degree].
+    tilt_azimuth_deg : float
+        Direction (counter-clockwise from +x) towards which the plane rises fastest [degree].
+    pitch_deg, roll_deg : float
+        Wilczak's angles: pitch about y, then roll about x, so that z becomes the normal.
+    n_blocks : int
+        Number of block means used.
+    rms_residual_ms : float
+        RMS of the fit residual of the block-mean w [m s-1].
+    """
+
+    b0_ms: float
+    b1: float
+    b2: float
+    normal: np.ndarray
+    tilt_deg: float
+    tilt_azimuth_deg: float
+    pitch_deg: float
+    roll_deg: float
+    n_blocks: int
+    rms_residual_ms: float
+
+    def matrix(self) -> np.ndarray:
+        """(3, 3) rotation whose rows are the tilt-corrected axes (x_p, y_p, normal)."""
+        k = self.normal
+        # x_p: the instrument x axis projected onto the plane (pitch first, then roll).
+        x_p = np.array([k[2], 0.0, -k[0]]) / np.hypot(k[0], k[2])
+        y_p = np.cross(k, x_p)
+        return np.vstack([x_p, y_p, k])
+
+
+def planar_fit_tilt(u_mean_ms: np.ndarray, v_mean_ms: np.ndarray, w_mean_ms: np.ndarray) -> PlanarFit:
+    """Fit the tilt plane of a sonic from many block means (Wilczak et al., 2001).
+
+    Parameters
+    ----------
+    u_mean_ms, v_mean_ms, w_mean_ms : numpy.ndarray
+        Block-mean (e.g. 30-min) components in the instrument's frame [m s-1], one per
+        block; blocks with non-finite means are ignored (counted in ``n_blocks``). The
+        mean wind directions should cover a wide sector for a well-posed fit.
+
+    Returns
+    -------
+    PlanarFit
+        The plane, its unit normal and the tilt angles.
+
+    Notes
+    -----
+    Least squares over the blocks (Wilczak et al., 2001, Eq. 39):
+
+    .. math::
+
+        \\bar w = b_0 + b_1 \\bar u + b_2 \\bar v, \\qquad
+        \\mathbf k = \\frac{(-b_1, -b_2, 1)}{\\sqrt{1 + b_1^2 + b_2^2}},
+
+    with pitch :math:`\\sin\\alpha = -b_1/\\sqrt{1+b_1^2+b_2^2}` and roll
+    :math:`\\sin\\beta = b_2/\\sqrt{1+b_2^2}` (Eq. 42-44).
+
+    References
+    ----------
+    Wilczak, Oncley and Stage (2001), Boundary-Layer Meteorol. 99, 127-150.
+    """
+    u, v, w = (np.asarray(a, dtype=float).ravel() for a in (u_mean_ms, v_mean_ms, w_mean_ms))
+    if not (u.shape == v.shape == w.shape):
+        raise InputError("planar_fit_tilt", "u, v and w block means must have equal length")
+    ok = np.isfinite(u) & np.isfinite(v) & np.isfinite(w)
+    n = int(ok.sum())
+    if n < 3:
+        raise InputError("planar_fit_tilt", f"need at least 3 finite block means, got {n}")
+    a = np.column_stack([np.ones(n), u[ok], v[ok]])
+    coef, _, rank, _ = np.linalg.lstsq(a, w[ok], rcond=None)
+    if rank < 3:
+        raise ProcessingError("planar fit is ill-posed: the block-mean winds do not span a plane "
+                              "(all from one direction?)")
+    b0, b1, b2 = (float(c) for c in coef)
+    resid = w[ok] - a @ coef
+    norm = np.sqrt(1.0 + b1 * b1 + b2 * b2)
+    k = np.array([-b1, -b2, 1.0]) / norm
+    return PlanarFit(
+        b0_ms=b0, b1=b1, b2=b2, normal=k,
+        tilt_deg=float(np.rad2deg(np.arccos(k[2]))),
+        tilt_azimuth_deg=float(np.rad2deg(np.arctan2(b2, b1)) % 360.0),
+        pitch_deg=float(np.rad2deg(np.arcsin(-b1 / norm))),
+        roll_deg=float(np.rad2deg(np.arcsin(b2 / np.sqrt(1.0 + b2 * b2)))),
+        n_blocks=n,
+        rms_residual_ms=float(np.sqrt(np.mean(resid ** 2))),
+    )
+
+
+def apply_planar_fit(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, fit: PlanarFit,
+                     yaw: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]:
+    """Remove the planar-fit tilt (and optionally rotate into the mean wind).
+
+    Parameters
+    ----------
+    u_ms, v_ms, w_ms : numpy.ndarray
+        One record in the instrument's frame [m s-1].
+    fit : PlanarFit
+        From :func:`planar_fit_tilt` over many records of the same instrument.
+    yaw : bool
+        If True (default), follow with a rotation about the plane normal so that mean
+        v = 0 (Wilczak et al., 2001, Eq. 45).
+
+    Returns
+    -------
+    u, v, w : numpy.ndarray
+        Components in the plane frame [m s-1]; w is relative to the plane, i.e. the offset
+        b0 is removed (mean w is not forced to zero).
+    angles : dict
+        ``{"yaw_deg", "pitch_deg", "roll_deg", "tilt_deg"}`` (pitch/roll of the plane).
+
+    References
+    ----------
+    Wilczak, Oncley and Stage (2001), Eq. 45.
+    """
+    u, v, w = _check(u_ms, v_ms, w_ms)
+    p = fit.matrix()
+    x = np.stack([u, v, w - fit.b0_ms])
+    up, vp, wp = p @ x
+    angles = {"pitch_deg": fit.pitch_deg, "roll_deg": fit.roll_deg, "tilt_deg": fit.tilt_deg, "yaw_deg": 0.0}
+    if yaw:
+        up, vp, wp, yaw_angles = single_rotation(up, vp, wp)
+        angles["yaw_deg"] = yaw_angles["yaw_deg"]
+    return up, vp, wp, angles
+
+
+def rotate(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, method: str = "double",
+           planar_fit: PlanarFit | None = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]:
+    """Rotate one record into streamline coordinates with a method chosen by name.
+
+    Parameters
+    ----------
+    u_ms, v_ms, w_ms : numpy.ndarray
+        Components in a right-handed frame with z up [m s-1].
+    method : {"none", "single", "double", "triple", "planar_fit"}
+        Rotation method; "double" is the choice of seed 000, Sect. 4.4.
+    planar_fit : PlanarFit, optional
+        Required for ``method="planar_fit"``.
+
+    Returns
+    -------
+    u, v, w : numpy.ndarray
+        Rotated components [m s-1].
+    angles : dict
+        Angles of the rotation [degree] (keys yaw_deg, pitch_deg, roll_deg; missing
+        angles are 0).
+
+    References
+    ----------
+    McMillen (1988); Wilczak et al. (2001); seed 000, Sect. 4.4.
+    """
+    if method == "none":
+        u, v, w = _check(u_ms, v_ms, w_ms)
+        out = (u.copy(), v.copy(), w.copy(), {})
+    elif method == "single":
+        out = single_rotation(u_ms, v_ms, w_ms)
+    elif method == "double":
+        out = double_rotation(u_ms, v_ms, w_ms)
+    elif method == "triple":
+        out = triple_rotation(u_ms, v_ms, w_ms)
+    elif method == "planar_fit":
+        if planar_fit is None:
+            raise InputError("rotation", "method 'planar_fit' needs a PlanarFit from planar_fit_tilt over many records")
+        out = apply_planar_fit(u_ms, v_ms, w_ms, planar_fit)
+    else:
+        raise InputError("rotation", f"unknown rotation method {method!r}; expected one of {ROTATION_METHODS}")
+    angles = {"yaw_deg": 0.0, "pitch_deg": 0.0, "roll_deg": 0.0}
+    angles.update(out[3])
+    return out[0], out[1], out[2], angles
