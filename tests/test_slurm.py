@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.small_campaign import write_small_campaign
+from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -39,10 +39,13 @@ def slurm():
 def test_small_campaign_runs_through_sbatch(slurm, tmp_path):
     manifest = write_small_campaign(tmp_path)
     results = tmp_path / "results"
+    extra = tmp_path / "short.yaml"
+    extra.write_text(SHORT_HOVER)
     proc = subprocess.run(
         [str(BIN / "snakemake"), "--workflow-profile", "profiles/slurm",
          "--slurm-init-seconds-before-status-checks", "2", "--seconds-between-status-checks", "2",
-         "--slurm-no-account", "--config", f"campaign={manifest}", f"results_dir={results}"],
+         "--slurm-no-account", "--configfile", "config/config.yaml", str(extra),
+         "--config", f"campaign={manifest}", f"results_dir={results}"],
         cwd=REPO, capture_output=True, text=True, timeout=1500, check=False,
         env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"},
     )
@@ -53,3 +56,4 @@ def test_small_campaign_runs_through_sbatch(slurm, tmp_path):
     # every job but the local target rule `all` went through sbatch
     assert len(job_ids) == n_jobs - 1 >= 1, out[-3000:]
     assert (results / "smallcamp" / "campaign.json").is_file()
+    assert (results / "smallcamp" / "tables" / "flight_stats.csv").is_file()

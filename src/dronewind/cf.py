@@ -136,13 +136,43 @@ def _iso(value: np.datetime64) -> str:
     return np.datetime_as_string(np.datetime64(value, "s"), unit="s") + "Z"
 
 
+def _label_dimensions(ds: xr.Dataset) -> xr.Dataset:
+    """Replace string dimension coordinates by integer dimensions plus a label variable.
+
+    A string-valued dimension coordinate (e.g. ``sensor = ["drone", "mast"]``) makes the
+    IOOS checker fail; CF prefers an auxiliary label variable. The labels are kept in
+    ``<dim>_name(<dim>)``; :func:`dronewind.pipeline.open_product` restores them.
+    """
+    out = ds
+    for dim in list(ds.dims):
+        if dim in ds.coords and ds[dim].dtype.kind in "OUS":
+            labels = np.asarray(ds[dim].values).astype(str)
+            out = out.drop_vars(dim).assign_coords(
+                {f"{dim}_name": xr.DataArray(labels.astype(object), dims=(dim,),
+                                             attrs={"long_name": f"{dim} label"})}
+            )
+    return out
+
+
 def _prepare_variables(ds: xr.Dataset) -> xr.Dataset:
     """Variable-level CF fixes: time encoding, fill values, units metadata."""
-    out = ds.copy()
+    out = _label_dimensions(ds.copy())
+    bounds = {str(v.attrs["bounds"]) for v in out.variables.values() if "bounds" in v.attrs}
+    for name in bounds & set(out.variables):
+        # CF 7.1: a boundary variable inherits its parent's metadata and should carry none
+        # that could disagree; it is encoded exactly like its parent.
+        out[name].attrs = {}
+        encoding = {"_FillValue": None}
+        if np.issubdtype(out[name].dtype, np.datetime64):
+            encoding.update({"units": TIME_UNITS, "calendar": "standard", "dtype": "int64"})
+        out[name].encoding = encoding
     for name in list(out.variables):
+        if name in bounds:
+            continue
         var = out[name]
         attrs = dict(var.attrs)
         encoding = dict(var.encoding)
+        encoding.pop("coordinates", None)  # re-derived from attrs; both set is an xarray error
         if np.issubdtype(var.dtype, np.datetime64):
             attrs.setdefault("standard_name", "time")
             attrs.setdefault("long_name", "time (UTC)")
@@ -176,19 +206,22 @@ def _prepare_variables(ds: xr.Dataset) -> xr.Dataset:
 
 def _add_station(
     ds: xr.Dataset,
-    station_id: str,
+    station_id: str | None,
     latitude: float | None,
     longitude: float | None,
     height_m: float | None,
 ) -> xr.Dataset:
-    """Add the CF timeSeries station identifier and nominal position (CF H.4)."""
-    out = ds.assign_coords(
-        station=xr.DataArray(
-            np.array(station_id, dtype=object),
-            attrs={"cf_role": "timeseries_id", "long_name": "station or platform identifier"},
+    """Add the CF timeSeries station identifier (CF H.4) and the nominal position."""
+    out = ds
+    coords = []
+    if station_id:
+        out = out.assign_coords(
+            station=xr.DataArray(
+                np.array(station_id, dtype=object),
+                attrs={"cf_role": "timeseries_id", "long_name": "station or platform identifier"},
+            )
         )
-    )
-    coords = ["station"]
+        coords.append("station")
     if latitude is not None:
         out = out.assign_coords(
             lat=xr.DataArray(
@@ -223,6 +256,9 @@ def _add_station(
             out[name].attrs["coordinates"] = merged
         elif "time" in var.dims:
             out[name].attrs.setdefault("coordinates", " ".join(coords))
+    bounds = {str(v.attrs["bounds"]) for v in out.variables.values() if "bounds" in v.attrs}
+    for name in bounds & set(out.variables):
+        out[name].attrs.pop("coordinates", None)
     return out
 
 
@@ -230,6 +266,9 @@ def _coverage_attrs(ds: xr.Dataset) -> dict[str, Any]:
     attrs: dict[str, Any] = {}
     if "time" in ds.variables and ds["time"].size > 0:
         t = ds["time"].values
+        bounds = ds["time"].attrs.get("bounds")
+        if bounds in ds.variables:  # statistics over a period: the bounds give the coverage
+            t = ds[bounds].values.ravel()
         t0, t1 = np.nanmin(t), np.nanmax(t)
         attrs["time_coverage_start"] = _iso(t0)
         attrs["time_coverage_end"] = _iso(t1)
@@ -238,6 +277,8 @@ def _coverage_attrs(ds: xr.Dataset) -> dict[str, Any]:
         if ds["time"].size > 1:
             step = float(np.nanmedian(np.diff(t).astype("timedelta64[us]").astype(np.int64))) / 1e6
             attrs["time_coverage_resolution"] = f"PT{step:.6f}S"
+        else:
+            attrs["time_coverage_resolution"] = attrs["time_coverage_duration"]
     for name, key in (("lat", "lat"), ("lon", "lon")):
         if name in ds.variables:
             values = np.asarray(ds[name].values, dtype=float)
@@ -305,6 +346,7 @@ def write_netcdf(
     height_m: float | None = None,
     extra_attrs: Mapping[str, Any] | None = None,
     groups: Mapping[str, xr.Dataset] | None = None,
+    nonstandard_group: str | None = None,
 ) -> Path:
     """Write a dataset as CF-1.11 / ACDD-1.3 NetCDF-4, atomically, with provenance.
 
@@ -340,6 +382,9 @@ def write_netcdf(
     groups : mapping of str to xarray.Dataset, optional
         Sub-groups for quantities without a CF standard name (e.g. ``"spectra"``);
         read back with ``xarray.open_dataset(path, group=name)``.
+    nonstandard_group : str, optional
+        Move every data variable without a ``standard_name`` (QC flags excepted) from
+        ``ds`` into a group of this name (see :func:`split_standard`).
 
     Returns
     -------
@@ -348,12 +393,12 @@ def write_netcdf(
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    out = _prepare_variables(ds)
-    if feature_type == "timeSeries":
-        if not station_id:
-            raise ValueError(f"{path}: a timeSeries file needs a station_id")
-        out = _add_station(out, station_id, latitude, longitude, height_m)
-        out = _prepare_variables(out)
+    if nonstandard_group:
+        ds, split = split_standard(ds, nonstandard_group)
+        groups = {**split, **(groups or {})}
+    if feature_type == "timeSeries" and not station_id:
+        raise ValueError(f"{path}: a timeSeries file needs a station_id")
+    out = _prepare_variables(_add_station(ds, station_id, latitude, longitude, height_m))
 
     input_list = [Path(p) for p in inputs]
     checksums = {p.name: sha256_file(p) for p in input_list if p.is_file()}
@@ -480,10 +525,11 @@ def split_standard(ds: xr.Dataset, group: str) -> tuple[xr.Dataset, dict[str, xr
     groups : dict
         ``{group: dataset}``, empty when every variable has a standard name.
     """
+    bounds = {str(v.attrs["bounds"]) for v in ds.variables.values() if "bounds" in v.attrs}
     rest = [
         name
         for name, var in ds.data_vars.items()
-        if "standard_name" not in var.attrs and not name.startswith("qc_")
+        if "standard_name" not in var.attrs and not name.startswith("qc_") and name not in bounds
     ]
     if not rest:
         return ds, {}

@@ -170,6 +170,7 @@ def payload_l1(
     LOG.info("sonic L1: %d samples; %s", sonic.sizes["time"], sonic.attrs.get("processing_log", ""))
     LOG.info("INS L1: %d samples; %s", ins.sizes["time"], ins.attrs.get("processing_log", ""))
     common = dict(config=config, latitude=site["latitude"], longitude=site["longitude"],
+                  height_m=float(campaign.payload_flight(flight_id).get("target_height_m", 0.0)) or None,
                   extra_attrs={"campaign": campaign.name, "flight": flight_id})
     a = write_netcdf(
         sonic, out_sonic, title=f"{campaign.name} flight {flight_id}: payload sonic, L1",
@@ -177,14 +178,14 @@ def payload_l1(
         "converted to UTC through the INS; range, spike and missing-data flags.",
         processing_level="L1: UTC time, QC flags, flagged values set to NaN",
         history=f"payload_l1 flight {flight_id}", inputs=[sonic_file, ins_file],
-        station_id=f"{flight_id}_payload_sonic", **common,
+        station_id=f"{flight_id}_payload_sonic", nonstandard_group="sensor_frame", **common,
     )
     ins_out = _track_to_cf(ins)
     b = write_netcdf(
         ins_out, out_ins, title=f"{campaign.name} flight {flight_id}: INS, L1",
         summary="SBG Ellipse-D EKF output on the SAMURAI-S payload from the first stable valid GNSS time.",
         processing_level="L1: UTC time, QC flags", history=f"payload_l1 flight {flight_id}",
-        inputs=[ins_file], station_id=f"{flight_id}_payload_ins", **common,
+        inputs=[ins_file], station_id=f"{flight_id}_payload_ins", nonstandard_group="ins_raw", **common,
     )
     return a, b
 
@@ -258,23 +259,17 @@ def mast_l1(
         processing_level="L1: UTC time, east/north/up, QC flags", history=f"mast_l1 {sonic_id}",
         inputs=files, config=config, station_id=sonic_id, latitude=sonic["latitude"],
         longitude=sonic["longitude"], height_m=float(sonic["height_m"]),
-        extra_attrs={"campaign": campaign.name, "mast": sonic["mast_id"]},
+        extra_attrs={"campaign": campaign.name, "mast": sonic["mast_id"]}, nonstandard_group="sensor_frame",
     )
-
-
-def _open(path: str | Path) -> Any:
-    import xarray as xr
-
-    with xr.open_dataset(path) as ds:
-        return ds.load()
 
 
 def _strip_cf(ds: Any) -> Any:
     """Drop the writer's station coordinates so a dataset can be processed and re-written."""
     drop = [c for c in ("station", "lat", "lon", "alt") if c in ds.variables]
     out = ds.drop_vars(drop)
-    for var in out.data_vars.values():
+    for var in out.variables.values():
         var.attrs.pop("coordinates", None)
+        var.encoding.pop("coordinates", None)
     return out
 
 
@@ -313,14 +308,18 @@ def payload_l2(
     flight = campaign.payload_flight(flight_id)
     proc = _processing(config)
     lag_cfg = proc.get("sonic_ins_lag", {})
-    sonic = _strip_cf(_open(sonic_l1))
-    ins = _track_from_cf(_strip_cf(_open(ins_l1)))
+    sonic = _strip_cf(open_product(sonic_l1))
+    ins = _track_from_cf(_strip_cf(open_product(ins_l1)))
     ds = sync.payload_l2(
         sonic, ins, mount=flight["sonic"].get("mount", "upside_down"),
         max_lag_s=float(lag_cfg.get("max_lag_s", 2.0)), lag_step_s=float(lag_cfg.get("step_s", 1 / 32)),
         window=_window(flight), max_missing_fraction=float(proc.get("max_missing_fraction", 0.02)),
+        min_hover_s=float(proc.get("hover", {}).get("min_duration_s", 600.0)),
+        hover_alt_tol_m=float(proc.get("hover", {}).get("alt_tol_m", 3.0)),
+        hover_horiz_tol_m=float(proc.get("hover", {}).get("horiz_tol_m", 4.0)),
+        site_altitude_m=float(campaign.data["site"]["altitude_m"]),
     )
-    ds.attrs["height_m"] = float(flight.get("target_height_m", float("nan")))
+    ds.attrs["target_height_m"] = float(flight.get("target_height_m", float("nan")))
     LOG.info("flight %s L2: lag_sonic_ins_s = %.4f, usable = %s %s", flight_id, ds.attrs["lag_sonic_ins_s"],
              ds.attrs["usable"], ds.attrs.get("unusable_reason", ""))
     ds = _track_to_cf(ds)
@@ -333,7 +332,8 @@ def payload_l2(
         "SAMURAI-S payload in east/north/up at the sonic rate, hover window only.",
         processing_level="L2: synchronised, motion-corrected, east/north/up", history=f"payload_l2 {flight_id}",
         inputs=[sonic_l1, ins_l1], config=config, station_id=f"{flight_id}_drone", latitude=lat, longitude=lon,
-        height_m=ds.attrs["height_m"], extra_attrs={"campaign": campaign.name, "flight": flight_id},
+        height_m=float(ds.attrs.get("height_m", ds.attrs["target_height_m"])),
+        extra_attrs={"campaign": campaign.name, "flight": flight_id},
         groups=groups,
     )
 
@@ -391,8 +391,8 @@ def mast_l2(
     flight = campaign.payload_flight(flight_id)
     sonic = campaign.mast_sonics()[flight["reference"]]
     max_lag_s = float(_processing(config).get("drone_mast", {}).get("max_lag_s", 6.0))
-    mast = _strip_cf(_open(mast_l1_file))
-    drone = _open(drone_l2_file)
+    mast = _strip_cf(open_product(mast_l1_file))
+    drone = open_product(drone_l2_file)
     t0, t1 = drone["time"].values[0], drone["time"].values[-1]
     pad = np.timedelta64(int((max_lag_s + margin_s) * 1e6), "us")
     cut = mast.sel(time=slice(t0 - pad, t1 + pad))
@@ -423,7 +423,7 @@ def mast_l2(
         processing_level="L2: east/north/up, flight window", history=f"mast_l2 {flight_id}",
         inputs=[mast_l1_file, drone_l2_file], config=config, station_id=flight["reference"],
         latitude=sonic["latitude"], longitude=sonic["longitude"], height_m=float(sonic["height_m"]),
-        extra_attrs={"campaign": campaign.name, "flight": flight_id},
+        extra_attrs={"campaign": campaign.name, "flight": flight_id}, nonstandard_group="sensor_frame",
     )
 
 
@@ -462,13 +462,13 @@ def l3(
     flight = campaign.payload_flight(flight_id)
     proc = _processing(config)
     dm = proc.get("drone_mast", {})
-    drone = _track_from_cf(_strip_cf(_open(drone_l2_file)))
-    mast = _strip_cf(_open(mast_l2_file))
+    drone = _track_from_cf(_strip_cf(open_product(drone_l2_file)))
+    mast = _strip_cf(open_product(mast_l2_file))
     rotation = str(proc.get("rotation", "double"))
     ds = sync.align_drone_mast(
         drone, mast, max_lag_s=float(dm.get("max_lag_s", 6.0)), decimate=int(dm.get("decimation", 4)),
         rotation="double" if rotation == "planar_fit" else rotation,
-        drone_height_m=float(flight.get("target_height_m", drone.attrs.get("height_m", float("nan")))),
+        drone_height_m=float(drone.attrs.get("height_m", flight.get("target_height_m", float("nan")))),
     )
     ds.attrs["lag_sonic_ins_s"] = float(drone.attrs.get("lag_sonic_ins_s", float("nan")))
     ds.attrs["drone_usable"] = int(drone.attrs.get("usable", 1))
@@ -522,3 +522,165 @@ def simulate_payload(manifest: str | Path, flight_id: str, out_dir: str | Path) 
     for path in paths:
         LOG.info("wrote %s", path)
     return paths
+
+
+# ----------------------------------------------------------------------------- analysis
+
+
+def open_product(path: str | Path) -> Any:
+    """Open a dronewind NetCDF with all its groups merged into one dataset.
+
+    Quantities without a CF standard name live in NetCDF-4 groups (see
+    :mod:`dronewind.cf`); this reads the root group and every group listed in the
+    global attribute ``groups`` and merges them (global attributes of the root kept).
+
+    Parameters
+    ----------
+    path : str or Path
+        A file written by :func:`dronewind.cf.write_netcdf`.
+
+    Returns
+    -------
+    xarray.Dataset
+        Loaded into memory.
+    """
+    import xarray as xr
+
+    with xr.open_dataset(path) as root:
+        ds = root.load()
+    names = [g.strip() for g in str(ds.attrs.get("groups", "")).split(",") if g.strip()]
+    parts = [ds]
+    for name in names:
+        with xr.open_dataset(path, group=name) as group:
+            parts.append(group.load())
+    merged = xr.merge(parts, compat="override", join="outer", combine_attrs="override")
+    merged.attrs = dict(ds.attrs)
+    for name in list(merged.variables):
+        dim = name[: -len("_name")] if name.endswith("_name") else None
+        if dim and dim in merged.dims and merged[name].dims == (dim,):
+            merged = merged.assign_coords({dim: merged[name].values.astype(str)}).drop_vars(name)
+    return merged
+
+
+def l4(
+    manifest: str | Path,
+    flight_id: str,
+    sensor: str,
+    l3_file: str | Path,
+    output: str | Path,
+    config: Mapping[str, Any],
+) -> Path:
+    """L3 -> L4 for one flight and sensor: statistics, spectra, fits, uncertainties, scales.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Campaign manifest.
+    flight_id : str
+        Payload flight id.
+    sensor : str
+        ``"drone"`` or ``"mast"``.
+    l3_file : str or Path
+        L3 file of the flight.
+    output : str or Path
+        L4 NetCDF file.
+    config : mapping
+        Workflow configuration.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    from dronewind.cf import split_standard, write_netcdf
+    from dronewind.l4 import flight_l4
+
+    campaign = load_campaign(manifest)
+    flight = campaign.payload_flight(flight_id)
+    proc = _processing(config)
+    spec = proc.get("spectra", {})
+    quad = proc.get("quadrant", {})
+    l3_ds = _strip_cf(open_product(l3_file))
+    ds = flight_l4(
+        l3_ds, sensor, n_segments=int(spec.get("segments", 3)), overlap=float(spec.get("overlap", 0.5)),
+        n_bins=int(spec.get("bins", 100)), fr_band=(float(quad.get("fr_min", 2.0)), float(quad.get("fr_max", 10.0))),
+        quadrant_min_speed_ms=float(quad.get("min_speed_ms", 2.0)),
+    )
+    for key in ("lag_sonic_ins_s", "lag_drone_mast_s", "drone_usable", "drone_unusable_reason", "reference"):
+        if key in l3_ds.attrs:
+            ds.attrs[key] = l3_ds.attrs[key]
+    ds = _period_time(ds, l3_ds["time"].values)
+    root, groups = split_standard(ds, "analysis")
+    sonic = campaign.mast_sonics()[flight["reference"]]
+    LOG.info("flight %s %s L4: U = %.2f m/s, sigma_w = %.3f m/s", flight_id, sensor,
+             float(ds["U_ms"]), float(ds["sigma_w_ms"]))
+    return write_netcdf(
+        root, output, title=f"{campaign.name} flight {flight_id}: {sensor} statistics and spectra, L4",
+        summary="Mean wind, standard deviations, skewness, kurtosis, fluxes, friction velocity, TKE, Obukhov "
+        "length, spectra with blunt/pointed model fits, isotropy ratios, random-error estimates and "
+        "integral scales (seed 000, Sects. 4.1-4.3).",
+        processing_level="L4: statistics, spectra, uncertainties, scales", history=f"l4 {flight_id} {sensor}",
+        inputs=[l3_file], config=config, feature_type=None, latitude=sonic["latitude"],
+        longitude=sonic["longitude"], height_m=float(ds["height_m"]),
+        extra_attrs={"campaign": campaign.name, "flight": flight_id, "sensor": sensor}, groups=groups,
+    )
+
+
+def _period_time(ds: Any, times: Any) -> Any:
+    """Scalar time coordinate (mid-period) with bounds for statistics over a record (CF 7.1)."""
+    import numpy as np
+    import xarray as xr
+
+    t0, t1 = times.min(), times.max()
+    out = ds.assign_coords(time=xr.DataArray([t0 + (t1 - t0) / 2], dims=("time",), attrs={"bounds": "time_bnds"}))
+    out["time_bnds"] = xr.DataArray(np.array([[t0, t1]]), dims=("time", "nv"))
+    return out
+
+
+#: Columns of results/<name>/tables/flight_stats.csv (DESIGN.md, "Outputs that other tools read").
+FLIGHT_STATS_COLUMNS: tuple[str, ...] = (
+    "flight", "sensor", "height_m", "U_ms", "wind_from_deg", "sigma_u_ms", "sigma_v_ms", "sigma_w_ms",
+    "uw_m2s2", "wT_Kms", "L_m", "zeta", "lag_sonic_ins_s", "lag_drone_mast_s", "Sw_Su", "Sv_Su",
+)
+
+
+def flight_stats(l4_files: list[str | Path], output: str | Path) -> Path:
+    """Assemble ``tables/flight_stats.csv``: one row per payload flight and sensor.
+
+    Parameters
+    ----------
+    l4_files : list of path
+        L4 files (``<flight>_<sensor>.nc``).
+    output : str or Path
+        CSV to write (atomically).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    import math
+
+    import pandas as pd
+
+    rows = []
+    for path in l4_files:
+        ds = open_product(path)
+        sensor = str(ds.attrs["sensor"])
+        row: dict[str, Any] = {"flight": ds.attrs["flight"], "sensor": sensor}
+        for col in FLIGHT_STATS_COLUMNS[2:]:
+            if col == "lag_sonic_ins_s":
+                value = ds.attrs.get(col, math.nan) if sensor == "drone" else math.nan
+            elif col == "lag_drone_mast_s":
+                value = ds.attrs.get(col, math.nan)
+            else:
+                value = float(ds[col]) if col in ds else math.nan
+            row[col] = value
+        row["usable"] = int(ds.attrs.get("drone_usable", 1)) if sensor == "drone" else 1
+        row["unusable_reason"] = str(ds.attrs.get("drone_unusable_reason", "")) if sensor == "drone" else ""
+        rows.append(row)
+    table = pd.DataFrame(rows, columns=[*FLIGHT_STATS_COLUMNS, "usable", "unusable_reason"])
+    table = table.sort_values(["flight", "sensor"], key=lambda s: s.astype(str)).reset_index(drop=True)
+    text = table.to_csv(index=False, float_format="%.6g", na_rep="")
+    LOG.info("flight_stats: %d rows", len(table))
+    return atomic_write_text(output, text)

@@ -316,6 +316,8 @@ def payload_l2(
     misalignment_deg: tuple[float, float, float] | None = None,
     window: tuple[Any, Any] | None = None,
     min_hover_s: float = 600.0,
+    hover_alt_tol_m: float = 3.0,
+    hover_horiz_tol_m: float = 4.0,
     max_missing_fraction: float = 0.02,
     fixed_lag_s: float | None = None,
     site_altitude_m: float | None = None,
@@ -345,6 +347,9 @@ def payload_l2(
         search, e.g. the manifest's flight window.
     min_hover_s : float
         Shortest usable hover [s]; default 600 s (seed 000, Sect. 5: at least 10 min).
+    hover_alt_tol_m, hover_horiz_tol_m : float
+        Hover window: median altitude +/- ``hover_alt_tol_m``, then +/- ``hover_horiz_tol_m``
+        horizontally (seed 000, Sect. 3.2: 3 m and 4 m) [m].
     max_missing_fraction : float
         Largest fraction of missing sonic samples that is gap-filled; default 0.02
         (seed 000, Sect. 3.2).
@@ -426,10 +431,13 @@ def payload_l2(
                "interpolation in time")
 
     # (2) hover window
-    hover = filtering.hover_window_mask(ins["alt_m"], ins["lat_deg"], ins["lon_deg"])
+    hover = filtering.hover_window_mask(ins["alt_m"], ins["lat_deg"], ins["lon_deg"],
+                                        alt_tol_m=hover_alt_tol_m, horiz_tol_m=hover_horiz_tol_m)
     i0, i1, n_runs = _longest_true_run(hover)
     if i1 - i0 < 2:
-        raise InputError("ins_l1:alt_m/lat_deg/lon_deg", "no hover window found (median altitude +/-3 m, +/-4 m)")
+        raise InputError("ins_l1:alt_m/lat_deg/lon_deg",
+                         f"no hover window found (median altitude +/-{hover_alt_tol_m:g} m, "
+                         f"+/-{hover_horiz_tol_m:g} m horizontally)")
     h0, h1 = ti[i0], ti[i1 - 1]
     counts["n_ins_hover"] = i1 - i0
     counts["n_ins_hover_runs"] = n_runs

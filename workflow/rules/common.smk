@@ -4,6 +4,7 @@ from pathlib import Path
 from snakemake.utils import min_version, validate
 
 from dronewind.manifest import load_campaign
+from dronewind.simulate.settings import validate_simulation
 
 min_version("9.0")
 
@@ -13,6 +14,9 @@ validate(config, "../schemas/config.schema.yaml")
 # The manifest is validated before any job runs: a bad manifest stops the workflow with
 # a message naming the manifest, the key path and what was expected.
 CAMPAIGN = load_campaign(config["campaign"])
+if CAMPAIGN.simulated:
+    # the simulator's settings are checked before any job too (names the setting)
+    validate_simulation(CAMPAIGN.data)
 RESULTS = Path(config["results_dir"]) / CAMPAIGN.name
 # A virtual campaign's raw files are written by the simulator under results/<name>/L0/;
 # a measured campaign's raw files are where its manifest says.
@@ -51,7 +55,8 @@ def bench_path(rule_name, *wildcard_names):
 def all_outputs():
     """Everything the default target builds for this campaign."""
     out = [str(RESULTS / "campaign.json")]
-    out += [str(RESULTS / "netcdf" / "L3" / f"{f}.nc") for f in PAYLOAD_FLIGHTS]
+    if PAYLOAD_FLIGHTS:
+        out.append(str(RESULTS / "tables" / "flight_stats.csv"))
     return out
 
 

@@ -1,0 +1,290 @@
+r"""Per-flight residual features: how the drone's record differs from the mast's.
+
+Each feature is measured on the processed products of one payload flight (L3: drone and
+reference mast aligned, decimated, rotated; L2: the drone's synchronisation and
+attitude) and comes with its sampling standard error, so that the diagnosis can weigh
+flights and features. The same function runs on measured flights and on the simulated
+flights of the forward model, so predicted and measured features are comparable by
+construction.
+
+=====================  ========================================================  ===========
+feature                definition                                                 sensitive to
+=====================  ========================================================  ===========
+ln_sigma_ratio_u/v/w   :math:`\ln(\sigma_{drone}/\sigma_{mast})`                  w_gain, noise,
+                                                                                  height, mast_w
+ln_speed_ratio         :math:`\ln(\bar u_{drone}/\bar u_{mast})`                  height_offset
+dir_diff_deg           wind-from direction, drone minus mast (wrapped)            heading_bias,
+                                                                                  mount yaw
+tilt_diff_deg          streamline pitch angle, drone minus mast                   mount roll/pitch,
+                                                                                  downwash
+sw_su_drone/_mast      :math:`\langle S_w/S_u\rangle`, :math:`2<f_r<10`           w_gain, mast_w
+ln_pendulum_w          :math:`\ln` of drone/mast w power, 0.08-0.17 Hz            attitude_lag,
+                                                                                  lever_arm
+ln_hf_u/_w             :math:`\ln` of drone/mast power, 1.5-3 Hz                  sonic_noise
+lag_sonic_ins_s        the sonic-INS lag found by the chain                       sonic_ins_lag,
+                                                                                  attitude_lag
+lag_drift_s            lag of the second half minus the first                     clock_drift
+corr_wres_pitch_rate   corr(w_drone - w_mast, pitch rate)                         lever_arm,
+corr_wres_roll_rate    corr(w_drone - w_mast, roll rate)                          attitude_lag
+=====================  ========================================================  ===========
+
+Sampling errors follow Lumley and Panofsky as in seed 000, Eqs 10-13: the relative
+random error of a variance over an averaging time :math:`\tau` is
+:math:`\epsilon = 2\sqrt{T/\tau}` for a Gaussian series of integral time scale
+:math:`T`; means, spectral band powers (Welch degrees of freedom) and correlations
+(:math:`1/\sqrt{N_{eff}}`) are treated alike. Drone and mast errors are combined as
+independent, which is conservative: the two sensors see partly the same eddies.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import xarray as xr
+
+from dronewind import scales, spectra, stats
+
+__all__ = ["FEATURES", "PENDULUM_BAND_HZ", "HF_BAND_HZ", "FlightFeatures", "flight_features"]
+
+#: Feature names in the order of the feature vectors.
+FEATURES: tuple[str, ...] = (
+    "ln_sigma_ratio_u",
+    "ln_sigma_ratio_v",
+    "ln_sigma_ratio_w",
+    "ln_speed_ratio",
+    "dir_diff_deg",
+    "tilt_diff_deg",
+    "sw_su_drone",
+    "sw_su_mast",
+    "ln_pendulum_w",
+    "ln_hf_u",
+    "ln_hf_w",
+    "lag_sonic_ins_s",
+    "lag_drift_s",
+    "corr_wres_pitch_rate",
+    "corr_wres_roll_rate",
+)
+
+#: Band around the 18 m sling-load pendulum frequency sqrt(g/l)/2pi = 0.117 Hz [Hz].
+PENDULUM_BAND_HZ: tuple[float, float] = (0.08, 0.17)
+#: High-frequency band below the 8 Hz anti-alias cut-off (3.5 Hz) [Hz].
+HF_BAND_HZ: tuple[float, float] = (1.5, 3.0)
+
+
+@dataclass(frozen=True)
+class FlightFeatures:
+    """Features of one flight with their sampling standard errors.
+
+    Attributes
+    ----------
+    values, sigma : dict
+        Feature name -> value / standard error (NaN when not measurable).
+    conditions : dict
+        Mast mean speed, direction, height, Obukhov length and sigmas (for scaling
+        residuals with wind speed and for the forward model's settings).
+    reasons : dict
+        Feature name -> why it is NaN.
+    """
+
+    values: dict[str, float]
+    sigma: dict[str, float]
+    conditions: dict[str, float]
+    reasons: dict[str, str]
+
+    def vector(self) -> tuple[np.ndarray, np.ndarray]:
+        """Values and errors in :data:`FEATURES` order."""
+        return (np.array([self.values.get(f, np.nan) for f in FEATURES]),
+                np.array([self.sigma.get(f, np.nan) for f in FEATURES]))
+
+
+def _time_scale(x: np.ndarray, fs_hz: float) -> float:
+    result = scales.integral_time_scale(x, fs_hz)
+    value = float(result.time_scale_s)
+    duration = x.size / fs_hz
+    if not np.isfinite(value) or value <= 0:
+        return 10.0  # a typical surface-layer scale when the fit fails (conservative)
+    return float(min(value, duration / 4))
+
+
+def _band_power(f_hz: np.ndarray, psd: np.ndarray, band: tuple[float, float]) -> tuple[float, int]:
+    sel = (f_hz >= band[0]) & (f_hz <= band[1])
+    if sel.sum() < 1:
+        return np.nan, 0
+    df = np.median(np.diff(f_hz))
+    return float(psd[sel].sum() * df), int(sel.sum())
+
+
+def _wrap180(deg: float) -> float:
+    return float((deg + 180.0) % 360.0 - 180.0)
+
+
+def _rates_deg_s(l2: xr.Dataset, times: np.ndarray, fs_out_hz: float) -> dict[str, np.ndarray]:
+    """Pitch and roll rates of the payload, smoothed to the L3 rate, at ``times``."""
+    t_ns = l2["time"].values.astype("datetime64[ns]").astype(np.int64)
+    t_s = (t_ns - t_ns[0]) / 1e9
+    fs_in = 1.0 / float(np.median(np.diff(t_s)))
+    width = max(int(round(fs_in / fs_out_hz)), 1)
+    kernel = np.ones(width) / width
+    target = (times.astype("datetime64[ns]").astype(np.int64) - t_ns[0]) / 1e9
+    out = {}
+    for name in ("pitch_deg", "roll_deg"):
+        angle = np.unwrap(np.deg2rad(l2[name].values.astype(float)))
+        rate = np.rad2deg(np.gradient(angle, t_s))
+        smooth = np.convolve(rate, kernel, mode="same")
+        out[name] = np.interp(target, t_s, smooth, left=np.nan, right=np.nan)
+    return out
+
+
+def flight_features(
+    l3: xr.Dataset,
+    l2_drone: xr.Dataset,
+    lag_halves_s: tuple[float, float] | None = None,
+    lag_step_s: float = 1.0 / 32.0,
+    fr_band: tuple[float, float] = (2.0, 10.0),
+    min_speed_ms: float = 2.0,
+) -> FlightFeatures:
+    """Residual features of one flight (drone against its reference mast sonic).
+
+    Parameters
+    ----------
+    l3 : xarray.Dataset
+        L3 flight dataset (``u_ms``, ``v_ms``, ``w_ms`` over ``(sensor, time)``,
+        ``wind_from_deg(sensor)``, ``height_m(sensor)``, ``rotation_pitch_deg(sensor)``,
+        attrs ``lag_drone_mast_s``, ``sampling_rate_hz``).
+    l2_drone : xarray.Dataset
+        L2 drone dataset (``pitch_deg``, ``roll_deg`` over ``time``; attr
+        ``lag_sonic_ins_s``).
+    lag_halves_s : tuple of float, optional
+        Sonic-INS lags found on the first and second half of the hover [s]
+        (for ``lag_drift_s``); NaN when not given.
+    lag_step_s : float
+        Step of the lag search [s] (its resolution enters the lag errors).
+    fr_band : tuple of float
+        Reduced-frequency band of the isotropy ratios (seed 000, Sect. 4.1).
+    min_speed_ms : float
+        Isotropy ratios only above this mean speed [m s-1].
+
+    Returns
+    -------
+    FlightFeatures
+        Values, standard errors, conditions and reasons.
+    """
+    fs = float(l3.attrs["sampling_rate_hz"])
+    values: dict[str, float] = {}
+    sigma: dict[str, float] = {}
+    reasons: dict[str, str] = {}
+    sensors = list(l3["sensor"].values)
+    series = {}
+    for sensor in ("drone", "mast"):
+        i = sensors.index(sensor)
+        comp = {c: l3[f"{c}_ms"].values[i].astype(float) for c in ("u", "v", "w")}
+        ok = np.all([np.isfinite(v) for v in comp.values()], axis=0)
+        series[sensor] = {c: v[ok] if ok.sum() < ok.size else v for c, v in comp.items()}
+    n = min(series["drone"]["u"].size, series["mast"]["u"].size)
+    tau_s = n / fs
+    height = {s: float(l3["height_m"].values[sensors.index(s)]) for s in ("drone", "mast")}
+
+    sig = {s: {c: float(stats.standard_deviation(series[s][c])) for c in ("u", "v", "w")} for s in series}
+    tscale = {s: {c: _time_scale(series[s][c], fs) for c in ("u", "v", "w")} for s in series}
+    mean_u = {s: float(np.mean(series[s]["u"])) for s in series}
+    for c in ("u", "v", "w"):
+        values[f"ln_sigma_ratio_{c}"] = float(np.log(sig["drone"][c] / sig["mast"][c]))
+        sigma[f"ln_sigma_ratio_{c}"] = float(np.sqrt(tscale["drone"][c] / tau_s + tscale["mast"][c] / tau_s))
+    if mean_u["drone"] > 0 and mean_u["mast"] > 0:
+        values["ln_speed_ratio"] = float(np.log(mean_u["drone"] / mean_u["mast"]))
+        sigma["ln_speed_ratio"] = float(np.sqrt(sum(
+            2 * tscale[s]["u"] / tau_s * (sig[s]["u"] / mean_u[s]) ** 2 for s in series)))
+    else:
+        reasons["ln_speed_ratio"] = "mean speed not positive"
+
+    wdir = l3["wind_from_deg"].values.astype(float)
+    values["dir_diff_deg"] = _wrap180(wdir[sensors.index("drone")] - wdir[sensors.index("mast")])
+    sigma["dir_diff_deg"] = float(np.rad2deg(np.sqrt(sum(
+        2 * tscale[s]["v"] / tau_s * (sig[s]["v"] / max(abs(mean_u[s]), 0.1)) ** 2 for s in series))))
+    if "rotation_pitch_deg" in l3:
+        pitch = l3["rotation_pitch_deg"].values.astype(float)
+        values["tilt_diff_deg"] = float(pitch[sensors.index("drone")] - pitch[sensors.index("mast")])
+        sigma["tilt_diff_deg"] = float(np.rad2deg(np.sqrt(sum(
+            2 * tscale[s]["w"] / tau_s * (sig[s]["w"] / max(abs(mean_u[s]), 0.1)) ** 2 for s in series))))
+    else:
+        reasons["tilt_diff_deg"] = "no rotation angles in L3"
+
+    psd = {}
+    for s in series:
+        psd[s] = {}
+        for c in ("u", "w"):
+            f_hz, p = spectra.welch_psd(series[s][c][:n], fs)
+            psd[s][c] = p
+    dof = spectra.welch_dof(spectra.segment_length(n))
+    for s in ("drone", "mast"):
+        name = f"sw_su_{s}"
+        fr = f_hz * height[s] / max(mean_u[s], 1e-6)
+        band = (fr > fr_band[0]) & (fr < fr_band[1]) & (f_hz < HF_BAND_HZ[1])
+        if mean_u[s] <= min_speed_ms:
+            reasons[name] = f"mean speed {mean_u[s]:.2f} m/s <= {min_speed_ms} m/s"
+        elif band.sum() < 2:
+            reasons[name] = "reduced-frequency band not resolved"
+        else:
+            ratio = psd[s]["w"][band] / psd[s]["u"][band]
+            values[name] = float(np.mean(ratio))
+            sigma[name] = float(values[name] * np.sqrt(4.0 / (dof * band.sum())))
+    for name, comp, band in (("ln_pendulum_w", "w", PENDULUM_BAND_HZ), ("ln_hf_u", "u", HF_BAND_HZ),
+                             ("ln_hf_w", "w", HF_BAND_HZ)):
+        pd_, m = _band_power(f_hz, psd["drone"][comp], band)
+        pm_, _ = _band_power(f_hz, psd["mast"][comp], band)
+        if m < 1 or not (pd_ > 0 and pm_ > 0):
+            reasons[name] = f"band {band} Hz not resolved"
+            continue
+        values[name] = float(np.log(pd_ / pm_))
+        sigma[name] = float(np.sqrt(2 * 2.0 / (dof * m)))
+
+    lag_sigma = max(lag_step_s / np.sqrt(12.0), 0.005)
+    values["lag_sonic_ins_s"] = float(l2_drone.attrs.get("lag_sonic_ins_s", np.nan))
+    sigma["lag_sonic_ins_s"] = lag_sigma
+    if lag_halves_s is not None and all(np.isfinite(lag_halves_s)):
+        values["lag_drift_s"] = float(lag_halves_s[1] - lag_halves_s[0])
+        sigma["lag_drift_s"] = float(np.sqrt(2) * lag_sigma)
+    else:
+        reasons["lag_drift_s"] = "lags of the two halves not available"
+
+    lag_dm = float(l3.attrs.get("lag_drone_mast_s", 0.0))
+    times = l3["time"].values - np.timedelta64(int(round(lag_dm * 1e9)), "ns")
+    rates = _rates_deg_s(l2_drone, times, fs)
+    wres = l3["w_ms"].values[sensors.index("drone")] - l3["w_ms"].values[sensors.index("mast")]
+    n_eff = max(tau_s / (2 * max(tscale["drone"]["w"], 1.0 / fs)), 3.0)
+    for name, key in (("corr_wres_pitch_rate", "pitch_deg"), ("corr_wres_roll_rate", "roll_deg")):
+        ok = np.isfinite(wres) & np.isfinite(rates[key])
+        if ok.sum() < 10 or np.std(rates[key][ok]) == 0:
+            reasons[name] = "attitude rates not available over the L3 window"
+            continue
+        values[name] = float(np.corrcoef(wres[ok], rates[key][ok])[0, 1])
+        sigma[name] = float(1.0 / np.sqrt(n_eff))
+
+    conditions = {
+        "U_ms": mean_u["mast"],
+        "wind_from_deg": float(wdir[sensors.index("mast")]),
+        "height_m": height["mast"],
+        "drone_height_m": height["drone"],
+        "sigma_u_ms": sig["mast"]["u"],
+        "sigma_v_ms": sig["mast"]["v"],
+        "sigma_w_ms": sig["mast"]["w"],
+        "duration_s": tau_s,
+    }
+    for f in FEATURES:
+        if f not in values:
+            values[f] = np.nan
+            sigma[f] = np.nan
+            reasons.setdefault(f, "not measured")
+    return FlightFeatures(values, sigma, conditions, reasons)
+
+
+def features_to_dict(features: FlightFeatures) -> dict[str, Mapping[str, float | str]]:
+    """JSON-ready form (NaN as None)."""
+
+    def clean(d: Mapping[str, float]) -> dict[str, float | None]:
+        return {k: (None if not np.isfinite(v) else float(v)) for k, v in d.items()}
+
+    return {"values": clean(features.values), "sigma": clean(features.sigma),
+            "conditions": clean(features.conditions), "reasons": dict(features.reasons)}
