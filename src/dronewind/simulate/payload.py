@@ -1,0 +1,528 @@
+"""Virtual SAMURAI-S flight: sling-load payload, INS, sonic, and the mast sonics.
+
+Physics (seed 000, Sects 2-3):
+
+* Flight plan: payload on the ground (held) for ``ground_before_s``, vertical ascent at
+  ``ascent_rate_ms``, hover from ``hover_margin_s`` before the hover window to
+  ``hover_margin_s`` after it, descent at ``descent_rate_ms``, ground time. Corners are
+  smoothed over 2 s.
+* Drone: hovers ``pendulum_length_m`` above the payload with smooth position jitter
+  (second-order low-passed noise, ``hover_jitter_m``, ``hover_jitter_time_s``).
+* Payload: a simple pendulum (Sect. 2.3: "treated as a simple pendulum", period
+  2 pi sqrt(l/g) = 8.5 s for l = 18 m) hanging from the drone, forced by the moving
+  pivot and by the drag of the turbulent wind, linearised about the mean wind U:
+
+  .. math::
+      \\ddot p_a + \\frac{\\rho C_dA U}{m}\\dot p_a + \\omega_0^2 (p_a - d_a - \\delta) =
+          \\frac{\\rho C_dA U}{m} u',\\qquad
+      \\ddot p_c + \\frac{\\rho C_dA U}{2m}\\dot p_c + \\omega_0^2 (p_c - d_c) =
+          \\frac{\\rho C_dA U}{2m} v'
+
+  (a along, c across the wind; omega_0^2 = g/l; delta = l rho C_dA U^2 / (2 m g) the
+  mean downwind trail; damping at least ``min_damping_ratio``). Its height is
+  z_drone - sqrt(l^2 - r^2).
+* Attitude: roll transferred from the drone, which banks into lateral gusts
+  (phi = rho C_dA,drone U v' / (m_drone g), 0.5 s lag) plus jitter; pitch = balance trim
+  plus jitter; yaw weathervanes to the direction the relative air comes from
+  (first order, ``yaw_time_constant_s``) plus jitter (Sect. 2.3).
+* Sonic (RM Young 81000, 32 Hz, Table 2): air velocity relative to the sensor in the
+  sensor frame, the exact inverse of DESIGN.md's correction
+  V_wind = R(phi, theta, psi) V_body + V_ins, V_body = M_mount V_sensor; white noise
+  ``sonic_noise_ms`` and resolution 0.01 m/s (0.01 K).
+* INS (Ellipse-D EKF, 50 Hz, Table 3): velocity of the sonic volume (NED), attitude,
+  lat/lon/alt MSL with Gauss-Markov errors of the Table 3 accuracies; GNSS time valid
+  only ``gnss_acquisition_s`` after logging starts, with one blink of
+  ``gnss_blink_s`` (< 10 s) halfway before; EKF valid after ``ekf_init_s``.
+* Logger clock: ``rpi_time_us`` = (UTC + ``logger_clock_offset_s``) with
+  ``logger_clock_drift_ppm``, shared by both files.
+* Row defects (missing, duplicated, swapped, out-of-range) at the ``defects`` rates.
+
+The turbulent field comes from :mod:`dronewind.simulate.atmosphere` at the mast sonics
+(generated first, so they do not depend on the payload's position) and at the hover
+point. During ascent and descent the payload sees the hover point's fluctuations with
+the mean wind of its current height (an approximation: only hover data are analysed);
+the payload's own swing (about a metre) is not used to re-sample the field.
+
+Mechanisms act inside this measurement model (see :mod:`dronewind.mechanisms`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import signal
+from scipy.interpolate import CubicSpline
+
+from dronewind.errors import InputError
+from dronewind.simulate import atmosphere as atm
+from dronewind.simulate.mast import mast_measurement
+from dronewind.simulate.settings import campaign_dict, resolve_payload_flight, validate_simulation
+from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
+
+__all__ = [
+    "EARTH_RADIUS_M",
+    "AIR_DENSITY_KGM3",
+    "body_to_ned",
+    "pendulum_period_s",
+    "flight_timeline",
+    "simulate_payload_flight",
+]
+
+EARTH_RADIUS_M = 6_371_000.0
+AIR_DENSITY_KGM3 = 1.2
+_G = atm.GRAVITY_MS2
+_MOUNTS = {"upside_down": np.eye(3), "upright": np.diag([1.0, -1.0, -1.0])}
+# random streams (fixed purpose numbers so that switching one mechanism leaves the others' draws)
+_STREAM = {"turbulence": 0, "motion": 1, "ins_noise": 2, "sonic_noise": 3, "noise_mechanism": 4,
+           "sonic_defects": 5, "ins_defects": 6, "mast": 100}
+
+
+def body_to_ned(roll_deg: np.ndarray, pitch_deg: np.ndarray, yaw_deg: np.ndarray) -> np.ndarray:
+    """Body-to-NED rotation R(phi, theta, psi) = [R3(phi) R2(theta) R1(psi)]^T.
+
+    Parameters
+    ----------
+    roll_deg, pitch_deg, yaw_deg : numpy.ndarray
+        Euler angles [degree], same shape s.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape s + (3, 3).
+
+    Notes
+    -----
+    Seed 000, Appendix A; written independently of the processing chain's
+    ``dronewind.motion`` (the simulator must not use it).
+    """
+    f, t, p = (np.deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
+    cf, sf, ct, st, cp, sp = np.cos(f), np.sin(f), np.cos(t), np.sin(t), np.cos(p), np.sin(p)
+    r = np.empty(np.shape(f) + (3, 3))
+    r[..., 0, 0] = ct * cp
+    r[..., 0, 1] = sf * st * cp - cf * sp
+    r[..., 0, 2] = cf * st * cp + sf * sp
+    r[..., 1, 0] = ct * sp
+    r[..., 1, 1] = sf * st * sp + cf * cp
+    r[..., 1, 2] = cf * st * sp - sf * cp
+    r[..., 2, 0] = -st
+    r[..., 2, 1] = sf * ct
+    r[..., 2, 2] = cf * ct
+    return r
+
+
+def pendulum_period_s(length_m: float) -> float:
+    """Small-amplitude period of a simple pendulum, T = 2 pi sqrt(l/g) (seed 000, Sect. 2.3).
+
+    Parameters
+    ----------
+    length_m : float
+        Rope length [m].
+
+    Returns
+    -------
+    float
+        Period [s] (8.51 s for 18 m).
+    """
+    return 2 * math.pi * math.sqrt(length_m / _G)
+
+
+def flight_timeline(cond: dict[str, Any]) -> dict[str, float]:
+    """Phase boundaries of a flight in seconds relative to the hover-window start.
+
+    Parameters
+    ----------
+    cond : dict
+        Output of :func:`dronewind.simulate.settings.resolve_payload_flight`.
+
+    Returns
+    -------
+    dict
+        ``log_start, takeoff, hover_start, hover_end, landing, log_end`` [s]. The
+        nominal hover height (without ``height_offset``) sets the climb times so that
+        the timeline does not depend on that mechanism.
+    """
+    p = cond["payload"]
+    h = cond["hover_height_m"]
+    margin = p["hover_margin_s"]
+    climb_up, climb_down = h / p["ascent_rate_ms"], h / p["descent_rate_ms"]
+    needed = cond["duration_s"] + 2 * margin + climb_up + climb_down + p["ground_before_s"] + p["ground_after_s"]
+    if cond.get("flight_duration_s"):
+        margin += 0.5 * (cond["flight_duration_s"] - needed)
+    hover_start = -margin
+    hover_end = cond["duration_s"] + margin
+    takeoff = hover_start - climb_up
+    landing = hover_end + climb_down
+    return {"log_start": takeoff - p["ground_before_s"], "takeoff": takeoff, "hover_start": hover_start,
+            "hover_end": hover_end, "landing": landing, "log_end": landing + p["ground_after_s"]}
+
+
+def _lowpass_noise(rng: np.random.Generator, n: int, fs_hz: float, time_s: float, sigma: float,
+                   order: int = 2) -> np.ndarray:
+    """Smooth random signal: white noise through a Butterworth low-pass at 1/(2 pi tau), scaled."""
+    if sigma == 0 or n == 0:
+        return np.zeros(n)
+    fc = min(1.0 / (2 * np.pi * time_s), 0.45 * fs_hz)
+    sos = signal.butter(order, fc, fs=fs_hz, output="sos")
+    pad = int(min(10 * time_s * fs_hz, 20 * fs_hz * 60))
+    x = signal.sosfilt(sos, rng.standard_normal(n + pad))[pad:]
+    sd = np.std(x)
+    return x * (sigma / sd) if sd > 0 else x
+
+
+def _oscillator(force: np.ndarray, omega0: float, damping: float, fs_hz: float) -> np.ndarray:
+    """Response p of p'' + c p' + w0^2 p = force (bilinear-discretised, starts at rest)."""
+    b, a = signal.bilinear([1.0], [1.0, damping, omega0**2], fs=fs_hz)
+    return signal.lfilter(b, a, force)
+
+
+def _first_order(x: np.ndarray, tau_s: float, fs_hz: float, x0: float | None = None) -> np.ndarray:
+    """First-order low-pass (time constant tau) starting at x0 (default x[0])."""
+    alpha = 1.0 - math.exp(-1.0 / (tau_s * fs_hz))
+    zi = [(1 - alpha) * (x[0] if x0 is None else x0)]
+    y, _ = signal.lfilter([alpha], [1.0, -(1 - alpha)], x, zi=zi)
+    return y
+
+
+def _smooth_path(t: np.ndarray, knots_t: list[float], knots_z: list[float], fs_hz: float,
+                 width_s: float = 2.0) -> np.ndarray:
+    z = np.interp(t, knots_t, knots_z)
+    n = max(int(width_s * fs_hz), 1)
+    kernel = np.ones(n) / n
+    zp = np.concatenate([np.full(n, z[0]), z, np.full(n, z[-1])])
+    return np.convolve(zp, kernel, mode="same")[n:-n]
+
+
+def _defects(rng: np.random.Generator, n: int, rates: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Row order as logged (missing, duplicated, swapped rows) and out-of-range rows."""
+    u = rng.random((4, n))
+    keep = u[0] >= rates["missing_rate"]
+    idx = np.flatnonzero(keep)
+    dup = u[1][idx] < rates["duplicate_rate"]
+    idx = np.repeat(idx, np.where(dup, 2, 1))
+    swap = np.flatnonzero(u[2][: idx.size - 1] < rates["out_of_order_rate"])
+    swap = swap[np.concatenate([[True], np.diff(swap) > 1])] if swap.size else swap
+    idx[swap], idx[swap + 1] = idx[swap + 1].copy(), idx[swap].copy()
+    oor = u[3] < rates["out_of_range_rate"]
+    return idx, oor
+
+
+def _mast_offsets_enu(site: dict, sonic: dict) -> tuple[float, float]:
+    """East, north offset [m] of a mast sonic from the site position (local tangent plane)."""
+    lat0 = float(site.get("latitude", sonic["latitude"]))
+    lon0 = float(site.get("longitude", sonic["longitude"]))
+    de = math.radians(sonic["longitude"] - lon0) * EARTH_RADIUS_M * math.cos(math.radians(lat0))
+    dn = math.radians(sonic["latitude"] - lat0) * EARTH_RADIUS_M
+    return de, dn
+
+
+def _log_span_utc(cond: dict) -> tuple[np.datetime64, np.datetime64]:
+    tl = flight_timeline(cond)
+    us = np.timedelta64(1, "us")
+    return (cond["start"] + int(round(tl["log_start"] * 1e6)) * us,
+            cond["start"] + int(round(tl["log_end"] * 1e6)) * us)
+
+
+def _mast_span(data: dict, settings: dict, cond: dict) -> tuple[np.datetime64, np.datetime64]:
+    """Mast record span: the flight's log span plus margin, clipped halfway to neighbours."""
+    t0, t1 = _log_span_utc(cond)
+    margin = np.timedelta64(int(settings["mast"]["margin_s"] * 1e6), "us")
+    lo, hi = t0 - margin, t1 + margin
+    for f in data.get("payload_flights") or []:
+        fid = str(f["id"])
+        if fid == cond["flight_id"]:
+            continue
+        other = resolve_payload_flight(data, fid, settings)
+        o0, o1 = _log_span_utc(other)
+        if o0 < t1 and o1 > t0:
+            raise InputError(f"simulation.payload_flights.{fid}",
+                             f"flight overlaps flight {cond['flight_id']} ({o0}..{o1} vs {t0}..{t1})")
+        if o1 <= t0:
+            lo = max(lo, o1 + (t0 - o1) // 2)
+        else:
+            hi = min(hi, t1 + (o0 - t1) // 2)
+    return lo, hi
+
+
+def _mast_file(pattern_list: list[str], flight_id: str, sonic_id: str) -> str:
+    for pattern in pattern_list:
+        if "*" in pattern:
+            return pattern.replace("*", flight_id)
+    raise InputError(f"masts.sonics.{sonic_id}.files",
+                     "a simulated campaign needs a glob with '*' (replaced by the flight id), "
+                     f"got {pattern_list}")
+
+
+def simulate_payload_flight(campaign: Any, manifest_dir: Path, flight_id: str, out_dir: Path) -> list[Path]:
+    """Write the L0 files of one virtual payload flight and of every mast sonic.
+
+    Parameters
+    ----------
+    campaign : dict or manifest.Campaign
+        Manifest content with a ``simulation:`` section (format in
+        :mod:`dronewind.simulate`).
+    manifest_dir : Path
+        Folder of the manifest (kept for symmetry with measured campaigns; the output
+        paths are relative to ``out_dir``).
+    flight_id : str
+        Payload flight id.
+    out_dir : Path
+        Root of the simulated campaign's files: the sonic and INS files go to
+        ``out_dir / <manifest path>``, each mast sonic to ``out_dir / <its files glob
+        with '*' replaced by the flight id>`` (TOA5 covering the flight with margin).
+
+    Returns
+    -------
+    list of Path
+        Written files: sonic CSV, INS CSV, then one TOA5 per mast sonic.
+
+    Raises
+    ------
+    InputError
+        Invalid settings (named), overlapping flights, a mast glob without ``*``.
+
+    Notes
+    -----
+    Deterministic: the flight's seed is SHA-256 of ``"<simulation.seed>:<flight id>"``;
+    separate random streams serve turbulence, motion, INS noise, sonic noise, each
+    noise mechanism and the defects, so switching one mechanism leaves the other draws
+    unchanged. Reruns are bit-identical.
+
+    References
+    ----------
+    Seed 000, Sects 2.3, 3.1-3.2, 4, Tables 2-4 and Appendix A.
+    """
+    data = campaign_dict(campaign)
+    settings = validate_simulation(data)
+    cond = resolve_payload_flight(data, flight_id, settings)
+    out_dir = Path(out_dir)
+    p = cond["payload"]
+    mech = cond["mechanisms"]
+    seed = cond["seed"]
+
+    def rng(name: str, k: int = 0) -> np.random.Generator:
+        return np.random.default_rng([seed, _STREAM[name] + k])
+
+    # ---------------- time grids -----------------------------------------------------
+    fs_s, fs_i, fs_m = p["sonic_rate_hz"], p["ins_rate_hz"], settings["mast"]["rate_hz"]
+    tl = flight_timeline(cond)
+    start = cond["start"]
+    us = np.timedelta64(1, "us")
+    mast_lo, mast_hi = _mast_span(data, settings, cond)
+    # the field period starts on a whole second, so mast stamps fall on round 1/fs_m
+    epoch_day = start.astype("datetime64[D]").astype("datetime64[us]")
+    lo_s = math.floor((mast_lo - epoch_day) / us * 1e-6)
+    field_t0 = epoch_day + int(lo_s * 1e6) * us               # UTC of field time 0
+    rel0 = (start - field_t0) / us * 1e-6                     # hover start in field time
+    log_start_f = math.ceil((rel0 + tl["log_start"]) * fs_s) / fs_s
+    n_son = int(math.floor((tl["log_end"] - tl["log_start"]) * fs_s))
+    mast_end_f = (mast_hi - field_t0) / us * 1e-6
+    unit = 1.0 / math.gcd(int(fs_s), int(fs_m)) if float(fs_s).is_integer() and float(fs_m).is_integer() else 1.0
+    span = max(mast_end_f, log_start_f + n_son / fs_s + 1.0)
+
+    # ---------------- turbulence at mast sonics (first) and the hover point ------------
+    sonics = cond["mast_sonics"]
+    ref = sonics[cond["reference"]]
+    ref_e, ref_n = _mast_offsets_enu(cond["site"], ref)
+    dz = mech.get("height_offset", {}).get("dz_m", 0.0)
+    z_hover = cond["hover_height_m"] - dz
+    hover_e, hover_n = ref_e + cond["hover_offset_enu_m"][0], ref_n + cond["hover_offset_enu_m"][1]
+    mast_ids = list(sonics)
+    points = [[*_mast_offsets_enu(cond["site"], sonics[s]), float(sonics[s]["height_m"])] for s in mast_ids]
+    points.append([hover_e, hover_n, z_hover])
+    points = np.asarray(points)
+    e_u0, _ = atm.wind_frame_unit_vectors(cond["wind_from_deg"])
+    s_down = points[:, :2] @ e_u0
+    pad = (s_down.max() - s_down.min()) / max(cond["mean_speed_ms"], 0.5)  # Taylor delays must not wrap
+    period = math.ceil((span + pad) / unit) * unit
+    spec = atm.field_coefficients(points, period, max(fs_s, fs_m), cond["mean_speed_ms"], cond["wind_from_deg"],
+                                  cond["z_ref_m"], cond["obukhov_length_m"], cond["roughness_length_m"],
+                                  rng("turbulence"), cond["theta_mean_k"], cond["boundary_layer_height_m"])
+    i0 = int(round(log_start_f * fs_s))
+    air = atm.synthesize(spec, fs_s, [len(mast_ids)], start_s=i0 / fs_s, n_samples=n_son)[0]
+
+    # ---------------- flight path, pendulum, attitude (sonic grid, true UTC) -----------
+    t = log_start_f - rel0 + np.arange(n_son) / fs_s          # s from hover-window start
+    ustar = spec.friction_velocity_ms
+    l_m = p["pendulum_length_m"]
+    z_ground = 0.5
+    z_pay_nom = _smooth_path(t, [tl["log_start"], tl["takeoff"], tl["hover_start"], tl["hover_end"],
+                                 tl["landing"], tl["log_end"]],
+                             [z_ground, z_ground, z_hover, z_hover, z_ground, z_ground], fs_s)
+    airborne = np.clip((z_pay_nom - z_ground) / 2.0, 0.0, 1.0)  # ramps in over the first 2 m
+    # mean wind at the current height replaces the hover point's mean
+    mean_h = atm.mean_speed_profile(z_hover, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
+    mean_z = atm.mean_speed_profile(z_pay_nom, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
+    e_u, e_v = spec.e_u, spec.e_v
+    wind_e = air[0] + (mean_z - mean_h) * e_u[0]
+    wind_n = air[1] + (mean_z - mean_h) * e_u[1]
+    wind_up = air[2].copy()
+    theta_h = float(spec.theta_mean_k[-1])
+    theta = air[3] + atm.theta_profile(z_pay_nom, z_hover, theta_h, ustar, cond["obukhov_length_m"]) - theta_h
+    u_fl = (air[0] - spec.mean_enu[-1, 0]) * e_u[0] + (air[1] - spec.mean_enu[-1, 1]) * e_u[1]
+    v_fl = (air[0] - spec.mean_enu[-1, 0]) * e_v[0] + (air[1] - spec.mean_enu[-1, 1]) * e_v[1]
+    if "downwash" in mech:  # downdraft of the drone's rotors reaching the payload
+        dw = mech["downwash"]
+        w_dw = dw["w0_ms"] * np.exp(-np.hypot(wind_e, wind_n) / dw["u_scale_ms"])
+        wind_up = wind_up - airborne * w_dw
+
+    r_mot = rng("motion")
+    omega0 = math.sqrt(_G / l_m)
+    u_mean = max(float(mean_h), 0.1)
+    k_drag = AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean / p["mass_kg"]
+    c_a = max(k_drag, 2 * p["min_damping_ratio"] * omega0)
+    c_c = max(0.5 * k_drag, 2 * p["min_damping_ratio"] * omega0)
+    trail = l_m * 0.5 * AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean**2 / (p["mass_kg"] * _G)
+    jit_a = _lowpass_noise(r_mot, n_son, fs_s, p["hover_jitter_time_s"], p["hover_jitter_m"])
+    jit_c = _lowpass_noise(r_mot, n_son, fs_s, p["hover_jitter_time_s"], p["hover_jitter_m"])
+    jit_z = _lowpass_noise(r_mot, n_son, fs_s, p["hover_jitter_time_s"], 0.5 * p["hover_jitter_m"])
+    d_a, d_c = airborne * jit_a, airborne * jit_c
+    p_a = _oscillator(omega0**2 * (d_a + airborne * trail) + airborne * k_drag * u_fl, omega0, c_a, fs_s)
+    p_c = _oscillator(omega0**2 * d_c + airborne * 0.5 * k_drag * v_fl, omega0, c_c, fs_s)
+    r_h = np.hypot(p_a - d_a, p_c - d_c)
+    z_pay = z_pay_nom + airborne * (jit_z + l_m - np.sqrt(np.maximum(l_m**2 - r_h**2, 0.0)))
+    pos_e = hover_e + p_a * e_u[0] + p_c * e_v[0]
+    pos_n = hover_n + p_a * e_u[1] + p_c * e_v[1]
+    # attitude
+    roll_k = AIR_DENSITY_KGM3 * p["drone_drag_area_m2"] * u_mean / (p["drone_mass_kg"] * _G)
+    roll = np.degrees(_first_order(roll_k * v_fl, 0.5, fs_s)) * airborne \
+        + _lowpass_noise(r_mot, n_son, fs_s, p["attitude_jitter_time_s"], p["drone_roll_jitter_deg"])
+    pitch = p["pitch_trim_deg"] + _lowpass_noise(r_mot, n_son, fs_s, p["attitude_jitter_time_s"], p["pitch_jitter_deg"])
+    spl_e, spl_n, spl_z = (CubicSpline(t, x) for x in (pos_e, pos_n, z_pay))
+    vel_e, vel_n, vel_up = spl_e(t, 1), spl_n(t, 1), spl_z(t, 1)
+    rel_e, rel_n = wind_e - vel_e, wind_n - vel_n
+    from_dir = np.unwrap(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
+    yaw = np.degrees(_first_order(from_dir, p["yaw_time_constant_s"], fs_s)) \
+        + _lowpass_noise(r_mot, n_son, fs_s, p["attitude_jitter_time_s"], p["yaw_jitter_deg"])
+
+    # ---------------- sonic measurement ----------------------------------------------
+    r_true = body_to_ned(roll, pitch, yaw)
+    rel_ned = np.stack([wind_n - vel_n, wind_e - vel_e, -(wind_up - vel_up)], axis=-1)
+    v_body = np.einsum("tji,tj->ti", r_true, rel_ned)          # R^T (V_wind - V_ins)
+    m_sb = _MOUNTS[cond["sonic_mount"]]
+    if "mount_misalignment" in mech:
+        mm = mech["mount_misalignment"]
+        m_sb = m_sb @ body_to_ned(mm["roll_deg"], mm["pitch_deg"], mm["yaw_deg"])
+    v_sensor = v_body @ m_sb                                   # (M^T v) row-wise
+    if "w_gain" in mech:
+        v_sensor[:, 2] *= mech["w_gain"]["gain"]
+    v_sensor += p["sonic_noise_ms"] * rng("sonic_noise").standard_normal(v_sensor.shape)
+    if "sonic_noise" in mech:
+        v_sensor += mech["sonic_noise"]["sigma_ms"] * rng("noise_mechanism").standard_normal(v_sensor.shape)
+    t_c = theta - 273.15 + p["temperature_offset_k"] + p["temperature_noise_k"] * \
+        rng("sonic_noise", 10).standard_normal(n_son)
+    res = p["sonic_resolution_ms"]
+    if res > 0:
+        v_sensor = np.round(v_sensor / res) * res
+    if p["temperature_resolution_k"] > 0:
+        t_c = np.round(t_c / p["temperature_resolution_k"]) * p["temperature_resolution_k"]
+
+    # ---------------- clocks ---------------------------------------------------------
+    log_t0 = t[0]
+
+    def rpi_us(t_rel: np.ndarray) -> np.ndarray:
+        utc_s = t_rel  # s from hover-window start
+        clock = (utc_s - log_t0) * (1 + p["logger_clock_drift_ppm"] * 1e-6)
+        base = (start - np.datetime64("1970-01-01T00:00:00", "us")) / us * 1e-6 + log_t0 + p["logger_clock_offset_s"]
+        return np.round((base + clock) * 1e6).astype(np.int64)
+
+    t_stamp = t.copy()
+    if "sonic_ins_lag" in mech:
+        t_stamp = t_stamp - mech["sonic_ins_lag"]["lag_s"]
+    if "clock_drift" in mech:
+        t_stamp = t_stamp + mech["clock_drift"]["ppm"] * 1e-6 * (t - log_t0)
+    son_rpi = rpi_us(t_stamp)
+
+    # ---------------- INS -------------------------------------------------------------
+    n_ins = int(math.floor((t[-1] - t[0]) * fs_i)) + 1
+    ti = t[0] + np.arange(n_ins) / fs_i
+    ti = ti[ti <= t[-1]]
+    att_t = ti - mech.get("attitude_lag", {}).get("lag_s", 0.0)
+    att_t = np.clip(att_t, t[0], t[-1])
+    roll_i = np.interp(att_t, t, roll)
+    pitch_i = np.interp(att_t, t, pitch)
+    yaw_unw = np.interp(att_t, t, yaw)
+    pe, pn, pz = spl_e(ti), spl_n(ti), spl_z(ti)
+    ve, vn, vu = spl_e(ti, 1), spl_n(ti, 1), spl_z(ti, 1)
+    if "lever_arm" in mech:  # INS refers to sonic + R r_body: adds R r and d(R r)/dt
+        la = mech["lever_arm"]
+        r_ned = r_true @ np.array([la["x_m"], la["y_m"], la["z_m"]])   # (n, 3) NED offset
+        offs = [CubicSpline(t, r_ned[:, k]) for k in range(3)]
+        pn, pe, pz = pn + offs[0](ti), pe + offs[1](ti), pz - offs[2](ti)
+        vn, ve, vu = vn + offs[0](ti, 1), ve + offs[1](ti, 1), vu - offs[2](ti, 1)
+    r_noise = rng("ins_noise")
+    tau = p["ins_noise_time_s"]
+    gm = (lambda s: _lowpass_noise(r_noise, ti.size, fs_i, tau, s, order=1)) if tau > 0 else \
+        (lambda s: s * r_noise.standard_normal(ti.size))
+    vn = vn + gm(p["ins_velocity_noise_ms"])
+    ve = ve + gm(p["ins_velocity_noise_ms"])
+    vd = -vu + gm(p["ins_velocity_noise_ms"])
+    roll_i = roll_i + gm(p["ins_roll_pitch_noise_deg"])
+    pitch_i = pitch_i + gm(p["ins_roll_pitch_noise_deg"])
+    yaw_unw = yaw_unw + gm(p["ins_heading_noise_deg"]) + mech.get("heading_bias", {}).get("deg", 0.0)
+    yaw_i = (yaw_unw + 180.0) % 360.0 - 180.0
+    yaw_i = np.where(yaw_i == -180.0, 180.0, yaw_i)
+    pe = pe + gm(p["ins_horizontal_position_noise_m"])
+    pn = pn + gm(p["ins_horizontal_position_noise_m"])
+    pz = pz + gm(p["ins_vertical_position_noise_m"])
+    site = cond["site"]
+    lat0 = float(site.get("latitude", ref["latitude"]))
+    lon0 = float(site.get("longitude", ref["longitude"]))
+    lat = lat0 + np.degrees(pn / EARTH_RADIUS_M)
+    lon = lon0 + np.degrees(pe / (EARTH_RADIUS_M * math.cos(math.radians(lat0))))
+    alt = float(site.get("altitude_m", 0.0)) + pz
+    since_log = ti - t[0]
+    acq, blink = p["gnss_acquisition_s"], p["gnss_blink_s"]
+    time_valid = (since_log >= acq).astype(np.int64)
+    if blink > 0 and acq > 2 * blink + 10:
+        b0 = 0.5 * acq
+        time_valid[(since_log >= b0) & (since_log < b0 + blink)] = 1
+    if tl["log_start"] + acq + 10.0 > tl["hover_start"]:
+        raise InputError("simulation.payload.gnss_acquisition_s",
+                         f"GNSS time would become stable after the hover starts in flight {flight_id}")
+    ekf_valid = (since_log >= p["ekf_init_s"]).astype(np.int64)
+    utc = start + np.round(ti * 1e6).astype(np.int64) * us
+    ins_rpi = rpi_us(ti)
+
+    # ---------------- defects and writing ------------------------------------------------
+    flight = cond["flight"]
+    sonic_path = out_dir / str(flight["sonic"]["file"])
+    ins_path = out_dir / str(flight["ins"]["file"])
+    order, oor = _defects(rng("sonic_defects"), n_son, cond["defects"]["sonic"])
+    r_def = rng("sonic_defects", 1)
+    cols = np.column_stack([v_sensor, t_c])
+    bad_rows = np.flatnonzero(oor)
+    bad_cols = r_def.integers(0, 4, bad_rows.size)
+    bad_vals = np.where(r_def.random(bad_rows.size) < 0.5, -99.99, 99.99)  # beyond 40 m/s and 50 C
+    cols[bad_rows, bad_cols] = bad_vals
+    write_payload_sonic_csv(sonic_path, son_rpi[order], cols[order, 0], cols[order, 1], cols[order, 2],
+                            cols[order, 3])
+    order_i, oor_i = _defects(rng("ins_defects"), ti.size, cond["defects"]["ins"])
+    ins_cols = np.column_stack([vn, ve, vd, roll_i, pitch_i])
+    bad_rows = np.flatnonzero(oor_i)
+    bad_cols = rng("ins_defects", 1).integers(0, 5, bad_rows.size)
+    ins_cols[bad_rows, bad_cols] = 999.0
+    o = order_i
+    write_ins_csv(ins_path, ins_rpi[o], utc[o], time_valid[o], ekf_valid[o], lat[o], lon[o], alt[o],
+                  ins_cols[o, 0], ins_cols[o, 1], ins_cols[o, 2], ins_cols[o, 3], ins_cols[o, 4], yaw_i[o])
+    written = [sonic_path, ins_path]
+
+    # ---------------- mast sonics ------------------------------------------------------
+    m0 = int(math.ceil((mast_lo - field_t0) / us * 1e-6 * fs_m))
+    m1 = int(math.floor(mast_end_f * fs_m))
+    mast_series = atm.synthesize(spec, fs_m, list(range(len(mast_ids))), start_s=m0 / fs_m, n_samples=m1 - m0)
+    mast_times = field_t0 + np.round((m0 + np.arange(m1 - m0)) / fs_m * 1e6).astype(np.int64) * us
+    rec0 = int(round((field_t0 - np.datetime64("2020-01-01T00:00:00", "us")) / us * 1e-6 * fs_m)) + m0
+    for k, sid in enumerate(mast_ids):
+        sonic = sonics[sid]
+        meas = mast_measurement(mast_series[k, 0], mast_series[k, 1], mast_series[k, 2], mast_series[k, 3],
+                                float(sonic["azimuth_deg"]), settings["mast"], rng("mast", k), mech, rec0)
+        keep = meas["keep"]
+        path = out_dir / _mast_file(list(sonic["files"]), flight_id, sid)
+        write_toa5(path, mast_times[keep], meas["record"][keep], meas["ux_ms"][keep], meas["uy_ms"][keep],
+                   meas["uz_ms"][keep], meas["ts_c"][keep], meas["diag_csat"][keep], table=f"ts_{sid}")
+        written.append(path)
+    return written
+

@@ -1,0 +1,462 @@
+"""Validation of a manifest's ``simulation:`` section (payload flights and mast sonics).
+
+The format is documented in :mod:`dronewind.simulate` (package docstring). Every
+problem raises :class:`dronewind.errors.InputError` whose ``where`` is the setting's key
+path (e.g. ``simulation.payload_flights.s03.mean_speed_ms``) and whose message says what
+was expected, with units and the physical range.
+
+Quadrotor and tunnel settings (``simulation.quadrotor_flights``, ``simulation.tunnel``)
+belong to other modules and are not checked here; mechanisms of the quadrotor platform
+are validated against the catalog but ignored by the payload simulator.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from dronewind.errors import InputError
+from dronewind.mechanisms import get_mechanism, validate_parameters
+
+__all__ = [
+    "ATMOSPHERE_DEFAULTS",
+    "PAYLOAD_DEFAULTS",
+    "MAST_DEFAULTS",
+    "DEFECT_DEFAULTS",
+    "campaign_dict",
+    "parse_time",
+    "flight_seed",
+    "validate_simulation",
+    "resolve_payload_flight",
+]
+
+#: name: (default, lower, upper, unit). Ranges are physical plausibility limits.
+#: The attitude defaults (yaw follows the relative wind with 15 s, 3 deg yaw / 1 deg pitch /
+#: 0.5 deg roll jitter on 0.5 s) were tuned so that the TKE-vs-sonic-lag curve of seed 000,
+#: Fig. 4 is reproduced without any mechanism: minimum at -0.125 s, +5-11 % at +-1 s (s01,
+#: s07). A faster weathervane (3 s) biased the TKE minimum beyond -1 s, because a heading
+#: that follows the wind direction correlates the attitude with the wind.
+ATMOSPHERE_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
+    "roughness_length_m": (0.1, 1e-4, 3.0, "m"),
+    "boundary_layer_height_m": (1000.0, 50.0, 5000.0, "m"),
+    "theta_mean_k": (288.15, 220.0, 330.0, "K"),
+}
+
+PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
+    "pendulum_length_m": (18.0, 0.0, 100.0, "m"),          # seed 000, Sect. 2.2
+    "mass_kg": (4.0, 0.0, 25.0, "kg"),                     # seed 000, Sect. 2.1
+    "drag_area_m2": (0.06, 0.0, 2.0, "m2"),                # C_d A of frame, vane, sonic (assumed)
+    "min_damping_ratio": (0.03, 0.0, 1.0, "1"),
+    "drone_mass_kg": (20.0, 1.0, 25.0, "kg"),              # D130 + payload, Sect. 2.1
+    "drone_drag_area_m2": (0.5, 0.0, 5.0, "m2"),
+    "drone_roll_jitter_deg": (0.5, 0.0, 10.0, "degree"),
+    "pitch_trim_deg": (1.0, -15.0, 15.0, "degree"),
+    "pitch_jitter_deg": (1.0, 0.0, 10.0, "degree"),
+    "yaw_time_constant_s": (15.0, 0.1, 600.0, "s"),
+    "yaw_jitter_deg": (3.0, 0.0, 30.0, "degree"),
+    "attitude_jitter_time_s": (0.5, 0.05, 60.0, "s"),        # time scale of the attitude jitter
+    "hover_jitter_m": (0.3, 0.0, 5.0, "m"),
+    "hover_jitter_time_s": (3.0, 0.1, 60.0, "s"),
+    "sonic_rate_hz": (32.0, 4.0, 32.0, "Hz"),              # RM Young 81000, Table 2
+    "ins_rate_hz": (50.0, 1.0, 200.0, "Hz"),               # Ellipse-D EKF, Sect. 3.2
+    "sonic_noise_ms": (0.02, 0.0, 1.0, "m s-1"),           # instrument noise (not the mechanism)
+    "sonic_resolution_ms": (0.01, 0.0, 0.1, "m s-1"),      # Table 2
+    "temperature_noise_k": (0.01, 0.0, 1.0, "K"),
+    "temperature_resolution_k": (0.01, 0.0, 0.1, "K"),     # Table 2
+    "temperature_offset_k": (0.0, -5.0, 5.0, "K"),
+    "ins_velocity_noise_ms": (0.03, 0.0, 1.0, "m s-1"),    # Table 3
+    "ins_roll_pitch_noise_deg": (0.05, 0.0, 2.0, "degree"),  # Table 3
+    "ins_heading_noise_deg": (0.4, 0.0, 5.0, "degree"),    # Table 3
+    "ins_horizontal_position_noise_m": (0.01, 0.0, 5.0, "m"),  # Table 3
+    "ins_vertical_position_noise_m": (0.02, 0.0, 5.0, "m"),    # Table 3
+    "ins_noise_time_s": (1.0, 0.0, 100.0, "s"),            # Gauss-Markov correlation time
+    "ascent_rate_ms": (1.5, 0.1, 10.0, "m s-1"),
+    "descent_rate_ms": (1.0, 0.1, 10.0, "m s-1"),
+    "ground_before_s": (60.0, 0.0, 3600.0, "s"),
+    "ground_after_s": (30.0, 0.0, 3600.0, "s"),
+    "hover_margin_s": (30.0, 0.0, 600.0, "s"),
+    "gnss_acquisition_s": (40.0, 0.0, 1800.0, "s"),
+    "gnss_blink_s": (3.0, 0.0, 9.0, "s"),
+    "ekf_init_s": (5.0, 0.0, 600.0, "s"),
+    "logger_clock_offset_s": (-5400.0, -1e9, 1e9, "s"),    # RPi clock minus UTC at log start
+    "logger_clock_drift_ppm": (0.0, -500.0, 500.0, "ppm"),
+}
+
+MAST_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
+    "rate_hz": (10.0, 1.0, 60.0, "Hz"),                    # seed 000, Sect. 4
+    "margin_s": (120.0, 0.0, 3600.0, "s"),
+    "noise_ms": (0.01, 0.0, 1.0, "m s-1"),
+    "temperature_noise_k": (0.01, 0.0, 1.0, "K"),
+    "temperature_offset_k": (0.0, -5.0, 5.0, "K"),
+    "nan_rate": (2e-4, 0.0, 0.02, "1"),
+    "diag_rate": (2e-4, 0.0, 0.02, "1"),
+    "record_skip_rate": (1e-5, 0.0, 0.01, "1"),
+}
+
+#: Row defects of the payload logs (fraction of rows); the paper's total stayed < 2 %.
+DEFECT_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
+    "missing_rate": (1e-3, 0.0, 0.02, "1"),
+    "duplicate_rate": (5e-4, 0.0, 0.02, "1"),
+    "out_of_order_rate": (5e-4, 0.0, 0.02, "1"),
+    "out_of_range_rate": (3e-4, 0.0, 0.02, "1"),
+}
+
+_FLIGHT_KEYS = {
+    "mean_speed_ms", "wind_from_deg", "z_over_L", "obukhov_length_m", "z_ref_m", "hover_height_m",
+    "start", "duration_s", "flight_duration_s", "hover_offset_enu_m", *ATMOSPHERE_DEFAULTS,
+}
+
+
+def campaign_dict(campaign: Any) -> dict[str, Any]:
+    """The manifest content as a dict.
+
+    Parameters
+    ----------
+    campaign : dict or manifest.Campaign
+        Parsed manifest, or an object with a ``data`` mapping.
+
+    Returns
+    -------
+    dict
+        Shallow copy of the manifest mapping.
+    """
+    data = getattr(campaign, "data", campaign)
+    if not isinstance(data, Mapping):
+        raise InputError("campaign", f"expected a manifest mapping, got {type(data).__name__}")
+    return dict(data)
+
+
+def parse_time(value: Any, where: str) -> np.datetime64:
+    """Parse a UTC time of the manifest.
+
+    Parameters
+    ----------
+    value : str or datetime.datetime
+        ISO 8601 UTC (trailing ``Z`` or ``+00:00`` optional) or a datetime (YAML).
+    where : str
+        Setting path for the error message.
+
+    Returns
+    -------
+    numpy.datetime64
+        Naive ``datetime64[us]`` meaning UTC.
+    """
+    if isinstance(value, _dt.datetime):
+        if value.tzinfo is not None:
+            value = value.astimezone(_dt.timezone.utc).replace(tzinfo=None)
+        return np.datetime64(value, "us")
+    text = str(value).strip()
+    if text.endswith("Z"):
+        text = text[:-1]
+    for suffix in ("+00:00", "+0000"):
+        if text.endswith(suffix):
+            text = text[: -len(suffix)]
+    try:
+        return np.datetime64(text.replace(" ", "T"), "us")
+    except ValueError:
+        raise InputError(where, f"{value!r} is not an ISO 8601 UTC time (e.g. 2023-08-21T14:05:32Z)") from None
+
+
+def flight_seed(campaign_seed: int, flight_id: str) -> int:
+    """Seed of one flight: SHA-256 of ``"<campaign seed>:<flight id>"`` (first 8 bytes).
+
+    Parameters
+    ----------
+    campaign_seed : int
+    flight_id : str
+
+    Returns
+    -------
+    int
+        Non-negative 64-bit seed; independent of Python's hash randomisation.
+    """
+    digest = hashlib.sha256(f"{int(campaign_seed)}:{flight_id}".encode()).digest()
+    return int.from_bytes(digest[:8], "little")
+
+
+def _number(value: Any, where: str, lower: float, upper: float, unit: str,
+            lower_exclusive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(where, f"expected a number [{unit}], got {value!r}")
+    x = float(value)
+    low_bad = x <= lower if lower_exclusive else x < lower
+    if not math.isfinite(x) or low_bad or x > upper:
+        br = "(" if lower_exclusive else "["
+        raise InputError(where, f"{x!r} outside the physical range {br}{lower}, {upper}] [{unit}]")
+    return x
+
+
+def _block(section: Mapping[str, Any] | None, defaults: dict[str, tuple[float, float, float, str]],
+           where: str, exclusive: tuple[str, ...] = ()) -> dict[str, float]:
+    section = dict(section or {})
+    if not isinstance(section, dict):
+        raise InputError(where, "expected a mapping")
+    unknown = sorted(set(section) - set(defaults))
+    if unknown:
+        raise InputError(f"{where}.{unknown[0]}", f"unknown setting; expected one of {sorted(defaults)}")
+    out = {}
+    for key, (default, lo, hi, unit) in defaults.items():
+        out[key] = _number(section.get(key, default), f"{where}.{key}", lo, hi, unit,
+                           lower_exclusive=key in exclusive)
+    return out
+
+
+def _mechanisms(sim: Mapping[str, Any], flight_ids: set[str]) -> list[dict[str, Any]]:
+    items = sim.get("mechanisms") or []
+    if not isinstance(items, list):
+        raise InputError("simulation.mechanisms", "expected a list of {mechanism, parameters, flights}")
+    out = []
+    for i, item in enumerate(items):
+        where = f"simulation.mechanisms[{i}]"
+        if not isinstance(item, Mapping) or "mechanism" not in item:
+            raise InputError(where, "expected a mapping with key 'mechanism' (and 'parameters', "
+                                    "optional 'flights')")
+        unknown = sorted(set(item) - {"mechanism", "parameters", "flights"})
+        if unknown:
+            raise InputError(f"{where}.{unknown[0]}", "unknown key; expected mechanism, parameters, flights")
+        mech = get_mechanism(item["mechanism"], f"{where}.mechanism")
+        params = validate_parameters(mech.name, item.get("parameters"), f"{where}.parameters")
+        flights = item.get("flights")
+        if flights is not None:
+            if not isinstance(flights, list) or not all(isinstance(f, str) for f in flights):
+                raise InputError(f"{where}.flights", "expected a list of flight ids")
+            bad = [f for f in flights if f not in flight_ids]
+            if bad:
+                raise InputError(f"{where}.flights", f"unknown flight id(s) {bad}; known: {sorted(flight_ids)}")
+        out.append({"mechanism": mech.name, "parameters": params,
+                    "flights": None if flights is None else list(flights), "platforms": mech.platforms})
+    return out
+
+
+def validate_simulation(campaign: Any) -> dict[str, Any]:
+    """Validate the ``simulation:`` section for payload flights and masts.
+
+    Parameters
+    ----------
+    campaign : dict or manifest.Campaign
+        The manifest content.
+
+    Returns
+    -------
+    dict
+        ``seed`` (int), ``atmosphere``, ``payload``, ``defects`` (``sonic``/``ins``),
+        ``mast`` (dicts of floats with defaults filled in), ``mechanisms`` (list of
+        ``{mechanism, parameters, flights, platforms}``) and ``payload_flights``
+        (raw per-flight mappings, checked by :func:`resolve_payload_flight`).
+
+    Raises
+    ------
+    InputError
+        Naming the setting (key path) and what was expected.
+    """
+    data = campaign_dict(campaign)
+    sim = data.get("simulation")
+    if not isinstance(sim, Mapping) or not sim:
+        raise InputError("simulation", "the manifest has no simulation: section (a measured campaign)")
+    allowed = {"seed", "atmosphere", "payload", "mast", "payload_flights", "mechanisms",
+               "quadrotor_flights", "quadrotor", "tunnel", "description"}
+    unknown = sorted(set(sim) - allowed)
+    if unknown:
+        raise InputError(f"simulation.{unknown[0]}", f"unknown setting; expected one of {sorted(allowed)}")
+    seed = sim.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError("simulation.seed", f"expected a non-negative integer, got {seed!r}")
+    payload_raw = dict(sim.get("payload") or {})
+    defects_raw = payload_raw.pop("defects", None) or {}
+    if not isinstance(defects_raw, Mapping):
+        raise InputError("simulation.payload.defects", "expected a mapping with keys sonic, ins")
+    bad = sorted(set(defects_raw) - {"sonic", "ins"})
+    if bad:
+        raise InputError(f"simulation.payload.defects.{bad[0]}", "unknown key; expected sonic or ins")
+    payload = _block(payload_raw, PAYLOAD_DEFAULTS, "simulation.payload",
+                     exclusive=("pendulum_length_m", "mass_kg", "drag_area_m2"))
+    defects = {k: _block(defects_raw.get(k), DEFECT_DEFAULTS, f"simulation.payload.defects.{k}")
+               for k in ("sonic", "ins")}
+    mast = _block(sim.get("mast"), MAST_DEFAULTS, "simulation.mast")
+    for where, block, key in (("simulation.payload", payload, "sonic_rate_hz"),
+                              ("simulation.payload", payload, "ins_rate_hz"), ("simulation.mast", mast, "rate_hz")):
+        if not float(block[key]).is_integer():
+            raise InputError(f"{where}.{key}", f"expected a whole number of Hz, got {block[key]}")
+    atmosphere = _block(sim.get("atmosphere"), ATMOSPHERE_DEFAULTS, "simulation.atmosphere",
+                        exclusive=("roughness_length_m",))
+    payload_ids = [str(f.get("id")) for f in data.get("payload_flights") or []]
+    quad_ids = [str(f.get("id")) for f in data.get("quadrotor_flights") or []]
+    flights_raw = sim.get("payload_flights") or {}
+    if not isinstance(flights_raw, Mapping):
+        raise InputError("simulation.payload_flights", "expected a mapping flight id -> conditions")
+    extra = sorted(set(flights_raw) - set(payload_ids))
+    if extra:
+        raise InputError(f"simulation.payload_flights.{extra[0]}",
+                         f"no payload flight with this id in the manifest (known: {payload_ids})")
+    for fid in payload_ids:
+        if fid not in flights_raw:
+            raise InputError(f"simulation.payload_flights.{fid}",
+                             "missing conditions for this payload flight (mean_speed_ms, "
+                             "wind_from_deg, z_over_L or obukhov_length_m, ...)")
+    mechanisms = _mechanisms(sim, set(payload_ids) | set(quad_ids))
+    out = {"seed": int(seed), "atmosphere": atmosphere, "payload": payload, "defects": defects,
+           "mast": mast, "mechanisms": mechanisms, "payload_flights": dict(flights_raw)}
+    # check every flight now so that errors surface before any simulation runs
+    for fid in payload_ids:
+        resolve_payload_flight(data, fid, out)
+    return out
+
+
+def _mast_sonics(data: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    site = data.get("site") or {}
+    out = {}
+    for mast in data.get("masts") or []:
+        for sonic in mast.get("sonics") or []:
+            entry = dict(sonic)
+            entry["mast_id"] = mast.get("id")
+            entry["latitude"] = float(mast.get("latitude", site.get("latitude", 0.0)))
+            entry["longitude"] = float(mast.get("longitude", site.get("longitude", 0.0)))
+            out[str(sonic["id"])] = entry
+    return out
+
+
+def resolve_payload_flight(campaign: Any, flight_id: str,
+                           settings: dict[str, Any] | None = None) -> dict[str, Any]:
+    """All conditions of one payload flight, defaults filled in and checked.
+
+    Parameters
+    ----------
+    campaign : dict or manifest.Campaign
+        Manifest content.
+    flight_id : str
+        Payload flight id.
+    settings : dict, optional
+        Output of :func:`validate_simulation` (computed if omitted).
+
+    Returns
+    -------
+    dict
+        Keys: ``flight_id, seed`` (flight seed), ``mean_speed_ms, wind_from_deg,
+        obukhov_length_m, z_ref_m, hover_height_m, start`` (datetime64[us]),
+        ``duration_s, flight_duration_s`` (None if not set), ``hover_offset_enu_m``
+        (2 floats, relative to the reference sonic's mast), the atmosphere settings,
+        ``payload, defects, mast`` (dicts), ``mechanisms`` (dict name -> parameters of
+        the payload/mast mechanisms active for this flight), ``reference`` (sonic id),
+        ``mast_sonics`` (dict), ``site`` (dict), ``flight`` (manifest entry).
+
+    Raises
+    ------
+    InputError
+        Naming the setting: negative wind speed, |z/L| too large, hover height not
+        positive, a hover window longer than the flight, ...
+    """
+    data = campaign_dict(campaign)
+    if settings is None:
+        settings = validate_simulation(data)
+    flights = {str(f.get("id")): f for f in data.get("payload_flights") or []}
+    if flight_id not in flights:
+        raise InputError("flight_id", f"no payload flight {flight_id!r} (known: {sorted(flights)})")
+    flight = flights[flight_id]
+    where = f"simulation.payload_flights.{flight_id}"
+    cond = settings["payload_flights"].get(flight_id)
+    if not isinstance(cond, Mapping):
+        raise InputError(where, "expected a mapping of conditions")
+    unknown = sorted(set(cond) - _FLIGHT_KEYS)
+    if unknown:
+        raise InputError(f"{where}.{unknown[0]}", f"unknown setting; expected one of {sorted(_FLIGHT_KEYS)}")
+    sonics = _mast_sonics(data)
+    ref = str(flight.get("reference"))
+    if ref not in sonics:
+        raise InputError(f"payload_flights.{flight_id}.reference", f"{ref!r} is not a mast sonic id ({sorted(sonics)})")
+    out: dict[str, Any] = {"flight_id": flight_id, "flight": dict(flight), "reference": ref,
+                           "mast_sonics": sonics, "site": dict(data.get("site") or {})}
+    for key in ("mean_speed_ms", "wind_from_deg"):
+        if key not in cond:
+            raise InputError(f"{where}.{key}", "missing (required)")
+    out["mean_speed_ms"] = _number(cond["mean_speed_ms"], f"{where}.mean_speed_ms", 0.0, 40.0, "m s-1",
+                                   lower_exclusive=True)
+    out["wind_from_deg"] = _number(cond["wind_from_deg"], f"{where}.wind_from_deg", 0.0, 360.0, "degree")
+    z_ref = cond.get("z_ref_m", sonics[ref]["height_m"])
+    out["z_ref_m"] = _number(z_ref, f"{where}.z_ref_m", 0.5, 1000.0, "m")
+    has_z, has_l = "z_over_L" in cond, "obukhov_length_m" in cond
+    if has_z == has_l:
+        raise InputError(f"{where}.z_over_L", "give exactly one of z_over_L (at z_ref_m) or obukhov_length_m")
+    if has_z:
+        zeta = _number(cond["z_over_L"], f"{where}.z_over_L", -5.0, 5.0, "1")
+        out["obukhov_length_m"] = math.inf if zeta == 0 else out["z_ref_m"] / zeta
+    else:
+        ol = cond["obukhov_length_m"]
+        if isinstance(ol, str) and ol.strip().lower() in ("inf", "+inf", "-inf", ".inf"):
+            ol = math.inf
+        if isinstance(ol, bool) or not isinstance(ol, (int, float)) or (math.isfinite(ol) and abs(ol) < 1.0) \
+                or math.isnan(ol):
+            raise InputError(f"{where}.obukhov_length_m", f"expected |L| >= 1 m or inf, got {ol!r}")
+        out["obukhov_length_m"] = float(ol)
+    for key, (default, lo, hi, unit) in ATMOSPHERE_DEFAULTS.items():
+        out[key] = _number(cond.get(key, settings["atmosphere"][key]), f"{where}.{key}", lo, hi, unit,
+                           lower_exclusive=key == "roughness_length_m")
+    hover = cond.get("hover_height_m", flight.get("target_height_m", sonics[ref]["height_m"]))
+    out["hover_height_m"] = _number(hover, f"{where}.hover_height_m", 0.0, 500.0, "m", lower_exclusive=True)
+    window = flight.get("window") or {}
+    if "start" in cond:
+        start = parse_time(cond["start"], f"{where}.start")
+    elif window.get("start") is not None:
+        start = parse_time(window["start"], f"payload_flights.{flight_id}.window.start")
+    else:
+        raise InputError(f"{where}.start", "missing: give start (or a window in the manifest flight)")
+    out["start"] = start
+    if "duration_s" in cond:
+        duration = _number(cond["duration_s"], f"{where}.duration_s", 0.0, 7200.0, "s", lower_exclusive=True)
+    elif window.get("end") is not None:
+        end = parse_time(window["end"], f"payload_flights.{flight_id}.window.end")
+        duration = float((end - start) / np.timedelta64(1, "us")) * 1e-6
+        if duration <= 0:
+            raise InputError(f"payload_flights.{flight_id}.window", "end must be after start")
+    else:
+        raise InputError(f"{where}.duration_s", "missing: give duration_s (or a window end)")
+    out["duration_s"] = duration
+    payload = settings["payload"]
+    out["payload"], out["defects"], out["mast"] = payload, settings["defects"], settings["mast"]
+    mechs: dict[str, dict[str, Any]] = {}
+    for m in settings["mechanisms"]:
+        if ("payload" in m["platforms"] or "mast" in m["platforms"]) and \
+                (m["flights"] is None or flight_id in m["flights"]):
+            if m["mechanism"] in mechs:
+                raise InputError("simulation.mechanisms",
+                                 f"mechanism {m['mechanism']!r} given twice for flight {flight_id}")
+            mechs[m["mechanism"]] = dict(m["parameters"])
+    out["mechanisms"] = mechs
+    dz = mechs.get("height_offset", {}).get("dz_m", 0.0)
+    if out["hover_height_m"] - dz <= 2.0:
+        raise InputError("simulation.mechanisms.height_offset.dz_m",
+                         f"puts flight {flight_id} at {out['hover_height_m'] - dz} m (must stay > 2 m)")
+    # the hover window must fit in the flight
+    climb = out["hover_height_m"] / payload["ascent_rate_ms"] + out["hover_height_m"] / payload["descent_rate_ms"]
+    needed = duration + 2 * payload["hover_margin_s"] + climb + payload["ground_before_s"] + payload["ground_after_s"]
+    if "flight_duration_s" in cond:
+        fd = _number(cond["flight_duration_s"], f"{where}.flight_duration_s", 0.0, 4 * 3600.0, "s",
+                     lower_exclusive=True)
+        if needed > fd:
+            raise InputError(f"{where}.duration_s",
+                             f"hover window of {duration:.0f} s is longer than the flight: with ascent, descent, "
+                             f"margins and ground time it needs {needed:.0f} s > flight_duration_s = {fd:.0f} s")
+        out["flight_duration_s"] = fd
+    else:
+        out["flight_duration_s"] = None
+    if "hover_offset_enu_m" in cond:
+        off = cond["hover_offset_enu_m"]
+        if not isinstance(off, (list, tuple)) or len(off) != 2:
+            raise InputError(f"{where}.hover_offset_enu_m", f"expected [east_m, north_m], got {off!r}")
+        out["hover_offset_enu_m"] = [_number(v, f"{where}.hover_offset_enu_m", -2000, 2000, "m") for v in off]
+    else:
+        # default: 35 m to the right of the mast looking downwind and 10 m upwind (assumed;
+        # seed 000, Fig. 7 shows hovering a few tens of metres from the tower)
+        a = math.radians(out["wind_from_deg"])
+        e_u = (-math.sin(a), -math.cos(a))
+        e_right = (e_u[1], -e_u[0])
+        out["hover_offset_enu_m"] = [35 * e_right[0] - 10 * e_u[0], 35 * e_right[1] - 10 * e_u[1]]
+    out["seed"] = flight_seed(settings["seed"], flight_id)
+    out["sonic_mount"] = str((flight.get("sonic") or {}).get("mount", "upside_down"))
+    if out["sonic_mount"] not in ("upside_down", "upright"):
+        raise InputError(f"payload_flights.{flight_id}.sonic.mount", "expected upside_down or upright")
+    return out
+
