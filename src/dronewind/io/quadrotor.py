@@ -1,0 +1,515 @@
+r"""Readers for quadrotor (SWUF-3D) flight logs and the tower reference.
+
+Three L0 formats of the data contract (``../shared/DESIGN.md``, "Quadrotor file" and
+"Tower reference") are read here:
+
+* quadrotor CSV, at 10 Hz or more::
+
+      time_utc,roll_deg,pitch_deg,yaw_deg,vel_n_ms,vel_e_ms,vel_d_ms,lat_deg,lon_deg,alt_m
+
+  ``time_utc`` is ISO 8601 UTC with a trailing ``Z``, with or without fractional seconds;
+* PX4 ULog (``.ulg``), read with :mod:`pyulog`: attitude from the ``vehicle_attitude``
+  quaternion, velocity (NED) and position from ``vehicle_global_position`` (if logged)
+  or ``vehicle_local_position`` (NED position relative to ``ref_lat``/``ref_lon``/
+  ``ref_alt``); UTC from the GNSS receiver (``vehicle_gps_position`` or ``sensor_gps``,
+  field ``time_utc_usec``);
+* tower reference CSV (1 Hz or 1-min means)::
+
+      time_utc,height_m,wind_speed_ms,wind_from_deg
+
+  in long form (one row per time and height) or wide form (``time_utc`` plus one
+  ``wind_speed_ms_<h>m`` and one ``wind_from_deg_<h>m`` column per height ``h``).
+
+Every reader returns an :class:`xarray.Dataset` with a ``time`` dimension
+(``datetime64[ns]``, naive, meaning UTC), CF attributes, removed-sample counts ``n_*`` and a
+``processing_log``. Bad input raises :class:`dronewind.errors.InputError` naming the file,
+line or variable and what was expected.
+
+References
+----------
+.. [1] Wetz, T., Wildmann, N., Beyrich, F.: Distributed wind measurements with multiple
+   quadrotor UAVs in the atmospheric boundary layer (SWUF-3D), seed 001
+   (``../shared/papers/001_*.txt``), Sects. 2-5.
+.. [2] PX4 ULog file format, https://docs.px4.io/main/en/dev_log/ulog_file_format.html
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from dronewind.errors import InputError
+
+__all__ = [
+    "QUADROTOR_COLUMNS",
+    "REFERENCE_COLUMNS",
+    "parse_time_utc",
+    "quaternion_to_euler_deg",
+    "read_quadrotor",
+    "read_quadrotor_csv",
+    "read_quadrotor_ulog",
+    "read_tower_reference",
+]
+
+#: Columns of the quadrotor CSV (data contract).
+QUADROTOR_COLUMNS: tuple[str, ...] = (
+    "time_utc", "roll_deg", "pitch_deg", "yaw_deg", "vel_n_ms", "vel_e_ms", "vel_d_ms",
+    "lat_deg", "lon_deg", "alt_m",
+)
+#: Columns of the long-form tower reference CSV (data contract).
+REFERENCE_COLUMNS: tuple[str, ...] = ("time_utc", "height_m", "wind_speed_ms", "wind_from_deg")
+
+_EARTH_RADIUS_M = 6_371_000.0
+
+_ISO_Z = re.compile(r"^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,9})?Z$")
+
+_VAR_ATTRS: dict[str, dict[str, str]] = {
+    "roll_deg": {"units": "degree", "standard_name": "platform_roll"},
+    "pitch_deg": {"units": "degree", "standard_name": "platform_pitch"},
+    "yaw_deg": {"units": "degree", "standard_name": "platform_yaw",
+                "comment": "clockwise from true north, as logged"},
+    "vel_n_ms": {"units": "m s-1", "long_name": "platform northward velocity (GNSS/EKF)"},
+    "vel_e_ms": {"units": "m s-1", "long_name": "platform eastward velocity (GNSS/EKF)"},
+    "vel_d_ms": {"units": "m s-1", "long_name": "platform downward velocity (GNSS/EKF)"},
+    "lat_deg": {"units": "degrees_north", "standard_name": "latitude"},
+    "lon_deg": {"units": "degrees_east", "standard_name": "longitude"},
+    "alt_m": {"units": "m", "standard_name": "altitude",
+              "comment": "above mean sea level"},
+}
+
+
+def parse_time_utc(values: pd.Series | np.ndarray | list[str], where: str | Path,
+                   first_line: int = 2) -> np.ndarray:
+    """Parse ISO 8601 UTC strings with a trailing ``Z`` into ``datetime64[ns]``.
+
+    Parameters
+    ----------
+    values : array of str
+        Time stamps such as ``2020-07-24T10:19:30Z`` or ``2020-07-24T10:19:30.125Z``.
+    where : str or Path
+        File name used in error messages.
+    first_line : int
+        Line number of ``values[0]`` in the file (1-based; header is line 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``datetime64[ns]``, naive, meaning UTC.
+
+    Raises
+    ------
+    InputError
+        If a stamp is missing, lacks the trailing ``Z`` or is not ISO 8601; the message
+        names the first bad line.
+    """
+    text = pd.Series(values, dtype="string").str.strip()
+    ok = text.str.match(_ISO_Z.pattern).fillna(False).to_numpy(dtype=bool)
+    if not ok.all():
+        i = int(np.flatnonzero(~ok)[0])
+        raise InputError(
+            f"{where}:{first_line + i}",
+            f"time_utc {text.iloc[i]!r} is not ISO 8601 UTC with a trailing 'Z' "
+            "(expected e.g. 2020-07-24T10:19:30Z or 2020-07-24T10:19:30.25Z)",
+        )
+    stamps = pd.to_datetime(text.str.slice(0, -1), format="ISO8601", errors="coerce")
+    if stamps.isna().any():
+        i = int(np.flatnonzero(stamps.isna().to_numpy())[0])
+        raise InputError(f"{where}:{first_line + i}",
+                         f"time_utc {text.iloc[i]!r} is not a valid date/time")
+    return stamps.to_numpy(dtype="datetime64[ns]")
+
+
+def _sort_dedupe(ds: xr.Dataset, log: list[str]) -> xr.Dataset:
+    """Sort by time and drop duplicated time stamps, counting both."""
+    t = ds["time"].to_numpy()
+    n_unsorted = int(np.sum(np.diff(t.astype("int64")) < 0)) if t.size > 1 else 0
+    if n_unsorted:
+        ds = ds.sortby("time")
+        log.append(f"sort: {n_unsorted} out-of-order time stamps sorted")
+    _, first = np.unique(ds["time"].to_numpy(), return_index=True)
+    n_dup = ds.sizes["time"] - first.size
+    if n_dup:
+        ds = ds.isel(time=np.sort(first))
+        log.append(f"dedupe: {n_dup} duplicated time stamps removed (first kept)")
+    ds.attrs["n_out_of_order"] = n_unsorted
+    ds.attrs["n_duplicates"] = int(n_dup)
+    return ds
+
+
+def _finish(ds: xr.Dataset, source: Path, log: list[str]) -> xr.Dataset:
+    for name, attrs in _VAR_ATTRS.items():
+        if name in ds:
+            ds[name].attrs.update(attrs)
+    ds["time"].attrs.update({"standard_name": "time", "long_name": "time (UTC)"})
+    dt_s = np.diff(ds["time"].to_numpy().astype("int64")) / 1e9
+    ds.attrs["sampling_rate_hz"] = float(1.0 / np.median(dt_s)) if dt_s.size else float("nan")
+    ds.attrs["source_file"] = str(source)
+    ds.attrs["processing_log"] = "\n".join(log)
+    return ds
+
+
+def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
+    """Read a quadrotor CSV log (data contract, seed 001 Sect. 2).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file with the columns of :data:`QUADROTOR_COLUMNS` (more are ignored).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimension ``time`` (UTC); variables ``roll_deg``, ``pitch_deg``, ``yaw_deg``
+        [degree], ``vel_n_ms``, ``vel_e_ms``, ``vel_d_ms`` [m s-1], ``lat_deg``,
+        ``lon_deg`` [degree], ``alt_m`` [m above MSL]. attrs ``n_out_of_order``,
+        ``n_duplicates``, ``n_nonfinite`` (rows with a non-numeric or missing value; kept
+        as NaN), ``sampling_rate_hz``, ``processing_log``.
+
+    Raises
+    ------
+    InputError
+        Missing file or columns, an empty file, a bad time stamp (names the line) or a
+        sampling rate below 1 Hz.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "quadrotor log not found")
+    try:
+        df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
+        raise InputError(path, f"not a readable CSV file ({exc})") from exc
+    missing = [c for c in QUADROTOR_COLUMNS if c not in df.columns]
+    if missing:
+        raise InputError(path, f"missing column(s) {missing}; expected header "
+                               f"{','.join(QUADROTOR_COLUMNS)}")
+    if df.empty:
+        raise InputError(path, "no data rows")
+    log = [f"read: {len(df)} rows from {path.name}"]
+    time = parse_time_utc(df["time_utc"], path)
+    data = {}
+    n_nonfinite = 0
+    for col in QUADROTOR_COLUMNS[1:]:
+        values = pd.to_numeric(df[col].str.strip(), errors="coerce").to_numpy(dtype=float)
+        bad = ~np.isfinite(values)
+        n_nonfinite += int(bad.sum())
+        data[col] = ("time", values)
+    ds = xr.Dataset(data, coords={"time": time})
+    if n_nonfinite:
+        log.append(f"parse: {n_nonfinite} non-numeric or missing values set to NaN")
+    ds.attrs["n_nonfinite"] = n_nonfinite
+    ds = _sort_dedupe(ds, log)
+    ds = _finish(ds, path, log)
+    if ds.sizes["time"] > 1 and ds.attrs["sampling_rate_hz"] < 1.0:
+        raise InputError(path, f"median sampling rate {ds.attrs['sampling_rate_hz']:.3g} Hz; "
+                               "expected 10 Hz or more (at least 1 Hz)")
+    return ds
+
+
+def quaternion_to_euler_deg(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Convert PX4 attitude quaternions (body to NED, Hamilton, ``[w, x, y, z]``) to Euler angles.
+
+    Parameters
+    ----------
+    q : numpy.ndarray, shape (n, 4)
+        Quaternion components ``q[0]`` (scalar) to ``q[3]``.
+
+    Returns
+    -------
+    roll_deg, pitch_deg, yaw_deg : numpy.ndarray
+        Z-Y-X (yaw, pitch, roll) Euler angles [degree]; yaw in (-180, 180], clockwise
+        from north.
+
+    Notes
+    -----
+    The rotation matrix is that of seed 001, Eq. D1, so that
+
+    .. math::
+        \phi = \operatorname{atan2}(2(q_0q_1+q_2q_3),\,1-2(q_1^2+q_2^2)),\quad
+        \theta = \arcsin(2(q_0q_2-q_3q_1)),\quad
+        \psi = \operatorname{atan2}(2(q_0q_3+q_1q_2),\,1-2(q_2^2+q_3^2)).
+
+    The quaternion is normalised first.
+    """
+    q = np.asarray(q, dtype=float)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    q0, q1, q2, q3 = q.T
+    roll = np.arctan2(2 * (q0 * q1 + q2 * q3), 1 - 2 * (q1**2 + q2**2))
+    pitch = np.arcsin(np.clip(2 * (q0 * q2 - q3 * q1), -1.0, 1.0))
+    yaw = np.arctan2(2 * (q0 * q3 + q1 * q2), 1 - 2 * (q2**2 + q3**2))
+    return np.degrees(roll), np.degrees(pitch), np.degrees(yaw)
+
+
+def _topic(ulog, name: str):
+    for d in ulog.data_list:
+        if d.name == name and d.multi_id == 0:
+            return d.data
+    return None
+
+
+def read_quadrotor_ulog(path: str | Path, utc_start: str | None = None) -> xr.Dataset:
+    """Read a PX4 ULog file into the quadrotor dataset (same layout as the CSV reader).
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.ulg`` file.
+    utc_start : str, optional
+        ISO 8601 UTC time of the log's boot-time origin, used only if the log holds no
+        GNSS UTC time (bench logs). Without either, times count from 1970-01-01 and
+        ``attrs['utc_valid'] = 0``.
+
+    Returns
+    -------
+    xarray.Dataset
+        As :func:`read_quadrotor_csv`, at the ``vehicle_attitude`` time stamps. Velocity
+        and position are linearly interpolated from their topics to those times (NaN
+        outside their time span). attrs: ``utc_valid`` (0/1), ``utc_offset_us``,
+        ``position_source``, ``n_position_missing`` (attitude samples without position).
+
+    Raises
+    ------
+    InputError
+        Unreadable file, or no ``vehicle_attitude`` topic.
+
+    Notes
+    -----
+    Local NED position is converted to latitude/longitude with a local flat-earth
+    approximation about (``ref_lat``, ``ref_lon``) (error < 1 mm over a few hundred
+    metres); altitude is ``ref_alt - z``.
+    """
+    from pyulog import ULog  # imported here: only needed for .ulg files
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "ULog file not found")
+    try:
+        ulog = ULog(str(path))
+    except Exception as exc:  # pyulog raises plain exceptions on corrupt files
+        raise InputError(path, f"not a readable PX4 ULog file ({exc})") from exc
+    log = [f"read: ULog {path.name} ({len(ulog.data_list)} topics)"]
+    att = _topic(ulog, "vehicle_attitude")
+    if att is None or len(att["timestamp"]) == 0:
+        raise InputError(f"{path} [vehicle_attitude]",
+                         "the log holds no vehicle_attitude topic; attitude is needed to "
+                         "measure wind from the quadrotor's tilt (seed 001, Sect. 4.2)")
+    t_us = att["timestamp"].astype(np.int64)
+    q = np.column_stack([att[f"q[{i}]"] for i in range(4)])
+    roll, pitch, yaw = quaternion_to_euler_deg(q)
+
+    # UTC: median offset between GNSS UTC and boot time.
+    utc_offset_us = None
+    for name in ("vehicle_gps_position", "sensor_gps"):
+        gps = _topic(ulog, name)
+        if gps is not None and "time_utc_usec" in gps:
+            good = gps["time_utc_usec"] > 0
+            if good.any():
+                utc_offset_us = int(np.median(gps["time_utc_usec"][good].astype(np.int64)
+                                              - gps["timestamp"][good].astype(np.int64)))
+                log.append(f"utc: from {name}.time_utc_usec ({int(good.sum())} fixes)")
+                break
+    utc_valid = 1
+    if utc_offset_us is None:
+        if utc_start is not None:
+            origin = parse_time_utc([utc_start], "utc_start")[0]
+            utc_offset_us = int(origin.astype("datetime64[us]").astype(np.int64))
+            log.append(f"utc: no GNSS time in log; origin set to {utc_start}")
+        else:
+            utc_offset_us = 0
+            utc_valid = 0
+            log.append("utc: no GNSS time in log and no utc_start; times are boot time "
+                       "counted from 1970-01-01 (utc_valid = 0)")
+
+    def interp(src_t, values):
+        src_t = src_t.astype(np.int64)
+        return np.interp(t_us, src_t, values.astype(float), left=np.nan, right=np.nan)
+
+    nan = np.full(t_us.size, np.nan)
+    vn, ve, vd, lat, lon, alt = nan.copy(), nan.copy(), nan.copy(), nan.copy(), nan.copy(), nan.copy()
+    source = "none"
+    lpos = _topic(ulog, "vehicle_local_position")
+    gpos = _topic(ulog, "vehicle_global_position")
+    if lpos is not None and len(lpos["timestamp"]):
+        vn, ve, vd = (interp(lpos["timestamp"], lpos[k]) for k in ("vx", "vy", "vz"))
+        ref_lat = float(np.median(lpos["ref_lat"]))
+        ref_lon = float(np.median(lpos["ref_lon"]))
+        ref_alt = float(np.median(lpos["ref_alt"]))
+        x_n, y_e, z_d = (interp(lpos["timestamp"], lpos[k]) for k in ("x", "y", "z"))
+        lat = ref_lat + np.degrees(x_n / _EARTH_RADIUS_M)
+        lon = ref_lon + np.degrees(y_e / (_EARTH_RADIUS_M * np.cos(np.radians(ref_lat))))
+        alt = ref_alt - z_d
+        source = "vehicle_local_position"
+    if gpos is not None and len(gpos["timestamp"]):
+        lat = interp(gpos["timestamp"], gpos["lat"])
+        lon = interp(gpos["timestamp"], gpos["lon"])
+        alt = interp(gpos["timestamp"], gpos["alt"])
+        source = "vehicle_global_position" + ("+local velocity" if lpos is not None else "")
+        if lpos is None and "vel_n" in gpos:
+            vn, ve, vd = (interp(gpos["timestamp"], gpos[k]) for k in ("vel_n", "vel_e", "vel_d"))
+    lpos_global = lpos is not None and "xy_global" in lpos and bool(np.any(lpos["xy_global"]))
+    if gpos is None and not lpos_global:
+        # Local frame without a global reference: position from the raw GNSS receiver
+        # (lat/lon in 1e-7 degree, alt in mm above MSL), if it has a fix.
+        for name in ("vehicle_gps_position", "sensor_gps"):
+            gps = _topic(ulog, name)
+            if gps is not None and "lat" in gps and np.any(gps["lat"] != 0):
+                fix = gps["lat"] != 0
+                lat = interp(gps["timestamp"][fix], gps["lat"][fix] * 1e-7)
+                lon = interp(gps["timestamp"][fix], gps["lon"][fix] * 1e-7)
+                alt = interp(gps["timestamp"][fix], gps["alt"][fix] * 1e-3)
+                source = f"{name} position + {source} velocity"
+                break
+    n_pos_missing = int(np.sum(~np.isfinite(lat) | ~np.isfinite(vn)))
+    log.append(f"position: from {source}; {n_pos_missing} attitude samples without "
+               "position or velocity (NaN)")
+    time = (t_us + utc_offset_us).astype("datetime64[us]").astype("datetime64[ns]")
+    ds = xr.Dataset(
+        {"roll_deg": ("time", roll), "pitch_deg": ("time", pitch), "yaw_deg": ("time", yaw),
+         "vel_n_ms": ("time", vn), "vel_e_ms": ("time", ve), "vel_d_ms": ("time", vd),
+         "lat_deg": ("time", lat), "lon_deg": ("time", lon), "alt_m": ("time", alt)},
+        coords={"time": time},
+    )
+    ds = _sort_dedupe(ds, log)
+    ds.attrs.update({"utc_valid": utc_valid, "utc_offset_us": utc_offset_us,
+                     "position_source": source, "n_position_missing": n_pos_missing,
+                     "n_nonfinite": 0})
+    return _finish(ds, path, log)
+
+
+def read_quadrotor(path: str | Path) -> xr.Dataset:
+    """Read a quadrotor log, CSV or PX4 ULog by file suffix (data contract).
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.csv`` or ``.ulg`` file.
+
+    Returns
+    -------
+    xarray.Dataset
+        See :func:`read_quadrotor_csv`.
+
+    Raises
+    ------
+    InputError
+        Unknown suffix or a reader error.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        return read_quadrotor_csv(path)
+    if suffix == ".ulg":
+        return read_quadrotor_ulog(path)
+    raise InputError(path, f"unknown quadrotor log type {suffix!r}; expected .csv or .ulg")
+
+
+_WIDE = re.compile(r"^(wind_speed_ms|wind_from_deg)_(\d+(?:\.\d+)?)m?$")
+
+
+def read_tower_reference(path: str | Path) -> xr.Dataset:
+    """Read the tower reference CSV (1 Hz or 1-min means; long or wide form).
+
+    Parameters
+    ----------
+    path : str or Path
+        Long form ``time_utc,height_m,wind_speed_ms,wind_from_deg`` (one row per time and
+        height), or wide form ``time_utc,wind_speed_ms_<h>m,wind_from_deg_<h>m,...``.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions ``time`` (UTC, time stamp of each record) and ``height`` (coordinate
+        ``height_m`` [m above ground]); variables ``wind_speed_ms`` [m s-1] and
+        ``wind_from_deg`` [degree], NaN where a height has no record at a time. attrs
+        ``sampling_interval_s`` (median spacing), ``n_nonfinite``, ``n_duplicates``,
+        ``processing_log``.
+
+    Raises
+    ------
+    InputError
+        Missing file/columns, bad times (names the line), negative speeds or heights, a
+        direction outside [0, 360], or no data.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "tower reference not found")
+    try:
+        df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
+        raise InputError(path, f"not a readable CSV file ({exc})") from exc
+    if "time_utc" not in df.columns:
+        raise InputError(path, "missing column 'time_utc'")
+    if df.empty:
+        raise InputError(path, "no data rows")
+    log = [f"read: {len(df)} rows from {path.name}"]
+    time = parse_time_utc(df["time_utc"], path)
+    if {"height_m", "wind_speed_ms", "wind_from_deg"} <= set(df.columns):
+        form = "long"
+        long = pd.DataFrame({
+            "time": time,
+            "height_m": pd.to_numeric(df["height_m"], errors="coerce"),
+            "wind_speed_ms": pd.to_numeric(df["wind_speed_ms"], errors="coerce"),
+            "wind_from_deg": pd.to_numeric(df["wind_from_deg"], errors="coerce"),
+            "line": np.arange(2, len(df) + 2),
+        })
+    else:
+        cols = {c: _WIDE.match(c) for c in df.columns}
+        cols = {c: m for c, m in cols.items() if m}
+        heights = sorted({float(m.group(2)) for m in cols.values()})
+        if not heights:
+            raise InputError(path, "neither long form (time_utc,height_m,wind_speed_ms,"
+                                   "wind_from_deg) nor wide form (wind_speed_ms_<h>m, "
+                                   "wind_from_deg_<h>m columns)")
+        form = "wide"
+        parts = []
+        for h in heights:
+            sp = [c for c, m in cols.items() if m.group(1) == "wind_speed_ms" and float(m.group(2)) == h]
+            di = [c for c, m in cols.items() if m.group(1) == "wind_from_deg" and float(m.group(2)) == h]
+            if not sp:
+                raise InputError(path, f"wide form: no wind_speed_ms column for height {h:g} m")
+            parts.append(pd.DataFrame({
+                "time": time, "height_m": h,
+                "wind_speed_ms": pd.to_numeric(df[sp[0]], errors="coerce"),
+                "wind_from_deg": pd.to_numeric(df[di[0]], errors="coerce") if di else np.nan,
+                "line": np.arange(2, len(df) + 2),
+            }))
+        long = pd.concat(parts, ignore_index=True)
+    bad_h = ~np.isfinite(long["height_m"]) | (long["height_m"] < 0)
+    if bad_h.any():
+        line = int(long.loc[bad_h, "line"].iloc[0])
+        raise InputError(f"{path}:{line}", "height_m must be a number >= 0 (m above ground)")
+    sp = long["wind_speed_ms"]
+    if (sp < 0).any():
+        line = int(long.loc[sp < 0, "line"].iloc[0])
+        raise InputError(f"{path}:{line}", "wind_speed_ms must be >= 0")
+    di = long["wind_from_deg"]
+    if ((di < 0) | (di > 360)).any():
+        line = int(long.loc[(di < 0) | (di > 360), "line"].iloc[0])
+        raise InputError(f"{path}:{line}", "wind_from_deg must be within [0, 360]")
+    n_nonfinite = int((~np.isfinite(sp)).sum() + (~np.isfinite(di)).sum())
+    n_dup = int(long.duplicated(["time", "height_m"]).sum())
+    long = long.drop_duplicates(["time", "height_m"], keep="first")
+    if n_dup:
+        log.append(f"dedupe: {n_dup} duplicated (time, height) rows removed (first kept)")
+    if n_nonfinite:
+        log.append(f"parse: {n_nonfinite} missing or non-numeric values kept as NaN")
+    ds = long.drop(columns="line").set_index(["time", "height_m"]).to_xarray()
+    ds = ds.rename({"height_m": "height"}).sortby("time").sortby("height")
+    ds = ds.assign_coords(height_m=("height", ds["height"].to_numpy().astype(float)))
+    ds = ds.drop_vars("height")
+    ds["wind_speed_ms"].attrs.update({"units": "m s-1", "standard_name": "wind_speed"})
+    ds["wind_from_deg"].attrs.update({"units": "degree",
+                                      "standard_name": "wind_from_direction"})
+    ds["height_m"].attrs.update({"units": "m", "standard_name": "height",
+                                 "long_name": "height above ground"})
+    ds["time"].attrs.update({"standard_name": "time", "long_name": "time (UTC)"})
+    t_ns = ds["time"].to_numpy().astype("int64")
+    ds.attrs.update({
+        "sampling_interval_s": float(np.median(np.diff(t_ns)) / 1e9) if t_ns.size > 1 else float("nan"),
+        "n_nonfinite": n_nonfinite, "n_duplicates": n_dup, "form": form,
+        "source_file": str(path), "processing_log": "\n".join(log),
+    })
+    return ds

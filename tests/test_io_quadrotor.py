@@ -1,0 +1,128 @@
+"""Readers of quadrotor logs (CSV, PX4 ULog) and the tower reference (data contract)."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dronewind.errors import InputError
+from dronewind.io.quadrotor import (QUADROTOR_COLUMNS, quaternion_to_euler_deg, read_quadrotor,
+                                    read_quadrotor_csv, read_tower_reference)
+
+ULOG_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "px4_ulog"
+HEADER = ",".join(QUADROTOR_COLUMNS)
+
+
+def _row(t: str, pitch: str = "-5.0") -> str:
+    return f"{t},0.5,{pitch},210.0,0.01,-0.02,0.0,52.1667,14.1236,123.0"
+
+
+def test_csv_times_with_and_without_fractions(tmp_path):
+    p = tmp_path / "q01.csv"
+    rows = [_row("2020-07-24T10:19:30Z"), _row("2020-07-24T10:19:30.1Z"), _row("2020-07-24T10:19:30.25Z"),
+            _row("2020-07-24T10:19:30.25Z"),            # duplicate
+            _row("2020-07-24T10:19:30.2Z", "abc")]      # out of order, bad number
+    p.write_text(HEADER + "\n" + "\n".join(rows) + "\n")
+    ds = read_quadrotor(p)
+    t = ds["time"].to_numpy()
+    assert t[0] == np.datetime64("2020-07-24T10:19:30.000", "ns")
+    assert t[-1] == np.datetime64("2020-07-24T10:19:30.250", "ns")
+    assert ds.sizes["time"] == 4 and np.all(np.diff(t.astype("int64")) > 0)
+    assert ds.attrs["n_duplicates"] == 1 and ds.attrs["n_out_of_order"] == 1
+    assert ds.attrs["n_nonfinite"] == 1 and np.isnan(ds["pitch_deg"].values[2])
+    assert ds["pitch_deg"].attrs["standard_name"] == "platform_pitch"
+    assert "dedupe" in ds.attrs["processing_log"]
+
+
+def test_csv_bad_input_is_named(tmp_path):
+    p = tmp_path / "bad.csv"
+    p.write_text("time_utc,roll_deg,pitch_deg\n2020-07-24T10:19:30Z,0,0\n")
+    with pytest.raises(InputError, match="missing column"):
+        read_quadrotor_csv(p)
+    p.write_text(HEADER + "\n" + _row("2020-07-24T10:19:30Z") + "\n" + _row("2020-07-24 10:19:31") + "\n")
+    with pytest.raises(InputError, match=r"bad\.csv:3.*trailing 'Z'"):
+        read_quadrotor_csv(p)
+    p.write_text(HEADER + "\n")
+    with pytest.raises(InputError, match="no data rows"):
+        read_quadrotor_csv(p)
+    with pytest.raises(InputError, match="not found"):
+        read_quadrotor_csv(tmp_path / "missing.csv")
+    with pytest.raises(InputError, match="unknown quadrotor log type"):
+        read_quadrotor(tmp_path / "log.txt")
+
+
+def test_quaternion_to_euler_known_answers():
+    r, p, y = quaternion_to_euler_deg(np.array([[1.0, 0, 0, 0]]))
+    assert np.allclose([r[0], p[0], y[0]], 0.0)
+    h = np.radians(90.0) / 2
+    r, p, y = quaternion_to_euler_deg(np.array([[np.cos(h), 0, 0, np.sin(h)]]))   # yaw 90
+    assert np.allclose([r[0], p[0], y[0]], [0, 0, 90], atol=1e-9)
+    h = np.radians(-10.0) / 2
+    r, p, y = quaternion_to_euler_deg(np.array([[np.cos(h), 0, np.sin(h), 0]]))   # pitch -10
+    assert np.allclose([r[0], p[0], y[0]], [0, -10, 0], atol=1e-9)
+
+
+@pytest.mark.skipif(not ULOG_DIR.is_dir(), reason="PX4 sample logs not in ../shared/data/px4_ulog")
+def test_ulog_samples():
+    small = read_quadrotor(ULOG_DIR / "sample_log_small.ulg")
+    assert small.attrs["utc_valid"] == 1
+    # the small log is from 2021-04-21 (GNSS UTC); attitude at ~200 Hz
+    assert str(small["time"].values[0])[:10] == "2021-04-21"
+    assert 150 < small.attrs["sampling_rate_hz"] < 260
+    assert np.all(np.isfinite(small["roll_deg"])) and np.abs(small["roll_deg"]).max() < 30
+    assert np.isfinite(small["lat_deg"]).mean() > 0.9
+    bench = read_quadrotor(ULOG_DIR / "sample.ulg")   # no GNSS: boot time, flagged
+    assert bench.attrs["utc_valid"] == 0
+    assert bench.sizes["time"] == 6461
+    assert bench.attrs["n_position_missing"] < 20
+    assert set(QUADROTOR_COLUMNS[1:]) <= set(bench.data_vars)
+
+
+def test_ulog_without_attitude_is_an_input_error(tmp_path):
+    # minimal valid ULog: header, flag bits, one info message, no data topics
+    hdr = b"ULog\x01\x12\x35" + bytes([1]) + struct.pack("<Q", 1000)
+    flags = bytes(40)
+    key, val = b"char[3] sys_name", b"PX4"
+    info = bytes([len(key)]) + key + val
+    body = struct.pack("<HB", len(flags), ord("B")) + flags + struct.pack("<HB", len(info), ord("I")) + info
+    p = tmp_path / "noatt.ulg"
+    p.write_bytes(hdr + body)
+    with pytest.raises(InputError, match="vehicle_attitude"):
+        read_quadrotor(p)
+
+
+def test_reference_long_form_and_wide_form(tmp_path):
+    long = tmp_path / "ref_long.csv"
+    long.write_text("time_utc,height_m,wind_speed_ms,wind_from_deg\n"
+                    "2020-07-24T10:19:00Z,10,4.1,200\n2020-07-24T10:19:00Z,98,6.5,210\n"
+                    "2020-07-24T10:20:00Z,10,4.3,202\n2020-07-24T10:20:00Z,98,6.7,211\n"
+                    "2020-07-24T10:21:00Z,98,NAN,212\n")
+    ds = read_tower_reference(long)
+    assert ds.sizes == {"time": 3, "height": 2}
+    assert list(ds["height_m"].values) == [10.0, 98.0]
+    assert ds.attrs["sampling_interval_s"] == 60.0
+    assert ds["wind_speed_ms"].sel(height=1).values[1] == 6.7
+    assert np.isnan(ds["wind_speed_ms"].values[2, 0])  # 10 m missing at 10:21 -> NaN
+    assert ds.attrs["n_nonfinite"] == 1
+    wide = tmp_path / "ref_wide.csv"
+    wide.write_text("time_utc,wind_speed_ms_10m,wind_from_deg_10m,wind_speed_ms_98m,wind_from_deg_98m\n"
+                    "2020-07-24T10:19:00Z,4.1,200,6.5,210\n2020-07-24T10:19:01Z,4.3,202,6.7,211\n")
+    dw = read_tower_reference(wide)
+    assert dw.attrs["form"] == "wide" and dw.attrs["sampling_interval_s"] == 1.0
+    assert np.allclose(dw["wind_speed_ms"].values, [[4.1, 6.5], [4.3, 6.7]])
+
+
+def test_reference_bad_values_named(tmp_path):
+    p = tmp_path / "ref.csv"
+    p.write_text("time_utc,height_m,wind_speed_ms,wind_from_deg\n2020-07-24T10:19:00Z,10,4.1,400\n")
+    with pytest.raises(InputError, match=r"ref\.csv:2.*wind_from_deg"):
+        read_tower_reference(p)
+    p.write_text("time_utc,height_m,wind_speed_ms,wind_from_deg\n2020-07-24T10:19:00Z,10,-1,100\n")
+    with pytest.raises(InputError, match="wind_speed_ms must be >= 0"):
+        read_tower_reference(p)
+    p.write_text("time_utc,speed\n2020-07-24T10:19:00Z,1\n")
+    with pytest.raises(InputError, match="neither long form"):
+        read_tower_reference(p)
