@@ -445,6 +445,7 @@ def write_netcdf(
             group_out = _prepare_variables(group_ds)
             group_out.attrs = _netcdf_attrs(dict(group_ds.attrs))
             group_out.to_netcdf(tmp_name, mode="a", group=group_name, format="NETCDF4", engine="netcdf4")
+        os.chmod(tmp_name, 0o644)
         os.replace(tmp_name, path)
     except BaseException:
         Path(tmp_name).unlink(missing_ok=True)
@@ -473,6 +474,7 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     try:
         with os.fdopen(handle, "w", encoding="utf-8") as stream:
             stream.write(text)
+        os.chmod(tmp_name, 0o644)  # mkstemp creates 0600; outputs are meant to be shared
         os.replace(tmp_name, path)
     except BaseException:
         Path(tmp_name).unlink(missing_ok=True)

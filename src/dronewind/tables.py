@@ -1,0 +1,402 @@
+r"""Campaign tables drawn from stored L4 products (seed 000, Tables 4 and 5).
+
+Every number in these tables is read from the L4 NetCDF files written by
+:func:`dronewind.pipeline.l4` (opened with :func:`dronewind.pipeline.open_product`); nothing
+is recomputed. The only derived item is a *label*: the stability class, a binning of the
+stored :math:`\zeta = z/L` (:func:`stability_class`).
+
+Each table is written three times next to ``out_stem``: ``.csv`` (full precision, machine
+readable, NaN as an empty field), ``.md`` (Markdown, rounded for reading) and ``.tex``
+(LaTeX ``table`` with ``booktabs`` rules, rounded). All writes are atomic
+(:func:`dronewind.cf.atomic_write_text`).
+
+References
+----------
+.. [1] Seed 000 (``../shared/papers/000_*.txt``), Table 4 (summary of the samples) and
+   Table 5 (mean and turbulent flow statistics, drone vs mast).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from dronewind.cf import atomic_write_text
+from dronewind.errors import InputError
+
+__all__ = [
+    "STABILITY_BOUNDS",
+    "TABLE5_ROWS",
+    "default_detail_flights",
+    "load_l4_products",
+    "stability_class",
+    "table_flight_statistics",
+    "table_flights",
+]
+
+PathLike = str | Path
+
+#: Class boundaries of :func:`stability_class` on zeta = z/L [-].
+STABILITY_BOUNDS: tuple[float, float, float] = (-0.1, 0.1, 1.0)
+
+#: Rows of Table 5: (L4 variable, Markdown label, LaTeX label, units, decimals shown).
+TABLE5_ROWS: tuple[tuple[str, str, str, str, int], ...] = (
+    ("U_ms", "ū", r"$\bar{u}$", "m s-1", 2),
+    ("sigma_u_ms", "σ_u", r"$\sigma_u$", "m s-1", 2),
+    ("sigma_v_ms", "σ_v", r"$\sigma_v$", "m s-1", 2),
+    ("sigma_w_ms", "σ_w", r"$\sigma_w$", "m s-1", 2),
+    ("skewness_u", "γ_u", r"$\gamma_u$", "1", 2),
+    ("skewness_v", "γ_v", r"$\gamma_v$", "1", 2),
+    ("skewness_w", "γ_w", r"$\gamma_w$", "1", 2),
+    ("kurtosis_u", "κ_u", r"$\kappa_u$", "1", 2),
+    ("kurtosis_v", "κ_v", r"$\kappa_v$", "1", 2),
+    ("kurtosis_w", "κ_w", r"$\kappa_w$", "1", 2),
+    ("uw_m2s2", "u'w'", r"$\overline{u'w'}$", "m2 s-2", 3),
+    ("wT_Kms", "w'θ_v'", r"$\overline{w'\theta_v'}$", "K m s-1", 3),
+)
+
+_UNITS_TEX = {"m s-1": r"m\,s$^{-1}$", "m2 s-2": r"m$^2$\,s$^{-2}$", "K m s-1": r"K\,m\,s$^{-1}$",
+              "1": "--", "m": "m", "s": "s", "min": "min", "degree": r"$^\circ$", "": ""}
+_UNITS_MD = {"m s-1": "m s⁻¹", "m2 s-2": "m² s⁻²", "K m s-1": "K m s⁻¹", "1": "–", "m": "m", "s": "s",
+             "min": "min", "degree": "°", "": ""}
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def load_l4_products(l4_files: Iterable[PathLike]) -> dict[str, dict[str, Any]]:
+    """Open L4 files and index them by flight and sensor.
+
+    Parameters
+    ----------
+    l4_files : iterable of path
+        L4 files (``<flight>_<sensor>.nc``) written by :func:`dronewind.pipeline.l4`.
+
+    Returns
+    -------
+    dict
+        ``{flight: {"drone": Dataset, "mast": Dataset}}`` (a sensor absent when its file is
+        not given), flights in sorted order.
+
+    Raises
+    ------
+    InputError
+        A file without the global attributes ``flight`` and ``sensor``, or two files for
+        the same flight and sensor.
+    """
+    from dronewind.pipeline import open_product
+
+    out: dict[str, dict[str, Any]] = {}
+    for path in l4_files:
+        ds = open_product(path)
+        flight, sensor = ds.attrs.get("flight"), ds.attrs.get("sensor")
+        if flight is None or sensor is None:
+            raise InputError(str(path), "expected global attributes 'flight' and 'sensor' (an L4 product)")
+        slot = out.setdefault(str(flight), {})
+        if str(sensor) in slot:
+            raise InputError(str(path), f"second L4 file for flight {flight} sensor {sensor}")
+        slot[str(sensor)] = ds
+    return {k: out[k] for k in sorted(out)}
+
+
+def default_detail_flights(flights: Sequence[str]) -> list[str]:
+    """The flights shown in detail by default: the first and the seventh (seed 000: s1, s7).
+
+    Parameters
+    ----------
+    flights : sequence of str
+        Flight ids in campaign order.
+
+    Returns
+    -------
+    list of str
+        ``[flights[0], flights[6]]``; with fewer than seven flights the last one replaces the
+        seventh; one flight gives one entry, none an empty list.
+    """
+    flights = list(flights)
+    if not flights:
+        return []
+    second = flights[6] if len(flights) > 6 else flights[-1]
+    return list(dict.fromkeys([flights[0], second]))
+
+
+def stability_class(zeta: float, bounds: tuple[float, float, float] = STABILITY_BOUNDS) -> str:
+    r"""Label of the stability parameter :math:`\zeta = z/L`.
+
+    Parameters
+    ----------
+    zeta : float
+        Stability parameter [-] (stored in L4 as ``zeta``).
+    bounds : (float, float, float)
+        Boundaries :math:`(\zeta_1, \zeta_2, \zeta_3)` [-].
+
+    Returns
+    -------
+    str
+        ``"unstable"`` for :math:`\zeta < \zeta_1`, ``"near-neutral"`` for
+        :math:`\zeta_1 \le \zeta < \zeta_2`, ``"stable"`` for
+        :math:`\zeta_2 \le \zeta < \zeta_3`, ``"very stable"`` above, ``"undefined"`` for NaN.
+
+    Notes
+    -----
+    The default (-0.1, 0.1, 1) puts seed 000's s1 (ζ = -0.46) in "unstable", s7 (ζ = 0.1)
+    in "stable" and s4 (ζ = 1.25) in "very stable", as the paper's text describes them.
+    """
+    if zeta is None or not np.isfinite(zeta):
+        return "undefined"
+    z1, z2, z3 = bounds
+    if zeta < z1:
+        return "unstable"
+    if zeta < z2:
+        return "near-neutral"
+    if zeta < z3:
+        return "stable"
+    return "very stable"
+
+
+def _scalar(ds: Any | None, name: str) -> float:
+    if ds is None or name not in ds.variables:
+        return math.nan
+    return float(np.asarray(ds[name].values).reshape(-1)[0])
+
+
+def _drone_usable(products: dict[str, Any]) -> tuple[bool, str]:
+    drone = products.get("drone")
+    if drone is None:
+        return False, "no drone L4 product"
+    return bool(int(drone.attrs.get("drone_usable", 1))), str(drone.attrs.get("drone_unusable_reason", ""))
+
+
+def _start_utc(ds: Any | None) -> str:
+    if ds is None:
+        return ""
+    if "time_bnds" in ds.variables:
+        t0 = np.asarray(ds["time_bnds"].values).reshape(-1)[0]
+        return str(np.datetime_as_string(np.datetime64(t0, "s"), unit="s")).replace("T", " ")
+    return str(ds.attrs.get("time_coverage_start", "")).replace("T", " ").rstrip("Z")
+
+
+# ----------------------------------------------------------------------------- formatting
+
+
+def _fmt(value: Any, decimals: int) -> str:
+    if isinstance(value, str):
+        return value
+    if value is None or not np.isfinite(value):
+        return "–"
+    text = f"{value:.{decimals}f}"
+    return "0" + text[2:] if text.startswith("-0") and float(text) == 0 else text  # no "-0.00"
+
+
+def _tex_escape(text: str) -> str:
+    """Escape LaTeX special characters character by character (no double escaping)."""
+    table = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
+             "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}",
+             "–": "--", "†": r"$^\dagger$"}
+    return "".join(table.get(ch, ch) for ch in str(text))
+
+
+def _markdown(header: list[str], rows: list[list[str]], notes: list[str]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    if notes:
+        lines += [""] + notes
+    return "\n".join(lines) + "\n"
+
+
+def _latex(caption: str, label: str, header: list[str], rows: list[list[str]], notes: list[str],
+           align: str, header_top: str | None = None) -> str:
+    lines = [r"% written by dronewind.tables; needs \usepackage{booktabs}", r"\begin{table}[htbp]",
+             r"\centering", rf"\caption{{{caption}}}", rf"\label{{{label}}}", rf"\begin{{tabular}}{{{align}}}",
+             r"\toprule"]
+    if header_top:
+        lines.append(header_top)
+    lines += [" & ".join(header) + r" \\", r"\midrule"]
+    lines += [" & ".join(r) + r" \\" for r in rows]
+    lines += [r"\bottomrule", r"\end{tabular}"]
+    if notes:
+        lines.append(r"\par\smallskip{\footnotesize " + r" \\ ".join(_tex_escape(n) for n in notes) + "}")
+    lines.append(r"\end{table}")
+    return "\n".join(lines) + "\n"
+
+
+def _write_three(out_stem: PathLike, csv_text: str, md_text: str, tex_text: str) -> list[Path]:
+    stem = Path(out_stem)
+    return [atomic_write_text(stem.with_name(stem.name + ext), text)
+            for ext, text in ((".csv", csv_text), (".md", md_text), (".tex", tex_text))]
+
+
+# ----------------------------------------------------------------------------- Table 4
+
+#: Columns of the Table 4 CSV (name, unit).
+TABLE4_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("flight", ""), ("reference", ""), ("start_utc", ""), ("duration_min", "min"),
+    ("payload_height_m", "m"), ("reference_height_m", "m"), ("wind_from_deg", "degree"), ("U_ms", "m s-1"),
+    ("zeta", "1"), ("stability_class", ""), ("lag_sonic_ins_s", "s"), ("lag_drone_mast_s", "s"),
+    ("usable", ""), ("unusable_reason", ""),
+)
+
+
+def table_flights(l4_files: Iterable[PathLike], out_stem: PathLike,
+                  stability_bounds: tuple[float, float, float] = STABILITY_BOUNDS) -> list[Path]:
+    r"""Table 4 equivalent: one row per payload flight (seed 000, Table 4).
+
+    Columns: flight, reference mast sonic, start (UTC) and duration of the analysed
+    record, payload height, reference sonic height, wind direction, mean wind speed,
+    :math:`\zeta` and its stability class, the sonic-INS and drone-mast lags, and whether
+    the drone record is usable (with the reason when not).
+
+    Parameters
+    ----------
+    l4_files : iterable of path
+        L4 files of the campaign (``<flight>_drone.nc`` and ``<flight>_mast.nc``).
+    out_stem : str or Path
+        Output path without suffix; ``.csv``, ``.md`` and ``.tex`` are written.
+    stability_bounds : (float, float, float)
+        Boundaries of :func:`stability_class` [-].
+
+    Returns
+    -------
+    list of Path
+        The CSV, Markdown and LaTeX files.
+
+    Notes
+    -----
+    Sources (all stored): start = ``time_bnds[0]`` and duration = ``duration_s`` of the
+    mast L4 file (the drone's if the mast is missing); payload height = drone
+    ``height_m`` (the L2 median GNSS height above the site); reference height, wind
+    direction, :math:`\bar u` (``U_ms``) and :math:`\zeta` from the mast L4 file, as in the
+    paper's Table 4 (values "estimated by the mast-mounted sonic"); lags from the L4
+    attributes ``lag_sonic_ins_s`` (drone) and ``lag_drone_mast_s``. A missing quantity is
+    NaN in the CSV and "–" in the Markdown/LaTeX text.
+    """
+    products = load_l4_products(l4_files)
+    rows: list[dict[str, Any]] = []
+    for flight, prod in products.items():
+        drone, mast = prod.get("drone"), prod.get("mast")
+        ref = mast if mast is not None else drone
+        usable, reason = _drone_usable(prod)
+        zeta = _scalar(mast, "zeta")
+        lag_si = float(drone.attrs.get("lag_sonic_ins_s", math.nan)) if drone is not None else math.nan
+        lag_dm = float(ref.attrs.get("lag_drone_mast_s", math.nan)) if ref is not None else math.nan
+        rows.append({
+            "flight": flight,
+            "reference": str(ref.attrs.get("reference", "")) if ref is not None else "",
+            "start_utc": _start_utc(ref),
+            "duration_min": _scalar(ref, "duration_s") / 60.0,
+            "payload_height_m": _scalar(drone, "height_m"),
+            "reference_height_m": _scalar(mast, "height_m"),
+            "wind_from_deg": _scalar(mast, "wind_from_deg"),
+            "U_ms": _scalar(mast, "U_ms"),
+            "zeta": zeta,
+            "stability_class": stability_class(zeta, stability_bounds),
+            "lag_sonic_ins_s": lag_si,
+            "lag_drone_mast_s": lag_dm,
+            "usable": int(usable),
+            "unusable_reason": reason,
+        })
+    table = pd.DataFrame(rows, columns=[c for c, _ in TABLE4_COLUMNS])
+    csv_text = table.to_csv(index=False, na_rep="", lineterminator="\n")
+
+    head_md = ["Flight", "Reference", "Start (UTC)", "Duration (min)", "Payload height (m)",
+               "Reference height (m)", "Wind direction (°)*", "ū (m s⁻¹)*", "ζ (–)*", "Stability*",
+               "Lag sonic–INS (s)", "Lag drone–mast (s)"]
+    head_tex = ["Flight", "Reference", "Start (UTC)", "Duration (min)", "Payload $z$ (m)", "Reference $z$ (m)",
+                r"Direction ($^\circ$)$^*$", r"$\bar{u}$ (m\,s$^{-1}$)$^*$", r"$\zeta$$^*$", "Stability$^*$",
+                r"Lag sonic--INS (s)", r"Lag drone--mast (s)"]
+    body, body_tex, notes = [], [], ["\\* measured by the reference mast sonic over the analysed record."]
+    for r in rows:
+        mark = "" if r["usable"] else "†"
+        cells = [r["flight"] + mark, r["reference"], r["start_utc"] or "–", _fmt(r["duration_min"], 1),
+                 _fmt(r["payload_height_m"], 1), _fmt(r["reference_height_m"], 0), _fmt(r["wind_from_deg"], 0),
+                 _fmt(r["U_ms"], 1), _fmt(r["zeta"], 2), r["stability_class"], _fmt(r["lag_sonic_ins_s"], 3),
+                 _fmt(r["lag_drone_mast_s"], 2)]
+        body.append(cells)
+        body_tex.append([_tex_escape(c) for c in cells])
+        if not r["usable"]:
+            notes.append(f"† {r['flight']}: drone record unusable: {r['unusable_reason'] or 'no reason stored'}.")
+    md_text = "Table 4 (dronewind): summary of the payload flights.\n\n" + _markdown(head_md, body, notes)
+    tex_notes = [n.replace("\\*", "*") for n in notes]
+    tex_text = _latex("Summary of the payload flights (after seed 000, Table 4).", "tab:flights", head_tex,
+                      body_tex, tex_notes, "ll" + "l" + "r" * 7 + "l" + "rr")
+    return _write_three(out_stem, csv_text, md_text, tex_text)
+
+
+# ----------------------------------------------------------------------------- Table 5
+
+
+def table_flight_statistics(l4_files: Iterable[PathLike], out_stem: PathLike,
+                            flights: Sequence[str] | None = None) -> list[Path]:
+    r"""Table 5 equivalent: mean and turbulence statistics, drone vs mast (seed 000, Table 5).
+
+    Rows: :math:`\bar u`, :math:`\sigma_{u,v,w}`, skewness :math:`\gamma_{u,v,w}`,
+    kurtosis :math:`\kappa_{u,v,w}` (Pearson, 3 for a Gaussian), :math:`\overline{u'w'}`
+    and :math:`\overline{w'\theta_v'}`; two columns (drone, mast) per flight.
+
+    Parameters
+    ----------
+    l4_files : iterable of path
+        L4 files of the campaign.
+    out_stem : str or Path
+        Output path without suffix; ``.csv``, ``.md`` and ``.tex`` are written.
+    flights : sequence of str, optional
+        Flights to show; default :func:`default_detail_flights` (first and seventh).
+
+    Returns
+    -------
+    list of Path
+        The CSV, Markdown and LaTeX files.
+
+    Raises
+    ------
+    InputError
+        A requested flight has no L4 file.
+
+    Notes
+    -----
+    CSV columns: ``statistic`` (the L4 variable name), ``units``, then
+    ``<flight>_drone`` and ``<flight>_mast`` with the stored values at full precision (NaN
+    empty). A flight whose drone record is flagged unusable is still shown, marked †, with
+    the reason in a note.
+    """
+    products = load_l4_products(l4_files)
+    chosen = list(flights) if flights is not None else default_detail_flights(list(products))
+    for f in chosen:
+        if f not in products:
+            raise InputError("table_flight_statistics(flights)", f"no L4 file for flight {f!r}; have {list(products)}")
+    data: dict[str, list[Any]] = {"statistic": [r[0] for r in TABLE5_ROWS], "units": [r[3] for r in TABLE5_ROWS]}
+    for f in chosen:
+        for sensor in ("drone", "mast"):
+            data[f"{f}_{sensor}"] = [_scalar(products[f].get(sensor), r[0]) for r in TABLE5_ROWS]
+    table = pd.DataFrame(data)
+    csv_text = table.to_csv(index=False, na_rep="", lineterminator="\n")
+
+    notes = []
+    marks = {}
+    for f in chosen:
+        usable, reason = _drone_usable(products[f])
+        marks[f] = "" if usable else "†"
+        if not usable:
+            notes.append(f"† {f}: drone record unusable: {reason or 'no reason stored'}.")
+    head_md = ["Statistic", "Units"] + [f"{f}{marks[f]} {s}" for f in chosen for s in ("drone", "mast")]
+    body_md, body_tex = [], []
+    for i, (name, md_label, tex_label, units, dec) in enumerate(TABLE5_ROWS):
+        vals = [_fmt(data[f"{f}_{s}"][i], dec) for f in chosen for s in ("drone", "mast")]
+        body_md.append([md_label, _UNITS_MD.get(units, units)] + vals)
+        body_tex.append([tex_label, _UNITS_TEX.get(units, units)] + [v.replace("–", "--") for v in vals])
+    md_text = ("Table 5 (dronewind): mean and turbulent flow statistics, drone vs mast.\n\n"
+               + _markdown(head_md, body_md, notes))
+    top = " & ".join(["", ""] + [rf"\multicolumn{{2}}{{c}}{{Flight {_tex_escape(f + marks[f])}}}" for f in chosen])
+    top += r" \\" + "\n" + "".join(rf"\cmidrule(lr){{{3 + 2 * k}-{4 + 2 * k}}}" for k in range(len(chosen)))
+    head_tex = ["Statistic", "Units"] + ["Drone", "Mast"] * len(chosen)
+    tex_text = _latex(
+        r"Mean and turbulent flow statistics for the drone- and mast-mounted sonic anemometers "
+        r"(after seed 000, Table 5): standard deviation $\sigma$, skewness $\gamma$, kurtosis $\kappa$, "
+        r"momentum flux $\overline{u'w'}$ and buoyancy flux $\overline{w'\theta_v'}$.",
+        "tab:statistics", head_tex, body_tex, notes, "ll" + "rr" * len(chosen), header_top=top)
+    return _write_three(out_stem, csv_text, md_text, tex_text)

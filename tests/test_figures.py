@@ -1,0 +1,112 @@
+"""Tests for dronewind.figures: every figure draws from the stored products, deterministically."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import matplotlib.image as mpimg
+import pytest
+from PIL import Image
+
+from dronewind import figures
+from tests.products_fixture import set_nan, write_products
+
+
+@pytest.fixture(scope="module")
+def products(tmp_path_factory) -> Path:
+    return write_products(tmp_path_factory.mktemp("products"))
+
+
+@pytest.fixture(scope="module")
+def drawn(products: Path, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("figures")
+    figures.draw_all(products, out)
+    return out
+
+
+def _files(root: Path, level: str, pattern: str = "*.nc") -> list[Path]:
+    return sorted((root / "netcdf" / level).glob(pattern))
+
+
+def _description(png: Path) -> str:
+    with Image.open(png) as im:
+        return im.text.get("Description", "")
+
+
+def test_captions_match_functions() -> None:
+    captions = figures.figure_captions()
+    assert set(captions) == set(figures.FIGURE_FUNCTIONS)
+    assert all(len(text) > 60 for text in captions.values())
+
+
+def test_every_figure_written_and_readable(drawn: Path) -> None:
+    for name in figures.figure_captions():
+        png, pdf = drawn / f"{name}.png", drawn / f"{name}.pdf"
+        assert png.stat().st_size > 10_000, name
+        assert pdf.read_bytes()[:5] == b"%PDF-", name
+        image = mpimg.imread(png)
+        assert image.ndim == 3 and image.shape[2] == 4, name
+        assert image.shape[0] >= 300 and image.shape[1] >= 500, name
+        assert image[..., :3].std() > 0.05, name  # not a blank page
+        assert b"CreationDate" not in pdf.read_bytes(), name
+        with Image.open(png) as im:
+            assert "Software" not in im.text and "date" not in " ".join(im.text).lower(), name
+
+
+def test_png_size_is_figsize_times_dpi(drawn: Path) -> None:
+    # fixed sizes (no tight bounding box): fig04 is 6.5 x 4.6 in, fig15 10.5 x 4.8 in
+    assert mpimg.imread(drawn / "fig04_tke_lag.png").shape[:2] == (round(4.6 * figures.DPI), round(6.5 * figures.DPI))
+    assert mpimg.imread(drawn / "fig15_quadrant.png").shape[:2] == (round(4.8 * figures.DPI),
+                                                                    round(10.5 * figures.DPI))
+    # Fig. 9: 4 panels per detailed flight (2 flights): 13 x (3.1 * 2 + 0.3) in
+    assert mpimg.imread(drawn / "fig09_velocity_spectra.png").shape[:2] == (round(6.5 * figures.DPI),
+                                                                            round(13 * figures.DPI))
+
+
+def test_skipped_items_are_named_with_reasons(drawn: Path) -> None:
+    # s04 is flagged unusable in the fixture; s02 (0.8 m/s) has NaN ratios and length scales by status
+    for name in ("fig04_tke_lag", "fig07_positions", "fig12_mean_and_sigma", "fig16_uncertainty"):
+        assert "s04: drone record unusable" in _description(drawn / f"{name}.png"), name
+    assert "low_wind_speed" in _description(drawn / "fig15_quadrant.png")
+    assert "taylor_hypothesis_invalid" in _description(drawn / "fig14_length_scales.png")
+    assert _description(drawn / "figB2_normalised_temperature_spectra.png").startswith("skipped")
+
+
+def test_deterministic_bytes(products: Path, drawn: Path, tmp_path: Path) -> None:
+    l4 = _files(products, "L4")
+    a = figures.fig09_velocity_spectra(l4, tmp_path / "fig09_velocity_spectra")
+    b = figures.fig04_tke_lag(_files(products, "L2", "*_drone.nc"), tmp_path / "fig04_tke_lag")
+    c = figures.fig10_temperature_series(_files(products, "L3"), l4, tmp_path / "fig10_temperature_series")
+    for path in a + b + c:  # PNG and PDF, including rasterised time series (fig10)
+        assert path.read_bytes() == (drawn / path.name).read_bytes(), path.name
+
+
+def test_nan_missing_and_unusable_inputs_do_not_crash(products: Path, drawn: Path, tmp_path: Path) -> None:
+    l4_dir = tmp_path / "L4"
+    shutil.copytree(products / "netcdf" / "L4", l4_dir)
+    set_nan(l4_dir / "s01_drone.nc", "sigma_w_ms")
+    set_nan(l4_dir / "s03_drone.nc", "S_u")
+    set_nan(l4_dir / "s03_drone.nc", "Sw_Su")
+    set_nan(l4_dir / "s01_drone.nc", "S_w_model")
+    (l4_dir / "s03_mast.nc").unlink()
+    l4 = sorted(l4_dir.glob("*.nc"))
+    out = tmp_path / "out"
+    f12 = figures.fig12_mean_and_sigma(l4, out / "fig12")
+    assert "s01: sigma_w_ms not drawn (drone NaN while status_statistics = ok)" in _description(f12[0])
+    assert "s03: U_ms not drawn (mast no product)" in _description(f12[0])
+    assert f12[0].read_bytes() != (drawn / "fig12_mean_and_sigma.png").read_bytes()
+    f9 = figures.fig09_velocity_spectra(l4, out / "fig09", flights=["s01", "s03"])
+    text = _description(f9[0])
+    assert "s03 drone: S_u not available" in text and "s01: no fitted model for w" in text
+    f15 = figures.fig15_quadrant(l4, out / "fig15")
+    assert "s03: Sw_Su not drawn" in _description(f15[0])
+    figures.figB1_normalised_velocity_spectra(l4, out / "figB1")
+    figures.fig08_timeseries(_files(products, "L3"), l4, out / "fig08", flights=["s04", "s99"])
+    assert "s99: no L3 file" in _description(out / "fig08.png")
+    assert "s04: drone record unusable" in _description(out / "fig08.png")
+    # no input at all: an annotated empty figure, no exception
+    for func in (figures.fig12_mean_and_sigma, figures.fig15_quadrant, figures.fig09_velocity_spectra):
+        paths = func([], out / f"empty_{func.__name__}")
+        assert all(p.stat().st_size > 0 for p in paths)
+    figures.fig04_tke_lag([], out / "empty_fig04")
