@@ -11,6 +11,9 @@ include: "workflow/rules/ingest.smk"
 include: "workflow/rules/payload.smk"
 include: "workflow/rules/mast.smk"
 include: "workflow/rules/analysis.smk"
+include: "workflow/rules/quadrotor.smk"
+include: "workflow/rules/tunnel.smk"
+include: "workflow/rules/diagnose.smk"
 include: "workflow/rules/report.smk"
 
 

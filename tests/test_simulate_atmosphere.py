@@ -117,7 +117,9 @@ def test_enu_signs_of_mean_wind(wind_from, ue, vn):
     assert speed == pytest.approx(5.0, rel=1e-6)  # mean at z_ref is exactly the input
     assert mean_e == pytest.approx(5.0 * ue / np.hypot(ue, vn), abs=1e-6)
     assert mean_n == pytest.approx(5.0 * vn / np.hypot(ue, vn), abs=1e-6)
-    assert np.degrees(np.arctan2(-mean_e, -mean_n)) % 360 == pytest.approx(wind_from % 360, abs=1e-6)
+    direction_deg = np.degrees(np.arctan2(-mean_e, -mean_n))
+    # circular difference: 359.9999999 and 0 are the same direction
+    assert abs((direction_deg - wind_from + 180.0) % 360.0 - 180.0) < 1e-6
     assert abs(ds.w_up_ms.mean().item()) < 1e-9
 
 

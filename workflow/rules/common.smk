@@ -3,6 +3,8 @@ from pathlib import Path
 
 from snakemake.utils import min_version, validate
 
+from dronewind.figures import figure_captions
+from dronewind.figures_quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
 from dronewind.manifest import load_campaign
 from dronewind.simulate.settings import validate_simulation
 
@@ -26,6 +28,7 @@ ENV = "../../envs/dronewind.yaml"
 PAYLOAD_FLIGHTS = [f["id"] for f in CAMPAIGN.payload_flights]
 QUAD_FLIGHTS = [f["id"] for f in CAMPAIGN.quadrotor_flights]
 MAST_SONICS = list(CAMPAIGN.mast_sonics())
+FIGURES = list(figure_captions())
 
 
 def _alternatives(ids):
@@ -57,6 +60,16 @@ def all_outputs():
     out = [str(RESULTS / "campaign.json")]
     if PAYLOAD_FLIGHTS:
         out.append(str(RESULTS / "tables" / "flight_stats.csv"))
+        out += [
+            str(RESULTS / "tables" / f"{t}.md")
+            for t in ("table4_flights", "table5_statistics")
+        ]
+        out += [str(RESULTS / "figures" / f"{name}.png") for name in FIGURES]
+        out += [
+            str(RESULTS / "diagnosis.json"),
+            str(RESULTS / "diagnosis" / "report.md"),
+        ]
+    out += quadrotor_targets() + tunnel_targets()
     return out
 
 
@@ -97,3 +110,79 @@ def l0_root(wildcards, output):
     )
     depth = len(Path(flight["sonic"]["file"]).parts)
     return str(sonic.parents[depth - 1])
+
+
+# ----------------------------------------------------------------------------- quadrotor and tunnel
+# (SWUF-3D fleet flights, seed 001, and the wind tunnel, seed 002; rules in quadrotor.smk and tunnel.smk)
+
+QUAD_DIR = RESULTS / "quadrotor"
+# The tunnel programme: `tunnel: {runs: tunnel/runs.csv}` in the manifest; a virtual campaign
+# with `simulation.tunnel` gets it from the simulator under L0.
+TUNNEL_RUNS_REL = (CAMPAIGN.data.get("tunnel") or {}).get("runs")
+TUNNEL_SIMULATED = bool(
+    CAMPAIGN.simulated and "tunnel" in (CAMPAIGN.data.get("simulation") or {})
+)
+TUNNEL_RUNS = (
+    None
+    if not TUNNEL_RUNS_REL
+    else (L0 if TUNNEL_SIMULATED else CAMPAIGN.directory) / TUNNEL_RUNS_REL
+)
+
+
+def quad_uavs(flight_id):
+    """UAV ids of a quadrotor flight, in manifest order."""
+    return [u["id"] for u in CAMPAIGN.quadrotor_flight(flight_id)["uavs"]]
+
+
+def quad_raw(flight_id):
+    """Raw UAV logs of a quadrotor flight (manifest order) and its tower reference."""
+    flight = CAMPAIGN.quadrotor_flight(flight_id)
+    return [str(L0 / u["file"]) for u in flight["uavs"]], str(L0 / flight["reference"])
+
+
+def quad_l0_root(wildcards, output):
+    """L0 folder of a simulated campaign, inferred from a quadrotor simulate rule's reference output."""
+    ref = Path(output.reference)
+    flight = next(f for f in CAMPAIGN.quadrotor_flights if L0 / f["reference"] == ref)
+    return str(ref.parents[len(Path(flight["reference"]).parts) - 1])
+
+
+def quad_nc(level, flight_id):
+    """L1 or L2 NetCDF files of every UAV of a quadrotor flight (manifest order)."""
+    folder = RESULTS / "netcdf" / level / "quadrotor"
+    return [str(folder / f"{flight_id}_{u}.nc") for u in quad_uavs(flight_id)]
+
+
+def quad_timeseries_flight():
+    """The quadrotor flight shown as time series (seed 001 Fig. 7): the one with most UAVs."""
+    return max(QUAD_FLIGHTS, key=lambda f: (len(quad_uavs(f)), -QUAD_FLIGHTS.index(f)))
+
+
+def quad_windows(kind, flights=None):
+    """Per-flight window tables (kind: windows, blocks or problems)."""
+    return [
+        str(QUAD_DIR / "windows" / f"{f}_{kind}.csv")
+        for f in (QUAD_FLIGHTS if flights is None else flights)
+    ]
+
+
+def quadrotor_targets():
+    """Default targets of the quadrotor chain (empty without quadrotor flights)."""
+    if not QUAD_FLIGHTS:
+        return []
+    out = [str(RESULTS / "tables" / "quadrotor_calibration.csv")]
+    out.append(str(RESULTS / "quadrotor_diagnosis.json"))
+    out += [str(RESULTS / "figures" / f"{name}.png") for name in QUAD_FIGURES]
+    for f in QUAD_FLIGHTS:
+        out += quad_nc("L2", f)
+    return out
+
+
+def tunnel_targets():
+    """Default targets of the wind-tunnel chain (empty without a tunnel programme)."""
+    if TUNNEL_RUNS is None:
+        return []
+    return [
+        str(RESULTS / "tables" / "tunnel_calibration.csv"),
+        str(RESULTS / "quadrotor_diagnosis.json"),
+    ] + [str(RESULTS / "figures" / f"{name}.png") for name in TUNNEL_FIGURES]

@@ -215,7 +215,8 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
 
     def residuals(theta: np.ndarray) -> np.ndarray:
         r = (y[flights] - model.predict(theta, flights)) / np.where(mask, sigma[flights], 1.0)
-        return r[mask]
+        # a feature the forward model cannot produce at this flight counts as no misfit
+        return np.where(np.isfinite(r), r, 0.0)[mask]
 
     lower = np.array([p.lower for p in model.parameters])
     upper = np.array([p.upper for p in model.parameters])

@@ -623,6 +623,28 @@ def _load_ins(
     return _InsTable(cols, line_no, fit, int(t[0]), counts, log)
 
 
+def load_ins_table(
+    ins_path: str | os.PathLike[str],
+    min_stable_s: float = 10.0,
+    clock_jump_tol_s: float = 1.0,
+    relation_jump_tol_s: float = 0.1,
+    max_corrupt_fraction: float = 0.05,
+) -> _InsTable:
+    """Parse an INS file once: rows from the stable valid GNSS time and the logger-clock fit.
+
+    Pass the result as ``ins_table`` to :func:`ins_l1` and :func:`payload_sonic_l1` so a
+    flight's INS file is read once for both (it is the slowest file of a flight).
+    Parameters are those of :func:`ins_l1`.
+    """
+    return _load_ins(ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
+
+
+def _fresh(table: _InsTable) -> _InsTable:
+    """A copy whose counts and log can be extended without touching the original."""
+    return _InsTable(table.columns, table.line_no, table.fit, table.rpi_stable_us, dict(table.counts),
+                     list(table.log))
+
+
 def _var_attrs(units: str, standard_name: str | None = None, long_name: str | None = None,
                **extra: Any) -> dict[str, Any]:  # fmt: skip
     a: dict[str, Any] = {"units": units}
@@ -652,6 +674,7 @@ def ins_l1(
     relation_jump_tol_s: float = 0.1,
     max_corrupt_fraction: float = 0.05,
     despike: bool = False,
+    ins_table: _InsTable | None = None,
 ) -> xr.Dataset:
     """Build the L1 INS dataset (UTC time from the ``utc`` column, QC flags).
 
@@ -674,6 +697,8 @@ def ins_l1(
         Apply :func:`dronewind.filtering.despike_moving_mad` to attitude, velocity and
         altitude. Off by default: the EKF output is smooth, so in a steady hover its MAD is
         tiny and ordinary manoeuvres would be flagged as spikes.
+    ins_table : optional
+        Output of :func:`load_ins_table` for ``ins_path`` (not parsed again).
 
     Returns
     -------
@@ -697,8 +722,8 @@ def ins_l1(
     ----------
     Seed 000, Sect. 3.2.
     """
-    ins = _load_ins(ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s,
-                    max_corrupt_fraction)  # fmt: skip
+    ins = _fresh(ins_table) if ins_table is not None else _load_ins(
+        ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
     cols, counts, log = ins.columns, ins.counts, ins.log
     t_rpi = cols["rpi_time_us"]
     utc = cols["utc"].copy()
@@ -876,6 +901,7 @@ def payload_sonic_l1(
     despike_n_mad: float = 7.0,
     apply_elevation_limit: bool = False,
     max_gap_s: float = 60.0,
+    ins_table: _InsTable | None = None,
 ) -> xr.Dataset:
     """Build the L1 payload sonic dataset: logger clock to UTC, range/spike/missing QC.
 
@@ -896,6 +922,8 @@ def payload_sonic_l1(
     max_gap_s : float, optional
         Longest forward step of the sonic's logger time accepted as a data gap [s]; a
         longer one raises :class:`ClockJumpError` (default 60 s).
+    ins_table : optional
+        Output of :func:`load_ins_table` for ``ins_path`` (not parsed again).
 
     Returns
     -------
@@ -924,8 +952,8 @@ def payload_sonic_l1(
     ----------
     Seed 000, Sect. 3.2.
     """
-    ins = _load_ins(ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s,
-                    max_corrupt_fraction)  # fmt: skip
+    ins = _fresh(ins_table) if ins_table is not None else _load_ins(
+        ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
     cols, counts, log = read_sonic_csv(sonic_path, max_corrupt_fraction, clock_jump_tol_s)
     t = cols["rpi_time_us"]
     before = t < ins.rpi_stable_us

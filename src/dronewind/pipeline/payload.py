@@ -77,11 +77,12 @@ def compute_payload_l1(sonic_file: str | Path, ins_file: str | Path, config: Map
     from dronewind.io import payload as io_payload
 
     despike = _processing(config).get("despike", {})
+    table = io_payload.load_ins_table(ins_file)  # parsed once for the clock fit and the INS L1
     sonic = io_payload.payload_sonic_l1(
         sonic_file, ins_file, despike_window_s=float(despike.get("window_s", 10.0)),
-        despike_n_mad=float(despike.get("n_mad", 7.0)),
+        despike_n_mad=float(despike.get("n_mad", 7.0)), ins_table=table,
     )
-    return sonic, io_payload.ins_l1(ins_file)
+    return sonic, io_payload.ins_l1(ins_file, ins_table=table)
 
 
 def compute_mast_l1(files: list[str | Path], sonic: Mapping[str, Any], config: Mapping[str, Any]) -> Any:

@@ -1,0 +1,9 @@
+"""Snakemake script: campaign diagnosis (diagnosis.json and the extended campaign manifest)."""
+
+from dronewind.pipeline import logged
+from dronewind.pipeline.diagnosis import diagnose_campaign
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    diagnose_campaign(sm.input.manifest, list(sm.input.measured), list(sm.input.forward), sm.output.json,
+                      sm.output.manifest, sm.config)

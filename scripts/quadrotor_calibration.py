@@ -1,0 +1,9 @@
+"""Snakemake script: quadrotor fleet calibration and tables (seed 001 Sect. 5)."""
+
+from dronewind.pipeline import logged
+from dronewind.pipeline.quadrotor import quadrotor_calibration
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    quadrotor_calibration(sm.input.manifest, list(sm.input.windows), list(sm.input.blocks), list(sm.input.problems),
+                          sm.params.tables_dir, sm.output.summary, sm.config)

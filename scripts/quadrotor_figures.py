@@ -1,0 +1,8 @@
+"""Snakemake script: quadrotor figures (seed 001 Figs 3-9) from stored tables and L2 files."""
+
+from dronewind.figures_quadrotor import quadrotor_figures
+from dronewind.pipeline import logged
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    quadrotor_figures(sm.params.tables_dir, sm.input.summary, list(sm.input.l2), sm.input.reference, list(sm.output))

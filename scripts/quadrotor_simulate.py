@@ -1,0 +1,8 @@
+"""Snakemake script: simulate one quadrotor flight (UAV CSVs and tower reference)."""
+
+from dronewind.pipeline import logged
+from dronewind.pipeline.quadrotor import simulate_quadrotor
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    simulate_quadrotor(sm.input.manifest, sm.params.flight, sm.params.out_dir)

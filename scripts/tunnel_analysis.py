@@ -1,0 +1,8 @@
+"""Snakemake script: wind-tunnel analysis tables (seed 002)."""
+
+from dronewind.pipeline import logged
+from dronewind.pipeline.quadrotor import tunnel_analysis
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    tunnel_analysis(sm.input.manifest, sm.input.runs, sm.params.tables_dir, sm.config)

@@ -1,0 +1,8 @@
+"""Snakemake script: wind-tunnel figures (seed 002 Figs 4-7, 9) from the stored tables."""
+
+from dronewind.figures_quadrotor import tunnel_figures
+from dronewind.pipeline import logged
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    tunnel_figures(sm.params.tables_dir, list(sm.output))

@@ -1,0 +1,8 @@
+"""Snakemake script: simulate the wind-tunnel programme (seed 002)."""
+
+from dronewind.pipeline import logged
+from dronewind.pipeline.quadrotor import simulate_tunnel
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    simulate_tunnel(sm.input.manifest, sm.params.out_dir)

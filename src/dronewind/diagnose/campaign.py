@@ -1,0 +1,329 @@
+r"""Campaign-level diagnosis: baseline misfit, candidates, named causes, ambiguity.
+
+Input: for every payload flight, the measured residual features and the forward-model
+runs of :func:`dronewind.diagnose.forward.probe_runs`. Output: the ``diagnosis.json``
+structure of DESIGN.md plus the evidence a report needs.
+
+Sampling errors: every feature has an analytic standard error from
+:mod:`dronewind.diagnose.features` (seed 000, Eqs 10-13 and their analogues). The forward
+model's baseline seeds calibrate it: for each feature the scale factor
+
+.. math:: k_f^2 = \frac{1}{N}\sum_{i}\frac{(b_{i,1} - b_{i,2})^2}{2\, s_{i,f}^2}
+
+(pairs of baseline seeds of each flight, pooled over flights) turns the analytic error
+:math:`s_{i,f}` into the realisation-to-realisation scatter of that feature, which is what
+separates a measured flight from its forward prediction. The error of a residual is then
+:math:`\sigma_{i,f}^2 = (1 + 1/n_{seeds})\,\max(k_f^2, k_{min}^2)\,s_{i,f}^2`: one
+realisation measured, the mean of :math:`n_{seeds}` predicted. ``k_min`` (0.5) stops a
+lucky pair of seeds from shrinking an error below half its analytic value.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dronewind.diagnose.features import FEATURES
+from dronewind.diagnose.fitting import (
+    CandidateScore,
+    ParameterResponse,
+    ResponseModel,
+    ambiguity_sets,
+    chi2,
+    score_candidate,
+)
+from dronewind.diagnose.forward import baseline_level
+from dronewind.mechanisms import get_mechanism
+
+__all__ = ["CampaignEvidence", "assemble", "diagnose", "DiagnosisResult"]
+
+K_MIN = 0.5
+
+
+def _vec(d: Mapping[str, Any], key: str) -> np.ndarray:
+    values = d[key]
+    return np.array([np.nan if values.get(f) is None else float(values[f]) for f in FEATURES])
+
+
+@dataclass
+class CampaignEvidence:
+    """Measured features, forward predictions and errors of all flights (arrays over flights x features)."""
+
+    flights: list[str]
+    y: np.ndarray
+    sigma: np.ndarray
+    analytic_sigma: np.ndarray
+    scale: np.ndarray
+    baseline: np.ndarray
+    baseline_seed0: np.ndarray
+    conditions: list[dict[str, Any]]
+    models: dict[str, ResponseModel] = field(default_factory=dict)
+    fixed: dict[str, dict[str, float]] = field(default_factory=dict)
+    mechanism_of: dict[str, str] = field(default_factory=dict)
+
+
+def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Mapping[str, Any]]) -> CampaignEvidence:
+    """Build the evidence arrays and one response model per candidate.
+
+    Parameters
+    ----------
+    measured : mapping
+        Flight id -> ``features_to_dict`` of the measured flight.
+    forward : mapping
+        Flight id -> output of :func:`~dronewind.diagnose.forward.probe_runs`.
+
+    Returns
+    -------
+    CampaignEvidence
+        Arrays and response models; flights in sorted order.
+    """
+    flights = sorted(measured)
+    y = np.array([_vec(measured[f], "values") for f in flights])
+    s_meas = np.array([_vec(measured[f], "sigma") for f in flights])
+    base_runs = [[_vec(b, "values") for b in forward[f]["baseline"]] for f in flights]
+    base_sig = [[_vec(b, "sigma") for b in forward[f]["baseline"]] for f in flights]
+    n_seeds = min(len(r) for r in base_runs)
+    runs = np.array([r[:n_seeds] for r in base_runs])  # (n_flights, n_seeds, n_features)
+    baseline = np.nanmean(runs, axis=1)
+    analytic = np.nanmax(np.stack([s_meas, np.nanmean(np.array([s[:n_seeds] for s in base_sig]), axis=1)]), axis=0)
+    if n_seeds >= 2:
+        pair = (runs[:, 0, :] - runs[:, 1, :]) ** 2 / (2.0 * analytic**2)
+        scale = np.sqrt(np.nanmean(pair, axis=0))
+    else:
+        scale = np.ones(len(FEATURES))
+    scale = np.where(np.isfinite(scale), np.maximum(scale, K_MIN), 1.0)
+    sigma = np.sqrt(1.0 + 1.0 / max(n_seeds, 1)) * scale[None, :] * analytic
+    ev = CampaignEvidence(flights, y, sigma, analytic, scale, baseline, runs[:, 0, :],
+                          [dict(forward[f]["conditions"]) for f in flights])
+
+    grouped: dict[str, dict[str, dict[float, np.ndarray]]] = defaultdict(lambda: defaultdict(dict))
+    for i, f in enumerate(flights):
+        for probe in forward[f]["probes"]:
+            cand, par = probe["candidate"], probe["parameter"]
+            table = grouped[cand][par]
+            if probe["level"] not in table:
+                table[probe["level"]] = np.full((len(flights), len(FEATURES)), np.nan)
+            table[probe["level"]][i] = _vec(probe["features"], "values")
+            ev.fixed[cand] = dict(probe.get("fixed", {}))
+            ev.mechanism_of[cand] = probe["mechanism"]
+    for cand, params in grouped.items():
+        mech = get_mechanism(ev.mechanism_of[cand])
+        responses = []
+        for par in mech.parameter_names:
+            if par not in params:
+                continue
+            spec = next(p for p in mech.parameters if p.name == par)
+            base = baseline_level(mech.name, par)
+            levels = sorted(set(params[par]) | {base})
+            table = np.stack([ev.baseline_seed0 if np.isclose(lv, base) else params[par][lv] for lv in levels], axis=1)
+            span = max(levels) - min(levels)
+            lower = max(spec.lower, min(levels) - span)
+            upper = min(spec.upper, max(levels) + span)
+            responses.append(ParameterResponse(par, np.array(levels, dtype=float), table, base, lower, upper))
+        ev.models[cand] = ResponseModel(cand, baseline, responses)
+    return ev
+
+
+@dataclass
+class DiagnosisResult:
+    """Everything the diagnosis found."""
+
+    evidence: CampaignEvidence
+    baseline_chi2: float
+    scores: dict[str, CandidateScore]
+    named: list[tuple[str, CandidateScore]]
+    ambiguity: list[list[str]]
+
+    def estimate(self, candidate: str) -> dict[str, float]:
+        """Fitted parameters of a candidate, including fixed ones (catalog names)."""
+        score = self.scores[candidate]
+        return {**self.evidence.fixed.get(candidate, {}), **score.estimate()}
+
+
+def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 3) -> DiagnosisResult:
+    """Score every candidate; name the significant ones greedily (best gain first).
+
+    After a cause is named, its fitted effect is removed from the measured features and
+    the remaining candidates are scored again on what is left, so a second mechanism is
+    named only if it explains something the first does not.
+
+    Parameters
+    ----------
+    evidence : CampaignEvidence
+        Output of :func:`assemble`.
+    alpha : float
+        Family-wise false-alarm rate per naming round (Bonferroni over candidates).
+    max_causes : int
+        Largest number of causes named.
+
+    Returns
+    -------
+    DiagnosisResult
+        Scores of the first round (the ranking), the named causes and the ambiguity sets.
+    """
+    ev = evidence
+    n = len(ev.flights)
+    idx = np.arange(n)
+    base_chi2 = float(chi2(ev.y, ev.baseline, ev.sigma).sum())
+    mechanisms = {ev.mechanism_of[c] for c in ev.models}
+    n_tests = len(mechanisms)
+    first = {c: score_candidate(m, ev.y, ev.sigma, alpha=alpha, n_candidates=n_tests) for c, m in ev.models.items()}
+    groups = ambiguity_sets(list(first.values()), ev.y, ev.sigma)
+    named: list[tuple[str, CandidateScore]] = []
+    y = ev.y.copy()
+    scores = first
+    for _ in range(max_causes):
+        sig = [c for c, s in scores.items() if s.significant and ev.mechanism_of[c] not in
+               {ev.mechanism_of[k] for k, _ in named}]
+        if not sig:
+            break
+        best = max(sig, key=lambda c: scores[c].gain)
+        named.append((best, scores[best]))
+        model = ev.models[best]
+        effect = model.predict(scores[best].fit.theta, idx) - model.baseline
+        y = y - np.where(np.isfinite(effect), effect, 0.0)
+        rest = {c: m for c, m in ev.models.items() if ev.mechanism_of[c] not in {ev.mechanism_of[k] for k, _ in named}}
+        scores = {c: score_candidate(m, y, ev.sigma, alpha=alpha, n_candidates=n_tests) for c, m in rest.items()}
+    return DiagnosisResult(ev, base_chi2, first, named, groups)
+
+
+def best_variants(result: DiagnosisResult) -> list[str]:
+    """One candidate per catalog mechanism (its best variant), ranked by gain."""
+    best: dict[str, str] = {}
+    for cand, score in result.scores.items():
+        mech = result.evidence.mechanism_of[cand]
+        if mech not in best or score.gain > result.scores[best[mech]].gain:
+            best[mech] = cand
+    return sorted(best.values(), key=lambda c: -result.scores[c].gain)
+
+
+def _ratio_rmse(ev: CampaignEvidence, prediction: np.ndarray, feature: str) -> float:
+    j = FEATURES.index(feature)
+    a = np.exp(ev.y[:, j])
+    b = np.exp(prediction[:, j])
+    ok = np.isfinite(a) & np.isfinite(b)
+    return float(np.sqrt(np.mean((a[ok] - b[ok]) ** 2))) if ok.any() else float("nan")
+
+
+def baseline_metrics(ev: CampaignEvidence, prediction: np.ndarray | None = None) -> dict[str, float]:
+    """Misfit summaries of a prediction (the baseline when ``prediction`` is None)."""
+    pred = ev.baseline if prediction is None else prediction
+    per_flight = chi2(ev.y, pred, ev.sigma)
+    n_feat = int(np.sum(np.isfinite(ev.y) & np.isfinite(ev.sigma) & np.isfinite(pred)))
+    return {
+        "chi2": float(per_flight.sum()),
+        "chi2_per_feature": float(per_flight.sum() / max(n_feat, 1)),
+        "n_features_used": n_feat,
+        "sigma_w_ratio_rmse": _ratio_rmse(ev, pred, "ln_sigma_ratio_w"),
+        "sigma_u_ratio_rmse": _ratio_rmse(ev, pred, "ln_sigma_ratio_u"),
+        "sigma_v_ratio_rmse": _ratio_rmse(ev, pred, "ln_sigma_ratio_v"),
+    }
+
+
+def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
+    """The ``diagnosis.json`` structure of DESIGN.md (plus evidence fields)."""
+    ev = result.evidence
+    candidates = []
+    for cand in best_variants(result):
+        s = result.scores[cand]
+        mech = ev.mechanism_of[cand]
+        unc = s.uncertainty()
+        est = result.estimate(cand)
+        candidates.append({
+            "mechanism": mech,
+            "variant": cand if cand != mech else None,
+            "estimate": est,
+            "uncertainty": {k: unc.get(k, 0.0) for k in est},
+            "gain": s.gain,
+            "significant": s.significant,
+            "p_value": s.p_value,
+            "lr_statistic": s.lr_statistic,
+            "n_parameters": len(s.parameter_names),
+            "heldout_chi2": float(s.heldout_chi2.sum()),
+        })
+    named = []
+    for cand, s in result.named:
+        mech = ev.mechanism_of[cand]
+        if mech not in named:
+            named.append(mech)
+    return {
+        "campaign": campaign,
+        "baseline": {"metrics": {**baseline_metrics(ev), "heldout_chi2": float(
+            next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")}},
+        "candidates": candidates,
+        "named_causes": named,
+        "named_estimates": {ev.mechanism_of[c]: {"estimate": result.estimate(c), "uncertainty": s.uncertainty(),
+                                                 "gain": s.gain} for c, s in result.named},
+        "ambiguity_sets": [[ev.mechanism_of[c] for c in g] for g in result.ambiguity],
+        "features": list(FEATURES),
+        "flights": ev.flights,
+        "sigma_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
+        "method": "forward-model responses (simulated probes, common random numbers), bounded weighted least "
+                  "squares, leave-one-flight-out gain, likelihood-ratio test at alpha=0.01 Bonferroni-corrected "
+                  "over mechanisms, greedy naming; see dronewind.diagnose",
+    }
+
+
+def residual_table(ev: CampaignEvidence, prediction: np.ndarray | None = None) -> list[dict[str, Any]]:
+    """Per-flight measured, predicted and normalised residuals of every feature."""
+    pred = ev.baseline if prediction is None else prediction
+    rows = []
+    for i, flight in enumerate(ev.flights):
+        for j, feat in enumerate(FEATURES):
+            rows.append({
+                "flight": flight, "feature": feat, "U_ms": ev.conditions[i].get("mean_speed_ms"),
+                "measured": ev.y[i, j], "predicted": pred[i, j], "sigma": ev.sigma[i, j],
+                "z": (ev.y[i, j] - pred[i, j]) / ev.sigma[i, j] if ev.sigma[i, j] > 0 else np.nan,
+            })
+    return rows
+
+
+def wind_speed_slopes(ev: CampaignEvidence, prediction: np.ndarray | None = None) -> dict[str, float]:
+    """Slope of each residual against the mean wind speed (weighted least squares) [unit per m/s]."""
+    pred = ev.baseline if prediction is None else prediction
+    speed = np.array([c.get("mean_speed_ms", np.nan) for c in ev.conditions], dtype=float)
+    out = {}
+    for j, feat in enumerate(FEATURES):
+        r = ev.y[:, j] - pred[:, j]
+        w = 1.0 / ev.sigma[:, j] ** 2
+        ok = np.isfinite(r) & np.isfinite(w) & np.isfinite(speed)
+        if ok.sum() < 3 or np.ptp(speed[ok]) == 0:
+            out[feat] = float("nan")
+            continue
+        coef = np.polyfit(speed[ok], r[ok], 1, w=np.sqrt(w[ok]))
+        out[feat] = float(coef[0])
+    return out
+
+
+def combined_prediction(result: DiagnosisResult) -> np.ndarray:
+    """Prediction of the extended model (baseline plus every named cause at its fit)."""
+    ev = result.evidence
+    idx = np.arange(len(ev.flights))
+    pred = ev.baseline.copy()
+    for cand, score in result.named:
+        model = ev.models[cand]
+        effect = model.predict(score.fit.theta, idx) - model.baseline
+        pred = pred + np.where(np.isfinite(effect), effect, 0.0)
+    return pred
+
+
+def named_mechanisms(result: DiagnosisResult) -> list[dict[str, Any]]:
+    """Named causes as ``simulation.mechanisms`` entries (catalog parameters, fitted values)."""
+    out = []
+    for cand, _ in result.named:
+        mech = result.evidence.mechanism_of[cand]
+        params = {p: float(v) for p, v in result.estimate(cand).items()}
+        for p in get_mechanism(mech).parameter_names:
+            params.setdefault(p, baseline_level(mech, p))
+        out.append({"mechanism": mech, "parameters": params})
+    return out
+
+
+def summarise(values: Sequence[float]) -> str:
+    """Short text for a list of numbers."""
+    arr = np.asarray(values, dtype=float)
+    return f"mean {np.nanmean(arr):.3g}, range {np.nanmin(arr):.3g} to {np.nanmax(arr):.3g}"

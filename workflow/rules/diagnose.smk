@@ -1,0 +1,108 @@
+# What the simulation gets wrong: features per flight, forward-model probes per flight,
+# the campaign diagnosis, the extended model rerun per flight, and the report.
+
+
+rule diagnose_measured:
+    input:
+        manifest=str(CAMPAIGN.path),
+        sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
+        ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
+        drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
+        l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
+    output:
+        RESULTS / "diagnosis" / "measured" / "{flight}.json",
+    log:
+        log_path("diagnose_measured", "flight"),
+    benchmark:
+        bench_path("diagnose_measured", "flight")
+    conda:
+        ENV
+    script:
+        "../../scripts/diagnose_measured.py"
+
+
+rule diagnose_forward:
+    input:
+        manifest=str(CAMPAIGN.path),
+        measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+    output:
+        RESULTS / "diagnosis" / "forward" / "{flight}.json",
+    log:
+        log_path("diagnose_forward", "flight"),
+    benchmark:
+        bench_path("diagnose_forward", "flight")
+    conda:
+        ENV
+    script:
+        "../../scripts/diagnose_forward.py"
+
+
+rule diagnose:
+    input:
+        manifest=str(CAMPAIGN.path),
+        measured=expand(
+            RESULTS / "diagnosis" / "measured" / "{flight}.json",
+            flight=PAYLOAD_FLIGHTS,
+        ),
+        forward=expand(
+            RESULTS / "diagnosis" / "forward" / "{flight}.json", flight=PAYLOAD_FLIGHTS
+        ),
+    output:
+        json=RESULTS / "diagnosis.json",
+        manifest=RESULTS / "diagnosis" / "extended_campaign.yaml",
+    log:
+        log_path("diagnose"),
+    benchmark:
+        bench_path("diagnose")
+    conda:
+        ENV
+    script:
+        "../../scripts/diagnose.py"
+
+
+rule diagnose_extended:
+    input:
+        manifest=RESULTS / "diagnosis" / "extended_campaign.yaml",
+    output:
+        RESULTS / "diagnosis" / "extended" / "{flight}.json",
+    log:
+        log_path("diagnose_extended", "flight"),
+    benchmark:
+        bench_path("diagnose_extended", "flight")
+    conda:
+        ENV
+    script:
+        "../../scripts/diagnose_extended.py"
+
+
+rule diagnosis_report:
+    input:
+        diagnosis=RESULTS / "diagnosis.json",
+        measured=expand(
+            RESULTS / "diagnosis" / "measured" / "{flight}.json",
+            flight=PAYLOAD_FLIGHTS,
+        ),
+        forward=expand(
+            RESULTS / "diagnosis" / "forward" / "{flight}.json", flight=PAYLOAD_FLIGHTS
+        ),
+        extended=expand(
+            RESULTS / "diagnosis" / "extended" / "{flight}.json",
+            flight=PAYLOAD_FLIGHTS,
+        ),
+    output:
+        md=RESULTS / "diagnosis" / "report.md",
+        csv=RESULTS / "diagnosis" / "residuals.csv",
+        png=report(
+            RESULTS / "figures" / "diagnosis_residuals.png",
+            caption="../report/diagnosis_residuals.rst",
+            category="Diagnosis",
+        ),
+        pdf=RESULTS / "figures" / "diagnosis_residuals.pdf",
+    log:
+        log_path("diagnosis_report"),
+    benchmark:
+        bench_path("diagnosis_report")
+    conda:
+        ENV
+    script:
+        "../../scripts/diagnosis_report.py"

@@ -1,0 +1,61 @@
+# Wind-tunnel calibration and verification of the quadrotors (seed 002): simulate (virtual
+# campaigns with `simulation.tunnel`), analyse into tables, figures.
+from dronewind.pipeline.quadrotor import TUNNEL_TABLES
+
+if TUNNEL_RUNS is not None and TUNNEL_SIMULATED:
+
+    rule tunnel_simulate:
+        input:
+            manifest=str(CAMPAIGN.path),
+        output:
+            TUNNEL_RUNS,
+        log:
+            log_path("tunnel_simulate"),
+        benchmark:
+            bench_path("tunnel_simulate")
+        conda:
+            ENV
+        params:
+            out_dir=lambda wc, output: str(
+                Path(output[0]).parents[len(Path(TUNNEL_RUNS_REL).parts) - 1]
+            ),
+        script:
+            "../../scripts/tunnel_simulate.py"
+
+
+if TUNNEL_RUNS is not None:
+
+    rule tunnel_analysis:
+        """Seed 002: calibration per speed range, sideslip, portability, gusts, steps, turbulence."""
+        input:
+            manifest=str(CAMPAIGN.path),
+            runs=TUNNEL_RUNS,
+        output:
+            [str(RESULTS / "tables" / f"tunnel_{t}.csv") for t in TUNNEL_TABLES],
+        log:
+            log_path("tunnel_analysis"),
+        benchmark:
+            bench_path("tunnel_analysis")
+        conda:
+            ENV
+        params:
+            tables_dir=lambda wc, output: str(Path(output[0]).parent),
+        script:
+            "../../scripts/tunnel_analysis.py"
+
+    rule tunnel_figures:
+        """Seed 002 Figs 4-7 and 9, drawn from the stored tunnel tables."""
+        input:
+            [str(RESULTS / "tables" / f"tunnel_{t}.csv") for t in TUNNEL_TABLES],
+        output:
+            [str(RESULTS / "figures" / f"{name}.png") for name in TUNNEL_FIGURES],
+        log:
+            log_path("tunnel_figures"),
+        benchmark:
+            bench_path("tunnel_figures")
+        conda:
+            ENV
+        params:
+            tables_dir=lambda wc, input: str(Path(input[0]).parent),
+        script:
+            "../../scripts/tunnel_figures.py"
