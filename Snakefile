@@ -17,6 +17,11 @@ include: "workflow/rules/diagnose.smk"
 include: "workflow/rules/report.smk"
 
 
+if PUBLISHED:
+
+    include: "workflow/rules/published.smk"
+
+
 rule all:
     default_target: True
     input:

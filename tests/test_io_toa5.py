@@ -118,6 +118,22 @@ def test_files_concatenated_in_time_order(tmp_path):
     np.testing.assert_array_equal(ds_glob.ux_ms.values, ds.ux_ms.values)
 
 
+def test_records_days_apart_stay_separate_segments(tmp_path):
+    """One file per flight on different days: the gap is a break, not a day of NaN samples."""
+    a = write_toa5(tmp_path / "day1.dat", synthetic_rows(300, t0="2023-08-21 14:00:00"))
+    # day 1 ends at 14:00:29.9; this file starts 10 s later: a short gap, filled with missing samples
+    b = write_toa5(tmp_path / "day1b.dat", synthetic_rows(100, t0="2023-08-21 14:00:40", start_record=1000, seed=2))
+    c = write_toa5(tmp_path / "day2.dat", synthetic_rows(300, t0="2023-12-13 07:00:00.05", seed=3))  # other phase
+    ds = mast_l1([a, b, c], 0.0, 10.0, "s")
+    assert ds.attrs["n_record_breaks"] == 1
+    assert ds.attrs["n_missing"] == 100  # the 10 s gap on day 1 is filled with missing samples
+    assert ds.sizes["time"] == 300 + 100 + 100 + 300
+    t = ds.time.values
+    assert (np.diff(t) > np.timedelta64(0)).all()
+    assert t[-300] == np.datetime64("2023-12-13T07:00:00.050")  # grid phase restarts after the break
+    assert "1 record breaks" in ds.attrs["processing_log"]
+
+
 def test_missing_column_raises(tmp_path):
     header = [HEADER[0], HEADER[1].replace(',"Uz"', ""), HEADER[2], HEADER[3]]
     rows = [",".join(r.split(",")[:4] + r.split(",")[5:]) for r in synthetic_rows(20)]

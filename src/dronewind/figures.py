@@ -51,6 +51,7 @@ __all__ = [
     "DPI",
     "FIGURE_FUNCTIONS",
     "draw_all",
+    "save_figure",
     "fig04_tke_lag",
     "fig07_positions",
     "fig08_timeseries",
@@ -110,7 +111,7 @@ def _add_notes(fig: Figure, notes: Sequence[str]) -> list[str]:
     return notes
 
 
-def _save(fig: Figure, out_stem: PathLike, notes: Sequence[str] = ()) -> list[Path]:
+def save_figure(fig: Figure, out_stem: PathLike, notes: Sequence[str] = ()) -> list[Path]:
     """Write PNG and PDF atomically, without time stamps.
 
     The notes (what was skipped and why) also go into the metadata: PNG text chunk
@@ -279,7 +280,7 @@ def fig04_tke_lag(l2_drone_files: Iterable[PathLike], out_stem: PathLike,
     ax.grid(alpha=0.3)
     if products:
         _legend(ax, fontsize=7.5, ncol=2, loc="upper center")
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 # ----------------------------------------------------------------------------- Fig. 7
@@ -422,7 +423,7 @@ def fig07_positions(l2_drone_files: Iterable[PathLike], l4_files: Iterable[PathL
     ax_p.set_xlabel("distance east of the mast (m)")
     ax_p.set_ylabel("distance north of the mast (m)")
     ax_p.grid(alpha=0.3)
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 # ----------------------------------------------------------------------------- Figs 8, 10 (time series)
@@ -492,7 +493,7 @@ def fig08_timeseries(l3_files: Iterable[PathLike], l4_files: Iterable[PathLike],
         sub[0].set_title(title, fontsize=9, loc="left")
         _legend(sub[0], fontsize=7, loc="upper right", ncol=2)
         sub[2].set_xlabel(f"time since {_start_label(ds['time'].values)} UTC (min)")
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 def fig10_temperature_series(l3_files: Iterable[PathLike], l4_files: Iterable[PathLike], out_stem: PathLike,
@@ -554,7 +555,7 @@ def fig10_temperature_series(l3_files: Iterable[PathLike], l4_files: Iterable[Pa
         ax.set_ylabel("$\\theta_v'$ (K)")
         ax.grid(alpha=0.3)
         _legend(ax, fontsize=7, loc="upper right")
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 # ----------------------------------------------------------------------------- spectra (Figs 9, 11, B1, B2)
@@ -671,7 +672,7 @@ def fig09_velocity_spectra(l4_files: Iterable[PathLike], out_stem: PathLike,
             ax.set_xlabel("f (Hz)")
             ax.set_ylabel(ylabel)
         _legend(row[0], fontsize=7, loc="lower left")
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 def fig11_temperature_spectra(l4_files: Iterable[PathLike], out_stem: PathLike,
@@ -727,7 +728,7 @@ def fig11_temperature_spectra(l4_files: Iterable[PathLike], out_stem: PathLike,
         col[2].set_title(f"$\\overline{{u'\\theta_v'}}$ {_fmt_pair(prod, 'uT_Kms', usable, '{:.3f}')} K m s$^{{-1}}$",
                          fontsize=8, loc="left")
         _legend(col[0], fontsize=7, loc="lower left")
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 def _others(l4: dict[str, Any], flights: Sequence[str] | None) -> list[str]:
@@ -789,7 +790,7 @@ def figB1_normalised_velocity_spectra(l4_files: Iterable[PathLike], out_stem: Pa
             ax.set_xlabel("f (Hz)")
         row[0].set_title(flight, fontsize=9, loc="left")
         _legend(row[0], fontsize=7, loc="lower left")
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 def _normalised_panel(ax: Any, prod: dict[str, Any], name: str, norm: str, log_y: bool, usable: bool,
@@ -869,7 +870,7 @@ def figB2_normalised_temperature_spectra(l4_files: Iterable[PathLike], out_stem:
             ax.set_xlabel("f (Hz)")
         row[0].set_title(flight, fontsize=9, loc="left")
         _legend(row[0], fontsize=7, loc="lower left")
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 # ----------------------------------------------------------------------------- scatter figures (12-16)
@@ -967,7 +968,7 @@ def _scatter_figure(l4_files: Iterable[PathLike], out_stem: PathLike, quantities
     for ax, letter in zip(axes, "abcdefgh"):
         ax.set_title(f"({letter})", fontsize=9, loc="left")
     _scatter_legend(fig, l4)
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 def fig12_mean_and_sigma(l4_files: Iterable[PathLike], out_stem: PathLike) -> list[Path]:
@@ -1116,7 +1117,7 @@ def fig15_quadrant(l4_files: Iterable[PathLike], out_stem: PathLike, low_speed_m
     axes[0].plot([], [], ls="none", marker="^", color="0.6", mec="k",
                  label=f"$\\bar u$ < {low_speed_ms:g} m s$^{{-1}}$")
     _legend(axes[0], fontsize=7, loc="lower center")
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 def fig16_uncertainty(l4_files: Iterable[PathLike], out_stem: PathLike, metric: str = "a",
@@ -1162,7 +1163,7 @@ def fig16_uncertainty(l4_files: Iterable[PathLike], out_stem: PathLike, metric: 
         ax.plot([0.0, top], [0.0, top], color="k", lw=0.8, ls="--")
         ax.set_title(f"({letter})", fontsize=9, loc="left")
     _scatter_legend(fig, l4)
-    return _save(fig, out_stem, _add_notes(fig, notes))
+    return save_figure(fig, out_stem, _add_notes(fig, notes))
 
 
 # ----------------------------------------------------------------------------- registry

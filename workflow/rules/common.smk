@@ -31,6 +31,27 @@ MAST_SONICS = list(CAMPAIGN.mast_sonics())
 FIGURES = list(figure_captions())
 
 
+def _published():
+    """The published-results file (validated) and its samples, if it applies to this campaign."""
+    path = (config.get("diagnosis") or {}).get("published")
+    if not path:
+        return None, []
+    from dronewind.diagnose.published import load_published
+
+    pub = load_published(path)
+    if pub["source"].get("campaign") != CAMPAIGN.name:
+        return None, []
+    missing = [f for f in pub["stationary_flights"] if f not in PAYLOAD_FLIGHTS]
+    if missing:
+        raise ValueError(
+            f"{path}: stationary_flights {missing} are not payload flights of {CAMPAIGN.path}"
+        )
+    return path, list(pub["stationary_flights"])
+
+
+PUBLISHED, PUBLISHED_FLIGHTS = _published()
+
+
 def _alternatives(ids):
     """Wildcard constraint matching exactly these ids (never an empty alternation)."""
     return "|".join(map(str, ids)) if ids else "(?!x)x"
@@ -69,6 +90,8 @@ def all_outputs():
             str(RESULTS / "diagnosis.json"),
             str(RESULTS / "diagnosis" / "report.md"),
         ]
+    if PUBLISHED:
+        out.append(str(RESULTS / "published" / "report.md"))
     out += quadrotor_targets() + tunnel_targets()
     return out
 

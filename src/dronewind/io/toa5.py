@@ -211,6 +211,7 @@ def mast_l1(
     despike_window_s: float = 10.0,
     despike_n_mad: float = 7.0,
     despike: bool = True,
+    max_gap_s: float = 60.0,
 ) -> xr.Dataset:
     """Build the L1 mast sonic dataset from one or more CSAT3 TOA5 files.
 
@@ -230,11 +231,17 @@ def mast_l1(
         Moving-MAD despiking window [s] and threshold [scaled MAD].
     despike : bool, optional
         Apply the moving-MAD despiking (QC 2).
+    max_gap_s : float, optional
+        Gaps in the time stamps up to this length [s] are filled with missing samples on
+        the regular grid; longer gaps (separate records, e.g. one file per flight on
+        different days) are kept as breaks of the time axis, so that a record of a few
+        flights over months does not become months of NaN. The grid phase and the
+        despiking window restart after a break.
 
     Returns
     -------
     xarray.Dataset
-        dim ``time`` (UTC, regular grid); ``u_east_ms``, ``v_north_ms``, ``w_up_ms``,
+        dim ``time`` (UTC, regular grid within each segment, see ``max_gap_s``); ``u_east_ms``, ``v_north_ms``, ``w_up_ms``,
         ``t_sonic_k`` (NaN where ``qc_mast`` != 0), raw ``ux_ms``, ``uy_ms``, ``uz_ms`` (as
         logged), ``diag_csat`` (int32, -1 where absent), ``qc_mast``. attrs ``azimuth_deg``,
         ``height_m``, ``sensor_id``, ``sampling_rate_hz``, ``n_*`` counts,
@@ -301,23 +308,40 @@ def mast_l1(
     if dt_ns <= 0:
         raise InputError(files[0], "TIMESTAMP does not increase")
     fs_hz = 1e9 / dt_ns
-    k_float = (t - t[0]).astype(np.int64) / dt_ns
-    k = np.rint(k_float).astype(np.int64)
-    off_grid = np.abs(k_float - k) > 0.25
-    if off_grid.any():
-        i = int(np.flatnonzero(off_grid)[0])
-        raise InputError(
-            f"{files[int(data['_file'].iloc[i])]}:{int(data['_line'].iloc[i])}",
-            f"TIMESTAMP {t[i]} is off the {fs_hz:g} Hz sampling grid; expected a constant "
-            "sampling interval",
-        )
-    dup_k = np.zeros(k.size, dtype=bool)
-    dup_k[1:] = k[1:] == k[:-1]
-    counts["n_time_conflicts"] += int(dup_k.sum())
-    k = k[~dup_k]
-    data = data.loc[~dup_k].reset_index(drop=True)
-    n = int(k[-1]) + 1
-    time = t[0] + (np.arange(n, dtype=np.int64) * dt_ns).astype("timedelta64[ns]")
+    # segments: breaks where the time stamps jump by more than max_gap_s
+    jumps = np.flatnonzero(np.diff(t).astype(np.int64) > max_gap_s * 1e9) + 1
+    seg_start = np.r_[0, jumps]
+    seg_end = np.r_[jumps, t.size]
+    keep_rows = np.ones(t.size, dtype=bool)
+    grid_index = np.zeros(t.size, dtype=np.int64)
+    time_parts = []
+    offset = 0
+    for a, b in zip(seg_start, seg_end, strict=True):
+        k_float = (t[a:b] - t[a]).astype(np.int64) / dt_ns
+        k = np.rint(k_float).astype(np.int64)
+        off_grid = np.abs(k_float - k) > 0.25
+        if off_grid.any():
+            i = a + int(np.flatnonzero(off_grid)[0])
+            raise InputError(
+                f"{files[int(data['_file'].iloc[i])]}:{int(data['_line'].iloc[i])}",
+                f"TIMESTAMP {t[i]} is off the {fs_hz:g} Hz sampling grid; expected a constant "
+                "sampling interval",
+            )
+        dup = np.zeros(k.size, dtype=bool)
+        dup[1:] = k[1:] == k[:-1]
+        keep_rows[a:b] = ~dup
+        grid_index[a:b] = offset + k
+        n_seg = int(k[-1]) + 1
+        time_parts.append(t[a] + (np.arange(n_seg, dtype=np.int64) * dt_ns).astype("timedelta64[ns]"))
+        offset += n_seg
+    counts["n_time_conflicts"] += int((~keep_rows).sum())
+    counts["n_record_breaks"] = int(jumps.size)
+    k = grid_index[keep_rows]
+    data = data.loc[keep_rows].reset_index(drop=True)
+    n = offset
+    time = np.concatenate(time_parts)
+    bounds = np.cumsum([0] + [p.size for p in time_parts])
+    segments = list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
     present = np.zeros(n, dtype=bool)
     present[k] = True
     counts["n_missing"] = int(n - k.size)
@@ -339,9 +363,10 @@ def mast_l1(
     qc[out] |= QC_OUT_OF_RANGE
     spikes = np.zeros(n, dtype=bool)
     if despike:
-        for x in (ux, uy, uz, ts_c):
-            spikes |= despike_moving_mad(np.where(qc == 0, x, np.nan), fs_hz,
-                                         despike_window_s, despike_n_mad)  # fmt: skip
+        for a, b in segments:  # the moving window never spans a record break
+            for x in (ux, uy, uz, ts_c):
+                spikes[a:b] |= despike_moving_mad(np.where(qc[a:b] == 0, x[a:b], np.nan), fs_hz,
+                                                  despike_window_s, despike_n_mad)  # fmt: skip
     qc[spikes] |= QC_SPIKE
     flagged = qc != 0
     counts["n_nan_values"] = int((missing & present).sum())
@@ -350,7 +375,8 @@ def mast_l1(
     counts["n_spikes"] = int(spikes.sum())
     counts["n_flagged"] = int(flagged.sum())
     log.append(
-        f"grid: {fs_hz:g} Hz, {counts['n_missing']} absent time stamps inserted as missing"
+        f"grid: {fs_hz:g} Hz, {counts['n_missing']} absent time stamps inserted as missing; "
+        f"{counts['n_record_breaks']} record breaks (gaps > {max_gap_s:g} s kept as breaks, not filled)"
     )
     log.append(
         f"qc: {counts['n_nan_values']} NAN samples, {counts['n_diag_flagged']} non-zero "

@@ -1,0 +1,8 @@
+"""Snakemake script: fit every mechanism to the paper's published numbers."""
+
+from dronewind.pipeline import logged
+from dronewind.pipeline.published import published_diagnosis
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    published_diagnosis(sm.input.published, list(sm.input.forward), sm.output[0], sm.config)

@@ -1,0 +1,9 @@
+"""Snakemake script: baseline and extended model of one published sample, fresh seeds."""
+
+from dronewind.pipeline import logged
+from dronewind.pipeline.published import published_rerun
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    published_rerun(sm.input.published, sm.input.manifest, sm.wildcards.flight, sm.input.diagnosis, sm.output[0],
+                    sm.config)

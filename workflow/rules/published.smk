@@ -1,0 +1,81 @@
+# The paper's published numbers as data (config diagnosis.published): the forward model at the
+# Table 4 conditions of every stationary sample, all mechanisms fitted to Table 5 and the
+# Sect. 5.2/6 claims, the extended model rerun, the report.
+
+
+rule published_forward:
+    input:
+        published=PUBLISHED,
+        manifest=str(CAMPAIGN.path),
+    output:
+        RESULTS / "published" / "forward" / "{flight}.json",
+    log:
+        log_path("published_forward", "flight"),
+    benchmark:
+        bench_path("published_forward", "flight")
+    conda:
+        ENV
+    script:
+        "../../scripts/published_forward.py"
+
+
+rule published_diagnosis:
+    input:
+        published=PUBLISHED,
+        forward=expand(
+            RESULTS / "published" / "forward" / "{flight}.json",
+            flight=PUBLISHED_FLIGHTS,
+        ),
+    output:
+        RESULTS / "published" / "diagnosis.json",
+    log:
+        log_path("published_diagnosis"),
+    benchmark:
+        bench_path("published_diagnosis")
+    conda:
+        ENV
+    script:
+        "../../scripts/published_diagnosis.py"
+
+
+rule published_rerun:
+    input:
+        published=PUBLISHED,
+        manifest=str(CAMPAIGN.path),
+        diagnosis=RESULTS / "published" / "diagnosis.json",
+    output:
+        RESULTS / "published" / "rerun" / "{flight}.json",
+    log:
+        log_path("published_rerun", "flight"),
+    benchmark:
+        bench_path("published_rerun", "flight")
+    conda:
+        ENV
+    script:
+        "../../scripts/published_rerun.py"
+
+
+rule published_report:
+    input:
+        published=PUBLISHED,
+        diagnosis=RESULTS / "published" / "diagnosis.json",
+        rerun=expand(
+            RESULTS / "published" / "rerun" / "{flight}.json", flight=PUBLISHED_FLIGHTS
+        ),
+    output:
+        md=RESULTS / "published" / "report.md",
+        json=RESULTS / "published" / "before_after.json",
+        png=report(
+            RESULTS / "figures" / "published_before_after.png",
+            caption="../report/published_before_after.rst",
+            category="Diagnosis",
+        ),
+        pdf=RESULTS / "figures" / "published_before_after.pdf",
+    log:
+        log_path("published_report"),
+    benchmark:
+        bench_path("published_report")
+    conda:
+        ENV
+    script:
+        "../../scripts/published_report.py"
