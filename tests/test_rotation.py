@@ -178,3 +178,25 @@ def test_rotations_on_real_csat3_record():
     assert ang2["yaw_deg"] == pytest.approx(ang["yaw_deg"] + 77.0, abs=1e-9)
     u3, v3, w3, _ = rotation.triple_rotation(*x.T)
     assert abs(np.mean((v3 - v3.mean()) * (w3 - w3.mean()))) < 1e-12
+
+
+def test_block_means_of_a_long_record_recover_the_plane():
+    """A 10 Hz record of 12 half-hours (one of them mostly missing), each with a constant wind
+    from another direction lying in a tilted plane: block means, fit, attrs round trip."""
+    m, k_true = _plane_blocks(7, 2.0, 120.0, noise=0.0, n_blocks=12)
+    fs, block = 10.0, 1800.0
+    n = int(block * fs)
+    t0 = np.datetime64("2023-12-13T00:00:00", "ns")
+    time = t0 + (np.arange(12 * n) * int(1e9 / fs)).astype("timedelta64[ns]")
+    u, v, w = (np.repeat(m[:, i], n) for i in range(3))
+    rng = np.random.default_rng(1)
+    u = u + rng.normal(0, 0.5, u.size)
+    u[3 * n: 3 * n + int(0.6 * n)] = np.nan  # block 4: only 40 % valid -> not used
+    bu, bv, bw = rotation.block_means(time, u, v, w, block_s=block)
+    assert bu.size == 11
+    fit = rotation.planar_fit_tilt(bu, bv, bw)
+    assert np.rad2deg(np.arccos(fit.normal @ k_true)) < 0.05
+    again = rotation.planar_fit_from_attrs(rotation.planar_fit_attrs(fit))
+    np.testing.assert_allclose(again.matrix(), fit.matrix(), atol=1e-12)
+    assert again.tilt_deg == pytest.approx(fit.tilt_deg)
+    assert rotation.planar_fit_from_attrs(rotation.planar_fit_attrs(None, "too few blocks")) is None

@@ -16,7 +16,7 @@ import pytest
 import xarray as xr
 from scipy.spatial.transform import Rotation
 
-from dronewind import motion, sync
+from dronewind import motion, rotation, sync
 from dronewind.errors import InputError
 
 G = 9.80665
@@ -412,6 +412,12 @@ def test_l3_structure_and_rotation():
         assert abs(np.mean((v - v.mean()) * (w - w.mean()))) < 1e-10
     with pytest.raises(InputError, match="rotation"):
         sync.align_drone_mast(drone, mast, rotation="quadruple")
+    # planar fit: the mast levelled by its (record-wide) plane, the drone double-rotated
+    fit = rotation.planar_fit_tilt([5.0, -3.0, 0.5, 2.0], [1.0, 4.0, -6.0, -2.0], [0.1, -0.02, 0.05, 0.04])
+    dsp = sync.align_drone_mast(drone, mast, rotation="planar_fit", planar_fit={"mast": fit})
+    assert (dsp.attrs["rotation_method_drone"], dsp.attrs["rotation_method_mast"]) == ("double", "planar_fit")
+    np.testing.assert_allclose(dsp.w_ms.sel(sensor="drone").mean(), 0.0, atol=1e-10)
+    assert dsp.rotation_pitch_deg.sel(sensor="mast") == pytest.approx(fit.pitch_deg)
 
 
 def test_align_bridges_mast_gaps_and_rejects_short_overlap():

@@ -31,6 +31,9 @@ __all__ = [
     "triple_rotation",
     "planar_fit_tilt",
     "apply_planar_fit",
+    "block_means",
+    "planar_fit_attrs",
+    "planar_fit_from_attrs",
     "rotate",
 ]
 
@@ -252,6 +255,67 @@ def planar_fit_tilt(u_mean_ms: np.ndarray, v_mean_ms: np.ndarray, w_mean_ms: np.
         n_blocks=n,
         rms_residual_ms=float(np.sqrt(np.mean(resid ** 2))),
     )
+
+
+def block_means(time: np.ndarray, u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray,
+                block_s: float = 1800.0, min_valid_fraction: float = 0.5, fs_hz: float | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Block means of a long record for the planar fit (Wilczak et al., 2001).
+
+    Parameters
+    ----------
+    time : numpy.ndarray
+        datetime64 time stamps (UTC), increasing; gaps and breaks allowed.
+    u_ms, v_ms, w_ms : numpy.ndarray
+        Components in the instrument's (or the east/north/up) frame, NaN where flagged [m s-1].
+    block_s : float
+        Block length [s], aligned to multiples of ``block_s`` of UTC (30 min by default).
+    min_valid_fraction : float
+        A block counts when at least this fraction of its samples is valid [1].
+    fs_hz : float, optional
+        Sampling rate [Hz]; by default from the median time step.
+
+    Returns
+    -------
+    u, v, w : numpy.ndarray
+        Block means of the usable blocks [m s-1].
+    """
+    t_ns = np.asarray(time).astype("datetime64[ns]").astype(np.int64)
+    u, v, w = (np.asarray(a, dtype=float) for a in (u_ms, v_ms, w_ms))
+    if fs_hz is None:
+        fs_hz = 1e9 / float(np.median(np.diff(t_ns)))
+    block = (t_ns // int(block_s * 1e9)).astype(np.int64)
+    ok = np.isfinite(u) & np.isfinite(v) & np.isfinite(w)
+    _, inverse = np.unique(block, return_inverse=True)
+    n_valid = np.bincount(inverse, weights=ok.astype(float))
+    sums = [np.bincount(inverse, weights=np.where(ok, a, 0.0)) for a in (u, v, w)]
+    usable = n_valid >= min_valid_fraction * block_s * fs_hz
+    return tuple(s_[usable] / n_valid[usable] for s_ in sums)  # type: ignore[return-value]
+
+
+def planar_fit_attrs(fit: PlanarFit | None, note: str = "") -> dict[str, float | int | str]:
+    """NetCDF attributes holding a planar fit (or why there is none)."""
+    if fit is None:
+        return {"planar_fit_note": note or "not computed"}
+    return {"planar_fit_b0_ms": fit.b0_ms, "planar_fit_b1": fit.b1, "planar_fit_b2": fit.b2,
+            "planar_fit_n_blocks": int(fit.n_blocks), "planar_fit_tilt_deg": fit.tilt_deg,
+            "planar_fit_rms_residual_ms": fit.rms_residual_ms,
+            "planar_fit_note": note or "Wilczak et al. (2001) over the 30-min block means of this record"}
+
+
+def planar_fit_from_attrs(attrs: dict) -> PlanarFit | None:
+    """Rebuild a planar fit stored by :func:`planar_fit_attrs` (None when there is none)."""
+    if "planar_fit_b1" not in attrs:
+        return None
+    b0, b1, b2 = (float(attrs[k]) for k in ("planar_fit_b0_ms", "planar_fit_b1", "planar_fit_b2"))
+    norm = np.sqrt(1.0 + b1 * b1 + b2 * b2)
+    k = np.array([-b1, -b2, 1.0]) / norm
+    return PlanarFit(b0_ms=b0, b1=b1, b2=b2, normal=k, tilt_deg=float(np.rad2deg(np.arccos(k[2]))),
+                     tilt_azimuth_deg=float(np.rad2deg(np.arctan2(b2, b1)) % 360.0),
+                     pitch_deg=float(np.rad2deg(np.arcsin(-b1 / norm))),
+                     roll_deg=float(np.rad2deg(np.arcsin(b2 / np.sqrt(1.0 + b2 * b2)))),
+                     n_blocks=int(attrs.get("planar_fit_n_blocks", 0)),
+                     rms_residual_ms=float(attrs.get("planar_fit_rms_residual_ms", np.nan)))
 
 
 def apply_planar_fit(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, fit: PlanarFit,

@@ -941,17 +941,23 @@ def align_drone_mast(
 
     # 4. direction and rotation per sensor
     u_r, v_r, w_r, wdir, ang = [], [], [], [], {"yaw_deg": [], "pitch_deg": [], "roll_deg": []}
+    methods: list[str] = []
     for s, name in enumerate(("drone", "mast")):
         ue, vn, wu = x8[:, 4 * s], x8[:, 4 * s + 1], x8[:, 4 * s + 2]
         wdir.append(float(np.rad2deg(np.arctan2(-ue.mean(), -vn.mean())) % 360.0))
         pf = None if planar_fit is None else planar_fit.get(name)
-        a, b, c, angles = _rotation.rotate(ue, vn, wu, rotation, planar_fit=pf)
+        # planar fit only where one is given (a fixed mast sonic); a sensor without one
+        # (the drone, re-levelled every flight) gets the double rotation
+        method = "double" if rotation == "planar_fit" and pf is None else rotation
+        a, b, c, angles = _rotation.rotate(ue, vn, wu, method, planar_fit=pf)
+        methods.append(method)
         u_r.append(a)
         v_r.append(b)
         w_r.append(c)
         for key in ang:
             ang[key].append(angles[key])
-    log.append(f"rotation: {rotation}; wind from drone {wdir[0]:.1f} deg, mast {wdir[1]:.1f} deg")
+    log.append(f"rotation: drone {methods[0]}, mast {methods[1]}; wind from drone {wdir[0]:.1f} deg, "
+               f"mast {wdir[1]:.1f} deg")
 
     if drone_height_m is None:
         drone_height_m = drone_l2.attrs.get("height_m", drone_l2.attrs.get("target_height_m", np.nan))
@@ -987,6 +993,8 @@ def align_drone_mast(
         "lag_xcorr_max": float(np.nanmax(xcorr)),
         "lag_at_search_edge": int(at_edge),
         "rotation_method": rotation,
+        "rotation_method_drone": methods[0],
+        "rotation_method_mast": methods[1],
         "sampling_rate_hz": float(fs_out),
         "fir_design": (f"Kaiser-window FIR, {taps.size} taps, cutoff {fs_out * 0.4375:g} Hz, transition "
                        f"{0.375 * fs_out:g}-{0.5 * fs_out:g} Hz, 60 dB, centred (zero phase)"),

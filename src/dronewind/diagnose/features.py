@@ -220,16 +220,19 @@ def flight_features(
     dof = spectra.welch_dof(spectra.segment_length(n))
     for s in ("drone", "mast"):
         name = f"sw_su_{s}"
-        fr = f_hz * height[s] / max(mean_u[s], 1e-6)
-        band = (fr > fr_band[0]) & (fr < fr_band[1]) & (f_hz < HF_BAND_HZ[1])
-        if mean_u[s] <= min_speed_ms:
-            reasons[name] = f"mean speed {mean_u[s]:.2f} m/s <= {min_speed_ms} m/s"
-        elif band.sum() < 2:
-            reasons[name] = "reduced-frequency band not resolved"
+        # As in L4 (seed 000, Sect. 4.1): the ratio of the log-bin-smoothed spectra, averaged
+        # over the band. The mean of raw Welch-bin ratios would be biased: with ~8 degrees
+        # of freedom per raw bin, E[X/Y] of two chi-square estimates is 8/6 times the true
+        # ratio (about 1.8 instead of 4/3).
+        binned = spectra.bin_log(f_hz[1:], np.vstack([psd[s]["w"][1:], psd[s]["u"][1:]]))
+        ratio = spectra.spectral_ratio(binned.f_hz, binned.values[0], binned.values[1], height[s], mean_u[s],
+                                       fr_band[0], fr_band[1], min_speed_ms)
+        if not np.isfinite(ratio.value):
+            reasons[name] = ratio.reason or "reduced-frequency band not resolved"
         else:
-            ratio = psd[s]["w"][band] / psd[s]["u"][band]
-            values[name] = float(np.mean(ratio))
-            sigma[name] = float(values[name] * np.sqrt(4.0 / (dof * band.sum())))
+            raw = int(((f_hz > ratio.f_min_hz) & (f_hz < ratio.f_max_hz)).sum())
+            values[name] = float(ratio.value)
+            sigma[name] = float(ratio.value * np.sqrt(4.0 / (dof * max(raw, 1))))
     for name, comp, band in (("ln_pendulum_w", "w", PENDULUM_BAND_HZ), ("ln_hf_u", "u", HF_BAND_HZ),
                              ("ln_hf_w", "w", HF_BAND_HZ)):
         pd_, m = _band_power(f_hz, psd["drone"][comp], band)

@@ -89,11 +89,24 @@ def compute_mast_l1(files: list[str | Path], sonic: Mapping[str, Any], config: M
     """Mast sonic L1 dataset from TOA5 files (see :func:`dronewind.io.toa5.mast_l1`)."""
     from dronewind.io import toa5
 
+    from dronewind import rotation as rot
+    from dronewind.errors import DronewindError
+
     despike = _processing(config).get("despike", {})
-    return toa5.mast_l1(
+    ds = toa5.mast_l1(
         files, azimuth_deg=float(sonic["azimuth_deg"]), height_m=float(sonic["height_m"]), sensor_id=str(sonic["id"]),
         despike_window_s=float(despike.get("window_s", 10.0)), despike_n_mad=float(despike.get("n_mad", 7.0)),
     )
+    # Planar fit of this sonic over all its 30-min blocks (used when rotation = planar_fit):
+    # the tilt of a fixed instrument is a property of the whole record, not of one flight.
+    u, v, w = rot.block_means(ds["time"].values, ds["u_east_ms"].values, ds["v_north_ms"].values,
+                              ds["w_up_ms"].values, fs_hz=float(ds.attrs["sampling_rate_hz"]))
+    try:
+        fit, note = rot.planar_fit_tilt(u, v, w), ""
+    except DronewindError as exc:
+        fit, note = None, f"no planar fit: {exc}"
+    ds.attrs.update(rot.planar_fit_attrs(fit, note))
+    return ds
 
 
 def compute_payload_l2(
@@ -161,6 +174,22 @@ def compute_mast_l2(
     return cut
 
 
+def _planar_fits(mast_l2: Any, rotation: str) -> dict[str, Any] | None:
+    """The mast's stored planar fit when ``rotation == "planar_fit"`` (an error when there is none)."""
+    from dronewind import rotation as rot
+    from dronewind.errors import ProcessingError
+
+    if rotation != "planar_fit":
+        return None
+    fit = rot.planar_fit_from_attrs(dict(mast_l2.attrs))
+    if fit is None:
+        raise ProcessingError(
+            f"rotation 'planar_fit' requested but mast sonic {mast_l2.attrs.get('sensor_id', '?')} has no planar fit: "
+            f"{mast_l2.attrs.get('planar_fit_note', 'not computed')} (choose rotation: double, or provide a longer "
+            "mast record with at least 3 half-hours from several directions)")
+    return {"mast": fit}
+
+
 def compute_l3(drone_l2: Any, mast_l2: Any, flight: Mapping[str, Any], config: Mapping[str, Any]) -> Any:
     """L3: drone-mast lag, common 8 Hz base, streamline rotation (see :func:`dronewind.sync.align_drone_mast`)."""
     from dronewind import sync
@@ -170,14 +199,15 @@ def compute_l3(drone_l2: Any, mast_l2: Any, flight: Mapping[str, Any], config: M
     rotation = str(proc.get("rotation", "double"))
     ds = sync.align_drone_mast(
         drone_l2, mast_l2, max_lag_s=float(dm.get("max_lag_s", 6.0)), decimate=int(dm.get("decimation", 4)),
-        rotation="double" if rotation == "planar_fit" else rotation,
+        rotation=rotation, planar_fit=_planar_fits(mast_l2, rotation),
         drone_height_m=float(drone_l2.attrs.get("height_m", flight.get("target_height_m", float("nan")))),
     )
     ds.attrs["lag_sonic_ins_s"] = float(drone_l2.attrs.get("lag_sonic_ins_s", float("nan")))
     ds.attrs["drone_usable"] = int(drone_l2.attrs.get("usable", 1))
     ds.attrs["drone_unusable_reason"] = str(drone_l2.attrs.get("unusable_reason", ""))
     if rotation == "planar_fit":
-        ds.attrs["rotation_note"] = "planar fit needs many records of one mast: double rotation applied per flight"
+        ds.attrs["rotation_note"] = ("planar fit (Wilczak et al. 2001) for the mast sonic, from its whole record; "
+                                     "double rotation for the drone, whose frame is re-levelled every flight")
     # Streamline components: CF x_wind/y_wind are components along the axes of the
     # coordinate system in use; here x points along the mean wind of each sensor.
     ds["u_ms"].attrs.update(standard_name="x_wind", comment="x axis along the mean wind (streamline coordinates)")
