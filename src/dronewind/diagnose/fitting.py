@@ -29,7 +29,7 @@ different seeds otherwise; see :mod:`dronewind.diagnose.features`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,6 +42,7 @@ __all__ = [
     "FitResult",
     "CandidateScore",
     "chi2",
+    "bounded_least_squares",
     "fit_parameters",
     "score_candidate",
     "ambiguity_sets",
@@ -187,6 +188,59 @@ class FitResult:
     message: str
 
 
+def bounded_least_squares(
+    residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse]
+) -> tuple[np.ndarray, np.ndarray, float, bool, str]:
+    """Multi-start bounded least squares over tabulated mechanism parameters.
+
+    Starts at the baseline (mechanism off) and at every probe level of every parameter,
+    because a tabulated response can be non-monotonic (e.g. a lag beyond the search
+    window) and a single local start could stop at a poor optimum.
+
+    Parameters
+    ----------
+    residuals : callable
+        Parameter vector -> weighted residuals (finite).
+    parameters : sequence of ParameterResponse
+        Levels, baseline level and physical bounds per parameter.
+
+    Returns
+    -------
+    theta, theta_std : numpy.ndarray
+        Estimate and standard errors (Jacobian at the optimum, scaled by the reduced misfit
+        when it exceeds 1).
+    chi2 : float
+        Misfit at the optimum.
+    success : bool
+    message : str
+    """
+    base = np.array([p.baseline_level for p in parameters], dtype=float)
+    lower = np.array([p.lower for p in parameters])
+    upper = np.array([p.upper for p in parameters])
+    starts = [base]
+    for k, p in enumerate(parameters):
+        for level in p.levels:
+            if not np.isclose(level, p.baseline_level):
+                start = base.copy()
+                start[k] = np.clip(level, p.lower, p.upper)
+                starts.append(start)
+    best = None
+    for start in starts:
+        res = scipy.optimize.least_squares(residuals, np.clip(start, lower, upper), bounds=(lower, upper),
+                                           method="trf", x_scale="jac")
+        if best is None or res.cost < best.cost:
+            best = res
+    assert best is not None
+    value = float(2.0 * best.cost)
+    dof = max(best.fun.size - len(parameters), 1)
+    try:
+        cov = np.linalg.pinv(best.jac.T @ best.jac)
+        std = np.sqrt(np.clip(np.diag(cov), 0, None) * max(1.0, value / dof))
+    except np.linalg.LinAlgError:
+        std = np.full(len(parameters), np.nan)
+    return best.x, std, value, bool(best.success), str(best.message)
+
+
 def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, flights: np.ndarray) -> FitResult:
     """Bounded weighted least-squares estimate of a mechanism's parameters.
 
@@ -218,32 +272,8 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
         # a feature the forward model cannot produce at this flight counts as no misfit
         return np.where(np.isfinite(r), r, 0.0)[mask]
 
-    lower = np.array([p.lower for p in model.parameters])
-    upper = np.array([p.upper for p in model.parameters])
-    best = None
-    # A few starts: the tabulated response can be non-monotonic (e.g. a lag beyond the
-    # search window), so a single local start could stop at a poor optimum.
-    starts = [base_theta]
-    for p in model.parameters:
-        for level in p.levels:
-            if not np.isclose(level, p.baseline_level):
-                start = base_theta.copy()
-                start[model.parameters.index(p)] = np.clip(level, p.lower, p.upper)
-                starts.append(start)
-    for start in starts:
-        res = scipy.optimize.least_squares(residuals, np.clip(start, lower, upper), bounds=(lower, upper),
-                                           method="trf", x_scale="jac")
-        if best is None or res.cost < best.cost:
-            best = res
-    assert best is not None
-    value = float(2.0 * best.cost)
-    dof = max(int(mask.sum()) - model.n_parameters, 1)
-    try:
-        cov = np.linalg.pinv(best.jac.T @ best.jac)
-        theta_std = np.sqrt(np.clip(np.diag(cov), 0, None) * max(1.0, value / dof))
-    except np.linalg.LinAlgError:
-        theta_std = np.full(model.n_parameters, np.nan)
-    return FitResult(best.x, theta_std, value, base_chi2, bool(best.success), str(best.message))
+    theta, theta_std, value, success, message = bounded_least_squares(residuals, model.parameters)
+    return FitResult(theta, theta_std, value, base_chi2, success, message)
 
 
 @dataclass(frozen=True)

@@ -50,12 +50,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.optimize
 import scipy.stats
 import yaml
 
 from dronewind.diagnose.campaign import CampaignEvidence, assemble
 from dronewind.diagnose.features import FEATURES
+from dronewind.diagnose.fitting import bounded_least_squares
 from dronewind.errors import InputError
 
 __all__ = [
@@ -328,36 +328,13 @@ def _fit(pe: PublishedEvidence, combo: Sequence[str], groups: Sequence[str]) -> 
     base = np.array([p.baseline_level for p in params], dtype=float)
     if not params:
         return base, base, sum(_chi2_groups(pe, combo, base)[g] for g in groups)
-    lower = np.array([p.lower for p in params])
-    upper = np.array([p.upper for p in params])
-
     def residuals(theta: np.ndarray) -> np.ndarray:
         obs = _observations(pe, _features(pe, combo, theta))
         r = np.concatenate([(obs[g][0] - obs[g][1]) / obs[g][2] for g in groups])
         return np.where(np.isfinite(r), r, 0.0)
 
-    starts = [base]
-    for k, p in enumerate(params):
-        for level in p.levels:
-            if not np.isclose(level, p.baseline_level):
-                start = base.copy()
-                start[k] = np.clip(level, p.lower, p.upper)
-                starts.append(start)
-    best = None
-    for start in starts:
-        res = scipy.optimize.least_squares(residuals, np.clip(start, lower, upper), bounds=(lower, upper),
-                                           method="trf", x_scale="jac")
-        if best is None or res.cost < best.cost:
-            best = res
-    assert best is not None
-    value = float(2.0 * best.cost)
-    dof = max(best.fun.size - len(params), 1)
-    try:
-        cov = np.linalg.pinv(best.jac.T @ best.jac)
-        std = np.sqrt(np.clip(np.diag(cov), 0, None) * max(1.0, value / dof))
-    except np.linalg.LinAlgError:
-        std = np.full(len(params), np.nan)
-    return best.x, std, value
+    theta, std, value, _, _ = bounded_least_squares(residuals, params)
+    return theta, std, value
 
 
 @dataclass

@@ -57,6 +57,7 @@ import scipy.stats
 
 from dronewind import quadrotor as q
 from dronewind.errors import InputError
+from dronewind.simulate.quadrotor import first_order_lag
 
 __all__ = ["FieldData", "field_data", "fit_field", "predict_field", "score_field_candidates",
            "tunnel_candidates", "diagnose_quadrotor", "diagnose_quadrotor_files", "regime_speed"]
@@ -536,17 +537,6 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
 # ----------------------------------------------------------------------------- tunnel
 
 
-def _first_order(x: np.ndarray, tau_s: float, fs_hz: float) -> np.ndarray:
-    """First-order lag, exact discretisation of dy/dt = (x - y)/tau (y[0] = x[0])."""
-    import scipy.signal
-
-    if tau_s <= 0:
-        return np.asarray(x, float).copy()
-    a = np.exp(-1.0 / (fs_hz * tau_s))
-    y, _ = scipy.signal.lfilter([1 - a], [1, -a], x, zi=[a * x[0]])
-    return y
-
-
 def _lag_runs(index: pd.DataFrame, law: q.DragLaw, offsets: pd.DataFrame) -> list[dict[str, np.ndarray]]:
     from dronewind.tunnel import read_tunnel_run
 
@@ -567,7 +557,7 @@ def _lag_runs(index: pd.DataFrame, law: q.DragLaw, offsets: pd.DataFrame) -> lis
 def _lag_pred(run: Mapping[str, np.ndarray], distance_m: float, tau_s: float) -> np.ndarray:
     """UAS speed predicted from the CTA: advected over ``distance_m`` (delay d/V), then lagged."""
     v = run["v_cta"]
-    y = _first_order(v, tau_s, run["fs_cta"])
+    y = first_order_lag(v, tau_s, run["fs_cta"])
     # the UAS sees the flow distance/V earlier than the CTA (seed 002 Fig. 1 geometry)
     t_adv = run["t_cta"] - distance_m / np.maximum(v, 0.5)
     order = np.argsort(t_adv, kind="stable")

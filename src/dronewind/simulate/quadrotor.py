@@ -58,7 +58,7 @@ from dronewind.quadrotor import GRAVITY_MS2, DragLaw, attitude_from_tilt, tilt_f
 from dronewind.simulate.settings import flight_seed  # SHA-256 of "<campaign seed>:<flight id>"
 
 __all__ = ["DEFAULTS", "simulate_quadrotor_flight", "simulate_uav_log",
-           "tower_reference_frame", "quadrotor_mechanisms", "regime_tilt", "log_profile_wind"]
+           "tower_reference_frame", "quadrotor_mechanisms", "regime_tilt", "log_profile_wind", "first_order_lag"]
 
 #: Default ``simulation.quadrotor`` settings (units in the key names).
 DEFAULTS: dict[str, Any] = {
@@ -186,7 +186,7 @@ def regime_tilt(speed_ms: np.ndarray, regime: list[Mapping]) -> np.ndarray:
     return np.arcsin(np.clip(accel / GRAVITY_MS2, 0.0, 0.99))
 
 
-def _first_order(x: np.ndarray, tau_s: float, fs_hz: float) -> np.ndarray:
+def first_order_lag(x: np.ndarray, tau_s: float, fs_hz: float) -> np.ndarray:
     """First-order low-pass (exact discretisation of dy/dt = (x - y)/tau), y[0] = x[0]."""
     if tau_s <= 0:
         return np.asarray(x, float).copy()
@@ -301,8 +301,8 @@ def simulate_uav_log(wind_east_ms: np.ndarray, wind_north_ms: np.ndarray, fs_hz:
         ve_true = np.gradient(dx, dt) if n > 1 else np.zeros(n)
         vn_true = np.gradient(dy, dt) if n > 1 else np.zeros(n)
     vd_true = -np.gradient(dz, dt) if n > 1 else np.zeros(n)
-    rel_e = _first_order(we - ve_true, response_lag_s, fs_hz)
-    rel_n = _first_order(wn - vn_true, response_lag_s, fs_hz)
+    rel_e = first_order_lag(we - ve_true, response_lag_s, fs_hz)
+    rel_n = first_order_lag(wn - vn_true, response_lag_s, fs_hz)
     speed = np.hypot(rel_e, rel_n)
     from_deg = np.degrees(np.arctan2(-rel_e, -rel_n)) % 360.0
     if regime:

@@ -61,7 +61,7 @@ import pandas as pd
 
 from dronewind.errors import InputError
 from dronewind.quadrotor import GRAVITY_MS2, SEED002_RANGES, DragLaw
-from dronewind.simulate.quadrotor import _first_order, _merge, _ou
+from dronewind.simulate.quadrotor import _merge, _ou, first_order_lag
 
 __all__ = ["TUNNEL_DEFAULTS", "iec_gust", "step_series", "von_karman_series",
            "attitude_from_relative_air", "simulate_tunnel"]
@@ -266,7 +266,7 @@ def _write_run(out: Path, run: dict, flow_cta: np.ndarray, fs: float, cfg: dict,
     delay = int(round(cfg["advection_distance_m"] / max(np.mean(flow_cta), 1.0) * fs))
     flow_uas = np.concatenate([flow_cta[delay:], np.full(delay, flow_cta[-1])]) if delay else flow_cta.copy()
     drift = _ou(rng, n, cfg["drift_sd_ms"], cfg["drift_timescale_s"], fs)
-    rel_speed = _first_order(flow_uas - drift, cfg["response_lag_s"], fs)
+    rel_speed = first_order_lag(flow_uas - drift, cfg["response_lag_s"], fs)
     beta = np.radians(run["aos_deg"])
     # air moves towards north; the nose points to 180 + aos: relative air in the heading frame
     af = -rel_speed * np.cos(beta)
