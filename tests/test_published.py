@@ -149,3 +149,50 @@ def test_fit_separates_drone_gain_from_mast_attenuation_through_the_spectral_cla
     est = result["named_estimates"]
     assert est["w_gain"]["estimate"]["gain"] == pytest.approx(1.15, abs=0.05)
     assert est["mast_w_attenuation"]["estimate"]["gain"] == pytest.approx(0.9, abs=0.05)
+
+
+# ----------------------------------------------------------------------------- file steps
+
+
+def test_file_steps_write_diagnosis_rerun_report_and_figure(tmp_path):
+    """published_diagnosis -> published_rerun (real forward model, one sample) -> published_report."""
+    import json
+
+    from dronewind.pipeline.published import published_diagnosis, published_report, published_rerun
+
+    forward_files = []
+    for flight in SPEEDS:
+        path = tmp_path / "forward" / f"{flight}.json"
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(json.dumps(_forward(flight)))
+        forward_files.append(path)
+    pub_file = tmp_path / "published.yaml"
+    pub_file.write_text(yaml.safe_dump(_published(1.2, 1.0)))
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    diag_file = published_diagnosis(pub_file, forward_files, tmp_path / "diagnosis.json", config)
+    diag = json.loads(diag_file.read_text())
+    assert diag["named_causes"] == ["w_gain"]
+    assert diag["extended_mechanisms"][0]["mechanism"] == "w_gain"
+
+    rerun = published_rerun(pub_file, DEFAULT_CAMPAIGN, "s07", diag_file, tmp_path / "rerun" / "s07.json", config,
+                            seeds=(5,))
+    r = json.loads(rerun.read_text())
+    base, ext = r["baseline"][0], r["extended"][0]
+    # common random numbers: the extended model differs from the baseline by the drone's w gain only
+    gain = diag["extended_mechanisms"][0]["parameters"]["gain"]
+    assert ext["sigma_w_ms_drone"] / base["sigma_w_ms_drone"] == pytest.approx(gain, rel=0.03)
+    assert ext["sigma_w_ms_mast"] == pytest.approx(base["sigma_w_ms_mast"], rel=1e-9)
+    assert ext["sigma_u_ms_drone"] == pytest.approx(base["sigma_u_ms_drone"], rel=0.01)
+    assert base["U_ms_mast"] == pytest.approx(10.4, rel=0.1)  # Table 4 wind speed at the reference sonic
+
+    # the report needs every stationary sample: reuse the one rerun for the others (plumbing only)
+    reruns = []
+    for flight in SPEEDS:
+        path = tmp_path / "rerun" / f"{flight}.json"
+        path.write_text(json.dumps({**r, "flight": flight}))
+        reruns.append(path)
+    out = published_report(pub_file, diag_file, reruns, tmp_path / "report.md", tmp_path / "before_after.json",
+                           tmp_path / "fig.png", tmp_path / "fig.pdf")
+    text = out[0].read_text()
+    assert "## What the baseline gets wrong" in text and "`w_gain`" in text and "Before and after" in text
+    assert (tmp_path / "fig.png").stat().st_size > 10_000 and (tmp_path / "fig.pdf").exists()

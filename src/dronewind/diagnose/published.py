@@ -457,6 +457,7 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
     ranked = sorted(singles.values(), key=lambda s: -s.gain)
     named: tuple[str, ...] = ()
     current = None
+    rejected: list[PublishedScore] = []  # the tries of the round that named nothing more
     for _ in range(max_causes):
         used = {ev.mechanism_of[c] for c in named}
         options = [c for c in sorted(ev.models) if ev.mechanism_of[c] not in used]
@@ -464,6 +465,7 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
             [score_combo(pe, (*named, c), named, alpha, n_tests) for c in options]
         ok = [s for s in tries if s.significant and (current is None or s.gain > 0)]
         if not ok:
+            rejected = sorted(tries, key=lambda s: s.p_value)
             break
         best = max(ok, key=lambda s: (s.gain, -s.chi2))
         named, current = best.combo, best
@@ -503,6 +505,12 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
         "named_fit": ({"chi2": current.chi2, "gain": current.gain, "p_value": current.p_value,
                        "quantities": _group_table(pe, named, after_theta)} if current is not None else None),
         "ambiguity_set": ambiguity,
+        # what was tried and not named in the last round (best first by p-value): evidence
+        # that is suggestive but does not pass the corrected test is reported, not named
+        "not_named": [{"combo": list(s.combo), "added": ev.mechanism_of[s.combo[-1]],
+                       "estimate": s.estimate(), "chi2": s.chi2, "chi2_reference": s.chi2_reference,
+                       "p_value": s.p_value, "gain": s.gain, "threshold": alpha / max(n_tests, 1)}
+                      for s in rejected[:3]],
         "extended_mechanisms": extended,
         "alpha": alpha,
         "n_tests": n_tests,
@@ -589,7 +597,7 @@ def rerun_summary(reruns: Mapping[str, Mapping[str, Any]], published: Mapping[st
                            for f, u, d, m, x in zip(flights, speeds, drone, mast, dsw, strict=True)},
         }
         out["dsigma_w"][model] = {"slope_per_ms": float(fit[0]), "intercept_ms": float(fit[1]),
-                                  "r": float(np.corrcoef(speeds, dsw)[0, 1])}
+                                  "r": float(np.corrcoef(speeds, dsw)[0, 1]) if np.std(dsw) > 0 else float("nan")}
     t5 = {f: published["table5"][f] for f in published["table5"] if f != "resolution"}
     if len(t5) >= 2:
         u = np.array([t5[f]["mast"]["U_ms"] for f in sorted(t5)], dtype=float)
@@ -643,6 +651,14 @@ def markdown(result: Mapping[str, Any], rerun: Mapping[str, Any], published: Map
                          " (fits within the χ²₁ quantile of the named first cause).")
     else:
         lines.append("**No mechanism is significant** for the published numbers.")
+    if result.get("not_named"):
+        lines += ["", "Tried next and not named (likelihood-ratio test against the named model, threshold "
+                  f"p < {_f(result['not_named'][0]['threshold'], 2)} after the Bonferroni correction; held-out gain "
+                  "against the named model):", "", "| added | estimates | χ² | p | held-out gain |", "|---|---|---|---|---|"]
+        for t in result["not_named"]:
+            est = "; ".join(f"{c}: " + ", ".join(f"{k} = {_f(v)}" for k, v in p.items()) for c, p in t["estimate"].items())
+            lines.append(f"| `{t['added']}` | {est} | {_f(t['chi2'])} (from {_f(t['chi2_reference'])}) | "
+                         f"{_f(t['p_value'], 2)} | {_f(t['gain'], 2)} |")
     lines += ["", "## Before and after: the forward model rerun at Table 4 conditions", "",
               "Fresh seeds; baseline = no mechanism, extended = the named mechanism(s) at their fitted values.", "",
               "| flight | statistic | published drone/mast | baseline drone/mast | extended drone/mast |",
