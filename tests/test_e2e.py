@@ -97,3 +97,19 @@ def test_rerun_is_bit_identical(campaign_run):
         assert (results_a / rel).read_bytes() == (results_b / rel).read_bytes()
     for raw in sorted((results_a / "L0").rglob("*.*")):
         assert raw.read_bytes() == (results_b / raw.relative_to(results_a)).read_bytes(), raw
+
+
+def test_html_report_with_captions(campaign_run):
+    """`snakemake --report` builds the HTML report of the finished run, figure captions included."""
+    folder, manifest, extra, results = campaign_run
+    html = folder / "report.html"
+    proc = subprocess.run(
+        [str(BIN / "snakemake"), "--configfile", "config/config.yaml", str(extra),
+         "--config", f"campaign={manifest}", f"results_dir={folder / 'results_a'}", "--report", str(html)],
+        cwd=REPO, capture_output=True, text=True, timeout=600, check=False,
+        env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"},
+    )
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    text = html.read_text(errors="replace")
+    assert html.stat().st_size > 100_000
+    assert "fig04_tke_lag" in text and "Diagnosis" in text

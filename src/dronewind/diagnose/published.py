@@ -667,6 +667,14 @@ def markdown(result: Mapping[str, Any], rerun: Mapping[str, Any], published: Map
         lines.append(f"| {r['flight']} | {r['statistic']} | {_f(r['published_drone'], 2)} / {_f(r['published_mast'], 2)}"
                      f" | {_f(r['baseline_drone'], 2)} / {_f(r['baseline_mast'], 2)} | {_f(r['extended_drone'], 2)} / "
                      f"{_f(r['extended_mast'], 2)} |")
+    levels = [r for r in rerun["table5"] if r["statistic"].startswith("sigma_")]
+    if levels:
+        ratios = ", ".join(f"{r['flight']} {r['statistic'].split('_')[1]} {r['published_mast'] / r['baseline_mast']:.2f}"
+                           for r in levels if r["baseline_mast"] > 0)
+        lines += ["", "Mast-side levels (the model atmosphere, not a payload mechanism): published mast σ over the "
+                  f"baseline model's mast σ = {ratios}. The candidates act on drone/mast ratios; an error of the "
+                  "atmosphere's absolute σ levels (roughness length, σ/u* similarity constants) scales the absolute "
+                  "σ_w excess, not the ratios."]
     cb, ce = rerun["claims"]["baseline"], rerun["claims"]["extended"]
     claims = published["claims"]
     lines += ["", "| claim | published | baseline | extended |", "|---|---|---|---|",

@@ -135,6 +135,8 @@ def _figure(summary: Mapping[str, Any], pub: Mapping[str, Any], png: Path, pdf: 
     if "sw_su_mast_range" in claims:
         lo, hi = claims["sw_su_mast_range"]["value"]
         b.axvspan(lo, hi, color="tab:green", alpha=0.08, label="mast range (Sect. 5.2)")
+    lo_y, hi_y = b.get_ylim()
+    b.set_ylim(min(lo_y, 1.2), max(hi_y, claims["sw_su_drone_max"]["value"] + 0.1))
     b.set_xlabel(r"mast $\langle S_w/S_u\rangle$")
     b.set_ylabel(r"drone $\langle S_w/S_u\rangle$")
     b.set_title("quadrants, 2 < f_r < 10 (Fig. 15)")
