@@ -14,8 +14,15 @@ model's baseline seeds calibrate it: for each feature the scale factor
 :math:`s_{i,f}` into the realisation-to-realisation scatter of that feature, which is what
 separates a measured flight from its forward prediction. The error of a residual is then
 :math:`\sigma_{i,f}^2 = (1 + 1/n_{seeds})\,\max(k_f^2, k_{min}^2)\,s_{i,f}^2`: one
-realisation measured, the mean of :math:`n_{seeds}` predicted. ``k_min`` (0.5) stops a
-lucky pair of seeds from shrinking an error below half its analytic value.
+realisation measured, the mean of :math:`n_{seeds}` predicted. ``k_min`` = 1: the seed pairs
+see only the realisation noise with the flight's conditions held fixed, while a measured
+flight also differs from its prediction by the error of the conditions estimated from it
+(u*, L, roughness length from one mast record). On null campaigns a floor of 0.5 left the
+mean z² of several features at 2-3 and gave false alarms, so the seed scatter may widen
+the analytic error but never shrink it. Finally, an empirical overdispersion factor (the
+variance over flights of the z-scores about their mean, when above 1 and with at least four
+flights) widens a feature's errors: on a null campaign it keeps each feature's mean z² near 1,
+while a mechanism's common offset, being removed with the mean, still shows.
 """
 
 from __future__ import annotations
@@ -41,7 +48,12 @@ from dronewind.mechanisms import get_mechanism
 
 __all__ = ["CampaignEvidence", "assemble", "diagnose", "DiagnosisResult"]
 
-K_MIN = 0.5
+K_MIN = 1.0
+#: Smallest held-out gain for a named cause (a cause explaining < 5 % of the held-out
+#: misfit is not named, whatever its p-value; as in the quadrotor diagnosis).
+MIN_GAIN = 0.05
+#: Flights needed before the empirical overdispersion of a feature is estimated.
+MIN_FLIGHTS_DISPERSION = 4
 
 
 def _vec(d: Mapping[str, Any], key: str) -> np.ndarray:
@@ -97,6 +109,20 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
         scale = np.ones(len(FEATURES))
     scale = np.where(np.isfinite(scale), np.maximum(scale, K_MIN), 1.0)
     sigma = np.sqrt(1.0 + 1.0 / max(n_seeds, 1)) * scale[None, :] * analytic
+    # Empirical overdispersion (quasi-likelihood dispersion): where the measured-minus-
+    # predicted z-scores scatter more *about their mean over flights* than 1, the errors are
+    # widened by that factor. A mechanism's common offset does not enter (the scatter is
+    # taken about the mean), so the floor guards against false alarms without hiding a
+    # systematic effect; it needs at least MIN_FLIGHTS_DISPERSION flights.
+    z = (y - baseline) / sigma
+    finite = np.isfinite(z)
+    n_f = finite.sum(axis=0)
+    zc = np.where(finite, z - np.nanmean(np.where(finite, z, np.nan), axis=0, keepdims=True)
+                  if finite.any() else 0.0, 0.0)
+    dispersion = np.where(n_f >= MIN_FLIGHTS_DISPERSION, (zc**2).sum(axis=0) / np.maximum(n_f - 1, 1), 1.0)
+    dispersion = np.maximum(dispersion, 1.0)
+    sigma = sigma * np.sqrt(dispersion)[None, :]
+    scale = scale * np.sqrt(dispersion)
     ev = CampaignEvidence(flights, y, sigma, analytic, scale, baseline, runs[:, 0, :],
                           [dict(forward[f]["conditions"]) for f in flights])
 
@@ -144,7 +170,8 @@ class DiagnosisResult:
         return {**self.evidence.fixed.get(candidate, {}), **score.estimate()}
 
 
-def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 3) -> DiagnosisResult:
+def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 3,
+             min_gain: float = MIN_GAIN) -> DiagnosisResult:
     """Score every candidate; name the significant ones greedily (best gain first).
 
     After a cause is named, its fitted effect is removed from the measured features and
@@ -159,6 +186,8 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
         Family-wise false-alarm rate per naming round (Bonferroni over candidates).
     max_causes : int
         Largest number of causes named.
+    min_gain : float
+        Smallest held-out gain of a named cause [1].
 
     Returns
     -------
@@ -177,8 +206,14 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
     y = ev.y.copy()
     scores = first
     for _ in range(max_causes):
-        sig = [c for c, s in scores.items() if s.significant and ev.mechanism_of[c] not in
-               {ev.mechanism_of[k] for k, _ in named}]
+        # a second cause from the ambiguity set of a named one would only split one effect
+        blocked = {ev.mechanism_of[k] for k, _ in named}
+        for k, _ in named:
+            for group in groups:
+                if ev.mechanism_of[k] in {ev.mechanism_of.get(g, g) for g in group}:
+                    blocked |= {ev.mechanism_of.get(g, g) for g in group}
+        sig = [c for c, s in scores.items() if s.significant and s.gain >= min_gain
+               and ev.mechanism_of[c] not in blocked]
         if not sig:
             break
         best = max(sig, key=lambda c: scores[c].gain)

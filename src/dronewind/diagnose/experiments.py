@@ -193,5 +193,8 @@ def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path,
         conditions = forward.forward_conditions(data, fid, l3, l2)
         fwd[fid] = forward.probe_runs(data, fid, conditions, config,
                                       seeds=tuple(config.get("diagnosis", {}).get("seeds", (101, 202))))
-    result = dc.diagnose(dc.assemble(measured, fwd), alpha=float(config.get("diagnosis", {}).get("alpha", 0.01)))
+    diag_cfg = config.get("diagnosis", {})
+    result = dc.diagnose(dc.assemble(measured, fwd), alpha=float(diag_cfg.get("alpha", 0.01)),
+                         max_causes=int(diag_cfg.get("max_causes", 3)),
+                         min_gain=float(diag_cfg.get("min_gain", dc.MIN_GAIN)))
     return dc.to_json(result, data["name"])

@@ -145,7 +145,8 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
                                                           sort_keys=False))
         return Path(output_json)
     result = dc.diagnose(ev, alpha=float(diag_cfg.get("alpha", 0.01)),
-                         max_causes=int(diag_cfg.get("max_causes", 3)))
+                         max_causes=int(diag_cfg.get("max_causes", 3)),
+                         min_gain=float(diag_cfg.get("min_gain", dc.MIN_GAIN)))
     out = dc.to_json(result, campaign.name)
     out["baseline"]["residuals"] = dc.residual_table(ev)
     out["baseline"]["wind_speed_slopes"] = dc.wind_speed_slopes(ev)
