@@ -98,6 +98,12 @@ rule diagnosis_report:
             category="Diagnosis",
         ),
         pdf=RESULTS / "figures" / "diagnosis_residuals.pdf",
+        spectra_png=report(
+            RESULTS / "figures" / "diagnosis_spectra.png",
+            caption="../report/diagnosis_spectra.rst",
+            category="Diagnosis",
+        ),
+        spectra_pdf=RESULTS / "figures" / "diagnosis_spectra.pdf",
     log:
         log_path("diagnosis_report"),
     benchmark:

@@ -46,7 +46,7 @@ import xarray as xr
 
 from dronewind import scales, spectra, stats
 
-__all__ = ["FEATURES", "PENDULUM_BAND_HZ", "HF_BAND_HZ", "FlightFeatures", "flight_features"]
+__all__ = ["FEATURES", "PENDULUM_BAND_HZ", "HF_BAND_HZ", "FlightFeatures", "flight_features", "binned_spectra"]
 
 #: Feature names in the order of the feature vectors.
 FEATURES: tuple[str, ...] = (
@@ -291,3 +291,37 @@ def features_to_dict(features: FlightFeatures) -> dict[str, Mapping[str, float |
 
     return {"values": clean(features.values), "sigma": clean(features.sigma),
             "conditions": clean(features.conditions), "reasons": dict(features.reasons)}
+
+
+def binned_spectra(l3: xr.Dataset, n_bins: int = 60) -> dict[str, list[float]]:
+    """Log-bin-smoothed Welch spectra of u and w of drone and mast (for before/after figures).
+
+    Parameters
+    ----------
+    l3 : xarray.Dataset
+        L3 flight dataset (``u_ms``, ``w_ms`` over ``(sensor, time)``, attr
+        ``sampling_rate_hz``).
+    n_bins : int
+        Logarithmic bins (seed 000 smooths over 100; 60 keep the JSON small).
+
+    Returns
+    -------
+    dict
+        ``f_hz`` and ``drone_u``, ``drone_w``, ``mast_u``, ``mast_w`` [m2 s-2 Hz-1] on it.
+    """
+    fs = float(l3.attrs["sampling_rate_hz"])
+    sensors = list(np.asarray(l3["sensor"].values).astype(str))
+    rows, names, f_hz = [], [], None
+    for sensor in ("drone", "mast"):
+        for c in ("u", "w"):
+            x = l3[f"{c}_ms"].values[sensors.index(sensor)].astype(float)
+            x = x[np.isfinite(x)]
+            f_hz, p = spectra.welch_psd(x, fs)
+            rows.append(p[1:])
+            names.append(f"{sensor}_{c}")
+    n = min(r.size for r in rows)
+    binned = spectra.bin_log(f_hz[1:1 + n], np.vstack([r[:n] for r in rows]), n_bins=n_bins)
+    out = {"f_hz": binned.f_hz.tolist()}
+    for name, values in zip(names, binned.values, strict=True):
+        out[name] = values.tolist()
+    return out

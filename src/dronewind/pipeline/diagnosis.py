@@ -72,8 +72,10 @@ def measured_features(manifest: str | Path, flight_id: str, sonic_l1: str | Path
     feats = forward.measured_features(campaign.data, flight_id, sonic, ins, l2, l3, config)
     conditions = forward.forward_conditions(campaign.data, flight_id, l3, l2)
     LOG.info("flight %s: features %s", flight_id, feats.values)
+    from dronewind.diagnose.features import binned_spectra
+
     return write_json(output, {"flight": flight_id, "features": features_to_dict(feats), "conditions": conditions,
-                               "usable": int(l2.attrs.get("usable", 1))})
+                               "usable": int(l2.attrs.get("usable", 1)), "spectra": binned_spectra(l3)})
 
 
 def forward_probes(manifest: str | Path, flight_id: str, measured_json: str | Path, output: str | Path,
@@ -176,11 +178,22 @@ def extended_run(extended_manifest_file: str | Path, flight_id: str, output: str
     if conditions is None:
         out["note"] = "flight not in the extended campaign (unusable)"
         return write_json(output, out)
+    from dronewind.diagnose.features import binned_spectra
+
     mechanisms = data["simulation"].get("mechanisms") or []
-    for seed in seeds:
-        feats, _ = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, mechanisms, seed),
-                                       flight_id, config)
+    for k, seed in enumerate(seeds):
+        feats, products = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, mechanisms, seed),
+                                              flight_id, config)
         out["runs"].append(features_to_dict(feats))
+        if k == 0:
+            # spectra before/after with common random numbers: the same seed without the mechanisms
+            out["spectra"] = {"extended": binned_spectra(products["l3"])}
+            if mechanisms:
+                _, base = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, [], seed),
+                                              flight_id, config)
+                out["spectra"]["baseline"] = binned_spectra(base["l3"])
+            else:
+                out["spectra"]["baseline"] = out["spectra"]["extended"]
     return write_json(output, out)
 
 
@@ -214,5 +227,15 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
     atomic_write_text(output_csv, pd.DataFrame(rows).to_csv(index=False, float_format="%.6g"))
     text = report.markdown(diag, before_metrics, after_metrics, rows)
     atomic_write_text(output_md, text)
-    figs = report.figures(ev, after, diag, Path(figures_dir)) if ev.flights else []
+    measured_spectra, model_spectra = {}, {}
+    for path in measured_files:
+        m = json.loads(Path(path).read_text())
+        if m.get("spectra"):
+            measured_spectra[m["flight"]] = m["spectra"]
+    for path in extended_files:
+        e = json.loads(Path(path).read_text())
+        if e.get("spectra"):
+            model_spectra[e["flight"]] = e["spectra"]
+    figs = report.figures(ev, after, diag, Path(figures_dir))
+    figs += report.spectra_figure(ev, measured_spectra, model_spectra, diag, Path(figures_dir))
     return [Path(output_md), Path(output_csv), *figs]
