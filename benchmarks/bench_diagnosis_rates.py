@@ -34,8 +34,15 @@ def one(args: tuple[int, int, float]) -> dict:
     truth = draw(rng, p_none=p_none)
     config = yaml.safe_load((REPO / "config/config.yaml").read_text())
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory() as work:
-        diagnosis = run_in_process(truth, config, work)
+    try:
+        with tempfile.TemporaryDirectory() as work:
+            diagnosis = run_in_process(truth, config, work)
+    except Exception as exc:  # a draw the chain cannot process is a failure, reported, not a crash
+        verdict = {"mechanism": truth.mechanism, "truth": truth.parameters, "named": [], "detected": False,
+                   "false_alarm": False, "estimate_ok": False, "error": f"{type(exc).__name__}: {exc}",
+                   "seconds": time.perf_counter() - start, "top": []}
+        print(json.dumps(verdict, default=str), flush=True)
+        return verdict
     verdict = judge(truth, diagnosis)
     verdict["seconds"] = time.perf_counter() - start
     verdict["top"] = [(c["mechanism"], round(c["gain"], 3), c["significant"]) for c in diagnosis["candidates"][:3]]
@@ -63,6 +70,10 @@ def main() -> None:
     for mech, vs in sorted(by.items()):
         print(f"{mech:22s} {len(vs):3d} {np.mean([v['detected'] for v in vs]):9.2f} "
               f"{np.mean([v['estimate_ok'] for v in vs]):12.2f} {np.mean([v['false_alarm'] for v in vs]):12.2f}")
+    errors = [v for v in verdicts if v.get("error")]
+    if errors:
+        print(f"{len(errors)} draw(s) failed in processing: " + "; ".join(f"{v['mechanism']}: {v['error']}"
+                                                                      for v in errors))
     hidden = [v for v in verdicts if v["mechanism"] != "none"]
     null = [v for v in verdicts if v["mechanism"] == "none"]
     if hidden:

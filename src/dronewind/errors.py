@@ -29,6 +29,10 @@ class InputError(DronewindError, ValueError):
         self.what = what
         super().__init__(f"{self.where}: {what}")
 
+    def __reduce__(self) -> tuple:
+        # picklable (multiprocessing workers, Snakemake): rebuilt from the same arguments
+        return (type(self), (self.where, self.what))
+
 
 class ManifestError(InputError):
     """A campaign manifest that fails validation (names the manifest and key path)."""
@@ -37,6 +41,9 @@ class ManifestError(InputError):
         self.manifest = str(manifest)
         self.key_path = key_path
         super().__init__(f"{manifest} [{key_path}]", what)
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.manifest, self.key_path, self.what))
 
 
 class ProcessingError(DronewindError, RuntimeError):
