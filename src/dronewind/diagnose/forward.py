@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from dronewind.diagnose.features import FlightFeatures, flight_features
+from dronewind.errors import InputError
 from dronewind.pipeline import payload as chain
 from dronewind.pipeline.common import LOG
 
@@ -368,8 +369,19 @@ def probe_runs(
             for name in _other_parameters(probe.mechanism, probe.parameter):
                 params[name] = dict(probe.fixed).get(name, baseline_level(probe.mechanism, name))
             mech = [{"mechanism": probe.mechanism, "parameters": params}]
-            feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0]),
-                                   flight_id, config)
+            try:
+                feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0]),
+                                       flight_id, config)
+            except InputError as exc:
+                # a level outside what this flight allows (e.g. a height offset deeper than
+                # the measured hover height): recorded and left out; the candidate's response
+                # for this flight then has fewer levels (NaN where missing)
+                LOG.warning("flight %s: probe %s %s=%g skipped: %s", flight_id, probe.candidate, probe.parameter,
+                            level, exc)
+                out.setdefault("skipped_probes", []).append({"candidate": probe.candidate,
+                                                             "parameter": probe.parameter, "level": float(level),
+                                                             "reason": str(exc)})
+                continue
             out["probes"].append({"candidate": probe.candidate, "mechanism": probe.mechanism,
                                   "parameter": probe.parameter, "level": float(level),
                                   "fixed": dict(probe.fixed), "features": features_to_dict(feats)})
