@@ -223,6 +223,9 @@ class PublishedEvidence:
     claims: dict[str, tuple[float, float]]
     draws: np.ndarray
     groups: list[str]
+    #: Error of each claim: spread of the extreme at the baseline (fixed, so the fit's
+    #: weights do not move with the parameters) and the printing resolution.
+    claim_sigma: dict[str, float]
 
     def flight_index(self, flight: str) -> int:
         """Index of a flight in the evidence arrays."""
@@ -260,7 +263,12 @@ def build_evidence(published: Mapping[str, Any], forward: Mapping[str, Mapping[s
               for k in ("sw_su_drone_max", "sw_su_mast_min")}
     draws = np.random.default_rng(seed).standard_normal((N_DRAWS, len(ev.flights)))
     groups = [f"table5:{f}" for f in sorted(table5)] + [f"claim:{k}" for k in claims]
-    return PublishedEvidence(ev, table5, claims, draws, groups)
+    pe = PublishedEvidence(ev, table5, claims, draws, groups, {})
+    for claim, (_, resolution) in claims.items():
+        j = FEATURES.index("sw_su_drone" if "drone" in claim else "sw_su_mast")
+        _, spread0 = _extreme(pe, ev.baseline[:, j], ev.sigma[:, j], "max" if claim.endswith("max") else "min")
+        pe.claim_sigma[claim] = math.hypot(spread0, resolution / math.sqrt(12.0))
+    return pe
 
 
 def _combo_parameters(pe: PublishedEvidence, combo: Sequence[str]) -> list[Any]:
@@ -308,9 +316,7 @@ def _observations(pe: PublishedEvidence, feats: np.ndarray) -> dict[str, tuple[n
         j = FEATURES.index(feature)
         kind = "max" if claim.endswith("max") else "min"
         pred, spread = _extreme(pe, feats[:, j], ev.sigma[:, j], kind)
-        _, spread0 = _extreme(pe, ev.baseline[:, j], ev.sigma[:, j], kind)
-        out[f"claim:{claim}"] = (np.array([value]), np.array([pred]),
-                                 np.array([math.hypot(spread0, resolution / math.sqrt(12.0))]))
+        out[f"claim:{claim}"] = (np.array([value]), np.array([pred]), np.array([pe.claim_sigma[claim]]))
     return out
 
 

@@ -207,9 +207,11 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
 
     diag = json.loads(Path(diagnosis_json).read_text())
     ev = _evidence(measured_files, forward_files)
-    extended = {}
+    extended, model_spectra = {}, {}
     for path in extended_files:
         e = json.loads(Path(path).read_text())
+        if e.get("spectra"):
+            model_spectra[e["flight"]] = e["spectra"]
         if e.get("runs"):
             extended[e["flight"]] = np.nanmean(np.array([[np.nan if r["values"].get(f) is None else r["values"][f]
                                                           for f in FEATURES] for r in e["runs"]]), axis=0)
@@ -227,15 +229,11 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
     atomic_write_text(output_csv, pd.DataFrame(rows).to_csv(index=False, float_format="%.6g"))
     text = report.markdown(diag, before_metrics, after_metrics, rows)
     atomic_write_text(output_md, text)
-    measured_spectra, model_spectra = {}, {}
+    measured_spectra = {}
     for path in measured_files:
         m = json.loads(Path(path).read_text())
         if m.get("spectra"):
             measured_spectra[m["flight"]] = m["spectra"]
-    for path in extended_files:
-        e = json.loads(Path(path).read_text())
-        if e.get("spectra"):
-            model_spectra[e["flight"]] = e["spectra"]
     figs = report.figures(ev, after, diag, Path(figures_dir))
     figs += report.spectra_figure(ev, measured_spectra, model_spectra, diag, Path(figures_dir))
     return [Path(output_md), Path(output_csv), *figs]
