@@ -1,8 +1,8 @@
 """Throughput of the L4 analysis (statistics + spectra + fits + scales + uncertainties).
 
 Run: ``.venv/bin/python benchmarks/bench_analysis.py``. Prints seconds for
-(1) one synthetic 28-min 8 Hz flight (two sensors, :func:`dronewind.l4.flight_l4`) and
-(2) the 96 AmeriFlux gold half-hours at 10 Hz (:func:`dronewind.l4.record_l4`), with the
+(1) one synthetic 28-min 8 Hz flight (two sensors, :func:`dronewind.compare.l4.flight_l4`) and
+(2) the 96 AmeriFlux gold half-hours at 10 Hz (:func:`dronewind.compare.l4.record_l4`), with the
 reading + gap filling + double rotation timed separately.
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from dronewind import l4
+from dronewind.compare import l4
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "ameriflux_gold_openpath"
 
@@ -63,9 +63,9 @@ def bench_flight(repeats: int = 5) -> float:
 def bench_gold() -> tuple[float, float, int] | None:
     if not DATA.is_dir():
         return None
-    from dronewind.filtering import gap_fill_linear
-    from dronewind.io import read_ameriflux_gold_blocks
-    from dronewind.rotation import double_rotation
+    from dronewind.core.filtering import gap_fill_linear
+    from dronewind.mast.ameriflux import read_ameriflux_gold_blocks
+    from dronewind.core.rotation import double_rotation
 
     t0 = time.perf_counter()
     blocks = []

@@ -60,7 +60,7 @@ def write_flight(folder: Path, duration_s: float = 1200.0) -> tuple[Path, Path, 
 
 
 def bench_payload() -> None:
-    from dronewind.io.payload import ins_l1, payload_sonic_l1, read_sonic_csv
+    from dronewind.payload.io import ins_l1, payload_sonic_l1, read_sonic_csv
 
     with tempfile.TemporaryDirectory() as tmp:
         sonic, ins, n_s, n_i = write_flight(Path(tmp))
@@ -82,7 +82,7 @@ def bench_payload() -> None:
 
 
 def bench_toa5() -> None:
-    from dronewind.io.toa5 import mast_l1
+    from dronewind.mast.toa5 import mast_l1
 
     files = sorted((SHARED / "fluxpart_csat3_toa5").glob("TOA5_*.dat"))
     with tempfile.TemporaryDirectory() as tmp:
@@ -111,7 +111,7 @@ def bench_toa5() -> None:
 
 
 def bench_ameriflux() -> None:
-    from dronewind.io.ameriflux import read_ameriflux_gold_blocks
+    from dronewind.mast.ameriflux import read_ameriflux_gold_blocks
 
     folder = SHARED / "ameriflux_gold_openpath"
     files = sorted(folder.glob("G*.RAW.gz"))
@@ -134,7 +134,7 @@ if __name__ == "__main__":
     if len(sys.argv) > 1:
         import xarray as xr
 
-        import dronewind.io  # noqa: F401  (imports before measuring)
+        import dronewind.mast.toa5, dronewind.payload.io  # noqa: F401,E401  (imports before measuring)
 
         xr.Dataset({"x": ("t", np.zeros(2))})  # xarray's lazy one-time setup, not measured
 

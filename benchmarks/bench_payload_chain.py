@@ -14,7 +14,8 @@ import time
 import numpy as np
 import xarray as xr
 
-from dronewind import motion, rotation, sync
+from dronewind.payload import motion, sync
+from dronewind.core import rotation
 
 FS = 32.0
 DURATION_S = 20 * 60.0

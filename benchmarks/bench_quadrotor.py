@@ -23,11 +23,11 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from dronewind import quadrotor as q
-from dronewind.io.quadrotor import read_quadrotor, read_tower_reference
+from dronewind.quadrotor import calibration as q
+from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
 from dronewind.simulate.quadrotor import log_profile_wind, simulate_quadrotor_flight
 from dronewind.simulate.tunnel import simulate_tunnel
-from dronewind.tunnel import analyse_tunnel
+from dronewind.tunnel.analysis import analyse_tunnel
 
 ROOT = Path(__file__).resolve().parents[1]
 FALLBACK_SITE = {"name": "GM Falkenberg", "latitude": 52.1667, "longitude": 14.1236, "altitude_m": 73.0}

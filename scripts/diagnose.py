@@ -1,7 +1,7 @@
 """Snakemake script: campaign diagnosis (diagnosis.json and the extended campaign manifest)."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.diagnosis import diagnose_campaign
+from dronewind.steps import logged
+from dronewind.steps.diagnosis import diagnose_campaign
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: rerun one flight with the extended model (named causes at their fits)."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.diagnosis import extended_run
+from dronewind.steps import logged
+from dronewind.steps.diagnosis import extended_run
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: forward-model runs (baseline and probes) of one flight."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.diagnosis import forward_probes
+from dronewind.steps import logged
+from dronewind.steps.diagnosis import forward_probes
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

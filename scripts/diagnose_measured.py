@@ -1,7 +1,7 @@
 """Snakemake script: residual features of one processed flight."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.diagnosis import measured_features
+from dronewind.steps import logged
+from dronewind.steps.diagnosis import measured_features
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

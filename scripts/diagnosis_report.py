@@ -2,8 +2,8 @@
 
 from pathlib import Path
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.diagnosis import diagnosis_report
+from dronewind.steps import logged
+from dronewind.steps.diagnosis import diagnosis_report
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

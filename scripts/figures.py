@@ -2,8 +2,8 @@
 
 from pathlib import Path
 
-from dronewind.figures import draw_all
-from dronewind.pipeline import logged
+from dronewind.figures.payload import draw_all
+from dronewind.steps import logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

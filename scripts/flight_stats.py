@@ -1,6 +1,6 @@
 """Snakemake script: assemble tables/flight_stats.csv from the L4 files."""
 
-from dronewind.pipeline import flight_stats, logged
+from dronewind.steps import flight_stats, logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,6 +1,6 @@
 """Snakemake script: L2 -> L3 (drone-mast alignment, decimation, rotation)."""
 
-from dronewind.pipeline import l3, logged
+from dronewind.steps import l3, logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,6 +1,6 @@
 """Snakemake script: L3 -> L4 (statistics, spectra, fits, uncertainties, scales) for one sensor."""
 
-from dronewind.pipeline import l4, logged
+from dronewind.steps import l4, logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,6 +1,6 @@
 """Snakemake script: one mast sonic, TOA5 (L0) -> L1."""
 
-from dronewind.pipeline import logged, mast_l1
+from dronewind.steps import logged, mast_l1
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

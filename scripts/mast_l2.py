@@ -1,6 +1,6 @@
 """Snakemake script: reference mast sonic L1 -> L2 over one flight's hover window."""
 
-from dronewind.pipeline import logged, mast_l2
+from dronewind.steps import logged, mast_l2
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,6 +1,6 @@
 """Snakemake script: payload sonic and INS, L0 -> L1."""
 
-from dronewind.pipeline import logged, payload_l1
+from dronewind.steps import logged, payload_l1
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,6 +1,6 @@
 """Snakemake script: payload L1 -> L2 (synchronised, motion-corrected east/north/up)."""
 
-from dronewind.pipeline import logged, payload_l2
+from dronewind.steps import logged, payload_l2
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: fit every mechanism to the paper's published numbers."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.published import published_diagnosis
+from dronewind.steps import logged
+from dronewind.steps.published import published_diagnosis
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: forward-model runs of one published sample at its Table 4 conditions."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.published import published_forward
+from dronewind.steps import logged
+from dronewind.steps.published import published_forward
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: report and figure of the published-numbers diagnosis."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.published import published_report
+from dronewind.steps import logged
+from dronewind.steps.published import published_report
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

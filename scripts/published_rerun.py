@@ -1,7 +1,7 @@
 """Snakemake script: baseline and extended model of one published sample, fresh seeds."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.published import published_rerun
+from dronewind.steps import logged
+from dronewind.steps.published import published_rerun
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

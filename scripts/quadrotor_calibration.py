@@ -1,7 +1,7 @@
 """Snakemake script: quadrotor fleet calibration and tables (seed 001 Sect. 5)."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.quadrotor import quadrotor_calibration
+from dronewind.steps import logged
+from dronewind.steps.quadrotor import quadrotor_calibration
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: diagnosis of the single-law quadrotor model (quadrotor_diagnosis.json)."""
 
 from dronewind.diagnose.quadrotor import diagnose_quadrotor_files
-from dronewind.pipeline import logged
+from dronewind.steps import logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: quadrotor figures (seed 001 Figs 3-9) from stored tables and L2 files."""
 
-from dronewind.figures_quadrotor import quadrotor_figures
-from dronewind.pipeline import logged
+from dronewind.figures.quadrotor import quadrotor_figures
+from dronewind.steps import logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: one quadrotor flight, L0 -> L1 NetCDF per UAV and averaging windows."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.quadrotor import quadrotor_flight
+from dronewind.steps import logged
+from dronewind.steps.quadrotor import quadrotor_flight
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: one quadrotor flight, L1 -> calibrated 1 Hz wind (L2) per UAV."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.quadrotor import quadrotor_l2
+from dronewind.steps import logged
+from dronewind.steps.quadrotor import quadrotor_l2
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,7 +1,7 @@
 """Snakemake script: simulate one quadrotor flight (UAV CSVs and tower reference)."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.quadrotor import simulate_quadrotor
+from dronewind.steps import logged
+from dronewind.steps.quadrotor import simulate_quadrotor
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from dronewind.pipeline import logged
+from dronewind.steps import logged
 from dronewind.tables import table_flight_statistics, table_flights
 
 sm = snakemake  # noqa: F821 (snakemake is injected)

@@ -1,7 +1,7 @@
 """Snakemake script: wind-tunnel analysis tables (seed 002)."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.quadrotor import tunnel_analysis
+from dronewind.steps import logged
+from dronewind.steps.quadrotor import tunnel_analysis
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

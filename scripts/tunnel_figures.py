@@ -1,7 +1,7 @@
 """Snakemake script: wind-tunnel figures (seed 002 Figs 4-7, 9) from the stored tables."""
 
-from dronewind.figures_quadrotor import tunnel_figures
-from dronewind.pipeline import logged
+from dronewind.figures.quadrotor import tunnel_figures
+from dronewind.steps import logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

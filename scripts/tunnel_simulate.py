@@ -1,7 +1,7 @@
 """Snakemake script: simulate the wind-tunnel programme (seed 002)."""
 
-from dronewind.pipeline import logged
-from dronewind.pipeline.quadrotor import simulate_tunnel
+from dronewind.steps import logged
+from dronewind.steps.quadrotor import simulate_tunnel
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):

@@ -1,6 +1,6 @@
 """A small synthetic products tree (L2, L3, L4, flight_stats.csv, campaign.json) for table and figure tests.
 
-The layout is exactly that of ``results/<campaign>/`` written by :mod:`dronewind.pipeline`:
+The layout is exactly that of ``results/<campaign>/`` written by :mod:`dronewind.steps`:
 
 * ``netcdf/L2/<flight>_drone.nc``: GNSS track, wind and attitude series, the TKE-vs-lag
   curve (``lag_s``/``tke_m2s2`` on ``lag``), attrs ``lag_sonic_ins_s``, ``usable``,
@@ -8,16 +8,16 @@ The layout is exactly that of ``results/<campaign>/`` written by :mod:`dronewind
 * ``netcdf/L2/<flight>_mast.nc``: the reference mast sonic over the flight window;
 * ``netcdf/L3/<flight>.nc``: drone and mast in streamline coordinates at 8 Hz, group
   ``alignment``;
-* ``netcdf/L4/<flight>_<sensor>.nc``: written by :func:`dronewind.pipeline.l4` itself from
+* ``netcdf/L4/<flight>_<sensor>.nc``: written by :func:`dronewind.steps.l4` itself from
   the L3 files (so the L4 layout cannot drift from the pipeline's);
-* ``tables/flight_stats.csv`` by :func:`dronewind.pipeline.flight_stats`;
-* ``campaign.json`` by :func:`dronewind.pipeline.campaign_record`.
+* ``tables/flight_stats.csv`` by :func:`dronewind.steps.flight_stats`;
+* ``campaign.json`` by :func:`dronewind.steps.campaign_record`.
 
 Four flights, references at 30 m and 60 m: ``s01`` convective and light wind (30 m), ``s02``
 calm (0.8 m/s: spectral ratios and length scales NaN by status), ``s03`` strong wind and
 stable (60 m, drone w overestimated), ``s04`` at 60 m with the drone flagged unusable.
 The L2/L3 content is synthetic (seeded) and only needs the right layout; the numbers in
-L4 are whatever :func:`dronewind.l4.flight_l4` computes from the L3 series.
+L4 are whatever :func:`dronewind.compare.l4.flight_l4` computes from the L3 series.
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ import pandas as pd
 import xarray as xr
 import yaml
 
-from dronewind import pipeline
-from dronewind.cf import split_standard, write_netcdf
+from dronewind import steps as pipeline
+from dronewind.core.cf import split_standard, write_netcdf
 
 SITE = {"name": "P2OA Lannemezan", "latitude": 43.1247, "longitude": 0.3628, "altitude_m": 603.0}
 FS_L3_HZ = 8.0

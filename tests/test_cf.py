@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from dronewind.cf import check_compliance, config_hash, write_netcdf
+from dronewind.core.cf import check_compliance, config_hash, write_netcdf
 
 
 def sample_dataset(n: int = 200) -> xr.Dataset:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dronewind import quadrotor as q
+from dronewind.quadrotor import calibration as q
 from dronewind.diagnose import quadrotor as dq
 from dronewind.errors import InputError
 from dronewind.simulate.quadrotor import log_profile_wind, simulate_quadrotor_flight

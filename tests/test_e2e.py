@@ -17,8 +17,8 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from dronewind.cf import check_compliance
-from dronewind.pipeline import FLIGHT_STATS_COLUMNS, open_product
+from dronewind.core.cf import check_compliance
+from dronewind.steps import FLIGHT_STATS_COLUMNS, open_product
 from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Tests for dronewind.figures: every figure draws from the stored products, deterministically."""
+"""Tests for dronewind.figures.payload: every figure draws from the stored products, deterministically."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import matplotlib.image as mpimg
 import pytest
 from PIL import Image
 
-from dronewind import figures
+from dronewind.figures import payload as figures
 from tests.products_fixture import set_nan, write_products
 
 

@@ -1,18 +1,18 @@
-"""Known-answer tests of dronewind.filtering."""
+"""Known-answer tests of dronewind.core.filtering."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from dronewind.filtering import (
+from dronewind.core.filtering import (
     INSTRUMENT_LIMITS,
     despike_moving_mad,
     gap_fill_linear,
     hover_window_mask,
-    local_tangent_plane_m,
     range_mask,
 )
+from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 
 
 def test_range_mask():
@@ -158,3 +158,13 @@ def test_hover_window_mask():
     assert hover_window_mask(alt, lat, lon, horiz_tol_m=7.0)[n_climb + 120]
     with pytest.raises(ValueError):
         hover_window_mask(alt[:-1], lat, lon)
+
+
+def test_local_tangent_plane_round_trip():
+    """The inverse projection returns the positions to 1e-9 degrees (about 0.1 mm)."""
+    lat = np.array([43.1247, 43.1250, 43.1200])
+    lon = np.array([0.3628, 0.3700, 0.3500])
+    e, n = local_tangent_plane_m(lat, lon, 43.1247, 0.3628)
+    lat2, lon2 = from_local_tangent_plane(e, n, 43.1247, 0.3628)
+    np.testing.assert_allclose(lat2, lat, atol=1e-9)
+    np.testing.assert_allclose(lon2, lon, atol=1e-9)

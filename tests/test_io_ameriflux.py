@@ -1,4 +1,4 @@
-"""Tests of the AmeriFlux open-path gold reader (dronewind.io.ameriflux)."""
+"""Tests of the AmeriFlux open-path gold reader (dronewind.mast.ameriflux)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.io.ameriflux import gill_to_enu, read_ameriflux_gold, read_ameriflux_gold_blocks
+from dronewind.mast.ameriflux import gill_to_enu, read_ameriflux_gold, read_ameriflux_gold_blocks
 
 HERE = Path(__file__).resolve().parent
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "ameriflux_gold_openpath"

@@ -1,4 +1,4 @@
-"""Tests of the payload sonic / INS readers (dronewind.io.payload) on synthetic files."""
+"""Tests of the payload sonic / INS readers (dronewind.payload.io) on synthetic files."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.io.payload import (
+from dronewind.payload.io import (
     ClockJumpError,
     fit_logger_clock,
     ins_l1,

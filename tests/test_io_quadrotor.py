@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.io.quadrotor import (QUADROTOR_COLUMNS, quaternion_to_euler_deg, read_quadrotor,
+from dronewind.quadrotor.io import (QUADROTOR_COLUMNS, quaternion_to_euler_deg, read_quadrotor,
                                     read_quadrotor_csv, read_tower_reference)
 
 ULOG_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "px4_ulog"

@@ -1,4 +1,4 @@
-"""Tests of the TOA5 / CSAT3 mast reader (dronewind.io.toa5)."""
+"""Tests of the TOA5 / CSAT3 mast reader (dronewind.mast.toa5)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.io.toa5 import csat3_to_enu, mast_l1, read_toa5
+from dronewind.mast.toa5 import csat3_to_enu, mast_l1, read_toa5
 
 HERE = Path(__file__).resolve().parent
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "fluxpart_csat3_toa5"

@@ -1,4 +1,4 @@
-"""Tests for dronewind.l4 (L4 orchestrator): layout, known values and bad input."""
+"""Tests for dronewind.compare.l4 (L4 orchestrator): layout, known values and bad input."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from dronewind import l4
+from dronewind.compare import l4
 from dronewind.errors import InputError
 
 FS_HZ = 8.0

@@ -1,4 +1,4 @@
-"""Known-answer tests of dronewind.motion (seed 000, Sect. 3.1, Eqs. 1-2, Appendix A).
+"""Known-answer tests of dronewind.payload.motion (seed 000, Sect. 3.1, Eqs. 1-2, Appendix A).
 
 Synthetic truth: an earth-frame wind (sum of seeded random sinusoids with a Kaimal-like
 spectrum, evaluable at any time) seen by a sonic swinging as an 18 m pendulum (0.117 Hz)
@@ -17,7 +17,7 @@ import pytest
 import scipy.signal
 from scipy.spatial.transform import Rotation
 
-from dronewind import motion
+from dronewind.payload import motion
 from dronewind.errors import InputError
 
 G = 9.80665

@@ -4,7 +4,7 @@ The end-to-end part runs a SMALL virtual campaign (2 flights x 3 UAVs x 20 min, 
 per-UAV pitch and yaw offsets, a small tunnel programme) through ``snakemake`` and checks
 every NetCDF with the IOOS compliance checker, the contract columns of
 ``quadrotor_calibration.csv``, the recovery of the hidden offsets, the diagnosis JSON and
-the figures. The bad-input part calls :mod:`dronewind.pipeline.quadrotor` directly: a UAV
+the figures. The bad-input part calls :mod:`dronewind.steps.quadrotor` directly: a UAV
 that never hovers, a log without attitude, a reference that does not cover the flight,
 a calibration that does not converge.
 """
@@ -22,10 +22,10 @@ import pandas as pd
 import pytest
 import yaml
 
-from dronewind.cf import check_compliance
+from dronewind.core.cf import check_compliance
 from dronewind.errors import InputError
-from dronewind.pipeline import open_product
-from dronewind.pipeline import quadrotor as pq
+from dronewind.steps import open_product
+from dronewind.steps import quadrotor as pq
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -150,7 +150,7 @@ def test_tunnel_tables_and_figures(run):
     assert set(cal["axis"]) == {"x", "y"} and cal["converged"].astype(bool).all()
     for name in pq.TUNNEL_TABLES:
         assert (run / "tables" / f"tunnel_{name}.csv").is_file()
-    from dronewind.figures_quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
+    from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
 
     for name in [*QUAD_FIGURES, *TUNNEL_FIGURES]:
         path = run / "figures" / f"{name}.png"

@@ -158,7 +158,7 @@ def test_file_steps_write_diagnosis_rerun_report_and_figure(tmp_path):
     """published_diagnosis -> published_rerun (real forward model, one sample) -> published_report."""
     import json
 
-    from dronewind.pipeline.published import published_diagnosis, published_report, published_rerun
+    from dronewind.steps.published import published_diagnosis, published_report, published_rerun
 
     forward_files = []
     for flight in SPEEDS:

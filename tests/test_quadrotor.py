@@ -1,4 +1,4 @@
-"""Known-answer tests of dronewind.quadrotor (seed 001 Sects. 4-5, seed 002 Eq. 1)."""
+"""Known-answer tests of dronewind.quadrotor.calibration (seed 001 Sects. 4-5, seed 002 Eq. 1)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from dronewind import quadrotor as q
+from dronewind.quadrotor import calibration as q
 from dronewind.errors import InputError
 from dronewind.simulate.quadrotor import simulate_uav_log
 from dronewind.simulate.tunnel import attitude_from_relative_air

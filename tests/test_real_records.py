@@ -6,8 +6,8 @@ Data (../shared/data, skipped if absent):
 * ``fluxpart_csat3_toa5``: CSAT3, 20 Hz, 2 x 15 min on 7 June 2012, tower 7.11 m
   (heights.csv, value valid from 2012-05-07), read by :func:`dronewind.io.mast_l1`.
 
-Every block is gap-filled (:func:`dronewind.filtering.gap_fill_linear`, the L1 spikes
-are NaN) and double-rotated (:func:`dronewind.rotation.double_rotation`) once; the same
+Every block is gap-filled (:func:`dronewind.core.filtering.gap_fill_linear`, the L1 spikes
+are NaN) and double-rotated (:func:`dronewind.core.rotation.double_rotation`) once; the same
 arrays go to dronewind and to MetPy (``friction_velocity``, ``kinematic_flux``, ``tke``),
 so the comparison isolates the statistics.
 
@@ -32,11 +32,11 @@ FLUXPART = DATA / "fluxpart_csat3_toa5"
 FLUXPART_HEIGHT_M = 7.11  # heights.csv, tower height valid 2012-05-07 .. 2012-06-13
 
 mpcalc = pytest.importorskip("metpy.calc", reason="MetPy is the independent implementation")
-dio = pytest.importorskip("dronewind.io", reason="readers (helper A1) not available")
-filtering = pytest.importorskip("dronewind.filtering", reason="gap filling (helper A1) not available")
-rotation = pytest.importorskip("dronewind.rotation", reason="double rotation (helper A2) not available")
+from dronewind.core import filtering, rotation  # noqa: E402
+from dronewind.mast import ameriflux, toa5  # noqa: E402
 
-from dronewind import l4, stats  # noqa: E402
+from dronewind.compare import l4  # noqa: E402
+from dronewind.core import stats
 
 
 def _prepare(u_e, v_n, w_up, t_k):
@@ -76,7 +76,7 @@ def gold_blocks():
     if not GOLD.is_dir():
         pytest.skip(f"{GOLD} missing")
     blocks, unusable = [], []
-    for ds in dio.read_ameriflux_gold_blocks([GOLD]):
+    for ds in ameriflux.read_ameriflux_gold_blocks([GOLD]):
         prepared = _prepare(ds["u_east_ms"].values, ds["v_north_ms"].values, ds["w_up_ms"].values,
                             ds["t_sonic_k"].values)
         if prepared is None:
@@ -173,7 +173,7 @@ def fluxpart():
         pytest.skip(f"{FLUXPART} missing or not 2 TOA5 files")
     # the CSAT3 azimuth is not documented; 0 is used: after double rotation the
     # streamline components do not depend on it
-    ds = dio.mast_l1(files, azimuth_deg=0.0, height_m=FLUXPART_HEIGHT_M, sensor_id="fluxpart")
+    ds = toa5.mast_l1(files, azimuth_deg=0.0, height_m=FLUXPART_HEIGHT_M, sensor_id="fluxpart")
     return ds
 
 

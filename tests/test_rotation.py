@@ -1,4 +1,4 @@
-"""Known-answer tests of dronewind.rotation (McMillen 1988; Wilczak et al. 2001;
+"""Known-answer tests of dronewind.core.rotation (McMillen 1988; Wilczak et al. 2001;
 seed 000, Sect. 4.4)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dronewind import rotation
+from dronewind.core import rotation
 from dronewind.errors import InputError, ProcessingError
 
 

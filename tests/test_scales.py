@@ -1,4 +1,4 @@
-"""Known-answer tests for dronewind.scales (seed 000, Sect. 4.3, Eqs 14-17)."""
+"""Known-answer tests for dronewind.core.scales (seed 000, Sect. 4.3, Eqs 14-17)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from dronewind import scales
+from dronewind.core import scales
 from dronewind.errors import InputError
 
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import importlib
+
 import pytest
 import xarray as xr
 from scipy import signal
@@ -198,11 +200,11 @@ def test_constraint_reproduced_at_its_point():
 
 
 def test_constraint_from_real_csat3_record():
-    """A measured CSAT3 record (fluxpart, 20 Hz) read by dronewind.io.toa5 constrains the field."""
+    """A measured CSAT3 record (fluxpart, 20 Hz) read by dronewind.mast.toa5 constrains the field."""
     folder = DATA / "fluxpart_csat3_toa5"
     if not folder.is_dir():
         pytest.skip(f"real CSAT3 data not found at {folder}")
-    toa5 = pytest.importorskip("dronewind.io.toa5")
+    toa5 = importlib.import_module("dronewind.mast.toa5")
     l1 = toa5.mast_l1(sorted(folder.glob("TOA5_*1245.dat")), azimuth_deg=0.0, height_m=7.11, sensor_id="fluxpart")
     l1.attrs["height_m"] = 7.11
     ds = simulate_wind(np.array([[0.0, 0.0, 7.11], [0.0, 1.0, 7.11]]), 600.0, 10.0, 3.0, 200.0, 7.11, -20.0,

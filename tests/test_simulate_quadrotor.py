@@ -6,11 +6,13 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import importlib
+
 import pytest
 
-from dronewind import quadrotor as q
+from dronewind.quadrotor import calibration as q
 from dronewind.errors import InputError
-from dronewind.io.quadrotor import QUADROTOR_COLUMNS, read_quadrotor, read_tower_reference
+from dronewind.quadrotor.io import QUADROTOR_COLUMNS, read_quadrotor, read_tower_reference
 from dronewind.simulate.quadrotor import (log_profile_wind, quadrotor_mechanisms, simulate_quadrotor_flight,
                                           simulate_uav_log)
 
@@ -114,8 +116,8 @@ def test_end_to_end_recovers_hidden_offsets(tmp_path):
 
 
 def test_with_atmosphere_simulate_wind(tmp_path):
-    """The default wind source (helper C's simulate_wind), if installed."""
-    pytest.importorskip("dronewind.simulate.atmosphere")
+    """The default wind source (dronewind.simulate.atmosphere.simulate_wind)."""
+    importlib.import_module("dronewind.simulate.atmosphere")
     camp = _campaign(uavs=("q01",), minutes=4)
     paths = simulate_quadrotor_flight(camp, tmp_path, "f31", tmp_path)
     ds = read_quadrotor(paths[0])

@@ -1,11 +1,11 @@
-"""Known-answer tests for dronewind.spectra (seed 000, Eqs 4-8, Sects. 4.1 and 4.4)."""
+"""Known-answer tests for dronewind.core.spectra (seed 000, Eqs 4-8, Sects. 4.1 and 4.4)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from dronewind import spectra
+from dronewind.core import spectra
 from dronewind.errors import InputError
 
 

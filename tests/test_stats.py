@@ -1,11 +1,11 @@
-"""Known-answer tests for dronewind.stats (seed 000, Sect. 4.1, Eq. 9, Table 4-5)."""
+"""Known-answer tests for dronewind.core.stats (seed 000, Sect. 4.1, Eq. 9, Table 4-5)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from dronewind import stats
+from dronewind.core import stats
 from dronewind.errors import InputError
 
 

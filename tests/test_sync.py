@@ -1,4 +1,4 @@
-"""Known-answer tests of dronewind.sync: sonic-INS lag, L2 builder, FIR decimation,
+"""Known-answer tests of dronewind.payload.sync: sonic-INS lag, L2 builder, FIR decimation,
 drone-mast lag and the L3 builder (seed 000, Sects. 3.2-3.3 and 4.4).
 
 Synthetic truth as in test_motion.py (duplicated here so each test file stands alone): a
@@ -16,7 +16,8 @@ import pytest
 import xarray as xr
 from scipy.spatial.transform import Rotation
 
-from dronewind import motion, rotation, sync
+from dronewind.payload import motion, sync
+from dronewind.core import rotation
 from dronewind.errors import InputError
 
 G = 9.80665

@@ -11,7 +11,7 @@ import pytest
 
 from dronewind import tables
 from dronewind.errors import InputError
-from dronewind.pipeline import open_product
+from dronewind.steps import open_product
 from tests.products_fixture import FLIGHTS, set_nan, write_products
 
 

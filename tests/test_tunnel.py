@@ -7,9 +7,9 @@ import pandas as pd
 import pytest
 import scipy.signal
 
-from dronewind import tunnel as tn
+from dronewind.tunnel import analysis as tn
 from dronewind.errors import InputError
-from dronewind.quadrotor import DragLaw
+from dronewind.quadrotor.calibration import DragLaw
 from dronewind.simulate.tunnel import iec_gust, simulate_tunnel, step_series, von_karman_series
 
 

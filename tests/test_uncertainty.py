@@ -1,4 +1,4 @@
-"""Tests for dronewind.uncertainty (seed 000, Sect. 4.2, Eqs 10-13) incl. Monte Carlo."""
+"""Tests for dronewind.core.uncertainty (seed 000, Sect. 4.2, Eqs 10-13) incl. Monte Carlo."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from dronewind import uncertainty
+from dronewind.core import uncertainty
 from dronewind.errors import InputError
-from dronewind.stats import detrend
+from dronewind.core.stats import detrend
 
 FS_HZ, T_S, DURATION_S, N_REAL = 10.0, 1.0, 600.0, 400
 

@@ -60,7 +60,7 @@ def _check_cf_args(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_cf(args: argparse.Namespace) -> int:
-    from dronewind.cf import check_compliance
+    from dronewind.core.cf import check_compliance
 
     status = 0
     for path in args.files:

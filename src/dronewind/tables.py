@@ -1,14 +1,14 @@
 r"""Campaign tables drawn from stored L4 products (seed 000, Tables 4 and 5).
 
 Every number in these tables is read from the L4 NetCDF files written by
-:func:`dronewind.pipeline.l4` (opened with :func:`dronewind.pipeline.open_product`); nothing
+:func:`dronewind.steps.l4` (opened with :func:`dronewind.steps.open_product`); nothing
 is recomputed. The only derived item is a *label*: the stability class, a binning of the
 stored :math:`\zeta = z/L` (:func:`stability_class`).
 
 Each table is written three times next to ``out_stem``: ``.csv`` (full precision, machine
 readable, NaN as an empty field), ``.md`` (Markdown, rounded for reading) and ``.tex``
 (LaTeX ``table`` with ``booktabs`` rules, rounded). All writes are atomic
-(:func:`dronewind.cf.atomic_write_text`).
+(:func:`dronewind.core.cf.atomic_write_text`).
 
 References
 ----------
@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from dronewind.cf import atomic_write_text
+from dronewind.core.cf import atomic_write_text
 from dronewind.errors import InputError
 
 __all__ = [
@@ -75,7 +75,7 @@ def load_l4_products(l4_files: Iterable[PathLike]) -> dict[str, dict[str, Any]]:
     Parameters
     ----------
     l4_files : iterable of path
-        L4 files (``<flight>_<sensor>.nc``) written by :func:`dronewind.pipeline.l4`.
+        L4 files (``<flight>_<sensor>.nc``) written by :func:`dronewind.steps.l4`.
 
     Returns
     -------
@@ -89,7 +89,7 @@ def load_l4_products(l4_files: Iterable[PathLike]) -> dict[str, dict[str, Any]]:
         A file without the global attributes ``flight`` and ``sensor``, or two files for
         the same flight and sensor.
     """
-    from dronewind.pipeline import open_product
+    from dronewind.steps import open_product
 
     out: dict[str, dict[str, Any]] = {}
     for path in l4_files:

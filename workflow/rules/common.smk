@@ -3,8 +3,8 @@ from pathlib import Path
 
 from snakemake.utils import min_version, validate
 
-from dronewind.figures import figure_captions
-from dronewind.figures_quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
+from dronewind.figures.payload import figure_captions
+from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
 from dronewind.manifest import load_campaign
 from dronewind.simulate.settings import validate_simulation
 

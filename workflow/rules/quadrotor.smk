@@ -1,7 +1,7 @@
 # SWUF-3D quadrotor fleet (seed 001): per-flight L1 and windows, campaign calibration and
 # tables, per-flight calibrated L2 wind, diagnosis of the single-law model, figures.
 # Rules per flight are generated in a loop (each flight has its own set of UAVs).
-from dronewind.pipeline.quadrotor import QUAD_TABLES
+from dronewind.steps.quadrotor import QUAD_TABLES
 
 if CAMPAIGN.simulated:
     for _qf in QUAD_FLIGHTS:

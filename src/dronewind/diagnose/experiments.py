@@ -177,7 +177,7 @@ def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path,
     from dronewind.diagnose import campaign as dc
     from dronewind.diagnose import forward
     from dronewind.diagnose.features import features_to_dict
-    from dronewind.pipeline import payload as chain
+    from dronewind.steps import payload as chain
     from dronewind.simulate.payload import simulate_payload_flight
 
     data = campaign_manifest(truth, **manifest_kw)

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from dronewind import scales, spectra, stats
+from dronewind.core import scales, spectra, stats
 
 __all__ = ["FEATURES", "PENDULUM_BAND_HZ", "HF_BAND_HZ", "FlightFeatures", "flight_features", "binned_spectra"]
 

@@ -8,7 +8,7 @@ campaign's own ``simulation:`` section (for a virtual campaign that would be rea
 answer). The flight is then simulated without any mechanism (the *baseline*, with two
 seeds) and with each catalog mechanism at a few *probe levels* (common random numbers:
 the first baseline seed), written as raw files, and pushed through the same processing
-functions as the measured flight (:mod:`dronewind.pipeline.payload`), ending in the
+functions as the measured flight (:mod:`dronewind.steps.payload`), ending in the
 residual features of :mod:`dronewind.diagnose.features`.
 
 Probe levels are chosen inside each mechanism's physical range, large enough to rise above
@@ -32,8 +32,8 @@ import numpy as np
 
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.errors import InputError
-from dronewind.pipeline import payload as chain
-from dronewind.pipeline.common import LOG
+from dronewind.steps import payload as chain
+from dronewind.steps.common import LOG
 
 __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "forward_conditions", "forward_manifest",
            "measured_features", "run_forward", "lag_halves", "probe_runs"]
@@ -141,8 +141,8 @@ def forward_conditions(
     clipped to [0.001, 2] m; the Obukhov length is Eq. 9 of seed 000 with the mast's
     fluxes, limited to :math:`|L| \\ge 1` m and :math:`|z/L| \\le 5`.
     """
-    from dronewind import stats
-    from dronewind.filtering import local_tangent_plane_m
+    from dronewind.core import stats
+    from dronewind.core.geo import local_tangent_plane_m
 
     sensors = list(np.asarray(l3["sensor"].values).astype(str))
     m = sensors.index("mast")

@@ -55,7 +55,7 @@ import scipy.optimize
 import scipy.sparse
 import scipy.stats
 
-from dronewind import quadrotor as q
+from dronewind.quadrotor import calibration as q
 from dronewind.errors import InputError
 from dronewind.simulate.quadrotor import first_order_lag
 
@@ -110,7 +110,7 @@ class FieldData:
 
 
 def field_data(blocks: pd.DataFrame, windows: pd.DataFrame, block_s: float = 10.0) -> FieldData:
-    """Arrays for the diagnosis from :func:`dronewind.quadrotor.flight_windows` output.
+    """Arrays for the diagnosis from :func:`dronewind.quadrotor.calibration.flight_windows` output.
 
     Parameters
     ----------
@@ -170,7 +170,7 @@ def regime_speed(accel_ms2: np.ndarray, edges_ms: Sequence[float], b: Sequence[f
     Seed 002, Eq. 1 and Table 2: :math:`V = c_k a^{b_k}`; range :math:`k` is the number of
     thresholds :math:`a_j = (e_j/c_j)^{1/b_j}` that :math:`a` exceeds (range :math:`j` ends
     where its own law reaches its upper edge), as in
-    :func:`dronewind.quadrotor.body_axis_relative_air`.
+    :func:`dronewind.quadrotor.calibration.body_axis_relative_air`.
     """
     a = np.abs(np.asarray(accel_ms2, float))
     bb = np.asarray(b, float)
@@ -311,12 +311,12 @@ def fit_field(data: FieldData, model: FieldModel) -> FieldFit:
     -----
     Speed: ``scipy.optimize.least_squares(method="trf")`` on the signed window speed minus
     the reference (the sign rules out the mirror solution of the tilt, as in
-    :func:`dronewind.quadrotor.calibrate_universal`), with a sparse Jacobian pattern (a
+    :func:`dronewind.quadrotor.calibration.calibrate_universal`), with a sparse Jacobian pattern (a
     window depends on the law and on its own UAV's offset only). Yaw: speed-weighted
     circular mean of heading minus reference direction per UAV (seed 001 Sect. 5.4, as
-    :func:`dronewind.quadrotor.calibrate_yaw_offsets`), over windows above
+    :func:`dronewind.quadrotor.calibration.calibrate_yaw_offsets`), over windows above
     :data:`MIN_DIRECTION_SPEED_MS`. The window direction is the circular mean of the
-    corrected heading (weather vane), as in :func:`dronewind.quadrotor.predict_windows`.
+    corrected heading (weather vane), as in :func:`dronewind.quadrotor.calibration.predict_windows`.
     """
     uavs = data.uavs
     lo, hi = model.bounds(uavs)
@@ -538,7 +538,7 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
 
 
 def _lag_runs(index: pd.DataFrame, law: q.DragLaw, offsets: pd.DataFrame) -> list[dict[str, np.ndarray]]:
-    from dronewind.tunnel import read_tunnel_run
+    from dronewind.tunnel.analysis import read_tunnel_run
 
     off = offsets.set_index("uas")
     runs = []
@@ -627,7 +627,7 @@ def tunnel_candidates(runs_file: str | Path, alpha: float = 0.01, min_gain: floa
     * ``sideslip``: the longitudinal law of the middle range applied laterally against the
       fitted lateral coefficients; held out: the sideslip runs at AoS != 0.
     """
-    from dronewind.tunnel import calibrate_tunnel, read_tunnel_index, stepped_accuracy, uas_offsets
+    from dronewind.tunnel.analysis import calibrate_tunnel, read_tunnel_index, stepped_accuracy, uas_offsets
 
     index = read_tunnel_index(runs_file)
     offsets = uas_offsets(index)
@@ -719,7 +719,7 @@ def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.D
     campaign : str
         Campaign name.
     blocks, windows : pandas.DataFrame or None
-        Field windows (:func:`dronewind.quadrotor.flight_windows`); None or empty: no field part.
+        Field windows (:func:`dronewind.quadrotor.calibration.flight_windows`); None or empty: no field part.
     runs_file : str or Path, optional
         Tunnel run index; None: no tunnel part.
     alpha, min_gain, k_folds, block_s
@@ -804,10 +804,10 @@ def diagnose_quadrotor_files(manifest: str | Path, windows_files: Sequence[str |
     ``config["diagnosis"]`` may set ``alpha`` (0.01) and ``quadrotor_min_gain`` (0.05);
     ``config["processing"]["quadrotor"]["diagnosis_window_s"]`` the window length (120 s).
     """
-    from dronewind.cf import atomic_write_text
+    from dronewind.core.cf import atomic_write_text
     from dronewind.manifest import load_campaign
-    from dronewind.pipeline.common import LOG
-    from dronewind.pipeline.quadrotor import read_windows
+    from dronewind.steps.common import LOG
+    from dronewind.steps.quadrotor import read_windows
 
     campaign = load_campaign(manifest)
     cfg = dict((config or {}).get("diagnosis") or {})

@@ -155,7 +155,7 @@ def figures(ev: Any, after: np.ndarray | None, diag: Mapping[str, Any], out_dir:
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
 
-    from dronewind.figures import save_figure
+    from dronewind.figures.payload import save_figure
 
     speed = np.array([c.get("mean_speed_ms", np.nan) for c in ev.conditions], dtype=float)
     feats = ["ln_sigma_ratio_w", "ln_sigma_ratio_u", "sw_su_drone", "sw_su_mast", "dir_diff_deg",
@@ -215,7 +215,7 @@ def spectra_figure(ev: Any, measured: Mapping[str, Mapping[str, Any]], model: Ma
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
 
-    from dronewind.figures import save_figure
+    from dronewind.figures.payload import save_figure
 
     flights = [f for f in ev.flights if f in measured and f in model]
     speed = {f: c.get("mean_speed_ms", np.nan) for f, c in zip(ev.flights, ev.conditions, strict=True)}

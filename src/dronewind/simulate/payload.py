@@ -96,7 +96,7 @@ def body_to_ned(roll_deg: np.ndarray, pitch_deg: np.ndarray, yaw_deg: np.ndarray
     Notes
     -----
     Seed 000, Appendix A; written independently of the processing chain's
-    ``dronewind.motion`` (the simulator must not use it).
+    ``dronewind.payload.motion`` (the simulator must not use it).
     """
     f, t, p = (np.deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
     cf, sf, ct, st, cp, sp = np.cos(f), np.sin(f), np.cos(t), np.sin(t), np.cos(p), np.sin(p)

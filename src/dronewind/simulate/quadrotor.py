@@ -1,6 +1,6 @@
 r"""Virtual SWUF-3D quadrotor fleet flights and the tower reference (seed 001).
 
-Forward model of a hovering quadrotor (the inverse of :mod:`dronewind.quadrotor`):
+Forward model of a hovering quadrotor (the inverse of :mod:`dronewind.quadrotor.calibration`):
 
 1. the wind at the UAV's hover point (from :func:`dronewind.simulate.atmosphere.simulate_wind`,
    or any function with the same signature) minus the vehicle's own velocity gives the
@@ -54,7 +54,7 @@ import pandas as pd
 import scipy.signal
 
 from dronewind.errors import InputError
-from dronewind.quadrotor import GRAVITY_MS2, DragLaw, attitude_from_tilt, tilt_from_speed
+from dronewind.quadrotor.calibration import GRAVITY_MS2, DragLaw, attitude_from_tilt, tilt_from_speed
 from dronewind.simulate.settings import flight_seed  # SHA-256 of "<campaign seed>:<flight id>"
 
 __all__ = ["DEFAULTS", "simulate_quadrotor_flight", "simulate_uav_log",
@@ -280,10 +280,10 @@ def simulate_uav_log(wind_east_ms: np.ndarray, wind_north_ms: np.ndarray, fs_hz:
     -----
     The relative air velocity :math:`\mathbf{V}_{rel} = \mathbf{V}_{wind} - \dot{\mathbf{x}}`
     is lagged, its magnitude gives the tilt (Eqs. 12-17 inverted,
-    :func:`dronewind.quadrotor.tilt_from_speed`), its from-direction the lean azimuth;
+    :func:`dronewind.quadrotor.calibration.tilt_from_speed`), its from-direction the lean azimuth;
     roll and pitch follow from tilt and lean relative to the heading
-    (:func:`dronewind.quadrotor.attitude_from_tilt`). Without noise, lag and wander and
-    with a perfect weather vane, :func:`dronewind.quadrotor.wind_from_attitude` returns
+    (:func:`dronewind.quadrotor.calibration.attitude_from_tilt`). Without noise, lag and wander and
+    with a perfect weather vane, :func:`dronewind.quadrotor.calibration.wind_from_attitude` returns
     the input wind to rounding.
     """
     law = law or DragLaw()

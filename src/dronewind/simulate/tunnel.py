@@ -60,7 +60,7 @@ import numpy as np
 import pandas as pd
 
 from dronewind.errors import InputError
-from dronewind.quadrotor import GRAVITY_MS2, SEED002_RANGES, DragLaw
+from dronewind.quadrotor.calibration import GRAVITY_MS2, SEED002_RANGES, DragLaw
 from dronewind.simulate.quadrotor import _merge, _ou, first_order_lag
 
 __all__ = ["TUNNEL_DEFAULTS", "iec_gust", "step_series", "von_karman_series",

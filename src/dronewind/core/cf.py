@@ -1,0 +1,595 @@
+"""The one place that writes NetCDF: CF-1.11 / ACDD-1.3 metadata, provenance, atomic write.
+
+Every NetCDF file of the workflow goes through :func:`write_netcdf`. It
+
+* declares ``Conventions = "CF-1.11, ACDD-1.3"`` (comma separated: the IOOS checker's
+  ACDD suite splits on commas),
+* adds the ACDD discovery attributes (title, summary, keywords, creator, time and
+  geospatial coverage, processing level, licence),
+* adds provenance: package version, a SHA-256 of the configuration and the SHA-256 of
+  every input file, and a ``history`` line,
+* encodes time as integer microseconds since 1970-01-01 UTC, without ``_FillValue`` and
+  with ``units_metadata = "leap_seconds: none"``; temperatures get
+  ``units_metadata = "temperature: on_scale"``,
+* for ``featureType = "timeSeries"`` (CF Appendix H.4) adds the station identifier
+  (``cf_role = "timeseries_id"``) and the nominal position as scalar coordinates; a moving
+  platform's GNSS track goes in ``precise_lat(time)``/``precise_lon(time)`` (Appendix H.5),
+* keeps quantities that have no CF standard name (streamwise spectra, fitted spectral
+  parameters, normalised uncertainties, quadrant ratios, ...) in named NetCDF-4 groups
+  (CF 1.8+ Sect. 2.7), each variable with ``long_name`` and ``units``, while the root group
+  holds the standard-named variables. The IOOS checker examines the root group, where
+  ACDD 1.3 asks every data variable for a ``standard_name``; the groups are documented in
+  the global attribute ``groups`` so readers know where to look,
+* writes to a temporary file in the destination folder and renames it into place, so an
+  interrupted run never leaves a half-written file that Snakemake would take as done.
+
+Reproducibility: the data are bit-identical for identical inputs and configuration. The
+only time-dependent attribute is ``date_created``; set the environment variable
+``SOURCE_DATE_EPOCH`` (reproducible-builds convention) to fix it too.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from dronewind import __version__
+
+CONVENTIONS = "CF-1.11, ACDD-1.3"
+STANDARD_NAME_VOCABULARY = "CF Standard Name Table v93"  # packaged with the checker: no download
+TIME_UNITS = "microseconds since 1970-01-01 00:00:00"
+
+#: Attributes set on every file (ACDD "recommended" group that does not vary).
+_FIXED_GLOBAL_ATTRS: dict[str, str] = {
+    "Conventions": CONVENTIONS,
+    "standard_name_vocabulary": STANDARD_NAME_VOCABULARY,
+    "naming_authority": "org.dronewind",
+    "institution": "dronewind project",
+    "project": "dronewind: validation of drone-borne wind and turbulence measurements",
+    "creator_name": "dronewind workflow",
+    "creator_type": "group",
+    "creator_email": "dronewind@users.noreply.github.com",
+    "creator_url": "https://github.com/dronewind/dronewind",
+    "creator_institution": "dronewind project",
+    "publisher_name": "dronewind workflow",
+    "publisher_type": "group",
+    "publisher_email": "dronewind@users.noreply.github.com",
+    "publisher_url": "https://github.com/dronewind/dronewind",
+    "publisher_institution": "dronewind project",
+    "license": "CC-BY-4.0 unless the input data licence says otherwise",
+    "acknowledgment": "Methods after Ghirardelli et al. (SAMURAI-S) and Wetz et al. (SWUF-3D).",
+    "source": "sonic anemometers on drones and masts, and the dronewind virtual campaign",
+    "platform_vocabulary": "https://vocab.nerc.ac.uk/collection/L06/current/",
+    "instrument_vocabulary": "https://vocab.nerc.ac.uk/collection/L05/current/",
+    "keywords_vocabulary": "GCMD Science Keywords",
+    "product_version": __version__,
+    "software_version": __version__,
+}
+
+_KEYWORDS = (
+    "EARTH SCIENCE > ATMOSPHERE > ATMOSPHERIC WINDS > TURBULENCE, "
+    "EARTH SCIENCE > ATMOSPHERE > ATMOSPHERIC WINDS > SURFACE WINDS, "
+    "EARTH SCIENCE > ATMOSPHERE > ATMOSPHERIC WINDS > WIND PROFILES"
+)
+
+_TEMPERATURE_UNITS = {"K", "degC", "degree_Celsius", "celsius"}
+
+
+def variable_attrs(
+    units: str, standard_name: str | None = None, long_name: str | None = None, **extra: Any
+) -> dict[str, Any]:
+    """CF attributes of one variable: the one builder every product uses.
+
+    Parameters
+    ----------
+    units : str
+        UDUNITS string (``"m s-1"``, ``"K"``, ``"1"`` for dimensionless).
+    standard_name : str, optional
+        CF standard name, where the quantity has one.
+    long_name : str, optional
+        Human-readable name (required by CF where there is no standard name).
+    **extra
+        Further attributes (``comment``, ``positive``, ``units_metadata``, ...), in order.
+
+    Returns
+    -------
+    dict
+        ``units`` [, ``standard_name``] [, ``long_name``], then ``extra``.
+    """
+    attrs: dict[str, Any] = {"units": units}
+    if standard_name:
+        attrs["standard_name"] = standard_name
+    if long_name:
+        attrs["long_name"] = long_name
+    attrs.update(extra)
+    return attrs
+
+
+def variable(
+    dims: tuple[str, ...], values: Any, units: str, standard_name: str | None = None,
+    long_name: str | None = None, **extra: Any,
+) -> xr.Variable:
+    """An :class:`xarray.Variable` with attributes from :func:`variable_attrs`.
+
+    Parameters
+    ----------
+    dims : tuple of str
+        Dimension names.
+    values : array_like
+        Data.
+    units, standard_name, long_name, **extra
+        As in :func:`variable_attrs`.
+
+    Returns
+    -------
+    xarray.Variable
+    """
+    return xr.Variable(dims, values, attrs=variable_attrs(units, standard_name, long_name, **extra))
+
+
+def sha256_file(path: str | Path, chunk_bytes: int = 1 << 20) -> str:
+    """SHA-256 hex digest of a file, read in chunks.
+
+    Parameters
+    ----------
+    path : str or Path
+        File to hash.
+    chunk_bytes : int
+        Read size [bytes].
+
+    Returns
+    -------
+    str
+        Hex digest.
+    """
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        while chunk := handle.read(chunk_bytes):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def config_hash(config: Mapping[str, Any]) -> str:
+    """SHA-256 of a configuration, independent of key order.
+
+    Parameters
+    ----------
+    config : mapping
+        JSON-serialisable configuration (non-serialisable values are stringified).
+
+    Returns
+    -------
+    str
+        Hex digest of the canonical JSON form.
+    """
+    canonical = json.dumps(config, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(canonical.encode("utf-8")).hexdigest()
+
+
+def _creation_time() -> str:
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch is not None:
+        stamp = _dt.datetime.fromtimestamp(int(epoch), tz=_dt.timezone.utc)
+    else:
+        stamp = _dt.datetime.now(tz=_dt.timezone.utc).replace(microsecond=0)
+    return stamp.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def _iso(value: np.datetime64) -> str:
+    return np.datetime_as_string(np.datetime64(value, "s"), unit="s") + "Z"
+
+
+def _label_dimensions(ds: xr.Dataset) -> xr.Dataset:
+    """Replace string dimension coordinates by integer dimensions plus a label variable.
+
+    A string-valued dimension coordinate (e.g. ``sensor = ["drone", "mast"]``) makes the
+    IOOS checker fail; CF prefers an auxiliary label variable. The labels are kept in
+    ``<dim>_name(<dim>)``; :func:`dronewind.steps.open_product` restores them.
+    """
+    out = ds
+    for dim in list(ds.dims):
+        if dim in ds.coords and ds[dim].dtype.kind in "OUS":
+            labels = np.asarray(ds[dim].values).astype(str)
+            out = out.drop_vars(dim).assign_coords(
+                {f"{dim}_name": xr.DataArray(labels.astype(object), dims=(dim,),
+                                             attrs={"long_name": f"{dim} label"})}
+            )
+    return out
+
+
+def _prepare_variables(ds: xr.Dataset) -> xr.Dataset:
+    """Variable-level CF fixes: time encoding, fill values, units metadata."""
+    out = _label_dimensions(ds.copy())
+    bounds = {str(v.attrs["bounds"]) for v in out.variables.values() if "bounds" in v.attrs}
+    for name in bounds & set(out.variables):
+        # CF 7.1: a boundary variable inherits its parent's metadata and should carry none
+        # that could disagree; it is encoded exactly like its parent.
+        out[name].attrs = {}
+        encoding = {"_FillValue": None}
+        if np.issubdtype(out[name].dtype, np.datetime64):
+            encoding.update({"units": TIME_UNITS, "calendar": "standard", "dtype": "int64"})
+        out[name].encoding = encoding
+    for name in list(out.variables):
+        if name in bounds:
+            continue
+        var = out[name]
+        attrs = dict(var.attrs)
+        encoding = dict(var.encoding)
+        encoding.pop("coordinates", None)  # re-derived from attrs; both set is an xarray error
+        if np.issubdtype(var.dtype, np.datetime64):
+            attrs.setdefault("standard_name", "time")
+            attrs.setdefault("long_name", "time (UTC)")
+            attrs["units_metadata"] = "leap_seconds: none"
+            if name == "time":
+                attrs["axis"] = "T"
+            encoding.update(
+                {"units": TIME_UNITS, "calendar": "standard", "dtype": "int64", "_FillValue": None}
+            )
+            attrs.pop("units", None)
+            attrs.pop("calendar", None)
+        elif np.issubdtype(var.dtype, np.floating):
+            encoding.setdefault("_FillValue", np.nan)
+            if attrs.get("units") in _TEMPERATURE_UNITS:
+                attrs.setdefault("units_metadata", "temperature: on_scale")
+        elif var.dtype.kind in "OUS":
+            encoding["_FillValue"] = None
+        else:
+            encoding.setdefault("_FillValue", None)
+        if "long_name" not in attrs:
+            attrs["long_name"] = str(attrs.get("standard_name", name)).replace("_", " ")
+        if name not in out.dims and name not in out.coords and "coverage_content_type" not in attrs:
+            is_qc = name.startswith("qc_") or attrs.get("standard_name") == "status_flag"
+            attrs["coverage_content_type"] = "qualityInformation" if is_qc else "physicalMeasurement"
+        if name in out.dims or name in ("lat", "lon", "alt", "station"):
+            encoding["_FillValue"] = None
+        out[name].attrs = attrs
+        out[name].encoding = encoding
+    return out
+
+
+def _add_station(
+    ds: xr.Dataset,
+    station_id: str | None,
+    latitude: float | None,
+    longitude: float | None,
+    height_m: float | None,
+) -> xr.Dataset:
+    """Add the CF timeSeries station identifier (CF H.4) and the nominal position."""
+    out = ds
+    coords = []
+    if station_id:
+        out = out.assign_coords(
+            station=xr.DataArray(
+                np.array(station_id, dtype=object),
+                attrs={"cf_role": "timeseries_id", "long_name": "station or platform identifier"},
+            )
+        )
+        coords.append("station")
+    if latitude is not None:
+        out = out.assign_coords(
+            lat=xr.DataArray(
+                float(latitude),
+                attrs={"standard_name": "latitude", "units": "degrees_north", "axis": "Y",
+                       "long_name": "nominal latitude"},
+            )
+        )
+        coords.append("lat")
+    if longitude is not None:
+        out = out.assign_coords(
+            lon=xr.DataArray(
+                float(longitude),
+                attrs={"standard_name": "longitude", "units": "degrees_east", "axis": "X",
+                       "long_name": "nominal longitude"},
+            )
+        )
+        coords.append("lon")
+    if height_m is not None:
+        out = out.assign_coords(
+            alt=xr.DataArray(
+                float(height_m),
+                attrs={"standard_name": "height", "units": "m", "positive": "up", "axis": "Z",
+                       "long_name": "nominal height of the sensor above ground"},
+            )
+        )
+        coords.append("alt")
+    for name, var in out.data_vars.items():
+        if "time" in var.dims and not name.startswith(("qc_", "n_")):
+            existing = var.attrs.get("coordinates", "")
+            merged = " ".join(dict.fromkeys((existing.split() if existing else []) + coords))
+            out[name].attrs["coordinates"] = merged
+        elif "time" in var.dims:
+            out[name].attrs.setdefault("coordinates", " ".join(coords))
+    bounds = {str(v.attrs["bounds"]) for v in out.variables.values() if "bounds" in v.attrs}
+    for name in bounds & set(out.variables):
+        out[name].attrs.pop("coordinates", None)
+    return out
+
+
+def _coverage_attrs(ds: xr.Dataset) -> dict[str, Any]:
+    attrs: dict[str, Any] = {}
+    if "time" in ds.variables and ds["time"].size > 0:
+        t = ds["time"].values
+        bounds = ds["time"].attrs.get("bounds")
+        if bounds in ds.variables:  # statistics over a period: the bounds give the coverage
+            t = ds[bounds].values.ravel()
+        t0, t1 = np.nanmin(t), np.nanmax(t)
+        attrs["time_coverage_start"] = _iso(t0)
+        attrs["time_coverage_end"] = _iso(t1)
+        seconds = float((t1 - t0) / np.timedelta64(1, "s"))
+        attrs["time_coverage_duration"] = f"PT{seconds:.3f}S"
+        if ds["time"].size > 1:
+            step = float(np.nanmedian(np.diff(t).astype("timedelta64[us]").astype(np.int64))) / 1e6
+            attrs["time_coverage_resolution"] = f"PT{step:.6f}S"
+        else:
+            attrs["time_coverage_resolution"] = attrs["time_coverage_duration"]
+    for name, key in (("lat", "lat"), ("lon", "lon")):
+        if name in ds.variables:
+            values = np.asarray(ds[name].values, dtype=float)
+            if "precise_" + name in ds.variables:
+                values = np.concatenate([values.ravel(), np.asarray(ds["precise_" + name].values, float)])
+            finite = values[np.isfinite(values)]
+            if finite.size:
+                attrs[f"geospatial_{key}_min"] = float(finite.min())
+                attrs[f"geospatial_{key}_max"] = float(finite.max())
+                attrs[f"geospatial_{key}_units"] = "degrees_north" if key == "lat" else "degrees_east"
+    if "geospatial_lat_min" in attrs and "geospatial_lon_min" in attrs:
+        lat0, lat1 = attrs["geospatial_lat_min"], attrs["geospatial_lat_max"]
+        lon0, lon1 = attrs["geospatial_lon_min"], attrs["geospatial_lon_max"]
+        if lat0 == lat1 and lon0 == lon1:
+            attrs["geospatial_bounds"] = f"POINT ({lat0:.6f} {lon0:.6f})"
+        else:
+            attrs["geospatial_bounds"] = (
+                f"POLYGON (({lat0:.6f} {lon0:.6f}, {lat0:.6f} {lon1:.6f}, {lat1:.6f} {lon1:.6f}, "
+                f"{lat1:.6f} {lon0:.6f}, {lat0:.6f} {lon0:.6f}))"
+            )
+        attrs["geospatial_bounds_crs"] = "EPSG:4326"
+    if "alt" in ds.variables:
+        # Heights are above the local ground; there is no EPSG code for that datum, so the
+        # CRS is named in words (ACDD asks for the attribute, not for a registry code).
+        attrs["geospatial_bounds_vertical_crs"] = "height above local ground level"
+        z = float(ds["alt"].values)
+        attrs.update(
+            geospatial_vertical_min=z,
+            geospatial_vertical_max=z,
+            geospatial_vertical_units="m",
+            geospatial_vertical_positive="up",
+        )
+    return attrs
+
+
+def _netcdf_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """NetCDF attributes must be str, numbers or arrays of numbers: convert the rest."""
+    out: dict[str, Any] = {}
+    for key, value in attrs.items():
+        if value is None:
+            continue
+        if isinstance(value, bool | np.bool_):
+            out[key] = int(value)
+        elif isinstance(value, str | int | float | np.number | np.ndarray | list | tuple):
+            out[key] = value
+        else:
+            out[key] = str(value)
+    return out
+
+
+def write_netcdf(
+    ds: xr.Dataset,
+    path: str | Path,
+    *,
+    title: str,
+    summary: str,
+    processing_level: str,
+    history: str,
+    inputs: Iterable[str | Path] = (),
+    config: Mapping[str, Any] | None = None,
+    feature_type: str | None = "timeSeries",
+    station_id: str | None = None,
+    latitude: float | None = None,
+    longitude: float | None = None,
+    height_m: float | None = None,
+    extra_attrs: Mapping[str, Any] | None = None,
+    groups: Mapping[str, xr.Dataset] | None = None,
+    nonstandard_group: str | None = None,
+) -> Path:
+    """Write a dataset as CF-1.11 / ACDD-1.3 NetCDF-4, atomically, with provenance.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Data; variables carry ``units`` and ``standard_name`` or ``long_name``.
+    path : str or Path
+        Destination file; its folder is created.
+    title, summary : str
+        ACDD discovery text.
+    processing_level : str
+        Data level (``"L1"`` ... ``"L4"``) with a few words.
+    history : str
+        What produced this file (one line); prefixed with a UTC stamp and appended to the
+        dataset's existing ``history``.
+    inputs : iterable of path
+        Files this output was computed from; their SHA-256 go into ``input_checksums``.
+    config : mapping, optional
+        Configuration used; its hash goes into ``config_sha256``.
+    feature_type : str or None
+        CF ``featureType`` (``"timeSeries"`` for mast and hovering-drone records); ``None``
+        for files that are not discrete sampling geometries (statistics, spectra).
+    station_id : str, optional
+        Identifier of the sensor/platform (``cf_role = timeseries_id``); required when
+        ``feature_type`` is ``"timeSeries"``.
+    latitude, longitude : float, optional
+        Nominal position [degrees].
+    height_m : float, optional
+        Nominal sensor height above ground [m].
+    extra_attrs : mapping, optional
+        More global attributes (e.g. flight id, lags).
+    groups : mapping of str to xarray.Dataset, optional
+        Sub-groups for quantities without a CF standard name (e.g. ``"spectra"``);
+        read back with ``xarray.open_dataset(path, group=name)``.
+    nonstandard_group : str, optional
+        Move every data variable without a ``standard_name`` (QC flags excepted) from
+        ``ds`` into a group of this name (see :func:`split_standard`).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if nonstandard_group:
+        ds, split = split_standard(ds, nonstandard_group)
+        groups = {**split, **(groups or {})}
+    if feature_type == "timeSeries" and not station_id:
+        raise ValueError(f"{path}: a timeSeries file needs a station_id")
+    out = _prepare_variables(_add_station(ds, station_id, latitude, longitude, height_m))
+
+    input_list = [Path(p) for p in inputs]
+    checksums = {p.name: sha256_file(p) for p in input_list if p.is_file()}
+    stamp = _creation_time()
+    previous = str(ds.attrs.get("history", "")).strip()
+    line = f"{stamp} dronewind {__version__}: {history}"
+    attrs: dict[str, Any] = {k: v for k, v in ds.attrs.items() if v is not None}
+    attrs.update(_FIXED_GLOBAL_ATTRS)
+    attrs.update(
+        {
+            "title": title,
+            "summary": summary,
+            "keywords": _KEYWORDS,
+            "processing_level": processing_level,
+            "history": f"{previous}\n{line}" if previous else line,
+            "date_created": stamp,
+            "date_modified": stamp,
+            "date_issued": stamp,
+            "date_metadata_modified": stamp,
+            "id": f"dronewind/{path.parent.name}/{path.stem}",
+            "comment": "Produced by the dronewind workflow; see processing_log for every step.",
+            "config_sha256": config_hash(config or {}),
+            "input_files": ", ".join(p.name for p in input_list),
+            "input_checksums": json.dumps(checksums, sort_keys=True),
+        }
+    )
+    if feature_type:
+        attrs["featureType"] = feature_type
+        attrs["cdm_data_type"] = "Station" if feature_type == "timeSeries" else feature_type
+    else:
+        attrs.pop("featureType", None)
+    attrs.update(_coverage_attrs(out))
+    if extra_attrs:
+        attrs.update({k: v for k, v in extra_attrs.items() if v is not None})
+    if groups:
+        attrs["groups"] = ", ".join(groups)
+    out.attrs = _netcdf_attrs(attrs)
+
+    handle, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(handle)
+    try:
+        out.to_netcdf(tmp_name, format="NETCDF4", engine="netcdf4")
+        for group_name, group_ds in (groups or {}).items():
+            group_out = _prepare_variables(group_ds)
+            group_out.attrs = _netcdf_attrs(dict(group_ds.attrs))
+            group_out.to_netcdf(tmp_name, mode="a", group=group_name, format="NETCDF4", engine="netcdf4")
+        os.chmod(tmp_name, 0o644)
+        os.replace(tmp_name, path)
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write a text file atomically (temporary file in the same folder, then rename).
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination.
+    text : str
+        Content.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as stream:
+            stream.write(text)
+        os.chmod(tmp_name, 0o644)  # mkstemp creates 0600; outputs are meant to be shared
+        os.replace(tmp_name, path)
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def check_compliance(path: str | Path) -> tuple[bool, str]:
+    """Run the IOOS compliance checker (CF-1.11 and ACDD-1.3, normal criteria).
+
+    Parameters
+    ----------
+    path : str or Path
+        NetCDF file.
+
+    Returns
+    -------
+    passed : bool
+        True when the checker's exit code is 0.
+    report : str
+        The checker's text report.
+    """
+    import subprocess
+    import sys
+
+    exe = Path(sys.executable).with_name("compliance-checker")
+    cmd = [str(exe) if exe.exists() else "compliance-checker", "--test=cf:1.11",
+           "--test=acdd:1.3", "--criteria=normal", "--format=text", str(path)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    return proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def split_standard(ds: xr.Dataset, group: str) -> tuple[xr.Dataset, dict[str, xr.Dataset]]:
+    """Split a dataset into standard-named variables (root) and the rest (one group).
+
+    Variables whose ``standard_name`` is missing go to the group named ``group``, with the
+    coordinates they use; QC flags stay in the root group with the data they describe.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Dataset to split.
+    group : str
+        Name of the group for variables without a CF standard name.
+
+    Returns
+    -------
+    root : xarray.Dataset
+        Standard-named variables and QC flags (global attributes kept).
+    groups : dict
+        ``{group: dataset}``, empty when every variable has a standard name.
+    """
+    bounds = {str(v.attrs["bounds"]) for v in ds.variables.values() if "bounds" in v.attrs}
+    rest = [
+        name
+        for name, var in ds.data_vars.items()
+        if "standard_name" not in var.attrs and not name.startswith("qc_") and name not in bounds
+    ]
+    if not rest:
+        return ds, {}
+    other = ds[rest]
+    other.attrs = {"comment": "quantities without a CF standard name (long_name and units only)"}
+    root = ds.drop_vars(rest)
+    unused = [d for d in root.dims if not any(d in v.dims for v in root.data_vars.values())]
+    root = root.drop_dims(unused) if unused else root
+    return root, {group: other}

@@ -1,0 +1,333 @@
+r"""Figures of the quadrotor fleet (seed 001, Figs 3-9) and the wind tunnel (seed 002, Figs 4-7, 9).
+
+Drawn only from stored products: the campaign tables written by
+:func:`dronewind.steps.quadrotor.quadrotor_calibration` and
+:func:`dronewind.steps.quadrotor.tunnel_analysis`, ``quadrotor/calibration.json`` (the
+universal law evaluated on a tilt grid), the L2 NetCDF files of one flight and its tower
+reference CSV. Presentation-only arithmetic: absolute values of stored per-step errors
+(Fig. 5 of seed 002, one step's RMSE) and the 1:1 lines.
+
+Output: one PNG per figure, fixed size and resolution, no time stamp in the metadata
+(deterministic bytes for identical inputs), written atomically; Agg canvas, no pyplot state.
+Windows and UAVs that could not be used are named in a note on the figure, never dropped
+silently.
+
+References
+----------
+.. [1] Seed 001 (``../shared/papers/001_*.txt``), Figs 3-9 with their captions.
+.. [2] Seed 002 (``../shared/papers/002_*.txt``), Figs 4-7 and 9 with their captions.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["QUAD_FIGURES", "TUNNEL_FIGURES", "quadrotor_figures", "tunnel_figures"]
+
+DPI = 110
+
+#: Quadrotor figures: file stem -> caption.
+QUAD_FIGURES: dict[str, str] = {
+    "quadrotor_fig3_individual": "10-min wind speed, drone vs tower, individual calibration (seed 001 Fig. 3)",
+    "quadrotor_fig4_regression": "Tilt vs tower wind speed and the universal regression law (seed 001 Fig. 4)",
+    "quadrotor_fig5_validation": "Validation flights, drone vs tower with universal law and calibrated offsets "
+                                 "(seed 001 Fig. 5)",
+    "quadrotor_fig6_direction": "Wind direction, drone (corrected heading) vs tower (seed 001 Fig. 6)",
+    "quadrotor_fig7_timeseries": "1 Hz UAV wind speed and tower 1-min means of one flight (seed 001 Fig. 7)",
+    "quadrotor_fig8_profiles": "Wind-speed profiles, drones (with calibration RMSE) vs tower (seed 001 Fig. 8)",
+    "quadrotor_fig9_variance": "Variance of 1-min mean speeds in each window, drone vs tower (seed 001 Fig. 9 "
+                               "analogue: the tower reports 1-min means)",
+}
+#: Tunnel figures: file stem -> caption.
+TUNNEL_FIGURES: dict[str, str] = {
+    "tunnel_fig4_sideslip": "RMSE of the UAS speed over the CTA speed per angle of sideslip (seed 002 Fig. 4)",
+    "tunnel_fig5_portability": "Speed error of each UAS over the CTA speed (seed 002 Fig. 5)",
+    "tunnel_fig6_gusts": "Gust RMSE at V0 and at the peak Vp per preset (seed 002 Fig. 6)",
+    "tunnel_fig7_steps": "Velocity-step RMSEs per preset (seed 002 Fig. 7)",
+    "tunnel_fig9_variance": "Variance, UAS vs CTA at full and cut bandwidth (seed 002 Fig. 9)",
+}
+
+
+def _figure(width_in: float = 6.0, height_in: float = 4.5) -> tuple[Any, Any]:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    return fig, fig.add_subplot()
+
+
+def _save(fig: Any, path: str | Path, note: str = "") -> Path:
+    """Write a PNG atomically without a time stamp; ``note`` goes onto the figure and into metadata."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig)
+    if note:
+        fig.text(0.01, 0.005, note, fontsize=7, color="0.3", ha="left", va="bottom", wrap=True)
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    handle, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(handle)
+    try:
+        fig.savefig(tmp, format="png", dpi=DPI, metadata={"Software": None, "Title": target.stem,
+                                                          "Description": note or "none skipped"})
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def _one_to_one(ax: Any, x: np.ndarray, y: np.ndarray) -> None:
+    v = np.concatenate([np.asarray(x, float), np.asarray(y, float)])
+    v = v[np.isfinite(v)]
+    hi = float(v.max()) * 1.05 if v.size else 1.0
+    lo = min(0.0, float(v.min())) if v.size else 0.0
+    ax.plot([lo, hi], [lo, hi], color="0.5", lw=0.8, ls="--", label="1:1")
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(lo, hi)
+    ax.set_aspect("equal")
+
+
+def _scatter_by_uav(ax: Any, table: pd.DataFrame, x: str, y: str) -> None:
+    for uav, g in table.groupby("uav"):
+        ax.plot(g[x], g[y], "o", ms=4, label=str(uav))
+
+
+def _by_path(outputs: Sequence[str | Path]) -> dict[str, Path]:
+    return {Path(p).stem: Path(p) for p in outputs}
+
+
+def quadrotor_figures(tables_dir: str | Path, summary_file: str | Path, l2_files: Sequence[str | Path],
+                      reference_file: str | Path, outputs: Sequence[str | Path]) -> list[Path]:
+    """Draw seed 001 Figs 3-9 from the stored quadrotor tables.
+
+    Parameters
+    ----------
+    tables_dir : str or Path
+        Folder with ``quadrotor_*.csv``.
+    summary_file : str or Path
+        ``quadrotor/calibration.json``.
+    l2_files : sequence of path
+        L2 files of the flight shown as time series (Fig. 7).
+    reference_file : str or Path
+        That flight's tower reference CSV.
+    outputs : sequence of path
+        PNG files, stems as in :data:`QUAD_FIGURES`.
+
+    Returns
+    -------
+    list of Path
+        Written files.
+    """
+    from dronewind.quadrotor.io import read_tower_reference
+    from dronewind.steps.common import open_product
+
+    tdir = Path(tables_dir)
+    out = _by_path(outputs)
+    win = pd.read_csv(tdir / "quadrotor_windows.csv", dtype={"uav": str, "flight": str})
+    prof = pd.read_csv(tdir / "quadrotor_profiles.csv", dtype={"flight": str})
+    probs = pd.read_csv(tdir / "quadrotor_problems.csv", dtype=str)
+    summary = json.loads(Path(summary_file).read_text())
+    skipped = (f"left out: {probs[['flight', 'uav']].drop_duplicates().shape[0]} UAV log(s), see "
+               "quadrotor_problems.csv") if len(probs) else ""
+    label = f"{summary.get('calibration_window_s', 600):g}-s windows"
+    written = []
+
+    fig, ax = _figure()
+    _scatter_by_uav(ax, win, "ref_speed_ms", "speed_individual_ms")
+    _one_to_one(ax, win["ref_speed_ms"], win["speed_individual_ms"])
+    ax.set(xlabel="tower wind speed [m/s]", ylabel="UAV wind speed [m/s]",
+           title=f"individual calibration, {win['flight'].nunique()} flights, {label}")
+    ax.legend(fontsize=7, ncol=2)
+    written.append(_save(fig, out["quadrotor_fig3_individual"], skipped))
+
+    fig, ax = _figure()
+    _scatter_by_uav(ax, win, "tilt_deg", "ref_speed_ms")
+    curve = summary.get("regression_curve", {})
+    aero = summary.get("aero", {})
+    if curve:
+        ax.plot(curve["tilt_deg"], curve["speed_ms"], "k-",
+                label=f"c_d0A0 = {aero.get('cd0a0_m2', np.nan):.4f} m2, c_p = {aero.get('cp_m2_per_rad', np.nan):.4f}")
+    ax.set(xlabel="tilt, offset-corrected [degree]", ylabel="tower wind speed [m/s]",
+           title="universal regression (seed 001 Eq. 18 form)")
+    ax.legend(fontsize=7, ncol=2)
+    note = skipped if summary.get("converged", True) else "calibration NOT converged; " + skipped
+    written.append(_save(fig, out["quadrotor_fig4_regression"], note))
+
+    val = win[win["validation"] == 1] if (win["validation"] == 1).any() else win
+    fig, ax = _figure()
+    _scatter_by_uav(ax, val, "ref_speed_ms", "uav_speed_ms")
+    _one_to_one(ax, val["ref_speed_ms"], val["uav_speed_ms"])
+    ax.set(xlabel="tower wind speed [m/s]", ylabel="UAV wind speed [m/s]",
+           title=f"validation flights ({val['flight'].nunique()}), universal law + pitch offsets")
+    ax.legend(fontsize=7, ncol=2)
+    indep = "" if summary.get("independent_validation", True) else \
+        "no second-week flights: validated on the calibration flights. "
+    written.append(_save(fig, out["quadrotor_fig5_validation"], indep + skipped))
+
+    fig, ax = _figure()
+    _scatter_by_uav(ax, val, "ref_from_deg", "uav_from_deg")
+    ax.plot([0, 360], [0, 360], color="0.5", lw=0.8, ls="--")
+    ax.set(xlim=(0, 360), ylim=(0, 360), xlabel="tower wind direction [degree]",
+           ylabel="UAV wind direction (corrected yaw) [degree]", title="wind direction with yaw offsets")
+    ax.legend(fontsize=7, ncol=2)
+    written.append(_save(fig, out["quadrotor_fig6_direction"], indep + skipped))
+
+    from matplotlib.dates import DateFormatter
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.5, 6.0), layout="constrained")
+    ax_one, ax = fig.subplots(2, 1, sharex=True)
+    ref = read_tower_reference(reference_file)
+    flight, notes = "", []
+    series = []
+    for path in l2_files:
+        ds = open_product(path)
+        flight = str(ds.attrs.get("flight", ""))
+        series.append((float(ds["alt"]) if "alt" in ds else float("nan"), ds))
+    series.sort(key=lambda x: x[0])
+    for h, ds in series:
+        usable = int(ds.attrs.get("usable", 1))
+        style = {"lw": 0.7} if usable else {"lw": 0.7, "ls": ":", "color": "0.5"}
+        ax.plot(ds["time"].values, ds["wind_speed_ms"].values, label=f"{ds.attrs.get('uav', '')} {h:.0f} m", **style)
+        if not usable:
+            notes.append(f"{ds.attrs.get('uav', '')}: {ds.attrs.get('unusable_reason', '')}")
+    if series:
+        h, ds = series[-1]
+        k = int(np.argmin(np.abs(ref["height_m"].values - h)))
+        ax_one.plot(ds["time"].values, ds["wind_speed_ms"].values, lw=0.8, color="tab:red",
+                    label=f"UAV {ds.attrs.get('uav', '')} at {h:.0f} m (1 Hz)")
+        ax_one.step(ref["time"].values, ref["wind_speed_ms"].isel(height=k).values, where="post", color="k",
+                    lw=1.2, label=f"tower {float(ref['height_m'].values[k]):g} m (1-min means)")
+        t = np.concatenate([d["time"].values for _, d in series])
+        ax.set_xlim(t.min(), t.max())
+        ax_one.legend(fontsize=7)
+    ax_one.set(ylabel="wind speed [m/s]", title=f"flight {flight}: (a) highest UAV vs tower, (b) all UAVs")
+    ax.set(xlabel="time (UTC)", ylabel="wind speed [m/s]")
+    ax.xaxis.set_major_formatter(DateFormatter("%H:%M"))
+    ax.legend(fontsize=7, ncol=4)
+    written.append(_save(fig, out["quadrotor_fig7_timeseries"], "; ".join(notes)))
+
+    fig, ax = _figure(5.0, 5.0)
+    counts = prof.groupby("flight")["ref_height_m"].nunique().sort_values(ascending=False, kind="stable")
+    for flight, style in zip(counts.index[:2], ("-", "--"), strict=False):
+        g = prof[prof["flight"] == flight].sort_values("height_m")
+        ax.errorbar(g["uav_speed_ms"], g["height_m"], xerr=g["rmse_ms"], fmt="o" + style, ms=4,
+                    label=f"UAVs, flight {flight}")
+        ax.plot(g["ref_speed_ms"], g["ref_height_m"], "k" + style, marker="s", ms=4, label=f"tower, flight {flight}")
+    ax.set(xlabel="wind speed [m/s]", ylabel="height [m]", title="profiles (error bars: UAV RMSE, Sect. 5.3)")
+    ax.legend(fontsize=7)
+    written.append(_save(fig, out["quadrotor_fig8_profiles"], skipped))
+
+    fig, ax = _figure()
+    if "var_ref_1min_m2s2" in win:
+        ok = np.isfinite(win["var_ref_1min_m2s2"]) & np.isfinite(win["var_uav_1min_m2s2"])
+        _scatter_by_uav(ax, win[ok], "var_ref_1min_m2s2", "var_uav_1min_m2s2")
+        _one_to_one(ax, win.loc[ok, "var_ref_1min_m2s2"], win.loc[ok, "var_uav_1min_m2s2"])
+        note = f"{int((~ok).sum())} window(s) without a variance" if (~ok).any() else ""
+    else:
+        note = "no tower variance stored"
+    ax.set(xlabel="tower variance of 1-min means [m2/s2]", ylabel="UAV variance of 1-min means [m2/s2]",
+           title="wind-speed variance per window")
+    ax.legend(fontsize=7, ncol=2)
+    written.append(_save(fig, out["quadrotor_fig9_variance"], note))
+    return written
+
+
+def tunnel_figures(tables_dir: str | Path, outputs: Sequence[str | Path]) -> list[Path]:
+    """Draw seed 002 Figs 4-7 and 9 from the stored tunnel tables.
+
+    Parameters
+    ----------
+    tables_dir : str or Path
+        Folder with ``tunnel_*.csv``.
+    outputs : sequence of path
+        PNG files, stems as in :data:`TUNNEL_FIGURES`.
+
+    Returns
+    -------
+    list of Path
+        Written files; a table that is empty (run kind absent) gives a figure that says so.
+    """
+    tdir = Path(tables_dir)
+    out = _by_path(outputs)
+
+    def read(name: str) -> pd.DataFrame:
+        path = tdir / f"tunnel_{name}.csv"
+        try:
+            return pd.read_csv(path, dtype={"uas": str})
+        except pd.errors.EmptyDataError:
+            return pd.DataFrame()
+
+    written = []
+    fig, ax = _figure()
+    side = read("sideslip")
+    note = ""
+    if len(side) and "speed_bin_ms" in side:
+        s = side[side["speed_bin_ms"].notna()]
+        for aos, g in s.groupby("aos_deg"):
+            ax.plot(g["speed_bin_ms"], g["rmse_ms"], "o-", ms=3, label=f"AoS {aos:g} deg")
+        ax.legend(fontsize=7)
+    else:
+        note = "no sideslip runs"
+    ax.set(xlabel="CTA wind speed [m/s]", ylabel="RMSE of the UAS speed [m/s]", title="angle of sideslip")
+    written.append(_save(fig, out["tunnel_fig4_sideslip"], note))
+
+    fig, ax = _figure()
+    acc = read("steps_accuracy")
+    po = acc[acc["kind"] == "portability"] if len(acc) else acc
+    note = "" if len(po) else "no portability runs"
+    for uas, g in (po.groupby("uas") if len(po) else []):
+        g = g.sort_values("cta_ms")
+        ax.plot(g["cta_ms"], np.abs(g["error_ms"]), "o-", ms=3, label=str(uas))
+    if len(po):
+        ax.legend(fontsize=7)
+    ax.set(xlabel="CTA wind speed [m/s]", ylabel="|UAS - CTA| per step [m/s]", title="portability of the calibration")
+    written.append(_save(fig, out["tunnel_fig5_portability"], note))
+
+    fig, ax = _figure()
+    gs = read("gust_summary")
+    note = "" if len(gs) else "no gust runs"
+    if len(gs):
+        lab = [f"{a:g}/{b:g}" for a, b in zip(gs["v0_set_ms"], gs["vg_set_ms"], strict=True)]
+        x = np.arange(len(gs))
+        ax.plot(x, gs["rmse_v0_ms"], "o-", label="V0")
+        ax.plot(x, gs["rmse_vp_ms"], "s-", label="Vp")
+        ax.set_xticks(x, lab, rotation=45, fontsize=7)
+        ax.legend(fontsize=7)
+    ax.set(xlabel="preset V0 / Vg [m/s]", ylabel="RMSE [m/s]", title="IEC gusts")
+    written.append(_save(fig, out["tunnel_fig6_gusts"], note))
+
+    fig, ax = _figure()
+    ss = read("step_summary")
+    note = "" if len(ss) else "no velocity-step runs"
+    if len(ss):
+        lab = [f"{a:g}+{b:g}" for a, b in zip(ss["v0_set_ms"], ss["vdu_set_ms"], strict=True)]
+        x = np.arange(len(ss))
+        for col, mk, name in (("rmse_v_high_ms", "o-", "V_h"), ("rmse_v_low_ms", "s-", "V_l"),
+                              ("rmse_dv_up_ms", "^-", "dV_u"), ("rmse_dv_down_ms", "v-", "dV_d")):
+            ax.plot(x, ss[col], mk, label=name)
+        ax.set_xticks(x, lab, fontsize=7)
+        ax.legend(fontsize=7)
+    ax.set(xlabel="preset V_l + dV [m/s]", ylabel="RMSE [m/s]", title="velocity steps")
+    written.append(_save(fig, out["tunnel_fig7_steps"], note))
+
+    fig, ax = _figure()
+    tb = read("turbulence")
+    note = "" if len(tb) else "no turbulence runs"
+    if len(tb):
+        ax.plot(tb["var_cta_full"], tb["var_uas"], "ko", ms=4, label="CTA at its own rate")
+        ax.plot(tb["var_cta_cut_fmax"], tb["var_uas"], "ro", ms=4, label="CTA cut at the UAS's f_max")
+        _one_to_one(ax, np.r_[tb["var_cta_full"], tb["var_cta_cut_fmax"]], tb["var_uas"])
+        ax.legend(fontsize=7)
+    ax.set(xlabel="CTA variance [m2/s2]", ylabel="UAS variance [m2/s2]", title="turbulence variance")
+    written.append(_save(fig, out["tunnel_fig9_variance"], note))
+    return written

@@ -1,0 +1,315 @@
+r"""Reader for the AmeriFlux open-path "gold" raw files (Gill WindMaster Pro, 10 Hz).
+
+Layout found in the files (``G<DDD><HHMM>.RAW.gz``, gzip-compressed ASCII, CRLF line ends,
+no header): 21 comma-separated fields per line, of which the first six hold numbers and the
+last fifteen are empty::
+
+    +0.110,-0.930,+0.600,20.82,2.992,2.246,,,,,,,,,,,,,,,
+
+The source notes (``Gold_processing_openpath_notes_0410.doc``) name the six columns:
+vertical wind W [m/s], horizontal wind U [m/s], cross wind V [m/s], sonic temperature
+[degC], H2O signal [V] (0 V = 0, 5 V = 1000 mmol m-3) and CO2 signal [V] (0 V = 10,
+5 V = 25 mmol m-3). ``DDD`` is the day of year and ``HHMM`` the start of the half hour
+("G1040000 = 10 Hz data from midnight 0000 to 0030 on day of year 104"). The 96 files in
+``../shared/data/ameriflux_gold_openpath`` (days 104 and 181) hold 17999 rows (93 files)
+or 17998 rows (3 files: G1040500, G1041330, G1810430), not 18000: the sample times are not logged, so rows are
+assumed to start at the half hour at 10 Hz and the shortfall is counted
+(``n_missing_rows``), position unknown. Neither the year nor the time zone is stated;
+AmeriFlux logs local standard time, for this site (38.4067 N, 120.9507 W, California)
+UTC-8, used by default; the year defaults to a nominal 2000 and is a parameter.
+
+Sonic frame and conversion to east/north: the notes say the sonic's N (its reference
+spar) faced 240 deg, "U is positive for flow from south to north, and V is positive for
+flow from east to west (convention for Gill Windmaster Pro)", the south/north and east/west
+being the sonic's own axes. So U is the air velocity towards the sonic's N, azimuth
+:math:`\beta` = 240 deg, and V the air velocity towards the sonic's W, azimuth
+:math:`\beta - 90` deg = 150 deg (with W up this frame is right-handed). Projecting on east
+(:math:`\sin` of the azimuth) and north (:math:`\cos`):
+
+.. math::
+
+    u_E = U \sin\beta - V \cos\beta, \qquad v_N = U \cos\beta + V \sin\beta,
+    \qquad w = W,
+
+i.e. for :math:`\beta` = 240 deg: :math:`u_E = -0.866\,U + 0.5\,V`,
+:math:`v_N = -0.5\,U - 0.866\,V`. Check: for :math:`\beta = 0` (sonic N on true north)
+:math:`v_N = U` and :math:`u_E = -V` (flow to the west is negative east).
+
+Caveat (not resolved from the files): with this literal reading the half-hour mean wind
+blows from 35-140 deg in the daytime and from 240-290 deg at night. If the site's daytime
+flow is the westerly up-slope flow one may expect in the Sierra foothills, the notes'
+azimuth refers to the opposite end of the U axis; ``north_azimuth_deg=60`` gives that
+alternative (all horizontal components change sign).
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import os
+import re
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from dronewind.errors import InputError
+from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
+
+__all__ = [
+    "AMERIFLUX_GOLD_COLUMNS",
+    "gill_to_enu",
+    "read_ameriflux_gold",
+    "read_ameriflux_gold_blocks",
+]
+
+#: Column order of the numeric fields (source notes, "Data columns").
+AMERIFLUX_GOLD_COLUMNS: tuple[str, ...] = ("w", "u", "v", "t_sonic_c", "h2o_v", "co2_v")
+
+_NAME_RE = re.compile(r"^G(\d{3})(\d{2})(\d{2})\.RAW(\.gz)?$", re.IGNORECASE)
+_FS_HZ = 10.0
+_BLOCK_S = 1800.0
+_N_FIELDS = 21
+
+QC_OUT_OF_RANGE = 1
+QC_SPIKE = 2
+QC_MISSING = 4
+
+def gill_to_enu(
+    u_ms: np.ndarray, v_ms: np.ndarray, north_azimuth_deg: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate Gill U (towards sonic N) and V (towards sonic W) to east and north.
+
+    Parameters
+    ----------
+    u_ms, v_ms : numpy.ndarray
+        Gill components [m s-1].
+    north_azimuth_deg : float
+        Azimuth the sonic's N spar faces [degree clockwise from true north].
+
+    Returns
+    -------
+    u_east_ms, v_north_ms : numpy.ndarray
+        [m s-1].
+
+    Notes
+    -----
+    .. math:: u_E = U \\sin\\beta - V \\cos\\beta, \\qquad v_N = U \\cos\\beta + V \\sin\\beta .
+    """
+    b = np.deg2rad(north_azimuth_deg)
+    u = np.asarray(u_ms, dtype=float)
+    v = np.asarray(v_ms, dtype=float)
+    return u * np.sin(b) - v * np.cos(b), u * np.cos(b) + v * np.sin(b)
+
+
+def _block_start(path: Path, year: int, utc_offset_hours: float) -> np.datetime64:
+    m = _NAME_RE.match(path.name)
+    if not m:
+        raise InputError(path, "file name is not G<DDD><HHMM>.RAW[.gz]; cannot date the block")
+    doy, hh, mm = int(m.group(1)), int(m.group(2)), int(m.group(3))
+    if not (1 <= doy <= 366 and hh < 24 and mm < 60):
+        raise InputError(path, f"day of year {doy} or time {hh:02d}{mm:02d} out of range")
+    local = (np.datetime64(f"{year:04d}-01-01T00:00", "ns")
+             + np.timedelta64(doy - 1, "D") + np.timedelta64(hh * 60 + mm, "m"))  # fmt: skip
+    return local - np.timedelta64(int(round(utc_offset_hours * 3600e9)), "ns")
+
+
+def read_ameriflux_gold(
+    path: str | os.PathLike[str],
+    north_azimuth_deg: float = 240.0,
+    year: int = 2000,
+    utc_offset_hours: float = -8.0,
+    height_m: float = 2.0,
+    despike: bool = True,
+    max_corrupt_fraction: float = 0.05,
+) -> xr.Dataset:
+    """Read one AmeriFlux open-path gold half-hour file.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``G<DDD><HHMM>.RAW`` or ``.RAW.gz`` file.
+    north_azimuth_deg : float, optional
+        Azimuth of the sonic's N spar [degree]; 240 per the source notes.
+    year : int, optional
+        Year of the record (not stated in the source; nominal default 2000).
+    utc_offset_hours : float, optional
+        Offset of the logger's clock from UTC [h]; default -8 (local standard time,
+        California, the AmeriFlux convention).
+    height_m : float, optional
+        Measurement height [m]; 2 m per the source notes.
+    despike : bool, optional
+        Flag spikes with the moving MAD (QC 2).
+    max_corrupt_fraction : float, optional
+        Largest tolerated fraction of lines that do not hold six numbers [1].
+
+    Returns
+    -------
+    xarray.Dataset
+        dim ``time`` (UTC, start of the half hour + i/10 s); ``u_east_ms``, ``v_north_ms``,
+        ``w_up_ms``, ``t_sonic_k`` (NaN where ``qc_sonic`` != 0), raw ``u_gill_ms``,
+        ``v_gill_ms``, ``w_gill_ms``, ``t_sonic_c``, ``h2o_v``, ``co2_v`` and the
+        calibrated ``h2o_mmol_m3`` = 200 V, ``co2_mmol_m3`` = 10 + 3 V; ``qc_sonic``.
+        attrs ``sampling_rate_hz`` = 10, ``n_rows``, ``n_missing_rows`` (18000 - rows),
+        ``n_corrupt_lines``, ``n_out_of_range``, ``n_spikes``, ``processing_log``.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, bad file name, a line with numbers beyond field 6, or too many
+        corrupt lines.
+
+    Notes
+    -----
+    Conversion to east/north: see the module docstring and :func:`gill_to_enu`.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(p, "file not found")
+    start = _block_start(p, year, utc_offset_hours)
+    opener = gzip.open if p.suffix.lower() == ".gz" else open
+    try:
+        with opener(p, "rb") as fh:
+            raw = fh.read()
+    except (OSError, EOFError) as exc:
+        raise InputError(p, f"cannot read ({exc})") from exc
+    text = raw.decode("ascii", errors="replace")
+    frame = pd.read_csv(
+        io.StringIO(text), header=None, dtype=str, keep_default_na=False,
+        skip_blank_lines=True, names=list(range(_N_FIELDS)),
+        on_bad_lines="error", engine="c",
+    )  # fmt: skip
+    n_lines = len(frame)
+    if n_lines == 0:
+        raise InputError(p, "no data lines")
+    extra = (frame.iloc[:, 6:] != "").to_numpy().any(axis=1)
+    if extra.any():
+        i = int(np.flatnonzero(extra)[0])
+        raise InputError(f"{p}:{i + 1}", "non-empty field beyond column 6; expected "
+                         "w,u,v,T,H2O,CO2 followed by empty fields")  # fmt: skip
+    vals = np.empty((n_lines, 6))
+    for j in range(6):
+        vals[:, j] = pd.to_numeric(frame[j].str.strip(), errors="coerce").to_numpy(dtype=float)
+    corrupt = ~np.isfinite(vals).all(axis=1)
+    n_corrupt = int(corrupt.sum())
+    if n_corrupt > max_corrupt_fraction * n_lines:
+        i = int(np.flatnonzero(corrupt)[0])
+        raise InputError(f"{p}:{i + 1}", f"{n_corrupt} of {n_lines} lines do not hold six "
+                         "numbers")  # fmt: skip
+    w, u, v, t_c, h2o, co2 = (vals[:, j] for j in range(6))
+    n_expected = int(round(_FS_HZ * _BLOCK_S))
+    qc = np.zeros(n_lines, dtype=np.int8)
+    qc[corrupt] |= QC_MISSING
+    lim = INSTRUMENT_LIMITS["gill_windmaster_pro"]
+    speed = np.sqrt(u**2 + v**2 + w**2)
+    out = range_mask(speed, *lim["speed_ms"]) | range_mask(t_c, *lim["t_sonic_c"])
+    qc[out] |= QC_OUT_OF_RANGE
+    spikes = np.zeros(n_lines, dtype=bool)
+    if despike:
+        for x in (u, v, w, t_c):
+            spikes |= despike_moving_mad(np.where(qc == 0, x, np.nan), _FS_HZ)
+    qc[spikes] |= QC_SPIKE
+    nanf = np.where(qc != 0, np.nan, 1.0)
+    u_e, v_n = gill_to_enu(u, v, north_azimuth_deg)
+    time = start + (np.arange(n_lines, dtype=np.int64) * int(1e9 / _FS_HZ)).astype(
+        "timedelta64[ns]"
+    )
+
+    def va(units: str, std: str | None = None, long: str | None = None, **kw: Any) -> dict:
+        a: dict[str, Any] = {"units": units}
+        if std:
+            a["standard_name"] = std
+        if long:
+            a["long_name"] = long
+        a.update(kw)
+        return a
+
+    ds = xr.Dataset(
+        {
+            "u_east_ms": ("time", u_e * nanf, va("m s-1", "eastward_wind")),
+            "v_north_ms": ("time", v_n * nanf, va("m s-1", "northward_wind")),
+            "w_up_ms": ("time", w * nanf, va("m s-1", "upward_air_velocity")),
+            "t_sonic_k": ("time", (t_c + 273.15) * nanf, va(
+                "K", "virtual_temperature", comment="Gill sonic temperature",
+                units_metadata="temperature: on_scale")),
+            "u_gill_ms": ("time", u, va("m s-1", long="Gill U as logged (towards sonic N)")),
+            "v_gill_ms": ("time", v, va("m s-1", long="Gill V as logged (towards sonic W)")),
+            "w_gill_ms": ("time", w, va("m s-1", long="Gill W as logged (up)")),
+            "t_sonic_c": ("time", t_c, va("degC", long="sonic temperature as logged",
+                                          units_metadata="temperature: on_scale")),
+            "h2o_v": ("time", h2o, va("V", long="open-path H2O signal")),
+            "co2_v": ("time", co2, va("V", long="open-path CO2 signal")),
+            "h2o_mmol_m3": ("time", 200.0 * h2o, va(
+                "mmol m-3", long="H2O molar density (0 V = 0, 5 V = 1000 mmol m-3)")),
+            "co2_mmol_m3": ("time", 10.0 + 3.0 * co2, va(
+                "mmol m-3", long="CO2 molar density (0 V = 10, 5 V = 25 mmol m-3)")),
+            "qc_sonic": ("time", qc, {
+                "standard_name": "status_flag", "long_name": "sonic QC bitmask",
+                "flag_masks": np.array([1, 2, 4], dtype=np.int8),
+                "flag_values": np.array([1, 2, 4], dtype=np.int8),
+                "flag_meanings": "out_of_range spike missing_or_corrupt", "units": "1"}),
+        },
+        coords={"time": ("time", time, {"long_name": "time (UTC)"})},
+    )
+    n_missing = max(0, n_expected - n_lines)
+    ds.attrs.update(
+        sampling_rate_hz=_FS_HZ,
+        n_rows=int(n_lines),
+        n_missing_rows=int(n_missing),
+        n_corrupt_lines=n_corrupt,
+        n_out_of_range=int(out.sum()),
+        n_spikes=int(spikes.sum()),
+        n_flagged=int((qc != 0).sum()),
+        north_azimuth_deg=float(north_azimuth_deg),
+        height_m=float(height_m),
+        site_latitude=38.4067,
+        site_longitude=-120.9507,
+        source_file=str(p),
+        time_comment=f"times assumed: half-hour start from the file name + i/10 s; year "
+        f"{year} nominal (not stated in the source); clock UTC{utc_offset_hours:+g} h",
+        processing_log="\n".join([
+            f"read: {p.name}: {n_lines} rows ({n_missing} short of {n_expected}, position "
+            f"unknown), {n_corrupt} lines without six numbers flagged",
+            f"qc: {int(out.sum())} out of Gill WindMaster Pro range, {int(spikes.sum())} spikes"
+            f"{'' if despike else ' (despiking off)'}; {int((qc != 0).sum())} samples set to NaN",
+            f"frame: sonic N at {north_azimuth_deg:g} deg; u_E = U sin b - V cos b, "
+            "v_N = U cos b + V sin b, w = W",
+        ]),
+    )  # fmt: skip
+    return ds
+
+
+def _sort_key(path: Path) -> tuple[int, str]:
+    m = _NAME_RE.match(path.name)
+    return (int(m.group(1) + m.group(2) + m.group(3)), path.name) if m else (10**9, path.name)
+
+
+def read_ameriflux_gold_blocks(
+    paths: Iterable[str | os.PathLike[str]], **kwargs: Any
+) -> Iterator[xr.Dataset]:
+    """Iterate over half-hour gold files lazily, in time order, one dataset at a time.
+
+    Parameters
+    ----------
+    paths : iterable of str or Path
+        Gold files (a directory is expanded to its ``G*.RAW*`` files).
+    **kwargs
+        Passed to :func:`read_ameriflux_gold`.
+
+    Yields
+    ------
+    xarray.Dataset
+        One half-hour block; only one is held in memory at a time by this generator.
+    """
+    files: list[Path] = []
+    for item in paths if not isinstance(paths, (str, os.PathLike)) else [paths]:
+        pth = Path(item)
+        if pth.is_dir():
+            files.extend(f for f in pth.iterdir() if _NAME_RE.match(f.name))
+        else:
+            files.append(pth)
+    for f in sorted(files, key=_sort_key):
+        yield read_ameriflux_gold(f, **kwargs)

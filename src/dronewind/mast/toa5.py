@@ -1,0 +1,433 @@
+r"""Campbell Scientific TOA5 reader for CSAT3 mast sonics, to the L1 mast dataset.
+
+TOA5 (DESIGN.md "Mast sonic file"): four header lines (environment, field names, units,
+processing), then quoted-timestamp CSV rows with at least
+``TIMESTAMP, RECORD, Ux, Uy, Uz, Ts, diag_csat``. Handled details:
+
+* TIMESTAMP ``YYYY-MM-DD HH:MM:SS[.f]`` (UTC): Campbell drops trailing zeros of the
+  fraction (``12:45:00.1``, ``12:45:01``), parsed as ISO 8601;
+* ``"NAN"`` values -> NaN, flagged missing (QC 4);
+* non-zero ``diag_csat`` -> flagged (QC 16) and the sample set to NaN;
+* RECORD skips are counted (``n_record_skips``), as are RECORD restarts;
+* several files are concatenated in time order; duplicated time stamps are dropped;
+* the record is put on its regular 10 Hz or 20 Hz grid; absent grid points are inserted as
+  missing samples (``n_missing``);
+* a changed header (required column missing) -> :class:`~dronewind.errors.InputError` naming
+  the file and the column; a row whose TIMESTAMP or RECORD cannot be parsed is corrupt
+  (counted; more than 5 % corrupt -> InputError).
+
+QC bitmask ``qc_mast``: 1 out of range (CSAT3 limits in
+:data:`dronewind.core.filtering.INSTRUMENT_LIMITS`), 2 spike (moving MAD), 4 missing/corrupt,
+8 gap-filled (later stages), 16 CSAT3 diagnostic word non-zero.
+"""
+
+from __future__ import annotations
+
+import csv
+import glob
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from dronewind.errors import InputError
+from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
+
+__all__ = ["REQUIRED_TOA5_COLUMNS", "csat3_to_enu", "mast_l1", "read_toa5"]
+
+REQUIRED_TOA5_COLUMNS: tuple[str, ...] = (
+    "TIMESTAMP", "RECORD", "Ux", "Uy", "Uz", "Ts", "diag_csat",
+)  # fmt: skip
+
+QC_OUT_OF_RANGE = 1
+QC_SPIKE = 2
+QC_MISSING = 4
+QC_GAP_FILLED = 8
+QC_DIAG = 16
+_N_LOGGED = 5
+
+
+def csat3_to_enu(
+    ux_ms: np.ndarray, uy_ms: np.ndarray, azimuth_deg: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate CSAT3 horizontal components to east and north.
+
+    Parameters
+    ----------
+    ux_ms, uy_ms : numpy.ndarray
+        CSAT3 components [m s-1]; Ux > 0 for wind blowing from the azimuth the sensor head
+        points to into the head, right-handed with z up.
+    azimuth_deg : float
+        Azimuth the sensor head points to [degree, clockwise from true north].
+
+    Returns
+    -------
+    u_east_ms, v_north_ms : numpy.ndarray
+        [m s-1].
+
+    Notes
+    -----
+    DESIGN.md, "Frames and signs", with :math:`\\alpha` the azimuth:
+
+    .. math::
+
+        u_E = -U_x \\sin\\alpha + U_y \\cos\\alpha, \\qquad
+        u_N = -U_x \\cos\\alpha - U_y \\sin\\alpha .
+    """
+    a = np.deg2rad(azimuth_deg)
+    ux = np.asarray(ux_ms, dtype=float)
+    uy = np.asarray(uy_ms, dtype=float)
+    return -ux * np.sin(a) + uy * np.cos(a), -ux * np.cos(a) - uy * np.sin(a)
+
+
+def _expand_paths(paths: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) -> list[Path]:
+    items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
+    out: list[Path] = []
+    for item in items:
+        s = str(item)
+        if any(ch in s for ch in "*?[") and not Path(s).exists():
+            matches = sorted(glob.glob(s))
+            if not matches:
+                raise InputError(s, "glob pattern matches no file")
+            out.extend(Path(m) for m in matches)
+        else:
+            out.append(Path(s))
+    if not out:
+        raise InputError("paths", "no TOA5 file given")
+    return out
+
+
+def read_toa5(
+    path: str | os.PathLike[str],
+    required: Sequence[str] = REQUIRED_TOA5_COLUMNS,
+    max_corrupt_fraction: float = 0.05,
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """Read one TOA5 file into a DataFrame.
+
+    Parameters
+    ----------
+    path : str or Path
+        TOA5 file.
+    required : sequence of str, optional
+        Field names that must be in the header (line 2).
+    max_corrupt_fraction : float, optional
+        Largest tolerated fraction of rows with an unparsable TIMESTAMP or RECORD or a wrong
+        number of fields [1].
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``time`` (datetime64[ns]), ``RECORD`` (int64) and every other field as
+        float64 (``"NAN"`` and non-numeric -> NaN); corrupt rows removed.
+    info : dict
+        ``header`` (the four header lines as lists), ``units`` (field -> unit),
+        ``n_lines``, ``n_corrupt_lines``, ``corrupt_lines`` (first few line numbers),
+        ``n_nonnumeric`` (non-numeric values in numeric fields, set NaN).
+
+    Raises
+    ------
+    InputError
+        Missing file, not a TOA5 file (line 1), a required column missing (line 2), or too
+        many corrupt rows.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(p, "file not found")
+    text = p.read_bytes().decode("utf-8", errors="replace").lstrip("\ufeff")
+    lines = text.splitlines()
+    if len(lines) < 4:
+        raise InputError(p, f"only {len(lines)} lines; a TOA5 file has 4 header lines")
+    header = [next(csv.reader([ln])) for ln in lines[:4]]
+    if not header[0] or header[0][0] != "TOA5":
+        raise InputError(f"{p}:1", f"first field is {header[0][:1]}, expected 'TOA5'")
+    names = [h.strip() for h in header[1]]
+    for col in required:
+        if col not in names:
+            raise InputError(
+                f"{p}:2", f"required column {col!r} missing from the TOA5 header; found {names}"
+            )
+    if len(set(names)) != len(names):
+        raise InputError(f"{p}:2", f"duplicated column names in {names}")
+    units = dict(zip(names, (h.strip() for h in header[2])))
+    body = lines[4:]
+    n_lines = len(body)
+    if n_lines == 0:
+        raise InputError(p, "no data rows after the 4 header lines")
+    ncol = len(names)
+    # csv.reader handles the quoted TIMESTAMP and keeps every line (with its number), so
+    # rows with a wrong field count can be counted instead of being skipped silently.
+    split = list(csv.reader(body))
+    line_no = np.arange(5, 5 + n_lines)
+    good_count = np.fromiter((len(r) == ncol for r in split), dtype=bool, count=n_lines)
+    raw = pd.DataFrame([r for r, g in zip(split, good_count) if g], columns=names, dtype=object)
+    line_no_ok = line_no[good_count]
+    ts = pd.to_datetime(raw["TIMESTAMP"], format="ISO8601", errors="coerce")
+    rec_ok = raw["RECORD"].astype(str).str.fullmatch(r"\s*[+-]?\d+\s*").to_numpy(dtype=bool)
+    bad_ok = ts.isna().to_numpy() | ~rec_ok
+    bad_lines = np.sort(np.concatenate([line_no[~good_count], line_no_ok[bad_ok]]))
+    n_corrupt = int(bad_lines.size)
+    if n_corrupt > max_corrupt_fraction * n_lines:
+        raise InputError(
+            f"{p}:{int(bad_lines[0])}",
+            f"{n_corrupt} of {n_lines} data rows corrupt (> {100 * max_corrupt_fraction:g} %): "
+            f"unparsable TIMESTAMP or RECORD or not {ncol} fields; first at lines "
+            f"{bad_lines[:_N_LOGGED].tolist()}",
+        )
+    corrupt = bad_ok
+    keep = ~corrupt
+    frame = pd.DataFrame({"time": ts[keep].to_numpy().astype("datetime64[ns]")})
+    frame["RECORD"] = raw.loc[keep, "RECORD"].astype(str).str.strip().astype(np.int64).to_numpy()
+    n_nonnumeric = 0
+    for col in names:
+        if col in ("TIMESTAMP", "RECORD"):
+            continue
+        s = raw.loc[keep, col].astype(str).str.strip()
+        v = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+        nan_literal = s.str.upper().isin(["NAN", "-NAN", "+NAN", ""]).to_numpy(dtype=bool)
+        n_nonnumeric += int((np.isnan(v) & ~nan_literal).sum())
+        frame[col] = v
+    frame["_line"] = line_no_ok[keep]
+    info = {
+        "header": header,
+        "units": units,
+        "n_lines": n_lines,
+        "n_corrupt_lines": n_corrupt,
+        "corrupt_lines": bad_lines[:_N_LOGGED].tolist(),
+        "n_nonnumeric": n_nonnumeric,
+    }
+    return frame, info
+
+
+def mast_l1(
+    paths: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+    azimuth_deg: float,
+    height_m: float,
+    sensor_id: str,
+    max_corrupt_fraction: float = 0.05,
+    despike_window_s: float = 10.0,
+    despike_n_mad: float = 7.0,
+    despike: bool = True,
+    max_gap_s: float = 60.0,
+) -> xr.Dataset:
+    """Build the L1 mast sonic dataset from one or more CSAT3 TOA5 files.
+
+    Parameters
+    ----------
+    paths : str, Path or sequence of them
+        TOA5 files (glob patterns allowed); concatenated in time order.
+    azimuth_deg : float
+        Azimuth the CSAT3 head points to [degree, clockwise from true north].
+    height_m : float
+        Measurement height above ground [m].
+    sensor_id : str
+        Identifier of the sonic (manifest ``sonics[].id``).
+    max_corrupt_fraction : float, optional
+        Largest tolerated fraction of corrupt rows per file [1].
+    despike_window_s, despike_n_mad : float, optional
+        Moving-MAD despiking window [s] and threshold [scaled MAD].
+    despike : bool, optional
+        Apply the moving-MAD despiking (QC 2).
+    max_gap_s : float, optional
+        Gaps in the time stamps up to this length [s] are filled with missing samples on
+        the regular grid; longer gaps (separate records, e.g. one file per flight on
+        different days) are kept as breaks of the time axis, so that a record of a few
+        flights over months does not become months of NaN. The grid phase and the
+        despiking window restart after a break.
+
+    Returns
+    -------
+    xarray.Dataset
+        dim ``time`` (UTC, regular grid within each segment, see ``max_gap_s``); ``u_east_ms``, ``v_north_ms``, ``w_up_ms``,
+        ``t_sonic_k`` (NaN where ``qc_mast`` != 0), raw ``ux_ms``, ``uy_ms``, ``uz_ms`` (as
+        logged), ``diag_csat`` (int32, -1 where absent), ``qc_mast``. attrs ``azimuth_deg``,
+        ``height_m``, ``sensor_id``, ``sampling_rate_hz``, ``n_*`` counts,
+        ``processing_log``.
+
+    Raises
+    ------
+    InputError
+        See :func:`read_toa5`; also a sampling interval that is not constant.
+
+    Notes
+    -----
+    East/north by :func:`csat3_to_enu`, :math:`w = U_z`, :math:`T_s[K] = T_s[^\\circ C] +
+    273.15`. Range limits (CSAT3): :math:`|U_x|, |U_y| \\le 65` m/s, :math:`|U_z| \\le 8`
+    m/s, :math:`-30 \\le T_s \\le 50` degC.
+
+    References
+    ----------
+    Seed 000, Sect. 3.2 and 4.4 (same filtering for the mast sonics).
+    """
+    files = _expand_paths(paths)
+    frames = []
+    log: list[str] = []
+    counts = {"n_lines": 0, "n_corrupt_lines": 0, "n_nonnumeric": 0, "n_record_skips": 0,
+              "n_record_restarts": 0}  # fmt: skip
+    for f in files:
+        frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
+        ts_unit = info["units"].get("Ts", "C")
+        if ts_unit.strip().upper() in ("K", "KELVIN"):
+            frame["Ts"] = frame["Ts"] - 273.15
+        rec = frame["RECORD"].to_numpy()
+        d = np.diff(rec)
+        skips = int(np.sum(np.where(d > 1, d - 1, 0)))
+        restarts = int(np.sum(d <= 0))
+        counts["n_lines"] += info["n_lines"]
+        counts["n_corrupt_lines"] += info["n_corrupt_lines"]
+        counts["n_nonnumeric"] += info["n_nonnumeric"]
+        counts["n_record_skips"] += skips
+        counts["n_record_restarts"] += restarts
+        msg = (f"read: {f.name}: {len(frame)} rows, {info['n_corrupt_lines']} corrupt removed, "
+               f"{skips} RECORD numbers skipped, {restarts} RECORD restarts")  # fmt: skip
+        if info["n_corrupt_lines"]:
+            msg += f" (corrupt lines {info['corrupt_lines']})"
+        log.append(msg)
+        frame["_file"] = len(frames)
+        frames.append(frame)
+    frames.sort(key=lambda fr: fr["time"].iloc[0] if len(fr) else np.datetime64("NaT"))
+    data = pd.concat(frames, ignore_index=True)
+    cols = ["time", "RECORD", "Ux", "Uy", "Uz", "Ts", "diag_csat"]
+    exact_dup = data.duplicated(subset=cols, keep="first").to_numpy()
+    data = data.loc[~exact_dup]
+    data = data.sort_values("time", kind="stable")
+    conflict = data.duplicated(subset=["time"], keep="first").to_numpy()
+    data = data.loc[~conflict].reset_index(drop=True)
+    counts["n_duplicates"] = int(exact_dup.sum())
+    counts["n_time_conflicts"] = int(conflict.sum())
+    log.append(f"order: {len(files)} files concatenated in time order, "
+               f"{int(exact_dup.sum())} duplicate rows and {int(conflict.sum())} rows repeating a "
+               "TIMESTAMP with other values dropped")  # fmt: skip
+    t = data["time"].to_numpy().astype("datetime64[ns]")
+    if t.size < 2:
+        raise InputError(files[0], f"only {t.size} valid rows")
+    dt_ns = int(np.median(np.diff(t).astype(np.int64)))
+    if dt_ns <= 0:
+        raise InputError(files[0], "TIMESTAMP does not increase")
+    fs_hz = 1e9 / dt_ns
+    # segments: breaks where the time stamps jump by more than max_gap_s
+    jumps = np.flatnonzero(np.diff(t).astype(np.int64) > max_gap_s * 1e9) + 1
+    seg_start = np.r_[0, jumps]
+    seg_end = np.r_[jumps, t.size]
+    keep_rows = np.ones(t.size, dtype=bool)
+    grid_index = np.zeros(t.size, dtype=np.int64)
+    time_parts = []
+    offset = 0
+    for a, b in zip(seg_start, seg_end, strict=True):
+        k_float = (t[a:b] - t[a]).astype(np.int64) / dt_ns
+        k = np.rint(k_float).astype(np.int64)
+        off_grid = np.abs(k_float - k) > 0.25
+        if off_grid.any():
+            i = a + int(np.flatnonzero(off_grid)[0])
+            raise InputError(
+                f"{files[int(data['_file'].iloc[i])]}:{int(data['_line'].iloc[i])}",
+                f"TIMESTAMP {t[i]} is off the {fs_hz:g} Hz sampling grid; expected a constant "
+                "sampling interval",
+            )
+        dup = np.zeros(k.size, dtype=bool)
+        dup[1:] = k[1:] == k[:-1]
+        keep_rows[a:b] = ~dup
+        grid_index[a:b] = offset + k
+        n_seg = int(k[-1]) + 1
+        time_parts.append(t[a] + (np.arange(n_seg, dtype=np.int64) * dt_ns).astype("timedelta64[ns]"))
+        offset += n_seg
+    counts["n_time_conflicts"] += int((~keep_rows).sum())
+    counts["n_record_breaks"] = int(jumps.size)
+    k = grid_index[keep_rows]
+    data = data.loc[keep_rows].reset_index(drop=True)
+    n = offset
+    time = np.concatenate(time_parts)
+    bounds = np.cumsum([0] + [p.size for p in time_parts])
+    segments = list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
+    present = np.zeros(n, dtype=bool)
+    present[k] = True
+    counts["n_missing"] = int(n - k.size)
+
+    def grid(col: str) -> np.ndarray:
+        out = np.full(n, np.nan)
+        out[k] = data[col].to_numpy(dtype=float)
+        return out
+
+    ux, uy, uz, ts_c, diag = grid("Ux"), grid("Uy"), grid("Uz"), grid("Ts"), grid("diag_csat")
+    qc = np.zeros(n, dtype=np.int8)
+    missing = ~(np.isfinite(ux) & np.isfinite(uy) & np.isfinite(uz) & np.isfinite(ts_c))
+    qc[missing] |= QC_MISSING
+    diag_bad = np.isfinite(diag) & (diag != 0)
+    qc[diag_bad] |= QC_DIAG
+    lim = INSTRUMENT_LIMITS["csat3"]
+    out = (range_mask(ux, *lim["ux_ms"]) | range_mask(uy, *lim["uy_ms"])
+           | range_mask(uz, *lim["uz_ms"]) | range_mask(ts_c, *lim["t_sonic_c"]))  # fmt: skip
+    qc[out] |= QC_OUT_OF_RANGE
+    spikes = np.zeros(n, dtype=bool)
+    if despike:
+        for a, b in segments:  # the moving window never spans a record break
+            for x in (ux, uy, uz, ts_c):
+                spikes[a:b] |= despike_moving_mad(np.where(qc[a:b] == 0, x[a:b], np.nan), fs_hz,
+                                                  despike_window_s, despike_n_mad)  # fmt: skip
+    qc[spikes] |= QC_SPIKE
+    flagged = qc != 0
+    counts["n_nan_values"] = int((missing & present).sum())
+    counts["n_diag_flagged"] = int(diag_bad.sum())
+    counts["n_out_of_range"] = int(out.sum())
+    counts["n_spikes"] = int(spikes.sum())
+    counts["n_flagged"] = int(flagged.sum())
+    log.append(
+        f"grid: {fs_hz:g} Hz, {counts['n_missing']} absent time stamps inserted as missing; "
+        f"{counts['n_record_breaks']} record breaks (gaps > {max_gap_s:g} s kept as breaks, not filled)"
+    )
+    log.append(
+        f"qc: {counts['n_nan_values']} NAN samples, {counts['n_diag_flagged']} non-zero "
+        f"diag_csat, {counts['n_out_of_range']} out of CSAT3 range, {counts['n_spikes']} spikes "
+        f"(moving MAD {despike_window_s:g} s, {despike_n_mad:g} scaled MAD"
+        f"{'' if despike else ', off'}); {counts['n_flagged']} of {n} samples set to NaN"
+    )
+    u_e, v_n = csat3_to_enu(ux, uy, azimuth_deg)
+    nanf = np.where(flagged, np.nan, 1.0)
+    diag_i = np.where(np.isfinite(diag), diag, -1).astype(np.int32)
+
+    def va(units: str, std: str | None = None, long: str | None = None, **kw: Any) -> dict:
+        a: dict[str, Any] = {"units": units}
+        if std:
+            a["standard_name"] = std
+        if long:
+            a["long_name"] = long
+        a.update(kw)
+        return a
+
+    ds = xr.Dataset(
+        {
+            "u_east_ms": ("time", u_e * nanf, va("m s-1", "eastward_wind")),
+            "v_north_ms": ("time", v_n * nanf, va("m s-1", "northward_wind")),
+            "w_up_ms": ("time", uz * nanf, va("m s-1", "upward_air_velocity")),
+            "t_sonic_k": ("time", (ts_c + 273.15) * nanf, va(
+                "K", "virtual_temperature", comment="CSAT3 sonic temperature (approximately "
+                "the virtual temperature)", units_metadata="temperature: on_scale")),
+            "ux_ms": ("time", ux, va("m s-1", long="CSAT3 Ux as logged (positive into the "
+                                     "sensor head)")),
+            "uy_ms": ("time", uy, va("m s-1", long="CSAT3 Uy as logged")),
+            "uz_ms": ("time", uz, va("m s-1", long="CSAT3 Uz as logged (up)")),
+            "diag_csat": ("time", diag_i, va("1", long="CSAT3 diagnostic word as logged "
+                                             "(-1: not available)")),
+            "qc_mast": ("time", qc, {
+                "standard_name": "status_flag", "long_name": "mast sonic QC bitmask",
+                "flag_masks": np.array([1, 2, 4, 8, 16], dtype=np.int8),
+                "flag_values": np.array([1, 2, 4, 8, 16], dtype=np.int8),
+                "flag_meanings": "out_of_range spike missing_or_corrupt gap_filled "
+                                 "csat3_diagnostic", "units": "1"}),
+        },
+        coords={"time": ("time", time, {"long_name": "time (UTC)"})},
+    )
+    for key, val in counts.items():
+        ds.attrs[key] = int(val)
+    ds.attrs.update(
+        azimuth_deg=float(azimuth_deg),
+        height_m=float(height_m),
+        sensor_id=str(sensor_id),
+        sampling_rate_hz=float(round(fs_hz, 6)),
+        source_files=", ".join(str(f) for f in files),
+        processing_log="\n".join(log),
+    )
+    return ds

@@ -1,0 +1,1051 @@
+r"""Readers for the SAMURAI-S-type payload: sonic CSV and INS CSV to L1 datasets.
+
+L0 formats (``../shared/DESIGN.md``, "Payload sonic file" and "INS file")::
+
+    rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c
+    rpi_time_us,utc,time_valid,ekf_valid,lat_deg,lon_deg,alt_m,vel_n_ms,vel_e_ms,vel_d_ms,roll_deg,pitch_deg,yaw_deg
+
+Both files are stamped by the logger's clock (``rpi_time_us``, not UTC). The INS also logs
+GNSS UTC, so the logger clock is converted to UTC by a robust straight-line fit
+``utc = a + b * rpi_time`` over the INS rows with a stable valid GNSS time (seed 000,
+Sect. 3.2), which is then applied to the sonic.
+
+Bad input policy (every removal is counted in ``ds.attrs["n_*"]`` and described in
+``ds.attrs["processing_log"]``):
+
+* header not exactly the expected one -> :class:`~dronewind.errors.InputError` naming line 1;
+* corrupt lines (wrong column count, non-numeric field, unparsable UTC while
+  ``time_valid`` = 1): removed, counted (``n_corrupt_lines``), the first few line numbers
+  logged; more than 5 % corrupt lines -> InputError naming the file and the first bad line;
+* exact duplicate rows: dropped (``n_duplicates``); rows repeating a time stamp with other
+  values: the first kept (``n_time_conflicts``);
+* rows out of order by less than ``clock_jump_tol_s`` (1 s): sorted (``n_out_of_order``);
+* an isolated row whose time stamp is more than ``clock_jump_tol_s`` from both neighbours
+  while the neighbours agree: a corrupt time stamp, removed (``n_time_outliers``);
+* clock jumps -> :class:`ClockJumpError` (an InputError), never corrected: (a) a backward
+  step of ``rpi_time_us`` in row order larger than ``clock_jump_tol_s`` (cannot be a late
+  row; the logger clock was set back, and rows of the two clock epochs cannot be told
+  apart once sorted), (b) a step in the INS relation ``utc - rpi_time`` larger than
+  ``relation_jump_tol_s`` (0.1 s; the logger clock or GNSS time stepped). Correction was
+  rejected: it needs the segment of every sonic row, which a backward step makes ambiguous,
+  and a silently mis-corrected clock biases every later step (sync, motion correction).
+  A forward step of the sonic's ``rpi_time_us`` with no step in the INS relation is a data
+  gap (the shared clock ran on): its samples are inserted as missing (``n_missing``), up
+  to ``max_gap_s`` (60 s); a longer forward step raises ClockJumpError;
+* values out of the instrument's range (:data:`dronewind.core.filtering.INSTRUMENT_LIMITS`),
+  NaN values and spikes are flagged in the QC bitmask and set to NaN (not filled).
+
+QC bitmask (``qc_sonic``, ``qc_ins``): 1 out of range, 2 spike, 4 missing/corrupt,
+8 gap-filled (set by later stages).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import bottleneck as bn
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from dronewind.errors import InputError
+from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
+
+__all__ = [
+    "ClockFit",
+    "ClockJumpError",
+    "INS_COLUMNS",
+    "QC_FLAG_MEANINGS",
+    "QC_FLAG_VALUES",
+    "SONIC_COLUMNS",
+    "fit_logger_clock",
+    "ins_l1",
+    "payload_sonic_l1",
+    "read_ins_csv",
+    "read_sonic_csv",
+]
+
+SONIC_COLUMNS: tuple[str, ...] = ("rpi_time_us", "u_ms", "v_ms", "w_ms", "t_sonic_c")
+INS_COLUMNS: tuple[str, ...] = (
+    "rpi_time_us", "utc", "time_valid", "ekf_valid", "lat_deg", "lon_deg", "alt_m",
+    "vel_n_ms", "vel_e_ms", "vel_d_ms", "roll_deg", "pitch_deg", "yaw_deg",
+)  # fmt: skip
+
+QC_OUT_OF_RANGE = 1
+QC_SPIKE = 2
+QC_MISSING = 4
+QC_GAP_FILLED = 8
+QC_FLAG_VALUES = np.array([1, 2, 4, 8], dtype=np.int8)
+QC_FLAG_MEANINGS = "out_of_range spike missing_or_corrupt gap_filled"
+
+_N_LOGGED_LINES = 5  # how many corrupt line numbers are quoted in the log
+_US = 1_000_000
+
+
+class ClockJumpError(InputError):
+    """A step of the logger clock (or of its relation to GNSS UTC) that cannot be explained.
+
+    Parameters
+    ----------
+    where : str or Path
+        File and line of the first row after the step.
+    what : str
+        Size and kind of the step.
+    """
+
+
+# --------------------------------------------------------------------------- CSV parsing
+
+
+@dataclass
+class _Table:
+    """Parsed CSV: column arrays (good rows only), their file line numbers and counts."""
+
+    path: str
+    columns: dict[str, np.ndarray]
+    line_no: np.ndarray
+    n_data_lines: int
+    n_blank_lines: int
+    corrupt_lines: list[int]
+    log: list[str] = field(default_factory=list)
+    counts: dict[str, int] = field(default_factory=dict)
+
+    def take(self, index: np.ndarray) -> None:
+        """Keep rows `index` (in that order)."""
+        self.columns = {k: v[index] for k, v in self.columns.items()}
+        self.line_no = self.line_no[index]
+
+
+def _read_text(path: str | os.PathLike[str]) -> str:
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(p, "file not found")
+    raw = p.read_bytes()
+    # Binary garbage in a line must not stop the reader: it becomes a corrupt line.
+    return raw.decode("utf-8", errors="replace").lstrip("\ufeff")
+
+
+def _parse_csv(
+    path: str | os.PathLike[str],
+    expected: tuple[str, ...],
+    kinds: dict[str, str],
+    max_corrupt_fraction: float,
+    extra_bad: Any = None,
+) -> _Table:
+    """Parse a fixed-header CSV line by line, separating corrupt lines.
+
+    kinds: column -> "int" (integer literal), "float" (number or nan literal), "flag"
+    (0 or 1), "utc" (ISO 8601, optional trailing Z, may be empty).
+    extra_bad: optional callable(columns) -> bool array of further corrupt rows.
+    """
+    text = _read_text(path)
+    lines = text.splitlines()
+    if not lines:
+        raise InputError(path, f"empty file; expected header {','.join(expected)!r}")
+    header = tuple(h.strip() for h in lines[0].split(","))
+    if header != expected:
+        raise InputError(
+            f"{path}:1", f"header is {lines[0].strip()!r}, expected {','.join(expected)!r}"
+        )
+    body = lines[1:]
+    line_numbers = np.arange(2, len(body) + 2)
+    blank = np.fromiter((not ln.strip() for ln in body), dtype=bool, count=len(body))
+    n_blank = int(blank.sum())
+    body = [ln for ln, b in zip(body, blank) if not b]
+    line_numbers = line_numbers[~blank]
+    n_lines = len(body)
+    if n_lines == 0:
+        raise InputError(path, "no data lines after the header")
+    ncol = len(expected)
+    split = [ln.split(",") for ln in body]
+    good_count = np.fromiter((len(f) == ncol for f in split), dtype=bool, count=n_lines)
+    rows = [f for f, g in zip(split, good_count) if g]
+    bad = np.zeros(len(rows), dtype=bool)
+    cols: dict[str, np.ndarray] = {}
+    frame = pd.DataFrame(rows, columns=list(expected), dtype=object) if rows else None
+    for name in expected:
+        if frame is None:
+            cols[name] = np.zeros(0)
+            continue
+        s = frame[name].astype(str).str.strip()
+        kind = kinds[name]
+        if kind in ("int", "flag"):
+            ok = s.str.fullmatch(r"[+-]?\d+").to_numpy(dtype=bool)
+            vals = np.zeros(len(s), dtype=np.int64)
+            if ok.any():
+                vals[ok] = s[ok].astype(np.int64).to_numpy()
+            if kind == "flag":
+                ok = ok & ((vals == 0) | (vals == 1))
+            bad |= ~ok
+            cols[name] = vals
+        elif kind == "float":
+            vals = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+            nan_literal = s.str.lower().isin(["nan", "+nan", "-nan"]).to_numpy(dtype=bool)
+            bad |= np.isnan(vals) & ~nan_literal
+            cols[name] = vals
+        elif kind == "utc":
+            empty = (s == "").to_numpy(dtype=bool)
+            t = pd.to_datetime(s.str.removesuffix("Z"), format="ISO8601", errors="coerce")
+            vals = t.to_numpy().astype("datetime64[ns]")
+            bad |= np.isnat(vals) & ~empty
+            cols[name] = vals
+        else:  # pragma: no cover - programming error
+            raise ValueError(kind)
+    if extra_bad is not None and len(rows):
+        bad |= extra_bad(cols)
+    good_lines = line_numbers[good_count]
+    corrupt = np.sort(np.concatenate([line_numbers[~good_count], good_lines[bad]]))
+    n_corrupt = int(corrupt.size)
+    if n_corrupt > max_corrupt_fraction * n_lines:
+        raise InputError(
+            f"{path}:{int(corrupt[0])}",
+            f"{n_corrupt} of {n_lines} data lines corrupt (> {100 * max_corrupt_fraction:g} %); "
+            f"first corrupt lines {corrupt[:_N_LOGGED_LINES].tolist()}; expected "
+            f"{ncol} comma-separated fields {','.join(expected)}",
+        )
+    keep = ~bad
+    table = _Table(
+        path=str(path),
+        columns={k: v[keep] for k, v in cols.items()},
+        line_no=good_lines[keep],
+        n_data_lines=n_lines,
+        n_blank_lines=n_blank,
+        corrupt_lines=corrupt.tolist(),
+    )
+    table.counts["n_lines"] = n_lines
+    table.counts["n_corrupt_lines"] = n_corrupt
+    table.counts["n_blank_lines"] = n_blank
+    msg = f"parse: {n_lines} data lines, {n_corrupt} corrupt removed"
+    if n_corrupt:
+        msg += f" (first at lines {corrupt[:_N_LOGGED_LINES].tolist()})"
+    if n_blank:
+        msg += f", {n_blank} blank lines ignored"
+    table.log.append(msg)
+    if table.columns[expected[0]].size == 0:
+        raise InputError(path, "no valid data rows")
+    return table
+
+
+def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float) -> None:
+    """Drop exact duplicates and time conflicts, check backward jumps, sort by rpi_time_us."""
+    t = table.columns["rpi_time_us"]
+    frame = pd.DataFrame({c: table.columns[c] for c in ["rpi_time_us", *value_cols]})
+    dup = frame.duplicated(keep="first").to_numpy()
+    n_dup = int(dup.sum())
+    keep = np.flatnonzero(~dup)
+    table.take(keep)
+    t = table.columns["rpi_time_us"]
+    conflict = pd.Series(t).duplicated(keep="first").to_numpy()
+    n_conf = int(conflict.sum())
+    if n_conf:
+        table.take(np.flatnonzero(~conflict))
+        t = table.columns["rpi_time_us"]
+    # An isolated corrupt-but-numeric time stamp (its neighbours agree with each other but
+    # it is more than the tolerance away from both) is a corrupt row, not a clock jump.
+    tol_us = clock_jump_tol_s * _US
+    n_iso = 0
+    if t.size >= 3:
+        far_prev = np.abs(t[1:-1] - t[:-2]) > tol_us
+        far_next = np.abs(t[2:] - t[1:-1]) > tol_us
+        close = np.abs(t[2:] - t[:-2]) <= tol_us
+        iso = np.zeros(t.size, dtype=bool)
+        iso[1:-1] = far_prev & far_next & close
+        n_iso = int(iso.sum())
+        if n_iso:
+            table.log.append(
+                f"order: {n_iso} isolated rows with a time stamp far from both neighbours "
+                f"removed (lines {table.line_no[iso][:_N_LOGGED_LINES].tolist()})"
+            )
+            table.take(np.flatnonzero(~iso))
+            t = table.columns["rpi_time_us"]
+    table.counts["n_time_outliers"] = n_iso
+    # Backward steps in row order: a late row lies below the running maximum by less than
+    # the tolerance; a larger deficit means the clock was set back.
+    run_max = np.maximum.accumulate(t)
+    deficit = run_max - t
+    jump = np.flatnonzero(deficit > tol_us)
+    if jump.size:
+        i = int(jump[0])
+        raise ClockJumpError(
+            f"{table.path}:{int(table.line_no[i])}",
+            f"rpi_time_us steps back by {deficit[i] / _US:.3f} s relative to earlier rows "
+            f"(> {clock_jump_tol_s:g} s): logger clock jump; not corrected, fix or split the file",
+        )
+    late = np.zeros(t.size, dtype=bool)
+    late[1:] = t[1:] < run_max[:-1]
+    n_late = int(late.sum())
+    order = np.argsort(t, kind="stable")
+    table.take(order)
+    table.counts["n_duplicates"] = n_dup
+    table.counts["n_time_conflicts"] = n_conf
+    table.counts["n_out_of_order"] = n_late
+    table.log.append(
+        f"order: {n_dup} exact duplicate rows dropped, {n_conf} rows repeating a time stamp "
+        f"with other values dropped (first kept), {n_late} out-of-order rows sorted"
+    )
+
+
+# ------------------------------------------------------------------------------ reading
+
+
+def read_sonic_csv(
+    path: str | os.PathLike[str],
+    max_corrupt_fraction: float = 0.05,
+    clock_jump_tol_s: float = 1.0,
+) -> tuple[dict[str, np.ndarray], dict[str, int], list[str]]:
+    """Read a payload sonic CSV, remove corrupt and duplicate rows and sort by logger time.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV with header ``rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c``.
+    max_corrupt_fraction : float, optional
+        Largest tolerated fraction of corrupt data lines [1]; default 0.05.
+    clock_jump_tol_s : float, optional
+        Largest backward step of ``rpi_time_us`` in row order treated as a late row [s].
+
+    Returns
+    -------
+    columns : dict of numpy.ndarray
+        ``rpi_time_us`` (int64, sorted, unique), ``u_ms``, ``v_ms``, ``w_ms``, ``t_sonic_c``.
+    counts : dict of int
+        ``n_lines``, ``n_corrupt_lines``, ``n_blank_lines``, ``n_duplicates``,
+        ``n_time_conflicts``, ``n_time_outliers``, ``n_out_of_order``.
+    log : list of str
+        Processing log lines.
+
+    Raises
+    ------
+    InputError
+        Missing file, wrong header, or more than `max_corrupt_fraction` corrupt lines.
+    ClockJumpError
+        A backward clock step larger than `clock_jump_tol_s`.
+    """
+    kinds = {"rpi_time_us": "int", "u_ms": "float", "v_ms": "float", "w_ms": "float",
+             "t_sonic_c": "float"}  # fmt: skip
+    table = _parse_csv(path, SONIC_COLUMNS, kinds, max_corrupt_fraction)
+    _dedup_sort(table, list(SONIC_COLUMNS[1:]), clock_jump_tol_s)
+    return table.columns, table.counts, table.log
+
+
+def read_ins_csv(
+    path: str | os.PathLike[str],
+    max_corrupt_fraction: float = 0.05,
+    clock_jump_tol_s: float = 1.0,
+) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, int], list[str]]:
+    """Read an INS CSV, remove corrupt and duplicate rows and sort by logger time.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV with header ``rpi_time_us,utc,time_valid,ekf_valid,lat_deg,lon_deg,alt_m,``
+        ``vel_n_ms,vel_e_ms,vel_d_ms,roll_deg,pitch_deg,yaw_deg``.
+    max_corrupt_fraction : float, optional
+        Largest tolerated fraction of corrupt data lines [1]; default 0.05.
+    clock_jump_tol_s : float, optional
+        Largest backward step of ``rpi_time_us`` in row order treated as a late row [s].
+
+    Returns
+    -------
+    columns : dict of numpy.ndarray
+        One array per column; ``utc`` is datetime64[ns] (NaT where empty), ``time_valid`` is
+        forced to 0 where ``utc`` is empty.
+    line_no : numpy.ndarray
+        File line number of every kept row.
+    counts : dict of int
+        As :func:`read_sonic_csv`, plus ``n_time_valid_without_utc``.
+    log : list of str
+        Processing log lines.
+
+    Raises
+    ------
+    InputError, ClockJumpError
+        As :func:`read_sonic_csv`. A row with ``time_valid`` = 1 and an unparsable (not
+        empty) ``utc`` is a corrupt line.
+    """
+    kinds = {c: "float" for c in INS_COLUMNS}
+    kinds.update(rpi_time_us="int", utc="utc", time_valid="flag", ekf_valid="int")
+    table = _parse_csv(path, INS_COLUMNS, kinds, max_corrupt_fraction)
+    # time_valid = 1 with an empty utc field: GNSS time cannot be used on this row.
+    no_utc = (table.columns["time_valid"] == 1) & np.isnat(table.columns["utc"])
+    n_no_utc = int(no_utc.sum())
+    table.columns["time_valid"] = np.where(no_utc, 0, table.columns["time_valid"])
+    table.counts["n_time_valid_without_utc"] = n_no_utc
+    if n_no_utc:
+        table.log.append(f"parse: {n_no_utc} rows with time_valid=1 but empty utc treated as 0")
+    value_cols = [c for c in INS_COLUMNS[1:] if c != "utc"]
+    table.columns["_utc_i8"] = table.columns["utc"].astype(np.int64)
+    _dedup_sort(table, [*value_cols, "_utc_i8"], clock_jump_tol_s)
+    del table.columns["_utc_i8"]
+    return table.columns, table.line_no, table.counts, table.log
+
+
+# ---------------------------------------------------------------------------- clock fit
+
+
+@dataclass(frozen=True)
+class ClockFit:
+    """Straight-line map from logger time to UTC, ``utc = utc0 + offset + slope*(rpi - rpi0)``.
+
+    Attributes
+    ----------
+    rpi0_us : int
+        Reference logger time [us].
+    utc0 : numpy.datetime64
+        Reference UTC (ns).
+    offset_s : float
+        Fitted UTC at `rpi0_us` minus `utc0` [s].
+    slope : float
+        UTC seconds per logger second [1]; ``(slope - 1) * 1e6`` is the drift in ppm.
+    residual_std_s : float
+        Standard deviation of the residuals of the inlier rows [s].
+    n_used : int
+        Rows used in the final fit.
+    n_outliers : int
+        Rows rejected as outliers.
+    rpi_first_us, rpi_last_us : int
+        Span of logger times covered by the fit [us].
+    """
+
+    rpi0_us: int
+    utc0: np.datetime64
+    offset_s: float
+    slope: float
+    residual_std_s: float
+    n_used: int
+    n_outliers: int
+    rpi_first_us: int
+    rpi_last_us: int
+
+    @property
+    def drift_ppm(self) -> float:
+        """Logger clock drift against UTC [ppm] (positive: UTC runs faster)."""
+        return (self.slope - 1.0) * 1e6
+
+    def to_utc(self, rpi_time_us: np.ndarray, resolution_ns: int = 1) -> np.ndarray:
+        """Convert logger times [us] to UTC (datetime64[ns]).
+
+        Parameters
+        ----------
+        rpi_time_us : numpy.ndarray
+            Logger times [us].
+        resolution_ns : int, optional
+            Round the result to this many ns (1000: whole microseconds, the resolution of
+            the INS UTC strings and of the NetCDF time encoding).
+        """
+        dx_s = (np.asarray(rpi_time_us, dtype=np.int64) - self.rpi0_us) / _US
+        dy_ns = np.round((self.offset_s + self.slope * dx_s) * 1e9).astype(np.int64)
+        utc_ns = self.utc0.astype("datetime64[ns]").astype(np.int64) + dy_ns
+        if resolution_ns > 1:
+            utc_ns = np.round(utc_ns / resolution_ns).astype(np.int64) * resolution_ns
+        return utc_ns.astype("datetime64[ns]")
+
+    def attrs(self) -> dict[str, Any]:
+        """Dataset attributes describing the fit."""
+        return {
+            "clock_fit": "utc = clock_utc0 + clock_offset_s + clock_slope*(rpi_time_us - "
+            "clock_rpi0_us)*1e-6 s",
+            "clock_rpi0_us": int(self.rpi0_us),
+            "clock_utc0": str(np.datetime_as_string(self.utc0, unit="us")) + "Z",
+            "clock_offset_s": float(self.offset_s),
+            "clock_slope": float(self.slope),
+            "clock_drift_ppm": float(self.drift_ppm),
+            "clock_residual_std_s": float(self.residual_std_s),
+            "n_clock_fit_rows": int(self.n_used),
+            "n_clock_fit_outliers": int(self.n_outliers),
+        }
+
+
+def fit_logger_clock(
+    rpi_time_us: np.ndarray,
+    utc: np.ndarray,
+    n_iter: int = 5,
+    clip_n_sigma: float = 5.0,
+    min_clip_s: float = 2e-6,
+) -> ClockFit:
+    """Robust straight-line fit of GNSS UTC against the logger clock.
+
+    Parameters
+    ----------
+    rpi_time_us : numpy.ndarray
+        Logger times [us] (int64) of rows with a valid GNSS time.
+    utc : numpy.ndarray
+        Their UTC (datetime64).
+    n_iter : int, optional
+        Number of clip-and-refit iterations.
+    clip_n_sigma : float, optional
+        Rows whose residual exceeds `clip_n_sigma` robust standard deviations (1.4826 MAD)
+        are rejected [1].
+    min_clip_s : float, optional
+        Floor of the clipping threshold [s] (the UTC strings have 1 us resolution).
+
+    Returns
+    -------
+    ClockFit
+
+    Notes
+    -----
+    Least squares on centred variables :math:`x = (r - r_0)\\,10^{-6}` s and
+    :math:`y = (t - t_0)` s, iteratively re-fitted on rows with
+    :math:`|y - a - b x| \\le \\max(5 \\cdot 1.4826\\,\\mathrm{MAD}, 2\\,\\mu s)`:
+
+    .. math:: t = t_0 + a + b\\,(r - r_0)\\,10^{-6}, \\qquad
+              \\mathrm{drift} = (b - 1)\\,10^{6}\\ \\mathrm{ppm}.
+
+    Centring keeps float64 rounding below 1 ns for records of hours.
+
+    References
+    ----------
+    Seed 000, Sect. 3.2 (sonic stamped by the logger clock, INS stamped in UTC).
+    """
+    r = np.asarray(rpi_time_us, dtype=np.int64)
+    u = np.asarray(utc).astype("datetime64[ns]")
+    if r.size < 2:
+        raise InputError("rpi_time_us", f"clock fit needs >= 2 rows with valid UTC, got {r.size}")
+    r0 = int(r[0])
+    u0 = u[0]
+    x = (r - r0) / _US
+    y = (u - u0).astype(np.int64) / 1e9
+    use = np.ones(r.size, dtype=bool)
+    a = b = 0.0
+    for _ in range(max(1, n_iter)):
+        if np.ptp(x[use]) <= 0:
+            raise InputError("rpi_time_us", "clock fit needs rows at >= 2 distinct logger times")
+        b, a = np.polyfit(x[use], y[use], 1)
+        res = y - (a + b * x)
+        mad = float(np.median(np.abs(res[use] - np.median(res[use]))))
+        thr = max(clip_n_sigma * 1.4826 * mad, min_clip_s)
+        new_use = np.abs(res) <= thr
+        if np.array_equal(new_use, use) or new_use.sum() < 2:
+            break
+        use = new_use
+    b, a = np.polyfit(x[use], y[use], 1)
+    res = y[use] - (a + b * x[use])
+    return ClockFit(
+        rpi0_us=r0,
+        utc0=u0,
+        offset_s=float(a),
+        slope=float(b),
+        residual_std_s=float(np.std(res)),
+        n_used=int(use.sum()),
+        n_outliers=int((~use).sum()),
+        rpi_first_us=int(r.min()),
+        rpi_last_us=int(r.max()),
+    )
+
+
+# --------------------------------------------------------------------------------- INS
+
+
+def _stable_valid_start(
+    rpi_time_us: np.ndarray, time_valid: np.ndarray, min_stable_s: float
+) -> int | None:
+    """Index of the first row from which time_valid stays 1 for >= min_stable_s."""
+    valid = time_valid.astype(bool)
+    if not valid.any():
+        return None
+    edges = np.diff(np.concatenate([[0], valid.astype(np.int8), [0]]))
+    starts = np.flatnonzero(edges == 1)
+    ends = np.flatnonzero(edges == -1)  # exclusive
+    for s, e in zip(starts, ends):
+        # The run lasts until the next row with time_valid = 0 (or the file's last row).
+        t_end = rpi_time_us[e] if e < rpi_time_us.size else rpi_time_us[e - 1]
+        if (t_end - rpi_time_us[s]) >= min_stable_s * _US:
+            return int(s)
+    return None
+
+
+@dataclass
+class _InsTable:
+    columns: dict[str, np.ndarray]
+    line_no: np.ndarray
+    fit: ClockFit
+    rpi_stable_us: int
+    counts: dict[str, int]
+    log: list[str]
+
+
+def _load_ins(
+    path: str | os.PathLike[str],
+    min_stable_s: float,
+    clock_jump_tol_s: float,
+    relation_jump_tol_s: float,
+    max_corrupt_fraction: float,
+) -> _InsTable:
+    cols, line_no, counts, log = read_ins_csv(path, max_corrupt_fraction, clock_jump_tol_s)
+    t = cols["rpi_time_us"]
+    start = _stable_valid_start(t, cols["time_valid"], min_stable_s)
+    if start is None:
+        raise InputError(
+            path,
+            f"no stable valid GNSS time: time_valid never stays 1 for >= {min_stable_s:g} s "
+            "(seed 000, Sect. 3.2: data before a stable valid GNSS time are discarded)",
+        )
+    counts["n_before_stable_time"] = int(start)
+    log.append(
+        f"gnss_time: stable valid GNSS time from line {int(line_no[start])} "
+        f"(rpi_time_us={int(t[start])}); {start} earlier INS rows discarded"
+    )
+    keep = np.arange(start, t.size)
+    cols = {k: v[keep] for k, v in cols.items()}
+    line_no = line_no[keep]
+    t = cols["rpi_time_us"]
+    fit_rows = np.flatnonzero((cols["time_valid"] == 1) & ~np.isnat(cols["utc"]))
+    # Relation jumps: the offset utc - rpi_time, median-filtered over 11 rows so that a
+    # single late stamp is not a jump, must not step by more than relation_jump_tol_s.
+    off_s = (
+        (cols["utc"][fit_rows] - cols["utc"][fit_rows[0]]).astype(np.int64) / 1e9
+        - (t[fit_rows] - t[fit_rows[0]]) / _US
+    )
+    if off_s.size >= 3:
+        w = min(11, off_s.size if off_s.size % 2 else off_s.size - 1)
+        h = w // 2
+        pad = np.concatenate([np.full(h, off_s[0]), off_s, np.full(h, off_s[-1])])
+        smooth = bn.move_median(pad, window=w)[2 * h :]
+        step = np.abs(np.diff(smooth))
+        jumps = np.flatnonzero(step > relation_jump_tol_s)
+        if jumps.size:
+            j = int(fit_rows[jumps[0] + 1])
+            raise ClockJumpError(
+                f"{path}:{int(line_no[j])}",
+                f"the relation utc - rpi_time steps by {step[jumps[0]]:.3f} s "
+                f"(> {relation_jump_tol_s:g} s) near rpi_time_us={int(t[j])}: logger clock or "
+                "GNSS time jump; not corrected, fix or split the flight",
+            )
+    fit = fit_logger_clock(t[fit_rows], cols["utc"][fit_rows])
+    log.append(
+        f"clock_fit: utc = a + b*rpi_time on {fit.n_used} rows ({fit.n_outliers} outliers): "
+        f"drift {fit.drift_ppm:.3f} ppm, residual std {fit.residual_std_s * 1e6:.2f} us"
+    )
+    return _InsTable(cols, line_no, fit, int(t[0]), counts, log)
+
+
+def load_ins_table(
+    ins_path: str | os.PathLike[str],
+    min_stable_s: float = 10.0,
+    clock_jump_tol_s: float = 1.0,
+    relation_jump_tol_s: float = 0.1,
+    max_corrupt_fraction: float = 0.05,
+) -> _InsTable:
+    """Parse an INS file once: rows from the stable valid GNSS time and the logger-clock fit.
+
+    Pass the result as ``ins_table`` to :func:`ins_l1` and :func:`payload_sonic_l1` so a
+    flight's INS file is read once for both (it is the slowest file of a flight).
+    Parameters are those of :func:`ins_l1`.
+    """
+    return _load_ins(ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
+
+
+def _fresh(table: _InsTable) -> _InsTable:
+    """A copy whose counts and log can be extended without touching the original."""
+    return _InsTable(table.columns, table.line_no, table.fit, table.rpi_stable_us, dict(table.counts),
+                     list(table.log))
+
+
+def _var_attrs(units: str, standard_name: str | None = None, long_name: str | None = None,
+               **extra: Any) -> dict[str, Any]:  # fmt: skip
+    a: dict[str, Any] = {"units": units}
+    if standard_name:
+        a["standard_name"] = standard_name
+    if long_name:
+        a["long_name"] = long_name
+    a.update(extra)
+    return a
+
+
+def _qc_attrs(long_name: str) -> dict[str, Any]:
+    return {
+        "standard_name": "status_flag",
+        "long_name": long_name,
+        "flag_masks": QC_FLAG_VALUES.copy(),
+        "flag_values": QC_FLAG_VALUES.copy(),
+        "flag_meanings": QC_FLAG_MEANINGS,
+        "units": "1",
+    }
+
+
+def ins_l1(
+    ins_path: str | os.PathLike[str],
+    min_stable_s: float = 10.0,
+    clock_jump_tol_s: float = 1.0,
+    relation_jump_tol_s: float = 0.1,
+    max_corrupt_fraction: float = 0.05,
+    despike: bool = False,
+    ins_table: _InsTable | None = None,
+) -> xr.Dataset:
+    """Build the L1 INS dataset (UTC time from the ``utc`` column, QC flags).
+
+    Parameters
+    ----------
+    ins_path : str or Path
+        INS CSV (DESIGN.md "INS file").
+    min_stable_s : float, optional
+        A stable valid GNSS time starts at the first row from which ``time_valid`` stays 1
+        for at least this long [s]; default 10 s. Earlier rows are discarded (counted in
+        ``n_before_stable_time``).
+    clock_jump_tol_s : float, optional
+        Backward step of ``rpi_time_us`` in row order above which :class:`ClockJumpError`
+        is raised [s]; smaller steps are sorted.
+    relation_jump_tol_s : float, optional
+        Step of ``utc - rpi_time`` above which :class:`ClockJumpError` is raised [s].
+    max_corrupt_fraction : float, optional
+        Largest tolerated fraction of corrupt lines [1].
+    despike : bool, optional
+        Apply :func:`dronewind.core.filtering.despike_moving_mad` to attitude, velocity and
+        altitude. Off by default: the EKF output is smooth, so in a steady hover its MAD is
+        tiny and ordinary manoeuvres would be flagged as spikes.
+    ins_table : optional
+        Output of :func:`load_ins_table` for ``ins_path`` (not parsed again).
+
+    Returns
+    -------
+    xarray.Dataset
+        dim ``time`` (UTC, datetime64[ns]); ``roll_deg``, ``pitch_deg``, ``yaw_deg`` (as
+        logged, wrap not removed), ``vel_n_ms``, ``vel_e_ms``, ``vel_d_ms``, ``lat_deg``,
+        ``lon_deg``, ``alt_m``, ``ekf_valid``, ``time_valid``, ``rpi_time_us``, ``qc_ins``.
+        Rows after the stable start whose ``time_valid`` blinked to 0 get their time from
+        the clock fit (``n_time_from_clock_fit``). attrs: ``n_*`` counts, clock fit
+        (``clock_drift_ppm``, ``clock_residual_std_s``, ...), ``sampling_rate_hz``,
+        ``processing_log``.
+
+    Raises
+    ------
+    InputError
+        Bad header, too many corrupt lines, or no stable valid GNSS time.
+    ClockJumpError
+        Logger clock or GNSS time jump.
+
+    References
+    ----------
+    Seed 000, Sect. 3.2.
+    """
+    ins = _fresh(ins_table) if ins_table is not None else _load_ins(
+        ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
+    cols, counts, log = ins.columns, ins.counts, ins.log
+    t_rpi = cols["rpi_time_us"]
+    utc = cols["utc"].copy()
+    from_fit = (cols["time_valid"] != 1) | np.isnat(utc)
+    utc[from_fit] = ins.fit.to_utc(t_rpi[from_fit], resolution_ns=1000)
+    counts["n_time_from_clock_fit"] = int(from_fit.sum())
+    if from_fit.any():
+        log.append(f"gnss_time: {int(from_fit.sum())} rows after the stable start without "
+                   "valid GNSS time stamped from the clock fit")  # fmt: skip
+    # UTC must increase: a row whose UTC repeats or goes back (GNSS glitch) is dropped.
+    order = np.argsort(utc, kind="stable")
+    n_utc_unsorted = int((order != np.arange(order.size)).sum())
+    utc_sorted = utc[order]
+    dup = np.zeros(order.size, dtype=bool)
+    dup[1:] = utc_sorted[1:] == utc_sorted[:-1]
+    sel = order[~dup]
+    counts["n_utc_duplicates"] = int(dup.sum())
+    counts["n_utc_out_of_order"] = n_utc_unsorted
+    if dup.any() or n_utc_unsorted:
+        log.append(f"gnss_time: {int(dup.sum())} rows repeating a UTC stamp dropped, "
+                   f"{n_utc_unsorted} rows re-ordered by UTC")  # fmt: skip
+    cols = {k: v[sel] for k, v in cols.items()}
+    utc = utc[sel]
+    ins_steps = np.diff(t_rpi[sel])
+    counts["n_gaps_over_1s"] = int((ins_steps > _US).sum())
+    if counts["n_gaps_over_1s"]:
+        log.append(f"gaps: {counts['n_gaps_over_1s']} INS gaps > 1 s (not filled; longest "
+                   f"{ins_steps.max() / _US:.2f} s)")  # fmt: skip
+    qc = np.zeros(utc.size, dtype=np.int8)
+    lim = INSTRUMENT_LIMITS["sbg_ellipse_d"]
+    float_vars = {
+        "roll_deg": lim["roll_deg"], "pitch_deg": lim["pitch_deg"], "yaw_deg": lim["yaw_deg"],
+        "vel_n_ms": lim["vel_ms"], "vel_e_ms": lim["vel_ms"], "vel_d_ms": lim["vel_ms"],
+        "lat_deg": lim["lat_deg"], "lon_deg": lim["lon_deg"], "alt_m": lim["alt_m"],
+    }  # fmt: skip
+    data: dict[str, np.ndarray] = {}
+    n_range = n_nan = 0
+    for name, (lo, hi) in float_vars.items():
+        x = cols[name].astype(float)
+        missing = ~np.isfinite(x)
+        bad = range_mask(np.where(missing, np.nan, x), lo, hi)
+        n_range += int(bad.sum())
+        n_nan += int(missing.sum())
+        qc[bad] |= QC_OUT_OF_RANGE
+        qc[missing] |= QC_MISSING
+        data[name] = x
+    fs_hz = _nominal_rate(t_rpi)
+    n_spike = 0
+    if despike:
+        for name in ("roll_deg", "pitch_deg", "vel_n_ms", "vel_e_ms", "vel_d_ms", "alt_m"):
+            x = np.where(qc == 0, data[name], np.nan)
+            s = despike_moving_mad(x, fs_hz)
+            qc[s] |= QC_SPIKE
+            n_spike += int(s.sum())
+        yaw_unwrapped = np.rad2deg(np.unwrap(np.deg2rad(np.nan_to_num(data["yaw_deg"]))))
+        s = despike_moving_mad(np.where(qc == 0, yaw_unwrapped, np.nan), fs_hz)
+        qc[s] |= QC_SPIKE
+        n_spike += int(s.sum())
+    flagged = qc != 0
+    for name in float_vars:
+        data[name] = np.where(flagged, np.nan, data[name])
+    counts["n_out_of_range"] = n_range
+    counts["n_missing_values"] = n_nan
+    counts["n_spikes"] = n_spike
+    counts["n_flagged"] = int(flagged.sum())
+    log.append(
+        f"qc: {n_range} values out of range (SBG Ellipse-D limits), {n_nan} NaN values, "
+        f"{n_spike} spikes{'' if despike else ' (despiking off)'}; {int(flagged.sum())} rows "
+        "flagged and set to NaN"
+    )
+    yaw = data["yaw_deg"][np.isfinite(data["yaw_deg"])]
+    if yaw.size and yaw.min() < 0:
+        yaw_conv = "(-180, 180]"
+    elif yaw.size and yaw.max() > 180:
+        yaw_conv = "[0, 360)"
+    else:
+        yaw_conv = "ambiguous: all values in [0, 180]"
+    ds = xr.Dataset(
+        {
+            "roll_deg": ("time", data["roll_deg"], _var_attrs("degree", "platform_roll")),
+            "pitch_deg": ("time", data["pitch_deg"], _var_attrs("degree", "platform_pitch")),
+            "yaw_deg": ("time", data["yaw_deg"], _var_attrs(
+                "degree", "platform_yaw", comment=f"clockwise from true north, as logged "
+                f"(range {yaw_conv}); wrap not removed")),
+            "vel_n_ms": ("time", data["vel_n_ms"], _var_attrs(
+                "m s-1", long_name="northward velocity of the sonic measurement volume")),
+            "vel_e_ms": ("time", data["vel_e_ms"], _var_attrs(
+                "m s-1", long_name="eastward velocity of the sonic measurement volume")),
+            "vel_d_ms": ("time", data["vel_d_ms"], _var_attrs(
+                "m s-1", long_name="downward velocity of the sonic measurement volume")),
+            "lat_deg": ("time", data["lat_deg"], _var_attrs("degrees_north", "latitude")),
+            "lon_deg": ("time", data["lon_deg"], _var_attrs("degrees_east", "longitude")),
+            "alt_m": ("time", data["alt_m"], _var_attrs(
+                "m", "altitude", positive="up", comment="above mean sea level")),
+            "ekf_valid": ("time", cols["ekf_valid"].astype(np.int32), _var_attrs(
+                "1", long_name="INS extended Kalman filter solution valid (1) or not (0)")),
+            "time_valid": ("time", cols["time_valid"].astype(np.int8), _var_attrs(
+                "1", long_name="GNSS UTC valid (1) or not (0); 0 rows are stamped from the "
+                "clock fit")),
+            "rpi_time_us": ("time", t_rpi[sel].astype(np.int64), _var_attrs(
+                "us", long_name="logger (Raspberry Pi) clock time stamp")),
+            "qc_ins": ("time", qc, _qc_attrs("INS quality control bitmask")),
+        },
+        coords={"time": ("time", utc.astype("datetime64[ns]"), {"long_name": "time (UTC)"})},
+    )
+    _finish_attrs(ds, counts, log, ins.fit, fs_hz, str(ins_path), t_rpi[sel])
+    return ds
+
+
+def _nominal_rate(rpi_time_us: np.ndarray) -> float:
+    """Sampling rate from the median step [Hz], rounded to an integer if within 2 %."""
+    if rpi_time_us.size < 2:
+        return float("nan")
+    dt = float(np.median(np.diff(rpi_time_us))) / _US
+    if dt <= 0:
+        return float("nan")
+    fs = 1.0 / dt
+    return float(round(fs)) if abs(fs - round(fs)) <= 0.02 * fs else fs
+
+
+def _finish_attrs(ds: xr.Dataset, counts: dict[str, int], log: list[str], fit: ClockFit,
+                  fs_hz: float, source: str, rpi_time_us: np.ndarray) -> None:  # fmt: skip
+    for k, v in counts.items():
+        ds.attrs[k] = int(v)
+    ds.attrs.update(fit.attrs())
+    ds.attrs["sampling_rate_hz"] = float(fs_hz)
+    if rpi_time_us.size >= 2:
+        ds.attrs["sampling_rate_measured_hz"] = float(
+            _US / np.median(np.diff(rpi_time_us))
+        )
+    ds.attrs["source_file"] = source
+    ds.attrs["processing_log"] = "\n".join(log)
+
+
+# ------------------------------------------------------------------------------- sonic
+
+
+def _insert_missing(rpi_time_us: np.ndarray, gap_factor: float = 1.5
+                    ) -> tuple[np.ndarray, np.ndarray, int, list[tuple[int, float]]]:  # fmt: skip
+    """Insert evenly spaced missing samples into gaps longer than gap_factor median steps.
+
+    Returns new times, index of the source row (-1 for inserted), number inserted, and
+    the (time, length [s]) of gaps longer than 1 s.
+    """
+    t = rpi_time_us
+    n = t.size
+    if n < 3:
+        return t.copy(), np.arange(n), 0, []
+    d = np.diff(t)
+    dt = float(np.median(d))
+    m = np.where(d > gap_factor * dt, np.rint(d / dt).astype(np.int64) - 1, 0)
+    m = np.maximum(m, 0)
+    total_missing = int(m.sum())
+    long_gaps = [(int(t[i]), d[i] / _US) for i in np.flatnonzero(d > _US)]
+    if total_missing == 0:
+        return t.copy(), np.arange(n), 0, long_gaps
+    rep = np.concatenate([m, [0]]) + 1
+    src = np.repeat(np.arange(n), rep)
+    first = np.repeat(np.cumsum(rep) - rep, rep)
+    j = np.arange(src.size) - first
+    step = np.concatenate([d / (m + 1), [0.0]])
+    new_t = t[src] + np.rint(j * step[src]).astype(np.int64)
+    src_idx = np.where(j == 0, src, -1)
+    return new_t, src_idx, total_missing, long_gaps
+
+
+def payload_sonic_l1(
+    sonic_path: str | os.PathLike[str],
+    ins_path: str | os.PathLike[str],
+    min_stable_s: float = 10.0,
+    clock_jump_tol_s: float = 1.0,
+    relation_jump_tol_s: float = 0.1,
+    max_corrupt_fraction: float = 0.05,
+    despike_window_s: float = 10.0,
+    despike_n_mad: float = 7.0,
+    apply_elevation_limit: bool = False,
+    max_gap_s: float = 60.0,
+    ins_table: _InsTable | None = None,
+) -> xr.Dataset:
+    """Build the L1 payload sonic dataset: logger clock to UTC, range/spike/missing QC.
+
+    Parameters
+    ----------
+    sonic_path : str or Path
+        Sonic CSV (DESIGN.md "Payload sonic file").
+    ins_path : str or Path
+        INS CSV of the same flight (shares the logger clock).
+    min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction : float
+        As :func:`ins_l1`; `clock_jump_tol_s` applies to the sonic file too.
+    despike_window_s : float, optional
+        Moving-MAD window [s]; default 10 s.
+    despike_n_mad : float, optional
+        Moving-MAD threshold [scaled MAD]; default 7.
+    apply_elevation_limit : bool, optional
+        Also flag samples whose elevation angle exceeds the RM Young 81000's +/-60 deg.
+    max_gap_s : float, optional
+        Longest forward step of the sonic's logger time accepted as a data gap [s]; a
+        longer one raises :class:`ClockJumpError` (default 60 s).
+    ins_table : optional
+        Output of :func:`load_ins_table` for ``ins_path`` (not parsed again).
+
+    Returns
+    -------
+    xarray.Dataset
+        dim ``time`` (UTC from the clock fit); ``u_sensor_ms``, ``v_sensor_ms``,
+        ``w_sensor_ms`` (sensor frame as logged), ``t_sonic_k``, ``rpi_time_us``,
+        ``qc_sonic`` (1 out of range, 2 spike, 4 missing/corrupt). A flag on a sample sets
+        all four variables of that sample to NaN (not filled). Gaps in the logger time are
+        filled with missing samples (``n_missing``). Sonic rows logged before the INS's
+        stable GNSS time are discarded (``n_before_stable_time``); rows outside the span
+        of the clock fit are extrapolated and counted (``n_time_extrapolated``).
+
+    Raises
+    ------
+    InputError, ClockJumpError
+        See the module docstring.
+
+    Notes
+    -----
+    Range limits: RM Young 81000 (seed 000, Table 2) speed
+    :math:`\\sqrt{u^2+v^2+w^2} \\le 40` m/s, sonic temperature -50..50 degC. Each of u, v,
+    w and T is despiked separately (:func:`dronewind.core.filtering.despike_moving_mad`) after
+    range-flagged and missing samples are removed; a spike in any flags the sample.
+
+    References
+    ----------
+    Seed 000, Sect. 3.2.
+    """
+    ins = _fresh(ins_table) if ins_table is not None else _load_ins(
+        ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
+    cols, counts, log = read_sonic_csv(sonic_path, max_corrupt_fraction, clock_jump_tol_s)
+    t = cols["rpi_time_us"]
+    before = t < ins.rpi_stable_us
+    n_before = int(before.sum())
+    if n_before == t.size:
+        raise InputError(sonic_path, "all sonic rows precede the INS's stable valid GNSS time")
+    cols = {k: v[~before] for k, v in cols.items()}
+    counts["n_before_stable_time"] = n_before
+    log.append(f"gnss_time: {n_before} sonic rows before the INS's stable GNSS time discarded")
+    steps = np.diff(cols["rpi_time_us"])
+    if steps.size and steps.max() > max_gap_s * _US:
+        i = int(np.argmax(steps))
+        raise ClockJumpError(
+            f"{sonic_path}", f"rpi_time_us steps forward by {steps[i] / _US:.1f} s "
+            f"(> max_gap_s = {max_gap_s:g} s) after rpi_time_us={int(cols['rpi_time_us'][i])}: "
+            "not a plausible data gap; clock jump or corrupt time stamps",
+        )
+    t_full, src, n_missing, long_gaps = _insert_missing(cols["rpi_time_us"])
+    counts["n_missing"] = n_missing
+    counts["n_gaps_over_1s"] = len(long_gaps)
+    msg = f"gaps: {n_missing} missing samples inserted as NaN"
+    if long_gaps:
+        msg += "; gaps > 1 s (logger clock continuous per INS, so data gaps) at rpi_time_us " + \
+            ", ".join(f"{tt} ({g:.2f} s)" for tt, g in long_gaps[:_N_LOGGED_LINES])  # fmt: skip
+    log.append(msg)
+    have = src >= 0
+    vals = {}
+    for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c"):
+        x = np.full(t_full.size, np.nan)
+        x[have] = cols[name][src[have]]
+        vals[name] = x
+    qc = np.zeros(t_full.size, dtype=np.int8)
+    missing = ~(np.isfinite(vals["u_ms"]) & np.isfinite(vals["v_ms"])
+                & np.isfinite(vals["w_ms"]) & np.isfinite(vals["t_sonic_c"]))  # fmt: skip
+    qc[missing] |= QC_MISSING
+    n_nan_values = int((missing & have).sum())
+    lim = INSTRUMENT_LIMITS["rmyoung_81000"]
+    with np.errstate(invalid="ignore"):
+        speed = np.sqrt(vals["u_ms"] ** 2 + vals["v_ms"] ** 2 + vals["w_ms"] ** 2)
+        out = range_mask(speed, *lim["speed_ms"]) | range_mask(vals["t_sonic_c"],
+                                                               *lim["t_sonic_c"])  # fmt: skip
+        if apply_elevation_limit:
+            elev = np.rad2deg(np.arctan2(vals["w_ms"], np.hypot(vals["u_ms"], vals["v_ms"])))
+            out |= range_mask(elev, *lim["elevation_deg"])
+    qc[out] |= QC_OUT_OF_RANGE
+    fs_hz = _nominal_rate(t_full)
+    spikes = np.zeros(t_full.size, dtype=bool)
+    for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c"):
+        x = np.where(qc == 0, vals[name], np.nan)
+        spikes |= despike_moving_mad(x, fs_hz, despike_window_s, despike_n_mad)
+    qc[spikes] |= QC_SPIKE
+    flagged = qc != 0
+    for name in vals:
+        vals[name] = np.where(flagged, np.nan, vals[name])
+    counts["n_out_of_range"] = int(out.sum())
+    counts["n_missing_values"] = n_nan_values
+    counts["n_spikes"] = int(spikes.sum())
+    counts["n_flagged"] = int(flagged.sum())
+    log.append(
+        f"qc: {int(out.sum())} samples out of range (RM Young 81000: |V| <= 40 m/s, "
+        f"-50..50 degC), {n_nan_values} NaN values, {int(spikes.sum())} spikes (moving MAD, "
+        f"{despike_window_s:g} s, {despike_n_mad:g} scaled MAD); {int(flagged.sum())} of "
+        f"{t_full.size} samples flagged and set to NaN"
+    )
+    fit = ins.fit
+    outside = (t_full < fit.rpi_first_us) | (t_full > fit.rpi_last_us)
+    counts["n_time_extrapolated"] = int(outside.sum())
+    if outside.any():
+        log.append(f"clock_fit: {int(outside.sum())} sonic samples outside the INS time span, "
+                   "UTC extrapolated from the fit")  # fmt: skip
+    log = [*log, *(f"ins {line}" for line in ins.log)]
+    counts["n_ins_before_stable_time"] = ins.counts["n_before_stable_time"]
+    time = fit.to_utc(t_full, resolution_ns=1000)  # 1 us: far below the fit's scatter
+    ds = xr.Dataset(
+        {
+            "u_sensor_ms": ("time", vals["u_ms"], _var_attrs(
+                "m s-1", long_name="air velocity along sensor x axis (sensor frame, as logged)")),
+            "v_sensor_ms": ("time", vals["v_ms"], _var_attrs(
+                "m s-1", long_name="air velocity along sensor y axis (sensor frame, as logged)")),
+            "w_sensor_ms": ("time", vals["w_ms"], _var_attrs(
+                "m s-1", long_name="air velocity along sensor z axis (sensor frame, as logged)")),
+            "t_sonic_k": ("time", vals["t_sonic_c"] + 273.15, _var_attrs(
+                "K", "virtual_temperature", comment="sonic temperature (approximately the "
+                "virtual temperature)", units_metadata="temperature: on_scale")),
+            "rpi_time_us": ("time", t_full.astype(np.int64), _var_attrs(
+                "us", long_name="logger (Raspberry Pi) clock time stamp; inserted missing "
+                "samples are interpolated")),
+            "qc_sonic": ("time", qc, _qc_attrs("payload sonic quality control bitmask")),
+        },
+        coords={"time": ("time", time, {"long_name": "time (UTC, from the logger clock "
+                                                    "through the INS clock fit)"})},  # fmt: skip
+    )
+    _finish_attrs(ds, counts, log, fit, fs_hz, str(sonic_path), t_full)
+    ds.attrs["ins_source_file"] = str(ins_path)
+    return ds

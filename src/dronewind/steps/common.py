@@ -1,0 +1,135 @@
+"""Orchestration shared by every workflow step: logging, campaign record, product reader."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import sys
+import time
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from dronewind import __version__
+from dronewind.core.cf import atomic_write_text, config_hash, sha256_file
+from dronewind.manifest import load_campaign
+
+LOG = logging.getLogger("dronewind")
+
+
+@contextlib.contextmanager
+def logged(log_file: str | Path | None) -> Iterator[logging.Logger]:
+    """Send dronewind's log (and Python warnings) to a file for the duration of a step.
+
+    Parameters
+    ----------
+    log_file : str or Path or None
+        Log file (created with its folder); ``None`` logs to standard error only.
+
+    Yields
+    ------
+    logging.Logger
+        The ``dronewind`` logger.
+    """
+    handlers: list[logging.Handler] = [logging.StreamHandler(sys.stderr)]
+    if log_file is not None:
+        Path(log_file).parent.mkdir(parents=True, exist_ok=True)
+        handlers.append(logging.FileHandler(log_file, mode="w", encoding="utf-8"))
+    fmt = logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s")
+    for handler in handlers:
+        handler.setFormatter(fmt)
+        LOG.addHandler(handler)
+    LOG.setLevel(logging.INFO)
+    logging.captureWarnings(True)
+    warn_logger = logging.getLogger("py.warnings")
+    for handler in handlers:
+        warn_logger.addHandler(handler)
+    start = time.perf_counter()
+    try:
+        yield LOG
+        LOG.info("done in %.2f s", time.perf_counter() - start)
+    except Exception:
+        LOG.exception("failed after %.2f s", time.perf_counter() - start)
+        raise
+    finally:
+        for handler in handlers:
+            LOG.removeHandler(handler)
+            warn_logger.removeHandler(handler)
+            handler.close()
+        logging.captureWarnings(False)
+
+
+def campaign_record(manifest: str | Path, output: str | Path, config: Mapping[str, Any]) -> Path:
+    """Validate a manifest and record it with provenance as JSON.
+
+    Parameters
+    ----------
+    manifest : str or Path
+        Campaign manifest.
+    output : str or Path
+        JSON file to write (``results/<name>/campaign.json``).
+    config : mapping
+        Workflow configuration (hashed into the record).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    campaign = load_campaign(manifest)
+    record = {
+        "campaign": campaign.name,
+        "manifest": str(campaign.path),
+        "manifest_sha256": sha256_file(campaign.path),
+        "simulated": campaign.simulated,
+        "dronewind_version": __version__,
+        "config_sha256": config_hash(dict(config)),
+        "payload_flights": [f["id"] for f in campaign.payload_flights],
+        "quadrotor_flights": [f["id"] for f in campaign.quadrotor_flights],
+        "mast_sonics": sorted(campaign.mast_sonics()),
+        "manifest_content": campaign.data,
+    }
+    LOG.info(
+        "campaign %s: %d payload flight(s), %d quadrotor flight(s), %d mast sonic(s)",
+        campaign.name,
+        len(record["payload_flights"]),
+        len(record["quadrotor_flights"]),
+        len(record["mast_sonics"]),
+    )
+    return atomic_write_text(output, json.dumps(record, indent=2, sort_keys=True) + "\n")
+
+
+def open_product(path: str | Path) -> Any:
+    """Open a dronewind NetCDF with all its groups merged into one dataset.
+
+    Quantities without a CF standard name live in NetCDF-4 groups (see
+    :mod:`dronewind.core.cf`); this reads the root group and every group listed in the
+    global attribute ``groups`` and merges them (global attributes of the root kept).
+
+    Parameters
+    ----------
+    path : str or Path
+        A file written by :func:`dronewind.core.cf.write_netcdf`.
+
+    Returns
+    -------
+    xarray.Dataset
+        Loaded into memory.
+    """
+    import xarray as xr
+
+    with xr.open_dataset(path, engine="netcdf4") as root:
+        ds = root.load()
+    names = [g.strip() for g in str(ds.attrs.get("groups", "")).split(",") if g.strip()]
+    parts = [ds]
+    for name in names:
+        with xr.open_dataset(path, group=name, engine="netcdf4") as group:
+            parts.append(group.load())
+    merged = xr.merge(parts, compat="override", join="outer", combine_attrs="override")
+    merged.attrs = dict(ds.attrs)
+    for name in list(merged.variables):
+        dim = name[: -len("_name")] if name.endswith("_name") else None
+        if dim and dim in merged.dims and merged[name].dims == (dim,):
+            merged = merged.assign_coords({dim: merged[name].values.astype(str)}).drop_vars(name)
+    return merged
