@@ -64,8 +64,8 @@ def bench_gold() -> tuple[float, float, int] | None:
     if not DATA.is_dir():
         return None
     from dronewind.core.filtering import gap_fill_linear
-    from dronewind.mast.ameriflux import read_ameriflux_gold_blocks
     from dronewind.core.rotation import double_rotation
+    from dronewind.mast.ameriflux import read_ameriflux_gold_blocks
 
     t0 = time.perf_counter()
     blocks = []

@@ -41,7 +41,7 @@ def write_flight(folder: Path, duration_s: float = 1200.0) -> tuple[Path, Path, 
     sonic = folder / "sonic.csv"
     with sonic.open("w") as fh:
         fh.write("rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c\n")
-        for r, v in zip(rpi_s, son):
+        for r, v in zip(rpi_s, son, strict=True):
             fh.write(f"{r},{v[0]:.3f},{v[1]:.3f},{v[2]:.3f},{v[3]:.3f}\n")
     n_i = int(duration_s * 50)
     rpi_i = rpi0 + np.rint(np.arange(n_i) / 50 * 1e6).astype(np.int64)
@@ -134,7 +134,8 @@ if __name__ == "__main__":
     if len(sys.argv) > 1:
         import xarray as xr
 
-        import dronewind.mast.toa5, dronewind.payload.io  # noqa: F401,E401  (imports before measuring)
+        import dronewind.mast.toa5  # noqa: F401  (imports before measuring)
+        import dronewind.payload.io  # noqa: F401
 
         xr.Dataset({"x": ("t", np.zeros(2))})  # xarray's lazy one-time setup, not measured
 

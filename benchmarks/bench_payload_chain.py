@@ -14,8 +14,9 @@ import time
 import numpy as np
 import xarray as xr
 
-from dronewind.payload import motion, sync
+from dronewind.compare import align
 from dronewind.core import rotation
+from dronewind.payload import motion, sync
 
 FS = 32.0
 DURATION_S = 20 * 60.0
@@ -83,7 +84,7 @@ def main() -> None:
 
     drone = ds(ts, FS, 30.0)
     mast = ds(np.arange(-30.0, DURATION_S + 30.0, 1 / 20), 20.0, 30.0)
-    t = _best(lambda: sync.align_drone_mast(drone, mast))
+    t = _best(lambda: align.align_drone_mast(drone, mast))
     _report("L3: align + FIR/decimate + rotate", t, n)
     x = np.stack([drone[k].values for k in ("u_east_ms", "v_north_ms", "w_up_ms")])
     t = _best(lambda: rotation.double_rotation(*x))

@@ -23,7 +23,8 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from dronewind.quadrotor import calibration as q
+from dronewind.quadrotor import validation
+from dronewind.quadrotor import windows as qw
 from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
 from dronewind.simulate.quadrotor import log_profile_wind, simulate_quadrotor_flight
 from dronewind.simulate.tunnel import simulate_tunnel
@@ -70,13 +71,13 @@ def main() -> None:
             for fid, ps in paths.items():
                 ref = read_tower_reference(ps[-1])
                 for p in ps[:-1]:
-                    b, w = q.flight_windows(read_quadrotor(p), ref, site_alt, fid, p.stem, window_s=window_s)
+                    b, w = qw.flight_windows(read_quadrotor(p), ref, site_alt, fid, p.stem, window_s=window_s)
                     blocks.append(b)
                     windows.append(w)
             blocks, windows = pd.concat(blocks, ignore_index=True), pd.concat(windows, ignore_index=True)
             t_read = time.perf_counter() - t0
             t0 = time.perf_counter()
-            res = q.seed001_tables(blocks, windows)
+            res = validation.seed001_tables(blocks, windows)
             t_cal = time.perf_counter() - t0
             print(f"{label}: read + windows {t_read:.1f} s ({len(windows)} windows), "
                   f"calibration + validation {t_cal:.1f} s")

@@ -28,7 +28,7 @@ import numpy as np
 #: Global attributes that record provenance (time, configuration, software), not data.
 PROVENANCE = {
     "history", "date_created", "date_modified", "date_issued", "date_metadata_modified",
-    "config_hash", "input_checksums", "software_version", "dronewind_version", "product_version",
+    "config_hash", "config_sha256", "input_checksums", "software_version", "dronewind_version", "product_version",
 }
 #: Keys of JSON records that are provenance.
 JSON_PROVENANCE = {"config_hash", "created", "date_created", "checksums", "input_checksums", "config",

@@ -2,5 +2,6 @@
 
 from dronewind.steps import campaign_record, logged
 
-with logged(snakemake.log[0]):  # noqa: F821 (snakemake is injected)
-    campaign_record(snakemake.input.manifest, snakemake.output[0], snakemake.config)  # noqa: F821
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    campaign_record(sm.input.manifest, sm.output[0], **sm.params)

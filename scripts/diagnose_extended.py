@@ -5,4 +5,4 @@ from dronewind.steps.diagnosis import extended_run
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    extended_run(sm.input.manifest, sm.wildcards.flight, sm.output[0], sm.config)
+    extended_run(sm.input.manifest, sm.output[0], **sm.params)

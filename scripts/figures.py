@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from dronewind.figures.payload import draw_all
+from dronewind.figures.campaign import draw_all
 from dronewind.steps import logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)

@@ -4,4 +4,4 @@ from dronewind.steps import l3, logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    l3(sm.input.manifest, sm.wildcards.flight, sm.input.drone, sm.input.mast, sm.output[0], sm.config)
+    l3(sm.input.drone, sm.input.mast, sm.output[0], **sm.params)

@@ -4,4 +4,4 @@ from dronewind.steps import l4, logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    l4(sm.input.manifest, sm.wildcards.flight, sm.wildcards.sensor, sm.input.l3, sm.output[0], sm.config)
+    l4(sm.input.l3, sm.output[0], **sm.params)

@@ -4,4 +4,4 @@ from dronewind.steps import logged, mast_l1
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    mast_l1(sm.input.manifest, sm.wildcards.sonic, list(sm.input.files), sm.output[0], sm.config)
+    mast_l1(list(sm.input.files), sm.output[0], **sm.params)

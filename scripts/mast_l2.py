@@ -4,4 +4,4 @@ from dronewind.steps import logged, mast_l2
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    mast_l2(sm.input.manifest, sm.wildcards.flight, sm.input.mast, sm.input.drone, sm.output[0], sm.config)
+    mast_l2(sm.input.mast, sm.input.drone, sm.output[0], **sm.params)

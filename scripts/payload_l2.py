@@ -4,4 +4,4 @@ from dronewind.steps import logged, payload_l2
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    payload_l2(sm.input.manifest, sm.wildcards.flight, sm.input.sonic, sm.input.ins, sm.output[0], sm.config)
+    payload_l2(sm.input.sonic, sm.input.ins, sm.output[0], **sm.params)

@@ -5,4 +5,4 @@ from dronewind.steps.published import published_diagnosis
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    published_diagnosis(sm.input.published, list(sm.input.forward), sm.output[0], sm.config)
+    published_diagnosis(sm.input.published, list(sm.input.forward), sm.output[0], **sm.params)

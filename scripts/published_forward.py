@@ -5,4 +5,4 @@ from dronewind.steps.published import published_forward
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    published_forward(sm.input.published, sm.input.manifest, sm.wildcards.flight, sm.output[0], sm.config)
+    published_forward(sm.input.published, sm.output[0], **sm.params)

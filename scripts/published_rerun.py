@@ -5,5 +5,4 @@ from dronewind.steps.published import published_rerun
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    published_rerun(sm.input.published, sm.input.manifest, sm.wildcards.flight, sm.input.diagnosis, sm.output[0],
-                    sm.config)
+    published_rerun(sm.input.published, sm.input.diagnosis, sm.output[0], **sm.params)

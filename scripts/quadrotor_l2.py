@@ -1,10 +1,9 @@
-"""Snakemake script: one quadrotor flight, L1 -> calibrated 1 Hz wind (L2) per UAV."""
+"""Snakemake script: one UAV of a quadrotor flight, L1 -> calibrated 1 Hz wind (L2)."""
 
 from dronewind.steps import logged
 from dronewind.steps.quadrotor import quadrotor_l2
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    uavs = list(sm.params.uavs)
-    quadrotor_l2(sm.input.manifest, sm.params.flight, dict(zip(uavs, sm.input.l1, strict=True)),
-                 sm.input.calibration, sm.input.summary, dict(zip(uavs, sm.output.l2, strict=True)), sm.config)
+    quadrotor_l2(sm.params.campaign, sm.wildcards.qflight, sm.wildcards.quav, sm.input.l1, sm.input.calibration,
+                 sm.input.summary, sm.params.site, sm.output[0], sm.params.average_s, sm.params.hover)

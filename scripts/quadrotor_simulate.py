@@ -5,4 +5,4 @@ from dronewind.steps.quadrotor import simulate_quadrotor
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    simulate_quadrotor(sm.input.manifest, sm.params.flight, sm.params.out_dir)
+    simulate_quadrotor(sm.params.flight, sm.params.simulation, sm.params.site, sm.params.out_dir)

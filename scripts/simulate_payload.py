@@ -2,5 +2,6 @@
 
 from dronewind.steps import logged, simulate_payload
 
-with logged(snakemake.log[0]):  # noqa: F821 (snakemake is injected)
-    simulate_payload(snakemake.input.manifest, snakemake.params.flight, snakemake.params.out_dir)  # noqa: F821
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    simulate_payload(**sm.params)

@@ -5,4 +5,4 @@ from dronewind.steps.quadrotor import tunnel_analysis
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    tunnel_analysis(sm.input.manifest, sm.input.runs, sm.params.tables_dir, sm.config)
+    tunnel_analysis(sm.params.campaign, sm.input.runs, sm.params.tables_dir)

@@ -5,4 +5,4 @@ from dronewind.steps.quadrotor import simulate_tunnel
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    simulate_tunnel(sm.input.manifest, sm.params.out_dir)
+    simulate_tunnel(sm.params.simulation, sm.params.runs, sm.params.out_dir)

@@ -33,6 +33,7 @@ import yaml
 
 from dronewind import steps as pipeline
 from dronewind.core.cf import split_standard, write_netcdf
+from dronewind.manifest import default_config, load_campaign
 
 SITE = {"name": "P2OA Lannemezan", "latitude": 43.1247, "longitude": 0.3628, "altitude_m": 603.0}
 FS_L3_HZ = 8.0
@@ -265,6 +266,8 @@ def write_products(folder: Path, name: str = "fixcamp", seed: int = 0) -> Path:
     config: dict = {}
     pipeline.campaign_record(manifest, root / "campaign.json", config)
     rng = np.random.default_rng(seed)
+    sonics = load_campaign(manifest).mast_sonics()
+    proc = default_config()["processing"]
     l4_files = []
     for spec in FLIGHTS:
         l2_dir, l3_dir, l4_dir = (root / "netcdf" / lvl for lvl in ("L2", "L3", "L4"))
@@ -293,8 +296,9 @@ def write_products(folder: Path, name: str = "fixcamp", seed: int = 0) -> Path:
             extra_attrs={"campaign": name, "flight": spec.flight, "reference": spec.reference}, groups=g3,
         )
         for sensor in ("drone", "mast"):
-            l4_files.append(pipeline.l4(manifest, spec.flight, sensor, l3_file,
-                                        l4_dir / f"{spec.flight}_{sensor}.nc", config))
+            l4_files.append(pipeline.l4(l3_file, l4_dir / f"{spec.flight}_{sensor}.nc", campaign=name,
+                                        flight_id=spec.flight, sensor=sensor, reference=sonics[spec.reference],
+                                        spectra=proc["spectra"], quadrant=proc["quadrant"]))
     pipeline.flight_stats(l4_files, root / "tables" / "flight_stats.csv")
     return root
 

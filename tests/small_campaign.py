@@ -1,11 +1,10 @@
-"""A small virtual campaign for workflow tests (one 8-min payload flight, one mast sonic)."""
+"""A small virtual campaign for workflow tests (8-min payload flights, one mast sonic)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import yaml
-
 
 #: Extra config for the small campaign: its 8-min hover is shorter than the paper's 10 min.
 SHORT_HOVER = """processing:
@@ -15,9 +14,44 @@ SHORT_HOVER = """processing:
     min_duration_s: 300
 """
 
+#: Flights of the small campaign, in order: id, hover window (UTC) and simulated conditions.
+FLIGHTS = (
+    ("s01", "2023-08-21T14:05:00Z", "2023-08-21T14:13:00Z",
+     {"mean_speed_ms": 4.0, "wind_from_deg": 250.0, "z_over_L": -0.2, "hover_height_m": 28.0}),
+    ("s02", "2023-08-21T15:05:00Z", "2023-08-21T15:13:00Z",
+     {"mean_speed_ms": 6.0, "wind_from_deg": 220.0, "z_over_L": -0.1, "hover_height_m": 28.0}),
+)
 
-def write_small_campaign(folder: Path, name: str = "smallcamp") -> Path:
-    """Write a small simulated campaign manifest into ``folder`` and return its path."""
+
+def _flight(flight_id: str, start: str, end: str) -> dict:
+    return {
+        "id": flight_id,
+        "reference": "mast30",
+        "target_height_m": 30,
+        "sonic": {"file": f"flights/{flight_id}/sonic.csv", "mount": "upside_down"},
+        "ins": {"file": f"flights/{flight_id}/ins.csv"},
+        "window": {"start": start, "end": end},
+    }
+
+
+def write_small_campaign(folder: Path, name: str = "smallcamp", n_flights: int = 1) -> Path:
+    """Write a small simulated campaign manifest into ``folder`` and return its path.
+
+    Parameters
+    ----------
+    folder : Path
+        Folder of the manifest.
+    name : str
+        Campaign name.
+    n_flights : int
+        Number of payload flights (1 or 2; one hour apart, each with an 8-min hover).
+
+    Returns
+    -------
+    Path
+        The manifest.
+    """
+    flights = FLIGHTS[:n_flights]
     data = {
         "name": name,
         "site": {"name": "P2OA Lannemezan", "latitude": 43.1247, "longitude": 0.3628, "altitude_m": 603},
@@ -32,21 +66,10 @@ def write_small_campaign(folder: Path, name: str = "smallcamp") -> Path:
                 ],
             }
         ],
-        "payload_flights": [
-            {
-                "id": "s01",
-                "reference": "mast30",
-                "target_height_m": 30,
-                "sonic": {"file": "flights/s01/sonic.csv", "mount": "upside_down"},
-                "ins": {"file": "flights/s01/ins.csv"},
-                "window": {"start": "2023-08-21T14:05:00Z", "end": "2023-08-21T14:13:00Z"},
-            }
-        ],
+        "payload_flights": [_flight(fid, start, end) for fid, start, end, _ in flights],
         "simulation": {
             "seed": 7,
-            "payload_flights": {
-                "s01": {"mean_speed_ms": 4.0, "wind_from_deg": 250.0, "z_over_L": -0.2, "hover_height_m": 28.0},
-            },
+            "payload_flights": {fid: dict(conditions) for fid, _, _, conditions in flights},
         },
     }
     path = Path(folder) / f"{name}.yaml"

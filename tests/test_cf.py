@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from dronewind.core.cf import check_compliance, config_hash, write_netcdf
+from dronewind.core.cf import check_compliance, config_hash, strip_cf, track_from_cf, track_to_cf, write_netcdf
 
 
 def sample_dataset(n: int = 200) -> xr.Dataset:
@@ -98,3 +98,25 @@ def test_interrupted_write_leaves_no_file(tmp_path, monkeypatch):
         write(target)
     assert not target.exists()
     assert list(tmp_path.iterdir()) == [], "no temporary file is left behind"
+
+
+def test_track_names_round_trip():
+    ds = sample_dataset(10)
+    for name, value in (("lat_deg", 43.1), ("lon_deg", 0.36), ("alt_m", 633.0)):
+        ds[name] = ("time", np.full(10, value), {"comment": "from the INS"})
+    cf = track_to_cf(ds)
+    assert {"precise_lat", "precise_lon", "altitude"} <= set(cf.variables) and "lat_deg" not in cf
+    assert cf["precise_lat"].attrs["standard_name"] == "latitude" and cf["altitude"].attrs["positive"] == "up"
+    assert cf["precise_lon"].attrs["comment"] == "from the INS"  # existing attributes are kept
+    back = track_from_cf(cf)
+    for name in ("lat_deg", "lon_deg", "alt_m"):
+        np.testing.assert_array_equal(back[name].values, ds[name].values)
+
+
+def test_strip_cf_drops_the_station_coordinates(tmp_path):
+    from dronewind.core.products import open_product
+
+    ds = strip_cf(open_product(write(tmp_path / "x.nc")))
+    assert not {"station", "lat", "lon", "alt"} & set(ds.variables)
+    assert all("coordinates" not in v.attrs and "coordinates" not in v.encoding for v in ds.variables.values())
+    write(tmp_path / "again.nc", ds)  # can be written again

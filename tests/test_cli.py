@@ -24,3 +24,17 @@ def test_each_subcommand_has_help_with_example():
         proc = subprocess.run([str(EXE), cmd.name, "--help"], capture_output=True, text=True, check=True)
         assert "example" in proc.stdout, f"{cmd.name} --help shows no example"
     assert parser.prog == "dronewind"
+
+
+def test_show_config_prints_the_defaults_under_the_given_settings(tmp_path):
+    import yaml
+
+    from dronewind.manifest import default_config
+
+    override = tmp_path / "spectra.yaml"
+    override.write_text("processing:\n  spectra:\n    segments: 5\n")
+    proc = subprocess.run([str(EXE), "show-config", str(override)], capture_output=True, text=True, check=True)
+    shown = yaml.safe_load(proc.stdout)
+    expected = default_config()
+    expected["processing"]["spectra"]["segments"] = 5
+    assert shown == expected

@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dronewind.quadrotor import calibration as q
 from dronewind.diagnose import quadrotor as dq
 from dronewind.errors import InputError
+from dronewind.quadrotor import windows as qw
 from dronewind.simulate.quadrotor import log_profile_wind, simulate_quadrotor_flight
 
 UAVS = ("q01", "q02", "q03")
@@ -69,7 +69,7 @@ def _diagnose(tmp_path: Path, seed: int, kind: str):
     camp = _campaign(seed, offsets, regime)
     for f in camp["quadrotor_flights"]:
         simulate_quadrotor_flight(camp, tmp_path, f["id"], tmp_path, wind_fn=log_profile_wind)
-    blocks, windows, problems = q.campaign_windows(camp, tmp_path, window_s=120)
+    blocks, windows, problems = qw.campaign_windows(camp, tmp_path, window_s=120)
     assert problems.empty
     return offsets, regime, dq.diagnose_quadrotor("t", blocks, windows)
 
@@ -78,7 +78,11 @@ def _cand(res: dict, name: str) -> dict:
     return next(c for c in res["candidates"] if c["mechanism"] == name and c["source"] == "field")
 
 
-def _regime_error(est: dict, regime: list, speeds_ms=np.linspace(2.5, 10.0, 16)) -> float:
+#: Speeds at which a fitted drag law is compared with the hidden one [m s-1].
+CHECK_SPEEDS_MS = np.linspace(2.5, 10.0, 16)
+
+
+def _regime_error(est: dict, regime: list, speeds_ms: np.ndarray = CHECK_SPEEDS_MS) -> float:
     """Largest speed error of the fitted law on the true law's accelerations over 2.5-10 m/s."""
     err = []
     coef = est["coefficients"]

@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-import xarray as xr
 
 from dronewind.core.cf import check_compliance
 from dronewind.steps import FLIGHT_STATS_COLUMNS, open_product

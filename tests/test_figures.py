@@ -1,15 +1,30 @@
-"""Tests for dronewind.figures.payload: every figure draws from the stored products, deterministically."""
+"""Tests for dronewind.figures: every figure draws from the stored products, deterministically."""
 
 from __future__ import annotations
 
 import shutil
 from pathlib import Path
+from types import SimpleNamespace
 
 import matplotlib.image as mpimg
+import numpy as np
 import pytest
 from PIL import Image
 
-from dronewind.figures import payload as figures
+from dronewind.diagnose.features import FEATURES
+from dronewind.diagnose.report import FEATURE_LABELS
+from dronewind.errors import InputError
+from dronewind.figures import (
+    campaign,
+    diagnosis,
+    fluxes,
+    quadrant,
+    spectra,
+    statistics,
+    synchronisation,
+    timeseries,
+)
+from dronewind.figures.style import DPI
 from tests.products_fixture import set_nan, write_products
 
 
@@ -21,7 +36,7 @@ def products(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def drawn(products: Path, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("figures")
-    figures.draw_all(products, out)
+    campaign.draw_all(products, out)
     return out
 
 
@@ -35,13 +50,13 @@ def _description(png: Path) -> str:
 
 
 def test_captions_match_functions() -> None:
-    captions = figures.figure_captions()
-    assert set(captions) == set(figures.FIGURE_FUNCTIONS)
+    captions = campaign.figure_captions()
+    assert set(captions) == set(campaign.FIGURE_FUNCTIONS)
     assert all(len(text) > 60 for text in captions.values())
 
 
 def test_every_figure_written_and_readable(drawn: Path) -> None:
-    for name in figures.figure_captions():
+    for name in campaign.figure_captions():
         png, pdf = drawn / f"{name}.png", drawn / f"{name}.pdf"
         assert png.stat().st_size > 10_000, name
         assert pdf.read_bytes()[:5] == b"%PDF-", name
@@ -56,12 +71,12 @@ def test_every_figure_written_and_readable(drawn: Path) -> None:
 
 def test_png_size_is_figsize_times_dpi(drawn: Path) -> None:
     # fixed sizes (no tight bounding box): fig04 is 6.5 x 4.6 in, fig15 10.5 x 4.8 in
-    assert mpimg.imread(drawn / "fig04_tke_lag.png").shape[:2] == (round(4.6 * figures.DPI), round(6.5 * figures.DPI))
-    assert mpimg.imread(drawn / "fig15_quadrant.png").shape[:2] == (round(4.8 * figures.DPI),
-                                                                    round(10.5 * figures.DPI))
+    assert mpimg.imread(drawn / "fig04_tke_lag.png").shape[:2] == (round(4.6 * DPI), round(6.5 * DPI))
+    assert mpimg.imread(drawn / "fig15_quadrant.png").shape[:2] == (round(4.8 * DPI),
+                                                                    round(10.5 * DPI))
     # Fig. 9: 4 panels per detailed flight (2 flights): 13 x (3.1 * 2 + 0.3) in
-    assert mpimg.imread(drawn / "fig09_velocity_spectra.png").shape[:2] == (round(6.5 * figures.DPI),
-                                                                            round(13 * figures.DPI))
+    assert mpimg.imread(drawn / "fig09_velocity_spectra.png").shape[:2] == (round(6.5 * DPI),
+                                                                            round(13 * DPI))
 
 
 def test_skipped_items_are_named_with_reasons(drawn: Path) -> None:
@@ -75,9 +90,9 @@ def test_skipped_items_are_named_with_reasons(drawn: Path) -> None:
 
 def test_deterministic_bytes(products: Path, drawn: Path, tmp_path: Path) -> None:
     l4 = _files(products, "L4")
-    a = figures.fig09_velocity_spectra(l4, tmp_path / "fig09_velocity_spectra")
-    b = figures.fig04_tke_lag(_files(products, "L2", "*_drone.nc"), tmp_path / "fig04_tke_lag")
-    c = figures.fig10_temperature_series(_files(products, "L3"), l4, tmp_path / "fig10_temperature_series")
+    a = spectra.fig09_velocity_spectra(l4, tmp_path / "fig09_velocity_spectra")
+    b = synchronisation.fig04_tke_lag(_files(products, "L2", "*_drone.nc"), tmp_path / "fig04_tke_lag")
+    c = timeseries.fig10_temperature_series(_files(products, "L3"), l4, tmp_path / "fig10_temperature_series")
     for path in a + b + c:  # PNG and PDF, including rasterised time series (fig10)
         assert path.read_bytes() == (drawn / path.name).read_bytes(), path.name
 
@@ -92,21 +107,60 @@ def test_nan_missing_and_unusable_inputs_do_not_crash(products: Path, drawn: Pat
     (l4_dir / "s03_mast.nc").unlink()
     l4 = sorted(l4_dir.glob("*.nc"))
     out = tmp_path / "out"
-    f12 = figures.fig12_mean_and_sigma(l4, out / "fig12")
+    f12 = statistics.fig12_mean_and_sigma(l4, out / "fig12")
     assert "s01: sigma_w_ms not drawn (drone NaN while status_statistics = ok)" in _description(f12[0])
     assert "s03: U_ms not drawn (mast no product)" in _description(f12[0])
     assert f12[0].read_bytes() != (drawn / "fig12_mean_and_sigma.png").read_bytes()
-    f9 = figures.fig09_velocity_spectra(l4, out / "fig09", flights=["s01", "s03"])
+    f9 = spectra.fig09_velocity_spectra(l4, out / "fig09", flights=["s01", "s03"])
     text = _description(f9[0])
     assert "s03 drone: S_u not available" in text and "s01: no fitted model for w" in text
-    f15 = figures.fig15_quadrant(l4, out / "fig15")
+    f15 = quadrant.fig15_quadrant(l4, out / "fig15")
     assert "s03: Sw_Su not drawn" in _description(f15[0])
-    figures.figB1_normalised_velocity_spectra(l4, out / "figB1")
-    figures.fig08_timeseries(_files(products, "L3"), l4, out / "fig08", flights=["s04", "s99"])
+    spectra.figB1_normalised_velocity_spectra(l4, out / "figB1")
+    timeseries.fig08_timeseries(_files(products, "L3"), l4, out / "fig08", flights=["s04", "s99"])
     assert "s99: no L3 file" in _description(out / "fig08.png")
     assert "s04: drone record unusable" in _description(out / "fig08.png")
     # no input at all: an annotated empty figure, no exception
-    for func in (figures.fig12_mean_and_sigma, figures.fig15_quadrant, figures.fig09_velocity_spectra):
+    for func in (statistics.fig12_mean_and_sigma, quadrant.fig15_quadrant, spectra.fig09_velocity_spectra):
         paths = func([], out / f"empty_{func.__name__}")
         assert all(p.stat().st_size > 0 for p in paths)
-    figures.fig04_tke_lag([], out / "empty_fig04")
+    synchronisation.fig04_tke_lag([], out / "empty_fig04")
+
+
+def test_fig16_rejects_unknown_metric(products: Path, tmp_path: Path) -> None:
+    with pytest.raises(InputError):
+        fluxes.fig16_uncertainty(_files(products, "L4"), tmp_path / "fig16", metric="b")
+
+
+def _evidence(n_flights: int) -> SimpleNamespace:
+    rng = np.random.default_rng(3)
+    shape = (n_flights, len(FEATURES))
+    return SimpleNamespace(flights=[f"s{i:02d}" for i in range(1, n_flights + 1)], y=rng.normal(size=shape),
+                           baseline=rng.normal(size=shape), sigma=np.abs(rng.normal(size=shape)) + 0.1,
+                           conditions=[{"mean_speed_ms": 2.0 + 2.0 * i} for i in range(n_flights)])
+
+
+def _binned(scale: float) -> dict:
+    f = np.logspace(-2, 0.5, 20)
+    return {"f_hz": f.tolist(), **{f"{s}_{c}": (scale / (1 + f / 0.1) ** (5 / 3)).tolist()
+                                   for s in ("drone", "mast") for c in ("u", "w")}}
+
+
+def test_diagnosis_figures_from_evidence(tmp_path: Path) -> None:
+    ev = _evidence(4)
+    diag = {"campaign": "demo", "named_causes": ["w_gain"]}
+    after = ev.baseline + 0.1
+    res = diagnosis.residuals_figure(ev, after, diag, tmp_path, features=FEATURES, labels=FEATURE_LABELS)
+    measured = {f: _binned(1.0) for f in ev.flights}
+    model = {f: {"baseline": _binned(0.9), "extended": _binned(1.1)} for f in ev.flights}
+    spec = diagnosis.spectra_figure(ev, measured, model, diag, tmp_path)
+    assert [p.name for p in res + spec] == ["diagnosis_residuals.png", "diagnosis_residuals.pdf",
+                                            "diagnosis_spectra.png", "diagnosis_spectra.pdf"]
+    assert mpimg.imread(spec[0]).shape[:2] == (round(3 * 3.4 * DPI), round(11 * DPI))  # 3 of 4 flights shown
+    assert _description(spec[0]) == "skipped: none"
+    # no usable flight: annotated figures, no exception
+    empty = _evidence(0)
+    res = diagnosis.residuals_figure(empty, None, diag, tmp_path / "empty", features=FEATURES, labels=FEATURE_LABELS)
+    spec = diagnosis.spectra_figure(empty, {}, {}, diag, tmp_path / "empty")
+    assert _description(res[0]) == "skipped: no usable flight"
+    assert _description(spec[0]) == "skipped: no flight with stored spectra"

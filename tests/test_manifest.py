@@ -10,7 +10,7 @@ import yaml
 
 from dronewind.cli import main as cli_main
 from dronewind.errors import ManifestError
-from dronewind.manifest import load_campaign
+from dronewind.manifest import config_schema, default_config, load_campaign, payload_flight_manifest, with_defaults
 
 VALID = {
     "name": "testcamp",
@@ -21,8 +21,10 @@ VALID = {
             "latitude": 43.1247,
             "longitude": 0.3628,
             "sonics": [
-                {"id": "mast30", "height_m": 30, "model": "CSAT3", "azimuth_deg": 218.0, "files": ["mast/mast30_*.dat"]},
-                {"id": "mast60", "height_m": 60, "model": "CSAT3", "azimuth_deg": 230.5, "files": ["mast/mast60_*.dat"]},
+                {"id": "mast30", "height_m": 30, "model": "CSAT3", "azimuth_deg": 218.0,
+                 "files": ["mast/mast30_*.dat"]},
+                {"id": "mast60", "height_m": 60, "model": "CSAT3", "azimuth_deg": 230.5,
+                 "files": ["mast/mast60_*.dat"]},
             ],
         }
     ],
@@ -171,3 +173,61 @@ def test_cli_validate_campaign(tmp_path, capsys):
     data["payload_flights"][0]["reference"] = "nope"
     assert cli_main(["validate-campaign", str(write_campaign(tmp_path, data))]) == 1
     assert "payload_flights[0].reference" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- workflow settings
+
+
+def _schema_defaults(node: dict) -> dict:
+    """Every ``default`` of the config schema, as a nested dict (independent of with_defaults)."""
+    out = {}
+    for key, sub in (node.get("properties") or {}).items():
+        if sub.get("type") == "object":
+            out[key] = _schema_defaults(sub)
+        elif "default" in sub:
+            out[key] = sub["default"]
+    return out
+
+
+def test_every_processing_and_diagnosis_setting_has_one_default():
+    schema = config_schema()
+    for section in ("processing", "diagnosis"):
+        for key, sub in schema["properties"][section]["properties"].items():
+            assert "default" in sub, f"{section}.{key} has no default"
+            for name, leaf in (sub.get("properties") or {}).items():
+                assert "default" in leaf, f"{section}.{key}.{name} has no default"
+    defaults = default_config()
+    assert defaults == _schema_defaults(schema)
+    assert defaults["processing"]["spectra"] == {"segments": 3, "overlap": 0.5, "bins": 100}
+    assert defaults["diagnosis"]["seeds"] == [101, 202]
+
+
+def test_with_defaults_fills_only_what_is_missing():
+    given = {"campaign": "c.yaml", "processing": {"spectra": {"segments": 5}, "rotation": "planar_fit"}}
+    config = with_defaults(given)
+    assert config["processing"]["spectra"] == {"segments": 5, "overlap": 0.5, "bins": 100}
+    assert config["processing"]["rotation"] == "planar_fit"
+    assert config["processing"]["hover"] == default_config()["processing"]["hover"]
+    assert given == {"campaign": "c.yaml", "processing": {"spectra": {"segments": 5}, "rotation": "planar_fit"}}
+
+
+def test_shipped_config_is_valid_against_its_schema():
+    import jsonschema
+
+    config = with_defaults(yaml.safe_load((Path(__file__).resolve().parents[1] / "config/config.yaml").read_text()))
+    jsonschema.Draft202012Validator(config_schema()).validate(config)
+
+
+def test_payload_flight_manifest_keeps_one_flight_and_its_reference_sonic():
+    data = copy.deepcopy(VALID)
+    data["payload_flights"].append({**copy.deepcopy(data["payload_flights"][0]), "id": "s02", "reference": "mast60"})
+    data["simulation"] = {"seed": 1, "atmosphere": {"roughness_length_m": 0.2},
+                          "payload_flights": {"s02": {"mean_speed_ms": 5.0}}}
+    view = payload_flight_manifest(data, "s02")
+    assert [f["id"] for f in view["payload_flights"]] == ["s02"]
+    assert [s["id"] for m in view["masts"] for s in m["sonics"]] == ["mast60"]
+    assert "simulation" not in view and "quadrotor_flights" not in view
+    assert list(view) == [k for k in data if k not in ("simulation", "quadrotor_flights", "tunnel")]
+    with_atmosphere = payload_flight_manifest(data, "s02", atmosphere=True)
+    assert with_atmosphere["simulation"] == {"atmosphere": {"roughness_length_m": 0.2},
+                                             "payload_flights": {"s02": {"mean_speed_ms": 5.0}}}

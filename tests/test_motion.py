@@ -17,8 +17,8 @@ import pytest
 import scipy.signal
 from scipy.spatial.transform import Rotation
 
-from dronewind.payload import motion
 from dronewind.errors import InputError
+from dronewind.payload import motion
 
 G = 9.80665
 L_PEND_M = 18.0

@@ -4,7 +4,8 @@ The end-to-end part runs a SMALL virtual campaign (2 flights x 3 UAVs x 20 min, 
 per-UAV pitch and yaw offsets, a small tunnel programme) through ``snakemake`` and checks
 every NetCDF with the IOOS compliance checker, the contract columns of
 ``quadrotor_calibration.csv``, the recovery of the hidden offsets, the diagnosis JSON and
-the figures. The bad-input part calls :mod:`dronewind.steps.quadrotor` directly: a UAV
+the figures. The bad-input part calls :mod:`dronewind.steps.quadrotor` and
+:mod:`dronewind.quadrotor.chain` directly: a UAV
 that never hovers, a log without attitude, a reference that does not cover the flight,
 a calibration that does not converge.
 """
@@ -22,8 +23,10 @@ import pandas as pd
 import pytest
 import yaml
 
-from dronewind.core.cf import check_compliance
+from dronewind.core.cf import check_compliance, strip_cf, track_from_cf
 from dronewind.errors import InputError
+from dronewind.manifest import default_config, load_campaign
+from dronewind.quadrotor import chain
 from dronewind.steps import open_product
 from dronewind.steps import quadrotor as pq
 
@@ -36,9 +39,8 @@ CONTRACT = ["uav", "pitch_offset_deg", "yaw_offset_deg", "rmse_ms", "bias_ms"]
 
 #: 20-min flights hold one 10-min window per UAV: the contract table uses 2-min windows
 #: (seed 001 App. C).
-EXTRA_CONFIG = """processing:
-  quadrotor:
-    calibration_window_s: 120
+EXTRA_CONFIG = """quadrotor:
+  calibration_window_s: 120
 """
 
 
@@ -120,7 +122,7 @@ def test_calibration_table_contract_and_hidden_offsets(run):
         assert abs(t.loc[uav, "pitch_offset_deg"] - pitch) < 0.6
         assert abs(t.loc[uav, "yaw_offset_deg"] - yaw) < 2.0
     assert (t["rmse_ms"] < 1.0).all() and t["converged"].astype(bool).all()
-    for name in pq.QUAD_TABLES:
+    for name in chain.QUAD_TABLES:
         assert (run / "tables" / f"{name}.csv").is_file()
     summary = json.loads((run / "quadrotor" / "calibration.json").read_text())
     assert summary["converged"] and summary["calibration_window_s"] == 120.0
@@ -165,17 +167,23 @@ def raw(tmp_path_factory):
     """Raw files of the small campaign (no tunnel), simulated in-process."""
     folder = tmp_path_factory.mktemp("quad_raw")
     manifest = write_quad_campaign(folder, tunnel=False, minutes=12)
-    for fid in ("f31", "f56"):
-        pq.simulate_quadrotor(manifest, fid, folder)
+    data = load_campaign(manifest).data
+    for flight in data["quadrotor_flights"]:
+        pq.simulate_quadrotor(flight, data["simulation"], data["site"], folder)
     return folder, manifest
 
 
 def _flight(raw_, fid, tmp, uav_files=None, reference=None):
+    """The per-UAV L1 steps and the flight's window step, as the workflow runs them."""
     folder, manifest = raw_
     files = uav_files or {u: folder / "quad" / fid / f"{u}.csv" for u in OFFSETS}
-    out = {u: tmp / f"{fid}_{u}.nc" for u in files}
-    pq.quadrotor_flight(manifest, fid, files, reference or folder / "tower" / f"{fid}_reference.csv", out,
-                        tmp / "w.csv", tmp / "b.csv", tmp / "p.csv", {})
+    l1 = {u: tmp / f"{fid}_{u}.nc" for u in files}
+    for uav, path in files.items():
+        pq.quadrotor_l1("quadcamp", fid, uav, path, SITE, l1[uav])
+    flight = {"id": fid, "uavs": [{"id": u, "file": str(f)} for u, f in files.items()]}
+    settings = default_config()["quadrotor"]
+    pq.quadrotor_windows(flight, l1, reference or folder / "tower" / f"{fid}_reference.csv", SITE["altitude_m"],
+                         settings["block_s"], settings["hover"], tmp / "w.csv", tmp / "b.csv", tmp / "p.csv")
     return pd.read_csv(tmp / "w.csv"), pd.read_csv(tmp / "p.csv")
 
 
@@ -192,9 +200,9 @@ def test_uav_that_never_hovers_is_flagged(raw, tmp_path):
     assert set(windows["uav"]) == {"q01"}
     assert set(problems["uav"]) == {"q02"} and problems["error"].str.contains("never hovers").all()
     # its L2 is written from the whole log, marked unusable, never silently
-    log = pq._from_cf(open_product(tmp_path / "f31_q02.nc"))
+    log = track_from_cf(strip_cf(open_product(tmp_path / "f31_q02.nc")))
     table = pd.DataFrame({"uav": ["q02"], "pitch_offset_deg": [0.0], "yaw_offset_deg": [0.0]})
-    ds = pq.compute_quadrotor_l2(log, table, {"cd0a0_m2": 0.03, "cp_m2_per_rad": -0.047}, "q02")
+    ds = chain.compute_quadrotor_l2(log, table, {"cd0a0_m2": 0.03, "cp_m2_per_rad": -0.047}, "q02")
     assert ds.attrs["usable"] == 0 and "never hovers" in ds.attrs["unusable_reason"]
 
 
@@ -225,12 +233,12 @@ def test_calibration_that_does_not_converge_is_flagged(raw, tmp_path):
     b2, w2 = pq.read_windows([tmp_path / "w.csv"], [tmp_path / "b.csv"], 120.0)
     b10, w10 = pq.read_windows([tmp_path / "w.csv"], [tmp_path / "b.csv"], 600.0)
     assert len(w10) >= 3
-    res = pq.compute_quadrotor_tables(b10, w10, b2, w2, pd.DataFrame(), 600.0)
+    res = chain.compute_quadrotor_tables(b10, w10, b2, w2, pd.DataFrame(), 600.0)
     assert "converged" in res["quadrotor_calibration"] and "status" in res["summary"]
     # a reference that contradicts the attitude (constant 30 m/s): the fit ends on its bounds
     w_bad = w2.assign(ref_speed_ms=30.0)
-    res = pq.compute_quadrotor_tables(b10, w10.assign(ref_speed_ms=30.0), b2, w_bad, pd.DataFrame(), 120.0)
+    res = chain.compute_quadrotor_tables(b10, w10.assign(ref_speed_ms=30.0), b2, w_bad, pd.DataFrame(), 120.0)
     flagged = (not res["summary"]["converged"]) or bool(res["summary"]["aero"].get("at_bound"))
     assert flagged and (res["summary"]["status"].startswith("NOT") or res["summary"]["aero"]["at_bound"])
     with pytest.raises(InputError, match="at least 3"):
-        pq.compute_quadrotor_tables(b10.iloc[:0], w10.iloc[:0], b2.iloc[:0], w2.iloc[:0], pd.DataFrame())
+        chain.compute_quadrotor_tables(b10.iloc[:0], w10.iloc[:0], b2.iloc[:0], w2.iloc[:0], pd.DataFrame())

@@ -158,6 +158,8 @@ def test_file_steps_write_diagnosis_rerun_report_and_figure(tmp_path):
     """published_diagnosis -> published_rerun (real forward model, one sample) -> published_report."""
     import json
 
+    from dronewind.diagnose.forward import CHAIN_SETTINGS
+    from dronewind.manifest import default_config, payload_flight_manifest
     from dronewind.steps.published import published_diagnosis, published_report, published_rerun
 
     forward_files = []
@@ -168,14 +170,17 @@ def test_file_steps_write_diagnosis_rerun_report_and_figure(tmp_path):
         forward_files.append(path)
     pub_file = tmp_path / "published.yaml"
     pub_file.write_text(yaml.safe_dump(_published(1.2, 1.0)))
-    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    diag_file = published_diagnosis(pub_file, forward_files, tmp_path / "diagnosis.json", config)
+    config = default_config()
+    diag_file = published_diagnosis(pub_file, forward_files, tmp_path / "diagnosis.json",
+                                    alpha=config["diagnosis"]["alpha"], max_causes=config["diagnosis"]["max_causes"])
     diag = json.loads(diag_file.read_text())
     assert diag["named_causes"] == ["w_gain"]
     assert diag["extended_mechanisms"][0]["mechanism"] == "w_gain"
 
-    rerun = published_rerun(pub_file, DEFAULT_CAMPAIGN, "s07", diag_file, tmp_path / "rerun" / "s07.json", config,
-                            seeds=(5,))
+    campaign = payload_flight_manifest(load_campaign(DEFAULT_CAMPAIGN).data, "s07", atmosphere=True)
+    processing = {key: config["processing"][key] for key in CHAIN_SETTINGS}
+    rerun = published_rerun(pub_file, diag_file, tmp_path / "rerun" / "s07.json", campaign=campaign, flight_id="s07",
+                            processing=processing, seeds=(5,))
     r = json.loads(rerun.read_text())
     base, ext = r["baseline"][0], r["extended"][0]
     # common random numbers: the extended model differs from the baseline by the drone's w gain only

@@ -1,4 +1,6 @@
-"""Known-answer tests of dronewind.quadrotor.calibration (seed 001 Sects. 4-5, seed 002 Eq. 1)."""
+"""Known-answer tests of the quadrotor chain (dronewind.quadrotor: drag, wind, hover, windows, calibration,
+validation; seed 001 Sects. 4-5, seed 002 Eq. 1), closed loops against the simulator's independent forward
+physics (dronewind.simulate.airframe)."""
 
 from __future__ import annotations
 
@@ -7,38 +9,40 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from dronewind.quadrotor import calibration as q
+from dronewind.core import constants
 from dronewind.errors import InputError
+from dronewind.quadrotor import calibration as cal
+from dronewind.quadrotor import drag, hover, validation, wind
+from dronewind.quadrotor import windows as qw
+from dronewind.simulate import airframe
 from dronewind.simulate.quadrotor import simulate_uav_log
-from dronewind.simulate.tunnel import attitude_from_relative_air
-
 
 # ----------------------------------------------------------------------------- physics
 
 def test_rotation_matrix_orthonormal_and_yaw():
     rng = np.random.default_rng(1)
-    r = q.rotation_body_to_ned(*np.radians(rng.uniform(-40, 40, (3, 50))))
+    r = drag.rotation_body_to_ned(*np.radians(rng.uniform(-40, 40, (3, 50))))
     eye = np.einsum("nij,nkj->nik", r, r)
     assert np.allclose(eye, np.eye(3), atol=1e-12)
-    r90 = q.rotation_body_to_ned(0.0, 0.0, np.radians(90.0))
+    r90 = drag.rotation_body_to_ned(0.0, 0.0, np.radians(90.0))
     # body x (nose) points east when yaw = 90 deg
     assert np.allclose(r90 @ [1, 0, 0], [0, 1, 0], atol=1e-12)
 
 
 def test_speed_tilt_roundtrip_exact():
     v = np.linspace(-16, 16, 321)
-    tilt = q.tilt_from_speed(v, 0.03, -0.047)
-    assert np.max(np.abs(q.speed_from_tilt(tilt, 0.03, -0.047) - v)) < 1e-9
+    tilt = airframe.rayleigh_tilt_rad(v, 0.03, -0.047)
+    assert np.max(np.abs(drag.speed_from_tilt(tilt, 0.03, -0.047) - v)) < 1e-9
     # seed 001, Eq. 18 as read here: about 11 degrees of tilt at 10 m/s
-    assert 9.0 < np.degrees(q.tilt_from_speed(10.0, 0.03, -0.047)) < 13.0
+    assert 9.0 < np.degrees(airframe.rayleigh_tilt_rad(10.0, 0.03, -0.047)) < 13.0
 
 
 def test_attitude_tilt_roundtrip():
     rng = np.random.default_rng(2)
     g = np.radians(rng.uniform(0, 30, 200))
     b = np.radians(rng.uniform(-180, 180, 200))
-    phi, th = q.attitude_from_tilt(g, b)
-    g2, b2 = q.tilt_from_attitude(phi, th)
+    phi, th = airframe.attitude_from_tilt(g, b)
+    g2, b2 = drag.tilt_from_attitude(phi, th)
     assert np.max(np.abs(g2 - g)) < 1e-12
     assert np.max(np.abs(np.angle(np.exp(1j * (b2 - b))))) < 1e-9
 
@@ -54,25 +58,26 @@ def test_wind_from_attitude_inverts_forward_model_exactly(weathervane):
     we, wn = -speed * np.sin(frm), -speed * np.cos(frm)
     vel = (rng.normal(0, 0.1, n), rng.normal(0, 0.1, n))
     sig = simulate_uav_log(we, wn, 10.0, rng, weathervane=weathervane, platform_velocity_ms=vel)
-    w = q.wind_from_attitude(sig["roll_deg"], sig["pitch_deg"], sig["yaw_deg"], vel[1], vel[0],
+    w = wind.wind_from_attitude(sig["roll_deg"], sig["pitch_deg"], sig["yaw_deg"], vel[1], vel[0],
                              method="tilt")
     assert np.max(np.abs(w["u_east_ms"] - we)) < 1e-9
     assert np.max(np.abs(w["v_north_ms"] - wn)) < 1e-9
     if weathervane is None:  # heading into the relative wind: pitch-only (Eq. 13) is exact too
-        rel = q.wind_from_attitude(sig["roll_deg"], sig["pitch_deg"], sig["yaw_deg"], method="pitch")
+        rel = wind.wind_from_attitude(sig["roll_deg"], sig["pitch_deg"], sig["yaw_deg"], method="pitch")
         assert np.max(np.abs(rel["relative_speed_ms"] - np.hypot(we - vel[0], wn - vel[1]))) < 1e-9
 
 
 def test_body_axis_inverse_exact_inside_ranges():
     """Seed 002 Eq. 1 with Table 2: forward (tunnel simulator) then inverse, exact."""
-    law = q.DragLaw(law="body_axis")
+    truth = airframe.AirframeDrag(law="body_axis")  # the simulator's Table 2
+    law = drag.DragLaw(law="body_axis")  # the chain's Table 2
     rng = np.random.default_rng(4)
     u = np.r_[2.0, 3.0, 6.0, 8.0, 10.0, 13.0, 15.0, 17.0]
     beta = np.radians(rng.uniform(-30, 30, u.size))
     psi = rng.uniform(0, 360, u.size)
     af, ar = -u * np.cos(beta), -u * np.sin(beta)
-    phi, th = attitude_from_relative_air(af, ar, law)
-    w = q.wind_from_attitude(np.degrees(phi), np.degrees(th), psi, law=law, method="body_axis")
+    phi, th = airframe.attitude_from_relative_air(af, ar, truth)
+    w = wind.wind_from_attitude(np.degrees(phi), np.degrees(th), psi, law=law, method="body_axis")
     p = np.radians(psi)
     assert np.allclose(w["v_north_ms"], af * np.cos(p) - ar * np.sin(p), atol=1e-9, rtol=0)
     assert np.allclose(w["u_east_ms"], af * np.sin(p) + ar * np.cos(p), atol=1e-9, rtol=0)
@@ -80,8 +85,8 @@ def test_body_axis_inverse_exact_inside_ranges():
 
 def test_offsets_are_subtracted():
     sig_pitch, sig_yaw = -8.0, 250.0
-    w0 = q.wind_from_attitude(0.0, sig_pitch, sig_yaw)
-    w1 = q.wind_from_attitude(0.0, sig_pitch + 2.0, sig_yaw + 5.0, pitch_offset_deg=2.0, yaw_offset_deg=5.0)
+    w0 = wind.wind_from_attitude(0.0, sig_pitch, sig_yaw)
+    w1 = wind.wind_from_attitude(0.0, sig_pitch + 2.0, sig_yaw + 5.0, pitch_offset_deg=2.0, yaw_offset_deg=5.0)
     assert abs(w0["speed_ms"] - w1["speed_ms"]) < 1e-12
     assert abs(w0["wind_from_deg"] - w1["wind_from_deg"]) < 1e-9
     assert abs(w0["wind_from_deg"] - 250.0) < 1e-9  # weather vane: the nose points into the wind
@@ -108,7 +113,7 @@ def _hover_log(n_climb=300, n_hover=3000, sd_h=0.2, sd_v=0.8, moving=False, seed
 
 def test_hover_segment_and_accuracy():
     ds = _hover_log()
-    mask, info = q.hover_segment(ds)
+    mask, info = hover.hover_segment(ds)
     # the climb ends within 3 m (alt_tol) of the hover altitude: at most ~6 % of it is kept
     assert 2990 <= info["n_hover"] <= 3040
     assert abs(info["alt_m"] - 123) < 0.1
@@ -119,7 +124,7 @@ def test_hover_segment_and_accuracy():
 
 def test_uav_that_never_hovers_is_named():
     with pytest.raises(InputError, match="never hovers"):
-        q.hover_segment(_hover_log(moving=True), where="uav q03")
+        hover.hover_segment(_hover_log(moving=True), where="uav q03")
 
 
 def _reference(start, minutes, heights=(50.0,), speed=6.0):
@@ -133,13 +138,13 @@ def _reference(start, minutes, heights=(50.0,), speed=6.0):
 
 def test_flight_windows_and_reference_checks():
     ds = _hover_log()
-    blocks, windows = q.flight_windows(ds, _reference("2020-07-24T09:50", 30), 73.0, "f31", "q01", window_s=120)
+    blocks, windows = qw.flight_windows(ds, _reference("2020-07-24T09:50", 30), 73.0, "f31", "q01", window_s=120)
     assert len(windows) == 2  # 300 s of hover -> two 2-min windows
     assert (windows["n_blocks"] == 120).all() and (windows["ref_speed_ms"] == 6.0).all()
     with pytest.raises(InputError, match="does not cover"):
-        q.flight_windows(ds, _reference("2020-07-24T10:01", 2), 73.0, "f31", "q01", window_s=120)
+        qw.flight_windows(ds, _reference("2020-07-24T10:01", 2), 73.0, "f31", "q01", window_s=120)
     with pytest.raises(InputError, match="no reference height"):
-        q.flight_windows(ds, _reference("2020-07-24T09:50", 30, heights=(10.0,)), 73.0, "f31", "q01")
+        qw.flight_windows(ds, _reference("2020-07-24T09:50", 30, heights=(10.0,)), 73.0, "f31", "q01")
 
 
 # ----------------------------------------------------------------------------- calibration
@@ -153,7 +158,7 @@ def _synthetic_fleet(seed, pitch_offsets, yaw_offsets, aero=(0.03, -0.047), n_wi
     """
     rng = np.random.default_rng(seed)
     blocks, windows = [], []
-    for u, (poff, yoff) in enumerate(zip(pitch_offsets, yaw_offsets)):
+    for u, (poff, yoff) in enumerate(zip(pitch_offsets, yaw_offsets, strict=True)):
         uav = f"q{u + 1:02d}"
         for j in range(n_windows):
             key = f"f{j:02d}/{uav}/0"
@@ -161,10 +166,10 @@ def _synthetic_fleet(seed, pitch_offsets, yaw_offsets, aero=(0.03, -0.047), n_wi
             frm = rng.uniform(180, 330)
             sp = np.abs(mean + rng.normal(0, turb_ms, n_blocks))
             if regime is None:
-                tilt = q.tilt_from_speed(sp, aero[0], aero[1])
+                tilt = airframe.rayleigh_tilt_rad(sp, aero[0], aero[1])
             else:
                 k = np.searchsorted(regime["edges"], sp)
-                tilt = np.arcsin(((sp / regime["c"][k]) ** (1 / regime["b"][k])) / q.GRAVITY_MS2)
+                tilt = np.arcsin(((sp / regime["c"][k]) ** (1 / regime["b"][k])) / constants.GRAVITY_MS2)
             blocks.append(pd.DataFrame({"window_key": key, "roll_deg": 0.0,
                                         "pitch_deg": -np.degrees(tilt) + poff,
                                         "yaw_deg": (frm + yoff + rng.normal(0, 3.0, n_blocks)) % 360,
@@ -182,7 +187,7 @@ def test_calibration_recovers_hidden_offsets(seed):
     pitch = np.zeros(n_uav) if seed == 3 else rng.uniform(-4.3, 4.3, n_uav)
     yaw = np.zeros(n_uav) if seed == 3 else rng.uniform(-2, 22, n_uav)
     blocks, windows = _synthetic_fleet(seed, pitch, yaw)
-    aero, off = q.calibrate_universal(blocks, windows)
+    aero, off = cal.calibrate_universal(blocks, windows)
     assert aero["converged"]
     # noise-free window means up to the non-linearity of the speed average: the aero
     # parameters come back within 1 % / 0.002 m2 rad-1, the offsets within 0.05 degree
@@ -191,13 +196,13 @@ def test_calibration_recovers_hidden_offsets(seed):
     assert np.max(np.abs(off["pitch_offset_deg"].to_numpy() - pitch)) < 0.05
     if seed == 3:  # null case: consistent with zero (within 3 standard errors + 0.01 deg)
         assert np.all(np.abs(off["pitch_offset_deg"]) < 3 * off["pitch_offset_deg_se"] + 0.01)
-    yo = q.calibrate_yaw_offsets(blocks, windows)
+    yo = cal.calibrate_yaw_offsets(blocks, windows)
     # 12 windows x 60 blocks with 3 degree heading noise: standard error ~0.1 degree
     assert np.max(np.abs(yo["yaw_offset_deg"].to_numpy() - yaw)) < 0.5
-    ind = q.calibrate_individual(blocks, windows)
+    ind = cal.calibrate_individual(blocks, windows)
     assert ind["converged"].all()
     assert np.max(np.abs(ind["pitch_offset_deg"].to_numpy() - pitch)) < 0.2
-    po = q.calibrate_pitch_offsets(blocks, windows, aero, flights=["f00", "f01"])
+    po = cal.calibrate_pitch_offsets(blocks, windows, aero, flights=["f00", "f01"])
     assert np.max(np.abs(po["pitch_offset_deg"].to_numpy() - pitch)) < 0.1
 
 
@@ -206,13 +211,13 @@ def test_calibration_with_noise_null_case_and_table():
     rng = np.random.default_rng(7)
     blocks, windows = _synthetic_fleet(7, np.zeros(4), np.zeros(4), n_windows=20)
     windows["ref_speed_ms"] += rng.normal(0, 0.2, len(windows))
-    aero, off = q.calibrate_universal(blocks, windows)
+    aero, off = cal.calibrate_universal(blocks, windows)
     z = off["pitch_offset_deg"] / off["pitch_offset_deg_se"]
     assert np.all(np.abs(z) < 3.5), z
-    pred = q.predict_windows(blocks, windows, off, aero=aero)
-    acc = q.accuracy_table(pred)
+    pred = validation.predict_windows(blocks, windows, off, aero=aero)
+    acc = validation.accuracy_table(pred)
     assert 0.1 < acc.loc["mean", "rmse_ms"] < 0.3  # the injected 0.2 m/s noise
-    table = q.calibration_table(off, q.calibrate_yaw_offsets(blocks, windows), acc, aero)
+    table = validation.calibration_table(off, cal.calibrate_yaw_offsets(blocks, windows), acc, aero)
     assert list(table.columns[:5]) == ["uav", "pitch_offset_deg", "yaw_offset_deg", "rmse_ms", "bias_ms"]
     assert len(table) == 4
 
@@ -231,7 +236,7 @@ def test_speed_range_calibration_recovers_random_drag_regime(seed):
     speed = ref[group] + rng.normal(0, 0.2, group.size)
     kk = k[group]
     acc = (speed / c[kk]) ** (1 / b[kk])
-    table = q.calibrate_speed_ranges(acc, ref, edges, group=group, edge_tol_ms=0.0)
+    table = cal.calibrate_speed_ranges(acc, ref, edges, group=group, edge_tol_ms=0.0)
     assert table["converged"].all()
     for j, row in table.iterrows():
         lo = max(row["lower_ms"], 2.0)
@@ -244,16 +249,16 @@ def test_speed_range_calibration_recovers_random_drag_regime(seed):
 
 def test_too_few_windows_flagged_not_fitted():
     blocks, windows = _synthetic_fleet(8, [1.0], [0.0], n_windows=2)
-    ind = q.calibrate_individual(blocks, windows)
+    ind = cal.calibrate_individual(blocks, windows)
     assert not ind["converged"].iloc[0] and ind["status"].iloc[0] == "too few windows"
     with pytest.raises(InputError):
-        q.calibrate_universal(blocks.iloc[:0], windows.iloc[:0])
+        cal.calibrate_universal(blocks.iloc[:0], windows.iloc[:0])
 
 
 def test_accuracy_table_known_answer():
     pred = pd.DataFrame({"uav": ["a", "a", "b", "b"], "error_ms": [0.1, -0.3, 0.2, 0.2],
                          "dir_error_deg": [3.0, -4.0, 0.0, 0.0]})
-    t = q.accuracy_table(pred)
+    t = validation.accuracy_table(pred)
     assert t.loc["a", "bias_ms"] == pytest.approx(-0.1)
     assert t.loc["a", "rmse_ms"] == pytest.approx(np.sqrt(0.05))
     assert t.loc["b", "rmse_ms"] == pytest.approx(0.2)
@@ -263,12 +268,12 @@ def test_accuracy_table_known_answer():
 
 def test_seed001_scenarios():
     ids = ["f01", "f18", "f31", "f37", "f38", "f56", "f73"]
-    scen, val = q.seed001_scenarios(ids)
+    scen, val = validation.seed001_scenarios(ids)
     assert scen["b_first_week"] == ["f01", "f18", "f31", "f37"]
     assert scen["c_flight31"] == ["f31"] and scen["d_flights31_56"] == ["f31", "f56"]
     assert val == ["f38", "f56", "f73"]
     with pytest.raises(InputError):
-        q.flight_number("tower")
+        validation.flight_number("tower")
 
 
 def test_fleet_speed_ranges_recover_regime():
@@ -279,7 +284,7 @@ def test_fleet_speed_ranges_recover_regime():
     # jumps at 4 m/s, so windows within 0.8 m/s (4 sigma of the 1-s turbulence) of an
     # edge are left out (edge_tol_ms < 0)
     offs = pd.DataFrame({"uav": ["q01", "q02"], "pitch_offset_deg": [1.5, -2.0]})
-    t = q.calibrate_fleet_speed_ranges(blocks, windows, offs, edge_tol_ms=-0.8)
+    t = cal.calibrate_fleet_speed_ranges(blocks, windows, offs, edge_tol_ms=-0.8)
     for j, (lo, hi) in enumerate([(2.5, 3.5), (5.0, 9.5)]):
         u = np.linspace(lo, hi, 10)
         a = (u / regime["c"][j]) ** (1 / regime["b"][j])
@@ -291,7 +296,7 @@ def test_seed001_tables_generic_flight_ids():
     """Flight ids without numbers: one scenario, validation on the calibration flights."""
     blocks, windows = _synthetic_fleet(31, [1.0, -1.0], [5.0, -3.0], n_windows=6)
     windows["flight"] = ["run_" + "abcdef"[i % 6] for i in range(len(windows))]
-    res = q.seed001_tables(blocks, windows)
+    res = validation.seed001_tables(blocks, windows)
     assert not res["independent_validation"] and list(res["scenarios"]) == ["a_all"]
     t = res["calibration_table"]
     assert list(t.columns[:5]) == ["uav", "pitch_offset_deg", "yaw_offset_deg", "rmse_ms", "bias_ms"]

@@ -32,11 +32,9 @@ FLUXPART = DATA / "fluxpart_csat3_toa5"
 FLUXPART_HEIGHT_M = 7.11  # heights.csv, tower height valid 2012-05-07 .. 2012-06-13
 
 mpcalc = pytest.importorskip("metpy.calc", reason="MetPy is the independent implementation")
-from dronewind.core import filtering, rotation  # noqa: E402
-from dronewind.mast import ameriflux, toa5  # noqa: E402
-
 from dronewind.compare import l4  # noqa: E402
-from dronewind.core import stats
+from dronewind.core import filtering, rotation, stats  # noqa: E402
+from dronewind.mast import ameriflux, toa5  # noqa: E402
 
 
 def _prepare(u_e, v_n, w_up, t_k):

@@ -10,18 +10,18 @@ the mechanism's effect differs.
 from __future__ import annotations
 
 import hashlib
+import importlib
 import math
 import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import importlib
-
 import pytest
 import yaml
 from scipy import signal
 
+from dronewind.core.geo import local_tangent_plane_m
 from dronewind.errors import InputError
 from dronewind.simulate.payload import body_to_ned, pendulum_period_s, simulate_payload_flight
 from dronewind.simulate.settings import flight_seed, resolve_payload_flight, validate_simulation
@@ -123,6 +123,19 @@ def test_files_follow_the_contract(base):
     assert (np.diff(son.rpi_time_us.to_numpy()) < 0).sum() > 0
     assert ((son[["u_ms", "v_ms", "w_ms"]].abs() > 40).any(axis=1)).sum() > 0
     assert base["masts"]["mast60"].Ux.isna().sum() > 0 or base["masts"]["mast30"].Ux.isna().sum() > 0
+
+
+def test_ins_positions_on_the_shared_wgs84_tangent_plane(base):
+    """Lat/lon are written with dronewind.core.geo, the chain's Earth model: on the ground before
+    take-off the payload sits exactly at the hover offset from the mast (up to the INS noise)."""
+    cond = resolve_payload_flight(_campaign(), "f1")
+    ground = base["ins"].sort_values("rpi_time_us").iloc[: 10 * 50]  # first 10 s of the 20 s on the ground
+    east, north = local_tangent_plane_m(ground.lat_deg, ground.lon_deg, 43.1247, 0.3628)
+    off_e, off_n = cond["hover_offset_enu_m"]
+    # tolerance 3 cm: INS position noise 0.01 m (1 s Gauss-Markov), lat/lon written to 1e-9 degree
+    # (0.1 mm); a spherical Earth (R = 6371 km) misplaces this 28 m east offset by 6.5 cm at 43 N
+    assert np.median(east) == pytest.approx(off_e, abs=0.03)
+    assert np.median(north) == pytest.approx(off_n, abs=0.03)
 
 
 def test_written_files_read_by_the_chain_readers(base):
@@ -236,7 +249,7 @@ def test_reruns_bit_identical_and_seed_matters(tmp_path, base):
     other = _campaign()
     other["simulation"]["seed"] = 43
     changed = simulate_payload_flight(other, tmp_path, "f1", tmp_path / "other")
-    assert all(a != b for a, b in zip(_sha(changed), _sha(base["files"])))
+    assert all(a != b for a, b in zip(_sha(changed), _sha(base["files"]), strict=True))
     assert flight_seed(42, "f1") == int.from_bytes(hashlib.sha256(b"42:f1").digest()[:8], "little")
 
 

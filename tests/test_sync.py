@@ -1,5 +1,5 @@
-"""Known-answer tests of dronewind.payload.sync: sonic-INS lag, L2 builder, FIR decimation,
-drone-mast lag and the L3 builder (seed 000, Sects. 3.2-3.3 and 4.4).
+"""Known-answer tests of dronewind.payload.sync (sonic-INS lag, L2 builder) and
+dronewind.compare.align (FIR decimation, drone-mast lag, L3 builder); seed 000, Sects. 3.2-3.3 and 4.4.
 
 Synthetic truth as in test_motion.py (duplicated here so each test file stands alone): a
 wind made of seeded random sinusoids and a sonic on an 18 m pendulum (0.117 Hz) with yaw
@@ -16,9 +16,10 @@ import pytest
 import xarray as xr
 from scipy.spatial.transform import Rotation
 
-from dronewind.payload import motion, sync
+from dronewind.compare import align
 from dronewind.core import rotation
 from dronewind.errors import InputError
+from dronewind.payload import motion, sync
 
 G = 9.80665
 L_PEND_M = 18.0
@@ -300,11 +301,11 @@ def test_payload_l2_bad_input():
 
 
 def test_fir_design_passband_and_stopband():
-    taps = sync.design_antialias_fir(32.0, 4)
+    taps = align.design_antialias_fir(32.0, 4)
     assert taps.size % 2 == 1
     np.testing.assert_allclose(taps, taps[::-1])
-    passband = sync.fir_response(taps, 32.0, np.linspace(0, 3.0, 601))
-    stopband = sync.fir_response(taps, 32.0, np.linspace(4.0, 16.0, 2401))
+    passband = align.fir_response(taps, 32.0, np.linspace(0, 3.0, 601))
+    stopband = align.fir_response(taps, 32.0, np.linspace(4.0, 16.0, 2401))
     assert np.max(np.abs(passband - 1)) < 1e-3  # measured 0.094 %
     assert 20 * np.log10(stopband.max()) <= -60.0  # measured -60.4 dB
 
@@ -312,13 +313,13 @@ def test_fir_design_passband_and_stopband():
 def test_fir_decimate_zero_phase_and_alias_rejection():
     fs = 32.0
     t = np.arange(4096) / fs
-    taps = sync.design_antialias_fir(fs, 4)
-    y, idx = sync.fir_decimate(np.sin(2 * np.pi * 1.0 * t + 0.4), taps, 4)
+    taps = align.design_antialias_fir(fs, 4)
+    y, idx = align.fir_decimate(np.sin(2 * np.pi * 1.0 * t + 0.4), taps, 4)
     assert np.all(idx % 4 == 0) and idx[0] >= taps.size // 2 and idx[-1] <= t.size - 1 - taps.size // 2
     # 1 Hz passes with no phase shift: output equals the input at the kept samples
     assert np.max(np.abs(y - np.sin(2 * np.pi * t[idx] + 0.4))) < 2e-3
     # 6 Hz would alias to 2 Hz at 8 Hz: rejected by >= 60 dB
-    y6, _ = sync.fir_decimate(np.sin(2 * np.pi * 6.0 * t), taps, 4)
+    y6, _ = align.fir_decimate(np.sin(2 * np.pi * 6.0 * t), taps, 4)
     assert np.max(np.abs(y6)) < 1e-3
 
 
@@ -359,7 +360,7 @@ def test_drone_mast_lag_recovered(lag_true, fs_mast):
     within 5 ms, far below the 1/32 s grid, thanks to the parabolic peak refinement
     (measured errors 0.3-0.8 ms with 0.05 m/s independent noise on each sensor)."""
     drone, mast = _mast_drone(lag_true, fs_mast=fs_mast)
-    ds = sync.align_drone_mast(drone, mast)
+    ds = align.align_drone_mast(drone, mast)
     assert abs(ds.attrs["lag_drone_mast_s"] - lag_true) < 0.005
     assert ds.attrs["lag_at_search_edge"] == 0 and ds.attrs["lag_xcorr_max"] > 0.9
 
@@ -381,14 +382,14 @@ def test_upwind_drone_gives_positive_lag():
 
     drone = obs(x_drone, np.arange(0, 400, 1 / 32))
     mast = obs(x_mast, np.arange(0, 400, 1 / 20))
-    ds = sync.align_drone_mast(drone, mast)
+    ds = align.align_drone_mast(drone, mast)
     assert ds.attrs["lag_drone_mast_s"] == pytest.approx(3.0, abs=1 / 64)
     assert ds.wind_from_deg.sel(sensor="mast") == pytest.approx(270.0, abs=1.0)
 
 
 def test_l3_structure_and_rotation():
     drone, mast = _mast_drone(1.5, fs_mast=20.0, mean_from_deg=250.0, speed=6.0)
-    ds = sync.align_drone_mast(drone, mast, rotation="double", drone_height_m=29.0)
+    ds = align.align_drone_mast(drone, mast, rotation="double", drone_height_m=29.0)
     assert ds.sizes["sensor"] == 2 and list(ds.sensor.values) == ["drone", "mast"]
     assert ds.u_ms.dims == ("sensor", "time")
     assert ds.attrs["sampling_rate_hz"] == 8.0 and ds.attrs["rotation_method"] == "double"
@@ -407,15 +408,15 @@ def test_l3_structure_and_rotation():
         assert "units" in ds[name].attrs
     assert "lag_drone_mast_s" in ds.attrs and "processing_log" in ds.attrs
     # triple rotation: v'w' = 0
-    ds3 = sync.align_drone_mast(drone, mast, rotation="triple")
+    ds3 = align.align_drone_mast(drone, mast, rotation="triple")
     for s in ("drone", "mast"):
         v, w = ds3.v_ms.sel(sensor=s).values, ds3.w_ms.sel(sensor=s).values
         assert abs(np.mean((v - v.mean()) * (w - w.mean()))) < 1e-10
     with pytest.raises(InputError, match="rotation"):
-        sync.align_drone_mast(drone, mast, rotation="quadruple")
+        align.align_drone_mast(drone, mast, rotation="quadruple")
     # planar fit: the mast levelled by its (record-wide) plane, the drone double-rotated
     fit = rotation.planar_fit_tilt([5.0, -3.0, 0.5, 2.0], [1.0, 4.0, -6.0, -2.0], [0.1, -0.02, 0.05, 0.04])
-    dsp = sync.align_drone_mast(drone, mast, rotation="planar_fit", planar_fit={"mast": fit})
+    dsp = align.align_drone_mast(drone, mast, rotation="planar_fit", planar_fit={"mast": fit})
     assert (dsp.attrs["rotation_method_drone"], dsp.attrs["rotation_method_mast"]) == ("double", "planar_fit")
     np.testing.assert_allclose(dsp.w_ms.sel(sensor="drone").mean(), 0.0, atol=1e-10)
     assert dsp.rotation_pitch_deg.sel(sensor="mast") == pytest.approx(fit.pitch_deg)
@@ -425,11 +426,11 @@ def test_align_bridges_mast_gaps_and_rejects_short_overlap():
     drone, mast = _mast_drone(1.0, fs_mast=20.0)
     m = mast.copy(deep=True)
     m["u_east_ms"].values[1000:1010] = np.nan
-    ds = sync.align_drone_mast(drone, m)
+    ds = align.align_drone_mast(drone, m)
     assert ds.attrs["n_mast_nan"] == 10 and ds.attrs["n_mast_bridged_32hz"] > 0
     assert np.isfinite(ds.u_ms).all()
     with pytest.raises(InputError, match="overlap"):
-        sync.align_drone_mast(drone.isel(time=slice(0, 1000)), mast)
+        align.align_drone_mast(drone.isel(time=slice(0, 1000)), mast)
 
 
 # ------------------------------------------------------------------ real CSAT3 record
@@ -456,7 +457,7 @@ def test_align_real_csat3_record_with_shifted_copy(lag_true):
     drone = xr.Dataset({k: ("time", np.interp(sec_d + lag_true, sec_m, mast[k].values)
                             + 0.1 * rng.standard_normal(sec_d.size)) for k in (*cols, "t_sonic_k")},
                        coords={"time": t_m[0] + np.round(sec_d * 1e9).astype("timedelta64[ns]")})
-    ds = sync.align_drone_mast(drone, mast, drone_height_m=7.0)
+    ds = align.align_drone_mast(drone, mast, drone_height_m=7.0)
     assert abs(ds.attrs["lag_drone_mast_s"] - lag_true) < 0.01
     assert ds.attrs["lag_xcorr_max"] > 0.9
     assert np.corrcoef(ds.w_ms.sel(sensor="drone"), ds.w_ms.sel(sensor="mast"))[0, 1] > 0.9

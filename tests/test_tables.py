@@ -10,8 +10,8 @@ import pandas as pd
 import pytest
 
 from dronewind import tables
+from dronewind.core.products import open_product
 from dronewind.errors import InputError
-from dronewind.steps import open_product
 from tests.products_fixture import FLIGHTS, set_nan, write_products
 
 

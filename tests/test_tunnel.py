@@ -7,14 +7,16 @@ import pandas as pd
 import pytest
 import scipy.signal
 
-from dronewind.tunnel import analysis as tn
 from dronewind.errors import InputError
-from dronewind.quadrotor.calibration import DragLaw
+from dronewind.simulate.airframe import AirframeDrag
 from dronewind.simulate.tunnel import iec_gust, simulate_tunnel, step_series, von_karman_series
+from dronewind.tunnel import analysis as tn
+from dronewind.tunnel import io as tio
+from dronewind.tunnel import metrics as tm
 
 
 def test_rmse_known_answer():
-    assert tn.rmse([1.0, 2.0, np.nan], [1.0, 4.0, 0.0]) == pytest.approx(np.sqrt(2.0))
+    assert tm.rmse([1.0, 2.0, np.nan], [1.0, 4.0, 0.0]) == pytest.approx(np.sqrt(2.0))
 
 
 def test_iec_gust_peak_and_dips():
@@ -33,7 +35,7 @@ def test_iec_gust_peak_and_dips():
     v = np.full(t.size, 6.0)
     for s in starts:
         v = np.where((t >= s) & (t <= s + T), iec_gust(t - s, 6.0, 5.0, T), v)
-    ev = tn.gust_events(t, v, starts, T)
+    ev = tm.gust_events(t, v, starts, T)
     assert len(ev) == 2
     assert np.allclose(ev["t_dip1_s"] - ev["start_s"], t1, atol=1e-3)
     assert np.allclose(ev["delta_t_s"], t2 - t1, atol=2e-3)
@@ -46,7 +48,7 @@ def test_step_metrics_known_90_percent_time():
     t = np.arange(0, 80, 1 / fs)
     v = np.concatenate([step_series(t[t < 40], 5.0, 12.0, 10.0, 30.0, rise),
                         step_series(t[t >= 40], 5.0, 12.0, 50.0, 70.0, rise)])
-    ev = tn.step_events(t, v, [0.0, 40.0], 40.0, smooth_s=0.01)
+    ev = tm.step_events(t, v, [0.0, 40.0], 40.0, smooth_s=0.01)
     w = rise / (2 * np.arctanh(0.8))
     assert len(ev) == 2
     assert np.allclose(ev["t_u0_s"], [10.0, 50.0], atol=0.011)
@@ -68,13 +70,13 @@ def test_turbulence_metrics_find_the_uas_cutoff():
     b, a = scipy.signal.butter(1, 1.0, fs=fs_c)
     uas = scipy.signal.lfilter(b, a, cta - 10) + 10
     uas = uas.reshape(-1, 10).mean(axis=1) + rng.normal(0, 0.05, n // 10)
-    m = tn.turbulence_metrics(uas, fs_u, cta, fs_c)
+    m = tm.turbulence_metrics(uas, fs_u, cta, fs_c)
     # the first-order filter halves the PSD at ~1 Hz: agreement (factor 2) up to ~1 Hz
     assert 0.5 <= m["f_max_hz"] <= 1.6
     assert m["var_cta_full"] - m["var_uas"] > 0.1
     assert abs(m["var_cta_cut_fmax"] - m["var_uas"]) < 0.5 * (m["var_cta_full"] - m["var_uas"])
     assert m["ti_cta"] == pytest.approx(1.2 / 10, rel=0.01)
-    same = tn.turbulence_metrics(cta[::10], fs_u, cta[::10], fs_u)
+    same = tm.turbulence_metrics(cta[::10], fs_u, cta[::10], fs_u)
     assert same["f_max_hz"] == pytest.approx(5.0) and same["var_uas"] == same["var_cta_full"]
 
 
@@ -102,7 +104,7 @@ def test_campaign_recovers_truth(small_campaign):
     assert off.loc["uas31", "pitch_offset_deg"] == pytest.approx(-1.2, abs=0.05)
     cal = res["calibration"]
     x = cal[cal["axis"] == "x"].reset_index(drop=True)
-    law = DragLaw(law="body_axis")
+    law = AirframeDrag(law="body_axis")
     # inside the ranges the fitted laws reproduce seed 002 Table 2 (the simulator's truth)
     # within 0.3 m/s; the lowest range has only the 2 and 4 m/s steps, and the truth jumps
     # at 4 m/s, so it is checked at 2 m/s only
@@ -135,6 +137,6 @@ def test_bad_index_named(tmp_path, small_campaign):
     p.parent.mkdir()
     df.to_csv(p, index=False)
     with pytest.raises(InputError, match=r"runs\.csv:2.*unknown kind"):
-        tn.read_tunnel_index(p)
+        tio.read_tunnel_index(p)
     with pytest.raises(InputError, match="unknown setting"):
         simulate_tunnel({"wind": 1}, tmp_path, 0)

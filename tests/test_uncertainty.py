@@ -7,8 +7,8 @@ import pytest
 import scipy.signal
 
 from dronewind.core import uncertainty
-from dronewind.errors import InputError
 from dronewind.core.stats import detrend
+from dronewind.errors import InputError
 
 FS_HZ, T_S, DURATION_S, N_REAL = 10.0, 1.0, 600.0, 400
 

@@ -7,8 +7,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 
@@ -53,3 +51,9 @@ def test_bad_manifest_stops_before_any_job(tmp_path):
     assert proc.returncode != 0
     out = proc.stdout + proc.stderr
     assert str(bad) in out and "payload_flights[0].reference" in out, out[-2000:]
+
+
+def test_scripts_take_params_not_the_whole_config():
+    """Each rule passes the settings it uses as params; no script reads snakemake.config."""
+    for script in sorted((REPO / "scripts").glob("*.py")):
+        assert ".config" not in script.read_text(), f"{script.name} reads the whole config"

@@ -19,6 +19,7 @@ EPILOG = """\
 examples:
   dronewind validate-campaign config/campaigns/mosai2023.yaml
   dronewind check-cf results/mosai2023/netcdf/L1/s01_sonic.nc
+  dronewind show-config config/config.yaml
 
 The whole workflow runs through Snakemake (see README.md):
   .venv/bin/snakemake --cores 2 --config campaign=/abs/path/campaign.yaml
@@ -72,6 +73,31 @@ def _check_cf(args: argparse.Namespace) -> int:
     return status
 
 
+def _show_config_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("configfiles", type=Path, nargs="*",
+                        help="config files (YAML), later ones override earlier ones; none: the defaults")
+
+
+def _merge(base: dict, override: dict) -> dict:
+    """``base`` updated recursively with ``override`` (as Snakemake merges --configfile files)."""
+    out = dict(base)
+    for key, value in override.items():
+        out[key] = _merge(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
+    return out
+
+
+def _show_config(args: argparse.Namespace) -> int:
+    import yaml
+
+    from dronewind.manifest import with_defaults
+
+    config: dict = {}
+    for path in args.configfiles:
+        config = _merge(config, yaml.safe_load(path.read_text(encoding="utf-8")) or {})
+    print(yaml.safe_dump(with_defaults(config), sort_keys=False), end="")
+    return 0
+
+
 SUBCOMMANDS: list[Subcommand] = [
     Subcommand(
         "validate-campaign",
@@ -87,6 +113,13 @@ SUBCOMMANDS: list[Subcommand] = [
         "example:\n  dronewind check-cf results/mosai2023/netcdf/L1/*.nc",
         _check_cf_args,
         _check_cf,
+    ),
+    Subcommand(
+        "show-config",
+        "print the effective workflow configuration: config files over the defaults of the config schema",
+        "examples:\n  dronewind show-config\n  dronewind show-config config/config.yaml my_settings.yaml",
+        _show_config_args,
+        _show_config,
     ),
 ]
 

@@ -6,6 +6,7 @@ and *what was expected*, so that a user can fix the input without reading code.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 
@@ -24,7 +25,7 @@ class InputError(DronewindError, ValueError):
         What is wrong and what was expected.
     """
 
-    def __init__(self, where: str | Path, what: str) -> None:
+    def __init__(self, where: str | os.PathLike[str], what: str) -> None:
         self.where = str(where)
         self.what = what
         super().__init__(f"{self.where}: {what}")

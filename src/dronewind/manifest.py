@@ -1,4 +1,4 @@
-"""Campaign manifests: loading and validation before any job runs.
+"""Campaign manifests and workflow settings: loading, validation and defaults before any job runs.
 
 A manifest (YAML, format in ../shared/DESIGN.md "Campaign manifest") is validated in two
 passes and every problem is reported with the manifest file, the key path and what was
@@ -13,13 +13,21 @@ expected:
 
 A manifest with a ``simulation:`` section describes a virtual campaign: its L0 files are
 written by the simulator (under ``results/<name>/L0/``), so they need not exist yet.
+
+The workflow configuration's defaults live once, as ``default:`` values of its schema
+(``workflow/schemas/config.schema.yaml``, shipped as ``dronewind/schemas/config.schema.yaml``).
+Snakemake fills them in when it validates the config; :func:`default_config` and
+:func:`with_defaults` give library callers outside Snakemake (the diagnosis experiments,
+tests, the command line) the same values.
 """
 
 from __future__ import annotations
 
+import copy
 import datetime as _dt
 import glob
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -31,13 +39,69 @@ import yaml
 
 from dronewind.errors import ManifestError
 
-__all__ = ["Campaign", "load_campaign", "campaign_schema", "parse_utc"]
+__all__ = ["Campaign", "load_campaign", "campaign_schema", "parse_utc", "config_schema", "default_config",
+           "with_defaults", "payload_flight_manifest"]
 
 
 def campaign_schema() -> dict[str, Any]:
     """The JSON schema of campaign manifests (draft 2020-12)."""
     text = resources.files("dronewind").joinpath("schemas/campaign.schema.json").read_text("utf-8")
     return json.loads(text)
+
+
+def config_schema() -> dict[str, Any]:
+    """The JSON schema of the workflow configuration, with the default of every setting.
+
+    Returns
+    -------
+    dict
+        ``workflow/schemas/config.schema.yaml`` (draft 2020-12), parsed.
+    """
+    text = resources.files("dronewind").joinpath("schemas/config.schema.yaml").read_text("utf-8")
+    return yaml.safe_load(text)
+
+
+def _fill_defaults(instance: dict[str, Any], schema: Mapping[str, Any]) -> None:
+    """Set every missing property that has a ``default`` and recurse into objects (in place).
+
+    The same rule as Snakemake's ``validate(config, schema)``: a property absent from the
+    instance takes a copy of its schema default; an object property is then filled in turn.
+    """
+    for key, sub in (schema.get("properties") or {}).items():
+        if "default" in sub and key not in instance:
+            instance[key] = copy.deepcopy(sub["default"])
+        if isinstance(instance.get(key), dict):
+            _fill_defaults(instance[key], sub)
+
+
+def with_defaults(config: Mapping[str, Any]) -> dict[str, Any]:
+    """A configuration with the schema's defaults filled in (the input is not changed).
+
+    Parameters
+    ----------
+    config : mapping
+        Workflow configuration, possibly partial (e.g. ``{"processing": {"rotation": "planar_fit"}}``).
+
+    Returns
+    -------
+    dict
+        A deep copy with every missing setting at its default.
+    """
+    out = copy.deepcopy(dict(config))
+    _fill_defaults(out, config_schema())
+    return out
+
+
+def default_config() -> dict[str, Any]:
+    """The default settings of the workflow, from the config schema.
+
+    Returns
+    -------
+    dict
+        Every section with defaults (``processing``, ``diagnosis``, ...), each key at its
+        default (``campaign`` and ``results_dir`` have none: they name the run).
+    """
+    return with_defaults({})
 
 
 def parse_utc(value: str, where: str = "time") -> np.datetime64:
@@ -75,7 +139,7 @@ def _normalise(node: Any) -> Any:
         return [_normalise(v) for v in node]
     if isinstance(node, _dt.datetime):
         if node.tzinfo is not None:
-            node = node.astimezone(_dt.timezone.utc).replace(tzinfo=None)
+            node = node.astimezone(_dt.UTC).replace(tzinfo=None)
         return node.isoformat() + "Z"
     if isinstance(node, _dt.date):
         return node.isoformat()
@@ -176,6 +240,50 @@ class Campaign:
         return list(dict.fromkeys(files))
 
 
+def payload_flight_manifest(data: Mapping[str, Any], flight_id: str, *, atmosphere: bool = False
+                            ) -> dict[str, Any]:
+    """The manifest reduced to one payload flight and its reference sonic.
+
+    What a per-flight job of the diagnosis reads of a campaign: every top-level key except
+    the other payload flights, the other mast sonics (a mast without the reference sonic is
+    dropped) and the ``simulation``, ``quadrotor_flights`` and ``tunnel`` sections. Keys keep
+    their order; values are copies.
+
+    Parameters
+    ----------
+    data : mapping
+        Manifest content (:attr:`Campaign.data`).
+    flight_id : str
+        Payload flight id.
+    atmosphere : bool
+        Keep the simulated atmosphere: ``simulation.atmosphere`` and the flight's
+        ``simulation.payload_flights`` conditions (empty for a measured campaign), which the
+        published-numbers diagnosis reads for what the paper does not print.
+
+    Returns
+    -------
+    dict
+        The one-flight manifest.
+    """
+    flight = next(f for f in data["payload_flights"] if f["id"] == flight_id)
+    masts = []
+    for mast in data.get("masts") or []:
+        sonics = [copy.deepcopy(s) for s in mast["sonics"] if s["id"] == flight["reference"]]
+        if sonics:
+            masts.append({**copy.deepcopy(mast), "sonics": sonics})
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        if key in ("simulation", "quadrotor_flights", "tunnel"):
+            continue
+        out[key] = [copy.deepcopy(flight)] if key == "payload_flights" else masts if key == "masts" \
+            else copy.deepcopy(value)
+    if atmosphere:
+        sim = data.get("simulation") or {}
+        out["simulation"] = copy.deepcopy({"atmosphere": sim.get("atmosphere") or {}, "payload_flights": {
+            flight_id: (sim.get("payload_flights") or {}).get(flight_id) or {}}})
+    return out
+
+
 def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> list[tuple[str, str]]:
     problems: list[tuple[str, str]] = []
     root = path.parent
@@ -206,27 +314,32 @@ def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> lis
             if section == "payload_flights":
                 if flight["reference"] not in sonic_ids:
                     known = ", ".join(sorted(sonic_ids)) or "none defined"
-                    problems.append((f"{key}.reference", f"unknown mast sonic id {flight['reference']!r}; expected one of: {known}"))
+                    problems.append((f"{key}.reference",
+                                     f"unknown mast sonic id {flight['reference']!r}; expected one of: {known}"))
                 window = flight.get("window")
                 if window:
                     start = parse_utc(window["start"], f"{key}.window.start")
                     end = parse_utc(window["end"], f"{key}.window.end")
                     if end <= start:
-                        problems.append((f"{key}.window.end", f"end {window['end']} is not after start {window['start']}"))
+                        problems.append((f"{key}.window.end",
+                                         f"end {window['end']} is not after start {window['start']}"))
                 if check_files:
                     for part in ("sonic", "ins"):
                         if not (root / flight[part]["file"]).is_file():
-                            problems.append((f"{key}.{part}.file", f"file {flight[part]['file']!r} does not exist under {root}"))
+                            problems.append((f"{key}.{part}.file",
+                                             f"file {flight[part]['file']!r} does not exist under {root}"))
             else:
                 uav_ids = [u["id"] for u in flight["uavs"]]
                 for dup in sorted({u for u in uav_ids if uav_ids.count(u) > 1}):
                     problems.append((f"{key}.uavs", f"duplicate UAV id {dup!r}"))
                 if check_files:
                     if not (root / flight["reference"]).is_file():
-                        problems.append((f"{key}.reference", f"file {flight['reference']!r} does not exist under {root}"))
+                        problems.append((f"{key}.reference",
+                                         f"file {flight['reference']!r} does not exist under {root}"))
                     for j, uav in enumerate(flight["uavs"]):
                         if not (root / uav["file"]).is_file():
-                            problems.append((f"{key}.uavs[{j}].file", f"file {uav['file']!r} does not exist under {root}"))
+                            problems.append((f"{key}.uavs[{j}].file",
+                                             f"file {uav['file']!r} does not exist under {root}"))
     return problems
 
 
@@ -272,9 +385,11 @@ def load_campaign(path: str | Path, *, check_files: bool | None = None) -> Campa
         key = _key_path(error.absolute_path)
         if error.validator == "required":
             missing = error.message.split("'")[1] if "'" in error.message else error.message
-            problems.append((f"{key}.{missing}" if error.absolute_path else missing, f"missing required key: {error.message}"))
+            problems.append((f"{key}.{missing}" if error.absolute_path else missing,
+                             f"missing required key: {error.message}"))
         elif error.validator == "type":
-            problems.append((key, f"wrong type: expected {error.validator_value}, got {type(error.instance).__name__} ({error.instance!r})"))
+            got = f"{type(error.instance).__name__} ({error.instance!r})"
+            problems.append((key, f"wrong type: expected {error.validator_value}, got {got}"))
         elif error.validator == "pattern":
             hint = error.schema.get("description", f"pattern {error.validator_value}")
             problems.append((key, f"{error.instance!r} is not valid: expected {hint}"))

@@ -40,13 +40,15 @@ mast_w_attenuation   mast CSAT3 Uz = gain . true vertical wind
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 from dronewind.errors import InputError
 
 __all__ = [
+    "ParameterValue",
     "Parameter",
     "Mechanism",
     "CATALOG",
@@ -58,6 +60,10 @@ __all__ = [
 
 #: Platforms a mechanism can act on.
 PLATFORMS: tuple[str, ...] = ("payload", "mast", "quadrotor", "any")
+
+#: A validated parameter value: a number (``float`` parameters), an identifier (``str``) or a
+#: table of YAML mappings (``table``).
+ParameterValue = float | str | list[dict[str, Any]]
 
 
 @dataclass(frozen=True)
@@ -117,8 +123,10 @@ class Mechanism:
         return tuple(p.name for p in self.parameters)
 
 
-def _p(name: str, units: str, lower: float, upper: float, description: str, **kw: Any) -> Parameter:
-    return Parameter(name, units, lower, upper, description, **kw)
+def _p(name: str, units: str, lower: float, upper: float, description: str, kind: str = "float",
+       lower_exclusive: bool = False) -> Parameter:
+    """Shorthand for a catalog :class:`Parameter`."""
+    return Parameter(name, units, lower, upper, description, kind, lower_exclusive)
 
 
 _ENTRIES: tuple[Mechanism, ...] = (
@@ -283,7 +291,7 @@ def mechanisms_for(platform: str) -> list[Mechanism]:
     return [m for m in _ENTRIES if platform in m.platforms]
 
 
-def validate_parameters(name: str, parameters: Mapping[str, Any] | None,
+def validate_parameters(name: str, parameters: Mapping[str, object] | None,
                         where: str = "mechanism") -> dict[str, Any]:
     """Check a mechanism's parameters against the catalog.
 
@@ -300,7 +308,8 @@ def validate_parameters(name: str, parameters: Mapping[str, Any] | None,
     Returns
     -------
     dict
-        Parameter values (floats for ``float`` parameters).
+        Parameter values (:data:`ParameterValue`: floats for ``float`` parameters, the
+        identifier for ``str``, a list of dicts for ``table``).
 
     Raises
     ------
@@ -314,6 +323,8 @@ def validate_parameters(name: str, parameters: Mapping[str, Any] | None,
     if unknown:
         raise InputError(where, f"unknown parameter(s) {unknown} for mechanism {name!r}; "
                                 f"expected {list(mech.parameter_names)}")
+    # values are ParameterValue; typed Any so that a caller knowing a parameter's kind from the
+    # catalog (e.g. a quadrotor drag table) needs no cast
     out: dict[str, Any] = {}
     for p in mech.parameters:
         key = f"{where}.{p.name}"

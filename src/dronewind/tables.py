@@ -1,8 +1,8 @@
 r"""Campaign tables drawn from stored L4 products (seed 000, Tables 4 and 5).
 
 Every number in these tables is read from the L4 NetCDF files written by
-:func:`dronewind.steps.l4` (opened with :func:`dronewind.steps.open_product`); nothing
-is recomputed. The only derived item is a *label*: the stability class, a binning of the
+:func:`dronewind.steps.l4` (read with :func:`dronewind.core.products.load_l4_products`);
+nothing is recomputed. The only derived item is a *label*: the stability class, a binning of the
 stored :math:`\zeta = z/L` (:func:`stability_class`).
 
 Each table is written three times next to ``out_stem``: ``.csv`` (full precision, machine
@@ -19,21 +19,23 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
+import xarray as xr
 
 from dronewind.core.cf import atomic_write_text
+from dronewind.core.products import L4Products, drone_usable, load_l4_products, stored_scalar
 from dronewind.errors import InputError
 
 __all__ = [
     "STABILITY_BOUNDS",
+    "TABLE4_COLUMNS",
     "TABLE5_ROWS",
     "default_detail_flights",
-    "load_l4_products",
     "stability_class",
     "table_flight_statistics",
     "table_flights",
@@ -66,42 +68,7 @@ _UNITS_MD = {"m s-1": "m s⁻¹", "m2 s-2": "m² s⁻²", "K m s-1": "K m s⁻¹
              "min": "min", "degree": "°", "": ""}
 
 
-# ----------------------------------------------------------------------------- reading
-
-
-def load_l4_products(l4_files: Iterable[PathLike]) -> dict[str, dict[str, Any]]:
-    """Open L4 files and index them by flight and sensor.
-
-    Parameters
-    ----------
-    l4_files : iterable of path
-        L4 files (``<flight>_<sensor>.nc``) written by :func:`dronewind.steps.l4`.
-
-    Returns
-    -------
-    dict
-        ``{flight: {"drone": Dataset, "mast": Dataset}}`` (a sensor absent when its file is
-        not given), flights in sorted order.
-
-    Raises
-    ------
-    InputError
-        A file without the global attributes ``flight`` and ``sensor``, or two files for
-        the same flight and sensor.
-    """
-    from dronewind.steps import open_product
-
-    out: dict[str, dict[str, Any]] = {}
-    for path in l4_files:
-        ds = open_product(path)
-        flight, sensor = ds.attrs.get("flight"), ds.attrs.get("sensor")
-        if flight is None or sensor is None:
-            raise InputError(str(path), "expected global attributes 'flight' and 'sensor' (an L4 product)")
-        slot = out.setdefault(str(flight), {})
-        if str(sensor) in slot:
-            raise InputError(str(path), f"second L4 file for flight {flight} sensor {sensor}")
-        slot[str(sensor)] = ds
-    return {k: out[k] for k in sorted(out)}
+# ----------------------------------------------------------------------------- flight choice and labels
 
 
 def default_detail_flights(flights: Sequence[str]) -> list[str]:
@@ -159,20 +126,8 @@ def stability_class(zeta: float, bounds: tuple[float, float, float] = STABILITY_
     return "very stable"
 
 
-def _scalar(ds: Any | None, name: str) -> float:
-    if ds is None or name not in ds.variables:
-        return math.nan
-    return float(np.asarray(ds[name].values).reshape(-1)[0])
-
-
-def _drone_usable(products: dict[str, Any]) -> tuple[bool, str]:
-    drone = products.get("drone")
-    if drone is None:
-        return False, "no drone L4 product"
-    return bool(int(drone.attrs.get("drone_usable", 1))), str(drone.attrs.get("drone_unusable_reason", ""))
-
-
-def _start_utc(ds: Any | None) -> str:
+def _start_utc(ds: xr.Dataset | None) -> str:
+    """Start of the analysed record (``time_bnds[0]``, else ``time_coverage_start``) as ``YYYY-MM-DD hh:mm:ss``."""
     if ds is None:
         return ""
     if "time_bnds" in ds.variables:
@@ -185,6 +140,7 @@ def _start_utc(ds: Any | None) -> str:
 
 
 def _fmt(value: Any, decimals: int) -> str:
+    """A number rounded to ``decimals`` for reading ("–" for NaN or None, never "-0.00"); text as is."""
     if isinstance(value, str):
         return value
     if value is None or not np.isfinite(value):
@@ -202,6 +158,7 @@ def _tex_escape(text: str) -> str:
 
 
 def _markdown(header: list[str], rows: list[list[str]], notes: list[str]) -> str:
+    """A Markdown pipe table followed by its notes."""
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
     if notes:
@@ -211,6 +168,7 @@ def _markdown(header: list[str], rows: list[list[str]], notes: list[str]) -> str
 
 def _latex(caption: str, label: str, header: list[str], rows: list[list[str]], notes: list[str],
            align: str, header_top: str | None = None) -> str:
+    """A LaTeX ``table`` with ``booktabs`` rules, the notes in small print below."""
     lines = [r"% written by dronewind.tables; needs \usepackage{booktabs}", r"\begin{table}[htbp]",
              r"\centering", rf"\caption{{{caption}}}", rf"\label{{{label}}}", rf"\begin{{tabular}}{{{align}}}",
              r"\toprule"]
@@ -225,7 +183,13 @@ def _latex(caption: str, label: str, header: list[str], rows: list[list[str]], n
     return "\n".join(lines) + "\n"
 
 
+def _csv(table: pd.DataFrame) -> str:
+    """A table as CSV text at full precision, NaN as an empty field."""
+    return table.to_csv(index=False, na_rep="", lineterminator="\n")
+
+
 def _write_three(out_stem: PathLike, csv_text: str, md_text: str, tex_text: str) -> list[Path]:
+    """Write ``<out_stem>.csv``, ``.md`` and ``.tex`` atomically; return the three paths."""
     stem = Path(out_stem)
     return [atomic_write_text(stem.with_name(stem.name + ext), text)
             for ext, text in ((".csv", csv_text), (".md", md_text), (".tex", tex_text))]
@@ -240,6 +204,71 @@ TABLE4_COLUMNS: tuple[tuple[str, str], ...] = (
     ("zeta", "1"), ("stability_class", ""), ("lag_sonic_ins_s", "s"), ("lag_drone_mast_s", "s"),
     ("usable", ""), ("unusable_reason", ""),
 )
+#: Table 4 header, Markdown (* = measured by the reference mast sonic).
+TABLE4_HEAD_MD: tuple[str, ...] = (
+    "Flight", "Reference", "Start (UTC)", "Duration (min)", "Payload height (m)", "Reference height (m)",
+    "Wind direction (°)*", "ū (m s⁻¹)*", "ζ (–)*", "Stability*", "Lag sonic–INS (s)", "Lag drone–mast (s)")
+#: Table 4 header, LaTeX.
+TABLE4_HEAD_TEX: tuple[str, ...] = (
+    "Flight", "Reference", "Start (UTC)", "Duration (min)", "Payload $z$ (m)", "Reference $z$ (m)",
+    r"Direction ($^\circ$)$^*$", r"$\bar{u}$ (m\,s$^{-1}$)$^*$", r"$\zeta$$^*$", "Stability$^*$",
+    r"Lag sonic--INS (s)", r"Lag drone--mast (s)")
+
+
+def _table4_row(flight: str, prod: Mapping[str, Any], stability_bounds: tuple[float, float, float]) -> dict[str, Any]:
+    """One flight's Table 4 values, read from its L4 products (see :func:`table_flights`, Notes)."""
+    drone, mast = prod.get("drone"), prod.get("mast")
+    ref = mast if mast is not None else drone
+    usable, reason = drone_usable(prod)
+    zeta = stored_scalar(mast, "zeta")
+    lag_si = float(drone.attrs.get("lag_sonic_ins_s", math.nan)) if drone is not None else math.nan
+    lag_dm = float(ref.attrs.get("lag_drone_mast_s", math.nan)) if ref is not None else math.nan
+    return {
+        "flight": flight,
+        "reference": str(ref.attrs.get("reference", "")) if ref is not None else "",
+        "start_utc": _start_utc(ref),
+        "duration_min": stored_scalar(ref, "duration_s") / 60.0,
+        "payload_height_m": stored_scalar(drone, "height_m"),
+        "reference_height_m": stored_scalar(mast, "height_m"),
+        "wind_from_deg": stored_scalar(mast, "wind_from_deg"),
+        "U_ms": stored_scalar(mast, "U_ms"),
+        "zeta": zeta,
+        "stability_class": stability_class(zeta, stability_bounds),
+        "lag_sonic_ins_s": lag_si,
+        "lag_drone_mast_s": lag_dm,
+        "usable": int(usable),
+        "unusable_reason": reason,
+    }
+
+
+def _table4_cells(row: Mapping[str, Any]) -> list[str]:
+    """One Table 4 row as rounded text (an unusable drone record marked †)."""
+    mark = "" if row["usable"] else "†"
+    return [row["flight"] + mark, row["reference"], row["start_utc"] or "–", _fmt(row["duration_min"], 1),
+            _fmt(row["payload_height_m"], 1), _fmt(row["reference_height_m"], 0), _fmt(row["wind_from_deg"], 0),
+            _fmt(row["U_ms"], 1), _fmt(row["zeta"], 2), row["stability_class"], _fmt(row["lag_sonic_ins_s"], 3),
+            _fmt(row["lag_drone_mast_s"], 2)]
+
+
+def _table4_notes(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The footnotes: what * means, and the reason of every unusable drone record (†)."""
+    notes = ["\\* measured by the reference mast sonic over the analysed record."]
+    for r in rows:
+        if not r["usable"]:
+            notes.append(f"† {r['flight']}: drone record unusable: {r['unusable_reason'] or 'no reason stored'}.")
+    return notes
+
+
+def _table4_markdown_latex(rows: Sequence[Mapping[str, Any]]) -> tuple[str, str]:
+    """Table 4 as Markdown and as a LaTeX ``table``."""
+    body = [_table4_cells(r) for r in rows]
+    body_tex = [[_tex_escape(c) for c in cells] for cells in body]
+    notes = _table4_notes(rows)
+    md_text = "Table 4 (dronewind): summary of the payload flights.\n\n" + _markdown(list(TABLE4_HEAD_MD), body, notes)
+    tex_notes = [n.replace("\\*", "*") for n in notes]
+    tex_text = _latex("Summary of the payload flights (after seed 000, Table 4).", "tab:flights",
+                      list(TABLE4_HEAD_TEX), body_tex, tex_notes, "ll" + "l" + "r" * 7 + "l" + "rr")
+    return md_text, tex_text
 
 
 def table_flights(l4_files: Iterable[PathLike], out_stem: PathLike,
@@ -276,58 +305,56 @@ def table_flights(l4_files: Iterable[PathLike], out_stem: PathLike,
     NaN in the CSV and "–" in the Markdown/LaTeX text.
     """
     products = load_l4_products(l4_files)
-    rows: list[dict[str, Any]] = []
-    for flight, prod in products.items():
-        drone, mast = prod.get("drone"), prod.get("mast")
-        ref = mast if mast is not None else drone
-        usable, reason = _drone_usable(prod)
-        zeta = _scalar(mast, "zeta")
-        lag_si = float(drone.attrs.get("lag_sonic_ins_s", math.nan)) if drone is not None else math.nan
-        lag_dm = float(ref.attrs.get("lag_drone_mast_s", math.nan)) if ref is not None else math.nan
-        rows.append({
-            "flight": flight,
-            "reference": str(ref.attrs.get("reference", "")) if ref is not None else "",
-            "start_utc": _start_utc(ref),
-            "duration_min": _scalar(ref, "duration_s") / 60.0,
-            "payload_height_m": _scalar(drone, "height_m"),
-            "reference_height_m": _scalar(mast, "height_m"),
-            "wind_from_deg": _scalar(mast, "wind_from_deg"),
-            "U_ms": _scalar(mast, "U_ms"),
-            "zeta": zeta,
-            "stability_class": stability_class(zeta, stability_bounds),
-            "lag_sonic_ins_s": lag_si,
-            "lag_drone_mast_s": lag_dm,
-            "usable": int(usable),
-            "unusable_reason": reason,
-        })
+    rows = [_table4_row(flight, prod, stability_bounds) for flight, prod in products.items()]
     table = pd.DataFrame(rows, columns=[c for c, _ in TABLE4_COLUMNS])
-    csv_text = table.to_csv(index=False, na_rep="", lineterminator="\n")
-
-    head_md = ["Flight", "Reference", "Start (UTC)", "Duration (min)", "Payload height (m)",
-               "Reference height (m)", "Wind direction (°)*", "ū (m s⁻¹)*", "ζ (–)*", "Stability*",
-               "Lag sonic–INS (s)", "Lag drone–mast (s)"]
-    head_tex = ["Flight", "Reference", "Start (UTC)", "Duration (min)", "Payload $z$ (m)", "Reference $z$ (m)",
-                r"Direction ($^\circ$)$^*$", r"$\bar{u}$ (m\,s$^{-1}$)$^*$", r"$\zeta$$^*$", "Stability$^*$",
-                r"Lag sonic--INS (s)", r"Lag drone--mast (s)"]
-    body, body_tex, notes = [], [], ["\\* measured by the reference mast sonic over the analysed record."]
-    for r in rows:
-        mark = "" if r["usable"] else "†"
-        cells = [r["flight"] + mark, r["reference"], r["start_utc"] or "–", _fmt(r["duration_min"], 1),
-                 _fmt(r["payload_height_m"], 1), _fmt(r["reference_height_m"], 0), _fmt(r["wind_from_deg"], 0),
-                 _fmt(r["U_ms"], 1), _fmt(r["zeta"], 2), r["stability_class"], _fmt(r["lag_sonic_ins_s"], 3),
-                 _fmt(r["lag_drone_mast_s"], 2)]
-        body.append(cells)
-        body_tex.append([_tex_escape(c) for c in cells])
-        if not r["usable"]:
-            notes.append(f"† {r['flight']}: drone record unusable: {r['unusable_reason'] or 'no reason stored'}.")
-    md_text = "Table 4 (dronewind): summary of the payload flights.\n\n" + _markdown(head_md, body, notes)
-    tex_notes = [n.replace("\\*", "*") for n in notes]
-    tex_text = _latex("Summary of the payload flights (after seed 000, Table 4).", "tab:flights", head_tex,
-                      body_tex, tex_notes, "ll" + "l" + "r" * 7 + "l" + "rr")
-    return _write_three(out_stem, csv_text, md_text, tex_text)
+    md_text, tex_text = _table4_markdown_latex(rows)
+    return _write_three(out_stem, _csv(table), md_text, tex_text)
 
 
 # ----------------------------------------------------------------------------- Table 5
+
+
+def _table5_values(products: L4Products, chosen: Sequence[str]) -> dict[str, list[Any]]:
+    """Table 5 columns: statistic, units, then ``<flight>_drone`` and ``<flight>_mast`` (stored values)."""
+    data: dict[str, list[Any]] = {"statistic": [r[0] for r in TABLE5_ROWS], "units": [r[3] for r in TABLE5_ROWS]}
+    for f in chosen:
+        for sensor in ("drone", "mast"):
+            data[f"{f}_{sensor}"] = [stored_scalar(products[f].get(sensor), r[0]) for r in TABLE5_ROWS]
+    return data
+
+
+def _unusable_marks(products: L4Products, chosen: Sequence[str]) -> tuple[dict[str, str], list[str]]:
+    """Flight -> "†" when its drone record is unusable (else ""), and the footnotes with the reasons."""
+    notes = []
+    marks = {}
+    for f in chosen:
+        usable, reason = drone_usable(products[f])
+        marks[f] = "" if usable else "†"
+        if not usable:
+            notes.append(f"† {f}: drone record unusable: {reason or 'no reason stored'}.")
+    return marks, notes
+
+
+def _table5_markdown_latex(data: Mapping[str, list[Any]], chosen: Sequence[str], marks: Mapping[str, str],
+                           notes: list[str]) -> tuple[str, str]:
+    """Table 5 as Markdown and as a LaTeX ``table`` (two columns, drone and mast, per flight)."""
+    head_md = ["Statistic", "Units"] + [f"{f}{marks[f]} {s}" for f in chosen for s in ("drone", "mast")]
+    body_md, body_tex = [], []
+    for i, (_name, md_label, tex_label, units, dec) in enumerate(TABLE5_ROWS):
+        vals = [_fmt(data[f"{f}_{s}"][i], dec) for f in chosen for s in ("drone", "mast")]
+        body_md.append([md_label, _UNITS_MD.get(units, units)] + vals)
+        body_tex.append([tex_label, _UNITS_TEX.get(units, units)] + [v.replace("–", "--") for v in vals])
+    md_text = ("Table 5 (dronewind): mean and turbulent flow statistics, drone vs mast.\n\n"
+               + _markdown(head_md, body_md, notes))
+    top = " & ".join(["", ""] + [rf"\multicolumn{{2}}{{c}}{{Flight {_tex_escape(f + marks[f])}}}" for f in chosen])
+    top += r" \\" + "\n" + "".join(rf"\cmidrule(lr){{{3 + 2 * k}-{4 + 2 * k}}}" for k in range(len(chosen)))
+    head_tex = ["Statistic", "Units"] + ["Drone", "Mast"] * len(chosen)
+    tex_text = _latex(
+        r"Mean and turbulent flow statistics for the drone- and mast-mounted sonic anemometers "
+        r"(after seed 000, Table 5): standard deviation $\sigma$, skewness $\gamma$, kurtosis $\kappa$, "
+        r"momentum flux $\overline{u'w'}$ and buoyancy flux $\overline{w'\theta_v'}$.",
+        "tab:statistics", head_tex, body_tex, notes, "ll" + "rr" * len(chosen), header_top=top)
+    return md_text, tex_text
 
 
 def table_flight_statistics(l4_files: Iterable[PathLike], out_stem: PathLike,
@@ -369,34 +396,7 @@ def table_flight_statistics(l4_files: Iterable[PathLike], out_stem: PathLike,
     for f in chosen:
         if f not in products:
             raise InputError("table_flight_statistics(flights)", f"no L4 file for flight {f!r}; have {list(products)}")
-    data: dict[str, list[Any]] = {"statistic": [r[0] for r in TABLE5_ROWS], "units": [r[3] for r in TABLE5_ROWS]}
-    for f in chosen:
-        for sensor in ("drone", "mast"):
-            data[f"{f}_{sensor}"] = [_scalar(products[f].get(sensor), r[0]) for r in TABLE5_ROWS]
-    table = pd.DataFrame(data)
-    csv_text = table.to_csv(index=False, na_rep="", lineterminator="\n")
-
-    notes = []
-    marks = {}
-    for f in chosen:
-        usable, reason = _drone_usable(products[f])
-        marks[f] = "" if usable else "†"
-        if not usable:
-            notes.append(f"† {f}: drone record unusable: {reason or 'no reason stored'}.")
-    head_md = ["Statistic", "Units"] + [f"{f}{marks[f]} {s}" for f in chosen for s in ("drone", "mast")]
-    body_md, body_tex = [], []
-    for i, (name, md_label, tex_label, units, dec) in enumerate(TABLE5_ROWS):
-        vals = [_fmt(data[f"{f}_{s}"][i], dec) for f in chosen for s in ("drone", "mast")]
-        body_md.append([md_label, _UNITS_MD.get(units, units)] + vals)
-        body_tex.append([tex_label, _UNITS_TEX.get(units, units)] + [v.replace("–", "--") for v in vals])
-    md_text = ("Table 5 (dronewind): mean and turbulent flow statistics, drone vs mast.\n\n"
-               + _markdown(head_md, body_md, notes))
-    top = " & ".join(["", ""] + [rf"\multicolumn{{2}}{{c}}{{Flight {_tex_escape(f + marks[f])}}}" for f in chosen])
-    top += r" \\" + "\n" + "".join(rf"\cmidrule(lr){{{3 + 2 * k}-{4 + 2 * k}}}" for k in range(len(chosen)))
-    head_tex = ["Statistic", "Units"] + ["Drone", "Mast"] * len(chosen)
-    tex_text = _latex(
-        r"Mean and turbulent flow statistics for the drone- and mast-mounted sonic anemometers "
-        r"(after seed 000, Table 5): standard deviation $\sigma$, skewness $\gamma$, kurtosis $\kappa$, "
-        r"momentum flux $\overline{u'w'}$ and buoyancy flux $\overline{w'\theta_v'}$.",
-        "tab:statistics", head_tex, body_tex, notes, "ll" + "rr" * len(chosen), header_top=top)
-    return _write_three(out_stem, csv_text, md_text, tex_text)
+    data = _table5_values(products, chosen)
+    marks, notes = _unusable_marks(products, chosen)
+    md_text, tex_text = _table5_markdown_latex(data, chosen, marks, notes)
+    return _write_three(out_stem, _csv(pd.DataFrame(data)), md_text, tex_text)

@@ -3,7 +3,6 @@
 
 rule l3:
     input:
-        manifest=str(CAMPAIGN.path),
         drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
         mast=RESULTS / "netcdf" / "L2" / "{flight}_mast.nc",
     output:
@@ -14,13 +13,19 @@ rule l3:
         bench_path("l3", "flight")
     conda:
         ENV
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        flight=flight_entry,
+        reference=reference_sonic,
+        drone_mast=PROCESSING["drone_mast"],
+        rotation=PROCESSING["rotation"],
     script:
         "../../scripts/l3.py"
 
 
 rule l4:
     input:
-        manifest=str(CAMPAIGN.path),
         l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
     output:
         RESULTS / "netcdf" / "L4" / "{flight}_{sensor}.nc",
@@ -30,6 +35,13 @@ rule l4:
         bench_path("l4", "flight", "sensor")
     conda:
         ENV
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        sensor="{sensor}",
+        reference=reference_sonic,
+        spectra=PROCESSING["spectra"],
+        quadrant=PROCESSING["quadrant"],
     script:
         "../../scripts/l4.py"
 

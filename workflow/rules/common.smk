@@ -1,16 +1,24 @@
 # Configuration, campaign manifest validation, helpers and wildcard constraints.
+#
+# Each rule receives the settings it uses as params (Snakemake reruns a job when its params
+# change), never the whole config: per-flight rules get their flight's manifest entry, its
+# reference sonic's entry and the `processing` keys they use; the manifest file is an input
+# only of the rules that read all of it (campaign record, campaign diagnosis).
 from pathlib import Path
 
 from snakemake.utils import min_version, validate
 
-from dronewind.figures.payload import figure_captions
+from dronewind.diagnose.forward import CHAIN_SETTINGS
+from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
-from dronewind.manifest import load_campaign
+from dronewind.manifest import load_campaign, payload_flight_manifest
 from dronewind.simulate.settings import validate_simulation
+from dronewind.steps.payload import simulation_manifest
 
 min_version("9.0")
 
 
+# Missing settings take their defaults from the schema, the one place defaults are kept.
 validate(config, "../schemas/config.schema.yaml")
 
 # The manifest is validated before any job runs: a bad manifest stops the workflow with
@@ -31,9 +39,29 @@ MAST_SONICS = list(CAMPAIGN.mast_sonics())
 FIGURES = list(figure_captions())
 
 
+def canonical(value):
+    """A setting with its mappings' keys sorted.
+
+    Snakemake keeps the repr of each param as the job's rerun trigger: sorted keys make it
+    independent of the order in which settings are written or filled in.
+    """
+    if isinstance(value, dict):
+        return {key: canonical(value[key]) for key in sorted(value)}
+    if isinstance(value, list):
+        return [canonical(v) for v in value]
+    return value
+
+
+PROCESSING = canonical(config["processing"])
+DIAGNOSIS = canonical(config["diagnosis"])
+# settings of the chain up to L3 (what a forward-model run depends on)
+CHAIN = {key: PROCESSING[key] for key in CHAIN_SETTINGS}
+SITE = CAMPAIGN.data["site"]
+
+
 def _published():
     """The published-results file (validated) and its samples, if it applies to this campaign."""
-    path = (config.get("diagnosis") or {}).get("published")
+    path = config["diagnosis"]["published"]
     if not path:
         return None, []
     from dronewind.diagnose.published import load_published
@@ -96,6 +124,9 @@ def all_outputs():
     return out
 
 
+# ----------------------------------------------------------------------------- payload flights: files
+
+
 def payload_file(kind):
     """Input function: the raw sonic or INS file of a payload flight."""
     return lambda wc: str(L0 / CAMPAIGN.payload_flight(wc.flight)[kind]["file"])
@@ -135,10 +166,65 @@ def l0_root(wildcards, output):
     return str(sonic.parents[depth - 1])
 
 
+# ----------------------------------------------------------------------------- payload flights: params
+
+
+def flight_entry(wc):
+    """Params function: a payload flight's manifest entry."""
+    return CAMPAIGN.payload_flight(wc.flight)
+
+
+def target_height(wc):
+    """Params function: a payload flight's nominal height above ground [m] (None if not given)."""
+    return CAMPAIGN.payload_flight(wc.flight).get("target_height_m")
+
+
+def mast_sonic(wc):
+    """Params function: a mast sonic's manifest entry, with its mast's id and position."""
+    return CAMPAIGN.mast_sonics()[wc.sonic]
+
+
+def reference_sonic(wc):
+    """Params function: the manifest entry of a payload flight's reference sonic."""
+    return CAMPAIGN.mast_sonics()[CAMPAIGN.payload_flight(wc.flight)["reference"]]
+
+
+def flight_manifest(wc):
+    """Params function: the manifest reduced to a payload flight and its reference sonic."""
+    return payload_flight_manifest(CAMPAIGN.data, wc.flight)
+
+
+def published_manifest(wc):
+    """Params function: the one-flight manifest with the flight's simulated atmosphere.
+
+    The published-numbers diagnosis takes the atmosphere settings that the paper does not
+    print (roughness length, temperature, boundary-layer depth) from the campaign that
+    reconstructs the experiment.
+    """
+    return payload_flight_manifest(CAMPAIGN.data, wc.flight, atmosphere=True)
+
+
+# what the payload simulator reads of the manifest (its jobs' rerun trigger)
+SIMULATION = simulation_manifest(CAMPAIGN.data) if CAMPAIGN.simulated else None
+
+
 # ----------------------------------------------------------------------------- quadrotor and tunnel
 # (SWUF-3D fleet flights, seed 001, and the wind tunnel, seed 002; rules in quadrotor.smk and tunnel.smk)
+# Settings: the top-level `quadrotor:` section (defaults in the schema); per-flight and per-UAV
+# rules get their flight's manifest entry and the site as params, never the manifest file.
 
+for _old, _new in (
+    (("processing", "quadrotor"), "quadrotor"),
+    (("diagnosis", "quadrotor_min_gain"), "quadrotor.diagnosis.min_gain"),
+):
+    if _old[1] in (config.get(_old[0]) or {}):
+        raise ValueError(
+            f"config: {'.'.join(_old)} is now {_new} (workflow/schemas/config.schema.yaml)"
+        )
+
+QUAD = canonical(config["quadrotor"])
 QUAD_DIR = RESULTS / "quadrotor"
+QUAD_UAVS = sorted({u["id"] for f in CAMPAIGN.quadrotor_flights for u in f["uavs"]})
 # The tunnel programme: `tunnel: {runs: tunnel/runs.csv}` in the manifest; a virtual campaign
 # with `simulation.tunnel` gets it from the simulator under L0.
 TUNNEL_RUNS_REL = (CAMPAIGN.data.get("tunnel") or {}).get("runs")
@@ -152,6 +238,10 @@ TUNNEL_RUNS = (
 )
 
 
+wildcard_constraints:
+    quav=_alternatives(QUAD_UAVS),
+
+
 def quad_uavs(flight_id):
     """UAV ids of a quadrotor flight, in manifest order."""
     return [u["id"] for u in CAMPAIGN.quadrotor_flight(flight_id)["uavs"]]
@@ -161,6 +251,48 @@ def quad_raw(flight_id):
     """Raw UAV logs of a quadrotor flight (manifest order) and its tower reference."""
     flight = CAMPAIGN.quadrotor_flight(flight_id)
     return [str(L0 / u["file"]) for u in flight["uavs"]], str(L0 / flight["reference"])
+
+
+def quad_raw_log(wc):
+    """Input function: the raw log of one UAV of a quadrotor flight."""
+    uavs = CAMPAIGN.quadrotor_flight(wc.qflight)["uavs"]
+    files = [u["file"] for u in uavs if u["id"] == wc.quav]
+    if not files:
+        raise ValueError(
+            f"{CAMPAIGN.path}: quadrotor flight {wc.qflight} has no UAV {wc.quav}"
+        )
+    return str(L0 / files[0])
+
+
+def quad_flight(wc):
+    """Params function: a quadrotor flight's manifest entry."""
+    return canonical(CAMPAIGN.quadrotor_flight(wc.qflight))
+
+
+def quad_simulation(flight_id):
+    """What the quadrotor simulator reads of `simulation:` for one flight (its rerun trigger).
+
+    The fleet settings, the flight's conditions, the seed and the mechanisms that may act on
+    the flight (those without a `flights` list or listing it; the simulator validates them).
+    """
+    sim = CAMPAIGN.data.get("simulation") or {}
+    mechanisms = [
+        m
+        for m in sim.get("mechanisms") or []
+        if not isinstance(m, dict)
+        or m.get("flights") is None
+        or flight_id in m["flights"]
+    ]
+    out = {
+        "quadrotor": sim.get("quadrotor") or {},
+        "quadrotor_flights": {
+            flight_id: (sim.get("quadrotor_flights") or {}).get(flight_id)
+        },
+        "mechanisms": mechanisms,
+    }
+    if "seed" in sim:
+        out["seed"] = sim["seed"]
+    return canonical(out)
 
 
 def quad_l0_root(wildcards, output):

@@ -4,7 +4,6 @@
 
 rule diagnose_measured:
     input:
-        manifest=str(CAMPAIGN.path),
         sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
         ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
         drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
@@ -17,13 +16,18 @@ rule diagnose_measured:
         bench_path("diagnose_measured", "flight")
     conda:
         ENV
+    params:
+        campaign=flight_manifest,
+        flight_id="{flight}",
+        sonic_ins_lag=PROCESSING["sonic_ins_lag"],
+        hover=PROCESSING["hover"],
+        max_missing_fraction=PROCESSING["max_missing_fraction"],
     script:
         "../../scripts/diagnose_measured.py"
 
 
 rule diagnose_forward:
     input:
-        manifest=str(CAMPAIGN.path),
         measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
     output:
         RESULTS / "diagnosis" / "forward" / "{flight}.json",
@@ -33,6 +37,11 @@ rule diagnose_forward:
         bench_path("diagnose_forward", "flight")
     conda:
         ENV
+    params:
+        campaign=flight_manifest,
+        flight_id="{flight}",
+        processing=CHAIN,
+        seeds=DIAGNOSIS["seeds"],
     script:
         "../../scripts/diagnose_forward.py"
 
@@ -56,6 +65,10 @@ rule diagnose:
         bench_path("diagnose")
     conda:
         ENV
+    params:
+        alpha=DIAGNOSIS["alpha"],
+        max_causes=DIAGNOSIS["max_causes"],
+        min_gain=DIAGNOSIS["min_gain"],
     script:
         "../../scripts/diagnose.py"
 
@@ -71,6 +84,9 @@ rule diagnose_extended:
         bench_path("diagnose_extended", "flight")
     conda:
         ENV
+    params:
+        flight_id="{flight}",
+        processing=CHAIN,
     script:
         "../../scripts/diagnose_extended.py"
 

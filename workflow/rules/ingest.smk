@@ -3,7 +3,6 @@
 
 rule payload_l1:
     input:
-        manifest=str(CAMPAIGN.path),
         sonic=payload_file("sonic"),
         ins=payload_file("ins"),
     output:
@@ -15,13 +14,18 @@ rule payload_l1:
         bench_path("payload_l1", "flight")
     conda:
         ENV
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        site=SITE,
+        target_height_m=target_height,
+        despike=PROCESSING["despike"],
     script:
         "../../scripts/payload_l1.py"
 
 
 rule mast_l1:
     input:
-        manifest=str(CAMPAIGN.path),
         files=lambda wc: mast_files(wc.sonic),
     output:
         RESULTS / "netcdf" / "L1" / "mast_{sonic}.nc",
@@ -31,5 +35,9 @@ rule mast_l1:
         bench_path("mast_l1", "sonic")
     conda:
         ENV
+    params:
+        campaign=CAMPAIGN.name,
+        sonic=mast_sonic,
+        despike=PROCESSING["despike"],
     script:
         "../../scripts/mast_l1.py"

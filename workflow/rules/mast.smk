@@ -3,7 +3,6 @@
 
 rule mast_l2:
     input:
-        manifest=str(CAMPAIGN.path),
         mast=reference_of,
         drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
     output:
@@ -14,5 +13,10 @@ rule mast_l2:
         bench_path("mast_l2", "flight")
     conda:
         ENV
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        reference=reference_sonic,
+        drone_mast=PROCESSING["drone_mast"],
     script:
         "../../scripts/mast_l2.py"

@@ -3,7 +3,6 @@
 
 rule payload_l2:
     input:
-        manifest=str(CAMPAIGN.path),
         sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
         ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
     output:
@@ -14,5 +13,13 @@ rule payload_l2:
         bench_path("payload_l2", "flight")
     conda:
         ENV
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        flight=flight_entry,
+        site=SITE,
+        sonic_ins_lag=PROCESSING["sonic_ins_lag"],
+        hover=PROCESSING["hover"],
+        max_missing_fraction=PROCESSING["max_missing_fraction"],
     script:
         "../../scripts/payload_l2.py"

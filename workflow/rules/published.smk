@@ -6,7 +6,6 @@
 rule published_forward:
     input:
         published=PUBLISHED,
-        manifest=str(CAMPAIGN.path),
     output:
         RESULTS / "published" / "forward" / "{flight}.json",
     log:
@@ -15,6 +14,11 @@ rule published_forward:
         bench_path("published_forward", "flight")
     conda:
         ENV
+    params:
+        campaign=published_manifest,
+        flight_id="{flight}",
+        processing=CHAIN,
+        seeds=DIAGNOSIS["seeds"],
     script:
         "../../scripts/published_forward.py"
 
@@ -34,6 +38,9 @@ rule published_diagnosis:
         bench_path("published_diagnosis")
     conda:
         ENV
+    params:
+        alpha=DIAGNOSIS["alpha"],
+        max_causes=DIAGNOSIS["max_causes"],
     script:
         "../../scripts/published_diagnosis.py"
 
@@ -41,7 +48,6 @@ rule published_diagnosis:
 rule published_rerun:
     input:
         published=PUBLISHED,
-        manifest=str(CAMPAIGN.path),
         diagnosis=RESULTS / "published" / "diagnosis.json",
     output:
         RESULTS / "published" / "rerun" / "{flight}.json",
@@ -51,6 +57,10 @@ rule published_rerun:
         bench_path("published_rerun", "flight")
     conda:
         ENV
+    params:
+        campaign=published_manifest,
+        flight_id="{flight}",
+        processing=CHAIN,
     script:
         "../../scripts/published_rerun.py"
 

@@ -1,16 +1,17 @@
-# SWUF-3D quadrotor fleet (seed 001): per-flight L1 and windows, campaign calibration and
-# tables, per-flight calibrated L2 wind, diagnosis of the single-law model, figures.
-# Rules per flight are generated in a loop (each flight has its own set of UAVs).
+# SWUF-3D quadrotor fleet (seed 001): L1 per UAV, averaging windows per flight, campaign
+# calibration and tables, calibrated L2 wind per UAV, diagnosis of the single-law model,
+# figures. Per-flight rules take the flight's manifest entry as params (never the manifest
+# file), so a change to one flight reruns only that flight's jobs.
 from dronewind.steps.quadrotor import QUAD_TABLES
 
 if CAMPAIGN.simulated:
+    # One simulate rule per flight: its outputs are the files the manifest names for the
+    # flight's UAVs and tower, which no wildcard pattern can describe.
     for _qf in QUAD_FLIGHTS:
 
         rule:
             name:
                 f"quadrotor_simulate_{_qf}"
-            input:
-                manifest=str(CAMPAIGN.path),
             output:
                 uavs=quad_raw(_qf)[0],
                 reference=quad_raw(_qf)[1],
@@ -21,65 +22,60 @@ if CAMPAIGN.simulated:
             conda:
                 ENV
             params:
-                flight=_qf,
+                flight=canonical(CAMPAIGN.quadrotor_flight(_qf)),
+                simulation=quad_simulation(_qf),
+                site=SITE,
                 out_dir=quad_l0_root,
             script:
                 "../../scripts/quadrotor_simulate.py"
 
 
-for _qf in QUAD_FLIGHTS:
+rule quadrotor_l1:
+    """One UAV log to CF NetCDF (attitude and GNSS track)."""
+    input:
+        raw=quad_raw_log,
+    output:
+        RESULTS / "netcdf" / "L1" / "quadrotor" / "{qflight}_{quav}.nc",
+    log:
+        log_path("quadrotor_l1", "qflight", "quav"),
+    benchmark:
+        bench_path("quadrotor_l1", "qflight", "quav")
+    conda:
+        ENV
+    params:
+        campaign=CAMPAIGN.name,
+        site=SITE,
+    script:
+        "../../scripts/quadrotor_l1.py"
 
-    rule:
-        name:
-            f"quadrotor_flight_{_qf}"
-        input:
-            manifest=str(CAMPAIGN.path),
-            uavs=quad_raw(_qf)[0],
-            reference=quad_raw(_qf)[1],
-        output:
-            l1=quad_nc("L1", _qf),
-            windows=quad_windows("windows", [_qf])[0],
-            blocks=quad_windows("blocks", [_qf])[0],
-            problems=quad_windows("problems", [_qf])[0],
-        log:
-            str(RESULTS / "logs" / "quadrotor_flight" / f"{_qf}.log"),
-        benchmark:
-            str(RESULTS / "benchmarks" / "quadrotor_flight" / f"{_qf}.tsv")
-        conda:
-            ENV
-        params:
-            flight=_qf,
-            uavs=quad_uavs(_qf),
-        script:
-            "../../scripts/quadrotor_flight.py"
 
-    rule:
-        name:
-            f"quadrotor_l2_{_qf}"
-        input:
-            manifest=str(CAMPAIGN.path),
-            l1=quad_nc("L1", _qf),
-            calibration=RESULTS / "tables" / "quadrotor_calibration.csv",
-            summary=QUAD_DIR / "calibration.json",
-        output:
-            l2=quad_nc("L2", _qf),
-        log:
-            str(RESULTS / "logs" / "quadrotor_l2" / f"{_qf}.log"),
-        benchmark:
-            str(RESULTS / "benchmarks" / "quadrotor_l2" / f"{_qf}.tsv")
-        conda:
-            ENV
-        params:
-            flight=_qf,
-            uavs=quad_uavs(_qf),
-        script:
-            "../../scripts/quadrotor_l2.py"
+rule quadrotor_windows:
+    """Seed 001 Sect. 5 and App. C: 10-min and 2-min windows of a flight's UAVs with the tower."""
+    input:
+        l1=lambda wc: quad_nc("L1", wc.qflight),
+        reference=lambda wc: quad_raw(wc.qflight)[1],
+    output:
+        windows=QUAD_DIR / "windows" / "{qflight}_windows.csv",
+        blocks=QUAD_DIR / "windows" / "{qflight}_blocks.csv",
+        problems=QUAD_DIR / "windows" / "{qflight}_problems.csv",
+    log:
+        log_path("quadrotor_windows", "qflight"),
+    benchmark:
+        bench_path("quadrotor_windows", "qflight")
+    conda:
+        ENV
+    params:
+        flight=quad_flight,
+        site_altitude_m=SITE["altitude_m"],
+        block_s=QUAD["block_s"],
+        hover=QUAD["hover"],
+    script:
+        "../../scripts/quadrotor_windows.py"
 
 
 rule quadrotor_calibration:
     """Seed 001 Sect. 5: calibrations, Tables 2, 3, C1, C2 and the contract table."""
     input:
-        manifest=str(CAMPAIGN.path),
         windows=quad_windows("windows"),
         blocks=quad_windows("blocks"),
         problems=quad_windows("problems"),
@@ -93,15 +89,39 @@ rule quadrotor_calibration:
     conda:
         ENV
     params:
+        campaign=CAMPAIGN.name,
         tables_dir=lambda wc, output: str(Path(output.tables[0]).parent),
+        calibration_window_s=QUAD["calibration_window_s"],
     script:
         "../../scripts/quadrotor_calibration.py"
+
+
+rule quadrotor_l2:
+    """Seed 001 Sect. 6: calibrated 1 Hz wind of one UAV."""
+    input:
+        l1=RESULTS / "netcdf" / "L1" / "quadrotor" / "{qflight}_{quav}.nc",
+        calibration=RESULTS / "tables" / "quadrotor_calibration.csv",
+        summary=QUAD_DIR / "calibration.json",
+    output:
+        RESULTS / "netcdf" / "L2" / "quadrotor" / "{qflight}_{quav}.nc",
+    log:
+        log_path("quadrotor_l2", "qflight", "quav"),
+    benchmark:
+        bench_path("quadrotor_l2", "qflight", "quav")
+    conda:
+        ENV
+    params:
+        campaign=CAMPAIGN.name,
+        site=SITE,
+        average_s=QUAD["average_s"],
+        hover=QUAD["hover"],
+    script:
+        "../../scripts/quadrotor_l2.py"
 
 
 rule quadrotor_diagnosis:
     """The single-law quasi-steady model against the data: causes named, held-out gain."""
     input:
-        manifest=str(CAMPAIGN.path),
         windows=quad_windows("windows"),
         blocks=quad_windows("blocks"),
         runs=[str(TUNNEL_RUNS)] if TUNNEL_RUNS is not None else [],
@@ -113,6 +133,11 @@ rule quadrotor_diagnosis:
         bench_path("quadrotor_diagnosis")
     conda:
         ENV
+    params:
+        campaign=CAMPAIGN.name,
+        alpha=DIAGNOSIS["alpha"],
+        min_gain=QUAD["diagnosis"]["min_gain"],
+        window_s=QUAD["diagnosis"]["window_s"],
     script:
         "../../scripts/quadrotor_diagnosis.py"
 

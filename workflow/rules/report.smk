@@ -13,6 +13,8 @@ rule campaign_record:
         bench_path("campaign_record")
     conda:
         ENV
+    params:
+        config=canonical(config),
     script:
         "../../scripts/campaign_record.py"
 

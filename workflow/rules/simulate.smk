@@ -8,8 +8,6 @@ if CAMPAIGN.simulated:
         rule:
             name:
                 f"simulate_payload_{_flight}"
-            input:
-                manifest=str(CAMPAIGN.path),
             output:
                 **simulated_payload_outputs(_flight),
             log:
@@ -19,7 +17,9 @@ if CAMPAIGN.simulated:
             conda:
                 ENV
             params:
-                flight=_flight,
+                campaign=SIMULATION,
+                flight_id=_flight,
+                manifest_dir=str(CAMPAIGN.directory),
                 out_dir=l0_root,
             script:
                 "../../scripts/simulate_payload.py"

@@ -5,8 +5,6 @@ from dronewind.steps.quadrotor import TUNNEL_TABLES
 if TUNNEL_RUNS is not None and TUNNEL_SIMULATED:
 
     rule tunnel_simulate:
-        input:
-            manifest=str(CAMPAIGN.path),
         output:
             TUNNEL_RUNS,
         log:
@@ -16,6 +14,14 @@ if TUNNEL_RUNS is not None and TUNNEL_SIMULATED:
         conda:
             ENV
         params:
+            simulation=canonical(
+                {
+                    k: v
+                    for k, v in CAMPAIGN.data["simulation"].items()
+                    if k in ("seed", "tunnel")
+                }
+            ),
+            runs=TUNNEL_RUNS_REL,
             out_dir=lambda wc, output: str(
                 Path(output[0]).parents[len(Path(TUNNEL_RUNS_REL).parts) - 1]
             ),
@@ -28,7 +34,6 @@ if TUNNEL_RUNS is not None:
     rule tunnel_analysis:
         """Seed 002: calibration per speed range, sideslip, portability, gusts, steps, turbulence."""
         input:
-            manifest=str(CAMPAIGN.path),
             runs=TUNNEL_RUNS,
         output:
             [str(RESULTS / "tables" / f"tunnel_{t}.csv") for t in TUNNEL_TABLES],
@@ -39,6 +44,7 @@ if TUNNEL_RUNS is not None:
         conda:
             ENV
         params:
+            campaign=CAMPAIGN.name,
             tables_dir=lambda wc, output: str(Path(output[0]).parent),
         script:
             "../../scripts/tunnel_analysis.py"

@@ -25,12 +25,15 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from dronewind.core import scales, spectra, stats, uncertainty
+from dronewind.core.cf import variable, variable_attrs
+from dronewind.core.constants import GRAVITY_MS2, KARMAN
 from dronewind.core.qc import STATUS_FLAG_MEANINGS
 from dronewind.errors import InputError
 
@@ -52,15 +55,11 @@ class _Builder:
 
     def scalar(self, name: str, value: float, units: str, long_name: str | None = None,
                standard_name: str | None = None, **extra: Any) -> None:
-        attrs: dict[str, Any] = {"units": units}
-        if standard_name:
-            attrs["standard_name"] = standard_name
-        if long_name:
-            attrs["long_name"] = long_name
-        attrs.update(extra)
-        self.data_vars[name] = xr.Variable((), np.float64(value), attrs)
+        """Add a 0-d float64 variable with CF attributes (:func:`dronewind.core.cf.variable_attrs`)."""
+        self.data_vars[name] = variable((), np.float64(value), units, standard_name, long_name, **extra)
 
     def status(self, name: str, what: str, flag: str, reason: str = "") -> None:
+        """Add an int8 ``status_*`` variable (:data:`dronewind.core.qc.STATUS_FLAG_MEANINGS`); log it if not ok."""
         attrs = {
             "long_name": f"status of {what}",
             "standard_name": "status_flag",
@@ -74,26 +73,39 @@ class _Builder:
             self.log.append(f"{name}: {flag}: {reason}")
 
 
+@dataclass
+class _Moments:
+    """One-point statistics of a record (NaN where not computable) and its fluctuations (None then)."""
+
+    speed: float
+    su: float
+    sv: float
+    sw: float
+    uw: float
+    vw: float
+    skew: list[float]
+    kurt: list[float]
+    ustar: float
+    tke: float
+    iu: float
+    up: np.ndarray | None
+    vp: np.ndarray | None
+    wp: np.ndarray | None
+    thp: np.ndarray | None = None
+    wt: float = np.nan
+    ut: float = np.nan
+    th_mean: float = np.nan
+    sT: float = np.nan
+
+
 def _status_of(ok: bool, bad: str, reason: str) -> tuple[str, str]:
     return ("ok", "") if ok else (bad, reason)
 
 
 def record_l4(
-    u_ms: np.ndarray,
-    v_ms: np.ndarray,
-    w_ms: np.ndarray,
-    theta_v_k: np.ndarray,
-    fs_hz: float,
-    height_m: float,
-    wind_from_deg: float = np.nan,
-    *,
-    n_segments: int = 3,
-    overlap: float = 0.5,
-    window: str = "hamming",
-    n_bins: int = 100,
-    min_segment_samples: int = 64,
-    min_samples: int = 16,
-    quadrant_min_speed_ms: float = 2.0,
+    u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, theta_v_k: np.ndarray, fs_hz: float, height_m: float,
+    wind_from_deg: float = np.nan, *, n_segments: int = 3, overlap: float = 0.5, window: str = "hamming",
+    n_bins: int = 100, min_segment_samples: int = 64, min_samples: int = 16, quadrant_min_speed_ms: float = 2.0,
     fr_band: tuple[float, float] = (2.0, 10.0),
 ) -> xr.Dataset:
     r"""L4 analysis of one record in streamline coordinates (numpy entry point).
@@ -145,8 +157,40 @@ def record_l4(
     for :math:`\bar\theta_v`, as the paper does.
     """
     b = _Builder()
+    arrays = _check_record(u_ms, v_ms, w_ms, theta_v_k, fs_hz, height_m)
+    n = arrays["u"].size
+    nonfinite = {k: int(np.count_nonzero(~np.isfinite(a))) for k, a in arrays.items()}
+    duration_s = n / fs_hz
+    attrs = _l4_attrs(fs_hz, n, nonfinite, n_segments, overlap, window, n_bins)
+    vel_ok, temp_ok, (vel_flag, vel_reason), (temp_flag, temp_reason) = _input_status(n, nonfinite, min_samples)
+    m = _moments(arrays, vel_ok, temp_ok)
+    b.status("status_statistics", "velocity statistics", vel_flag, vel_reason)
+    b.status("status_temperature", "temperature statistics and buoyancy flux", temp_flag, temp_reason)
+    _moment_part(b, m, wind_from_deg, height_m, duration_s)
+    _obukhov_part(b, m, height_m, temp_ok, temp_flag, temp_reason)
+    _spectral_part(b, m.up, m.vp, m.wp, m.thp, fs_hz, height_m, m.speed, m.ustar, vel_flag, vel_reason, temp_ok,
+                   n_segments=n_segments, overlap=overlap, window=window, n_bins=n_bins,
+                   min_segment=min_segment_samples, min_speed=quadrant_min_speed_ms, fr_band=fr_band)
+    _scale_part(b, arrays["u"], arrays["v"], arrays["w"], fs_hz, m.speed, m.su, vel_flag, vel_reason)
+    _uncertainty_part(b, m.up, m.vp, m.wp, m.thp, fs_hz, height_m, duration_s, m.speed, m.ustar, m.su, m.sv, m.sw,
+                      m.wt, vel_flag, vel_reason, temp_ok, temp_flag, temp_reason)
+    attrs["processing_log"] = "\n".join(["l4: statistics, spectra, fits, scales, uncertainties computed"] + b.log)
+    attrs["n_status_not_ok"] = int(b.n_not_ok)
+    attrs["n_empty_frequency_bins"] = int(b.n_empty_bins)
+    return xr.Dataset(b.data_vars, attrs=attrs)
+
+
+def _check_record(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, theta_v_k: np.ndarray, fs_hz: float,
+                  height_m: float) -> dict[str, np.ndarray]:
+    """The four series as flat float arrays (keys ``u``, ``v``, ``w``, ``theta``), checked.
+
+    Raises
+    ------
+    InputError
+        Unequal lengths, or a non-positive sampling rate [Hz] or height [m].
+    """
     arrays = {name: np.asarray(a, dtype=float).ravel() for name, a in
-              zip(("u", "v", "w", "theta"), (u_ms, v_ms, w_ms, theta_v_k))}
+              zip(("u", "v", "w", "theta"), (u_ms, v_ms, w_ms, theta_v_k), strict=True)}
     n = arrays["u"].size
     if any(a.size != n for a in arrays.values()):
         raise InputError("record_l4(u_ms, v_ms, w_ms, theta_v_k)", "series must have equal length")
@@ -154,9 +198,13 @@ def record_l4(
         raise InputError("record_l4(fs_hz)", f"expected a positive sampling rate, got {fs_hz}")
     if not (np.isfinite(height_m) and height_m > 0):
         raise InputError("record_l4(height_m)", f"expected a positive measurement height, got {height_m}")
-    nonfinite = {k: int(np.count_nonzero(~np.isfinite(a))) for k, a in arrays.items()}
-    duration_s = n / fs_hz
-    attrs: dict[str, Any] = {
+    return arrays
+
+
+def _l4_attrs(fs_hz: float, n: int, nonfinite: dict[str, int], n_segments: int, overlap: float, window: str,
+              n_bins: int) -> dict[str, Any]:
+    """Dataset attributes describing the record and the methods (the log is added at the end)."""
+    return {
         "sampling_rate_hz": float(fs_hz),
         "n_samples": int(n),
         **{f"n_nonfinite_{k}": v for k, v in nonfinite.items()},
@@ -166,10 +214,22 @@ def record_l4(
             f"{n_bins} logarithmic bins (seed 000 Sect. 4.4)"
         ),
         "obukhov_temperature": "mean sonic temperature theta_v_k [K] as virtual potential temperature (seed 000 Eq. 9)",
-        "karman_constant": stats.KARMAN,
-        "gravity_ms2": stats.GRAVITY_MS2,
+        "karman_constant": KARMAN,
+        "gravity_ms2": GRAVITY_MS2,
     }
 
+
+def _input_status(n: int, nonfinite: dict[str, int], min_samples: int
+                  ) -> tuple[bool, bool, tuple[str, str], tuple[str, str]]:
+    """Whether the velocity and temperature statistics can be computed, and their status and reason.
+
+    Returns
+    -------
+    vel_ok, temp_ok : bool
+        Enough finite samples for the velocity (and temperature) statistics.
+    (vel_flag, vel_reason), (temp_flag, temp_reason) : tuple of str
+        Status names (:data:`dronewind.core.qc.STATUS_FLAG_MEANINGS`) and reasons.
+    """
     vel_ok = n >= min_samples and nonfinite["u"] == 0 and nonfinite["v"] == 0 and nonfinite["w"] == 0
     temp_ok = vel_ok and nonfinite["theta"] == 0
     if n < min_samples:
@@ -182,7 +242,14 @@ def record_l4(
         vel_flag, vel_reason = "ok", ""
     temp_flag, temp_reason = (vel_flag, vel_reason) if not vel_ok else _status_of(
         temp_ok, "invalid_input", f"{nonfinite['theta']} non-finite temperature samples")
+    return vel_ok, temp_ok, (vel_flag, vel_reason), (temp_flag, temp_reason)
 
+
+def _moments(arrays: dict[str, np.ndarray], vel_ok: bool, temp_ok: bool) -> _Moments:
+    """Mean speed, standard deviations, skewness, kurtosis, fluxes, u*, TKE and I_u (seed 000, Sect. 4.1).
+
+    Linearly detrended fluctuations; the temperature statistics only when ``temp_ok``.
+    """
     nan = np.nan
     u, v, w, th = arrays["u"], arrays["v"], arrays["w"], arrays["theta"]
     if vel_ok:
@@ -195,71 +262,71 @@ def record_l4(
         ustar = float(stats.friction_velocity(uw, vw))
         tke = float(stats.turbulent_kinetic_energy(su, sv, sw))
         iu = float(stats.turbulence_intensity(su, speed))
+        m = _Moments(float(speed), su, sv, sw, uw, vw, skew, kurt, ustar, tke, iu, up, vp, wp)
     else:
-        speed = su = sv = sw = uw = vw = ustar = tke = iu = nan
-        skew = kurt = [nan] * 3
-        up = vp = wp = None
-    speed = float(speed)
+        m = _Moments(float(nan), nan, nan, nan, nan, nan, [nan] * 3, [nan] * 3, nan, nan, nan, None, None, None)
     if temp_ok:
-        thp = stats.detrend(th)
-        wt, ut = float(np.mean(wp * thp)), float(np.mean(up * thp))
-        th_mean = float(np.mean(th))
-        sT = float(np.sqrt(np.mean(thp * thp)))
-    else:
-        thp = None
-        wt = ut = th_mean = sT = nan
+        m.thp = stats.detrend(th)
+        m.wt, m.ut = float(np.mean(m.wp * m.thp)), float(np.mean(m.up * m.thp))
+        m.th_mean = float(np.mean(th))
+        m.sT = float(np.sqrt(np.mean(m.thp * m.thp)))
+    return m
 
-    b.status("status_statistics", "velocity statistics", vel_flag, vel_reason)
-    b.status("status_temperature", "temperature statistics and buoyancy flux", temp_flag, temp_reason)
-    b.scalar("U_ms", speed, "m s-1", "mean horizontal wind speed (speed of the mean vector)", "wind_speed")
+
+def _moment_part(b: _Builder, m: _Moments, wind_from_deg: float, height_m: float, duration_s: float) -> None:
+    """The scalar variables of the one-point statistics (:func:`_moments`)."""
+    b.scalar("U_ms", m.speed, "m s-1", "mean horizontal wind speed (speed of the mean vector)", "wind_speed")
     b.scalar("wind_from_deg", wind_from_deg, "degree", "mean wind-from direction before rotation",
              "wind_from_direction")
     b.scalar("height_m", height_m, "m", "measurement height above ground", "height", positive="up")
     b.scalar("duration_s", duration_s, "s", "averaging time (record length)")
-    for comp, s_val in zip("uvw", (su, sv, sw)):
+    for comp, s_val in zip("uvw", (m.su, m.sv, m.sw), strict=True):
         b.scalar(f"sigma_{comp}_ms", s_val, "m s-1", f"standard deviation of {comp} (linearly detrended)")
-    for comp, g, k in zip("uvw", skew, kurt):
+    for comp, g, k in zip("uvw", m.skew, m.kurt, strict=True):
         b.scalar(f"skewness_{comp}", g, "1", f"skewness of {comp}")
         b.scalar(f"kurtosis_{comp}", k, "1", f"kurtosis of {comp} (Pearson, 3 for Gaussian)")
-    b.scalar("uw_m2s2", uw, "m2 s-2", "kinematic momentum flux u'w' (streamwise)")
-    b.scalar("vw_m2s2", vw, "m2 s-2", "kinematic momentum flux v'w' (cross-wind)")
-    b.scalar("u_star_ms", ustar, "m s-1", "friction velocity (u'w'^2 + v'w'^2)^(1/4)")
-    b.scalar("tke_m2s2", tke, "m2 s-2", None, "specific_turbulent_kinetic_energy_of_air")
-    b.scalar("I_u", iu, "1", "streamwise turbulence intensity sigma_u/U")
+    b.scalar("uw_m2s2", m.uw, "m2 s-2", "kinematic momentum flux u'w' (streamwise)")
+    b.scalar("vw_m2s2", m.vw, "m2 s-2", "kinematic momentum flux v'w' (cross-wind)")
+    b.scalar("u_star_ms", m.ustar, "m s-1", "friction velocity (u'w'^2 + v'w'^2)^(1/4)")
+    b.scalar("tke_m2s2", m.tke, "m2 s-2", None, "specific_turbulent_kinetic_energy_of_air")
+    b.scalar("I_u", m.iu, "1", "streamwise turbulence intensity sigma_u/U")
     tdiff = {"units_metadata": "temperature: difference"}
-    b.scalar("sigma_T_k", sT, "K", "standard deviation of sonic temperature", **tdiff)
-    b.scalar("wT_Kms", wt, "K m s-1", "kinematic buoyancy flux w'theta_v' (sonic temperature)", **tdiff)
-    b.scalar("uT_Kms", ut, "K m s-1", "kinematic streamwise heat flux u'theta_v'", **tdiff)
-    b.scalar("theta_v_mean_k", th_mean, "K", "mean sonic temperature", "virtual_temperature",
+    b.scalar("sigma_T_k", m.sT, "K", "standard deviation of sonic temperature", **tdiff)
+    b.scalar("wT_Kms", m.wt, "K m s-1", "kinematic buoyancy flux w'theta_v' (sonic temperature)", **tdiff)
+    b.scalar("uT_Kms", m.ut, "K m s-1", "kinematic streamwise heat flux u'theta_v'", **tdiff)
+    b.scalar("theta_v_mean_k", m.th_mean, "K", "mean sonic temperature", "virtual_temperature",
              units_metadata="temperature: on_scale")
 
-    # Obukhov length, Eq. 9
+
+def _obukhov_part(b: _Builder, m: _Moments, height_m: float, temp_ok: bool, temp_flag: str, temp_reason: str
+                  ) -> None:
+    """Obukhov length L and stability parameter z/L (seed 000, Eq. 9)."""
     if temp_ok:
-        ell = float(stats.obukhov_length(ustar, wt, th_mean)) if wt != 0.0 else np.inf
+        ell = float(stats.obukhov_length(m.ustar, m.wt, m.th_mean)) if m.wt != 0.0 else np.inf
         if not np.isfinite(ell):
-            ell = zeta = nan
+            ell = zeta = np.nan
             b.status("status_obukhov", "Obukhov length", "undefined",
                      "zero buoyancy flux or zero u*: L infinite or 0/0")
         else:
             zeta = float(stats.stability_parameter(height_m, ell))
             b.status("status_obukhov", "Obukhov length", "ok")
     else:
-        ell = zeta = nan
+        ell = zeta = np.nan
         b.status("status_obukhov", "Obukhov length", temp_flag, temp_reason)
     b.scalar("L_m", ell, "m", None, "atmosphere_obukhov_length")
     b.scalar("zeta", zeta, "1", "stability parameter z/L")
 
-    _spectral_part(b, up, vp, wp, thp, fs_hz, height_m, speed, ustar, vel_flag, vel_reason, temp_ok,
-                   n_segments=n_segments, overlap=overlap, window=window, n_bins=n_bins,
-                   min_segment=min_segment_samples, min_speed=quadrant_min_speed_ms, fr_band=fr_band)
-    _scale_part(b, u, v, w, fs_hz, speed, su, vel_flag, vel_reason)
-    _uncertainty_part(b, up, vp, wp, thp, fs_hz, height_m, duration_s, speed, ustar, su, sv, sw, wt,
-                      vel_flag, vel_reason, temp_ok, temp_flag, temp_reason)
 
-    attrs["processing_log"] = "\n".join(["l4: statistics, spectra, fits, scales, uncertainties computed"] + b.log)
-    attrs["n_status_not_ok"] = int(b.n_not_ok)
-    attrs["n_empty_frequency_bins"] = int(b.n_empty_bins)
-    return xr.Dataset(b.data_vars, attrs=attrs)
+_FITS: dict[str, tuple[spectra.ModelName, str]] = {
+    "u": ("blunt", "Eq. 4"), "v": ("blunt", "Eq. 5"), "w": ("pointed", "Eq. 6"), "uw": ("cospectrum", "Eq. 7")}
+
+_SPECTRUM_VARS = (("S_u", "m2 s-2 Hz-1", "one-sided power spectral density of u"),
+                  ("S_v", "m2 s-2 Hz-1", "one-sided power spectral density of v"),
+                  ("S_w", "m2 s-2 Hz-1", "one-sided power spectral density of w"),
+                  ("Co_uw", "m2 s-2 Hz-1", "co-spectrum of u and w (real part of the one-sided CPSD)"),
+                  ("S_T", "K2 Hz-1", "one-sided power spectral density of sonic temperature"),
+                  ("Co_wT", "K m s-1 Hz-1", "co-spectrum of w and sonic temperature"),
+                  ("Co_uT", "K m s-1 Hz-1", "co-spectrum of u and sonic temperature"))
 
 
 def _spectral_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None, wp: np.ndarray | None,
@@ -268,67 +335,102 @@ def _spectral_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None, wp
                    window: str, n_bins: int, min_segment: int, min_speed: float,
                    fr_band: tuple[float, float]) -> None:
     """Spectra, co-spectra, model fits and spectral ratios (seed 000, Eqs 4-8)."""
-    fits_spec = {"u": ("blunt", "Eq. 4"), "v": ("blunt", "Eq. 5"), "w": ("pointed", "Eq. 6"),
-                 "uw": ("cospectrum", "Eq. 7")}
-    flag, reason = vel_flag, vel_reason
-    binned = None
+    flag, reason, nperseg = _spectral_status(up, vel_flag, vel_reason, n_segments, overlap, min_segment)
+    binned, dof = None, None
     if flag == "ok":
+        assert up is not None and vp is not None and wp is not None  # velocity statistics ok
+        kw = dict(n_segments=n_segments, overlap=overlap, window=window, min_segment=min_segment)
+        binned = _binned_spectra(up, vp, wp, thp, temp_ok, fs_hz, n_bins, kw)
+        dof = spectra.binned_dof(binned.counts, nperseg, n_segments, overlap, window)
+        b.n_empty_bins = binned.n_empty_bins
+        b.log.append(f"spectra: {binned.f_hz.size} non-empty of {n_bins} log bins "
+                     f"({binned.n_empty_bins} empty dropped)")
+    b.status("status_spectra", "spectra and co-spectra", flag, reason)
+    fb, vals, fr = _spectrum_vars(b, binned, height_m, speed)
+    _fit_part(b, fb, vals, fr, dof, height_m, speed, ustar, flag, reason)
+    _ratio_part(b, fb, vals, height_m, speed, flag, reason, fr_band, min_speed)
+
+
+def _spectral_status(up: np.ndarray | None, vel_flag: str, vel_reason: str, n_segments: int, overlap: float,
+                     min_segment: int) -> tuple[str, str, int]:
+    """Status of the spectra: that of the velocity statistics, or ``record_too_short`` for short segments.
+
+    Returns
+    -------
+    flag, reason : str
+        Status and reason.
+    nperseg : int
+        Welch segment length [samples] (0 when the statistics are not ok).
+    """
+    flag, reason, nperseg = vel_flag, vel_reason, 0
+    if flag == "ok" and up is not None:
         n = up.size
         nperseg = spectra.segment_length(n, n_segments, overlap)
         if nperseg < min_segment:
             flag = "record_too_short"
             reason = (f"{n} samples give Welch segments of {nperseg} < {min_segment} samples "
                       f"({n_segments} segments, {overlap:.0%} overlap)")
-    if flag == "ok":
-        kw = dict(n_segments=n_segments, overlap=overlap, window=window, min_segment=min_segment)
-        f, s_u = spectra.welch_psd(up, fs_hz, **kw)
-        _, s_v = spectra.welch_psd(vp, fs_hz, **kw)
-        _, s_w = spectra.welch_psd(wp, fs_hz, **kw)
-        _, c_uw = spectra.welch_cpsd(up, wp, fs_hz, **kw)
-        rows = [s_u, s_v, s_w, c_uw.real]
-        if temp_ok:
-            rows += [spectra.welch_psd(thp, fs_hz, **kw)[1],
-                     spectra.welch_cpsd(wp, thp, fs_hz, **kw)[1].real,
-                     spectra.welch_cpsd(up, thp, fs_hz, **kw)[1].real]
-        else:
-            rows += [np.full_like(s_u, np.nan)] * 3
-        binned = spectra.bin_log(f, np.vstack(rows), n_bins=n_bins)
-        dof = spectra.binned_dof(binned.counts, nperseg, n_segments, overlap, window)
-        b.n_empty_bins = binned.n_empty_bins
-        b.log.append(f"spectra: {binned.f_hz.size} non-empty of {n_bins} log bins "
-                     f"({binned.n_empty_bins} empty dropped)")
-    b.status("status_spectra", "spectra and co-spectra", flag, reason)
+    return flag, reason, nperseg
 
+
+def _binned_spectra(up: np.ndarray, vp: np.ndarray, wp: np.ndarray, thp: np.ndarray | None, temp_ok: bool,
+                    fs_hz: float, n_bins: int, kw: dict[str, Any]) -> spectra.BinnedSpectrum:
+    """Welch spectra of u, v, w, co-spectrum uw, and (``temp_ok``) S_T, Co_wT, Co_uT, log-binned.
+
+    Rows in the order of :data:`_SPECTRUM_VARS`; the temperature rows NaN without ``temp_ok``.
+    """
+    f, s_u = spectra.welch_psd(up, fs_hz, **kw)
+    _, s_v = spectra.welch_psd(vp, fs_hz, **kw)
+    _, s_w = spectra.welch_psd(wp, fs_hz, **kw)
+    _, c_uw = spectra.welch_cpsd(up, wp, fs_hz, **kw)
+    rows = [s_u, s_v, s_w, c_uw.real]
+    if temp_ok and thp is not None:
+        rows += [spectra.welch_psd(thp, fs_hz, **kw)[1],
+                 spectra.welch_cpsd(wp, thp, fs_hz, **kw)[1].real,
+                 spectra.welch_cpsd(up, thp, fs_hz, **kw)[1].real]
+    else:
+        rows += [np.full_like(s_u, np.nan)] * 3
+    return spectra.bin_log(f, np.vstack(rows), n_bins=n_bins)
+
+
+def _spectrum_vars(b: _Builder, binned: spectra.BinnedSpectrum | None, height_m: float, speed: float,
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The binned spectra, estimate counts, reduced frequency (Eq. 8) and frequency on ``frequency``.
+
+    Returns
+    -------
+    fb : numpy.ndarray
+        Bin frequencies [Hz] (empty without spectra).
+    vals : numpy.ndarray
+        (7, n) binned spectra (:data:`_SPECTRUM_VARS`).
+    fr : numpy.ndarray
+        Reduced frequency f z / U [1] (NaN for a zero or undefined speed).
+    """
     dims = ("frequency",)
     fb = binned.f_hz if binned is not None else np.empty(0)
     vals = binned.values if binned is not None else np.empty((7, 0))
-    names = [("S_u", "m2 s-2 Hz-1", "one-sided power spectral density of u"),
-             ("S_v", "m2 s-2 Hz-1", "one-sided power spectral density of v"),
-             ("S_w", "m2 s-2 Hz-1", "one-sided power spectral density of w"),
-             ("Co_uw", "m2 s-2 Hz-1", "co-spectrum of u and w (real part of the one-sided CPSD)"),
-             ("S_T", "K2 Hz-1", "one-sided power spectral density of sonic temperature"),
-             ("Co_wT", "K m s-1 Hz-1", "co-spectrum of w and sonic temperature"),
-             ("Co_uT", "K m s-1 Hz-1", "co-spectrum of u and sonic temperature")]
-    for (name, units, ln), row in zip(names, vals):
-        vattrs = {"units": units, "long_name": ln}
-        if units.startswith("K"):
-            vattrs["units_metadata"] = "temperature: difference"
-        b.data_vars[name] = xr.Variable(dims, np.asarray(row, dtype=float), vattrs)
-    b.data_vars["n_estimates"] = xr.Variable(
-        dims, binned.counts.astype(np.int32) if binned is not None else np.empty(0, np.int32),
-        {"units": "1", "long_name": "raw Welch estimates averaged in the bin"})
+    for (name, units, ln), row in zip(_SPECTRUM_VARS, vals, strict=True):
+        extra = {"units_metadata": "temperature: difference"} if units.startswith("K") else {}
+        b.data_vars[name] = variable(dims, np.asarray(row, dtype=float), units, long_name=ln, **extra)
+    b.data_vars["n_estimates"] = variable(
+        dims, binned.counts.astype(np.int32) if binned is not None else np.empty(0, np.int32), "1",
+        long_name="raw Welch estimates averaged in the bin")
     if np.isfinite(speed) and speed > 0:
         fr = fb * height_m / speed
     else:
         fr = np.full_like(fb, np.nan)
-    b.data_vars["f_r"] = xr.Variable(dims, fr, {"units": "1", "long_name": "reduced frequency f z / U (Eq. 8)"})
-    b.data_vars["frequency"] = xr.Variable(dims, fb, {"units": "Hz",
-                                                      "long_name": "mean frequency of the logarithmic bin"},
-                                           encoding={"_FillValue": None})  # CF: no fill value on coordinates
+    b.data_vars["f_r"] = variable(dims, fr, "1", long_name="reduced frequency f z / U (Eq. 8)")
+    b.data_vars["frequency"] = xr.Variable(
+        dims, fb, variable_attrs("Hz", long_name="mean frequency of the logarithmic bin"),
+        encoding={"_FillValue": None})  # CF: no fill value on coordinates
+    return fb, vals, fr
 
-    # fits, Eqs 4-7
-    for comp, row in zip(("u", "v", "w", "uw"), vals[:4]):
-        model, eq = fits_spec[comp]
+
+def _fit_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, fr: np.ndarray, dof: np.ndarray | None,
+              height_m: float, speed: float, ustar: float, flag: str, reason: str) -> None:
+    """Fits of the spectral models, seed 000 Eqs 4-7, and the fitted curves."""
+    for comp, row in zip(("u", "v", "w", "uw"), vals[:4], strict=True):
+        model, eq = _FITS[comp]
         if flag != "ok":
             fit = spectra.SpectralFit(np.nan, np.nan, False, np.nan, 0, model, reason)
             fstat, freason = flag, reason
@@ -348,10 +450,13 @@ def _spectral_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None, wp
             curve = mfunc(fr, fit.a, fit.b) * ustar**2 / fb
         else:
             curve = np.full_like(fb, np.nan)
-        b.data_vars[key] = xr.Variable(dims, curve, {"units": "m2 s-2 Hz-1",
-                                                      "long_name": f"fitted {model} model for {comp} ({eq})"})
+        b.data_vars[key] = variable(("frequency",), curve, "m2 s-2 Hz-1",
+                                    long_name=f"fitted {model} model for {comp} ({eq})")
 
-    # spectral ratios and quadrant analysis, Sect. 4.1
+
+def _ratio_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, height_m: float, speed: float, flag: str,
+                reason: str, fr_band: tuple[float, float], min_speed: float) -> None:
+    """Spectral ratios <S_w/S_u> and <S_v/S_u> for the quadrant analysis (seed 000, Sect. 4.1)."""
     for name, row in (("Sw_Su", vals[2]), ("Sv_Su", vals[1])):
         if flag != "ok":
             val, qflag, qreason, nb, flo, fhi = np.nan, flag, reason, 0, np.nan, np.nan
@@ -373,7 +478,7 @@ def _spectral_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None, wp
 def _scale_part(b: _Builder, u: np.ndarray, v: np.ndarray, w: np.ndarray, fs_hz: float, speed: float, su: float,
                 vel_flag: str, vel_reason: str) -> None:
     """Integral time and length scales (seed 000, Eqs 14-17)."""
-    for comp, x in zip("uvw", (u, v, w)):
+    for comp, x in zip("uvw", (u, v, w), strict=True):
         if vel_flag != "ok":
             t_s, l_m = np.nan, np.nan
             tflag, treason, lflag, lreason = vel_flag, vel_reason, vel_flag, vel_reason
@@ -396,18 +501,24 @@ def _scale_part(b: _Builder, u: np.ndarray, v: np.ndarray, w: np.ndarray, fs_hz:
         b.status(f"status_L_{comp}", f"integral length scale of {comp}", lflag, lreason)
 
 
+def _product(x: np.ndarray | None, y: np.ndarray | None) -> np.ndarray:
+    """Product series x'y' of two fluctuation series (both present by the caller's status check)."""
+    assert x is not None and y is not None
+    return x * y
+
+
 def _uncertainty_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None, wp: np.ndarray | None,
                       thp: np.ndarray | None, fs_hz: float, height_m: float, duration_s: float,
                       speed: float, ustar: float, su: float, sv: float, sw: float, wt: float,
                       vel_flag: str, vel_reason: str, temp_ok: bool, temp_flag: str, temp_reason: str) -> None:
     """Uncertainty metrics, seed 000 Eqs 10-13, and the integral-time-scale form."""
     items = [  # name, needs temperature, phi builder, normaliser, variance?, equation
-        ("sigma_u2", False, lambda: up * up, lambda: su**2, True, "Eq. 13"),
-        ("sigma_v2", False, lambda: vp * vp, lambda: sv**2, True, "Eq. 13"),
-        ("sigma_w2", False, lambda: wp * wp, lambda: sw**2, True, "Eq. 13"),
-        ("uw", False, lambda: up * wp, lambda: ustar**2, False, "Eq. 10"),
-        ("vw", False, lambda: vp * wp, lambda: ustar**2, False, "Eq. 11"),
-        ("wT", True, lambda: wp * thp, lambda: wt, False, "Eq. 12"),
+        ("sigma_u2", False, lambda: _product(up, up), lambda: su**2, True, "Eq. 13"),
+        ("sigma_v2", False, lambda: _product(vp, vp), lambda: sv**2, True, "Eq. 13"),
+        ("sigma_w2", False, lambda: _product(wp, wp), lambda: sw**2, True, "Eq. 13"),
+        ("uw", False, lambda: _product(up, wp), lambda: ustar**2, False, "Eq. 10"),
+        ("vw", False, lambda: _product(vp, wp), lambda: ustar**2, False, "Eq. 11"),
+        ("wT", True, lambda: _product(wp, thp), lambda: wt, False, "Eq. 12"),
     ]
     for name, needs_t, phi_f, norm_f, is_var, eq in items:
         ok = temp_ok if needs_t else vel_flag == "ok"

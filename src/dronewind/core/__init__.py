@@ -1,9 +1,17 @@
-"""Kernels shared by every instrument system.
+"""Kernels shared by every instrument system; the core imports nothing of the systems.
 
-Statistics (:mod:`~dronewind.core.stats`), spectra and their model fits
-(:mod:`~dronewind.core.spectra`), integral scales (:mod:`~dronewind.core.scales`), sampling
-uncertainties (:mod:`~dronewind.core.uncertainty`), coordinate rotations
-(:mod:`~dronewind.core.rotation`), filtering and quality control
-(:mod:`~dronewind.core.filtering`), and the CF/ACDD NetCDF product writer and reader
-(:mod:`~dronewind.core.cf`). The core imports nothing of the instrument systems.
+* :mod:`~dronewind.core.constants`: physical constants (von Karman, gravity, WGS84), once;
+* :mod:`~dronewind.core.geo`: the one local tangent-plane projection (WGS84) and its inverse;
+* :mod:`~dronewind.core.qc`: QC bit flags and L4 status flags, once, with their CF attributes;
+* :mod:`~dronewind.core.timeseries`: time stamps, gap runs and NaN filling of sampled series;
+* :mod:`~dronewind.core.filtering`: instrument range limits, moving-MAD despiking, gap filling,
+  hover windows;
+* :mod:`~dronewind.core.rotation`: single, double, triple rotation and planar fit;
+* :mod:`~dronewind.core.stats`: moments, fluxes, friction velocity, Obukhov length;
+* :mod:`~dronewind.core.spectra`: Welch spectra, log-bin smoothing and the spectral models;
+* :mod:`~dronewind.core.scales`: integral time and length scales;
+* :mod:`~dronewind.core.uncertainty`: sampling uncertainties;
+* :mod:`~dronewind.core.cf`: the CF variable builder and the CF/ACDD NetCDF product writer;
+* :mod:`~dronewind.core.products`: the reader of stored products (NetCDF, CSV) for figures
+  and tables.
 """

@@ -6,8 +6,11 @@ Every NetCDF file of the workflow goes through :func:`write_netcdf`. It
   ACDD suite splits on commas),
 * adds the ACDD discovery attributes (title, summary, keywords, creator, time and
   geospatial coverage, processing level, licence),
-* adds provenance: package version, a SHA-256 of the configuration and the SHA-256 of
-  every input file, and a ``history`` line,
+* adds provenance: package version, a SHA-256 of the settings the product was computed
+  with (``config_sha256``: for a workflow product, only the configuration keys its rule
+  receives as ``params``, nested as in ``config.yaml``, so that changing a setting that
+  a product does not use leaves its hash alone) and the SHA-256 of every input file, and
+  a ``history`` line,
 * encodes time as integer microseconds since 1970-01-01 UTC, without ``_FillValue`` and
   with ``units_metadata = "leap_seconds: none"``; temperatures get
   ``units_metadata = "temperature: on_scale"``,
@@ -22,6 +25,10 @@ Every NetCDF file of the workflow goes through :func:`write_netcdf`. It
   the global attribute ``groups`` so readers know where to look,
 * writes to a temporary file in the destination folder and renames it into place, so an
   interrupted run never leaves a half-written file that Snakemake would take as done.
+
+It also holds the renaming between the library's variable names and the CF names of the
+products (:func:`track_to_cf`, :func:`track_from_cf`, :func:`strip_cf`), used by every
+chain that reads a product back.
 
 Reproducibility: the data are bit-identical for identical inputs and configuration. The
 only time-dependent attribute is ``date_created``; set the environment variable
@@ -178,14 +185,15 @@ def config_hash(config: Mapping[str, Any]) -> str:
 def _creation_time() -> str:
     epoch = os.environ.get("SOURCE_DATE_EPOCH")
     if epoch is not None:
-        stamp = _dt.datetime.fromtimestamp(int(epoch), tz=_dt.timezone.utc)
+        stamp = _dt.datetime.fromtimestamp(int(epoch), tz=_dt.UTC)
     else:
-        stamp = _dt.datetime.now(tz=_dt.timezone.utc).replace(microsecond=0)
+        stamp = _dt.datetime.now(tz=_dt.UTC).replace(microsecond=0)
     return stamp.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def _iso(value: np.datetime64) -> str:
-    return np.datetime_as_string(np.datetime64(value, "s"), unit="s") + "Z"
+def _iso(value: Any) -> str:
+    """A datetime64 as ISO 8601 UTC to the second, with a trailing Z."""
+    return str(np.datetime_as_string(np.datetime64(value, "s"), unit="s")) + "Z"
 
 
 def _label_dimensions(ds: xr.Dataset) -> xr.Dataset:
@@ -196,7 +204,7 @@ def _label_dimensions(ds: xr.Dataset) -> xr.Dataset:
     ``<dim>_name(<dim>)``; :func:`dronewind.steps.open_product` restores them.
     """
     out = ds
-    for dim in list(ds.dims):
+    for dim in [str(d) for d in ds.dims]:
         if dim in ds.coords and ds[dim].dtype.kind in "OUS":
             labels = np.asarray(ds[dim].values).astype(str)
             out = out.drop_vars(dim).assign_coords(
@@ -214,11 +222,11 @@ def _prepare_variables(ds: xr.Dataset) -> xr.Dataset:
         # CF 7.1: a boundary variable inherits its parent's metadata and should carry none
         # that could disagree; it is encoded exactly like its parent.
         out[name].attrs = {}
-        encoding = {"_FillValue": None}
+        encoding: dict[str, Any] = {"_FillValue": None}
         if np.issubdtype(out[name].dtype, np.datetime64):
             encoding.update({"units": TIME_UNITS, "calendar": "standard", "dtype": "int64"})
         out[name].encoding = encoding
-    for name in list(out.variables):
+    for name in [str(n) for n in out.variables]:
         if name in bounds:
             continue
         var = out[name]
@@ -302,7 +310,7 @@ def _add_station(
         )
         coords.append("alt")
     for name, var in out.data_vars.items():
-        if "time" in var.dims and not name.startswith(("qc_", "n_")):
+        if "time" in var.dims and not str(name).startswith(("qc_", "n_")):
             existing = var.attrs.get("coordinates", "")
             merged = " ".join(dict.fromkeys((existing.split() if existing else []) + coords))
             out[name].attrs["coordinates"] = merged
@@ -381,6 +389,63 @@ def _netcdf_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _discovery_attrs(ds: xr.Dataset, title: str, summary: str, processing_level: str) -> dict[str, Any]:
+    """The dataset's own global attributes, then the fixed and the discovery attributes of ACDD."""
+    attrs: dict[str, Any] = {k: v for k, v in ds.attrs.items() if v is not None}
+    attrs.update(_FIXED_GLOBAL_ATTRS)
+    attrs.update(title=title, summary=summary, keywords=_KEYWORDS, processing_level=processing_level)
+    return attrs
+
+
+def _provenance_attrs(
+    ds: xr.Dataset, path: Path, history: str, inputs: Iterable[str | Path], config: Mapping[str, Any] | None
+) -> dict[str, Any]:
+    """Provenance: creation stamps, history line, file id, settings hash and input checksums."""
+    input_list = [Path(p) for p in inputs]
+    checksums = {p.name: sha256_file(p) for p in input_list if p.is_file()}
+    stamp = _creation_time()
+    previous = str(ds.attrs.get("history", "")).strip()
+    line = f"{stamp} dronewind {__version__}: {history}"
+    return {
+        "history": f"{previous}\n{line}" if previous else line,
+        "date_created": stamp,
+        "date_modified": stamp,
+        "date_issued": stamp,
+        "date_metadata_modified": stamp,
+        "id": f"dronewind/{path.parent.name}/{path.stem}",
+        "comment": "Produced by the dronewind workflow; see processing_log for every step.",
+        "config_sha256": config_hash(config or {}),
+        "input_files": ", ".join(p.name for p in input_list),
+        "input_checksums": json.dumps(checksums, sort_keys=True),
+    }
+
+
+def _feature_type_attrs(attrs: dict[str, Any], feature_type: str | None) -> None:
+    """Set (or, for ``None``, remove) the CF ``featureType`` and ACDD ``cdm_data_type`` in place."""
+    if feature_type:
+        attrs["featureType"] = feature_type
+        attrs["cdm_data_type"] = "Station" if feature_type == "timeSeries" else feature_type
+    else:
+        attrs.pop("featureType", None)
+
+
+def _write_atomically(out: xr.Dataset, groups: Mapping[str, xr.Dataset], path: Path) -> None:
+    """Write the root group and every sub-group to a temporary file, then rename it into place."""
+    handle, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(handle)
+    try:
+        out.to_netcdf(tmp_name, format="NETCDF4", engine="netcdf4")
+        for group_name, group_ds in groups.items():
+            group_out = _prepare_variables(group_ds)
+            group_out.attrs = _netcdf_attrs(dict(group_ds.attrs))
+            group_out.to_netcdf(tmp_name, mode="a", group=group_name, format="NETCDF4", engine="netcdf4")
+        os.chmod(tmp_name, 0o644)
+        os.replace(tmp_name, path)
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+
+
 def write_netcdf(
     ds: xr.Dataset,
     path: str | Path,
@@ -418,7 +483,8 @@ def write_netcdf(
     inputs : iterable of path
         Files this output was computed from; their SHA-256 go into ``input_checksums``.
     config : mapping, optional
-        Configuration used; its hash goes into ``config_sha256``.
+        Settings the product was computed with (workflow products: the configuration keys
+        of their rule, nested as in ``config.yaml``); hashed into ``config_sha256``.
     feature_type : str or None
         CF ``featureType`` (``"timeSeries"`` for mast and hovering-drone records); ``None``
         for files that are not discrete sampling geometries (statistics, spectra).
@@ -443,65 +509,22 @@ def write_netcdf(
     Path
         The written file.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    (path := Path(path)).parent.mkdir(parents=True, exist_ok=True)
     if nonstandard_group:
         ds, split = split_standard(ds, nonstandard_group)
         groups = {**split, **(groups or {})}
     if feature_type == "timeSeries" and not station_id:
         raise ValueError(f"{path}: a timeSeries file needs a station_id")
     out = _prepare_variables(_add_station(ds, station_id, latitude, longitude, height_m))
-
-    input_list = [Path(p) for p in inputs]
-    checksums = {p.name: sha256_file(p) for p in input_list if p.is_file()}
-    stamp = _creation_time()
-    previous = str(ds.attrs.get("history", "")).strip()
-    line = f"{stamp} dronewind {__version__}: {history}"
-    attrs: dict[str, Any] = {k: v for k, v in ds.attrs.items() if v is not None}
-    attrs.update(_FIXED_GLOBAL_ATTRS)
-    attrs.update(
-        {
-            "title": title,
-            "summary": summary,
-            "keywords": _KEYWORDS,
-            "processing_level": processing_level,
-            "history": f"{previous}\n{line}" if previous else line,
-            "date_created": stamp,
-            "date_modified": stamp,
-            "date_issued": stamp,
-            "date_metadata_modified": stamp,
-            "id": f"dronewind/{path.parent.name}/{path.stem}",
-            "comment": "Produced by the dronewind workflow; see processing_log for every step.",
-            "config_sha256": config_hash(config or {}),
-            "input_files": ", ".join(p.name for p in input_list),
-            "input_checksums": json.dumps(checksums, sort_keys=True),
-        }
-    )
-    if feature_type:
-        attrs["featureType"] = feature_type
-        attrs["cdm_data_type"] = "Station" if feature_type == "timeSeries" else feature_type
-    else:
-        attrs.pop("featureType", None)
+    attrs = _discovery_attrs(ds, title, summary, processing_level)
+    attrs.update(_provenance_attrs(ds, path, history, inputs, config))
+    _feature_type_attrs(attrs, feature_type)
     attrs.update(_coverage_attrs(out))
-    if extra_attrs:
-        attrs.update({k: v for k, v in extra_attrs.items() if v is not None})
+    attrs.update({k: v for k, v in (extra_attrs or {}).items() if v is not None})
     if groups:
         attrs["groups"] = ", ".join(groups)
     out.attrs = _netcdf_attrs(attrs)
-
-    handle, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(handle)
-    try:
-        out.to_netcdf(tmp_name, format="NETCDF4", engine="netcdf4")
-        for group_name, group_ds in (groups or {}).items():
-            group_out = _prepare_variables(group_ds)
-            group_out.attrs = _netcdf_attrs(dict(group_ds.attrs))
-            group_out.to_netcdf(tmp_name, mode="a", group=group_name, format="NETCDF4", engine="netcdf4")
-        os.chmod(tmp_name, 0o644)
-        os.replace(tmp_name, path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+    _write_atomically(out, groups or {}, path)
     return path
 
 
@@ -583,7 +606,7 @@ def split_standard(ds: xr.Dataset, group: str) -> tuple[xr.Dataset, dict[str, xr
     rest = [
         name
         for name, var in ds.data_vars.items()
-        if "standard_name" not in var.attrs and not name.startswith("qc_") and name not in bounds
+        if "standard_name" not in var.attrs and not str(name).startswith("qc_") and name not in bounds
     ]
     if not rest:
         return ds, {}
@@ -593,3 +616,74 @@ def split_standard(ds: xr.Dataset, group: str) -> tuple[xr.Dataset, dict[str, xr
     unused = [d for d in root.dims if not any(d in v.dims for v in root.data_vars.values())]
     root = root.drop_dims(unused) if unused else root
     return root, {group: other}
+
+
+# ----------------------------------------------------------------------------- library names <-> CF names
+
+#: GNSS track of a moving platform: library name -> CF H.5 name.
+_TRACK_NAMES = (("lat_deg", "precise_lat"), ("lon_deg", "precise_lon"), ("alt_m", "altitude"))
+#: Scalar station coordinates added by :func:`write_netcdf` (removed by :func:`strip_cf`).
+_STATION_COORDS = ("station", "lat", "lon", "alt")
+
+
+def track_to_cf(ds: xr.Dataset) -> xr.Dataset:
+    """GNSS track of a hovering platform as CF H.5 ``precise_lat/precise_lon(time)`` and ``altitude``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Dataset with the library's ``lat_deg``, ``lon_deg``, ``alt_m`` (any of them).
+
+    Returns
+    -------
+    xarray.Dataset
+        Renamed, with CF attributes added to the existing ones.
+    """
+    out = ds.rename({k: v for k, v in _TRACK_NAMES if k in ds.variables})
+    if "precise_lat" in out:
+        out["precise_lat"].attrs.update(standard_name="latitude", units="degrees_north",
+                                        long_name="GNSS latitude of the platform")
+    if "precise_lon" in out:
+        out["precise_lon"].attrs.update(standard_name="longitude", units="degrees_east",
+                                        long_name="GNSS longitude of the platform")
+    if "altitude" in out:
+        out["altitude"].attrs.update(standard_name="altitude", units="m", positive="up",
+                                     long_name="GNSS altitude above mean sea level")
+    return out
+
+
+def track_from_cf(ds: xr.Dataset) -> xr.Dataset:
+    """Inverse of :func:`track_to_cf`: the GNSS track back under the library's names.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A product read back (``precise_lat``, ``precise_lon``, ``altitude``).
+
+    Returns
+    -------
+    xarray.Dataset
+        With ``lat_deg``, ``lon_deg``, ``alt_m``.
+    """
+    return ds.rename({cf: lib for lib, cf in _TRACK_NAMES if cf in ds.variables})
+
+
+def strip_cf(ds: xr.Dataset) -> xr.Dataset:
+    """Drop the writer's station coordinates so that a product read back can be processed and re-written.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A product read back (see :func:`dronewind.core.products.open_product`).
+
+    Returns
+    -------
+    xarray.Dataset
+        Without ``station``, ``lat``, ``lon``, ``alt`` and without ``coordinates`` attributes
+        or encodings (they are re-derived on writing).
+    """
+    out = ds.drop_vars([c for c in _STATION_COORDS if c in ds.variables])
+    for var in out.variables.values():
+        var.attrs.pop("coordinates", None)
+        var.encoding.pop("coordinates", None)
+    return out

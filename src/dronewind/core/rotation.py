@@ -381,6 +381,7 @@ def rotate(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, method: str = "
     ----------
     McMillen (1988); Wilczak et al. (2001); seed 000, Sect. 4.4.
     """
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]
     if method == "none":
         u, v, w = _check(u_ms, v_ms, w_ms)
         out = (u.copy(), v.copy(), w.copy(), {})

@@ -20,8 +20,8 @@ import numpy as np
 import scipy.optimize
 import scipy.signal
 
-from dronewind.errors import InputError
 from dronewind.core.stats import Detrend, fluctuation
+from dronewind.errors import InputError
 
 __all__ = [
     "IntegralTimeScale",

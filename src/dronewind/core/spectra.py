@@ -23,6 +23,7 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -31,8 +32,8 @@ import scipy.optimize
 import scipy.signal
 import scipy.special
 
-from dronewind.errors import InputError
 from dronewind.core.stats import detrend
+from dronewind.errors import InputError
 
 __all__ = [
     "ISOTROPIC_RATIO",
@@ -172,8 +173,8 @@ def binned_dof(
     nu = welch_dof(nperseg, n_segments, overlap, window)
     out = np.empty(np.size(counts))
     for i, c in enumerate(np.asarray(counts, dtype=int).ravel()):
-        k = np.arange(1, c)
-        out[i] = nu * c / (1.0 + 2.0 * np.sum((1.0 - k / c) * r2[k]))
+        lags = np.arange(1, c)
+        out[i] = nu * c / (1.0 + 2.0 * np.sum((1.0 - lags / c) * r2[lags]))
     return out
 
 
@@ -528,12 +529,51 @@ def fit_spectral_model(
     """
     if model not in _MODELS:
         raise InputError("fit_spectral_model(model)", f"expected one of {sorted(_MODELS)}, got {model!r}")
-    func = _MODELS[model]
     f = np.asarray(f_hz, dtype=float)
     s = np.real(np.asarray(spectrum))
     nan_fit = SpectralFit(np.nan, np.nan, False, np.nan, 0, model)
     if not (np.isfinite(speed_ms) and speed_ms > 0 and np.isfinite(u_star_ms) and u_star_ms > 0):
         return _replace_reason(nan_fit, f"needs positive mean speed and u* (got U={speed_ms}, u*={u_star_ms})")
+    fr, y, log_bias = _normalised_spectrum(f, s, height_m, speed_ms, u_star_ms, model, bin_dof)
+    if fr.size < 4:
+        return _replace_reason(nan_fit, f"only {fr.size} usable spectral points (need 4)")
+    if start is None:
+        key = {"blunt": "u", "pointed": "w", "cospectrum": "uw"}[model]
+        start = MODEL_START[key]
+    problem = _fit_problem(model, fr, y, log_bias, start)
+    if isinstance(problem, str):
+        return _replace_reason(nan_fit, problem)
+    residual, x0, (lower, upper) = problem
+    try:
+        res = scipy.optimize.least_squares(residual, x0=x0, bounds=(lower, upper), method="trf", max_nfev=2000)
+    except (ValueError, FloatingPointError) as exc:
+        return _replace_reason(nan_fit, f"optimiser error: {exc}")
+    return _fit_result(res, int(fr.size), model)
+
+
+def _normalised_spectrum(f: np.ndarray, s: np.ndarray, height_m: float, speed_ms: float, u_star_ms: float,
+                         model: ModelName, bin_dof: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Reduced frequency, normalised spectrum :math:`fS/u_*^2` and log bias of the usable points.
+
+    Parameters
+    ----------
+    f, s : numpy.ndarray
+        Frequencies [Hz] and spectrum (real) [m2 s-2 Hz-1].
+    height_m, speed_ms, u_star_ms : float
+        :math:`z` [m], :math:`ar u` [m s-1] (positive), :math:`u_*` [m s-1] (positive).
+    model : {"blunt", "pointed", "cospectrum"}
+        Model; auto-spectra keep only positive values (fitted in log space).
+    bin_dof : numpy.ndarray, optional
+        Degrees of freedom per bin (:func:`binned_dof`).
+
+    Returns
+    -------
+    fr, y, log_bias : numpy.ndarray
+        :math:`f_r` [1], :math:`fS/u_*^2` [1] and :math:`(\psi(
+u_b/2) - \ln(
+u_b/2))/\ln 10`
+        (0 without ``bin_dof``) at the finite (and, for auto-spectra, positive) points.
+    """
     fr = f * height_m / speed_ms
     y = f * s / u_star_ms**2
     if bin_dof is not None:
@@ -545,43 +585,52 @@ def fit_spectral_model(
         ok = np.isfinite(fr) & np.isfinite(y)
     else:
         ok = np.isfinite(fr) & np.isfinite(y) & (y > 0)
-    fr, y, log_bias = fr[ok], y[ok], log_bias[ok]
-    if fr.size < 4:
-        return _replace_reason(nan_fit, f"only {fr.size} usable spectral points (need 4)")
-    if start is None:
-        key = {"blunt": "u", "pointed": "w", "cospectrum": "uw"}[model]
-        start = MODEL_START[key]
+    return fr[ok], y[ok], log_bias[ok]
+
+
+def _fit_problem(model: ModelName, fr: np.ndarray, y: np.ndarray, log_bias: np.ndarray, start: tuple[float, float],
+                 ) -> tuple[Callable[[np.ndarray], np.ndarray], list[float], tuple[list[float], list[float]]] | str:
+    r"""Residual function, start and bounds of the least-squares fit (or why there is none).
+
+    The co-spectrum is fitted in linear space scaled by its largest magnitude (the sign of
+    ``a`` from the sign of the sum), auto-spectra in :math:`\log_{10}` with the log bias.
+
+    Returns
+    -------
+    (residual, x0, (lower, upper)) or str
+        The problem, or the reason it cannot be posed (a zero co-spectrum).
+    """
+    func = _MODELS[model]
     a0, b0 = start
     if model == "cospectrum":
         scale = float(np.max(np.abs(y)))
         if scale == 0:
-            return _replace_reason(nan_fit, "co-spectrum identically zero")
+            return "co-spectrum identically zero"
         a0 = abs(a0) * (1.0 if np.sum(y) > 0 else -1.0)
 
         def residual(p: np.ndarray) -> np.ndarray:
             return (func(fr, p[0], p[1]) - y) / scale
 
-        lower, upper = [-np.inf, 1e-6], [np.inf, np.inf]
-    else:
-        ly = np.log10(y)
+        return residual, [a0, b0], ([-np.inf, 1e-6], [np.inf, np.inf])
+    ly = np.log10(y)
 
-        def residual(p: np.ndarray) -> np.ndarray:
-            return np.log10(np.maximum(func(fr, p[0], p[1]), 1e-300)) + log_bias - ly
+    def residual_log(p: np.ndarray) -> np.ndarray:
+        return np.log10(np.maximum(func(fr, p[0], p[1]), 1e-300)) + log_bias - ly
 
-        lower, upper = [1e-12, 1e-6], [np.inf, np.inf]
-    try:
-        res = scipy.optimize.least_squares(residual, x0=[a0, b0], bounds=(lower, upper), method="trf", max_nfev=2000)
-    except (ValueError, FloatingPointError) as exc:
-        return _replace_reason(nan_fit, f"optimiser error: {exc}")
+    return residual_log, [a0, b0], ([1e-12, 1e-6], [np.inf, np.inf])
+
+
+def _fit_result(res: scipy.optimize.OptimizeResult, n_points: int, model: ModelName) -> SpectralFit:
+    """:class:`SpectralFit` from a ``least_squares`` result: not converged, or ``b`` at a bound."""
     a, b = (float(v) for v in res.x)
     rms = float(np.sqrt(np.mean(res.fun**2)))
     if not res.success or not (np.isfinite(a) and np.isfinite(b) and b > 0):
-        return SpectralFit(np.nan, np.nan, False, rms, int(fr.size), model,
+        return SpectralFit(np.nan, np.nan, False, rms, n_points, model,
                            f"least squares did not converge: {res.message}")
     if b >= 1e6 or b <= 1.001e-6:
-        return SpectralFit(np.nan, np.nan, False, rms, int(fr.size), model,
+        return SpectralFit(np.nan, np.nan, False, rms, n_points, model,
                            f"b={b:.3g} at a bound: spectral peak not resolved")
-    return SpectralFit(a, b, True, rms, int(fr.size), model, "")
+    return SpectralFit(a, b, True, rms, n_points, model, "")
 
 
 def _replace_reason(fit: SpectralFit, reason: str) -> SpectralFit:

@@ -26,18 +26,12 @@ import numpy as np
 import scipy.signal
 import scipy.stats
 
+from dronewind.core.constants import GRAVITY_MS2, KARMAN
 from dronewind.errors import InputError
-
-#: von Karman constant used by seed 000, Eq. 9.
-KARMAN: float = 0.40
-#: Gravitational acceleration [m s-2] used by seed 000 (Sect. 2.3, Eq. 9).
-GRAVITY_MS2: float = 9.81
 
 Detrend = Literal["linear", "constant", "none"]
 
 __all__ = [
-    "GRAVITY_MS2",
-    "KARMAN",
     "covariance",
     "detrend",
     "fluctuation",

@@ -33,9 +33,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dronewind.errors import InputError
 from dronewind.core.scales import integral_time_scale
 from dronewind.core.stats import Detrend, fluctuation
+from dronewind.errors import InputError
 
 __all__ = [
     "QUALITY_THRESHOLD",

@@ -56,9 +56,10 @@ MIN_GAIN = 0.05
 MIN_FLIGHTS_DISPERSION = 4
 
 
-def _vec(d: Mapping[str, Any], key: str) -> np.ndarray:
+def _vec(d: Mapping[str, Mapping[str, float | None]], key: str) -> np.ndarray:
+    """Feature vector (FEATURES order, NaN for None) of ``d[key]`` (a ``features_to_dict`` part)."""
     values = d[key]
-    return np.array([np.nan if values.get(f) is None else float(values[f]) for f in FEATURES])
+    return np.array([np.nan if (v := values.get(f)) is None else float(v) for f in FEATURES])
 
 
 @dataclass
@@ -76,6 +77,90 @@ class CampaignEvidence:
     models: dict[str, ResponseModel] = field(default_factory=dict)
     fixed: dict[str, dict[str, float]] = field(default_factory=dict)
     mechanism_of: dict[str, str] = field(default_factory=dict)
+
+
+def _calibrated_errors(y: np.ndarray, measured_sigma: np.ndarray, runs: np.ndarray,
+                       run_sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Residual errors: analytic errors scaled by the seed-to-seed scatter and the overdispersion.
+
+    Parameters
+    ----------
+    y, measured_sigma : numpy.ndarray
+        Measured features and their analytic errors, (n_flights, n_features).
+    runs, run_sigma : numpy.ndarray
+        Baseline forward runs and their analytic errors, (n_flights, n_seeds, n_features).
+
+    Returns
+    -------
+    sigma : numpy.ndarray
+        Error of a residual (see the module docstring).
+    analytic : numpy.ndarray
+        The larger of the measured and mean forward analytic errors.
+    scale : numpy.ndarray
+        Per-feature factor from analytic to residual error (k_f times the overdispersion).
+    """
+    n_seeds = runs.shape[1]
+    baseline = np.nanmean(runs, axis=1)
+    analytic = np.nanmax(np.stack([measured_sigma, np.nanmean(run_sigma, axis=1)]), axis=0)
+    if n_seeds >= 2:
+        pair = (runs[:, 0, :] - runs[:, 1, :]) ** 2 / (2.0 * analytic**2)
+        scale = np.sqrt(np.nanmean(pair, axis=0))
+    else:
+        scale = np.ones(len(FEATURES))
+    scale = np.where(np.isfinite(scale), np.maximum(scale, K_MIN), 1.0)
+    sigma = np.sqrt(1.0 + 1.0 / max(n_seeds, 1)) * scale[None, :] * analytic
+    # Empirical overdispersion (quasi-likelihood dispersion): where the measured-minus-
+    # predicted z-scores scatter more *about their mean over flights* than 1, the errors are
+    # widened by that factor. A mechanism's common offset does not enter (the scatter is
+    # taken about the mean), so the floor guards against false alarms without hiding a
+    # systematic effect; it needs at least MIN_FLIGHTS_DISPERSION flights.
+    z = (y - baseline) / sigma
+    finite = np.isfinite(z)
+    n_f = finite.sum(axis=0)
+    zc = np.where(finite, z - np.nanmean(np.where(finite, z, np.nan), axis=0, keepdims=True)
+                  if finite.any() else 0.0, 0.0)
+    dispersion = np.where(n_f >= MIN_FLIGHTS_DISPERSION, (zc**2).sum(axis=0) / np.maximum(n_f - 1, 1), 1.0)
+    dispersion = np.maximum(dispersion, 1.0)
+    return sigma * np.sqrt(dispersion)[None, :], analytic, scale * np.sqrt(dispersion)
+
+
+def _probe_tables(ev: CampaignEvidence, forward: Mapping[str, Mapping[str, Any]]
+                  ) -> dict[str, dict[str, dict[float, np.ndarray]]]:
+    """Probe features by candidate, parameter and level, (n_flights, n_features) each.
+
+    Also records each candidate's fixed parameters and catalog mechanism in ``ev``.
+    """
+    grouped: dict[str, dict[str, dict[float, np.ndarray]]] = defaultdict(lambda: defaultdict(dict))
+    for i, f in enumerate(ev.flights):
+        for probe in forward[f]["probes"]:
+            cand, par = probe["candidate"], probe["parameter"]
+            table = grouped[cand][par]
+            if probe["level"] not in table:
+                table[probe["level"]] = np.full((len(ev.flights), len(FEATURES)), np.nan)
+            table[probe["level"]][i] = _vec(probe["features"], "values")
+            ev.fixed[cand] = dict(probe.get("fixed", {}))
+            ev.mechanism_of[cand] = probe["mechanism"]
+    return grouped
+
+
+def _response_model(ev: CampaignEvidence, candidate: str, params: Mapping[str, Mapping[float, np.ndarray]]
+                     ) -> ResponseModel:
+    """One candidate's response tables (baseline level from the first baseline seed), bounds widened by a span."""
+    mech = get_mechanism(ev.mechanism_of[candidate])
+    responses = []
+    for par in mech.parameter_names:
+        if par not in params:
+            continue
+        spec = next(p for p in mech.parameters if p.name == par)
+        base = baseline_level(mech.name, par)
+        levels = sorted(set(params[par]) | {base})
+        features = np.stack([ev.baseline_seed0 if np.isclose(lv, base) else params[par][lv] for lv in levels],
+                            axis=1)
+        span = max(levels) - min(levels)
+        lower = max(spec.lower, min(levels) - span)
+        upper = min(spec.upper, max(levels) + span)
+        responses.append(ParameterResponse(par, np.array(levels, dtype=float), features, base, lower, upper))
+    return ResponseModel(candidate, ev.baseline, responses)
 
 
 def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Mapping[str, Any]]) -> CampaignEvidence:
@@ -100,57 +185,11 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
     base_sig = [[_vec(b, "sigma") for b in forward[f]["baseline"]] for f in flights]
     n_seeds = min(len(r) for r in base_runs)
     runs = np.array([r[:n_seeds] for r in base_runs])  # (n_flights, n_seeds, n_features)
-    baseline = np.nanmean(runs, axis=1)
-    analytic = np.nanmax(np.stack([s_meas, np.nanmean(np.array([s[:n_seeds] for s in base_sig]), axis=1)]), axis=0)
-    if n_seeds >= 2:
-        pair = (runs[:, 0, :] - runs[:, 1, :]) ** 2 / (2.0 * analytic**2)
-        scale = np.sqrt(np.nanmean(pair, axis=0))
-    else:
-        scale = np.ones(len(FEATURES))
-    scale = np.where(np.isfinite(scale), np.maximum(scale, K_MIN), 1.0)
-    sigma = np.sqrt(1.0 + 1.0 / max(n_seeds, 1)) * scale[None, :] * analytic
-    # Empirical overdispersion (quasi-likelihood dispersion): where the measured-minus-
-    # predicted z-scores scatter more *about their mean over flights* than 1, the errors are
-    # widened by that factor. A mechanism's common offset does not enter (the scatter is
-    # taken about the mean), so the floor guards against false alarms without hiding a
-    # systematic effect; it needs at least MIN_FLIGHTS_DISPERSION flights.
-    z = (y - baseline) / sigma
-    finite = np.isfinite(z)
-    n_f = finite.sum(axis=0)
-    zc = np.where(finite, z - np.nanmean(np.where(finite, z, np.nan), axis=0, keepdims=True)
-                  if finite.any() else 0.0, 0.0)
-    dispersion = np.where(n_f >= MIN_FLIGHTS_DISPERSION, (zc**2).sum(axis=0) / np.maximum(n_f - 1, 1), 1.0)
-    dispersion = np.maximum(dispersion, 1.0)
-    sigma = sigma * np.sqrt(dispersion)[None, :]
-    scale = scale * np.sqrt(dispersion)
-    ev = CampaignEvidence(flights, y, sigma, analytic, scale, baseline, runs[:, 0, :],
+    sigma, analytic, scale = _calibrated_errors(y, s_meas, runs, np.array([s[:n_seeds] for s in base_sig]))
+    ev = CampaignEvidence(flights, y, sigma, analytic, scale, np.nanmean(runs, axis=1), runs[:, 0, :],
                           [dict(forward[f]["conditions"]) for f in flights])
-
-    grouped: dict[str, dict[str, dict[float, np.ndarray]]] = defaultdict(lambda: defaultdict(dict))
-    for i, f in enumerate(flights):
-        for probe in forward[f]["probes"]:
-            cand, par = probe["candidate"], probe["parameter"]
-            table = grouped[cand][par]
-            if probe["level"] not in table:
-                table[probe["level"]] = np.full((len(flights), len(FEATURES)), np.nan)
-            table[probe["level"]][i] = _vec(probe["features"], "values")
-            ev.fixed[cand] = dict(probe.get("fixed", {}))
-            ev.mechanism_of[cand] = probe["mechanism"]
-    for cand, params in grouped.items():
-        mech = get_mechanism(ev.mechanism_of[cand])
-        responses = []
-        for par in mech.parameter_names:
-            if par not in params:
-                continue
-            spec = next(p for p in mech.parameters if p.name == par)
-            base = baseline_level(mech.name, par)
-            levels = sorted(set(params[par]) | {base})
-            table = np.stack([ev.baseline_seed0 if np.isclose(lv, base) else params[par][lv] for lv in levels], axis=1)
-            span = max(levels) - min(levels)
-            lower = max(spec.lower, min(levels) - span)
-            upper = min(spec.upper, max(levels) + span)
-            responses.append(ParameterResponse(par, np.array(levels, dtype=float), table, base, lower, upper))
-        ev.models[cand] = ResponseModel(cand, baseline, responses)
+    for cand, params in _probe_tables(ev, forward).items():
+        ev.models[cand] = _response_model(ev, cand, params)
     return ev
 
 
@@ -281,7 +320,7 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
             "heldout_chi2": float(s.heldout_chi2.sum()),
         })
     named = []
-    for cand, s in result.named:
+    for cand, _ in result.named:
         mech = ev.mechanism_of[cand]
         if mech not in named:
             named.append(mech)

@@ -20,6 +20,11 @@ from typing import Any
 
 import numpy as np
 
+from dronewind.compare.chain import compute_l3
+from dronewind.manifest import with_defaults
+from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
+from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
+
 __all__ = ["HIDDEN_RANGES", "TOLERANCES", "Draw", "draw", "campaign_manifest", "judge", "run_in_process",
            "AMBIGUOUS_WITH"]
 
@@ -166,6 +171,35 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
+                    processing: Mapping[str, Any], seeds: tuple[int, ...]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Simulate one flight of a hidden-effect campaign, process it, run its forward probes.
+
+    Returns
+    -------
+    measured : dict
+        Residual features of the flight (:func:`~dronewind.diagnose.features.features_to_dict`).
+    forward_runs : dict
+        :func:`dronewind.diagnose.forward.probe_runs` of the flight.
+    """
+    from dronewind.diagnose import forward
+    from dronewind.diagnose.features import features_to_dict
+    from dronewind.simulate.payload import simulate_payload_flight
+
+    fid = flight["id"]
+    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    paths = simulate_payload_flight(copy.deepcopy(dict(data)), work, fid, work)
+    s1, i1 = compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"], processing["despike"])
+    l2 = compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), **lag)
+    m1 = compute_mast_l1([p for p in paths if p.suffix == ".dat"], data["masts"][0]["sonics"][0],
+                         processing["despike"])
+    m2 = compute_mast_l2(m1, l2, fid, processing["drone_mast"])
+    l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
+    measured = features_to_dict(forward.measured_features(data, fid, s1, i1, l2, l3, **lag))
+    conditions = forward.forward_conditions(data, fid, l3, l2)
+    return measured, forward.probe_runs(data, fid, conditions, processing, seeds=seeds)
+
+
 def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path, **manifest_kw: Any
                    ) -> dict[str, Any]:
     """Simulate, process and diagnose a hidden-effect campaign in this process (no Snakemake).
@@ -173,31 +207,33 @@ def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path,
     Uses the same library functions as the workflow's rules, in the same order; meant for
     the rate benchmark, where hundreds of Snakemake jobs per draw would cost more than the
     science.
+
+    Parameters
+    ----------
+    truth : Draw
+        The hidden effect.
+    config : mapping
+        Workflow configuration, possibly partial: missing settings take their defaults
+        (:func:`dronewind.manifest.with_defaults`).
+    work_dir : str or Path
+        Folder for the raw files.
+    **manifest_kw
+        Passed to :func:`campaign_manifest`.
+
+    Returns
+    -------
+    dict
+        The diagnosis, as ``diagnosis.json``.
     """
     from dronewind.diagnose import campaign as dc
-    from dronewind.diagnose import forward
-    from dronewind.diagnose.features import features_to_dict
-    from dronewind.steps import payload as chain
-    from dronewind.simulate.payload import simulate_payload_flight
 
+    settings = with_defaults(config)
+    processing, diagnosis = settings["processing"], settings["diagnosis"]
     data = campaign_manifest(truth, **manifest_kw)
-    work = Path(work_dir)
     measured, fwd = {}, {}
-    sonic_info = data["masts"][0]["sonics"][0]
     for flight in data["payload_flights"]:
-        fid = flight["id"]
-        paths = simulate_payload_flight(copy.deepcopy(data), work, fid, work)
-        s1, i1 = chain.compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"], config)
-        l2 = chain.compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), config)
-        m1 = chain.compute_mast_l1([p for p in paths if p.suffix == ".dat"], sonic_info, config)
-        m2 = chain.compute_mast_l2(m1, l2, fid, config)
-        l3 = chain.compute_l3(l2, m2, flight, config)
-        measured[fid] = features_to_dict(forward.measured_features(data, fid, s1, i1, l2, l3, config))
-        conditions = forward.forward_conditions(data, fid, l3, l2)
-        fwd[fid] = forward.probe_runs(data, fid, conditions, config,
-                                      seeds=tuple(config.get("diagnosis", {}).get("seeds", (101, 202))))
-    diag_cfg = config.get("diagnosis", {})
-    result = dc.diagnose(dc.assemble(measured, fwd), alpha=float(diag_cfg.get("alpha", 0.01)),
-                         max_causes=int(diag_cfg.get("max_causes", 3)),
-                         min_gain=float(diag_cfg.get("min_gain", dc.MIN_GAIN)))
+        measured[flight["id"]], fwd[flight["id"]] = _process_flight(data, flight, Path(work_dir), processing,
+                                                                    tuple(diagnosis["seeds"]))
+    result = dc.diagnose(dc.assemble(measured, fwd), alpha=float(diagnosis["alpha"]),
+                         max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]))
     return dc.to_json(result, data["name"])

@@ -39,7 +39,7 @@ independent, which is conservative: the two sensors see partly the same eddies.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import xarray as xr
@@ -137,6 +137,164 @@ def _rates_deg_s(l2: xr.Dataset, times: np.ndarray, fs_out_hz: float) -> dict[st
     return out
 
 
+@dataclass(frozen=True)
+class _SensorSeries:
+    """Drone and mast u, v, w of one L3 flight (gaps removed) with their statistics."""
+
+    fs_hz: float
+    #: sensor names in L3 order
+    sensors: list[str]
+    #: sensor -> component -> series [m s-1]
+    series: dict[str, dict[str, np.ndarray]]
+    #: samples of the shorter series and its duration [s]
+    n: int
+    tau_s: float
+    height_m: dict[str, float]
+    sigma_ms: dict[str, dict[str, float]]
+    time_scale_s: dict[str, dict[str, float]]
+    mean_u_ms: dict[str, float]
+
+
+@dataclass
+class _Features:
+    """Feature values, standard errors and reasons, filled step by step (insertion order kept)."""
+
+    values: dict[str, float] = field(default_factory=dict)
+    sigma: dict[str, float] = field(default_factory=dict)
+    reasons: dict[str, str] = field(default_factory=dict)
+
+    def set(self, name: str, value: float, sigma: float) -> None:
+        """Record one measured feature."""
+        self.values[name] = value
+        self.sigma[name] = sigma
+
+
+def _sensor_series(l3: xr.Dataset) -> _SensorSeries:
+    """Finite samples of drone and mast u, v, w; their sigmas, integral time scales and mean speeds."""
+    fs = float(l3.attrs["sampling_rate_hz"])
+    sensors = list(l3["sensor"].values)
+    series = {}
+    for sensor in ("drone", "mast"):
+        i = sensors.index(sensor)
+        comp = {c: l3[f"{c}_ms"].values[i].astype(float) for c in ("u", "v", "w")}
+        ok = np.all([np.isfinite(v) for v in comp.values()], axis=0)
+        series[sensor] = {c: v[ok] if ok.sum() < ok.size else v for c, v in comp.items()}
+    n = min(series["drone"]["u"].size, series["mast"]["u"].size)
+    height = {s: float(l3["height_m"].values[sensors.index(s)]) for s in ("drone", "mast")}
+    sig = {s: {c: float(stats.standard_deviation(series[s][c])) for c in ("u", "v", "w")} for s in series}
+    tscale = {s: {c: _time_scale(series[s][c], fs) for c in ("u", "v", "w")} for s in series}
+    mean_u = {s: float(np.mean(series[s]["u"])) for s in series}
+    return _SensorSeries(fs, sensors, series, n, n / fs, height, sig, tscale, mean_u)
+
+
+def _moment_features(s: _SensorSeries, out: _Features) -> None:
+    """ln sigma ratios of u, v, w and the ln mean-speed ratio (seed 000, Eqs 10-13 errors)."""
+    sig, tscale, mean_u, tau_s = s.sigma_ms, s.time_scale_s, s.mean_u_ms, s.tau_s
+    for c in ("u", "v", "w"):
+        out.set(f"ln_sigma_ratio_{c}", float(np.log(sig["drone"][c] / sig["mast"][c])),
+                float(np.sqrt(tscale["drone"][c] / tau_s + tscale["mast"][c] / tau_s)))
+    if mean_u["drone"] > 0 and mean_u["mast"] > 0:
+        out.set("ln_speed_ratio", float(np.log(mean_u["drone"] / mean_u["mast"])),
+                float(np.sqrt(sum(2 * tscale[x]["u"] / tau_s * (sig[x]["u"] / mean_u[x]) ** 2 for x in s.series))))
+    else:
+        out.reasons["ln_speed_ratio"] = "mean speed not positive"
+
+
+def _angle_error_deg(s: _SensorSeries, component: str) -> float:
+    """Sampling error of a flow angle from ``component`` fluctuations about the mean speed [degree]."""
+    return float(np.rad2deg(np.sqrt(sum(
+        2 * s.time_scale_s[x][component] / s.tau_s * (s.sigma_ms[x][component] / max(abs(s.mean_u_ms[x]), 0.1)) ** 2
+        for x in s.series))))
+
+
+def _direction_features(l3: xr.Dataset, s: _SensorSeries, out: _Features) -> None:
+    """Wind-direction and streamline-tilt differences, drone minus mast."""
+    wdir = l3["wind_from_deg"].values.astype(float)
+    out.set("dir_diff_deg", _wrap180(wdir[s.sensors.index("drone")] - wdir[s.sensors.index("mast")]),
+            _angle_error_deg(s, "v"))
+    if "rotation_pitch_deg" in l3:
+        pitch = l3["rotation_pitch_deg"].values.astype(float)
+        out.set("tilt_diff_deg", float(pitch[s.sensors.index("drone")] - pitch[s.sensors.index("mast")]),
+                _angle_error_deg(s, "w"))
+    else:
+        out.reasons["tilt_diff_deg"] = "no rotation angles in L3"
+
+
+def _spectral_features(s: _SensorSeries, fr_band: tuple[float, float], min_speed_ms: float,
+                       out: _Features) -> None:
+    """Isotropy ratios <S_w/S_u> of both sensors; drone/mast power at the pendulum and high frequencies."""
+    psd: dict[str, dict[str, np.ndarray]] = {}
+    for x in s.series:
+        psd[x] = {}
+        for c in ("u", "w"):
+            f_hz, p = spectra.welch_psd(s.series[x][c][:s.n], s.fs_hz)
+            psd[x][c] = p
+    dof = spectra.welch_dof(spectra.segment_length(s.n))
+    for x in ("drone", "mast"):
+        name = f"sw_su_{x}"
+        # As in L4 (seed 000, Sect. 4.1): the ratio of the log-bin-smoothed spectra, averaged
+        # over the band. The mean of raw Welch-bin ratios would be biased: with ~8 degrees
+        # of freedom per raw bin, E[X/Y] of two chi-square estimates is 8/6 times the true
+        # ratio (about 1.8 instead of 4/3).
+        binned = spectra.bin_log(f_hz[1:], np.vstack([psd[x]["w"][1:], psd[x]["u"][1:]]))
+        ratio = spectra.spectral_ratio(binned.f_hz, binned.values[0], binned.values[1], s.height_m[x],
+                                       s.mean_u_ms[x], fr_band[0], fr_band[1], min_speed_ms)
+        if not np.isfinite(ratio.value):
+            out.reasons[name] = ratio.reason or "reduced-frequency band not resolved"
+        else:
+            raw = int(((f_hz > ratio.f_min_hz) & (f_hz < ratio.f_max_hz)).sum())
+            out.set(name, float(ratio.value), float(ratio.value * np.sqrt(4.0 / (dof * max(raw, 1)))))
+    for name, comp, band in (("ln_pendulum_w", "w", PENDULUM_BAND_HZ), ("ln_hf_u", "u", HF_BAND_HZ),
+                             ("ln_hf_w", "w", HF_BAND_HZ)):
+        pd_, m = _band_power(f_hz, psd["drone"][comp], band)
+        pm_, _ = _band_power(f_hz, psd["mast"][comp], band)
+        if m < 1 or not (pd_ > 0 and pm_ > 0):
+            out.reasons[name] = f"band {band} Hz not resolved"
+            continue
+        out.set(name, float(np.log(pd_ / pm_)), float(np.sqrt(2 * 2.0 / (dof * m))))
+
+
+def _lag_features(l2_drone: xr.Dataset, lag_halves_s: tuple[float, float] | None, lag_step_s: float,
+                  out: _Features) -> None:
+    """Sonic-INS lag found by the chain and its drift between the hover halves."""
+    lag_sigma = max(lag_step_s / np.sqrt(12.0), 0.005)
+    out.set("lag_sonic_ins_s", float(l2_drone.attrs.get("lag_sonic_ins_s", np.nan)), lag_sigma)
+    if lag_halves_s is not None and all(np.isfinite(lag_halves_s)):
+        out.set("lag_drift_s", float(lag_halves_s[1] - lag_halves_s[0]), float(np.sqrt(2) * lag_sigma))
+    else:
+        out.reasons["lag_drift_s"] = "lags of the two halves not available"
+
+
+def _attitude_rate_features(l3: xr.Dataset, l2_drone: xr.Dataset, s: _SensorSeries, out: _Features) -> None:
+    """Correlations of the w residual (drone minus mast) with the payload's pitch and roll rates."""
+    lag_dm = float(l3.attrs.get("lag_drone_mast_s", 0.0))
+    times = l3["time"].values - np.timedelta64(int(round(lag_dm * 1e9)), "ns")
+    rates = _rates_deg_s(l2_drone, times, s.fs_hz)
+    wres = l3["w_ms"].values[s.sensors.index("drone")] - l3["w_ms"].values[s.sensors.index("mast")]
+    n_eff = max(s.tau_s / (2 * max(s.time_scale_s["drone"]["w"], 1.0 / s.fs_hz)), 3.0)
+    for name, key in (("corr_wres_pitch_rate", "pitch_deg"), ("corr_wres_roll_rate", "roll_deg")):
+        ok = np.isfinite(wres) & np.isfinite(rates[key])
+        if ok.sum() < 10 or np.std(rates[key][ok]) == 0:
+            out.reasons[name] = "attitude rates not available over the L3 window"
+            continue
+        out.set(name, float(np.corrcoef(wres[ok], rates[key][ok])[0, 1]), float(1.0 / np.sqrt(n_eff)))
+
+
+def _flight_conditions(l3: xr.Dataset, s: _SensorSeries) -> dict[str, float]:
+    """Mast mean speed, direction, heights, mast sigmas and the record length."""
+    wdir = l3["wind_from_deg"].values.astype(float)
+    return {
+        "U_ms": s.mean_u_ms["mast"],
+        "wind_from_deg": float(wdir[s.sensors.index("mast")]),
+        "height_m": s.height_m["mast"],
+        "drone_height_m": s.height_m["drone"],
+        "sigma_u_ms": s.sigma_ms["mast"]["u"],
+        "sigma_v_ms": s.sigma_ms["mast"]["v"],
+        "sigma_w_ms": s.sigma_ms["mast"]["w"],
+        "duration_s": s.tau_s,
+    }
+
+
 def flight_features(
     l3: xr.Dataset,
     l2_drone: xr.Dataset,
@@ -171,119 +329,21 @@ def flight_features(
     FlightFeatures
         Values, standard errors, conditions and reasons.
     """
-    fs = float(l3.attrs["sampling_rate_hz"])
-    values: dict[str, float] = {}
-    sigma: dict[str, float] = {}
-    reasons: dict[str, str] = {}
-    sensors = list(l3["sensor"].values)
-    series = {}
-    for sensor in ("drone", "mast"):
-        i = sensors.index(sensor)
-        comp = {c: l3[f"{c}_ms"].values[i].astype(float) for c in ("u", "v", "w")}
-        ok = np.all([np.isfinite(v) for v in comp.values()], axis=0)
-        series[sensor] = {c: v[ok] if ok.sum() < ok.size else v for c, v in comp.items()}
-    n = min(series["drone"]["u"].size, series["mast"]["u"].size)
-    tau_s = n / fs
-    height = {s: float(l3["height_m"].values[sensors.index(s)]) for s in ("drone", "mast")}
-
-    sig = {s: {c: float(stats.standard_deviation(series[s][c])) for c in ("u", "v", "w")} for s in series}
-    tscale = {s: {c: _time_scale(series[s][c], fs) for c in ("u", "v", "w")} for s in series}
-    mean_u = {s: float(np.mean(series[s]["u"])) for s in series}
-    for c in ("u", "v", "w"):
-        values[f"ln_sigma_ratio_{c}"] = float(np.log(sig["drone"][c] / sig["mast"][c]))
-        sigma[f"ln_sigma_ratio_{c}"] = float(np.sqrt(tscale["drone"][c] / tau_s + tscale["mast"][c] / tau_s))
-    if mean_u["drone"] > 0 and mean_u["mast"] > 0:
-        values["ln_speed_ratio"] = float(np.log(mean_u["drone"] / mean_u["mast"]))
-        sigma["ln_speed_ratio"] = float(np.sqrt(sum(
-            2 * tscale[s]["u"] / tau_s * (sig[s]["u"] / mean_u[s]) ** 2 for s in series)))
-    else:
-        reasons["ln_speed_ratio"] = "mean speed not positive"
-
-    wdir = l3["wind_from_deg"].values.astype(float)
-    values["dir_diff_deg"] = _wrap180(wdir[sensors.index("drone")] - wdir[sensors.index("mast")])
-    sigma["dir_diff_deg"] = float(np.rad2deg(np.sqrt(sum(
-        2 * tscale[s]["v"] / tau_s * (sig[s]["v"] / max(abs(mean_u[s]), 0.1)) ** 2 for s in series))))
-    if "rotation_pitch_deg" in l3:
-        pitch = l3["rotation_pitch_deg"].values.astype(float)
-        values["tilt_diff_deg"] = float(pitch[sensors.index("drone")] - pitch[sensors.index("mast")])
-        sigma["tilt_diff_deg"] = float(np.rad2deg(np.sqrt(sum(
-            2 * tscale[s]["w"] / tau_s * (sig[s]["w"] / max(abs(mean_u[s]), 0.1)) ** 2 for s in series))))
-    else:
-        reasons["tilt_diff_deg"] = "no rotation angles in L3"
-
-    psd = {}
-    for s in series:
-        psd[s] = {}
-        for c in ("u", "w"):
-            f_hz, p = spectra.welch_psd(series[s][c][:n], fs)
-            psd[s][c] = p
-    dof = spectra.welch_dof(spectra.segment_length(n))
-    for s in ("drone", "mast"):
-        name = f"sw_su_{s}"
-        # As in L4 (seed 000, Sect. 4.1): the ratio of the log-bin-smoothed spectra, averaged
-        # over the band. The mean of raw Welch-bin ratios would be biased: with ~8 degrees
-        # of freedom per raw bin, E[X/Y] of two chi-square estimates is 8/6 times the true
-        # ratio (about 1.8 instead of 4/3).
-        binned = spectra.bin_log(f_hz[1:], np.vstack([psd[s]["w"][1:], psd[s]["u"][1:]]))
-        ratio = spectra.spectral_ratio(binned.f_hz, binned.values[0], binned.values[1], height[s], mean_u[s],
-                                       fr_band[0], fr_band[1], min_speed_ms)
-        if not np.isfinite(ratio.value):
-            reasons[name] = ratio.reason or "reduced-frequency band not resolved"
-        else:
-            raw = int(((f_hz > ratio.f_min_hz) & (f_hz < ratio.f_max_hz)).sum())
-            values[name] = float(ratio.value)
-            sigma[name] = float(ratio.value * np.sqrt(4.0 / (dof * max(raw, 1))))
-    for name, comp, band in (("ln_pendulum_w", "w", PENDULUM_BAND_HZ), ("ln_hf_u", "u", HF_BAND_HZ),
-                             ("ln_hf_w", "w", HF_BAND_HZ)):
-        pd_, m = _band_power(f_hz, psd["drone"][comp], band)
-        pm_, _ = _band_power(f_hz, psd["mast"][comp], band)
-        if m < 1 or not (pd_ > 0 and pm_ > 0):
-            reasons[name] = f"band {band} Hz not resolved"
-            continue
-        values[name] = float(np.log(pd_ / pm_))
-        sigma[name] = float(np.sqrt(2 * 2.0 / (dof * m)))
-
-    lag_sigma = max(lag_step_s / np.sqrt(12.0), 0.005)
-    values["lag_sonic_ins_s"] = float(l2_drone.attrs.get("lag_sonic_ins_s", np.nan))
-    sigma["lag_sonic_ins_s"] = lag_sigma
-    if lag_halves_s is not None and all(np.isfinite(lag_halves_s)):
-        values["lag_drift_s"] = float(lag_halves_s[1] - lag_halves_s[0])
-        sigma["lag_drift_s"] = float(np.sqrt(2) * lag_sigma)
-    else:
-        reasons["lag_drift_s"] = "lags of the two halves not available"
-
-    lag_dm = float(l3.attrs.get("lag_drone_mast_s", 0.0))
-    times = l3["time"].values - np.timedelta64(int(round(lag_dm * 1e9)), "ns")
-    rates = _rates_deg_s(l2_drone, times, fs)
-    wres = l3["w_ms"].values[sensors.index("drone")] - l3["w_ms"].values[sensors.index("mast")]
-    n_eff = max(tau_s / (2 * max(tscale["drone"]["w"], 1.0 / fs)), 3.0)
-    for name, key in (("corr_wres_pitch_rate", "pitch_deg"), ("corr_wres_roll_rate", "roll_deg")):
-        ok = np.isfinite(wres) & np.isfinite(rates[key])
-        if ok.sum() < 10 or np.std(rates[key][ok]) == 0:
-            reasons[name] = "attitude rates not available over the L3 window"
-            continue
-        values[name] = float(np.corrcoef(wres[ok], rates[key][ok])[0, 1])
-        sigma[name] = float(1.0 / np.sqrt(n_eff))
-
-    conditions = {
-        "U_ms": mean_u["mast"],
-        "wind_from_deg": float(wdir[sensors.index("mast")]),
-        "height_m": height["mast"],
-        "drone_height_m": height["drone"],
-        "sigma_u_ms": sig["mast"]["u"],
-        "sigma_v_ms": sig["mast"]["v"],
-        "sigma_w_ms": sig["mast"]["w"],
-        "duration_s": tau_s,
-    }
+    s = _sensor_series(l3)
+    out = _Features()
+    _moment_features(s, out)
+    _direction_features(l3, s, out)
+    _spectral_features(s, fr_band, min_speed_ms, out)
+    _lag_features(l2_drone, lag_halves_s, lag_step_s, out)
+    _attitude_rate_features(l3, l2_drone, s, out)
     for f in FEATURES:
-        if f not in values:
-            values[f] = np.nan
-            sigma[f] = np.nan
-            reasons.setdefault(f, "not measured")
-    return FlightFeatures(values, sigma, conditions, reasons)
+        if f not in out.values:
+            out.set(f, np.nan, np.nan)
+            out.reasons.setdefault(f, "not measured")
+    return FlightFeatures(out.values, out.sigma, _flight_conditions(l3, s), out.reasons)
 
 
-def features_to_dict(features: FlightFeatures) -> dict[str, Mapping[str, float | str]]:
+def features_to_dict(features: FlightFeatures) -> dict[str, dict[str, float | None] | dict[str, str]]:
     """JSON-ready form (NaN as None)."""
 
     def clean(d: Mapping[str, float]) -> dict[str, float | None]:
@@ -311,7 +371,9 @@ def binned_spectra(l3: xr.Dataset, n_bins: int = 60) -> dict[str, list[float]]:
     """
     fs = float(l3.attrs["sampling_rate_hz"])
     sensors = list(np.asarray(l3["sensor"].values).astype(str))
-    rows, names, f_hz = [], [], None
+    rows: list[np.ndarray] = []
+    names: list[str] = []
+    f_hz = np.empty(0)
     for sensor in ("drone", "mast"):
         for c in ("u", "w"):
             x = l3[f"{c}_ms"].values[sensors.index(sensor)].astype(float)

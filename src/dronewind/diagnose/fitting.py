@@ -133,12 +133,12 @@ class ResponseModel:
         """Number of fitted parameters."""
         return len(self.parameters)
 
-    def predict(self, theta: Sequence[float], flights: np.ndarray) -> np.ndarray:
+    def predict(self, theta: Sequence[float] | np.ndarray, flights: np.ndarray) -> np.ndarray:
         """Predicted features of ``flights`` for parameter vector ``theta``.
 
         Parameters
         ----------
-        theta : sequence of float
+        theta : sequence of float or numpy.ndarray
             One value per parameter, in :attr:`parameters` order.
         flights : numpy.ndarray
             Integer flight indices.

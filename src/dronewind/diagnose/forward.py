@@ -7,9 +7,14 @@ hover height, position relative to the mast and hover window. Nothing is read fr
 campaign's own ``simulation:`` section (for a virtual campaign that would be reading the
 answer). The flight is then simulated without any mechanism (the *baseline*, with two
 seeds) and with each catalog mechanism at a few *probe levels* (common random numbers:
-the first baseline seed), written as raw files, and pushed through the same processing
-functions as the measured flight (:mod:`dronewind.steps.payload`), ending in the
-residual features of :mod:`dronewind.diagnose.features`.
+the first baseline seed), written as raw files, and pushed through the same chain
+functions as the measured flight (:mod:`dronewind.payload.chain`,
+:mod:`dronewind.mast.chain`, :mod:`dronewind.compare.chain`), ending in the residual
+features of :mod:`dronewind.diagnose.features`.
+
+Settings: the functions that run the chain take ``processing``, the ``processing`` section
+of the workflow configuration (at least the keys of :data:`CHAIN_SETTINGS`; defaults from
+:func:`dronewind.manifest.default_config`), the same as for the measured flight.
 
 Probe levels are chosen inside each mechanism's physical range, large enough to rise above
 sampling noise and small enough that the response stays smooth (it is interpolated
@@ -19,26 +24,36 @@ piecewise-linearly between levels and the baseline, see
 
 from __future__ import annotations
 
-import copy
+import logging
 import math
 import shutil
 import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+import xarray as xr
 
+from dronewind.compare.chain import compute_l3
+from dronewind.core.constants import KARMAN
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.errors import InputError
-from dronewind.steps import payload as chain
-from dronewind.steps.common import LOG
+from dronewind.manifest import payload_flight_manifest
+from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
+from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
-__all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "forward_conditions", "forward_manifest",
-           "measured_features", "run_forward", "lag_halves", "probe_runs"]
+__all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "forward_conditions",
+           "forward_manifest", "measured_features", "run_forward", "lag_halves", "probe_runs"]
 
-KARMAN = 0.40
+LOG = logging.getLogger("dronewind")
+
+#: Keys of ``processing`` that the chain up to L3 uses (what a forward run depends on).
+CHAIN_SETTINGS: tuple[str, ...] = ("despike", "max_missing_fraction", "hover", "sonic_ins_lag", "drone_mast",
+                                   "rotation")
+#: Keys of ``processing`` that the sonic-INS lag feature uses (:func:`measured_features`).
+LAG_SETTINGS: tuple[str, ...] = ("sonic_ins_lag", "hover", "max_missing_fraction")
 
 
 @dataclass(frozen=True)
@@ -105,47 +120,35 @@ def _psi_m(zeta: float) -> float:
     return float(psi_m(zeta))
 
 
-def forward_conditions(
-    campaign_data: Mapping[str, Any],
-    flight_id: str,
-    l3: Any,
-    l2_drone: Any,
-) -> dict[str, Any]:
-    """Simulator conditions of one flight, estimated from its processed data.
+class SurfaceLayer(NamedTuple):
+    """Monin-Obukhov scaling of the reference mast record of one flight."""
+
+    z_m: float
+    speed_ms: float
+    ustar_ms: float
+    obukhov_length_m: float
+    zeta: float
+    theta_mean_k: float
+
+
+def mast_surface_layer(l3: xr.Dataset) -> SurfaceLayer:
+    """Height, mean wind, friction velocity, Obukhov length and z/L of the flight's mast sonic.
 
     Parameters
     ----------
-    campaign_data : mapping
-        Manifest content of the campaign.
-    flight_id : str
-        Payload flight id.
     l3 : xarray.Dataset
-        The flight's L3 (drone and reference mast sonic, streamline coordinates).
-    l2_drone : xarray.Dataset
-        The drone's L2 (hover window, GNSS track, height).
+        The flight's L3 (sensor ``mast`` in streamline coordinates).
 
     Returns
     -------
-    dict
-        Keys of ``simulation.payload_flights.<id>`` (see :mod:`dronewind.simulate`):
-        ``mean_speed_ms``, ``wind_from_deg``, ``obukhov_length_m``, ``z_ref_m``,
-        ``hover_height_m``, ``start``, ``duration_s``, ``hover_offset_enu_m``,
-        ``roughness_length_m``, ``theta_mean_k``.
-
-    Notes
-    -----
-    The roughness length follows from Monin-Obukhov similarity at the mast height,
-
-    .. math:: z_0 = z \\exp\\left(-\\frac{\\kappa \\bar u}{u_*} - \\psi_m(z/L)\\right),
-
-    clipped to [0.001, 2] m; the Obukhov length is Eq. 9 of seed 000 with the mast's
-    fluxes, limited to :math:`|L| \\ge 1` m and :math:`|z/L| \\le 5`.
+    SurfaceLayer
+        From the samples where u, v, w and theta_v are all finite; the friction velocity is
+        at least 0.02 m s-1, the Obukhov length (seed 000, Eq. 9) infinite beyond 1e5 m and
+        limited to :math:`|z/L| \\le 5`.
     """
     from dronewind.core import stats
-    from dronewind.core.geo import local_tangent_plane_m
 
-    sensors = list(np.asarray(l3["sensor"].values).astype(str))
-    m = sensors.index("mast")
+    m = list(np.asarray(l3["sensor"].values).astype(str)).index("mast")
     u = l3["u_ms"].values[m].astype(float)
     v = l3["v_ms"].values[m].astype(float)
     w = l3["w_ms"].values[m].astype(float)
@@ -166,11 +169,26 @@ def forward_conditions(
     if abs(zeta) > 5:
         zeta = math.copysign(5.0, zeta)
         ell = z / zeta
-    z0 = z * math.exp(-(KARMAN * speed / ustar) - _psi_m(zeta))
-    z0 = float(min(max(z0, 1e-3), 2.0))
+    return SurfaceLayer(z, speed, ustar, ell, zeta, theta_mean)
+
+
+def roughness_length_m(layer: SurfaceLayer) -> float:
+    r"""Roughness length from Monin-Obukhov similarity at the mast height [m].
+
+    .. math:: z_0 = z \exp\left(-\frac{\kappa \bar u}{u_*} - \psi_m(z/L)\right),
+
+    clipped to [0.001, 2] m.
+    """
+    z0 = layer.z_m * math.exp(-(KARMAN * layer.speed_ms / layer.ustar_ms) - _psi_m(layer.zeta))
+    return float(min(max(z0, 1e-3), 2.0))
+
+
+def hover_offset_enu_m(campaign_data: Mapping[str, Any], flight: Mapping[str, Any], l2_drone: xr.Dataset
+                       ) -> tuple[float, float]:
+    """East and north offset of the drone's median hover position from its reference mast [m]."""
+    from dronewind.core.geo import local_tangent_plane_m
 
     site = campaign_data["site"]
-    flight = next(f for f in campaign_data["payload_flights"] if f["id"] == flight_id)
     mast_lat, mast_lon = site["latitude"], site["longitude"]
     for mast in campaign_data.get("masts") or []:
         if any(s["id"] == flight["reference"] for s in mast["sonics"]):
@@ -178,19 +196,56 @@ def forward_conditions(
     lat = float(np.nanmedian(l2_drone["lat_deg"].values))
     lon = float(np.nanmedian(l2_drone["lon_deg"].values))
     east, north = local_tangent_plane_m(np.array([lat]), np.array([lon]), mast_lat, mast_lon)
+    return float(east[0]), float(north[0])
+
+
+def forward_conditions(
+    campaign_data: Mapping[str, Any],
+    flight_id: str,
+    l3: xr.Dataset,
+    l2_drone: xr.Dataset,
+) -> dict[str, Any]:
+    """Simulator conditions of one flight, estimated from its processed data.
+
+    Parameters
+    ----------
+    campaign_data : mapping
+        Manifest content of the campaign (or its one-flight view,
+        :func:`dronewind.manifest.payload_flight_manifest`).
+    flight_id : str
+        Payload flight id.
+    l3 : xarray.Dataset
+        The flight's L3 (drone and reference mast sonic, streamline coordinates).
+    l2_drone : xarray.Dataset
+        The drone's L2 (hover window, GNSS track, height).
+
+    Returns
+    -------
+    dict
+        Keys of ``simulation.payload_flights.<id>`` (see :mod:`dronewind.simulate`):
+        ``mean_speed_ms``, ``wind_from_deg``, ``obukhov_length_m``, ``z_ref_m``,
+        ``hover_height_m``, ``start``, ``duration_s``, ``hover_offset_enu_m``,
+        ``roughness_length_m``, ``theta_mean_k``; the surface layer from
+        :func:`mast_surface_layer`, the roughness length from :func:`roughness_length_m`.
+    """
+    layer = mast_surface_layer(l3)
+    m = list(np.asarray(l3["sensor"].values).astype(str)).index("mast")
+    flight = next(f for f in campaign_data["payload_flights"] if f["id"] == flight_id)
+    east, north = hover_offset_enu_m(campaign_data, flight, l2_drone)
     times = l2_drone["time"].values
-    height = float(l2_drone.attrs.get("height_m", flight.get("target_height_m", z)))
+    height = float(l2_drone.attrs.get("height_m", flight.get("target_height_m", layer.z_m)))
+    ell = layer.obukhov_length_m
     return {
-        "mean_speed_ms": float(min(max(speed, 0.05), 40.0)),
+        "mean_speed_ms": float(min(max(layer.speed_ms, 0.05), 40.0)),
         "wind_from_deg": float(l3["wind_from_deg"].values[m]) % 360.0,
         "obukhov_length_m": "inf" if math.isinf(ell) else float(ell),
-        "z_ref_m": z,
+        "z_ref_m": layer.z_m,
         "hover_height_m": float(max(height, 3.0)),
         "start": np.datetime_as_string(times[0], unit="us") + "Z",
         "duration_s": float((times[-1] - times[0]) / np.timedelta64(1, "us") * 1e-6),
-        "hover_offset_enu_m": [float(east[0]), float(north[0])],
-        "roughness_length_m": z0,
-        "theta_mean_k": float(min(max(theta_mean, 221.0), 329.0)),
+        "hover_offset_enu_m": [east, north],
+        "roughness_length_m": roughness_length_m(layer),
+        "theta_mean_k": float(min(max(layer.theta_mean_k, 221.0), 329.0)),
     }
 
 
@@ -206,8 +261,8 @@ def forward_manifest(
     Parameters
     ----------
     campaign_data : mapping
-        Manifest content of the measured campaign (its ``simulation:`` section, if any,
-        is dropped).
+        Manifest content of the measured campaign, or its one-flight view (its
+        ``simulation:`` section, if any, is dropped).
     flight_id : str
         Payload flight id.
     conditions : mapping
@@ -220,20 +275,12 @@ def forward_manifest(
     Returns
     -------
     dict
-        Manifest content with one payload flight, its reference mast sonic and a
+        Manifest content with one payload flight (without its ``window``), its reference
+        mast sonic (:func:`dronewind.manifest.payload_flight_manifest`) and a
         ``simulation:`` section.
     """
-    data = {k: copy.deepcopy(v) for k, v in campaign_data.items() if k not in ("simulation", "quadrotor_flights",
-                                                                              "tunnel")}
-    flight = copy.deepcopy(next(f for f in campaign_data["payload_flights"] if f["id"] == flight_id))
-    flight.pop("window", None)
-    data["payload_flights"] = [flight]
-    masts = []
-    for mast in campaign_data.get("masts") or []:
-        sonics = [copy.deepcopy(s) for s in mast["sonics"] if s["id"] == flight["reference"]]
-        if sonics:
-            masts.append({**copy.deepcopy(mast), "sonics": sonics})
-    data["masts"] = masts
+    data = payload_flight_manifest(campaign_data, flight_id)
+    data["payload_flights"][0].pop("window", None)
     data["name"] = f"{campaign_data['name']}_forward_{flight_id}"
     data["simulation"] = {
         "seed": int(seed),
@@ -243,20 +290,40 @@ def forward_manifest(
     return data
 
 
-def lag_halves(sonic_l1: Any, ins_l1: Any, l2: Any, flight: Mapping[str, Any], site_altitude_m: float,
-               config: Mapping[str, Any]) -> tuple[float, float]:
-    """Sonic-INS lags found on the first and the second half of the hover window [s]."""
+def lag_halves(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, l2: xr.Dataset, flight: Mapping[str, Any],
+               site_altitude_m: float, *, sonic_ins_lag: Mapping[str, Any], hover: Mapping[str, Any],
+               max_missing_fraction: float) -> tuple[float, float]:
+    """Sonic-INS lags found on the first and the second half of the hover window [s].
+
+    Each half is processed to L2 as a window of its own, without the minimum hover duration.
+
+    Parameters
+    ----------
+    sonic_l1, ins_l1, l2 : xarray.Dataset
+        The flight's payload sonic and INS L1, and its L2 (the hover window).
+    flight : mapping
+        The flight's manifest entry.
+    site_altitude_m : float
+        Ground altitude of the site [m].
+    sonic_ins_lag, hover, max_missing_fraction
+        ``processing`` settings of :func:`dronewind.payload.chain.compute_payload_l2`.
+
+    Returns
+    -------
+    tuple of float
+        Lags of the two halves [s]; NaN for a half without a hover.
+    """
     times = l2["time"].values
     mid = times[0] + (times[-1] - times[0]) / 2
-    cfg = copy.deepcopy(dict(config))
-    cfg.setdefault("processing", {}).setdefault("hover", {})["min_duration_s"] = 0.0
+    half_hover = {**hover, "min_duration_s": 0.0}
     out = []
     for a, b in ((times[0], mid), (mid, times[-1])):
         half = dict(flight)
         half["window"] = {"start": np.datetime_as_string(a, unit="us") + "Z",
                           "end": np.datetime_as_string(b, unit="us") + "Z"}
         try:
-            ds = chain.compute_payload_l2(sonic_l1, ins_l1, half, site_altitude_m, cfg)
+            ds = compute_payload_l2(sonic_l1, ins_l1, half, site_altitude_m, sonic_ins_lag=sonic_ins_lag,
+                                    hover=half_hover, max_missing_fraction=max_missing_fraction)
             out.append(float(ds.attrs["lag_sonic_ins_s"]))
         except Exception as exc:  # a half without a hover: the feature is then missing
             LOG.warning("lag of half window %s-%s failed: %s", a, b, exc)
@@ -264,19 +331,74 @@ def lag_halves(sonic_l1: Any, ins_l1: Any, l2: Any, flight: Mapping[str, Any], s
     return out[0], out[1]
 
 
-def measured_features(campaign_data: Mapping[str, Any], flight_id: str, sonic_l1: Any, ins_l1: Any, l2: Any,
-                      l3: Any, config: Mapping[str, Any]) -> FlightFeatures:
-    """Residual features of one flight from its processed products (in memory)."""
+def measured_features(campaign_data: Mapping[str, Any], flight_id: str, sonic_l1: xr.Dataset, ins_l1: xr.Dataset,
+                      l2: xr.Dataset, l3: xr.Dataset, *, sonic_ins_lag: Mapping[str, Any], hover: Mapping[str, Any],
+                      max_missing_fraction: float) -> FlightFeatures:
+    """Residual features of one flight from its processed products (in memory).
+
+    Parameters
+    ----------
+    campaign_data : mapping
+        Manifest content (or the one-flight view) with the flight and the site altitude.
+    flight_id : str
+        Payload flight id.
+    sonic_l1, ins_l1, l2, l3 : xarray.Dataset
+        The flight's products.
+    sonic_ins_lag, hover, max_missing_fraction
+        ``processing`` settings of the lag feature (:data:`LAG_SETTINGS`).
+
+    Returns
+    -------
+    FlightFeatures
+        See :func:`dronewind.diagnose.features.flight_features`.
+    """
     flight = next(f for f in campaign_data["payload_flights"] if f["id"] == flight_id)
-    step = float(config.get("processing", {}).get("sonic_ins_lag", {}).get("step_s", 1 / 32))
-    halves = lag_halves(sonic_l1, ins_l1, l2, flight, float(campaign_data["site"]["altitude_m"]), config)
-    return flight_features(l3, l2, lag_halves_s=halves, lag_step_s=step)
+    halves = lag_halves(sonic_l1, ins_l1, l2, flight, float(campaign_data["site"]["altitude_m"]),
+                        sonic_ins_lag=sonic_ins_lag, hover=hover, max_missing_fraction=max_missing_fraction)
+    return flight_features(l3, l2, lag_halves_s=halves, lag_step_s=float(sonic_ins_lag["step_s"]))
+
+
+def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, folder: Path, paths: list[Path],
+                           processing: Mapping[str, Any]) -> tuple[FlightFeatures, dict[str, Any]]:
+    """Process the raw files of a simulated forward flight like measured data, up to its features.
+
+    Parameters
+    ----------
+    manifest : mapping
+        The forward manifest (:func:`forward_manifest`).
+    flight_id : str
+        Payload flight id.
+    folder : Path
+        Folder of the raw files.
+    paths : list of Path
+        Files the simulator wrote (sonic, INS, then the mast records).
+    processing : mapping
+        ``processing`` settings (keys of :data:`CHAIN_SETTINGS`).
+
+    Returns
+    -------
+    features : FlightFeatures
+    products : dict
+        ``{"l2": ..., "l3": ...}`` datasets.
+    """
+    flight = next(f for f in manifest["payload_flights"] if f["id"] == flight_id)
+    sonic_file, ins_file = folder / flight["sonic"]["file"], folder / flight["ins"]["file"]
+    mast_files = [p for p in paths if p not in (sonic_file, ins_file)]
+    sonic_info = next(s for m in manifest["masts"] for s in m["sonics"] if s["id"] == flight["reference"])
+    lag = {key: processing[key] for key in LAG_SETTINGS}
+    sonic_l1, ins_l1 = compute_payload_l1(sonic_file, ins_file, processing["despike"])
+    l2 = compute_payload_l2(sonic_l1, ins_l1, flight, float(manifest["site"]["altitude_m"]), **lag)
+    mast_l1 = compute_mast_l1(mast_files, sonic_info, processing["despike"])
+    mast_l2 = compute_mast_l2(mast_l1, l2, flight_id, processing["drone_mast"], source="forward mast")
+    l3 = compute_l3(l2, mast_l2, flight, processing["drone_mast"], processing["rotation"])
+    features = measured_features(manifest, flight_id, sonic_l1, ins_l1, l2, l3, **lag)
+    return features, {"l2": l2, "l3": l3}
 
 
 def run_forward(
     manifest: Mapping[str, Any],
     flight_id: str,
-    config: Mapping[str, Any],
+    processing: Mapping[str, Any],
     work_dir: str | Path | None = None,
 ) -> tuple[FlightFeatures, dict[str, Any]]:
     """Simulate one flight of a forward manifest, process it as measured data, return its features.
@@ -287,8 +409,9 @@ def run_forward(
         Output of :func:`forward_manifest`.
     flight_id : str
         Payload flight id.
-    config : mapping
-        Workflow configuration (processing options, the same as for the measured data).
+    processing : mapping
+        ``processing`` settings (keys of :data:`CHAIN_SETTINGS`; the same as for the
+        measured data).
     work_dir : str or Path, optional
         Folder for the raw files (a temporary folder, removed afterwards, by default).
 
@@ -302,32 +425,30 @@ def run_forward(
     from dronewind.simulate.payload import simulate_payload_flight
 
     own = work_dir is None
-    folder = Path(tempfile.mkdtemp(prefix="dronewind_forward_")) if own else Path(work_dir)
+    folder = Path(tempfile.mkdtemp(prefix="dronewind_forward_")) if own else Path(str(work_dir))
     try:
         folder.mkdir(parents=True, exist_ok=True)
         paths = simulate_payload_flight(dict(manifest), folder, flight_id, folder)
-        flight = next(f for f in manifest["payload_flights"] if f["id"] == flight_id)
-        sonic_file, ins_file = folder / flight["sonic"]["file"], folder / flight["ins"]["file"]
-        mast_files = [p for p in paths if p not in (sonic_file, ins_file)]
-        sonic_info = next(s for m in manifest["masts"] for s in m["sonics"] if s["id"] == flight["reference"])
-        sonic_l1, ins_l1 = chain.compute_payload_l1(sonic_file, ins_file, config)
-        l2 = chain.compute_payload_l2(sonic_l1, ins_l1, flight, float(manifest["site"]["altitude_m"]), config)
-        mast_l1 = chain.compute_mast_l1(mast_files, sonic_info, config)
-        mast_l2 = chain.compute_mast_l2(mast_l1, l2, flight_id, config, source="forward mast")
-        l3 = chain.compute_l3(l2, mast_l2, flight, config)
-        features = measured_features(manifest, flight_id, sonic_l1, ins_l1, l2, l3, config)
-        return features, {"l2": l2, "l3": l3}
+        return process_forward_flight(manifest, flight_id, folder, paths, processing)
     finally:
         if own:
             shutil.rmtree(folder, ignore_errors=True)
+
+
+def _probe_parameters(probe: Probe, level: float) -> dict[str, float]:
+    """Parameters of a probe's mechanism at one level: the others fixed or at their baseline."""
+    params = {probe.parameter: float(level)}
+    for name in _other_parameters(probe.mechanism, probe.parameter):
+        params[name] = dict(probe.fixed).get(name, baseline_level(probe.mechanism, name))
+    return params
 
 
 def probe_runs(
     campaign_data: Mapping[str, Any],
     flight_id: str,
     conditions: Mapping[str, Any],
-    config: Mapping[str, Any],
-    seeds: tuple[int, ...] = (101, 202),
+    processing: Mapping[str, Any],
+    seeds: tuple[int, ...],
     probes: tuple[Probe, ...] = PROBES,
 ) -> dict[str, Any]:
     """Baseline and probe runs of the forward model for one flight.
@@ -335,16 +456,17 @@ def probe_runs(
     Parameters
     ----------
     campaign_data : mapping
-        Manifest content of the measured campaign.
+        Manifest content of the measured campaign (or its one-flight view).
     flight_id : str
         Payload flight id.
     conditions : mapping
         Output of :func:`forward_conditions`.
-    config : mapping
-        Workflow configuration.
+    processing : mapping
+        ``processing`` settings (keys of :data:`CHAIN_SETTINGS`).
     seeds : tuple of int
-        Baseline seeds; the first one is also used for every probe run (common random
-        numbers, so a probe's difference to that baseline is the mechanism's effect).
+        Baseline seeds (``diagnosis.seeds``); the first one is also used for every probe run
+        (common random numbers, so a probe's difference to that baseline is the
+        mechanism's effect).
     probes : tuple of Probe
         Probes to run.
 
@@ -353,25 +475,24 @@ def probe_runs(
     dict
         ``{"baseline": [features per seed], "probes": [{candidate, mechanism,
         parameter, level, fixed, features}]}`` with features as
-        :func:`~dronewind.diagnose.features.features_to_dict` dictionaries.
+        :func:`~dronewind.diagnose.features.features_to_dict` dictionaries; probe levels a
+        flight cannot take are listed in ``skipped_probes``.
     """
     from dronewind.diagnose.features import features_to_dict
 
     out: dict[str, Any] = {"flight": flight_id, "conditions": dict(conditions), "seeds": list(seeds),
                            "baseline": [], "probes": []}
     for seed in seeds:
-        feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed), flight_id, config)
+        feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed), flight_id,
+                               processing)
         out["baseline"].append(features_to_dict(feats))
         LOG.info("flight %s: baseline seed %d done", flight_id, seed)
     for probe in probes:
         for level in probe.levels:
-            params = {probe.parameter: float(level)}
-            for name in _other_parameters(probe.mechanism, probe.parameter):
-                params[name] = dict(probe.fixed).get(name, baseline_level(probe.mechanism, name))
-            mech = [{"mechanism": probe.mechanism, "parameters": params}]
+            mech = [{"mechanism": probe.mechanism, "parameters": _probe_parameters(probe, level)}]
             try:
                 feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0]),
-                                       flight_id, config)
+                                       flight_id, processing)
             except InputError as exc:
                 # a level outside what this flight allows (e.g. a height offset deeper than
                 # the measured hover height): recorded and left out; the candidate's response

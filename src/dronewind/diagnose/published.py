@@ -51,11 +51,12 @@ from typing import Any
 
 import numpy as np
 import scipy.stats
+import xarray as xr
 import yaml
 
 from dronewind.diagnose.campaign import CampaignEvidence, assemble
 from dronewind.diagnose.features import FEATURES
-from dronewind.diagnose.fitting import bounded_least_squares
+from dronewind.diagnose.fitting import ParameterResponse, bounded_least_squares
 from dronewind.errors import InputError
 
 __all__ = [
@@ -271,7 +272,7 @@ def build_evidence(published: Mapping[str, Any], forward: Mapping[str, Mapping[s
     return pe
 
 
-def _combo_parameters(pe: PublishedEvidence, combo: Sequence[str]) -> list[Any]:
+def _combo_parameters(pe: PublishedEvidence, combo: Sequence[str]) -> list[ParameterResponse]:
     return [p for cand in combo for p in pe.ev.models[cand].parameters]
 
 
@@ -311,11 +312,11 @@ def _observations(pe: PublishedEvidence, feats: np.ndarray) -> dict[str, tuple[n
         obs = np.array([pe.table5[flight][f][0] for f in names])
         rnd = np.array([pe.table5[flight][f][1] for f in names])
         out[f"table5:{flight}"] = (obs, feats[i, j], np.hypot(ev.sigma[i, j], rnd))
-    for claim, (value, resolution) in pe.claims.items():
+    for claim, (value, _) in pe.claims.items():
         feature = "sw_su_drone" if "drone" in claim else "sw_su_mast"
-        j = FEATURES.index(feature)
+        k = FEATURES.index(feature)
         kind = "max" if claim.endswith("max") else "min"
-        pred, spread = _extreme(pe, feats[:, j], ev.sigma[:, j], kind)
+        pred, _ = _extreme(pe, feats[:, k], ev.sigma[:, k], kind)
         out[f"claim:{claim}"] = (np.array([value]), np.array([pred]), np.array([pe.claim_sigma[claim]]))
     return out
 
@@ -433,6 +434,89 @@ def _group_table(pe: PublishedEvidence, combo: Sequence[str], theta: np.ndarray)
     return rows
 
 
+def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], alpha: float, n_tests: int,
+                 max_causes: int) -> tuple[tuple[str, ...], PublishedScore | None, list[PublishedScore]]:
+    """Greedy naming: the best significant single candidate, then additions significant against it.
+
+    Returns
+    -------
+    named : tuple of str
+        Named candidates, in naming order.
+    current : PublishedScore or None
+        Score of the named combination (None if nothing is named).
+    rejected : list of PublishedScore
+        The tries of the round that named nothing more, best p-value first.
+    """
+    ev = pe.ev
+    named: tuple[str, ...] = ()
+    current = None
+    rejected: list[PublishedScore] = []  # the tries of the round that named nothing more
+    for _ in range(max_causes):
+        used = {ev.mechanism_of[c] for c in named}
+        options = [c for c in sorted(ev.models) if ev.mechanism_of[c] not in used]
+        tries = [singles[c] for c in options] if not named else \
+            [score_combo(pe, (*named, c), named, alpha, n_tests) for c in options]
+        ok = [s for s in tries if s.significant and (current is None or s.gain > 0)]
+        if not ok:
+            rejected = sorted(tries, key=lambda s: s.p_value)
+            break
+        best = max(ok, key=lambda s: (s.gain, -s.chi2))
+        named, current = best.combo, best
+    return named, current, rejected
+
+
+def _ambiguity_set(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], named: Sequence[str],
+                   alpha: float) -> list[str]:
+    """Mechanisms the numbers cannot tell from the named first cause.
+
+    Single mechanisms whose best fit is not worse than the named first cause by more than
+    the 1 - alpha quantile of chi2_1.
+    """
+    if not named:
+        return []
+    first = singles[named[0]]
+    limit = float(scipy.stats.chi2.ppf(1.0 - alpha, 1))
+    return sorted({pe.ev.mechanism_of[s.combo[0]] for s in singles.values()
+                   if s.significant and s.chi2 - first.chi2 < limit})
+
+
+def _named_estimates(ev: CampaignEvidence, named: Sequence[str], current: PublishedScore | None
+                     ) -> tuple[dict[str, dict[str, Any]], list[dict[str, Any]]]:
+    """Per named mechanism: candidate, fitted parameters (fixed ones included) and errors; catalog form."""
+    estimates: dict[str, dict[str, Any]] = {}
+    extended: list[dict[str, Any]] = []
+    if current is not None:
+        est, unc = current.estimate(), current.uncertainty()
+        for cand in named:
+            params = {**ev.fixed.get(cand, {}), **est[cand]}
+            estimates[ev.mechanism_of[cand]] = {"candidate": cand, "estimate": params, "uncertainty": unc[cand]}
+            extended.append({"mechanism": ev.mechanism_of[cand], "parameters": params})
+    return estimates, extended
+
+
+def _candidate_rows(ev: CampaignEvidence, ranked: Sequence[PublishedScore]) -> list[dict[str, Any]]:
+    """JSON rows of the single candidates (ranked)."""
+    return [{
+        "candidate": s.combo[0], "mechanism": ev.mechanism_of[s.combo[0]],
+        "estimate": {**ev.fixed.get(s.combo[0], {}), **s.estimate().get(s.combo[0], {})},
+        "uncertainty": s.uncertainty().get(s.combo[0], {}), "chi2": s.chi2, "gain": s.gain,
+        "p_value": s.p_value, "significant": s.significant,
+        "heldout_chi2": s.heldout, "heldout_chi2_baseline": s.heldout_reference,
+    } for s in ranked]
+
+
+def _not_named_rows(ev: CampaignEvidence, rejected: Sequence[PublishedScore], alpha: float,
+                    n_tests: int) -> list[dict[str, Any]]:
+    """What was tried and not named in the last round (best three by p-value).
+
+    Evidence that is suggestive but does not pass the corrected test is reported, not named.
+    """
+    return [{"combo": list(s.combo), "added": ev.mechanism_of[s.combo[-1]],
+             "estimate": s.estimate(), "chi2": s.chi2, "chi2_reference": s.chi2_reference,
+             "p_value": s.p_value, "gain": s.gain, "threshold": alpha / max(n_tests, 1)}
+            for s in rejected[:3]]
+
+
 def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any]], alpha: float = 0.01,
             max_causes: int = 2) -> dict[str, Any]:
     """Diagnose the published numbers: baseline misfit, candidates, named causes, ambiguity.
@@ -457,41 +541,13 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
     """
     pe = build_evidence(published, forward)
     ev = pe.ev
-    mechanisms = sorted({ev.mechanism_of[c] for c in ev.models})
-    n_tests = len(mechanisms)
+    n_tests = len(sorted({ev.mechanism_of[c] for c in ev.models}))
     singles = {c: score_combo(pe, (c,), (), alpha, n_tests) for c in sorted(ev.models)}
     ranked = sorted(singles.values(), key=lambda s: -s.gain)
-    named: tuple[str, ...] = ()
-    current = None
-    rejected: list[PublishedScore] = []  # the tries of the round that named nothing more
-    for _ in range(max_causes):
-        used = {ev.mechanism_of[c] for c in named}
-        options = [c for c in sorted(ev.models) if ev.mechanism_of[c] not in used]
-        tries = [singles[c] for c in options] if not named else \
-            [score_combo(pe, (*named, c), named, alpha, n_tests) for c in options]
-        ok = [s for s in tries if s.significant and (current is None or s.gain > 0)]
-        if not ok:
-            rejected = sorted(tries, key=lambda s: s.p_value)
-            break
-        best = max(ok, key=lambda s: (s.gain, -s.chi2))
-        named, current = best.combo, best
+    named, current, rejected = _name_causes(pe, singles, alpha, n_tests, max_causes)
     base_chi2 = sum(_chi2_groups(pe, (), np.zeros(0)).values())
-    ambiguity: list[str] = []
-    if named:
-        # single mechanisms whose best fit is not worse than the named first cause by more
-        # than the 1 - alpha quantile of chi2_1: the numbers cannot tell them apart
-        first = singles[named[0]]
-        limit = float(scipy.stats.chi2.ppf(1.0 - alpha, 1))
-        ambiguity = sorted({ev.mechanism_of[s.combo[0]] for s in singles.values()
-                            if s.significant and s.chi2 - first.chi2 < limit})
-    estimates: dict[str, Any] = {}
-    extended: list[dict[str, Any]] = []
-    if current is not None:
-        est, unc = current.estimate(), current.uncertainty()
-        for cand in named:
-            params = {**ev.fixed.get(cand, {}), **est[cand]}
-            estimates[ev.mechanism_of[cand]] = {"candidate": cand, "estimate": params, "uncertainty": unc[cand]}
-            extended.append({"mechanism": ev.mechanism_of[cand], "parameters": params})
+    ambiguity = _ambiguity_set(pe, singles, named, alpha)
+    estimates, extended = _named_estimates(ev, named, current)
     after_theta = current.theta if current is not None else np.zeros(0)
     return {
         "source": dict(published["source"]),
@@ -499,24 +555,13 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
         "groups": list(pe.groups),
         "baseline": {"chi2": base_chi2, "n_observations": int(sum(len(v) for v in pe.table5.values()) + len(pe.claims)),
                      "quantities": _group_table(pe, (), np.zeros(0))},
-        "candidates": [{
-            "candidate": s.combo[0], "mechanism": ev.mechanism_of[s.combo[0]],
-            "estimate": {**ev.fixed.get(s.combo[0], {}), **s.estimate().get(s.combo[0], {})},
-            "uncertainty": s.uncertainty().get(s.combo[0], {}), "chi2": s.chi2, "gain": s.gain,
-            "p_value": s.p_value, "significant": s.significant,
-            "heldout_chi2": s.heldout, "heldout_chi2_baseline": s.heldout_reference,
-        } for s in ranked],
+        "candidates": _candidate_rows(ev, ranked),
         "named_causes": [ev.mechanism_of[c] for c in named],
         "named_estimates": estimates,
         "named_fit": ({"chi2": current.chi2, "gain": current.gain, "p_value": current.p_value,
                        "quantities": _group_table(pe, named, after_theta)} if current is not None else None),
         "ambiguity_set": ambiguity,
-        # what was tried and not named in the last round (best first by p-value): evidence
-        # that is suggestive but does not pass the corrected test is reported, not named
-        "not_named": [{"combo": list(s.combo), "added": ev.mechanism_of[s.combo[-1]],
-                       "estimate": s.estimate(), "chi2": s.chi2, "chi2_reference": s.chi2_reference,
-                       "p_value": s.p_value, "gain": s.gain, "threshold": alpha / max(n_tests, 1)}
-                      for s in rejected[:3]],
+        "not_named": _not_named_rows(ev, rejected, alpha, n_tests),
         "extended_mechanisms": extended,
         "alpha": alpha,
         "n_tests": n_tests,
@@ -524,7 +569,7 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
     }
 
 
-def flight_summary(l3: Any, features: Mapping[str, float]) -> dict[str, float]:
+def flight_summary(l3: xr.Dataset, features: Mapping[str, float]) -> dict[str, float]:
     """Drone and mast statistics of one (simulated) flight, as in Table 5.
 
     Parameters
@@ -614,80 +659,111 @@ def rerun_summary(reruns: Mapping[str, Mapping[str, Any]], published: Mapping[st
     return out
 
 
-def _f(x: Any, digits: int = 3) -> str:
+def _f(x: object, digits: int = 3) -> str:
+    """A number for the report: ``digits`` significant digits, "–" for None or non-finite."""
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "–"
     return f"{x:.{digits}g}" if isinstance(x, float) else str(x)
 
 
-def markdown(result: Mapping[str, Any], rerun: Mapping[str, Any], published: Mapping[str, Any]) -> str:
-    """The published-numbers diagnosis as a Markdown report."""
+def _md_introduction(result: Mapping[str, Any], published: Mapping[str, Any]) -> list[str]:
+    """Title and what was compared."""
     src = published["source"]
-    lines = ["# The paper's numbers: what the baseline simulation gets wrong, and which mechanism fixes it", "",
-             f"Source: {src['citation'].strip()} (`{src.get('file', '')}`): Table 4 (conditions), Table 5 "
-             "(s1, s7), Sect. 5.2 and 6 (claims). The forward model was run at the Table 4 conditions of the "
-             f"stationary samples {', '.join(result['flights'])} and processed like measured data; every catalog "
-             "mechanism was fitted to the published numbers and scored by leaving one group of numbers out "
-             f"(groups: {', '.join(result['groups'])}).", ""]
-    lines += ["## What the baseline gets wrong", "",
-              "| group | quantity | published | baseline | σ | z |", "|---|---|---|---|---|---|"]
+    return ["# The paper's numbers: what the baseline simulation gets wrong, and which mechanism fixes it", "",
+            f"Source: {src['citation'].strip()} (`{src.get('file', '')}`): Table 4 (conditions), Table 5 "
+            "(s1, s7), Sect. 5.2 and 6 (claims). The forward model was run at the Table 4 conditions of the "
+            f"stationary samples {', '.join(result['flights'])} and processed like measured data; every catalog "
+            "mechanism was fitted to the published numbers and scored by leaving one group of numbers out "
+            f"(groups: {', '.join(result['groups'])}).", ""]
+
+
+def _md_baseline(result: Mapping[str, Any]) -> list[str]:
+    """Published against baseline-predicted quantities, with the baseline misfit."""
+    lines = ["## What the baseline gets wrong", "",
+             "| group | quantity | published | baseline | σ | z |", "|---|---|---|---|---|---|"]
     for q in result["baseline"]["quantities"]:
         lines.append(f"| {q['group']} | {q['quantity']} | {_f(q['published'])} | {_f(q['predicted'])} | "
                      f"{_f(q['sigma'], 2)} | {_f(q['z'], 2)} |")
-    lines += ["", f"Baseline χ² = {_f(result['baseline']['chi2'])} for {result['baseline']['n_observations']} "
-              "published numbers (ln ratios of Table 5; S_w/S_u extremes as expected extremes over the samples).",
-              "", "## Candidates (ranked by held-out gain)", "",
-              "| candidate | estimate | χ² | held-out gain | p | significant |", "|---|---|---|---|---|---|"]
+    return lines + ["", f"Baseline χ² = {_f(result['baseline']['chi2'])} for {result['baseline']['n_observations']} "
+                    "published numbers (ln ratios of Table 5; S_w/S_u extremes as expected extremes over the samples).",
+                    ""]
+
+
+def _md_candidates(result: Mapping[str, Any]) -> list[str]:
+    """The single candidates ranked by held-out gain."""
+    lines = ["## Candidates (ranked by held-out gain)", "",
+             "| candidate | estimate | χ² | held-out gain | p | significant |", "|---|---|---|---|---|---|"]
     for c in result["candidates"]:
         est = ", ".join(f"{k} = {_f(v)}" for k, v in c["estimate"].items())
         lines.append(f"| `{c['candidate']}` | {est} | {_f(c['chi2'])} | {_f(c['gain'], 2)} | {_f(c['p_value'], 2)} | "
                      f"{'yes' if c['significant'] else 'no'} |")
-    lines += [""]
-    if result["named_causes"]:
-        parts = []
-        for mech in result["named_causes"]:
-            e = result["named_estimates"][mech]
-            parts.append(f"`{mech}` (" + ", ".join(f"{k} = {_f(v)} ± {_f(e['uncertainty'].get(k), 2)}"
-                                                  for k, v in e["estimate"].items() if k in e["uncertainty"]) + ")")
-        lines.append(f"**Named:** {' + '.join(parts)}; combined χ² {_f(result['named_fit']['chi2'])}, held-out gain "
-                     f"{_f(result['named_fit']['gain'], 2)} (α = {result['alpha']}, Bonferroni over "
-                     f"{result['n_tests']} mechanisms).")
-        if len(result["ambiguity_set"]) > 1:
-            lines.append(f"\n**Ambiguity:** the published numbers cannot tell apart {', '.join(result['ambiguity_set'])}"
-                         " (fits within the χ²₁ quantile of the named first cause).")
-    else:
-        lines.append("**No mechanism is significant** for the published numbers.")
-    if result.get("not_named"):
-        lines += ["", "Tried next and not named (likelihood-ratio test against the named model, threshold "
-                  f"p < {_f(result['not_named'][0]['threshold'], 2)} after the Bonferroni correction; held-out gain "
-                  "against the named model):", "", "| added | estimates | χ² | p | held-out gain |", "|---|---|---|---|---|"]
-        for t in result["not_named"]:
-            est = "; ".join(f"{c}: " + ", ".join(f"{k} = {_f(v)}" for k, v in p.items()) for c, p in t["estimate"].items())
-            lines.append(f"| `{t['added']}` | {est} | {_f(t['chi2'])} (from {_f(t['chi2_reference'])}) | "
-                         f"{_f(t['p_value'], 2)} | {_f(t['gain'], 2)} |")
-    lines += ["", "## Before and after: the forward model rerun at Table 4 conditions", "",
-              "Fresh seeds; baseline = no mechanism, extended = the named mechanism(s) at their fitted values.", "",
-              "| flight | statistic | published drone/mast | baseline drone/mast | extended drone/mast |",
-              "|---|---|---|---|---|"]
+    return lines + [""]
+
+
+def _md_named(result: Mapping[str, Any]) -> list[str]:
+    """The named causes with their estimates (or that none is significant) and the ambiguity."""
+    if not result["named_causes"]:
+        return ["**No mechanism is significant** for the published numbers."]
+    parts = []
+    for mech in result["named_causes"]:
+        e = result["named_estimates"][mech]
+        parts.append(f"`{mech}` (" + ", ".join(f"{k} = {_f(v)} ± {_f(e['uncertainty'].get(k), 2)}"
+                                              for k, v in e["estimate"].items() if k in e["uncertainty"]) + ")")
+    lines = [f"**Named:** {' + '.join(parts)}; combined χ² {_f(result['named_fit']['chi2'])}, held-out gain "
+             f"{_f(result['named_fit']['gain'], 2)} (α = {result['alpha']}, Bonferroni over "
+             f"{result['n_tests']} mechanisms)."]
+    if len(result["ambiguity_set"]) > 1:
+        lines.append(f"\n**Ambiguity:** the published numbers cannot tell apart {', '.join(result['ambiguity_set'])}"
+                     " (fits within the χ²₁ quantile of the named first cause).")
+    return lines
+
+
+def _md_not_named(result: Mapping[str, Any]) -> list[str]:
+    """What was tried next and not named."""
+    if not result.get("not_named"):
+        return []
+    lines = ["", "Tried next and not named (likelihood-ratio test against the named model, threshold "
+             f"p < {_f(result['not_named'][0]['threshold'], 2)} after the Bonferroni correction; held-out gain "
+             "against the named model):", "", "| added | estimates | χ² | p | held-out gain |", "|---|---|---|---|---|"]
+    for t in result["not_named"]:
+        est = "; ".join(f"{c}: " + ", ".join(f"{k} = {_f(v)}" for k, v in p.items()) for c, p in t["estimate"].items())
+        lines.append(f"| `{t['added']}` | {est} | {_f(t['chi2'])} (from {_f(t['chi2_reference'])}) | "
+                     f"{_f(t['p_value'], 2)} | {_f(t['gain'], 2)} |")
+    return lines
+
+
+def _md_rerun(rerun: Mapping[str, Any]) -> list[str]:
+    """Table 5 statistics: published, baseline and extended reruns; the mast-side levels."""
+    lines = ["", "## Before and after: the forward model rerun at Table 4 conditions", "",
+             "Fresh seeds; baseline = no mechanism, extended = the named mechanism(s) at their fitted values.", "",
+             "| flight | statistic | published drone/mast | baseline drone/mast | extended drone/mast |",
+             "|---|---|---|---|---|"]
     for r in rerun["table5"]:
-        lines.append(f"| {r['flight']} | {r['statistic']} | {_f(r['published_drone'], 2)} / {_f(r['published_mast'], 2)}"
+        lines.append(f"| {r['flight']} | {r['statistic']} | "
+                     f"{_f(r['published_drone'], 2)} / {_f(r['published_mast'], 2)}"
                      f" | {_f(r['baseline_drone'], 2)} / {_f(r['baseline_mast'], 2)} | {_f(r['extended_drone'], 2)} / "
                      f"{_f(r['extended_mast'], 2)} |")
     levels = [r for r in rerun["table5"] if r["statistic"].startswith("sigma_")]
     if levels:
-        ratios = ", ".join(f"{r['flight']} {r['statistic'].split('_')[1]} {r['published_mast'] / r['baseline_mast']:.2f}"
+        ratios = ", ".join(f"{r['flight']} {r['statistic'].split('_')[1]} "
+                           f"{r['published_mast'] / r['baseline_mast']:.2f}"
                            for r in levels if r["baseline_mast"] > 0)
         lines += ["", "Mast-side levels (the model atmosphere, not a payload mechanism): published mast σ over the "
                   f"baseline model's mast σ = {ratios}. The candidates act on drone/mast ratios; an error of the "
                   "atmosphere's absolute σ levels (roughness length, σ/u* similarity constants) scales the absolute "
                   "σ_w excess, not the ratios."]
+    return lines
+
+
+def _md_claims(rerun: Mapping[str, Any], published: Mapping[str, Any]) -> list[str]:
+    """The paper's claims (S_w/S_u extremes, sigma_w excess against U): published, baseline, extended."""
     cb, ce = rerun["claims"]["baseline"], rerun["claims"]["extended"]
     claims = published["claims"]
-    lines += ["", "| claim | published | baseline | extended |", "|---|---|---|---|",
-              f"| drone max ⟨S_w/S_u⟩ | {_f(claims['sw_su_drone_max']['value'])} | {_f(cb['sw_su_drone_max'])} | "
-              f"{_f(ce['sw_su_drone_max'])} |",
-              f"| mast min ⟨S_w/S_u⟩ | {_f(claims['sw_su_mast_min']['value'])} | {_f(cb['sw_su_mast_min'])} | "
-              f"{_f(ce['sw_su_mast_min'])} |"]
+    lines = ["", "| claim | published | baseline | extended |", "|---|---|---|---|",
+             f"| drone max ⟨S_w/S_u⟩ | {_f(claims['sw_su_drone_max']['value'])} | {_f(cb['sw_su_drone_max'])} | "
+             f"{_f(ce['sw_su_drone_max'])} |",
+             f"| mast min ⟨S_w/S_u⟩ | {_f(claims['sw_su_mast_min']['value'])} | {_f(cb['sw_su_mast_min'])} | "
+             f"{_f(ce['sw_su_mast_min'])} |"]
     if "sw_su_mast_range" in claims:
         lo, hi = claims["sw_su_mast_range"]["value"]
         lines.append(f"| mast ⟨S_w/S_u⟩ range | {lo}–{hi} | {_f(cb['sw_su_mast_min'])}–{_f(cb['sw_su_mast_max'])} | "
@@ -699,8 +775,31 @@ def markdown(result: Mapping[str, Any], rerun: Mapping[str, Any], published: Map
     lines.append(f"| σ_w,drone − σ_w,mast vs U: slope [s] (r) | {_f(pub.get('slope_per_ms'))} (Table 5, 2 points) | "
                  f"{_f(ds['baseline']['slope_per_ms'])} ({_f(ds['baseline']['r'], 2)}) | "
                  f"{_f(ds['extended']['slope_per_ms'])} ({_f(ds['extended']['r'], 2)}) |")
-    lines += ["", "Limits: two flights of Table 5 and two extremes are few numbers; the paper's per-flight "
-              "values of Figs 12 and 15 are not printed and are not used. Roughness length, temperature and the hover "
-              "position are not in the paper and come from the reconstruction manifest.", ""]
-    return "\n".join(lines)
+    return lines
 
+
+_MD_LIMITS = ["", "Limits: two flights of Table 5 and two extremes are few numbers; the paper's per-flight "
+              "values of Figs 12 and 15 are not printed and are not used. Roughness length, temperature and the "
+              "hover position are not in the paper and come from the reconstruction manifest.", ""]
+
+
+def markdown(result: Mapping[str, Any], rerun: Mapping[str, Any], published: Mapping[str, Any]) -> str:
+    """The published-numbers diagnosis as a Markdown report.
+
+    Parameters
+    ----------
+    result : mapping
+        Output of :func:`analyse`.
+    rerun : mapping
+        Output of :func:`rerun_summary`.
+    published : mapping
+        Output of :func:`load_published`.
+
+    Returns
+    -------
+    str
+        The report: baseline misfit, candidates, named causes, before/after reruns, claims, limits.
+    """
+    return "\n".join(_md_introduction(result, published) + _md_baseline(result) + _md_candidates(result)
+                     + _md_named(result) + _md_not_named(result) + _md_rerun(rerun) + _md_claims(rerun, published)
+                     + _MD_LIMITS)

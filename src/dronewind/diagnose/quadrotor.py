@@ -28,9 +28,10 @@ flights, leave-one-flight-out when there are at most ``k`` flights), tunnel runs
 ``gain`` is the relative reduction of the held-out RMSE,
 :math:`1 - \mathrm{RMSE}_{cand}/\mathrm{RMSE}_{ref}`. Significance is a one-sided paired
 Wilcoxon signed-rank test of the held-out squared errors per unit (field: one UAV log, i.e.
-flight and UAV; tunnel: one gust/step repetition or one speed step) at :math:`\alpha` Bonferroni-corrected over the candidates of the
-round, plus ``gain >= min_gain``. Because the test is on held-out data, extra parameters
-that only fit noise lose rather than gain; the in-sample F statistic
+flight and UAV; tunnel: one gust/step repetition or one speed step) at :math:`\alpha`
+Bonferroni-corrected over the candidates of the round, plus ``gain >= min_gain``. Because
+the test is on held-out data, extra parameters that only fit noise lose rather than gain;
+the in-sample F statistic
 :math:`F = \frac{(RSS_0 - RSS_1)/\Delta p}{RSS_1/(n - p_1)}` is reported for reference.
 Causes are named greedily: the best significant candidate joins the model, the others are
 scored again against the extended model, until none is significant.
@@ -43,11 +44,10 @@ References
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -55,12 +55,17 @@ import scipy.optimize
 import scipy.sparse
 import scipy.stats
 
-from dronewind.quadrotor import calibration as q
+from dronewind.core.constants import GRAVITY_MS2
 from dronewind.errors import InputError
-from dronewind.simulate.quadrotor import first_order_lag
+from dronewind.quadrotor.calibration import BOUNDS
+from dronewind.quadrotor.drag import DragLaw, speed_from_tilt, tilt_from_attitude
+from dronewind.quadrotor.wind import wind_from_attitude
+from dronewind.simulate.common import first_order_lag
+from dronewind.tunnel.calibration import calibrate_tunnel, stepped_accuracy, uas_offsets
+from dronewind.tunnel.io import read_tunnel_index, read_tunnel_run
 
 __all__ = ["FieldData", "field_data", "fit_field", "predict_field", "score_field_candidates",
-           "tunnel_candidates", "diagnose_quadrotor", "diagnose_quadrotor_files", "regime_speed"]
+           "tunnel_candidates", "diagnose_quadrotor", "regime_speed", "to_json_ready"]
 
 FIELD_CANDIDATES = ("pitch_offset", "yaw_offset", "drag_regime")
 #: Windows below this reference speed carry little direction information: the weather vane turns
@@ -110,7 +115,7 @@ class FieldData:
 
 
 def field_data(blocks: pd.DataFrame, windows: pd.DataFrame, block_s: float = 10.0) -> FieldData:
-    """Arrays for the diagnosis from :func:`dronewind.quadrotor.calibration.flight_windows` output.
+    """Arrays for the diagnosis from :func:`dronewind.quadrotor.windows.flight_windows` output.
 
     Parameters
     ----------
@@ -134,7 +139,7 @@ def field_data(blocks: pd.DataFrame, windows: pd.DataFrame, block_s: float = 10.
     w = windows.reset_index(drop=True)
     keys = pd.Index(w["window_key"].astype(str))
     b = blocks[blocks["window_key"].astype(str).isin(keys)].copy()
-    b["win"] = keys.get_indexer(b["window_key"].astype(str))
+    b["win"] = keys.get_indexer(pd.Index(b["window_key"].astype(str)))
     b["k"] = b.groupby("win").cumcount() // max(1, int(round(block_s)))
     b["sy"] = np.sin(np.radians(b["yaw_deg"]))
     b["cy"] = np.cos(np.radians(b["yaw_deg"]))
@@ -142,13 +147,13 @@ def field_data(blocks: pd.DataFrame, windows: pd.DataFrame, block_s: float = 10.
     win = g.index.get_level_values("win").to_numpy()
     uav = w["uav"].astype(str).to_numpy()
     return FieldData(win, g["roll_deg"].to_numpy(), g["pitch_deg"].to_numpy(),
-                     np.degrees(np.arctan2(g["sy"], g["cy"])).to_numpy(), g["vel_n_ms"].to_numpy(),
+                     np.degrees(np.arctan2(g["sy"].to_numpy(), g["cy"].to_numpy())), g["vel_n_ms"].to_numpy(),
                      g["vel_e_ms"].to_numpy(), w["ref_speed_ms"].to_numpy(float), w["ref_from_deg"].to_numpy(float),
                      w["flight"].astype(str).to_numpy(), uav, sorted(set(uav)))
 
 
-def regime_speed(accel_ms2: np.ndarray, edges_ms: Sequence[float], b: Sequence[float],
-                 c: Sequence[float]) -> np.ndarray:
+def regime_speed(accel_ms2: np.ndarray | float, edges_ms: Sequence[float], b: Sequence[float] | np.ndarray,
+                 c: Sequence[float] | np.ndarray) -> np.ndarray:
     r"""Relative air speed from the wind acceleration with one power law per speed range.
 
     Parameters
@@ -170,7 +175,7 @@ def regime_speed(accel_ms2: np.ndarray, edges_ms: Sequence[float], b: Sequence[f
     Seed 002, Eq. 1 and Table 2: :math:`V = c_k a^{b_k}`; range :math:`k` is the number of
     thresholds :math:`a_j = (e_j/c_j)^{1/b_j}` that :math:`a` exceeds (range :math:`j` ends
     where its own law reaches its upper edge), as in
-    :func:`dronewind.quadrotor.calibration.body_axis_relative_air`.
+    :func:`dronewind.quadrotor.drag.body_axis_relative_air`.
     """
     a = np.abs(np.asarray(accel_ms2, float))
     bb = np.asarray(b, float)
@@ -204,9 +209,9 @@ class FieldModel:
     def bounds(self, uavs: Sequence[str]) -> tuple[list[float], list[float]]:
         lo, hi = [], []
         for name in self.speed_names(uavs):
-            if name in q.BOUNDS:
-                lo.append(q.BOUNDS[name][0])
-                hi.append(q.BOUNDS[name][1])
+            if name in BOUNDS:
+                lo.append(BOUNDS[name][0])
+                hi.append(BOUNDS[name][1])
             elif name.startswith("b_"):
                 lo.append(0.2)
                 hi.append(1.5)
@@ -214,8 +219,8 @@ class FieldModel:
                 lo.append(1.0)
                 hi.append(30.0)
             else:
-                lo.append(q.BOUNDS["pitch_offset_deg"][0])
-                hi.append(q.BOUNDS["pitch_offset_deg"][1])
+                lo.append(BOUNDS["pitch_offset_deg"][0])
+                hi.append(BOUNDS["pitch_offset_deg"][1])
         return lo, hi
 
     def start(self, uavs: Sequence[str]) -> np.ndarray:
@@ -249,12 +254,12 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
     y_off = yaw_deg[data.uav_index[data.win]] if (model.yaw and yaw_deg is not None) else 0.0
     th = np.radians(data.pitch - p_off)
     psi = np.radians(data.yaw - y_off)
-    tilt, lean_rel = q.tilt_from_attitude(np.radians(data.roll), th)
+    tilt, lean_rel = tilt_from_attitude(np.radians(data.roll), th)
     if model.regime_edges is None:
-        vrel = q.speed_from_tilt(tilt, x[0], x[1])
+        vrel = speed_from_tilt(tilt, x[0], x[1])
     else:
         nr = len(model.regime_edges) + 1
-        vrel = regime_speed(q.GRAVITY_MS2 * np.sin(tilt), model.regime_edges, x[:nr], x[nr:2 * nr])
+        vrel = regime_speed(GRAVITY_MS2 * np.sin(tilt), model.regime_edges, x[:nr], x[nr:2 * nr])
     lean = psi + lean_rel
     wn = -vrel * np.cos(lean) + data.vn
     we = -vrel * np.sin(lean) + data.ve
@@ -316,7 +321,7 @@ def fit_field(data: FieldData, model: FieldModel) -> FieldFit:
     circular mean of heading minus reference direction per UAV (seed 001 Sect. 5.4, as
     :func:`dronewind.quadrotor.calibration.calibrate_yaw_offsets`), over windows above
     :data:`MIN_DIRECTION_SPEED_MS`. The window direction is the circular mean of the
-    corrected heading (weather vane), as in :func:`dronewind.quadrotor.calibration.predict_windows`.
+    corrected heading (weather vane), as in :func:`dronewind.quadrotor.validation.predict_windows`.
     """
     uavs = data.uavs
     lo, hi = model.bounds(uavs)
@@ -442,8 +447,10 @@ def _with(model: FieldModel, cand: str, edges: tuple[float, ...]) -> FieldModel:
                       regime_edges=edges if cand == "drag_regime" else model.regime_edges)
 
 
-def _estimate(fit: FieldFit, cand: str, uavs: Sequence[str]) -> tuple[dict, dict]:
+def _estimate(fit: FieldFit, cand: str, uavs: Sequence[str]) -> tuple[dict[str, Any], dict[str, Any]]:
     names = fit.model.speed_names(uavs)
+    est: dict[str, Any]
+    unc: dict[str, Any]
     if cand == "pitch_offset":
         est = {u: float(fit.x[names.index(f"pitch_{u}")]) for u in uavs}
         unc = {u: float(fit.se[names.index(f"pitch_{u}")]) for u in uavs}
@@ -491,10 +498,11 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
     cur_ho = cross_validate(data, current, k_folds)
     base_ho = cur_ho
     base_fit = fit_field(data, current)
-    rounds, named = [], []
+    rounds: list[list[dict[str, Any]]] = []
+    named: list[dict[str, Any]] = []
     remaining = [c for c in FIELD_CANDIDATES if c != "drag_regime" or edges]
     while remaining and len(named) < max_causes:
-        scored = []
+        scored: list[dict[str, Any]] = []
         for cand in remaining:
             model = _with(current, cand, edges)
             ho = cross_validate(data, model, k_folds)
@@ -537,15 +545,13 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
 # ----------------------------------------------------------------------------- tunnel
 
 
-def _lag_runs(index: pd.DataFrame, law: q.DragLaw, offsets: pd.DataFrame) -> list[dict[str, np.ndarray]]:
-    from dronewind.tunnel.analysis import read_tunnel_run
-
+def _lag_runs(index: pd.DataFrame, law: DragLaw, offsets: pd.DataFrame) -> list[dict[str, Any]]:
     off = offsets.set_index("uas")
     runs = []
     for _, r in index[index["kind"].isin(["gust", "step"])].iterrows():
         cta, uas = read_tunnel_run(index, r["run_id"])
         o = off.loc[r["uas"]]
-        v = q.wind_from_attitude(uas["roll_deg"].to_numpy(), uas["pitch_deg"].to_numpy(), uas["yaw_deg"].to_numpy(),
+        v = wind_from_attitude(uas["roll_deg"].to_numpy(), uas["pitch_deg"].to_numpy(), uas["yaw_deg"].to_numpy(),
                                  law=law, method="body_axis", pitch_offset_deg=float(o["pitch_offset_deg"]),
                                  roll_offset_deg=float(o["roll_offset_deg"]))["speed_ms"]
         tc = cta["time_s"].to_numpy(float)
@@ -554,7 +560,7 @@ def _lag_runs(index: pd.DataFrame, law: q.DragLaw, offsets: pd.DataFrame) -> lis
     return runs
 
 
-def _lag_pred(run: Mapping[str, np.ndarray], distance_m: float, tau_s: float) -> np.ndarray:
+def _lag_pred(run: Mapping[str, Any], distance_m: float, tau_s: float) -> np.ndarray:
     """UAS speed predicted from the CTA: advected over ``distance_m`` (delay d/V), then lagged."""
     v = run["v_cta"]
     y = first_order_lag(v, tau_s, run["fs_cta"])
@@ -564,7 +570,7 @@ def _lag_pred(run: Mapping[str, np.ndarray], distance_m: float, tau_s: float) ->
     return np.interp(run["t_uas"], t_adv[order], y[order])
 
 
-def _fit_lag(runs: Sequence[Mapping[str, np.ndarray]], with_tau: bool,
+def _fit_lag(runs: Sequence[Mapping[str, Any]], with_tau: bool,
              distance_m: float | None = None) -> np.ndarray:
     """Least-squares advection distance (unless given) and lag; returns ``[distance_m, tau_s]``."""
     def unpack(x):
@@ -581,23 +587,95 @@ def _fit_lag(runs: Sequence[Mapping[str, np.ndarray]], with_tau: bool,
         x0, lo, hi = [2.0], [-10.0], [10.0]
     if with_tau:
         x0, lo, hi = x0 + [0.1], lo + [0.0], hi + [5.0]
-    if not x0:
+    if not x0 and distance_m is not None:
         return np.array([float(distance_m), 0.0])
     res = scipy.optimize.least_squares(fun, x0, bounds=(lo, hi), method="trf")
     d, tau = unpack(res.x)
     return np.array([float(d), float(tau)])
 
 
-def _event_units(run: Mapping[str, np.ndarray], row: Mapping[str, Any]) -> np.ndarray:
+def _event_units(run: Mapping[str, Any], row: pd.Series) -> np.ndarray:
     """Index of the gust or step repetition of every UAS sample (-1 outside)."""
     t = run["t_uas"]
     k = np.floor((t - float(row["first_event_s"])) / float(row["period_s"])).astype(int)
     return np.where((k >= 0) & (k < int(row["n_events"])), k, -1)
 
 
+def _response_lag_candidate(index: pd.DataFrame, runs: list[dict[str, Any]],
+                            advection_distance_m: float | None) -> tuple[dict[str, Any], float]:
+    """``response_lag`` scored leave-one-run-out on the gust and step runs; returns the
+    candidate and the baseline held-out RMSE [m s-1]."""
+    rows = index.set_index("run_id")
+    e0, e1, taus, units = [], [], [], []
+    for k in range(len(runs)):
+        train = [r for j, r in enumerate(runs) if j != k]
+        x0 = _fit_lag(train, False, advection_distance_m)
+        x1 = _fit_lag(train, True, advection_distance_m)
+        taus.append(x1[1])
+        e0.append(_lag_pred(runs[k], x0[0], 0.0) - runs[k]["v_uas"])
+        e1.append(_lag_pred(runs[k], x1[0], x1[1]) - runs[k]["v_uas"])
+        ev = _event_units(runs[k], rows.loc[runs[k]["run_id"]])
+        units.append(np.where(ev >= 0, np.char.add(f"{runs[k]['run_id']}/", ev.astype(str)), ""))
+    full = _fit_lag(runs, True, advection_distance_m)
+    a0, a1, u = np.concatenate(e0), np.concatenate(e1), np.concatenate(units)
+    r0 = float(np.sqrt(np.mean(a0**2)))
+    r1 = float(np.sqrt(np.mean(a1**2)))
+    ok = u != ""
+    p, n_units = _paired(a0[ok], a1[ok], u[ok])
+    return {"mechanism": "response_lag", "source": "tunnel", "metric": "uas_speed_series_rmse",
+            "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": 1.0 - r1 / r0,
+            "p_value": p, "n_units": n_units, "n_parameters": 1,
+            "estimate": {"tau_s": float(full[1])},
+            "uncertainty": {"tau_s": float(np.std(taus, ddof=1)) if len(taus) > 1 else float("nan")},
+            "advection_distance_m": float(full[0]), "converged": True}, r0
+
+
+def _drag_regime_candidate(acc_one: pd.DataFrame, acc_reg: pd.DataFrame,
+                           law: DragLaw) -> tuple[dict[str, Any], float]:
+    """``drag_regime``: one power law against the speed ranges, on the AoS-0 steps not used in the
+    calibration; returns the candidate and the baseline RMSE [m s-1]."""
+    sel = acc_one["aos_deg"].abs() < 1e-6
+    a0, a1 = acc_one[sel], acc_reg[sel]
+    r0 = float(np.sqrt(np.mean(a0["error_ms"] ** 2)))
+    r1 = float(np.sqrt(np.mean(a1["error_ms"] ** 2)))
+    p, n_units = _paired(a0["error_ms"].to_numpy(), a1["error_ms"].to_numpy(), np.arange(len(a0)).astype(str))
+    return {"mechanism": "drag_regime", "source": "tunnel", "metric": "step_speed_rmse",
+            "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": 1.0 - r1 / r0,
+            "p_value": p, "n_units": n_units, "n_parameters": 2 * (len(law.b_x) - 1),
+            "estimate": {"coefficients": [{"min_speed_ms": lo, "max_speed_ms": hi, "b": b, "c": c}
+                                          for lo, hi, b, c in zip((0.0,) + law.edges_ms,
+                                                                  law.edges_ms + (None,),
+                                                                  law.b_x, law.c_x, strict=True)]},
+            "uncertainty": {}, "converged": True}, r0
+
+
+def _sideslip_candidate(index: pd.DataFrame, law: DragLaw,
+                        offsets: pd.DataFrame) -> tuple[dict[str, Any], float] | None:
+    """``sideslip``: the middle range's longitudinal law applied laterally against the fitted lateral
+    coefficients, on the sideslip runs at AoS != 0 (None without such runs); with the baseline RMSE."""
+    iso = DragLaw(law="body_axis", edges_ms=law.edges_ms, b_x=law.b_x, c_x=law.c_x,
+                  b_y=law.b_x[min(1, len(law.b_x) - 1)], c_y=law.c_x[min(1, len(law.c_x) - 1)],
+                  mass_kg=law.mass_kg)
+    acc_iso = stepped_accuracy(index, iso, offsets, kinds=("sideslip",))
+    side = acc_iso["aos_deg"].abs() > 1e-6
+    if not side.any():
+        return None
+    acc_lat = stepped_accuracy(index, law, offsets, kinds=("sideslip",))
+    e0 = acc_iso.loc[side, "error_ms"].to_numpy()
+    e1 = acc_lat.loc[side.to_numpy(), "error_ms"].to_numpy()
+    r0 = float(np.sqrt(np.mean(e0**2)))
+    r1 = float(np.sqrt(np.mean(e1**2)))
+    p, n_units = _paired(e0, e1, np.arange(e0.size).astype(str))
+    return {"mechanism": "sideslip", "source": "tunnel", "metric": "sideslip_step_speed_rmse",
+            "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": 1.0 - r1 / r0,
+            "p_value": p, "n_units": n_units, "n_parameters": 2,
+            "estimate": {"b_y": float(law.b_y), "c_y": float(law.c_y)}, "uncertainty": {},
+            "converged": True}, r0
+
+
 def tunnel_candidates(runs_file: str | Path, alpha: float = 0.01, min_gain: float = 0.05,
                       advection_distance_m: float | None = 2.5) -> dict[str, Any]:
-    """Tunnel candidates ``response_lag``, ``drag_regime`` and ``sideslip`` (seed 002) with held-out gains.
+    r"""Tunnel candidates ``response_lag``, ``drag_regime`` and ``sideslip`` (seed 002) with held-out gains.
 
     Parameters
     ----------
@@ -627,74 +705,24 @@ def tunnel_candidates(runs_file: str | Path, alpha: float = 0.01, min_gain: floa
     * ``sideslip``: the longitudinal law of the middle range applied laterally against the
       fitted lateral coefficients; held out: the sideslip runs at AoS != 0.
     """
-    from dronewind.tunnel.analysis import calibrate_tunnel, read_tunnel_index, stepped_accuracy, uas_offsets
-
     index = read_tunnel_index(runs_file)
     offsets = uas_offsets(index)
     law, _ = calibrate_tunnel(index, offsets)
     cands, base = [], {}
     runs = _lag_runs(index, law, offsets)
     if len(runs) >= 2:
-        rows = index.set_index("run_id")
-        e0, e1, taus, units = [], [], [], []
-        for k in range(len(runs)):
-            train = [r for j, r in enumerate(runs) if j != k]
-            x0 = _fit_lag(train, False, advection_distance_m)
-            x1 = _fit_lag(train, True, advection_distance_m)
-            taus.append(x1[1])
-            e0.append(_lag_pred(runs[k], x0[0], 0.0) - runs[k]["v_uas"])
-            e1.append(_lag_pred(runs[k], x1[0], x1[1]) - runs[k]["v_uas"])
-            ev = _event_units(runs[k], rows.loc[runs[k]["run_id"]])
-            units.append(np.where(ev >= 0, np.char.add(f"{runs[k]['run_id']}/", ev.astype(str)), ""))
-        full = _fit_lag(runs, True, advection_distance_m)
-        a0, a1, u = np.concatenate(e0), np.concatenate(e1), np.concatenate(units)
-        r0 = float(np.sqrt(np.mean(a0**2)))
-        r1 = float(np.sqrt(np.mean(a1**2)))
-        ok = u != ""
-        p, n_units = _paired(a0[ok], a1[ok], u[ok])
-        base["tunnel_gust_step_rmse_ms"] = r0
-        cands.append({"mechanism": "response_lag", "source": "tunnel", "metric": "uas_speed_series_rmse",
-                      "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": 1.0 - r1 / r0,
-                      "p_value": p, "n_units": n_units, "n_parameters": 1,
-                      "estimate": {"tau_s": float(full[1])},
-                      "uncertainty": {"tau_s": float(np.std(taus, ddof=1)) if len(taus) > 1 else float("nan")},
-                      "advection_distance_m": float(full[0]), "converged": True})
+        cand, base["tunnel_gust_step_rmse_ms"] = _response_lag_candidate(index, runs, advection_distance_m)
+        cands.append(cand)
     one, _ = calibrate_tunnel(index, offsets, edges_ms=())
     acc_one = stepped_accuracy(index, one, offsets, kinds=("sideslip", "portability"))
     acc_reg = stepped_accuracy(index, law, offsets, kinds=("sideslip", "portability"))
     if len(acc_one):
-        sel = acc_one["aos_deg"].abs() < 1e-6
-        a0, a1 = acc_one[sel], acc_reg[sel]
-        r0 = float(np.sqrt(np.mean(a0["error_ms"] ** 2)))
-        r1 = float(np.sqrt(np.mean(a1["error_ms"] ** 2)))
-        p, n_units = _paired(a0["error_ms"].to_numpy(), a1["error_ms"].to_numpy(), np.arange(len(a0)).astype(str))
-        base["tunnel_step_rmse_aos0_ms"] = r0
-        cands.append({"mechanism": "drag_regime", "source": "tunnel", "metric": "step_speed_rmse",
-                      "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": 1.0 - r1 / r0,
-                      "p_value": p, "n_units": n_units, "n_parameters": 2 * (len(law.b_x) - 1),
-                      "estimate": {"coefficients": [{"min_speed_ms": lo, "max_speed_ms": hi, "b": b, "c": c}
-                                                    for lo, hi, b, c in zip((0.0,) + law.edges_ms,
-                                                                            law.edges_ms + (None,),
-                                                                            law.b_x, law.c_x, strict=True)]},
-                      "uncertainty": {}, "converged": True})
-        iso = q.DragLaw(law="body_axis", edges_ms=law.edges_ms, b_x=law.b_x, c_x=law.c_x,
-                        b_y=law.b_x[min(1, len(law.b_x) - 1)], c_y=law.c_x[min(1, len(law.c_x) - 1)],
-                        mass_kg=law.mass_kg)
-        acc_iso = stepped_accuracy(index, iso, offsets, kinds=("sideslip",))
-        side = acc_iso["aos_deg"].abs() > 1e-6
-        if side.any():
-            acc_lat = stepped_accuracy(index, law, offsets, kinds=("sideslip",))
-            e0 = acc_iso.loc[side, "error_ms"].to_numpy()
-            e1 = acc_lat.loc[side.to_numpy(), "error_ms"].to_numpy()
-            r0 = float(np.sqrt(np.mean(e0**2)))
-            r1 = float(np.sqrt(np.mean(e1**2)))
-            p, n_units = _paired(e0, e1, np.arange(e0.size).astype(str))
-            base["tunnel_sideslip_rmse_ms"] = r0
-            cands.append({"mechanism": "sideslip", "source": "tunnel", "metric": "sideslip_step_speed_rmse",
-                          "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": 1.0 - r1 / r0,
-                          "p_value": p, "n_units": n_units, "n_parameters": 2,
-                          "estimate": {"b_y": float(law.b_y), "c_y": float(law.c_y)}, "uncertainty": {},
-                          "converged": True})
+        cand, base["tunnel_step_rmse_aos0_ms"] = _drag_regime_candidate(acc_one, acc_reg, law)
+        cands.append(cand)
+        side = _sideslip_candidate(index, law, offsets)
+        if side is not None:
+            cand, base["tunnel_sideslip_rmse_ms"] = side
+            cands.append(cand)
     level = alpha / max(len(cands), 1)
     for c in cands:
         c["alpha_bonferroni"] = level
@@ -709,6 +737,65 @@ def _public(c: Mapping[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in c.items() if not k.startswith("_")}
 
 
+def _field_part(data: FieldData, alpha: float, min_gain: float,
+                k_folds: int) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]], dict[str, Any]]:
+    """Field candidates scored and named (:func:`score_field_candidates`).
+
+    Returns
+    -------
+    metrics : dict
+        Baseline held-out RMSEs, counts and the baseline law.
+    candidates : list of dict
+        Every candidate as scored in the last round it took part in (named ones: when
+        named, with the estimates of the final extended model).
+    named : list of dict
+        Named candidates in order.
+    extended : dict
+        Held-out RMSE before and after with every named field cause.
+    """
+    res = score_field_candidates(data, alpha, min_gain, k_folds)
+    bho = res["baseline"]["heldout"]
+    bf = res["baseline"]["fit"]
+    metrics = {"speed_rmse_ms": bho.rmse("speed"), "direction_rmse_deg": bho.rmse("direction"),
+               "n_windows": data.n, "n_flights": int(len(set(data.flight))), "n_uavs": len(data.uavs),
+               "cd0a0_m2": float(bf.x[0]), "cp_m2_per_rad": float(bf.x[1])}
+    last: dict[str, dict] = {}
+    for rnd in res["rounds"]:
+        for s in rnd:
+            last[s["mechanism"]] = s
+    for n in res["named"]:
+        # named causes: estimates from the final extended model (all named causes fitted jointly)
+        est, unc = _estimate(res["final_fit"], n["mechanism"], data.uavs)
+        last[n["mechanism"]] = {**n, "estimate": est, "uncertainty": unc}
+    ext = res["extended"]
+    extended = {
+        "named": [n["mechanism"] for n in res["named"]],
+        "speed_rmse_ms": {"before": bho.rmse("speed"), "after": ext.rmse("speed")},
+        "direction_rmse_deg": {"before": bho.rmse("direction"), "after": ext.rmse("direction")},
+        "speed_gain": 1.0 - ext.rmse("speed") / bho.rmse("speed") if bho.rmse("speed") > 0 else 0.0,
+        "direction_gain": 1.0 - ext.rmse("direction") / bho.rmse("direction")
+        if bho.rmse("direction") > 0 else 0.0,
+        "heldout": f"{min(k_folds, len(set(data.flight)))}-fold over flights"}
+    return metrics, [_public(s) for s in last.values()], list(res["named"]), extended
+
+
+def _as_mechanisms(candidates: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Significant candidates as ``simulation.mechanisms`` entries (field causes, then a tunnel lag)."""
+    mech: list[dict[str, Any]] = []
+    for c in candidates:
+        if not c["significant"] or c["source"] != "field":
+            continue
+        if c["mechanism"] in ("pitch_offset", "yaw_offset"):
+            mech += [{"mechanism": c["mechanism"], "parameters": {"uav": u, "deg": round(v, 3)}}
+                     for u, v in c["estimate"].items()]
+        elif c["mechanism"] == "drag_regime":
+            mech.append({"mechanism": "drag_regime", "parameters": c["estimate"]})
+    for c in candidates:
+        if c["significant"] and c["mechanism"] == "response_lag":
+            mech.append({"mechanism": "response_lag", "parameters": {"tau_s": c["estimate"]["tau_s"]}})
+    return mech
+
+
 def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.DataFrame | None,
                        runs_file: str | Path | None = None, alpha: float = 0.01, min_gain: float = 0.05,
                        k_folds: int = 5, block_s: float = 10.0) -> dict[str, Any]:
@@ -719,7 +806,7 @@ def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.D
     campaign : str
         Campaign name.
     blocks, windows : pandas.DataFrame or None
-        Field windows (:func:`dronewind.quadrotor.calibration.flight_windows`); None or empty: no field part.
+        Field windows (:func:`dronewind.quadrotor.windows.flight_windows`); None or empty: no field part.
     runs_file : str or Path, optional
         Tunnel run index; None: no tunnel part.
     alpha, min_gain, k_folds, block_s
@@ -738,34 +825,10 @@ def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.D
     out: dict[str, Any] = {"campaign": campaign, "baseline": {"metrics": {}}, "candidates": [], "named_causes": []}
     named_entries: list[dict[str, Any]] = []
     if windows is not None and len(windows) >= 3:
-        data = field_data(blocks, windows, block_s)
-        res = score_field_candidates(data, alpha, min_gain, k_folds)
-        bho = res["baseline"]["heldout"]
-        bf = res["baseline"]["fit"]
-        out["baseline"]["metrics"].update({
-            "speed_rmse_ms": bho.rmse("speed"), "direction_rmse_deg": bho.rmse("direction"),
-            "n_windows": data.n, "n_flights": int(len(set(data.flight))), "n_uavs": len(data.uavs),
-            "cd0a0_m2": float(bf.x[0]), "cp_m2_per_rad": float(bf.x[1])})
-        # every candidate as scored in the last round it took part in (named ones: when named)
-        named_entries = list(res["named"])
-        last: dict[str, dict] = {}
-        for rnd in res["rounds"]:
-            for s in rnd:
-                last[s["mechanism"]] = s
-        for n in res["named"]:
-            # named causes: estimates from the final extended model (all named causes fitted jointly)
-            est, unc = _estimate(res["final_fit"], n["mechanism"], data.uavs)
-            last[n["mechanism"]] = {**n, "estimate": est, "uncertainty": unc}
-        out["candidates"] += [_public(s) for s in last.values()]
-        ext = res["extended"]
-        out["extended_model"] = {
-            "named": [n["mechanism"] for n in res["named"]],
-            "speed_rmse_ms": {"before": bho.rmse("speed"), "after": ext.rmse("speed")},
-            "direction_rmse_deg": {"before": bho.rmse("direction"), "after": ext.rmse("direction")},
-            "speed_gain": 1.0 - ext.rmse("speed") / bho.rmse("speed") if bho.rmse("speed") > 0 else 0.0,
-            "direction_gain": 1.0 - ext.rmse("direction") / bho.rmse("direction")
-            if bho.rmse("direction") > 0 else 0.0,
-            "heldout": f"{min(k_folds, len(set(data.flight)))}-fold over flights"}
+        metrics, cands, named_entries, out["extended_model"] = _field_part(
+            field_data(cast(pd.DataFrame, blocks), windows, block_s), alpha, min_gain, k_folds)
+        out["baseline"]["metrics"].update(metrics)
+        out["candidates"] += cands
     if runs_file is not None:
         tun = tunnel_candidates(runs_file, alpha, min_gain)
         out["baseline"]["metrics"].update(tun["baseline"])
@@ -776,59 +839,21 @@ def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.D
         if c["significant"] and c["mechanism"] not in names:
             names.append(c["mechanism"])
     out["named_causes"] = names
-    mech = []
-    for c in out["candidates"]:
-        if not c["significant"] or c["source"] != "field":
-            continue
-        if c["mechanism"] in ("pitch_offset", "yaw_offset"):
-            mech += [{"mechanism": c["mechanism"], "parameters": {"uav": u, "deg": round(v, 3)}}
-                     for u, v in c["estimate"].items()]
-        elif c["mechanism"] == "drag_regime":
-            mech.append({"mechanism": "drag_regime", "parameters": c["estimate"]})
-    for c in out["candidates"]:
-        if c["significant"] and c["mechanism"] == "response_lag":
-            mech.append({"mechanism": "response_lag", "parameters": {"tau_s": c["estimate"]["tau_s"]}})
-    out["as_mechanisms"] = mech
+    out["as_mechanisms"] = _as_mechanisms(out["candidates"])
     out["method"] = ("single-law quasi-steady baseline (seed 001 Eq. 17, c_d0A0 and c_p fitted) vs extensions; "
                      f"field: {k_folds}-fold over flights, held-out window RMSE, one-sided paired test per UAV "
-                     f"log (Wilcoxon signed-rank); tunnel: leave-one-run-out (response_lag) or runs not used in the calibration; "
+                     "log (Wilcoxon signed-rank); tunnel: leave-one-run-out (response_lag) or runs not used in the "
+                     "calibration; "
                      f"alpha={alpha} Bonferroni per round, min gain {min_gain}; see dronewind.diagnose.quadrotor")
     return out
 
 
-def diagnose_quadrotor_files(manifest: str | Path, windows_files: Sequence[str | Path],
-                             blocks_files: Sequence[str | Path], runs_file: str | Path | None,
-                             output: str | Path, config: Mapping[str, Any] | None = None) -> Path:
-    """File wrapper: read the per-flight windows (2-min) and the tunnel index, write the JSON.
-
-    ``config["diagnosis"]`` may set ``alpha`` (0.01) and ``quadrotor_min_gain`` (0.05);
-    ``config["processing"]["quadrotor"]["diagnosis_window_s"]`` the window length (120 s).
-    """
-    from dronewind.core.cf import atomic_write_text
-    from dronewind.manifest import load_campaign
-    from dronewind.steps.common import LOG
-    from dronewind.steps.quadrotor import read_windows
-
-    campaign = load_campaign(manifest)
-    cfg = dict((config or {}).get("diagnosis") or {})
-    qcfg = dict(((config or {}).get("processing") or {}).get("quadrotor") or {})
-    blocks = windows = None
-    if windows_files:
-        blocks, windows = read_windows(windows_files, blocks_files, float(qcfg.get("diagnosis_window_s", 120.0)))
-    res = diagnose_quadrotor(campaign.name, blocks, windows, runs_file, alpha=float(cfg.get("alpha", 0.01)),
-                             min_gain=float(cfg.get("quadrotor_min_gain", 0.05)))
-    LOG.info("quadrotor diagnosis: named causes %s", res["named_causes"])
-    for c in res["candidates"]:
-        LOG.info("  %s (%s): gain %.3f, p %.2g, significant %s", c["mechanism"], c["source"], c["gain"],
-                 c["p_value"], c["significant"])
-    return atomic_write_text(output, json.dumps(_clean(res), indent=2) + "\n")
-
-
-def _clean(node: Any) -> Any:
+def to_json_ready(node: Any) -> Any:
+    """A diagnosis structure with numpy scalars as Python values and non-finite floats as None (JSON)."""
     if isinstance(node, dict):
-        return {str(k): _clean(v) for k, v in node.items()}
+        return {str(k): to_json_ready(v) for k, v in node.items()}
     if isinstance(node, list | tuple):
-        return [_clean(v) for v in node]
+        return [to_json_ready(v) for v in node]
     if isinstance(node, np.bool_ | bool):
         return bool(node)
     if isinstance(node, np.integer):

@@ -1,16 +1,19 @@
-"""The diagnosis report: Markdown text and figures, from the stored diagnosis results."""
+"""The diagnosis report as Markdown, from the stored diagnosis results.
+
+The report's figures are drawn by :mod:`dronewind.figures.diagnosis` (called by the
+workflow step :func:`dronewind.steps.diagnosis.diagnosis_report`).
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from dronewind.diagnose.features import FEATURES
 
-__all__ = ["markdown", "figures", "FEATURE_LABELS"]
+__all__ = ["markdown", "FEATURE_LABELS"]
 
 #: Human-readable feature names (units in brackets).
 FEATURE_LABELS: dict[str, str] = {
@@ -95,12 +98,15 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
         meas = np.array([r["measured"] for r in sel], dtype=float)
         pred = np.array([r["predicted"] for r in sel], dtype=float)
         z = np.array([r["z"] for r in sel], dtype=float)
-        lines.append(f"| {FEATURE_LABELS.get(feat, feat)} | {_fmt(np.nanmean(meas) if np.isfinite(meas).any() else np.nan)} "
-                     f"| {_fmt(np.nanmean(pred) if np.isfinite(pred).any() else np.nan)} "
-                     f"| {_fmt(np.nanmean(z) if np.isfinite(z).any() else np.nan, 2)} "
-                     f"| {_fmt(np.nanmax(np.abs(z)) if np.isfinite(z).any() else np.nan, 2)} | {_fmt(slopes.get(feat))} |")
+        mean_meas = np.nanmean(meas) if np.isfinite(meas).any() else np.nan
+        mean_pred = np.nanmean(pred) if np.isfinite(pred).any() else np.nan
+        mean_z = np.nanmean(z) if np.isfinite(z).any() else np.nan
+        max_abs_z = np.nanmax(np.abs(z)) if np.isfinite(z).any() else np.nan
+        lines.append(f"| {FEATURE_LABELS.get(feat, feat)} | {_fmt(mean_meas)} | {_fmt(mean_pred)} "
+                     f"| {_fmt(mean_z, 2)} | {_fmt(max_abs_z, 2)} | {_fmt(slopes.get(feat))} |")
     lines += ["", "## Candidates (fitted on all flights, scored leaving one flight out)", "",
-              "| mechanism | estimate | uncertainty | held-out gain | LR p-value | significant |", "|---|---|---|---|---|---|"]
+              "| mechanism | estimate | uncertainty | held-out gain | LR p-value | significant |",
+              "|---|---|---|---|---|---|"]
     for c in diag.get("candidates") or []:
         est = ", ".join(f"{k} = {_fmt(v)}" for k, v in c["estimate"].items())
         unc = ", ".join(f"{k} ± {_fmt(v, 2)}" for k, v in c["uncertainty"].items())
@@ -129,122 +135,3 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
               "flights left out of the fit. A second cause is named only if it is significant on what the first "
               "leaves unexplained.", ""]
     return "\n".join(lines) + "\n"
-
-
-def figures(ev: Any, after: np.ndarray | None, diag: Mapping[str, Any], out_dir: Path) -> list[Path]:
-    """Residuals against wind speed, before (baseline) and after (extended model).
-
-    Parameters
-    ----------
-    ev : CampaignEvidence
-        Evidence arrays.
-    after : numpy.ndarray or None
-        Rerun extended-model features (flights x features).
-    diag : mapping
-        ``diagnosis.json`` content.
-    out_dir : Path
-        Folder for ``diagnosis_residuals.png``/``.pdf``.
-
-    Returns
-    -------
-    list of Path
-        Written files.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    from dronewind.figures.payload import save_figure
-
-    speed = np.array([c.get("mean_speed_ms", np.nan) for c in ev.conditions], dtype=float)
-    feats = ["ln_sigma_ratio_w", "ln_sigma_ratio_u", "sw_su_drone", "sw_su_mast", "dir_diff_deg",
-             "tilt_diff_deg", "lag_sonic_ins_s", "ln_pendulum_w", "ln_hf_w"]
-    fig = Figure(figsize=(12, 10), dpi=100)
-    axes = fig.subplots(3, 3)
-    for ax, feat in zip(axes.ravel(), feats, strict=True):
-        j = FEATURES.index(feat)
-        if ev.flights:
-            r0 = ev.y[:, j] - ev.baseline[:, j]
-            ax.errorbar(speed, r0, yerr=ev.sigma[:, j], fmt="o", color="tab:red", label="baseline", capsize=2)
-        if ev.flights and after is not None and np.isfinite(after[:, j]).any():
-            r1 = ev.y[:, j] - after[:, j]
-            ax.errorbar(speed + 0.1, r1, yerr=ev.sigma[:, j], fmt="s", color="tab:blue", label="extended model",
-                        capsize=2)
-        ax.axhline(0, color="k", lw=0.8)
-        ax.set_xlabel("mast mean wind speed [m s$^{-1}$]")
-        ax.set_ylabel("measured − predicted")
-        ax.set_title(FEATURE_LABELS[feat], fontsize=9)
-        ax.grid(alpha=0.3)
-    if ev.flights:
-        axes[0, 0].legend(fontsize=8)
-    named = ", ".join(diag.get("named_causes") or []) or "none"
-    note = "" if ev.flights else " (no usable flight)"
-    fig.suptitle(f"Diagnosis of {diag.get('campaign')}: residuals before and after (named: {named}){note}")
-    fig.tight_layout()
-    return save_figure(fig, out_dir / "diagnosis_residuals", [note.strip(" ()")] if note else ())
-
-
-def spectra_figure(ev: Any, measured: Mapping[str, Mapping[str, Any]], model: Mapping[str, Mapping[str, Any]],
-                   diag: Mapping[str, Any], out_dir: Path, n_flights: int = 3) -> list[Path]:
-    """Drone and mast spectra of u and w, measured against the model before and after.
-
-    For up to ``n_flights`` flights spread over the wind-speed range (lowest, middle,
-    highest mast wind speed): premultiplied spectra :math:`f S(f)` of the measured drone
-    and mast and of the forward model without (baseline) and with the named mechanisms
-    (extended; the same seed, so the difference is the mechanisms' effect).
-
-    Parameters
-    ----------
-    ev : CampaignEvidence
-    measured : mapping
-        Flight -> ``binned_spectra`` of the measured flight.
-    model : mapping
-        Flight -> ``{"baseline": spectra, "extended": spectra}``.
-    diag : mapping
-        ``diagnosis.json`` content.
-    out_dir : Path
-        Folder for ``diagnosis_spectra.png``/``.pdf``.
-
-    Returns
-    -------
-    list of Path
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    from dronewind.figures.payload import save_figure
-
-    flights = [f for f in ev.flights if f in measured and f in model]
-    speed = {f: c.get("mean_speed_ms", np.nan) for f, c in zip(ev.flights, ev.conditions, strict=True)}
-    flights.sort(key=lambda f: speed[f])
-    if len(flights) > n_flights:
-        pick = np.unique(np.linspace(0, len(flights) - 1, n_flights).round().astype(int))
-        flights = [flights[i] for i in pick]
-    fig = Figure(figsize=(11, 3.4 * max(len(flights), 1)), dpi=100)
-    axes = np.atleast_2d(fig.subplots(max(len(flights), 1), 2))
-    notes = [] if flights else ["no flight with stored spectra"]
-    for row, flight in zip(axes, flights, strict=False):
-        for ax, comp in zip(row, ("u", "w"), strict=True):
-            m = measured[flight]
-            f = np.asarray(m["f_hz"])
-            ax.loglog(f, f * np.asarray(m[f"drone_{comp}"]), color="k", lw=1.4, label="measured drone")
-            ax.loglog(f, f * np.asarray(m[f"mast_{comp}"]), color="0.6", lw=1.0, label="measured mast")
-            for key, colour in (("baseline", "tab:red"), ("extended", "tab:blue")):
-                s = model[flight].get(key)
-                if s:
-                    fm = np.asarray(s["f_hz"])
-                    ax.loglog(fm, fm * np.asarray(s[f"drone_{comp}"]), color=colour, lw=1.0,
-                              ls="--" if key == "baseline" else "-", label=f"{key} model drone")
-            ax.set_title(f"{flight}, U = {speed[flight]:.1f} m/s: $fS_{comp}$", fontsize=9)
-            ax.set_xlabel("f [Hz]")
-            ax.set_ylabel(f"$fS_{comp}$ [m$^2$ s$^{{-2}}$]")
-            ax.grid(alpha=0.3, which="both")
-    if flights:
-        axes[0, 0].legend(fontsize=7)
-    named = ", ".join(diag.get("named_causes") or []) or "none"
-    fig.suptitle(f"Diagnosis of {diag.get('campaign')}: spectra, measured vs model before/after (named: {named})")
-    fig.tight_layout()
-    return save_figure(fig, out_dir / "diagnosis_spectra", notes)

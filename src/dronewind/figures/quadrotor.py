@@ -85,7 +85,7 @@ def _save(fig: Any, path: str | Path, note: str = "") -> Path:
     return target
 
 
-def _one_to_one(ax: Any, x: np.ndarray, y: np.ndarray) -> None:
+def _one_to_one(ax: Any, x: np.ndarray | pd.Series, y: np.ndarray | pd.Series) -> None:
     v = np.concatenate([np.asarray(x, float), np.asarray(y, float)])
     v = v[np.isfinite(v)]
     hi = float(v.max()) * 1.05 if v.size else 1.0
@@ -103,6 +103,126 @@ def _scatter_by_uav(ax: Any, table: pd.DataFrame, x: str, y: str) -> None:
 
 def _by_path(outputs: Sequence[str | Path]) -> dict[str, Path]:
     return {Path(p).stem: Path(p) for p in outputs}
+
+
+def _fig3_individual(win: pd.DataFrame, label: str, path: Path, note: str) -> Path:
+    """Seed 001 Fig. 3: window speeds of the individual calibration against the tower."""
+    fig, ax = _figure()
+    _scatter_by_uav(ax, win, "ref_speed_ms", "speed_individual_ms")
+    _one_to_one(ax, win["ref_speed_ms"], win["speed_individual_ms"])
+    ax.set(xlabel="tower wind speed [m/s]", ylabel="UAV wind speed [m/s]",
+           title=f"individual calibration, {win['flight'].nunique()} flights, {label}")
+    ax.legend(fontsize=7, ncol=2)
+    return _save(fig, path, note)
+
+
+def _fig4_regression(win: pd.DataFrame, summary: dict[str, Any], path: Path, skipped: str) -> Path:
+    """Seed 001 Fig. 4: tilt against tower speed with the stored universal law."""
+    fig, ax = _figure()
+    _scatter_by_uav(ax, win, "tilt_deg", "ref_speed_ms")
+    curve = summary.get("regression_curve", {})
+    aero = summary.get("aero", {})
+    if curve:
+        ax.plot(curve["tilt_deg"], curve["speed_ms"], "k-",
+                label=f"c_d0A0 = {aero.get('cd0a0_m2', np.nan):.4f} m2, c_p = {aero.get('cp_m2_per_rad', np.nan):.4f}")
+    ax.set(xlabel="tilt, offset-corrected [degree]", ylabel="tower wind speed [m/s]",
+           title="universal regression (seed 001 Eq. 18 form)")
+    ax.legend(fontsize=7, ncol=2)
+    note = skipped if summary.get("converged", True) else "calibration NOT converged; " + skipped
+    return _save(fig, path, note)
+
+
+def _fig5_validation(val: pd.DataFrame, path: Path, note: str) -> Path:
+    """Seed 001 Fig. 5: validation windows, universal law with calibrated offsets, against the tower."""
+    fig, ax = _figure()
+    _scatter_by_uav(ax, val, "ref_speed_ms", "uav_speed_ms")
+    _one_to_one(ax, val["ref_speed_ms"], val["uav_speed_ms"])
+    ax.set(xlabel="tower wind speed [m/s]", ylabel="UAV wind speed [m/s]",
+           title=f"validation flights ({val['flight'].nunique()}), universal law + pitch offsets")
+    ax.legend(fontsize=7, ncol=2)
+    return _save(fig, path, note)
+
+
+def _fig6_direction(val: pd.DataFrame, path: Path, note: str) -> Path:
+    """Seed 001 Fig. 6: wind direction from the corrected heading against the tower."""
+    fig, ax = _figure()
+    _scatter_by_uav(ax, val, "ref_from_deg", "uav_from_deg")
+    ax.plot([0, 360], [0, 360], color="0.5", lw=0.8, ls="--")
+    ax.set(xlim=(0, 360), ylim=(0, 360), xlabel="tower wind direction [degree]",
+           ylabel="UAV wind direction (corrected yaw) [degree]", title="wind direction with yaw offsets")
+    ax.legend(fontsize=7, ncol=2)
+    return _save(fig, path, note)
+
+
+def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path, path: Path) -> Path:
+    """Seed 001 Fig. 7: 1 Hz wind of the UAVs of one flight (L2 files) and the tower's 1-min means."""
+    from matplotlib.dates import DateFormatter
+    from matplotlib.figure import Figure
+
+    from dronewind.core.products import open_product
+    from dronewind.quadrotor.io import read_tower_reference
+
+    fig = Figure(figsize=(7.5, 6.0), layout="constrained")
+    ax_one, ax = fig.subplots(2, 1, sharex=True)
+    ref = read_tower_reference(reference_file)
+    flight, notes = "", []
+    series = []
+    for l2 in l2_files:
+        ds = open_product(l2)
+        flight = str(ds.attrs.get("flight", ""))
+        series.append((float(ds["alt"]) if "alt" in ds else float("nan"), ds))
+    series.sort(key=lambda x: x[0])
+    for h, ds in series:
+        usable = int(ds.attrs.get("usable", 1))
+        style = {"lw": 0.7} if usable else {"lw": 0.7, "ls": ":", "color": "0.5"}
+        ax.plot(ds["time"].values, ds["wind_speed_ms"].values, label=f"{ds.attrs.get('uav', '')} {h:.0f} m", **style)
+        if not usable:
+            notes.append(f"{ds.attrs.get('uav', '')}: {ds.attrs.get('unusable_reason', '')}")
+    if series:
+        h, ds = series[-1]
+        k = int(np.argmin(np.abs(ref["height_m"].values - h)))
+        ax_one.plot(ds["time"].values, ds["wind_speed_ms"].values, lw=0.8, color="tab:red",
+                    label=f"UAV {ds.attrs.get('uav', '')} at {h:.0f} m (1 Hz)")
+        ax_one.step(ref["time"].values, ref["wind_speed_ms"].isel(height=k).values, where="post", color="k",
+                    lw=1.2, label=f"tower {float(ref['height_m'].values[k]):g} m (1-min means)")
+        t = np.concatenate([d["time"].values for _, d in series])
+        ax.set_xlim(t.min(), t.max())
+        ax_one.legend(fontsize=7)
+    ax_one.set(ylabel="wind speed [m/s]", title=f"flight {flight}: (a) highest UAV vs tower, (b) all UAVs")
+    ax.set(xlabel="time (UTC)", ylabel="wind speed [m/s]")
+    ax.xaxis.set_major_formatter(DateFormatter("%H:%M"))
+    ax.legend(fontsize=7, ncol=4)
+    return _save(fig, path, "; ".join(notes))
+
+
+def _fig8_profiles(prof: pd.DataFrame, path: Path, note: str) -> Path:
+    """Seed 001 Fig. 8: profiles of the UAVs (error bars: their RMSE) and the tower, two flights."""
+    fig, ax = _figure(5.0, 5.0)
+    counts = prof.groupby("flight")["ref_height_m"].nunique().sort_values(ascending=False, kind="stable")
+    for flight, style in zip(counts.index[:2], ("-", "--"), strict=False):
+        g = prof[prof["flight"] == flight].sort_values("height_m")
+        ax.errorbar(g["uav_speed_ms"], g["height_m"], xerr=g["rmse_ms"], fmt="o" + style, ms=4,
+                    label=f"UAVs, flight {flight}")
+        ax.plot(g["ref_speed_ms"], g["ref_height_m"], "k" + style, marker="s", ms=4, label=f"tower, flight {flight}")
+    ax.set(xlabel="wind speed [m/s]", ylabel="height [m]", title="profiles (error bars: UAV RMSE, Sect. 5.3)")
+    ax.legend(fontsize=7)
+    return _save(fig, path, note)
+
+
+def _fig9_variance(win: pd.DataFrame, path: Path) -> Path:
+    """Seed 001 Fig. 9 analogue: variance of 1-min mean speeds per window, UAV against tower."""
+    fig, ax = _figure()
+    if "var_ref_1min_m2s2" in win:
+        ok = np.isfinite(win["var_ref_1min_m2s2"]) & np.isfinite(win["var_uav_1min_m2s2"])
+        _scatter_by_uav(ax, win[ok], "var_ref_1min_m2s2", "var_uav_1min_m2s2")
+        _one_to_one(ax, win.loc[ok, "var_ref_1min_m2s2"], win.loc[ok, "var_uav_1min_m2s2"])
+        note = f"{int((~ok).sum())} window(s) without a variance" if (~ok).any() else ""
+    else:
+        note = "no tower variance stored"
+    ax.set(xlabel="tower variance of 1-min means [m2/s2]", ylabel="UAV variance of 1-min means [m2/s2]",
+           title="wind-speed variance per window")
+    ax.legend(fontsize=7, ncol=2)
+    return _save(fig, path, note)
 
 
 def quadrotor_figures(tables_dir: str | Path, summary_file: str | Path, l2_files: Sequence[str | Path],
@@ -127,9 +247,6 @@ def quadrotor_figures(tables_dir: str | Path, summary_file: str | Path, l2_files
     list of Path
         Written files.
     """
-    from dronewind.quadrotor.io import read_tower_reference
-    from dronewind.steps.common import open_product
-
     tdir = Path(tables_dir)
     out = _by_path(outputs)
     win = pd.read_csv(tdir / "quadrotor_windows.csv", dtype={"uav": str, "flight": str})
@@ -139,107 +256,98 @@ def quadrotor_figures(tables_dir: str | Path, summary_file: str | Path, l2_files
     skipped = (f"left out: {probs[['flight', 'uav']].drop_duplicates().shape[0]} UAV log(s), see "
                "quadrotor_problems.csv") if len(probs) else ""
     label = f"{summary.get('calibration_window_s', 600):g}-s windows"
-    written = []
-
-    fig, ax = _figure()
-    _scatter_by_uav(ax, win, "ref_speed_ms", "speed_individual_ms")
-    _one_to_one(ax, win["ref_speed_ms"], win["speed_individual_ms"])
-    ax.set(xlabel="tower wind speed [m/s]", ylabel="UAV wind speed [m/s]",
-           title=f"individual calibration, {win['flight'].nunique()} flights, {label}")
-    ax.legend(fontsize=7, ncol=2)
-    written.append(_save(fig, out["quadrotor_fig3_individual"], skipped))
-
-    fig, ax = _figure()
-    _scatter_by_uav(ax, win, "tilt_deg", "ref_speed_ms")
-    curve = summary.get("regression_curve", {})
-    aero = summary.get("aero", {})
-    if curve:
-        ax.plot(curve["tilt_deg"], curve["speed_ms"], "k-",
-                label=f"c_d0A0 = {aero.get('cd0a0_m2', np.nan):.4f} m2, c_p = {aero.get('cp_m2_per_rad', np.nan):.4f}")
-    ax.set(xlabel="tilt, offset-corrected [degree]", ylabel="tower wind speed [m/s]",
-           title="universal regression (seed 001 Eq. 18 form)")
-    ax.legend(fontsize=7, ncol=2)
-    note = skipped if summary.get("converged", True) else "calibration NOT converged; " + skipped
-    written.append(_save(fig, out["quadrotor_fig4_regression"], note))
-
     val = win[win["validation"] == 1] if (win["validation"] == 1).any() else win
-    fig, ax = _figure()
-    _scatter_by_uav(ax, val, "ref_speed_ms", "uav_speed_ms")
-    _one_to_one(ax, val["ref_speed_ms"], val["uav_speed_ms"])
-    ax.set(xlabel="tower wind speed [m/s]", ylabel="UAV wind speed [m/s]",
-           title=f"validation flights ({val['flight'].nunique()}), universal law + pitch offsets")
-    ax.legend(fontsize=7, ncol=2)
     indep = "" if summary.get("independent_validation", True) else \
         "no second-week flights: validated on the calibration flights. "
-    written.append(_save(fig, out["quadrotor_fig5_validation"], indep + skipped))
+    return [_fig3_individual(win, label, out["quadrotor_fig3_individual"], skipped),
+            _fig4_regression(win, summary, out["quadrotor_fig4_regression"], skipped),
+            _fig5_validation(val, out["quadrotor_fig5_validation"], indep + skipped),
+            _fig6_direction(val, out["quadrotor_fig6_direction"], indep + skipped),
+            _fig7_timeseries(l2_files, reference_file, out["quadrotor_fig7_timeseries"]),
+            _fig8_profiles(prof, out["quadrotor_fig8_profiles"], skipped),
+            _fig9_variance(win, out["quadrotor_fig9_variance"])]
 
+
+def _read_tunnel_table(tables_dir: Path, name: str) -> pd.DataFrame:
+    """``tunnel_<name>.csv``; an empty table (run kind absent) as an empty frame."""
+    path = tables_dir / f"tunnel_{name}.csv"
+    try:
+        return pd.read_csv(path, dtype={"uas": str})
+    except pd.errors.EmptyDataError:
+        return pd.DataFrame()
+
+
+def _tunnel_fig4_sideslip(side: pd.DataFrame, path: Path) -> Path:
+    """Seed 002 Fig. 4: RMSE of the UAS speed over the CTA speed per angle of sideslip."""
     fig, ax = _figure()
-    _scatter_by_uav(ax, val, "ref_from_deg", "uav_from_deg")
-    ax.plot([0, 360], [0, 360], color="0.5", lw=0.8, ls="--")
-    ax.set(xlim=(0, 360), ylim=(0, 360), xlabel="tower wind direction [degree]",
-           ylabel="UAV wind direction (corrected yaw) [degree]", title="wind direction with yaw offsets")
-    ax.legend(fontsize=7, ncol=2)
-    written.append(_save(fig, out["quadrotor_fig6_direction"], indep + skipped))
-
-    from matplotlib.dates import DateFormatter
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(7.5, 6.0), layout="constrained")
-    ax_one, ax = fig.subplots(2, 1, sharex=True)
-    ref = read_tower_reference(reference_file)
-    flight, notes = "", []
-    series = []
-    for path in l2_files:
-        ds = open_product(path)
-        flight = str(ds.attrs.get("flight", ""))
-        series.append((float(ds["alt"]) if "alt" in ds else float("nan"), ds))
-    series.sort(key=lambda x: x[0])
-    for h, ds in series:
-        usable = int(ds.attrs.get("usable", 1))
-        style = {"lw": 0.7} if usable else {"lw": 0.7, "ls": ":", "color": "0.5"}
-        ax.plot(ds["time"].values, ds["wind_speed_ms"].values, label=f"{ds.attrs.get('uav', '')} {h:.0f} m", **style)
-        if not usable:
-            notes.append(f"{ds.attrs.get('uav', '')}: {ds.attrs.get('unusable_reason', '')}")
-    if series:
-        h, ds = series[-1]
-        k = int(np.argmin(np.abs(ref["height_m"].values - h)))
-        ax_one.plot(ds["time"].values, ds["wind_speed_ms"].values, lw=0.8, color="tab:red",
-                    label=f"UAV {ds.attrs.get('uav', '')} at {h:.0f} m (1 Hz)")
-        ax_one.step(ref["time"].values, ref["wind_speed_ms"].isel(height=k).values, where="post", color="k",
-                    lw=1.2, label=f"tower {float(ref['height_m'].values[k]):g} m (1-min means)")
-        t = np.concatenate([d["time"].values for _, d in series])
-        ax.set_xlim(t.min(), t.max())
-        ax_one.legend(fontsize=7)
-    ax_one.set(ylabel="wind speed [m/s]", title=f"flight {flight}: (a) highest UAV vs tower, (b) all UAVs")
-    ax.set(xlabel="time (UTC)", ylabel="wind speed [m/s]")
-    ax.xaxis.set_major_formatter(DateFormatter("%H:%M"))
-    ax.legend(fontsize=7, ncol=4)
-    written.append(_save(fig, out["quadrotor_fig7_timeseries"], "; ".join(notes)))
-
-    fig, ax = _figure(5.0, 5.0)
-    counts = prof.groupby("flight")["ref_height_m"].nunique().sort_values(ascending=False, kind="stable")
-    for flight, style in zip(counts.index[:2], ("-", "--"), strict=False):
-        g = prof[prof["flight"] == flight].sort_values("height_m")
-        ax.errorbar(g["uav_speed_ms"], g["height_m"], xerr=g["rmse_ms"], fmt="o" + style, ms=4,
-                    label=f"UAVs, flight {flight}")
-        ax.plot(g["ref_speed_ms"], g["ref_height_m"], "k" + style, marker="s", ms=4, label=f"tower, flight {flight}")
-    ax.set(xlabel="wind speed [m/s]", ylabel="height [m]", title="profiles (error bars: UAV RMSE, Sect. 5.3)")
-    ax.legend(fontsize=7)
-    written.append(_save(fig, out["quadrotor_fig8_profiles"], skipped))
-
-    fig, ax = _figure()
-    if "var_ref_1min_m2s2" in win:
-        ok = np.isfinite(win["var_ref_1min_m2s2"]) & np.isfinite(win["var_uav_1min_m2s2"])
-        _scatter_by_uav(ax, win[ok], "var_ref_1min_m2s2", "var_uav_1min_m2s2")
-        _one_to_one(ax, win.loc[ok, "var_ref_1min_m2s2"], win.loc[ok, "var_uav_1min_m2s2"])
-        note = f"{int((~ok).sum())} window(s) without a variance" if (~ok).any() else ""
+    note = ""
+    if len(side) and "speed_bin_ms" in side:
+        s = side[side["speed_bin_ms"].notna()]
+        for aos, g in s.groupby("aos_deg"):
+            ax.plot(g["speed_bin_ms"], g["rmse_ms"], "o-", ms=3, label=f"AoS {aos:g} deg")
+        ax.legend(fontsize=7)
     else:
-        note = "no tower variance stored"
-    ax.set(xlabel="tower variance of 1-min means [m2/s2]", ylabel="UAV variance of 1-min means [m2/s2]",
-           title="wind-speed variance per window")
-    ax.legend(fontsize=7, ncol=2)
-    written.append(_save(fig, out["quadrotor_fig9_variance"], note))
-    return written
+        note = "no sideslip runs"
+    ax.set(xlabel="CTA wind speed [m/s]", ylabel="RMSE of the UAS speed [m/s]", title="angle of sideslip")
+    return _save(fig, path, note)
+
+
+def _tunnel_fig5_portability(acc: pd.DataFrame, path: Path) -> Path:
+    """Seed 002 Fig. 5: speed error of each UAS per step (absolute value of the stored error)."""
+    fig, ax = _figure()
+    po = acc[acc["kind"] == "portability"] if len(acc) else acc
+    note = "" if len(po) else "no portability runs"
+    for uas, g in (po.groupby("uas") if len(po) else []):
+        g = g.sort_values("cta_ms")
+        ax.plot(g["cta_ms"], np.abs(g["error_ms"]), "o-", ms=3, label=str(uas))
+    if len(po):
+        ax.legend(fontsize=7)
+    ax.set(xlabel="CTA wind speed [m/s]", ylabel="|UAS - CTA| per step [m/s]", title="portability of the calibration")
+    return _save(fig, path, note)
+
+
+def _tunnel_fig6_gusts(gs: pd.DataFrame, path: Path) -> Path:
+    """Seed 002 Fig. 6: gust RMSE at V0 and at the peak Vp per preset."""
+    fig, ax = _figure()
+    note = "" if len(gs) else "no gust runs"
+    if len(gs):
+        lab = [f"{a:g}/{b:g}" for a, b in zip(gs["v0_set_ms"], gs["vg_set_ms"], strict=True)]
+        x = np.arange(len(gs))
+        ax.plot(x, gs["rmse_v0_ms"], "o-", label="V0")
+        ax.plot(x, gs["rmse_vp_ms"], "s-", label="Vp")
+        ax.set_xticks(x, lab, rotation=45, fontsize=7)
+        ax.legend(fontsize=7)
+    ax.set(xlabel="preset V0 / Vg [m/s]", ylabel="RMSE [m/s]", title="IEC gusts")
+    return _save(fig, path, note)
+
+
+def _tunnel_fig7_steps(ss: pd.DataFrame, path: Path) -> Path:
+    """Seed 002 Fig. 7: velocity-step RMSEs per preset."""
+    fig, ax = _figure()
+    note = "" if len(ss) else "no velocity-step runs"
+    if len(ss):
+        lab = [f"{a:g}+{b:g}" for a, b in zip(ss["v0_set_ms"], ss["vdu_set_ms"], strict=True)]
+        x = np.arange(len(ss))
+        for col, mk, name in (("rmse_v_high_ms", "o-", "V_h"), ("rmse_v_low_ms", "s-", "V_l"),
+                              ("rmse_dv_up_ms", "^-", "dV_u"), ("rmse_dv_down_ms", "v-", "dV_d")):
+            ax.plot(x, ss[col], mk, label=name)
+        ax.set_xticks(x, lab, fontsize=7)
+        ax.legend(fontsize=7)
+    ax.set(xlabel="preset V_l + dV [m/s]", ylabel="RMSE [m/s]", title="velocity steps")
+    return _save(fig, path, note)
+
+
+def _tunnel_fig9_variance(tb: pd.DataFrame, path: Path) -> Path:
+    """Seed 002 Fig. 9: UAS variance against the CTA's, at full and cut bandwidth."""
+    fig, ax = _figure()
+    note = "" if len(tb) else "no turbulence runs"
+    if len(tb):
+        ax.plot(tb["var_cta_full"], tb["var_uas"], "ko", ms=4, label="CTA at its own rate")
+        ax.plot(tb["var_cta_cut_fmax"], tb["var_uas"], "ro", ms=4, label="CTA cut at the UAS's f_max")
+        _one_to_one(ax, np.r_[tb["var_cta_full"], tb["var_cta_cut_fmax"]], tb["var_uas"])
+        ax.legend(fontsize=7)
+    ax.set(xlabel="CTA variance [m2/s2]", ylabel="UAS variance [m2/s2]", title="turbulence variance")
+    return _save(fig, path, note)
 
 
 def tunnel_figures(tables_dir: str | Path, outputs: Sequence[str | Path]) -> list[Path]:
@@ -259,75 +367,8 @@ def tunnel_figures(tables_dir: str | Path, outputs: Sequence[str | Path]) -> lis
     """
     tdir = Path(tables_dir)
     out = _by_path(outputs)
-
-    def read(name: str) -> pd.DataFrame:
-        path = tdir / f"tunnel_{name}.csv"
-        try:
-            return pd.read_csv(path, dtype={"uas": str})
-        except pd.errors.EmptyDataError:
-            return pd.DataFrame()
-
-    written = []
-    fig, ax = _figure()
-    side = read("sideslip")
-    note = ""
-    if len(side) and "speed_bin_ms" in side:
-        s = side[side["speed_bin_ms"].notna()]
-        for aos, g in s.groupby("aos_deg"):
-            ax.plot(g["speed_bin_ms"], g["rmse_ms"], "o-", ms=3, label=f"AoS {aos:g} deg")
-        ax.legend(fontsize=7)
-    else:
-        note = "no sideslip runs"
-    ax.set(xlabel="CTA wind speed [m/s]", ylabel="RMSE of the UAS speed [m/s]", title="angle of sideslip")
-    written.append(_save(fig, out["tunnel_fig4_sideslip"], note))
-
-    fig, ax = _figure()
-    acc = read("steps_accuracy")
-    po = acc[acc["kind"] == "portability"] if len(acc) else acc
-    note = "" if len(po) else "no portability runs"
-    for uas, g in (po.groupby("uas") if len(po) else []):
-        g = g.sort_values("cta_ms")
-        ax.plot(g["cta_ms"], np.abs(g["error_ms"]), "o-", ms=3, label=str(uas))
-    if len(po):
-        ax.legend(fontsize=7)
-    ax.set(xlabel="CTA wind speed [m/s]", ylabel="|UAS - CTA| per step [m/s]", title="portability of the calibration")
-    written.append(_save(fig, out["tunnel_fig5_portability"], note))
-
-    fig, ax = _figure()
-    gs = read("gust_summary")
-    note = "" if len(gs) else "no gust runs"
-    if len(gs):
-        lab = [f"{a:g}/{b:g}" for a, b in zip(gs["v0_set_ms"], gs["vg_set_ms"], strict=True)]
-        x = np.arange(len(gs))
-        ax.plot(x, gs["rmse_v0_ms"], "o-", label="V0")
-        ax.plot(x, gs["rmse_vp_ms"], "s-", label="Vp")
-        ax.set_xticks(x, lab, rotation=45, fontsize=7)
-        ax.legend(fontsize=7)
-    ax.set(xlabel="preset V0 / Vg [m/s]", ylabel="RMSE [m/s]", title="IEC gusts")
-    written.append(_save(fig, out["tunnel_fig6_gusts"], note))
-
-    fig, ax = _figure()
-    ss = read("step_summary")
-    note = "" if len(ss) else "no velocity-step runs"
-    if len(ss):
-        lab = [f"{a:g}+{b:g}" for a, b in zip(ss["v0_set_ms"], ss["vdu_set_ms"], strict=True)]
-        x = np.arange(len(ss))
-        for col, mk, name in (("rmse_v_high_ms", "o-", "V_h"), ("rmse_v_low_ms", "s-", "V_l"),
-                              ("rmse_dv_up_ms", "^-", "dV_u"), ("rmse_dv_down_ms", "v-", "dV_d")):
-            ax.plot(x, ss[col], mk, label=name)
-        ax.set_xticks(x, lab, fontsize=7)
-        ax.legend(fontsize=7)
-    ax.set(xlabel="preset V_l + dV [m/s]", ylabel="RMSE [m/s]", title="velocity steps")
-    written.append(_save(fig, out["tunnel_fig7_steps"], note))
-
-    fig, ax = _figure()
-    tb = read("turbulence")
-    note = "" if len(tb) else "no turbulence runs"
-    if len(tb):
-        ax.plot(tb["var_cta_full"], tb["var_uas"], "ko", ms=4, label="CTA at its own rate")
-        ax.plot(tb["var_cta_cut_fmax"], tb["var_uas"], "ro", ms=4, label="CTA cut at the UAS's f_max")
-        _one_to_one(ax, np.r_[tb["var_cta_full"], tb["var_cta_cut_fmax"]], tb["var_uas"])
-        ax.legend(fontsize=7)
-    ax.set(xlabel="CTA variance [m2/s2]", ylabel="UAS variance [m2/s2]", title="turbulence variance")
-    written.append(_save(fig, out["tunnel_fig9_variance"], note))
-    return written
+    return [_tunnel_fig4_sideslip(_read_tunnel_table(tdir, "sideslip"), out["tunnel_fig4_sideslip"]),
+            _tunnel_fig5_portability(_read_tunnel_table(tdir, "steps_accuracy"), out["tunnel_fig5_portability"]),
+            _tunnel_fig6_gusts(_read_tunnel_table(tdir, "gust_summary"), out["tunnel_fig6_gusts"]),
+            _tunnel_fig7_steps(_read_tunnel_table(tdir, "step_summary"), out["tunnel_fig7_steps"]),
+            _tunnel_fig9_variance(_read_tunnel_table(tdir, "turbulence"), out["tunnel_fig9_variance"])]

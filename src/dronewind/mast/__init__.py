@@ -1,5 +1,6 @@
 """The mast/tower system: sonic anemometers on a fixed mast.
 
-Campbell TOA5 files of CSAT3 sonics into L1 (:mod:`~dronewind.mast.toa5`) and the
-AmeriFlux/Gill RAW text (:mod:`~dronewind.mast.ameriflux`).
+* :mod:`~dronewind.mast.toa5`: Campbell TOA5 files of CSAT3 sonics into L1;
+* :mod:`~dronewind.mast.ameriflux`: the AmeriFlux/Gill RAW text;
+* :mod:`~dronewind.mast.chain`: mast L1 with its planar fit and the cut to a flight (L2).
 """

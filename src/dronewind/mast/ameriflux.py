@@ -56,8 +56,11 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from dronewind.errors import InputError
+from dronewind.core.cf import variable_attrs
+from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
+from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
+from dronewind.errors import InputError
 
 __all__ = [
     "AMERIFLUX_GOLD_COLUMNS",
@@ -74,9 +77,6 @@ _FS_HZ = 10.0
 _BLOCK_S = 1800.0
 _N_FIELDS = 21
 
-QC_OUT_OF_RANGE = 1
-QC_SPIKE = 2
-QC_MISSING = 4
 
 def gill_to_enu(
     u_ms: np.ndarray, v_ms: np.ndarray, north_azimuth_deg: float
@@ -117,14 +117,141 @@ def _block_start(path: Path, year: int, utc_offset_hours: float) -> np.datetime6
     return local - np.timedelta64(int(round(utc_offset_hours * 3600e9)), "ns")
 
 
+def _read_gold_values(p: Path, max_corrupt_fraction: float) -> tuple[np.ndarray, np.ndarray]:
+    """The six numeric columns of a gold file and the mask of corrupt lines.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        (n_lines, 6) w, u, v, T, H2O, CO2 as logged (NaN where not a number).
+    corrupt : numpy.ndarray
+        True for lines that do not hold six numbers.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, a line with fields beyond column 6, or too many corrupt lines.
+    """
+    opener = gzip.open if p.suffix.lower() == ".gz" else open
+    try:
+        with opener(p, "rb") as fh:
+            raw = fh.read()
+    except (OSError, EOFError) as exc:
+        raise InputError(p, f"cannot read ({exc})") from exc
+    text = raw.decode("ascii", errors="replace")
+    frame = pd.read_csv(
+        io.StringIO(text), header=None, dtype=str, keep_default_na=False,
+        skip_blank_lines=True, names=list(range(_N_FIELDS)),
+        on_bad_lines="error", engine="c",
+    )  # fmt: skip
+    n_lines = len(frame)
+    if n_lines == 0:
+        raise InputError(p, "no data lines")
+    extra = (frame.iloc[:, 6:] != "").to_numpy().any(axis=1)
+    if extra.any():
+        i = int(np.flatnonzero(extra)[0])
+        raise InputError(f"{p}:{i + 1}", "non-empty field beyond column 6; expected "
+                         "w,u,v,T,H2O,CO2 followed by empty fields")  # fmt: skip
+    vals = np.empty((n_lines, 6))
+    for j in range(6):
+        vals[:, j] = pd.to_numeric(frame[j].str.strip(), errors="coerce").to_numpy(dtype=float)
+    corrupt = np.asarray(~np.isfinite(vals).all(axis=1))
+    n_corrupt = int(corrupt.sum())
+    if n_corrupt > max_corrupt_fraction * n_lines:
+        i = int(np.flatnonzero(corrupt)[0])
+        raise InputError(f"{p}:{i + 1}", f"{n_corrupt} of {n_lines} lines do not hold six "
+                         "numbers")  # fmt: skip
+    return vals, corrupt
+
+
+def _gold_qc(u: np.ndarray, v: np.ndarray, w: np.ndarray, t_c: np.ndarray, corrupt: np.ndarray,
+             despike: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Missing, range (Gill WindMaster Pro) and spike flags.
+
+    Returns
+    -------
+    qc : numpy.ndarray
+        int8 QC bitmask (:mod:`dronewind.core.qc`).
+    out, spikes : numpy.ndarray
+        The out-of-range and spike masks.
+    """
+    qc = np.zeros(corrupt.size, dtype=np.int8)
+    qc[corrupt] |= QC_MISSING
+    lim = INSTRUMENT_LIMITS["gill_windmaster_pro"]
+    speed = np.sqrt(u**2 + v**2 + w**2)
+    out = range_mask(speed, *lim["speed_ms"]) | range_mask(t_c, *lim["t_sonic_c"])
+    qc[out] |= QC_OUT_OF_RANGE
+    spikes = np.zeros(corrupt.size, dtype=bool)
+    if despike:
+        for x in (u, v, w, t_c):
+            spikes |= despike_moving_mad(np.where(qc == 0, x, np.nan), _FS_HZ)
+    qc[spikes] |= QC_SPIKE
+    return qc, out, spikes
+
+
+def _gold_dataset(vals: np.ndarray, qc: np.ndarray, time: np.ndarray, north_azimuth_deg: float) -> xr.Dataset:
+    """The gold-file variables on ``time`` (see :func:`read_ameriflux_gold`, Returns)."""
+    w, u, v, t_c, h2o, co2 = (vals[:, j] for j in range(6))
+    nanf = np.where(qc != 0, np.nan, 1.0)
+    u_e, v_n = gill_to_enu(u, v, north_azimuth_deg)
+    return xr.Dataset(
+        {
+            "u_east_ms": ("time", u_e * nanf, variable_attrs("m s-1", "eastward_wind")),
+            "v_north_ms": ("time", v_n * nanf, variable_attrs("m s-1", "northward_wind")),
+            "w_up_ms": ("time", w * nanf, variable_attrs("m s-1", "upward_air_velocity")),
+            "t_sonic_k": ("time", (t_c + ZERO_CELSIUS_K) * nanf, variable_attrs(
+                "K", "virtual_temperature", comment="Gill sonic temperature",
+                units_metadata="temperature: on_scale")),
+            "u_gill_ms": ("time", u, variable_attrs("m s-1", long_name="Gill U as logged (towards sonic N)")),
+            "v_gill_ms": ("time", v, variable_attrs("m s-1", long_name="Gill V as logged (towards sonic W)")),
+            "w_gill_ms": ("time", w, variable_attrs("m s-1", long_name="Gill W as logged (up)")),
+            "t_sonic_c": ("time", t_c, variable_attrs("degC", long_name="sonic temperature as logged",
+                                                      units_metadata="temperature: on_scale")),
+            "h2o_v": ("time", h2o, variable_attrs("V", long_name="open-path H2O signal")),
+            "co2_v": ("time", co2, variable_attrs("V", long_name="open-path CO2 signal")),
+            "h2o_mmol_m3": ("time", 200.0 * h2o, variable_attrs(
+                "mmol m-3", long_name="H2O molar density (0 V = 0, 5 V = 1000 mmol m-3)")),
+            "co2_mmol_m3": ("time", 10.0 + 3.0 * co2, variable_attrs(
+                "mmol m-3", long_name="CO2 molar density (0 V = 10, 5 V = 25 mmol m-3)")),
+            "qc_sonic": ("time", qc, qc_flag_attrs("sonic QC bitmask", (QC_OUT_OF_RANGE, QC_SPIKE, QC_MISSING))),
+        },
+        coords={"time": ("time", time, {"long_name": "time (UTC)"})},
+    )
+
+
+def _gold_attrs(p: Path, n_lines: int, n_expected: int, n_corrupt: int, out: np.ndarray, spikes: np.ndarray,
+                qc: np.ndarray, despike: bool, north_azimuth_deg: float, height_m: float, year: int,
+                utc_offset_hours: float) -> dict[str, Any]:
+    """Dataset attributes of a gold file: counts, site, time assumptions and the processing log."""
+    n_missing = max(0, n_expected - n_lines)
+    return dict(
+        sampling_rate_hz=_FS_HZ,
+        n_rows=int(n_lines),
+        n_missing_rows=int(n_missing),
+        n_corrupt_lines=n_corrupt,
+        n_out_of_range=int(out.sum()),
+        n_spikes=int(spikes.sum()),
+        n_flagged=int((qc != 0).sum()),
+        north_azimuth_deg=float(north_azimuth_deg),
+        height_m=float(height_m),
+        site_latitude=38.4067,
+        site_longitude=-120.9507,
+        source_file=str(p),
+        time_comment=f"times assumed: half-hour start from the file name + i/10 s; year "
+        f"{year} nominal (not stated in the source); clock UTC{utc_offset_hours:+g} h",
+        processing_log="\n".join([
+            f"read: {p.name}: {n_lines} rows ({n_missing} short of {n_expected}, position "
+            f"unknown), {n_corrupt} lines without six numbers flagged",
+            f"qc: {int(out.sum())} out of Gill WindMaster Pro range, {int(spikes.sum())} spikes"
+            f"{'' if despike else ' (despiking off)'}; {int((qc != 0).sum())} samples set to NaN",
+            f"frame: sonic N at {north_azimuth_deg:g} deg; u_E = U sin b - V cos b, "
+            "v_N = U cos b + V sin b, w = W",
+        ]),
+    )  # fmt: skip
+
 def read_ameriflux_gold(
-    path: str | os.PathLike[str],
-    north_azimuth_deg: float = 240.0,
-    year: int = 2000,
-    utc_offset_hours: float = -8.0,
-    height_m: float = 2.0,
-    despike: bool = True,
-    max_corrupt_fraction: float = 0.05,
+    path: str | os.PathLike[str], north_azimuth_deg: float = 240.0, year: int = 2000, utc_offset_hours: float = -8.0,
+    height_m: float = 2.0, despike: bool = True, max_corrupt_fraction: float = 0.05,
 ) -> xr.Dataset:
     """Read one AmeriFlux open-path gold half-hour file.
 
@@ -170,115 +297,14 @@ def read_ameriflux_gold(
     if not p.is_file():
         raise InputError(p, "file not found")
     start = _block_start(p, year, utc_offset_hours)
-    opener = gzip.open if p.suffix.lower() == ".gz" else open
-    try:
-        with opener(p, "rb") as fh:
-            raw = fh.read()
-    except (OSError, EOFError) as exc:
-        raise InputError(p, f"cannot read ({exc})") from exc
-    text = raw.decode("ascii", errors="replace")
-    frame = pd.read_csv(
-        io.StringIO(text), header=None, dtype=str, keep_default_na=False,
-        skip_blank_lines=True, names=list(range(_N_FIELDS)),
-        on_bad_lines="error", engine="c",
-    )  # fmt: skip
-    n_lines = len(frame)
-    if n_lines == 0:
-        raise InputError(p, "no data lines")
-    extra = (frame.iloc[:, 6:] != "").to_numpy().any(axis=1)
-    if extra.any():
-        i = int(np.flatnonzero(extra)[0])
-        raise InputError(f"{p}:{i + 1}", "non-empty field beyond column 6; expected "
-                         "w,u,v,T,H2O,CO2 followed by empty fields")  # fmt: skip
-    vals = np.empty((n_lines, 6))
-    for j in range(6):
-        vals[:, j] = pd.to_numeric(frame[j].str.strip(), errors="coerce").to_numpy(dtype=float)
-    corrupt = ~np.isfinite(vals).all(axis=1)
-    n_corrupt = int(corrupt.sum())
-    if n_corrupt > max_corrupt_fraction * n_lines:
-        i = int(np.flatnonzero(corrupt)[0])
-        raise InputError(f"{p}:{i + 1}", f"{n_corrupt} of {n_lines} lines do not hold six "
-                         "numbers")  # fmt: skip
-    w, u, v, t_c, h2o, co2 = (vals[:, j] for j in range(6))
+    vals, corrupt = _read_gold_values(p, max_corrupt_fraction)
+    n_lines = corrupt.size
     n_expected = int(round(_FS_HZ * _BLOCK_S))
-    qc = np.zeros(n_lines, dtype=np.int8)
-    qc[corrupt] |= QC_MISSING
-    lim = INSTRUMENT_LIMITS["gill_windmaster_pro"]
-    speed = np.sqrt(u**2 + v**2 + w**2)
-    out = range_mask(speed, *lim["speed_ms"]) | range_mask(t_c, *lim["t_sonic_c"])
-    qc[out] |= QC_OUT_OF_RANGE
-    spikes = np.zeros(n_lines, dtype=bool)
-    if despike:
-        for x in (u, v, w, t_c):
-            spikes |= despike_moving_mad(np.where(qc == 0, x, np.nan), _FS_HZ)
-    qc[spikes] |= QC_SPIKE
-    nanf = np.where(qc != 0, np.nan, 1.0)
-    u_e, v_n = gill_to_enu(u, v, north_azimuth_deg)
-    time = start + (np.arange(n_lines, dtype=np.int64) * int(1e9 / _FS_HZ)).astype(
-        "timedelta64[ns]"
-    )
-
-    def va(units: str, std: str | None = None, long: str | None = None, **kw: Any) -> dict:
-        a: dict[str, Any] = {"units": units}
-        if std:
-            a["standard_name"] = std
-        if long:
-            a["long_name"] = long
-        a.update(kw)
-        return a
-
-    ds = xr.Dataset(
-        {
-            "u_east_ms": ("time", u_e * nanf, va("m s-1", "eastward_wind")),
-            "v_north_ms": ("time", v_n * nanf, va("m s-1", "northward_wind")),
-            "w_up_ms": ("time", w * nanf, va("m s-1", "upward_air_velocity")),
-            "t_sonic_k": ("time", (t_c + 273.15) * nanf, va(
-                "K", "virtual_temperature", comment="Gill sonic temperature",
-                units_metadata="temperature: on_scale")),
-            "u_gill_ms": ("time", u, va("m s-1", long="Gill U as logged (towards sonic N)")),
-            "v_gill_ms": ("time", v, va("m s-1", long="Gill V as logged (towards sonic W)")),
-            "w_gill_ms": ("time", w, va("m s-1", long="Gill W as logged (up)")),
-            "t_sonic_c": ("time", t_c, va("degC", long="sonic temperature as logged",
-                                          units_metadata="temperature: on_scale")),
-            "h2o_v": ("time", h2o, va("V", long="open-path H2O signal")),
-            "co2_v": ("time", co2, va("V", long="open-path CO2 signal")),
-            "h2o_mmol_m3": ("time", 200.0 * h2o, va(
-                "mmol m-3", long="H2O molar density (0 V = 0, 5 V = 1000 mmol m-3)")),
-            "co2_mmol_m3": ("time", 10.0 + 3.0 * co2, va(
-                "mmol m-3", long="CO2 molar density (0 V = 10, 5 V = 25 mmol m-3)")),
-            "qc_sonic": ("time", qc, {
-                "standard_name": "status_flag", "long_name": "sonic QC bitmask",
-                "flag_masks": np.array([1, 2, 4], dtype=np.int8),
-                "flag_values": np.array([1, 2, 4], dtype=np.int8),
-                "flag_meanings": "out_of_range spike missing_or_corrupt", "units": "1"}),
-        },
-        coords={"time": ("time", time, {"long_name": "time (UTC)"})},
-    )
-    n_missing = max(0, n_expected - n_lines)
-    ds.attrs.update(
-        sampling_rate_hz=_FS_HZ,
-        n_rows=int(n_lines),
-        n_missing_rows=int(n_missing),
-        n_corrupt_lines=n_corrupt,
-        n_out_of_range=int(out.sum()),
-        n_spikes=int(spikes.sum()),
-        n_flagged=int((qc != 0).sum()),
-        north_azimuth_deg=float(north_azimuth_deg),
-        height_m=float(height_m),
-        site_latitude=38.4067,
-        site_longitude=-120.9507,
-        source_file=str(p),
-        time_comment=f"times assumed: half-hour start from the file name + i/10 s; year "
-        f"{year} nominal (not stated in the source); clock UTC{utc_offset_hours:+g} h",
-        processing_log="\n".join([
-            f"read: {p.name}: {n_lines} rows ({n_missing} short of {n_expected}, position "
-            f"unknown), {n_corrupt} lines without six numbers flagged",
-            f"qc: {int(out.sum())} out of Gill WindMaster Pro range, {int(spikes.sum())} spikes"
-            f"{'' if despike else ' (despiking off)'}; {int((qc != 0).sum())} samples set to NaN",
-            f"frame: sonic N at {north_azimuth_deg:g} deg; u_E = U sin b - V cos b, "
-            "v_N = U cos b + V sin b, w = W",
-        ]),
-    )  # fmt: skip
+    qc, out, spikes = _gold_qc(vals[:, 1], vals[:, 2], vals[:, 0], vals[:, 3], corrupt, despike)
+    time = start + (np.arange(n_lines, dtype=np.int64) * int(1e9 / _FS_HZ)).astype("timedelta64[ns]")
+    ds = _gold_dataset(vals, qc, time, north_azimuth_deg)
+    ds.attrs.update(_gold_attrs(p, n_lines, n_expected, int(corrupt.sum()), out, spikes, qc, despike,
+                                north_azimuth_deg, height_m, year, utc_offset_hours))
     return ds
 
 

@@ -16,7 +16,7 @@ processing), then quoted-timestamp CSV rows with at least
   the file and the column; a row whose TIMESTAMP or RECORD cannot be parsed is corrupt
   (counted; more than 5 % corrupt -> InputError).
 
-QC bitmask ``qc_mast``: 1 out of range (CSAT3 limits in
+QC bitmask ``qc_mast`` (bits of :mod:`dronewind.core.qc`): 1 out of range (CSAT3 limits in
 :data:`dronewind.core.filtering.INSTRUMENT_LIMITS`), 2 spike (moving MAD), 4 missing/corrupt,
 8 gap-filled (later stages), 16 CSAT3 diagnostic word non-zero.
 """
@@ -27,6 +27,7 @@ import csv
 import glob
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -34,8 +35,11 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from dronewind.errors import InputError
+from dronewind.core.cf import variable_attrs
+from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
+from dronewind.core.qc import QC_DIAG, QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
+from dronewind.errors import InputError
 
 __all__ = ["REQUIRED_TOA5_COLUMNS", "csat3_to_enu", "mast_l1", "read_toa5"]
 
@@ -43,11 +47,6 @@ REQUIRED_TOA5_COLUMNS: tuple[str, ...] = (
     "TIMESTAMP", "RECORD", "Ux", "Uy", "Uz", "Ts", "diag_csat",
 )  # fmt: skip
 
-QC_OUT_OF_RANGE = 1
-QC_SPIKE = 2
-QC_MISSING = 4
-QC_GAP_FILLED = 8
-QC_DIAG = 16
 _N_LOGGED = 5
 
 
@@ -101,6 +100,65 @@ def _expand_paths(paths: str | os.PathLike[str] | Sequence[str | os.PathLike[str
     return out
 
 
+def _read_header(p: Path, required: Sequence[str]) -> tuple[list[str], list[list[str]], list[str], dict[str, str]]:
+    """Lines of a TOA5 file and its checked header.
+
+    Returns
+    -------
+    lines : list of str
+        All lines.
+    header : list of list of str
+        The four header lines, split.
+    names : list of str
+        Field names (line 2).
+    units : dict
+        Field name -> unit (line 3).
+    """
+    if not p.is_file():
+        raise InputError(p, "file not found")
+    text = p.read_bytes().decode("utf-8", errors="replace").lstrip("\ufeff")
+    lines = text.splitlines()
+    if len(lines) < 4:
+        raise InputError(p, f"only {len(lines)} lines; a TOA5 file has 4 header lines")
+    header = [next(csv.reader([ln])) for ln in lines[:4]]
+    if not header[0] or header[0][0] != "TOA5":
+        raise InputError(f"{p}:1", f"first field is {header[0][:1]}, expected 'TOA5'")
+    names = [h.strip() for h in header[1]]
+    for col in required:
+        if col not in names:
+            raise InputError(
+                f"{p}:2", f"required column {col!r} missing from the TOA5 header; found {names}"
+            )
+    if len(set(names)) != len(names):
+        raise InputError(f"{p}:2", f"duplicated column names in {names}")
+    units = dict(zip(names, (h.strip() for h in header[2]), strict=False))
+    return lines, header, names, units
+
+
+def _numeric_frame(raw: pd.DataFrame, keep: np.ndarray, ts: pd.Series, names: list[str]) -> tuple[pd.DataFrame, int]:
+    """``time``, ``RECORD`` (int64) and every other field as float64 of the kept rows.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        The columns (``"NAN"`` and non-numeric -> NaN).
+    n_nonnumeric : int
+        Non-numeric values (other than NAN literals and empty fields) set to NaN.
+    """
+    frame = pd.DataFrame({"time": ts[keep].to_numpy().astype("datetime64[ns]")})
+    frame["RECORD"] = raw.loc[keep, "RECORD"].astype(str).str.strip().astype(np.int64).to_numpy()
+    n_nonnumeric = 0
+    for col in names:
+        if col in ("TIMESTAMP", "RECORD"):
+            continue
+        s = raw.loc[keep, col].astype(str).str.strip()
+        v = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+        nan_literal = s.str.upper().isin(["NAN", "-NAN", "+NAN", ""]).to_numpy(dtype=bool)
+        n_nonnumeric += int((np.isnan(v) & ~nan_literal).sum())
+        frame[col] = v
+    return frame, n_nonnumeric
+
+
 def read_toa5(
     path: str | os.PathLike[str],
     required: Sequence[str] = REQUIRED_TOA5_COLUMNS,
@@ -135,24 +193,7 @@ def read_toa5(
         many corrupt rows.
     """
     p = Path(path)
-    if not p.is_file():
-        raise InputError(p, "file not found")
-    text = p.read_bytes().decode("utf-8", errors="replace").lstrip("\ufeff")
-    lines = text.splitlines()
-    if len(lines) < 4:
-        raise InputError(p, f"only {len(lines)} lines; a TOA5 file has 4 header lines")
-    header = [next(csv.reader([ln])) for ln in lines[:4]]
-    if not header[0] or header[0][0] != "TOA5":
-        raise InputError(f"{p}:1", f"first field is {header[0][:1]}, expected 'TOA5'")
-    names = [h.strip() for h in header[1]]
-    for col in required:
-        if col not in names:
-            raise InputError(
-                f"{p}:2", f"required column {col!r} missing from the TOA5 header; found {names}"
-            )
-    if len(set(names)) != len(names):
-        raise InputError(f"{p}:2", f"duplicated column names in {names}")
-    units = dict(zip(names, (h.strip() for h in header[2])))
+    lines, header, names, units = _read_header(p, required)
     body = lines[4:]
     n_lines = len(body)
     if n_lines == 0:
@@ -163,7 +204,7 @@ def read_toa5(
     split = list(csv.reader(body))
     line_no = np.arange(5, 5 + n_lines)
     good_count = np.fromiter((len(r) == ncol for r in split), dtype=bool, count=n_lines)
-    raw = pd.DataFrame([r for r, g in zip(split, good_count) if g], columns=names, dtype=object)
+    raw = pd.DataFrame([r for r, g in zip(split, good_count, strict=True) if g], columns=names, dtype=object)
     line_no_ok = line_no[good_count]
     ts = pd.to_datetime(raw["TIMESTAMP"], format="ISO8601", errors="coerce")
     rec_ok = raw["RECORD"].astype(str).str.fullmatch(r"\s*[+-]?\d+\s*").to_numpy(dtype=bool)
@@ -177,41 +218,197 @@ def read_toa5(
             f"unparsable TIMESTAMP or RECORD or not {ncol} fields; first at lines "
             f"{bad_lines[:_N_LOGGED].tolist()}",
         )
-    corrupt = bad_ok
-    keep = ~corrupt
-    frame = pd.DataFrame({"time": ts[keep].to_numpy().astype("datetime64[ns]")})
-    frame["RECORD"] = raw.loc[keep, "RECORD"].astype(str).str.strip().astype(np.int64).to_numpy()
-    n_nonnumeric = 0
-    for col in names:
-        if col in ("TIMESTAMP", "RECORD"):
-            continue
-        s = raw.loc[keep, col].astype(str).str.strip()
-        v = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
-        nan_literal = s.str.upper().isin(["NAN", "-NAN", "+NAN", ""]).to_numpy(dtype=bool)
-        n_nonnumeric += int((np.isnan(v) & ~nan_literal).sum())
-        frame[col] = v
+    keep = ~bad_ok
+    frame, n_nonnumeric = _numeric_frame(raw, keep, ts, names)
     frame["_line"] = line_no_ok[keep]
-    info = {
-        "header": header,
-        "units": units,
-        "n_lines": n_lines,
-        "n_corrupt_lines": n_corrupt,
-        "corrupt_lines": bad_lines[:_N_LOGGED].tolist(),
-        "n_nonnumeric": n_nonnumeric,
-    }
+    info = {"header": header, "units": units, "n_lines": n_lines, "n_corrupt_lines": n_corrupt,
+            "corrupt_lines": bad_lines[:_N_LOGGED].tolist(), "n_nonnumeric": n_nonnumeric}
     return frame, info
 
 
+@dataclass
+class _Grid:
+    """The regular time grid of a mast record (one grid per segment between record breaks)."""
+
+    fs_hz: float  # sampling rate [Hz]
+    time: np.ndarray  # grid times, datetime64[ns]
+    index: np.ndarray  # grid index of every kept row
+    segments: list[tuple[int, int]]  # (start, stop) grid indices of the segments
+    n_breaks: int  # number of record breaks
+
+
+def _read_files(files: list[Path], max_corrupt_fraction: float, counts: dict[str, int],
+                log: list[str]) -> list[pd.DataFrame]:
+    """Read every TOA5 file (Ts in degC), count RECORD skips and restarts; sorted by first time."""
+    frames: list[pd.DataFrame] = []
+    for f in files:
+        frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
+        ts_unit = info["units"].get("Ts", "C")
+        if ts_unit.strip().upper() in ("K", "KELVIN"):
+            frame["Ts"] = frame["Ts"] - ZERO_CELSIUS_K
+        rec = frame["RECORD"].to_numpy()
+        d = np.diff(rec)
+        skips = int(np.sum(np.where(d > 1, d - 1, 0)))
+        restarts = int(np.sum(d <= 0))
+        counts["n_lines"] += info["n_lines"]
+        counts["n_corrupt_lines"] += info["n_corrupt_lines"]
+        counts["n_nonnumeric"] += info["n_nonnumeric"]
+        counts["n_record_skips"] += skips
+        counts["n_record_restarts"] += restarts
+        msg = (f"read: {f.name}: {len(frame)} rows, {info['n_corrupt_lines']} corrupt removed, "
+               f"{skips} RECORD numbers skipped, {restarts} RECORD restarts")  # fmt: skip
+        if info["n_corrupt_lines"]:
+            msg += f" (corrupt lines {info['corrupt_lines']})"
+        log.append(msg)
+        frame["_file"] = len(frames)
+        frames.append(frame)
+    frames.sort(key=lambda fr: fr["time"].iloc[0] if len(fr) else np.datetime64("NaT"))
+    return frames
+
+
+def _merge_records(frames: list[pd.DataFrame], n_files: int, counts: dict[str, int], log: list[str]) -> pd.DataFrame:
+    """Concatenate the files in time order, dropping duplicate rows and repeated time stamps."""
+    data = pd.concat(frames, ignore_index=True)
+    cols = ["time", "RECORD", "Ux", "Uy", "Uz", "Ts", "diag_csat"]
+    exact_dup = data.duplicated(subset=cols, keep="first").to_numpy()
+    data = data.loc[~exact_dup]
+    data = data.sort_values("time", kind="stable")
+    conflict = data.duplicated(subset=["time"], keep="first").to_numpy()
+    data = data.loc[~conflict].reset_index(drop=True)
+    counts["n_duplicates"] = int(exact_dup.sum())
+    counts["n_time_conflicts"] = int(conflict.sum())
+    log.append(f"order: {n_files} files concatenated in time order, "
+               f"{int(exact_dup.sum())} duplicate rows and {int(conflict.sum())} rows repeating a "
+               "TIMESTAMP with other values dropped")  # fmt: skip
+    return data
+
+
+def _regular_grid(data: pd.DataFrame, files: list[Path], max_gap_s: float, counts: dict[str, int],
+                  ) -> tuple[pd.DataFrame, _Grid]:
+    """Put the rows on their regular grid, segment by segment between record breaks (> ``max_gap_s``).
+
+    Returns
+    -------
+    data : pandas.DataFrame
+        Rows kept (a row falling on the grid point of the previous one is dropped).
+    _Grid
+        The grid; ``n_missing`` = grid points without a row is counted in ``counts``.
+    """
+    t = data["time"].to_numpy().astype("datetime64[ns]")
+    if t.size < 2:
+        raise InputError(files[0], f"only {t.size} valid rows")
+    dt_ns = int(np.median(np.diff(t).astype(np.int64)))
+    if dt_ns <= 0:
+        raise InputError(files[0], "TIMESTAMP does not increase")
+    fs_hz = 1e9 / dt_ns
+    # segments: breaks where the time stamps jump by more than max_gap_s
+    jumps = np.flatnonzero(np.diff(t).astype(np.int64) > max_gap_s * 1e9) + 1
+    keep_rows = np.ones(t.size, dtype=bool)
+    grid_index = np.zeros(t.size, dtype=np.int64)
+    time_parts = []
+    offset = 0
+    for a, b in zip(np.r_[0, jumps], np.r_[jumps, t.size], strict=True):
+        k_float = (t[a:b] - t[a]).astype(np.int64) / dt_ns
+        k = np.rint(k_float).astype(np.int64)
+        off_grid = np.abs(k_float - k) > 0.25
+        if off_grid.any():
+            i = a + int(np.flatnonzero(off_grid)[0])
+            raise InputError(
+                f"{files[int(data['_file'].iloc[i])]}:{int(data['_line'].iloc[i])}",
+                f"TIMESTAMP {t[i]} is off the {fs_hz:g} Hz sampling grid; expected a constant "
+                "sampling interval",
+            )
+        dup = np.zeros(k.size, dtype=bool)
+        dup[1:] = k[1:] == k[:-1]
+        keep_rows[a:b] = ~dup
+        grid_index[a:b] = offset + k
+        n_seg = int(k[-1]) + 1
+        time_parts.append(t[a] + (np.arange(n_seg, dtype=np.int64) * dt_ns).astype("timedelta64[ns]"))
+        offset += n_seg
+    counts["n_time_conflicts"] += int((~keep_rows).sum())
+    counts["n_record_breaks"] = int(jumps.size)
+    bounds = np.cumsum([0] + [p.size for p in time_parts])
+    grid = _Grid(fs_hz, np.concatenate(time_parts), grid_index[keep_rows],
+                 list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True)), int(jumps.size))
+    counts["n_missing"] = int(offset - grid.index.size)
+    return data.loc[keep_rows].reset_index(drop=True), grid
+
+
+def _on_grid(data: pd.DataFrame, grid: _Grid, col: str) -> np.ndarray:
+    """One column on the grid, NaN where no row."""
+    out = np.full(grid.time.size, np.nan)
+    out[grid.index] = data[col].to_numpy(dtype=float)
+    return out
+
+
+def _mast_qc(ux: np.ndarray, uy: np.ndarray, uz: np.ndarray, ts_c: np.ndarray, diag: np.ndarray, grid: _Grid,
+             despike: bool, despike_window_s: float, despike_n_mad: float, counts: dict[str, int]) -> np.ndarray:
+    """Missing, CSAT3 diagnostic, range (CSAT3) and spike flags.
+
+    Returns
+    -------
+    numpy.ndarray
+        int8 QC bitmask (:mod:`dronewind.core.qc`); counts ``n_nan_values``,
+        ``n_diag_flagged``, ``n_out_of_range``, ``n_spikes``, ``n_flagged``.
+    """
+    n = grid.time.size
+    present = np.zeros(n, dtype=bool)
+    present[grid.index] = True
+    qc = np.zeros(n, dtype=np.int8)
+    missing = ~(np.isfinite(ux) & np.isfinite(uy) & np.isfinite(uz) & np.isfinite(ts_c))
+    qc[missing] |= QC_MISSING
+    diag_bad = np.isfinite(diag) & (diag != 0)
+    qc[diag_bad] |= QC_DIAG
+    lim = INSTRUMENT_LIMITS["csat3"]
+    out = (range_mask(ux, *lim["ux_ms"]) | range_mask(uy, *lim["uy_ms"])
+           | range_mask(uz, *lim["uz_ms"]) | range_mask(ts_c, *lim["t_sonic_c"]))  # fmt: skip
+    qc[out] |= QC_OUT_OF_RANGE
+    spikes = np.zeros(n, dtype=bool)
+    if despike:
+        for a, b in grid.segments:  # the moving window never spans a record break
+            for x in (ux, uy, uz, ts_c):
+                spikes[a:b] |= despike_moving_mad(np.where(qc[a:b] == 0, x[a:b], np.nan), grid.fs_hz,
+                                                  despike_window_s, despike_n_mad)  # fmt: skip
+    qc[spikes] |= QC_SPIKE
+    counts["n_nan_values"] = int((missing & present).sum())
+    counts["n_diag_flagged"] = int(diag_bad.sum())
+    counts["n_out_of_range"] = int(out.sum())
+    counts["n_spikes"] = int(spikes.sum())
+    counts["n_flagged"] = int((qc != 0).sum())
+    return qc
+
+
+def _mast_dataset(ux: np.ndarray, uy: np.ndarray, uz: np.ndarray, ts_c: np.ndarray, diag: np.ndarray,
+                  qc: np.ndarray, time: np.ndarray, azimuth_deg: float) -> xr.Dataset:
+    """The mast L1 variables on ``time`` (see :func:`mast_l1`, Returns); flagged samples NaN in east/north/up."""
+    u_e, v_n = csat3_to_enu(ux, uy, azimuth_deg)
+    nanf = np.where(qc != 0, np.nan, 1.0)
+    diag_i = np.where(np.isfinite(diag), diag, -1).astype(np.int32)
+    return xr.Dataset(
+        {
+            "u_east_ms": ("time", u_e * nanf, variable_attrs("m s-1", "eastward_wind")),
+            "v_north_ms": ("time", v_n * nanf, variable_attrs("m s-1", "northward_wind")),
+            "w_up_ms": ("time", uz * nanf, variable_attrs("m s-1", "upward_air_velocity")),
+            "t_sonic_k": ("time", (ts_c + ZERO_CELSIUS_K) * nanf, variable_attrs(
+                "K", "virtual_temperature", comment="CSAT3 sonic temperature (approximately "
+                "the virtual temperature)", units_metadata="temperature: on_scale")),
+            "ux_ms": ("time", ux, variable_attrs(
+                "m s-1", long_name="CSAT3 Ux as logged (positive into the sensor head)")),
+            "uy_ms": ("time", uy, variable_attrs("m s-1", long_name="CSAT3 Uy as logged")),
+            "uz_ms": ("time", uz, variable_attrs("m s-1", long_name="CSAT3 Uz as logged (up)")),
+            "diag_csat": ("time", diag_i, variable_attrs(
+                "1", long_name="CSAT3 diagnostic word as logged (-1: not available)")),
+            "qc_mast": ("time", qc, qc_flag_attrs(
+                "mast sonic QC bitmask", (QC_OUT_OF_RANGE, QC_SPIKE, QC_MISSING, QC_GAP_FILLED, QC_DIAG))),
+        },
+        coords={"time": ("time", time, {"long_name": "time (UTC)"})},
+    )
+
+
 def mast_l1(
-    paths: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
-    azimuth_deg: float,
-    height_m: float,
-    sensor_id: str,
-    max_corrupt_fraction: float = 0.05,
-    despike_window_s: float = 10.0,
-    despike_n_mad: float = 7.0,
-    despike: bool = True,
-    max_gap_s: float = 60.0,
+    paths: str | os.PathLike[str] | Sequence[str | os.PathLike[str]], azimuth_deg: float, height_m: float,
+    sensor_id: str, max_corrupt_fraction: float = 0.05, despike_window_s: float = 10.0, despike_n_mad: float = 7.0,
+    despike: bool = True, max_gap_s: float = 60.0,
 ) -> xr.Dataset:
     """Build the L1 mast sonic dataset from one or more CSAT3 TOA5 files.
 
@@ -241,11 +438,11 @@ def mast_l1(
     Returns
     -------
     xarray.Dataset
-        dim ``time`` (UTC, regular grid within each segment, see ``max_gap_s``); ``u_east_ms``, ``v_north_ms``, ``w_up_ms``,
-        ``t_sonic_k`` (NaN where ``qc_mast`` != 0), raw ``ux_ms``, ``uy_ms``, ``uz_ms`` (as
-        logged), ``diag_csat`` (int32, -1 where absent), ``qc_mast``. attrs ``azimuth_deg``,
-        ``height_m``, ``sensor_id``, ``sampling_rate_hz``, ``n_*`` counts,
-        ``processing_log``.
+        dim ``time`` (UTC, regular grid within each segment, see ``max_gap_s``); ``u_east_ms``,
+        ``v_north_ms``, ``w_up_ms``, ``t_sonic_k`` (NaN where ``qc_mast`` != 0), raw ``ux_ms``,
+        ``uy_ms``, ``uz_ms`` (as logged), ``diag_csat`` (int32, -1 where absent), ``qc_mast``.
+        attrs ``azimuth_deg``, ``height_m``, ``sensor_id``, ``sampling_rate_hz``, ``n_*``
+        counts, ``processing_log``.
 
     Raises
     ------
@@ -263,171 +460,24 @@ def mast_l1(
     Seed 000, Sect. 3.2 and 4.4 (same filtering for the mast sonics).
     """
     files = _expand_paths(paths)
-    frames = []
     log: list[str] = []
     counts = {"n_lines": 0, "n_corrupt_lines": 0, "n_nonnumeric": 0, "n_record_skips": 0,
               "n_record_restarts": 0}  # fmt: skip
-    for f in files:
-        frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
-        ts_unit = info["units"].get("Ts", "C")
-        if ts_unit.strip().upper() in ("K", "KELVIN"):
-            frame["Ts"] = frame["Ts"] - 273.15
-        rec = frame["RECORD"].to_numpy()
-        d = np.diff(rec)
-        skips = int(np.sum(np.where(d > 1, d - 1, 0)))
-        restarts = int(np.sum(d <= 0))
-        counts["n_lines"] += info["n_lines"]
-        counts["n_corrupt_lines"] += info["n_corrupt_lines"]
-        counts["n_nonnumeric"] += info["n_nonnumeric"]
-        counts["n_record_skips"] += skips
-        counts["n_record_restarts"] += restarts
-        msg = (f"read: {f.name}: {len(frame)} rows, {info['n_corrupt_lines']} corrupt removed, "
-               f"{skips} RECORD numbers skipped, {restarts} RECORD restarts")  # fmt: skip
-        if info["n_corrupt_lines"]:
-            msg += f" (corrupt lines {info['corrupt_lines']})"
-        log.append(msg)
-        frame["_file"] = len(frames)
-        frames.append(frame)
-    frames.sort(key=lambda fr: fr["time"].iloc[0] if len(fr) else np.datetime64("NaT"))
-    data = pd.concat(frames, ignore_index=True)
-    cols = ["time", "RECORD", "Ux", "Uy", "Uz", "Ts", "diag_csat"]
-    exact_dup = data.duplicated(subset=cols, keep="first").to_numpy()
-    data = data.loc[~exact_dup]
-    data = data.sort_values("time", kind="stable")
-    conflict = data.duplicated(subset=["time"], keep="first").to_numpy()
-    data = data.loc[~conflict].reset_index(drop=True)
-    counts["n_duplicates"] = int(exact_dup.sum())
-    counts["n_time_conflicts"] = int(conflict.sum())
-    log.append(f"order: {len(files)} files concatenated in time order, "
-               f"{int(exact_dup.sum())} duplicate rows and {int(conflict.sum())} rows repeating a "
-               "TIMESTAMP with other values dropped")  # fmt: skip
-    t = data["time"].to_numpy().astype("datetime64[ns]")
-    if t.size < 2:
-        raise InputError(files[0], f"only {t.size} valid rows")
-    dt_ns = int(np.median(np.diff(t).astype(np.int64)))
-    if dt_ns <= 0:
-        raise InputError(files[0], "TIMESTAMP does not increase")
-    fs_hz = 1e9 / dt_ns
-    # segments: breaks where the time stamps jump by more than max_gap_s
-    jumps = np.flatnonzero(np.diff(t).astype(np.int64) > max_gap_s * 1e9) + 1
-    seg_start = np.r_[0, jumps]
-    seg_end = np.r_[jumps, t.size]
-    keep_rows = np.ones(t.size, dtype=bool)
-    grid_index = np.zeros(t.size, dtype=np.int64)
-    time_parts = []
-    offset = 0
-    for a, b in zip(seg_start, seg_end, strict=True):
-        k_float = (t[a:b] - t[a]).astype(np.int64) / dt_ns
-        k = np.rint(k_float).astype(np.int64)
-        off_grid = np.abs(k_float - k) > 0.25
-        if off_grid.any():
-            i = a + int(np.flatnonzero(off_grid)[0])
-            raise InputError(
-                f"{files[int(data['_file'].iloc[i])]}:{int(data['_line'].iloc[i])}",
-                f"TIMESTAMP {t[i]} is off the {fs_hz:g} Hz sampling grid; expected a constant "
-                "sampling interval",
-            )
-        dup = np.zeros(k.size, dtype=bool)
-        dup[1:] = k[1:] == k[:-1]
-        keep_rows[a:b] = ~dup
-        grid_index[a:b] = offset + k
-        n_seg = int(k[-1]) + 1
-        time_parts.append(t[a] + (np.arange(n_seg, dtype=np.int64) * dt_ns).astype("timedelta64[ns]"))
-        offset += n_seg
-    counts["n_time_conflicts"] += int((~keep_rows).sum())
-    counts["n_record_breaks"] = int(jumps.size)
-    k = grid_index[keep_rows]
-    data = data.loc[keep_rows].reset_index(drop=True)
-    n = offset
-    time = np.concatenate(time_parts)
-    bounds = np.cumsum([0] + [p.size for p in time_parts])
-    segments = list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
-    present = np.zeros(n, dtype=bool)
-    present[k] = True
-    counts["n_missing"] = int(n - k.size)
-
-    def grid(col: str) -> np.ndarray:
-        out = np.full(n, np.nan)
-        out[k] = data[col].to_numpy(dtype=float)
-        return out
-
-    ux, uy, uz, ts_c, diag = grid("Ux"), grid("Uy"), grid("Uz"), grid("Ts"), grid("diag_csat")
-    qc = np.zeros(n, dtype=np.int8)
-    missing = ~(np.isfinite(ux) & np.isfinite(uy) & np.isfinite(uz) & np.isfinite(ts_c))
-    qc[missing] |= QC_MISSING
-    diag_bad = np.isfinite(diag) & (diag != 0)
-    qc[diag_bad] |= QC_DIAG
-    lim = INSTRUMENT_LIMITS["csat3"]
-    out = (range_mask(ux, *lim["ux_ms"]) | range_mask(uy, *lim["uy_ms"])
-           | range_mask(uz, *lim["uz_ms"]) | range_mask(ts_c, *lim["t_sonic_c"]))  # fmt: skip
-    qc[out] |= QC_OUT_OF_RANGE
-    spikes = np.zeros(n, dtype=bool)
-    if despike:
-        for a, b in segments:  # the moving window never spans a record break
-            for x in (ux, uy, uz, ts_c):
-                spikes[a:b] |= despike_moving_mad(np.where(qc[a:b] == 0, x[a:b], np.nan), fs_hz,
-                                                  despike_window_s, despike_n_mad)  # fmt: skip
-    qc[spikes] |= QC_SPIKE
-    flagged = qc != 0
-    counts["n_nan_values"] = int((missing & present).sum())
-    counts["n_diag_flagged"] = int(diag_bad.sum())
-    counts["n_out_of_range"] = int(out.sum())
-    counts["n_spikes"] = int(spikes.sum())
-    counts["n_flagged"] = int(flagged.sum())
-    log.append(
-        f"grid: {fs_hz:g} Hz, {counts['n_missing']} absent time stamps inserted as missing; "
-        f"{counts['n_record_breaks']} record breaks (gaps > {max_gap_s:g} s kept as breaks, not filled)"
-    )
+    data = _merge_records(_read_files(files, max_corrupt_fraction, counts, log), len(files), counts, log)
+    data, grid = _regular_grid(data, files, max_gap_s, counts)
+    ux, uy, uz, ts_c, diag = (_on_grid(data, grid, c) for c in ("Ux", "Uy", "Uz", "Ts", "diag_csat"))
+    qc = _mast_qc(ux, uy, uz, ts_c, diag, grid, despike, despike_window_s, despike_n_mad, counts)
+    log.append(f"grid: {grid.fs_hz:g} Hz, {counts['n_missing']} absent time stamps inserted as missing; "
+               f"{counts['n_record_breaks']} record breaks (gaps > {max_gap_s:g} s kept as breaks, not filled)")
     log.append(
         f"qc: {counts['n_nan_values']} NAN samples, {counts['n_diag_flagged']} non-zero "
         f"diag_csat, {counts['n_out_of_range']} out of CSAT3 range, {counts['n_spikes']} spikes "
         f"(moving MAD {despike_window_s:g} s, {despike_n_mad:g} scaled MAD"
-        f"{'' if despike else ', off'}); {counts['n_flagged']} of {n} samples set to NaN"
+        f"{'' if despike else ', off'}); {counts['n_flagged']} of {grid.time.size} samples set to NaN"
     )
-    u_e, v_n = csat3_to_enu(ux, uy, azimuth_deg)
-    nanf = np.where(flagged, np.nan, 1.0)
-    diag_i = np.where(np.isfinite(diag), diag, -1).astype(np.int32)
-
-    def va(units: str, std: str | None = None, long: str | None = None, **kw: Any) -> dict:
-        a: dict[str, Any] = {"units": units}
-        if std:
-            a["standard_name"] = std
-        if long:
-            a["long_name"] = long
-        a.update(kw)
-        return a
-
-    ds = xr.Dataset(
-        {
-            "u_east_ms": ("time", u_e * nanf, va("m s-1", "eastward_wind")),
-            "v_north_ms": ("time", v_n * nanf, va("m s-1", "northward_wind")),
-            "w_up_ms": ("time", uz * nanf, va("m s-1", "upward_air_velocity")),
-            "t_sonic_k": ("time", (ts_c + 273.15) * nanf, va(
-                "K", "virtual_temperature", comment="CSAT3 sonic temperature (approximately "
-                "the virtual temperature)", units_metadata="temperature: on_scale")),
-            "ux_ms": ("time", ux, va("m s-1", long="CSAT3 Ux as logged (positive into the "
-                                     "sensor head)")),
-            "uy_ms": ("time", uy, va("m s-1", long="CSAT3 Uy as logged")),
-            "uz_ms": ("time", uz, va("m s-1", long="CSAT3 Uz as logged (up)")),
-            "diag_csat": ("time", diag_i, va("1", long="CSAT3 diagnostic word as logged "
-                                             "(-1: not available)")),
-            "qc_mast": ("time", qc, {
-                "standard_name": "status_flag", "long_name": "mast sonic QC bitmask",
-                "flag_masks": np.array([1, 2, 4, 8, 16], dtype=np.int8),
-                "flag_values": np.array([1, 2, 4, 8, 16], dtype=np.int8),
-                "flag_meanings": "out_of_range spike missing_or_corrupt gap_filled "
-                                 "csat3_diagnostic", "units": "1"}),
-        },
-        coords={"time": ("time", time, {"long_name": "time (UTC)"})},
-    )
-    for key, val in counts.items():
-        ds.attrs[key] = int(val)
-    ds.attrs.update(
-        azimuth_deg=float(azimuth_deg),
-        height_m=float(height_m),
-        sensor_id=str(sensor_id),
-        sampling_rate_hz=float(round(fs_hz, 6)),
-        source_files=", ".join(str(f) for f in files),
-        processing_log="\n".join(log),
-    )
+    ds = _mast_dataset(ux, uy, uz, ts_c, diag, qc, grid.time, azimuth_deg)
+    ds.attrs.update({k: int(v) for k, v in counts.items()})
+    ds.attrs.update(azimuth_deg=float(azimuth_deg), height_m=float(height_m), sensor_id=str(sensor_id),
+                    sampling_rate_hz=float(round(grid.fs_hz, 6)), source_files=", ".join(str(f) for f in files),
+                    processing_log="\n".join(log))
     return ds

@@ -1,7 +1,10 @@
 """The payload system: a sonic anemometer with an INS (SAMURAI-S sling load).
 
-Readers of the logger's sonic and INS files into L1 (:mod:`~dronewind.payload.io`), motion
-correction (:mod:`~dronewind.payload.motion`, seed 000 Eqs 1-2 and App. A) and the
-synchronisation of sonic and INS into motion-corrected wind, L2
-(:mod:`~dronewind.payload.sync`). Datasets in, datasets out; no file is written here.
+* :mod:`~dronewind.payload.io`: the logger's sonic and INS files into L1 (logger clock to UTC,
+  GNSS time, QC);
+* :mod:`~dronewind.payload.motion`: motion correction (seed 000, Eqs 1-2 and App. A);
+* :mod:`~dronewind.payload.sync`: sonic-INS lag and the motion-corrected wind, L2
+  (seed 000, Sect. 3.3);
+* :mod:`~dronewind.payload.chain`: the chain steps (Dataset in, Dataset out) with their
+  settings. No file is written here.
 """

@@ -35,8 +35,8 @@ Bad input policy (every removal is counted in ``ds.attrs["n_*"]`` and described 
 * values out of the instrument's range (:data:`dronewind.core.filtering.INSTRUMENT_LIMITS`),
   NaN values and spikes are flagged in the QC bitmask and set to NaN (not filled).
 
-QC bitmask (``qc_sonic``, ``qc_ins``): 1 out of range, 2 spike, 4 missing/corrupt,
-8 gap-filled (set by later stages).
+QC bitmask (``qc_sonic``, ``qc_ins``; bits of :mod:`dronewind.core.qc`): 1 out of range,
+2 spike, 4 missing/corrupt, 8 gap-filled (set by later stages).
 """
 
 from __future__ import annotations
@@ -51,18 +51,21 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from dronewind.errors import InputError
+from dronewind.core.cf import variable_attrs
+from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
+from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
+from dronewind.errors import InputError
 
 __all__ = [
     "ClockFit",
     "ClockJumpError",
     "INS_COLUMNS",
-    "QC_FLAG_MEANINGS",
-    "QC_FLAG_VALUES",
+    "InsTable",
     "SONIC_COLUMNS",
     "fit_logger_clock",
     "ins_l1",
+    "load_ins_table",
     "payload_sonic_l1",
     "read_ins_csv",
     "read_sonic_csv",
@@ -73,13 +76,6 @@ INS_COLUMNS: tuple[str, ...] = (
     "rpi_time_us", "utc", "time_valid", "ekf_valid", "lat_deg", "lon_deg", "alt_m",
     "vel_n_ms", "vel_e_ms", "vel_d_ms", "roll_deg", "pitch_deg", "yaw_deg",
 )  # fmt: skip
-
-QC_OUT_OF_RANGE = 1
-QC_SPIKE = 2
-QC_MISSING = 4
-QC_GAP_FILLED = 8
-QC_FLAG_VALUES = np.array([1, 2, 4, 8], dtype=np.int8)
-QC_FLAG_MEANINGS = "out_of_range spike missing_or_corrupt gap_filled"
 
 _N_LOGGED_LINES = 5  # how many corrupt line numbers are quoted in the log
 _US = 1_000_000
@@ -128,18 +124,24 @@ def _read_text(path: str | os.PathLike[str]) -> str:
     return raw.decode("utf-8", errors="replace").lstrip("\ufeff")
 
 
-def _parse_csv(
-    path: str | os.PathLike[str],
-    expected: tuple[str, ...],
-    kinds: dict[str, str],
-    max_corrupt_fraction: float,
-    extra_bad: Any = None,
-) -> _Table:
-    """Parse a fixed-header CSV line by line, separating corrupt lines.
+def _split_lines(path: str | os.PathLike[str], expected: tuple[str, ...]) -> tuple[list[str], np.ndarray, int]:
+    """Read a CSV, check its header and drop blank lines.
 
-    kinds: column -> "int" (integer literal), "float" (number or nan literal), "flag"
-    (0 or 1), "utc" (ISO 8601, optional trailing Z, may be empty).
-    extra_bad: optional callable(columns) -> bool array of further corrupt rows.
+    Parameters
+    ----------
+    path : str or Path
+        CSV file.
+    expected : tuple of str
+        Expected header fields.
+
+    Returns
+    -------
+    body : list of str
+        Non-blank data lines.
+    line_numbers : numpy.ndarray
+        Their file line numbers (1-based, the header is line 1).
+    n_blank : int
+        Number of blank lines dropped.
     """
     text = _read_text(path)
     lines = text.splitlines()
@@ -154,15 +156,54 @@ def _parse_csv(
     line_numbers = np.arange(2, len(body) + 2)
     blank = np.fromiter((not ln.strip() for ln in body), dtype=bool, count=len(body))
     n_blank = int(blank.sum())
-    body = [ln for ln, b in zip(body, blank) if not b]
+    body = [ln for ln, b in zip(body, blank, strict=True) if not b]
     line_numbers = line_numbers[~blank]
-    n_lines = len(body)
-    if n_lines == 0:
+    if len(body) == 0:
         raise InputError(path, "no data lines after the header")
-    ncol = len(expected)
-    split = [ln.split(",") for ln in body]
-    good_count = np.fromiter((len(f) == ncol for f in split), dtype=bool, count=n_lines)
-    rows = [f for f, g in zip(split, good_count) if g]
+    return body, line_numbers, n_blank
+
+
+def _parse_field(s: pd.Series, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """Values of one column and the mask of its corrupt fields.
+
+    Parameters
+    ----------
+    s : pandas.Series
+        The column's stripped text fields.
+    kind : {"int", "float", "flag", "utc"}
+        Integer literal; number or nan literal; 0 or 1; ISO 8601 (optional trailing Z, may
+        be empty -> NaT).
+
+    Returns
+    -------
+    values : numpy.ndarray
+        int64, float64 or datetime64[ns].
+    bad : numpy.ndarray
+        True where the field is corrupt.
+    """
+    if kind in ("int", "flag"):
+        ok = s.str.fullmatch(r"[+-]?\d+").to_numpy(dtype=bool)
+        vals = np.zeros(len(s), dtype=np.int64)
+        if ok.any():
+            vals[ok] = s[ok].astype(np.int64).to_numpy()
+        if kind == "flag":
+            ok = ok & ((vals == 0) | (vals == 1))
+        return vals, ~ok
+    if kind == "float":
+        fvals = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+        nan_literal = s.str.lower().isin(["nan", "+nan", "-nan"]).to_numpy(dtype=bool)
+        return fvals, np.isnan(fvals) & ~nan_literal
+    if kind == "utc":
+        empty = (s == "").to_numpy(dtype=bool)
+        t = pd.to_datetime(s.str.removesuffix("Z"), format="ISO8601", errors="coerce")
+        tvals = t.to_numpy().astype("datetime64[ns]")
+        return tvals, np.isnat(tvals) & ~empty
+    raise ValueError(kind)  # pragma: no cover - programming error
+
+
+def _parse_rows(rows: list[list[str]], expected: tuple[str, ...], kinds: dict[str, str],
+                ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Column arrays of the rows with the right field count, and the mask of corrupt rows."""
     bad = np.zeros(len(rows), dtype=bool)
     cols: dict[str, np.ndarray] = {}
     frame = pd.DataFrame(rows, columns=list(expected), dtype=object) if rows else None
@@ -170,30 +211,31 @@ def _parse_csv(
         if frame is None:
             cols[name] = np.zeros(0)
             continue
-        s = frame[name].astype(str).str.strip()
-        kind = kinds[name]
-        if kind in ("int", "flag"):
-            ok = s.str.fullmatch(r"[+-]?\d+").to_numpy(dtype=bool)
-            vals = np.zeros(len(s), dtype=np.int64)
-            if ok.any():
-                vals[ok] = s[ok].astype(np.int64).to_numpy()
-            if kind == "flag":
-                ok = ok & ((vals == 0) | (vals == 1))
-            bad |= ~ok
-            cols[name] = vals
-        elif kind == "float":
-            vals = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
-            nan_literal = s.str.lower().isin(["nan", "+nan", "-nan"]).to_numpy(dtype=bool)
-            bad |= np.isnan(vals) & ~nan_literal
-            cols[name] = vals
-        elif kind == "utc":
-            empty = (s == "").to_numpy(dtype=bool)
-            t = pd.to_datetime(s.str.removesuffix("Z"), format="ISO8601", errors="coerce")
-            vals = t.to_numpy().astype("datetime64[ns]")
-            bad |= np.isnat(vals) & ~empty
-            cols[name] = vals
-        else:  # pragma: no cover - programming error
-            raise ValueError(kind)
+        cols[name], bad_field = _parse_field(frame[name].astype(str).str.strip(), kinds[name])
+        bad |= bad_field
+    return cols, bad
+
+
+def _parse_csv(
+    path: str | os.PathLike[str],
+    expected: tuple[str, ...],
+    kinds: dict[str, str],
+    max_corrupt_fraction: float,
+    extra_bad: Any = None,
+) -> _Table:
+    """Parse a fixed-header CSV line by line, separating corrupt lines.
+
+    kinds: column -> "int" (integer literal), "float" (number or nan literal), "flag"
+    (0 or 1), "utc" (ISO 8601, optional trailing Z, may be empty).
+    extra_bad: optional callable(columns) -> bool array of further corrupt rows.
+    """
+    body, line_numbers, n_blank = _split_lines(path, expected)
+    n_lines = len(body)
+    ncol = len(expected)
+    split = [ln.split(",") for ln in body]
+    good_count = np.fromiter((len(f) == ncol for f in split), dtype=bool, count=n_lines)
+    rows = [f for f, g in zip(split, good_count, strict=True) if g]
+    cols, bad = _parse_rows(rows, expected, kinds)
     if extra_bad is not None and len(rows):
         bad |= extra_bad(cols)
     good_lines = line_numbers[good_count]
@@ -207,17 +249,9 @@ def _parse_csv(
             f"{ncol} comma-separated fields {','.join(expected)}",
         )
     keep = ~bad
-    table = _Table(
-        path=str(path),
-        columns={k: v[keep] for k, v in cols.items()},
-        line_no=good_lines[keep],
-        n_data_lines=n_lines,
-        n_blank_lines=n_blank,
-        corrupt_lines=corrupt.tolist(),
-    )
-    table.counts["n_lines"] = n_lines
-    table.counts["n_corrupt_lines"] = n_corrupt
-    table.counts["n_blank_lines"] = n_blank
+    table = _Table(path=str(path), columns={k: v[keep] for k, v in cols.items()}, line_no=good_lines[keep],
+                   n_data_lines=n_lines, n_blank_lines=n_blank, corrupt_lines=corrupt.tolist())
+    table.counts.update(n_lines=n_lines, n_corrupt_lines=n_corrupt, n_blank_lines=n_blank)
     msg = f"parse: {n_lines} data lines, {n_corrupt} corrupt removed"
     if n_corrupt:
         msg += f" (first at lines {corrupt[:_N_LOGGED_LINES].tolist()})"
@@ -550,7 +584,7 @@ def _stable_valid_start(
     edges = np.diff(np.concatenate([[0], valid.astype(np.int8), [0]]))
     starts = np.flatnonzero(edges == 1)
     ends = np.flatnonzero(edges == -1)  # exclusive
-    for s, e in zip(starts, ends):
+    for s, e in zip(starts, ends, strict=True):
         # The run lasts until the next row with time_valid = 0 (or the file's last row).
         t_end = rpi_time_us[e] if e < rpi_time_us.size else rpi_time_us[e - 1]
         if (t_end - rpi_time_us[s]) >= min_stable_s * _US:
@@ -559,7 +593,25 @@ def _stable_valid_start(
 
 
 @dataclass
-class _InsTable:
+class InsTable:
+    """A parsed INS file from its stable valid GNSS time on, with the logger-clock fit.
+
+    Attributes
+    ----------
+    columns : dict of numpy.ndarray
+        INS columns (:data:`INS_COLUMNS`), rows sorted by logger time.
+    line_no : numpy.ndarray
+        File line number of every row.
+    fit : ClockFit
+        Logger clock to UTC.
+    rpi_stable_us : int
+        Logger time of the first row with a stable valid GNSS time [us].
+    counts : dict of int
+        ``n_*`` counts of the parsing.
+    log : list of str
+        Processing log lines.
+    """
+
     columns: dict[str, np.ndarray]
     line_no: np.ndarray
     fit: ClockFit
@@ -574,7 +626,7 @@ def _load_ins(
     clock_jump_tol_s: float,
     relation_jump_tol_s: float,
     max_corrupt_fraction: float,
-) -> _InsTable:
+) -> InsTable:
     cols, line_no, counts, log = read_ins_csv(path, max_corrupt_fraction, clock_jump_tol_s)
     t = cols["rpi_time_us"]
     start = _stable_valid_start(t, cols["time_valid"], min_stable_s)
@@ -620,7 +672,7 @@ def _load_ins(
         f"clock_fit: utc = a + b*rpi_time on {fit.n_used} rows ({fit.n_outliers} outliers): "
         f"drift {fit.drift_ppm:.3f} ppm, residual std {fit.residual_std_s * 1e6:.2f} us"
     )
-    return _InsTable(cols, line_no, fit, int(t[0]), counts, log)
+    return InsTable(cols, line_no, fit, int(t[0]), counts, log)
 
 
 def load_ins_table(
@@ -629,7 +681,7 @@ def load_ins_table(
     clock_jump_tol_s: float = 1.0,
     relation_jump_tol_s: float = 0.1,
     max_corrupt_fraction: float = 0.05,
-) -> _InsTable:
+) -> InsTable:
     """Parse an INS file once: rows from the stable valid GNSS time and the logger-clock fit.
 
     Pass the result as ``ins_table`` to :func:`ins_l1` and :func:`payload_sonic_l1` so a
@@ -639,42 +691,173 @@ def load_ins_table(
     return _load_ins(ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
 
 
-def _fresh(table: _InsTable) -> _InsTable:
+def _fresh(table: InsTable) -> InsTable:
     """A copy whose counts and log can be extended without touching the original."""
-    return _InsTable(table.columns, table.line_no, table.fit, table.rpi_stable_us, dict(table.counts),
+    return InsTable(table.columns, table.line_no, table.fit, table.rpi_stable_us, dict(table.counts),
                      list(table.log))
 
 
-def _var_attrs(units: str, standard_name: str | None = None, long_name: str | None = None,
-               **extra: Any) -> dict[str, Any]:  # fmt: skip
-    a: dict[str, Any] = {"units": units}
-    if standard_name:
-        a["standard_name"] = standard_name
-    if long_name:
-        a["long_name"] = long_name
-    a.update(extra)
-    return a
+def _utc_of_rows(ins: InsTable, counts: dict[str, int], log: list[str]) -> np.ndarray:
+    """UTC of every INS row: the GNSS time, or the clock fit where it is not valid.
+
+    Returns
+    -------
+    numpy.ndarray
+        datetime64[ns] per row (rows after the stable start whose ``time_valid`` blinked to 0
+        are stamped from the fit, whole microseconds; counted in ``n_time_from_clock_fit``).
+    """
+    cols = ins.columns
+    utc = cols["utc"].copy()
+    from_fit = (cols["time_valid"] != 1) | np.isnat(utc)
+    utc[from_fit] = ins.fit.to_utc(cols["rpi_time_us"][from_fit], resolution_ns=1000)
+    counts["n_time_from_clock_fit"] = int(from_fit.sum())
+    if from_fit.any():
+        log.append(f"gnss_time: {int(from_fit.sum())} rows after the stable start without "
+                   "valid GNSS time stamped from the clock fit")  # fmt: skip
+    return utc
 
 
-def _qc_attrs(long_name: str) -> dict[str, Any]:
-    return {
-        "standard_name": "status_flag",
-        "long_name": long_name,
-        "flag_masks": QC_FLAG_VALUES.copy(),
-        "flag_values": QC_FLAG_VALUES.copy(),
-        "flag_meanings": QC_FLAG_MEANINGS,
-        "units": "1",
-    }
+def _increasing_utc(utc: np.ndarray, counts: dict[str, int], log: list[str]) -> np.ndarray:
+    """Rows in UTC order with repeated UTC stamps dropped (a GNSS glitch); their indices."""
+    order = np.argsort(utc, kind="stable")
+    n_utc_unsorted = int((order != np.arange(order.size)).sum())
+    utc_sorted = utc[order]
+    dup = np.zeros(order.size, dtype=bool)
+    dup[1:] = utc_sorted[1:] == utc_sorted[:-1]
+    counts["n_utc_duplicates"] = int(dup.sum())
+    counts["n_utc_out_of_order"] = n_utc_unsorted
+    if dup.any() or n_utc_unsorted:
+        log.append(f"gnss_time: {int(dup.sum())} rows repeating a UTC stamp dropped, "
+                   f"{n_utc_unsorted} rows re-ordered by UTC")  # fmt: skip
+    return order[~dup]
+
+
+def _ins_qc(cols: dict[str, np.ndarray], fs_hz: float, despike: bool, counts: dict[str, int], log: list[str],
+            ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Range, missing and (optional) spike flags of the INS; flagged rows set to NaN.
+
+    Parameters
+    ----------
+    cols : dict of numpy.ndarray
+        INS columns (UTC order).
+    fs_hz : float
+        Nominal rate [Hz] (despiking window).
+    despike : bool
+        Apply the moving-MAD despiking to attitude, velocity and altitude.
+    counts, log
+        Receive ``n_out_of_range``, ``n_missing_values``, ``n_spikes``, ``n_flagged`` and
+        the ``qc:`` line.
+
+    Returns
+    -------
+    data : dict of numpy.ndarray
+        Float INS variables, NaN where flagged.
+    qc : numpy.ndarray
+        int8 QC bitmask (:mod:`dronewind.core.qc`).
+    """
+    qc = np.zeros(cols["rpi_time_us"].size, dtype=np.int8)
+    lim = INSTRUMENT_LIMITS["sbg_ellipse_d"]
+    float_vars = {
+        "roll_deg": lim["roll_deg"], "pitch_deg": lim["pitch_deg"], "yaw_deg": lim["yaw_deg"],
+        "vel_n_ms": lim["vel_ms"], "vel_e_ms": lim["vel_ms"], "vel_d_ms": lim["vel_ms"],
+        "lat_deg": lim["lat_deg"], "lon_deg": lim["lon_deg"], "alt_m": lim["alt_m"],
+    }  # fmt: skip
+    data: dict[str, np.ndarray] = {}
+    n_range = n_nan = 0
+    for name, (lo, hi) in float_vars.items():
+        x = cols[name].astype(float)
+        missing = ~np.isfinite(x)
+        bad = range_mask(np.where(missing, np.nan, x), lo, hi)
+        n_range += int(bad.sum())
+        n_nan += int(missing.sum())
+        qc[bad] |= QC_OUT_OF_RANGE
+        qc[missing] |= QC_MISSING
+        data[name] = x
+    n_spike = _despike_ins(data, qc, fs_hz) if despike else 0
+    flagged = qc != 0
+    for name in float_vars:
+        data[name] = np.where(flagged, np.nan, data[name])
+    counts["n_out_of_range"] = n_range
+    counts["n_missing_values"] = n_nan
+    counts["n_spikes"] = n_spike
+    counts["n_flagged"] = int(flagged.sum())
+    log.append(
+        f"qc: {n_range} values out of range (SBG Ellipse-D limits), {n_nan} NaN values, "
+        f"{n_spike} spikes{'' if despike else ' (despiking off)'}; {int(flagged.sum())} rows "
+        "flagged and set to NaN"
+    )
+    return data, qc
+
+
+def _despike_ins(data: dict[str, np.ndarray], qc: np.ndarray, fs_hz: float) -> int:
+    """Moving-MAD spike flags (QC_SPIKE, set in ``qc``) of attitude, velocity, altitude and unwrapped yaw.
+
+    Returns
+    -------
+    int
+        Number of spike flags set (a sample may count once per variable).
+    """
+    n_spike = 0
+    for name in ("roll_deg", "pitch_deg", "vel_n_ms", "vel_e_ms", "vel_d_ms", "alt_m"):
+        x = np.where(qc == 0, data[name], np.nan)
+        s = despike_moving_mad(x, fs_hz)
+        qc[s] |= QC_SPIKE
+        n_spike += int(s.sum())
+    yaw_unwrapped = np.rad2deg(np.unwrap(np.deg2rad(np.nan_to_num(data["yaw_deg"]))))
+    s = despike_moving_mad(np.where(qc == 0, yaw_unwrapped, np.nan), fs_hz)
+    qc[s] |= QC_SPIKE
+    n_spike += int(s.sum())
+    return n_spike
+
+
+def _yaw_convention(yaw_deg: np.ndarray) -> str:
+    """The range convention of the logged yaw, from its finite values."""
+    yaw = yaw_deg[np.isfinite(yaw_deg)]
+    if yaw.size and yaw.min() < 0:
+        return "(-180, 180]"
+    if yaw.size and yaw.max() > 180:
+        return "[0, 360)"
+    return "ambiguous: all values in [0, 180]"
+
+
+def _ins_dataset(data: dict[str, np.ndarray], cols: dict[str, np.ndarray], qc: np.ndarray, utc: np.ndarray,
+                 rpi_time_us: np.ndarray) -> xr.Dataset:
+    """The INS L1 variables on ``time`` (see :func:`ins_l1`, Returns)."""
+    yaw_conv = _yaw_convention(data["yaw_deg"])
+    return xr.Dataset(
+        {
+            "roll_deg": ("time", data["roll_deg"], variable_attrs("degree", "platform_roll")),
+            "pitch_deg": ("time", data["pitch_deg"], variable_attrs("degree", "platform_pitch")),
+            "yaw_deg": ("time", data["yaw_deg"], variable_attrs(
+                "degree", "platform_yaw", comment=f"clockwise from true north, as logged "
+                f"(range {yaw_conv}); wrap not removed")),
+            "vel_n_ms": ("time", data["vel_n_ms"], variable_attrs(
+                "m s-1", long_name="northward velocity of the sonic measurement volume")),
+            "vel_e_ms": ("time", data["vel_e_ms"], variable_attrs(
+                "m s-1", long_name="eastward velocity of the sonic measurement volume")),
+            "vel_d_ms": ("time", data["vel_d_ms"], variable_attrs(
+                "m s-1", long_name="downward velocity of the sonic measurement volume")),
+            "lat_deg": ("time", data["lat_deg"], variable_attrs("degrees_north", "latitude")),
+            "lon_deg": ("time", data["lon_deg"], variable_attrs("degrees_east", "longitude")),
+            "alt_m": ("time", data["alt_m"], variable_attrs(
+                "m", "altitude", positive="up", comment="above mean sea level")),
+            "ekf_valid": ("time", cols["ekf_valid"].astype(np.int32), variable_attrs(
+                "1", long_name="INS extended Kalman filter solution valid (1) or not (0)")),
+            "time_valid": ("time", cols["time_valid"].astype(np.int8), variable_attrs(
+                "1", long_name="GNSS UTC valid (1) or not (0); 0 rows are stamped from the "
+                "clock fit")),
+            "rpi_time_us": ("time", rpi_time_us.astype(np.int64), variable_attrs(
+                "us", long_name="logger (Raspberry Pi) clock time stamp")),
+            "qc_ins": ("time", qc, qc_flag_attrs("INS quality control bitmask")),
+        },
+        coords={"time": ("time", utc.astype("datetime64[ns]"), {"long_name": "time (UTC)"})},
+    )
 
 
 def ins_l1(
-    ins_path: str | os.PathLike[str],
-    min_stable_s: float = 10.0,
-    clock_jump_tol_s: float = 1.0,
-    relation_jump_tol_s: float = 0.1,
-    max_corrupt_fraction: float = 0.05,
-    despike: bool = False,
-    ins_table: _InsTable | None = None,
+    ins_path: str | os.PathLike[str], min_stable_s: float = 10.0, clock_jump_tol_s: float = 1.0,
+    relation_jump_tol_s: float = 0.1, max_corrupt_fraction: float = 0.05, despike: bool = False,
+    ins_table: InsTable | None = None,
 ) -> xr.Dataset:
     """Build the L1 INS dataset (UTC time from the ``utc`` column, QC flags).
 
@@ -697,7 +880,7 @@ def ins_l1(
         Apply :func:`dronewind.core.filtering.despike_moving_mad` to attitude, velocity and
         altitude. Off by default: the EKF output is smooth, so in a steady hover its MAD is
         tiny and ordinary manoeuvres would be flagged as spikes.
-    ins_table : optional
+    ins_table : InsTable, optional
         Output of :func:`load_ins_table` for ``ins_path`` (not parsed again).
 
     Returns
@@ -724,111 +907,19 @@ def ins_l1(
     """
     ins = _fresh(ins_table) if ins_table is not None else _load_ins(
         ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
-    cols, counts, log = ins.columns, ins.counts, ins.log
-    t_rpi = cols["rpi_time_us"]
-    utc = cols["utc"].copy()
-    from_fit = (cols["time_valid"] != 1) | np.isnat(utc)
-    utc[from_fit] = ins.fit.to_utc(t_rpi[from_fit], resolution_ns=1000)
-    counts["n_time_from_clock_fit"] = int(from_fit.sum())
-    if from_fit.any():
-        log.append(f"gnss_time: {int(from_fit.sum())} rows after the stable start without "
-                   "valid GNSS time stamped from the clock fit")  # fmt: skip
-    # UTC must increase: a row whose UTC repeats or goes back (GNSS glitch) is dropped.
-    order = np.argsort(utc, kind="stable")
-    n_utc_unsorted = int((order != np.arange(order.size)).sum())
-    utc_sorted = utc[order]
-    dup = np.zeros(order.size, dtype=bool)
-    dup[1:] = utc_sorted[1:] == utc_sorted[:-1]
-    sel = order[~dup]
-    counts["n_utc_duplicates"] = int(dup.sum())
-    counts["n_utc_out_of_order"] = n_utc_unsorted
-    if dup.any() or n_utc_unsorted:
-        log.append(f"gnss_time: {int(dup.sum())} rows repeating a UTC stamp dropped, "
-                   f"{n_utc_unsorted} rows re-ordered by UTC")  # fmt: skip
-    cols = {k: v[sel] for k, v in cols.items()}
-    utc = utc[sel]
+    counts, log = ins.counts, ins.log
+    t_rpi = ins.columns["rpi_time_us"]
+    utc = _utc_of_rows(ins, counts, log)
+    sel = _increasing_utc(utc, counts, log)
+    cols = {k: v[sel] for k, v in ins.columns.items()}
     ins_steps = np.diff(t_rpi[sel])
     counts["n_gaps_over_1s"] = int((ins_steps > _US).sum())
     if counts["n_gaps_over_1s"]:
         log.append(f"gaps: {counts['n_gaps_over_1s']} INS gaps > 1 s (not filled; longest "
                    f"{ins_steps.max() / _US:.2f} s)")  # fmt: skip
-    qc = np.zeros(utc.size, dtype=np.int8)
-    lim = INSTRUMENT_LIMITS["sbg_ellipse_d"]
-    float_vars = {
-        "roll_deg": lim["roll_deg"], "pitch_deg": lim["pitch_deg"], "yaw_deg": lim["yaw_deg"],
-        "vel_n_ms": lim["vel_ms"], "vel_e_ms": lim["vel_ms"], "vel_d_ms": lim["vel_ms"],
-        "lat_deg": lim["lat_deg"], "lon_deg": lim["lon_deg"], "alt_m": lim["alt_m"],
-    }  # fmt: skip
-    data: dict[str, np.ndarray] = {}
-    n_range = n_nan = 0
-    for name, (lo, hi) in float_vars.items():
-        x = cols[name].astype(float)
-        missing = ~np.isfinite(x)
-        bad = range_mask(np.where(missing, np.nan, x), lo, hi)
-        n_range += int(bad.sum())
-        n_nan += int(missing.sum())
-        qc[bad] |= QC_OUT_OF_RANGE
-        qc[missing] |= QC_MISSING
-        data[name] = x
     fs_hz = _nominal_rate(t_rpi)
-    n_spike = 0
-    if despike:
-        for name in ("roll_deg", "pitch_deg", "vel_n_ms", "vel_e_ms", "vel_d_ms", "alt_m"):
-            x = np.where(qc == 0, data[name], np.nan)
-            s = despike_moving_mad(x, fs_hz)
-            qc[s] |= QC_SPIKE
-            n_spike += int(s.sum())
-        yaw_unwrapped = np.rad2deg(np.unwrap(np.deg2rad(np.nan_to_num(data["yaw_deg"]))))
-        s = despike_moving_mad(np.where(qc == 0, yaw_unwrapped, np.nan), fs_hz)
-        qc[s] |= QC_SPIKE
-        n_spike += int(s.sum())
-    flagged = qc != 0
-    for name in float_vars:
-        data[name] = np.where(flagged, np.nan, data[name])
-    counts["n_out_of_range"] = n_range
-    counts["n_missing_values"] = n_nan
-    counts["n_spikes"] = n_spike
-    counts["n_flagged"] = int(flagged.sum())
-    log.append(
-        f"qc: {n_range} values out of range (SBG Ellipse-D limits), {n_nan} NaN values, "
-        f"{n_spike} spikes{'' if despike else ' (despiking off)'}; {int(flagged.sum())} rows "
-        "flagged and set to NaN"
-    )
-    yaw = data["yaw_deg"][np.isfinite(data["yaw_deg"])]
-    if yaw.size and yaw.min() < 0:
-        yaw_conv = "(-180, 180]"
-    elif yaw.size and yaw.max() > 180:
-        yaw_conv = "[0, 360)"
-    else:
-        yaw_conv = "ambiguous: all values in [0, 180]"
-    ds = xr.Dataset(
-        {
-            "roll_deg": ("time", data["roll_deg"], _var_attrs("degree", "platform_roll")),
-            "pitch_deg": ("time", data["pitch_deg"], _var_attrs("degree", "platform_pitch")),
-            "yaw_deg": ("time", data["yaw_deg"], _var_attrs(
-                "degree", "platform_yaw", comment=f"clockwise from true north, as logged "
-                f"(range {yaw_conv}); wrap not removed")),
-            "vel_n_ms": ("time", data["vel_n_ms"], _var_attrs(
-                "m s-1", long_name="northward velocity of the sonic measurement volume")),
-            "vel_e_ms": ("time", data["vel_e_ms"], _var_attrs(
-                "m s-1", long_name="eastward velocity of the sonic measurement volume")),
-            "vel_d_ms": ("time", data["vel_d_ms"], _var_attrs(
-                "m s-1", long_name="downward velocity of the sonic measurement volume")),
-            "lat_deg": ("time", data["lat_deg"], _var_attrs("degrees_north", "latitude")),
-            "lon_deg": ("time", data["lon_deg"], _var_attrs("degrees_east", "longitude")),
-            "alt_m": ("time", data["alt_m"], _var_attrs(
-                "m", "altitude", positive="up", comment="above mean sea level")),
-            "ekf_valid": ("time", cols["ekf_valid"].astype(np.int32), _var_attrs(
-                "1", long_name="INS extended Kalman filter solution valid (1) or not (0)")),
-            "time_valid": ("time", cols["time_valid"].astype(np.int8), _var_attrs(
-                "1", long_name="GNSS UTC valid (1) or not (0); 0 rows are stamped from the "
-                "clock fit")),
-            "rpi_time_us": ("time", t_rpi[sel].astype(np.int64), _var_attrs(
-                "us", long_name="logger (Raspberry Pi) clock time stamp")),
-            "qc_ins": ("time", qc, _qc_attrs("INS quality control bitmask")),
-        },
-        coords={"time": ("time", utc.astype("datetime64[ns]"), {"long_name": "time (UTC)"})},
-    )
+    data, qc = _ins_qc(cols, fs_hz, despike, counts, log)
+    ds = _ins_dataset(data, cols, qc, utc[sel], t_rpi[sel])
     _finish_attrs(ds, counts, log, ins.fit, fs_hz, str(ins_path), t_rpi[sel])
     return ds
 
@@ -890,18 +981,159 @@ def _insert_missing(rpi_time_us: np.ndarray, gap_factor: float = 1.5
     return new_t, src_idx, total_missing, long_gaps
 
 
+def _after_stable_time(cols: dict[str, np.ndarray], rpi_stable_us: int, sonic_path: str | os.PathLike[str],
+                       counts: dict[str, int], log: list[str]) -> dict[str, np.ndarray]:
+    """Sonic rows from the INS's stable valid GNSS time on (earlier rows discarded and counted)."""
+    t = cols["rpi_time_us"]
+    before = t < rpi_stable_us
+    n_before = int(before.sum())
+    if n_before == t.size:
+        raise InputError(sonic_path, "all sonic rows precede the INS's stable valid GNSS time")
+    cols = {k: v[~before] for k, v in cols.items()}
+    counts["n_before_stable_time"] = n_before
+    log.append(f"gnss_time: {n_before} sonic rows before the INS's stable GNSS time discarded")
+    return cols
+
+
+def _sonic_on_full_clock(cols: dict[str, np.ndarray], sonic_path: str | os.PathLike[str], max_gap_s: float,
+                         counts: dict[str, int], log: list[str],
+                         ) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """The sonic with its logger-time gaps filled by missing samples.
+
+    A forward step longer than ``max_gap_s`` [s] raises :class:`ClockJumpError`.
+
+    Returns
+    -------
+    t_full : numpy.ndarray
+        Logger times with the inserted samples [us].
+    vals : dict of numpy.ndarray
+        ``u_ms``, ``v_ms``, ``w_ms``, ``t_sonic_c``, NaN at inserted samples.
+    have : numpy.ndarray
+        True for logged (not inserted) samples.
+    """
+    steps = np.diff(cols["rpi_time_us"])
+    if steps.size and steps.max() > max_gap_s * _US:
+        i = int(np.argmax(steps))
+        raise ClockJumpError(
+            f"{sonic_path}", f"rpi_time_us steps forward by {steps[i] / _US:.1f} s "
+            f"(> max_gap_s = {max_gap_s:g} s) after rpi_time_us={int(cols['rpi_time_us'][i])}: "
+            "not a plausible data gap; clock jump or corrupt time stamps",
+        )
+    t_full, src, n_missing, long_gaps = _insert_missing(cols["rpi_time_us"])
+    counts["n_missing"] = n_missing
+    counts["n_gaps_over_1s"] = len(long_gaps)
+    msg = f"gaps: {n_missing} missing samples inserted as NaN"
+    if long_gaps:
+        msg += "; gaps > 1 s (logger clock continuous per INS, so data gaps) at rpi_time_us " + \
+            ", ".join(f"{tt} ({g:.2f} s)" for tt, g in long_gaps[:_N_LOGGED_LINES])  # fmt: skip
+    log.append(msg)
+    have = src >= 0
+    vals = {}
+    for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c"):
+        x = np.full(t_full.size, np.nan)
+        x[have] = cols[name][src[have]]
+        vals[name] = x
+    return t_full, vals, have
+
+
+def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply_elevation_limit: bool,
+              despike_window_s: float, despike_n_mad: float, counts: dict[str, int], log: list[str]) -> np.ndarray:
+    """Missing, range (RM Young 81000) and spike flags of the sonic; flagged samples set to NaN in ``vals``.
+
+    Parameters
+    ----------
+    vals : dict of numpy.ndarray
+        ``u_ms``, ``v_ms``, ``w_ms`` [m s-1], ``t_sonic_c`` [degC]; modified in place.
+    have : numpy.ndarray
+        Logged (not inserted) samples.
+    fs_hz : float
+        Nominal rate [Hz].
+    apply_elevation_limit : bool
+        Also flag elevation angles beyond +/-60 deg.
+    despike_window_s, despike_n_mad : float
+        Moving-MAD window [s] and threshold [scaled MAD].
+    counts, log
+        Receive ``n_out_of_range``, ``n_missing_values``, ``n_spikes``, ``n_flagged`` and
+        the ``qc:`` line.
+
+    Returns
+    -------
+    numpy.ndarray
+        int8 QC bitmask (:mod:`dronewind.core.qc`).
+    """
+    n = have.size
+    qc = np.zeros(n, dtype=np.int8)
+    missing = ~(np.isfinite(vals["u_ms"]) & np.isfinite(vals["v_ms"])
+                & np.isfinite(vals["w_ms"]) & np.isfinite(vals["t_sonic_c"]))  # fmt: skip
+    qc[missing] |= QC_MISSING
+    n_nan_values = int((missing & have).sum())
+    lim = INSTRUMENT_LIMITS["rmyoung_81000"]
+    with np.errstate(invalid="ignore"):
+        speed = np.sqrt(vals["u_ms"] ** 2 + vals["v_ms"] ** 2 + vals["w_ms"] ** 2)
+        out = range_mask(speed, *lim["speed_ms"]) | range_mask(vals["t_sonic_c"],
+                                                               *lim["t_sonic_c"])  # fmt: skip
+        if apply_elevation_limit:
+            elev = np.rad2deg(np.arctan2(vals["w_ms"], np.hypot(vals["u_ms"], vals["v_ms"])))
+            out |= range_mask(elev, *lim["elevation_deg"])
+    qc[out] |= QC_OUT_OF_RANGE
+    spikes = np.zeros(n, dtype=bool)
+    for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c"):
+        x = np.where(qc == 0, vals[name], np.nan)
+        spikes |= despike_moving_mad(x, fs_hz, despike_window_s, despike_n_mad)
+    qc[spikes] |= QC_SPIKE
+    flagged = qc != 0
+    for name in vals:
+        vals[name] = np.where(flagged, np.nan, vals[name])
+    counts["n_out_of_range"] = int(out.sum())
+    counts["n_missing_values"] = n_nan_values
+    counts["n_spikes"] = int(spikes.sum())
+    counts["n_flagged"] = int(flagged.sum())
+    log.append(
+        f"qc: {int(out.sum())} samples out of range (RM Young 81000: |V| <= 40 m/s, "
+        f"-50..50 degC), {n_nan_values} NaN values, {int(spikes.sum())} spikes (moving MAD, "
+        f"{despike_window_s:g} s, {despike_n_mad:g} scaled MAD); {int(flagged.sum())} of "
+        f"{n} samples flagged and set to NaN"
+    )
+    return qc
+
+
+def _count_extrapolated(t_full: np.ndarray, fit: ClockFit, counts: dict[str, int], log: list[str]) -> None:
+    """Count the sonic samples outside the span of the clock fit (their UTC is extrapolated)."""
+    outside = (t_full < fit.rpi_first_us) | (t_full > fit.rpi_last_us)
+    counts["n_time_extrapolated"] = int(outside.sum())
+    if outside.any():
+        log.append(f"clock_fit: {int(outside.sum())} sonic samples outside the INS time span, "
+                   "UTC extrapolated from the fit")  # fmt: skip
+
+
+def _sonic_dataset(vals: dict[str, np.ndarray], qc: np.ndarray, t_full: np.ndarray, time: np.ndarray) -> xr.Dataset:
+    """The payload sonic L1 variables on ``time`` (see :func:`payload_sonic_l1`, Returns)."""
+    return xr.Dataset(
+        {
+            "u_sensor_ms": ("time", vals["u_ms"], variable_attrs(
+                "m s-1", long_name="air velocity along sensor x axis (sensor frame, as logged)")),
+            "v_sensor_ms": ("time", vals["v_ms"], variable_attrs(
+                "m s-1", long_name="air velocity along sensor y axis (sensor frame, as logged)")),
+            "w_sensor_ms": ("time", vals["w_ms"], variable_attrs(
+                "m s-1", long_name="air velocity along sensor z axis (sensor frame, as logged)")),
+            "t_sonic_k": ("time", vals["t_sonic_c"] + ZERO_CELSIUS_K, variable_attrs(
+                "K", "virtual_temperature", comment="sonic temperature (approximately the "
+                "virtual temperature)", units_metadata="temperature: on_scale")),
+            "rpi_time_us": ("time", t_full.astype(np.int64), variable_attrs(
+                "us", long_name="logger (Raspberry Pi) clock time stamp; inserted missing "
+                "samples are interpolated")),
+            "qc_sonic": ("time", qc, qc_flag_attrs("payload sonic quality control bitmask")),
+        },
+        coords={"time": ("time", time, {"long_name": "time (UTC, from the logger clock "
+                                                    "through the INS clock fit)"})},  # fmt: skip
+    )
+
+
 def payload_sonic_l1(
-    sonic_path: str | os.PathLike[str],
-    ins_path: str | os.PathLike[str],
-    min_stable_s: float = 10.0,
-    clock_jump_tol_s: float = 1.0,
-    relation_jump_tol_s: float = 0.1,
-    max_corrupt_fraction: float = 0.05,
-    despike_window_s: float = 10.0,
-    despike_n_mad: float = 7.0,
-    apply_elevation_limit: bool = False,
-    max_gap_s: float = 60.0,
-    ins_table: _InsTable | None = None,
+    sonic_path: str | os.PathLike[str], ins_path: str | os.PathLike[str], min_stable_s: float = 10.0,
+    clock_jump_tol_s: float = 1.0, relation_jump_tol_s: float = 0.1, max_corrupt_fraction: float = 0.05,
+    despike_window_s: float = 10.0, despike_n_mad: float = 7.0, apply_elevation_limit: bool = False,
+    max_gap_s: float = 60.0, ins_table: InsTable | None = None,
 ) -> xr.Dataset:
     """Build the L1 payload sonic dataset: logger clock to UTC, range/spike/missing QC.
 
@@ -922,7 +1154,7 @@ def payload_sonic_l1(
     max_gap_s : float, optional
         Longest forward step of the sonic's logger time accepted as a data gap [s]; a
         longer one raises :class:`ClockJumpError` (default 60 s).
-    ins_table : optional
+    ins_table : InsTable, optional
         Output of :func:`load_ins_table` for ``ins_path`` (not parsed again).
 
     Returns
@@ -955,97 +1187,15 @@ def payload_sonic_l1(
     ins = _fresh(ins_table) if ins_table is not None else _load_ins(
         ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
     cols, counts, log = read_sonic_csv(sonic_path, max_corrupt_fraction, clock_jump_tol_s)
-    t = cols["rpi_time_us"]
-    before = t < ins.rpi_stable_us
-    n_before = int(before.sum())
-    if n_before == t.size:
-        raise InputError(sonic_path, "all sonic rows precede the INS's stable valid GNSS time")
-    cols = {k: v[~before] for k, v in cols.items()}
-    counts["n_before_stable_time"] = n_before
-    log.append(f"gnss_time: {n_before} sonic rows before the INS's stable GNSS time discarded")
-    steps = np.diff(cols["rpi_time_us"])
-    if steps.size and steps.max() > max_gap_s * _US:
-        i = int(np.argmax(steps))
-        raise ClockJumpError(
-            f"{sonic_path}", f"rpi_time_us steps forward by {steps[i] / _US:.1f} s "
-            f"(> max_gap_s = {max_gap_s:g} s) after rpi_time_us={int(cols['rpi_time_us'][i])}: "
-            "not a plausible data gap; clock jump or corrupt time stamps",
-        )
-    t_full, src, n_missing, long_gaps = _insert_missing(cols["rpi_time_us"])
-    counts["n_missing"] = n_missing
-    counts["n_gaps_over_1s"] = len(long_gaps)
-    msg = f"gaps: {n_missing} missing samples inserted as NaN"
-    if long_gaps:
-        msg += "; gaps > 1 s (logger clock continuous per INS, so data gaps) at rpi_time_us " + \
-            ", ".join(f"{tt} ({g:.2f} s)" for tt, g in long_gaps[:_N_LOGGED_LINES])  # fmt: skip
-    log.append(msg)
-    have = src >= 0
-    vals = {}
-    for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c"):
-        x = np.full(t_full.size, np.nan)
-        x[have] = cols[name][src[have]]
-        vals[name] = x
-    qc = np.zeros(t_full.size, dtype=np.int8)
-    missing = ~(np.isfinite(vals["u_ms"]) & np.isfinite(vals["v_ms"])
-                & np.isfinite(vals["w_ms"]) & np.isfinite(vals["t_sonic_c"]))  # fmt: skip
-    qc[missing] |= QC_MISSING
-    n_nan_values = int((missing & have).sum())
-    lim = INSTRUMENT_LIMITS["rmyoung_81000"]
-    with np.errstate(invalid="ignore"):
-        speed = np.sqrt(vals["u_ms"] ** 2 + vals["v_ms"] ** 2 + vals["w_ms"] ** 2)
-        out = range_mask(speed, *lim["speed_ms"]) | range_mask(vals["t_sonic_c"],
-                                                               *lim["t_sonic_c"])  # fmt: skip
-        if apply_elevation_limit:
-            elev = np.rad2deg(np.arctan2(vals["w_ms"], np.hypot(vals["u_ms"], vals["v_ms"])))
-            out |= range_mask(elev, *lim["elevation_deg"])
-    qc[out] |= QC_OUT_OF_RANGE
+    cols = _after_stable_time(cols, ins.rpi_stable_us, sonic_path, counts, log)
+    t_full, vals, have = _sonic_on_full_clock(cols, sonic_path, max_gap_s, counts, log)
     fs_hz = _nominal_rate(t_full)
-    spikes = np.zeros(t_full.size, dtype=bool)
-    for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c"):
-        x = np.where(qc == 0, vals[name], np.nan)
-        spikes |= despike_moving_mad(x, fs_hz, despike_window_s, despike_n_mad)
-    qc[spikes] |= QC_SPIKE
-    flagged = qc != 0
-    for name in vals:
-        vals[name] = np.where(flagged, np.nan, vals[name])
-    counts["n_out_of_range"] = int(out.sum())
-    counts["n_missing_values"] = n_nan_values
-    counts["n_spikes"] = int(spikes.sum())
-    counts["n_flagged"] = int(flagged.sum())
-    log.append(
-        f"qc: {int(out.sum())} samples out of range (RM Young 81000: |V| <= 40 m/s, "
-        f"-50..50 degC), {n_nan_values} NaN values, {int(spikes.sum())} spikes (moving MAD, "
-        f"{despike_window_s:g} s, {despike_n_mad:g} scaled MAD); {int(flagged.sum())} of "
-        f"{t_full.size} samples flagged and set to NaN"
-    )
-    fit = ins.fit
-    outside = (t_full < fit.rpi_first_us) | (t_full > fit.rpi_last_us)
-    counts["n_time_extrapolated"] = int(outside.sum())
-    if outside.any():
-        log.append(f"clock_fit: {int(outside.sum())} sonic samples outside the INS time span, "
-                   "UTC extrapolated from the fit")  # fmt: skip
+    qc = _sonic_qc(vals, have, fs_hz, apply_elevation_limit, despike_window_s, despike_n_mad, counts, log)
+    _count_extrapolated(t_full, ins.fit, counts, log)
     log = [*log, *(f"ins {line}" for line in ins.log)]
     counts["n_ins_before_stable_time"] = ins.counts["n_before_stable_time"]
-    time = fit.to_utc(t_full, resolution_ns=1000)  # 1 us: far below the fit's scatter
-    ds = xr.Dataset(
-        {
-            "u_sensor_ms": ("time", vals["u_ms"], _var_attrs(
-                "m s-1", long_name="air velocity along sensor x axis (sensor frame, as logged)")),
-            "v_sensor_ms": ("time", vals["v_ms"], _var_attrs(
-                "m s-1", long_name="air velocity along sensor y axis (sensor frame, as logged)")),
-            "w_sensor_ms": ("time", vals["w_ms"], _var_attrs(
-                "m s-1", long_name="air velocity along sensor z axis (sensor frame, as logged)")),
-            "t_sonic_k": ("time", vals["t_sonic_c"] + 273.15, _var_attrs(
-                "K", "virtual_temperature", comment="sonic temperature (approximately the "
-                "virtual temperature)", units_metadata="temperature: on_scale")),
-            "rpi_time_us": ("time", t_full.astype(np.int64), _var_attrs(
-                "us", long_name="logger (Raspberry Pi) clock time stamp; inserted missing "
-                "samples are interpolated")),
-            "qc_sonic": ("time", qc, _qc_attrs("payload sonic quality control bitmask")),
-        },
-        coords={"time": ("time", time, {"long_name": "time (UTC, from the logger clock "
-                                                    "through the INS clock fit)"})},  # fmt: skip
-    )
-    _finish_attrs(ds, counts, log, fit, fs_hz, str(sonic_path), t_full)
+    time = ins.fit.to_utc(t_full, resolution_ns=1000)  # 1 us: far below the fit's scatter
+    ds = _sonic_dataset(vals, qc, t_full, time)
+    _finish_attrs(ds, counts, log, ins.fit, fs_hz, str(sonic_path), t_full)
     ds.attrs["ins_source_file"] = str(ins_path)
     return ds

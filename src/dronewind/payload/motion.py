@@ -284,20 +284,10 @@ def ned_to_enu(v_ned: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def motion_correct(
-    u_sensor_ms: np.ndarray,
-    v_sensor_ms: np.ndarray,
-    w_sensor_ms: np.ndarray,
-    roll_deg: np.ndarray,
-    pitch_deg: np.ndarray,
-    yaw_deg: np.ndarray,
-    vel_n_ms: np.ndarray,
-    vel_e_ms: np.ndarray,
-    vel_d_ms: np.ndarray,
-    mount: str,
-    lever_arm_m: Sequence[float] | None = None,
-    body_rates_rad_s: np.ndarray | None = None,
-    time_s: np.ndarray | None = None,
-    misalignment_deg: Sequence[float] | None = None,
+    u_sensor_ms: np.ndarray, v_sensor_ms: np.ndarray, w_sensor_ms: np.ndarray, roll_deg: np.ndarray,
+    pitch_deg: np.ndarray, yaw_deg: np.ndarray, vel_n_ms: np.ndarray, vel_e_ms: np.ndarray, vel_d_ms: np.ndarray,
+    mount: str, lever_arm_m: Sequence[float] | None = None, body_rates_rad_s: np.ndarray | None = None,
+    time_s: np.ndarray | None = None, misalignment_deg: Sequence[float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Earth-frame wind (east, north, up) from the payload sonic and the INS.
 
@@ -346,14 +336,8 @@ def motion_correct(
     ----------
     Seed 000, Sect. 3.1, Eqs. 1-2 and Appendix A.
     """
-    arrays = [np.asarray(a, dtype=float) for a in (
-        u_sensor_ms, v_sensor_ms, w_sensor_ms, roll_deg, pitch_deg, yaw_deg, vel_n_ms, vel_e_ms, vel_d_ms)]
-    n = arrays[0].shape
-    names = ("u_sensor_ms", "v_sensor_ms", "w_sensor_ms", "roll_deg", "pitch_deg", "yaw_deg",
-             "vel_n_ms", "vel_e_ms", "vel_d_ms")
-    for name, a in zip(names, arrays):
-        if a.shape != n or a.ndim != 1:
-            raise InputError(name, f"expected a 1-D array of shape {n}, got {a.shape}")
+    arrays = _series_1d(u_sensor_ms, v_sensor_ms, w_sensor_ms, roll_deg, pitch_deg, yaw_deg,
+                        vel_n_ms, vel_e_ms, vel_d_ms)
     m = sensor_to_body_matrix(mount, misalignment_deg)
     v_sensor = np.stack(arrays[:3], axis=-1)
     v_body = v_sensor @ m.T
@@ -361,12 +345,40 @@ def motion_correct(
     v_ins = np.stack(arrays[6:9], axis=-1)
     wind_ned = np.einsum("nij,nj->ni", rot, v_body) + v_ins
     if lever_arm_m is not None:
-        if body_rates_rad_s is None:
-            if time_s is None:
-                raise InputError("lever_arm_m", "a lever arm needs body_rates_rad_s or time_s to derive them")
-            body_rates_rad_s = body_rates_from_euler(arrays[3], arrays[4], arrays[5], time_s)
-        rates = np.asarray(body_rates_rad_s, dtype=float)
-        if rates.shape != n + (3,):
-            raise InputError("body_rates_rad_s", f"expected shape {n + (3,)}, got {rates.shape}")
+        rates = _body_rates(arrays[3], arrays[4], arrays[5], body_rates_rad_s, time_s)
         wind_ned -= lever_arm_velocity_ned(rot, rates, lever_arm_m)
     return ned_to_enu(wind_ned)
+
+
+_SERIES = ("u_sensor_ms", "v_sensor_ms", "w_sensor_ms", "roll_deg", "pitch_deg", "yaw_deg",
+           "vel_n_ms", "vel_e_ms", "vel_d_ms")
+
+
+def _series_1d(*series: np.ndarray) -> list[np.ndarray]:
+    """The nine input series of :func:`motion_correct` as float arrays, checked to be 1-D of one shape."""
+    arrays = [np.asarray(a, dtype=float) for a in series]
+    n = arrays[0].shape
+    for name, a in zip(_SERIES, arrays, strict=True):
+        if a.shape != n or a.ndim != 1:
+            raise InputError(name, f"expected a 1-D array of shape {n}, got {a.shape}")
+    return arrays
+
+
+def _body_rates(roll_deg: np.ndarray, pitch_deg: np.ndarray, yaw_deg: np.ndarray,
+                body_rates_rad_s: np.ndarray | None, time_s: np.ndarray | None) -> np.ndarray:
+    """Body rates for the lever-arm term [rad s-1]: as given, or derived from the Euler angles.
+
+    Raises
+    ------
+    InputError
+        Neither rates nor times given, or rates of the wrong shape (n, 3).
+    """
+    n = roll_deg.shape
+    if body_rates_rad_s is None:
+        if time_s is None:
+            raise InputError("lever_arm_m", "a lever arm needs body_rates_rad_s or time_s to derive them")
+        body_rates_rad_s = body_rates_from_euler(roll_deg, pitch_deg, yaw_deg, time_s)
+    rates = np.asarray(body_rates_rad_s, dtype=float)
+    if rates.shape != n + (3,):
+        raise InputError("body_rates_rad_s", f"expected shape {n + (3,)}, got {rates.shape}")
+    return rates

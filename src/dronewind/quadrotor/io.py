@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -176,12 +177,7 @@ def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
         sampling rate below 1 Hz.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "quadrotor log not found")
-    try:
-        df = pd.read_csv(path, dtype=str, keep_default_na=False)
-    except (pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
-        raise InputError(path, f"not a readable CSV file ({exc})") from exc
+    df = _read_csv_text(path, "quadrotor log not found")
     missing = [c for c in QUADROTOR_COLUMNS if c not in df.columns]
     if missing:
         raise InputError(path, f"missing column(s) {missing}; expected header "
@@ -243,11 +239,113 @@ def quaternion_to_euler_deg(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return np.degrees(roll), np.degrees(pitch), np.degrees(yaw)
 
 
-def _topic(ulog, name: str):
+def _topic(ulog: Any, name: str) -> dict[str, np.ndarray] | None:
+    """Fields of the first instance of a ULog topic, or None."""
     for d in ulog.data_list:
         if d.name == name and d.multi_id == 0:
             return d.data
     return None
+
+
+def _open_ulog(path: Path) -> Any:
+    """Parse a ULog file with :mod:`pyulog` (errors name the file)."""
+    from pyulog import ULog  # imported here: only needed for .ulg files
+
+    if not path.is_file():
+        raise InputError(path, "ULog file not found")
+    try:
+        return ULog(str(path))
+    except Exception as exc:  # pyulog raises plain exceptions on corrupt files
+        raise InputError(path, f"not a readable PX4 ULog file ({exc})") from exc
+
+
+def _ulog_attitude(ulog: Any, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Boot-time stamps [us] and roll, pitch, yaw [degree] of ``vehicle_attitude``."""
+    att = _topic(ulog, "vehicle_attitude")
+    if att is None or len(att["timestamp"]) == 0:
+        raise InputError(f"{path} [vehicle_attitude]",
+                         "the log holds no vehicle_attitude topic; attitude is needed to "
+                         "measure wind from the quadrotor's tilt (seed 001, Sect. 4.2)")
+    t_us = att["timestamp"].astype(np.int64)
+    q = np.column_stack([att[f"q[{i}]"] for i in range(4)])
+    roll, pitch, yaw = quaternion_to_euler_deg(q)
+    return t_us, roll, pitch, yaw
+
+
+def _ulog_utc_offset_us(ulog: Any, utc_start: str | None, log: list[str]) -> tuple[int, int]:
+    """UTC minus boot time [us] (median over GNSS fixes) and whether it is a real UTC (1/0)."""
+    for name in ("vehicle_gps_position", "sensor_gps"):
+        gps = _topic(ulog, name)
+        if gps is not None and "time_utc_usec" in gps:
+            good = gps["time_utc_usec"] > 0
+            if good.any():
+                offset = int(np.median(gps["time_utc_usec"][good].astype(np.int64)
+                                       - gps["timestamp"][good].astype(np.int64)))
+                log.append(f"utc: from {name}.time_utc_usec ({int(good.sum())} fixes)")
+                return offset, 1
+    if utc_start is not None:
+        origin = parse_time_utc([utc_start], "utc_start")[0]
+        log.append(f"utc: no GNSS time in log; origin set to {utc_start}")
+        return int(origin.astype("datetime64[us]").astype(np.int64)), 1
+    log.append("utc: no GNSS time in log and no utc_start; times are boot time "
+               "counted from 1970-01-01 (utc_valid = 0)")
+    return 0, 0
+
+
+def _interp_at(t_us: np.ndarray, src_t: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Linear interpolation of a topic field to the attitude times (NaN outside its span)."""
+    src_t = src_t.astype(np.int64)
+    return np.interp(t_us, src_t, values.astype(float), left=np.nan, right=np.nan)
+
+
+def _ulog_track(ulog: Any, t_us: np.ndarray) -> tuple[dict[str, np.ndarray], str]:
+    """GNSS/EKF velocity (NED) and position at the attitude times, and where they came from.
+
+    Local NED position is converted to latitude/longitude with a local flat-earth
+    approximation about (``ref_lat``, ``ref_lon``) (error < 1 mm over a few hundred
+    metres); altitude is ``ref_alt - z``.
+    """
+    nan = np.full(t_us.size, np.nan)
+    tr = {k: nan.copy() for k in ("vel_n_ms", "vel_e_ms", "vel_d_ms", "lat_deg", "lon_deg", "alt_m")}
+    source = "none"
+    lpos = _topic(ulog, "vehicle_local_position")
+    gpos = _topic(ulog, "vehicle_global_position")
+    if lpos is not None and len(lpos["timestamp"]):
+        for key, field in (("vel_n_ms", "vx"), ("vel_e_ms", "vy"), ("vel_d_ms", "vz")):
+            tr[key] = _interp_at(t_us, lpos["timestamp"], lpos[field])
+        ref_lat = float(np.median(lpos["ref_lat"]))
+        ref_lon = float(np.median(lpos["ref_lon"]))
+        ref_alt = float(np.median(lpos["ref_alt"]))
+        x_n, y_e, z_d = (_interp_at(t_us, lpos["timestamp"], lpos[k]) for k in ("x", "y", "z"))
+        tr["lat_deg"] = ref_lat + np.degrees(x_n / _EARTH_RADIUS_M)
+        tr["lon_deg"] = ref_lon + np.degrees(y_e / (_EARTH_RADIUS_M * np.cos(np.radians(ref_lat))))
+        tr["alt_m"] = ref_alt - z_d
+        source = "vehicle_local_position"
+    if gpos is not None and len(gpos["timestamp"]):
+        for key, field in (("lat_deg", "lat"), ("lon_deg", "lon"), ("alt_m", "alt")):
+            tr[key] = _interp_at(t_us, gpos["timestamp"], gpos[field])
+        source = "vehicle_global_position" + ("+local velocity" if lpos is not None else "")
+        if lpos is None and "vel_n" in gpos:
+            for key, field in (("vel_n_ms", "vel_n"), ("vel_e_ms", "vel_e"), ("vel_d_ms", "vel_d")):
+                tr[key] = _interp_at(t_us, gpos["timestamp"], gpos[field])
+    lpos_global = lpos is not None and "xy_global" in lpos and bool(np.any(lpos["xy_global"]))
+    if gpos is None and not lpos_global:
+        source = _ulog_receiver_position(ulog, t_us, tr, source)
+    return tr, source
+
+
+def _ulog_receiver_position(ulog: Any, t_us: np.ndarray, track: dict[str, np.ndarray], source: str) -> str:
+    """Position from the raw GNSS receiver (lat/lon in 1e-7 degree, alt in mm above MSL), if it
+    has a fix: for a local frame without a global reference. Updates ``track``; returns the source."""
+    for name in ("vehicle_gps_position", "sensor_gps"):
+        gps = _topic(ulog, name)
+        if gps is not None and "lat" in gps and np.any(gps["lat"] != 0):
+            fix = gps["lat"] != 0
+            track["lat_deg"] = _interp_at(t_us, gps["timestamp"][fix], gps["lat"][fix] * 1e-7)
+            track["lon_deg"] = _interp_at(t_us, gps["timestamp"][fix], gps["lon"][fix] * 1e-7)
+            track["alt_m"] = _interp_at(t_us, gps["timestamp"][fix], gps["alt"][fix] * 1e-3)
+            return f"{name} position + {source} velocity"
+    return source
 
 
 def read_quadrotor_ulog(path: str | Path, utc_start: str | None = None) -> xr.Dataset:
@@ -277,101 +375,22 @@ def read_quadrotor_ulog(path: str | Path, utc_start: str | None = None) -> xr.Da
 
     Notes
     -----
-    Local NED position is converted to latitude/longitude with a local flat-earth
-    approximation about (``ref_lat``, ``ref_lon``) (error < 1 mm over a few hundred
-    metres); altitude is ``ref_alt - z``.
+    UTC is the median offset between the GNSS receiver's ``time_utc_usec`` and boot
+    time. Position: ``vehicle_global_position`` if logged, else ``vehicle_local_position``
+    about its reference point, else the raw receiver (see :func:`_ulog_track`).
     """
-    from pyulog import ULog  # imported here: only needed for .ulg files
-
     path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "ULog file not found")
-    try:
-        ulog = ULog(str(path))
-    except Exception as exc:  # pyulog raises plain exceptions on corrupt files
-        raise InputError(path, f"not a readable PX4 ULog file ({exc})") from exc
+    ulog = _open_ulog(path)
     log = [f"read: ULog {path.name} ({len(ulog.data_list)} topics)"]
-    att = _topic(ulog, "vehicle_attitude")
-    if att is None or len(att["timestamp"]) == 0:
-        raise InputError(f"{path} [vehicle_attitude]",
-                         "the log holds no vehicle_attitude topic; attitude is needed to "
-                         "measure wind from the quadrotor's tilt (seed 001, Sect. 4.2)")
-    t_us = att["timestamp"].astype(np.int64)
-    q = np.column_stack([att[f"q[{i}]"] for i in range(4)])
-    roll, pitch, yaw = quaternion_to_euler_deg(q)
-
-    # UTC: median offset between GNSS UTC and boot time.
-    utc_offset_us = None
-    for name in ("vehicle_gps_position", "sensor_gps"):
-        gps = _topic(ulog, name)
-        if gps is not None and "time_utc_usec" in gps:
-            good = gps["time_utc_usec"] > 0
-            if good.any():
-                utc_offset_us = int(np.median(gps["time_utc_usec"][good].astype(np.int64)
-                                              - gps["timestamp"][good].astype(np.int64)))
-                log.append(f"utc: from {name}.time_utc_usec ({int(good.sum())} fixes)")
-                break
-    utc_valid = 1
-    if utc_offset_us is None:
-        if utc_start is not None:
-            origin = parse_time_utc([utc_start], "utc_start")[0]
-            utc_offset_us = int(origin.astype("datetime64[us]").astype(np.int64))
-            log.append(f"utc: no GNSS time in log; origin set to {utc_start}")
-        else:
-            utc_offset_us = 0
-            utc_valid = 0
-            log.append("utc: no GNSS time in log and no utc_start; times are boot time "
-                       "counted from 1970-01-01 (utc_valid = 0)")
-
-    def interp(src_t, values):
-        src_t = src_t.astype(np.int64)
-        return np.interp(t_us, src_t, values.astype(float), left=np.nan, right=np.nan)
-
-    nan = np.full(t_us.size, np.nan)
-    vn, ve, vd, lat, lon, alt = nan.copy(), nan.copy(), nan.copy(), nan.copy(), nan.copy(), nan.copy()
-    source = "none"
-    lpos = _topic(ulog, "vehicle_local_position")
-    gpos = _topic(ulog, "vehicle_global_position")
-    if lpos is not None and len(lpos["timestamp"]):
-        vn, ve, vd = (interp(lpos["timestamp"], lpos[k]) for k in ("vx", "vy", "vz"))
-        ref_lat = float(np.median(lpos["ref_lat"]))
-        ref_lon = float(np.median(lpos["ref_lon"]))
-        ref_alt = float(np.median(lpos["ref_alt"]))
-        x_n, y_e, z_d = (interp(lpos["timestamp"], lpos[k]) for k in ("x", "y", "z"))
-        lat = ref_lat + np.degrees(x_n / _EARTH_RADIUS_M)
-        lon = ref_lon + np.degrees(y_e / (_EARTH_RADIUS_M * np.cos(np.radians(ref_lat))))
-        alt = ref_alt - z_d
-        source = "vehicle_local_position"
-    if gpos is not None and len(gpos["timestamp"]):
-        lat = interp(gpos["timestamp"], gpos["lat"])
-        lon = interp(gpos["timestamp"], gpos["lon"])
-        alt = interp(gpos["timestamp"], gpos["alt"])
-        source = "vehicle_global_position" + ("+local velocity" if lpos is not None else "")
-        if lpos is None and "vel_n" in gpos:
-            vn, ve, vd = (interp(gpos["timestamp"], gpos[k]) for k in ("vel_n", "vel_e", "vel_d"))
-    lpos_global = lpos is not None and "xy_global" in lpos and bool(np.any(lpos["xy_global"]))
-    if gpos is None and not lpos_global:
-        # Local frame without a global reference: position from the raw GNSS receiver
-        # (lat/lon in 1e-7 degree, alt in mm above MSL), if it has a fix.
-        for name in ("vehicle_gps_position", "sensor_gps"):
-            gps = _topic(ulog, name)
-            if gps is not None and "lat" in gps and np.any(gps["lat"] != 0):
-                fix = gps["lat"] != 0
-                lat = interp(gps["timestamp"][fix], gps["lat"][fix] * 1e-7)
-                lon = interp(gps["timestamp"][fix], gps["lon"][fix] * 1e-7)
-                alt = interp(gps["timestamp"][fix], gps["alt"][fix] * 1e-3)
-                source = f"{name} position + {source} velocity"
-                break
-    n_pos_missing = int(np.sum(~np.isfinite(lat) | ~np.isfinite(vn)))
+    t_us, roll, pitch, yaw = _ulog_attitude(ulog, path)
+    utc_offset_us, utc_valid = _ulog_utc_offset_us(ulog, utc_start, log)
+    track, source = _ulog_track(ulog, t_us)
+    n_pos_missing = int(np.sum(~np.isfinite(track["lat_deg"]) | ~np.isfinite(track["vel_n_ms"])))
     log.append(f"position: from {source}; {n_pos_missing} attitude samples without "
                "position or velocity (NaN)")
     time = (t_us + utc_offset_us).astype("datetime64[us]").astype("datetime64[ns]")
-    ds = xr.Dataset(
-        {"roll_deg": ("time", roll), "pitch_deg": ("time", pitch), "yaw_deg": ("time", yaw),
-         "vel_n_ms": ("time", vn), "vel_e_ms": ("time", ve), "vel_d_ms": ("time", vd),
-         "lat_deg": ("time", lat), "lon_deg": ("time", lon), "alt_m": ("time", alt)},
-        coords={"time": time},
-    )
+    data = {"roll_deg": roll, "pitch_deg": pitch, "yaw_deg": yaw, **track}
+    ds = xr.Dataset({k: ("time", data[k]) for k in QUADROTOR_COLUMNS[1:]}, coords={"time": time})
     ds = _sort_dedupe(ds, log)
     ds.attrs.update({"utc_valid": utc_valid, "utc_offset_us": utc_offset_us,
                      "position_source": source, "n_position_missing": n_pos_missing,
@@ -409,6 +428,81 @@ def read_quadrotor(path: str | Path) -> xr.Dataset:
 _WIDE = re.compile(r"^(wind_speed_ms|wind_from_deg)_(\d+(?:\.\d+)?)m?$")
 
 
+def _read_csv_text(path: Path, not_found: str) -> pd.DataFrame:
+    """All cells of a CSV file as text (errors name the file)."""
+    if not path.is_file():
+        raise InputError(path, not_found)
+    try:
+        return pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
+        raise InputError(path, f"not a readable CSV file ({exc})") from exc
+
+
+def _reference_long_form(df: pd.DataFrame, time: np.ndarray) -> pd.DataFrame:
+    """Long-form reference rows: ``time``, ``height_m``, ``wind_speed_ms``, ``wind_from_deg``, ``line``."""
+    return pd.DataFrame({
+        "time": time,
+        "height_m": pd.to_numeric(df["height_m"], errors="coerce"),
+        "wind_speed_ms": pd.to_numeric(df["wind_speed_ms"], errors="coerce"),
+        "wind_from_deg": pd.to_numeric(df["wind_from_deg"], errors="coerce"),
+        "line": np.arange(2, len(df) + 2),
+    })
+
+
+def _reference_wide_to_long(df: pd.DataFrame, time: np.ndarray, path: Path) -> pd.DataFrame:
+    """Wide-form reference (``wind_speed_ms_<h>m``, ``wind_from_deg_<h>m``) as long-form rows."""
+    cols = {c: m for c in df.columns if (m := _WIDE.match(c))}
+    heights = sorted({float(m.group(2)) for m in cols.values()})
+    if not heights:
+        raise InputError(path, "neither long form (time_utc,height_m,wind_speed_ms,"
+                               "wind_from_deg) nor wide form (wind_speed_ms_<h>m, "
+                               "wind_from_deg_<h>m columns)")
+    parts = []
+    for h in heights:
+        sp = [c for c, m in cols.items() if m.group(1) == "wind_speed_ms" and float(m.group(2)) == h]
+        di = [c for c, m in cols.items() if m.group(1) == "wind_from_deg" and float(m.group(2)) == h]
+        if not sp:
+            raise InputError(path, f"wide form: no wind_speed_ms column for height {h:g} m")
+        parts.append(pd.DataFrame({
+            "time": time, "height_m": h,
+            "wind_speed_ms": pd.to_numeric(df[sp[0]], errors="coerce"),
+            "wind_from_deg": pd.to_numeric(df[di[0]], errors="coerce") if di else np.nan,
+            "line": np.arange(2, len(df) + 2),
+        }))
+    return pd.concat(parts, ignore_index=True)
+
+
+def _check_reference_values(long: pd.DataFrame, path: Path) -> None:
+    """Raise InputError naming the first line with a bad height, speed or direction."""
+    bad_h = ~np.isfinite(long["height_m"]) | (long["height_m"] < 0)
+    if bad_h.any():
+        line = int(long.loc[bad_h, "line"].iloc[0])
+        raise InputError(f"{path}:{line}", "height_m must be a number >= 0 (m above ground)")
+    sp = long["wind_speed_ms"]
+    if (sp < 0).any():
+        line = int(long.loc[sp < 0, "line"].iloc[0])
+        raise InputError(f"{path}:{line}", "wind_speed_ms must be >= 0")
+    di = long["wind_from_deg"]
+    if ((di < 0) | (di > 360)).any():
+        line = int(long.loc[(di < 0) | (di > 360), "line"].iloc[0])
+        raise InputError(f"{path}:{line}", "wind_from_deg must be within [0, 360]")
+
+
+def _reference_grid(long: pd.DataFrame) -> xr.Dataset:
+    """Long-form rows on a (time, height) grid with CF attributes."""
+    ds = long.drop(columns="line").set_index(["time", "height_m"]).to_xarray()
+    ds = ds.rename({"height_m": "height"}).sortby("time").sortby("height")
+    ds = ds.assign_coords(height_m=("height", ds["height"].to_numpy().astype(float)))
+    ds = ds.drop_vars("height")
+    ds["wind_speed_ms"].attrs.update({"units": "m s-1", "standard_name": "wind_speed"})
+    ds["wind_from_deg"].attrs.update({"units": "degree",
+                                      "standard_name": "wind_from_direction"})
+    ds["height_m"].attrs.update({"units": "m", "standard_name": "height",
+                                 "long_name": "height above ground"})
+    ds["time"].attrs.update({"standard_name": "time", "long_name": "time (UTC)"})
+    return ds
+
+
 def read_tower_reference(path: str | Path) -> xr.Dataset:
     """Read the tower reference CSV (1 Hz or 1-min means; long or wide form).
 
@@ -434,12 +528,7 @@ def read_tower_reference(path: str | Path) -> xr.Dataset:
         direction outside [0, 360], or no data.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "tower reference not found")
-    try:
-        df = pd.read_csv(path, dtype=str, keep_default_na=False)
-    except (pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
-        raise InputError(path, f"not a readable CSV file ({exc})") from exc
+    df = _read_csv_text(path, "tower reference not found")
     if "time_utc" not in df.columns:
         raise InputError(path, "missing column 'time_utc'")
     if df.empty:
@@ -447,65 +536,18 @@ def read_tower_reference(path: str | Path) -> xr.Dataset:
     log = [f"read: {len(df)} rows from {path.name}"]
     time = parse_time_utc(df["time_utc"], path)
     if {"height_m", "wind_speed_ms", "wind_from_deg"} <= set(df.columns):
-        form = "long"
-        long = pd.DataFrame({
-            "time": time,
-            "height_m": pd.to_numeric(df["height_m"], errors="coerce"),
-            "wind_speed_ms": pd.to_numeric(df["wind_speed_ms"], errors="coerce"),
-            "wind_from_deg": pd.to_numeric(df["wind_from_deg"], errors="coerce"),
-            "line": np.arange(2, len(df) + 2),
-        })
+        form, long = "long", _reference_long_form(df, time)
     else:
-        cols = {c: _WIDE.match(c) for c in df.columns}
-        cols = {c: m for c, m in cols.items() if m}
-        heights = sorted({float(m.group(2)) for m in cols.values()})
-        if not heights:
-            raise InputError(path, "neither long form (time_utc,height_m,wind_speed_ms,"
-                                   "wind_from_deg) nor wide form (wind_speed_ms_<h>m, "
-                                   "wind_from_deg_<h>m columns)")
-        form = "wide"
-        parts = []
-        for h in heights:
-            sp = [c for c, m in cols.items() if m.group(1) == "wind_speed_ms" and float(m.group(2)) == h]
-            di = [c for c, m in cols.items() if m.group(1) == "wind_from_deg" and float(m.group(2)) == h]
-            if not sp:
-                raise InputError(path, f"wide form: no wind_speed_ms column for height {h:g} m")
-            parts.append(pd.DataFrame({
-                "time": time, "height_m": h,
-                "wind_speed_ms": pd.to_numeric(df[sp[0]], errors="coerce"),
-                "wind_from_deg": pd.to_numeric(df[di[0]], errors="coerce") if di else np.nan,
-                "line": np.arange(2, len(df) + 2),
-            }))
-        long = pd.concat(parts, ignore_index=True)
-    bad_h = ~np.isfinite(long["height_m"]) | (long["height_m"] < 0)
-    if bad_h.any():
-        line = int(long.loc[bad_h, "line"].iloc[0])
-        raise InputError(f"{path}:{line}", "height_m must be a number >= 0 (m above ground)")
-    sp = long["wind_speed_ms"]
-    if (sp < 0).any():
-        line = int(long.loc[sp < 0, "line"].iloc[0])
-        raise InputError(f"{path}:{line}", "wind_speed_ms must be >= 0")
-    di = long["wind_from_deg"]
-    if ((di < 0) | (di > 360)).any():
-        line = int(long.loc[(di < 0) | (di > 360), "line"].iloc[0])
-        raise InputError(f"{path}:{line}", "wind_from_deg must be within [0, 360]")
-    n_nonfinite = int((~np.isfinite(sp)).sum() + (~np.isfinite(di)).sum())
+        form, long = "wide", _reference_wide_to_long(df, time, path)
+    _check_reference_values(long, path)
+    n_nonfinite = int((~np.isfinite(long["wind_speed_ms"])).sum() + (~np.isfinite(long["wind_from_deg"])).sum())
     n_dup = int(long.duplicated(["time", "height_m"]).sum())
     long = long.drop_duplicates(["time", "height_m"], keep="first")
     if n_dup:
         log.append(f"dedupe: {n_dup} duplicated (time, height) rows removed (first kept)")
     if n_nonfinite:
         log.append(f"parse: {n_nonfinite} missing or non-numeric values kept as NaN")
-    ds = long.drop(columns="line").set_index(["time", "height_m"]).to_xarray()
-    ds = ds.rename({"height_m": "height"}).sortby("time").sortby("height")
-    ds = ds.assign_coords(height_m=("height", ds["height"].to_numpy().astype(float)))
-    ds = ds.drop_vars("height")
-    ds["wind_speed_ms"].attrs.update({"units": "m s-1", "standard_name": "wind_speed"})
-    ds["wind_from_deg"].attrs.update({"units": "degree",
-                                      "standard_name": "wind_from_direction"})
-    ds["height_m"].attrs.update({"units": "m", "standard_name": "height",
-                                 "long_name": "height above ground"})
-    ds["time"].attrs.update({"standard_name": "time", "long_name": "time (UTC)"})
+    ds = _reference_grid(long)
     t_ns = ds["time"].to_numpy().astype("int64")
     ds.attrs.update({
         "sampling_interval_s": float(np.median(np.diff(t_ns)) / 1e9) if t_ns.size > 1 else float("nan"),

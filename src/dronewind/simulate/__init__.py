@@ -4,8 +4,11 @@ Modules: :mod:`~dronewind.simulate.atmosphere` (turbulent wind and temperature a
 :mod:`~dronewind.simulate.payload` (SAMURAI-S flight: pendulum, INS, sonic, and the mast
 sonics), :mod:`~dronewind.simulate.mast` (CSAT3 measurement model),
 :mod:`~dronewind.simulate.writers` (L0 formats), :mod:`~dronewind.simulate.settings`
-(validation of the ``simulation:`` section). Quadrotor and tunnel simulators live in
-``quadrotor.py`` and ``tunnel.py``.
+(validation of the ``simulation:`` section), :mod:`~dronewind.simulate.quadrotor` and
+:mod:`~dronewind.simulate.tunnel` (SWUF-3D fleet and wind tunnel), with their own forward
+drag physics in :mod:`~dronewind.simulate.airframe` (independent of the chain's inversion)
+and shared noise and lag processes in :mod:`~dronewind.simulate.common`. The simulator
+imports no processing chain: its campaigns reach the chain only as files.
 
 The ``simulation:`` section of a campaign manifest (payload flights and masts)
 ==============================================================================

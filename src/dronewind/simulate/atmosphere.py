@@ -56,16 +56,17 @@ Seed 000: SAMURAI-S (sling-load sonic), Eq. 9 (Obukhov length).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypedDict
 
 import numpy as np
 import xarray as xr
 
+from dronewind.core.constants import GRAVITY_MS2, KARMAN
 from dronewind.errors import InputError
 
 __all__ = [
-    "KAPPA",
-    "GRAVITY_MS2",
     "psi_m",
     "psi_h",
     "friction_velocity",
@@ -83,8 +84,6 @@ __all__ = [
     "synthesize",
 ]
 
-KAPPA = 0.40  # von Karman constant (seed 000, Eq. 9)
-GRAVITY_MS2 = 9.81
 CP_DRY_JKGK = 1004.0
 _COMPONENTS = ("u", "v", "w", "theta")
 #: IEC 61400-1 exponential coherence: decay constant a, b and component length factors
@@ -206,7 +205,7 @@ def friction_velocity(mean_speed_ms: float, z_ref_m: float, roughness_length_m: 
     """
     denom = (np.log(z_ref_m / roughness_length_m) - psi_m(_zeta(z_ref_m, obukhov_length_m))
              + psi_m(_zeta(roughness_length_m, obukhov_length_m)))
-    return float(KAPPA * mean_speed_ms / denom)
+    return float(KARMAN * mean_speed_ms / denom)
 
 
 def mean_speed_profile(z_m: np.ndarray | float, friction_velocity_ms: float,
@@ -238,7 +237,7 @@ def mean_speed_profile(z_m: np.ndarray | float, friction_velocity_ms: float,
     Kaimal and Finnigan (1994), Eq. 1.29.
     """
     z = np.maximum(np.asarray(z_m, dtype=float), 2 * roughness_length_m)
-    return friction_velocity_ms / KAPPA * (
+    return friction_velocity_ms / KARMAN * (
         np.log(z / roughness_length_m) - psi_m(_zeta(z, obukhov_length_m))
         + psi_m(_zeta(roughness_length_m, obukhov_length_m)))
 
@@ -277,8 +276,8 @@ def theta_profile(z_m: np.ndarray | float, z_ref_m: float, theta_ref_k: float,
     Kaimal and Finnigan (1994), Eq. 1.30; seed 000, Eq. 9.
     """
     z = np.maximum(np.asarray(z_m, dtype=float), 0.1)
-    theta_star = friction_velocity_ms**2 * theta_ref_k / (KAPPA * GRAVITY_MS2 * obukhov_length_m)
-    return (theta_ref_k + theta_star / KAPPA * (
+    theta_star = friction_velocity_ms**2 * theta_ref_k / (KARMAN * GRAVITY_MS2 * obukhov_length_m)
+    return (theta_ref_k + theta_star / KARMAN * (
         np.log(z / z_ref_m) - psi_h(_zeta(z, obukhov_length_m)) + psi_h(_zeta(z_ref_m, obukhov_length_m)))
         - GRAVITY_MS2 / CP_DRY_JKGK * (z - z_ref_m))
 
@@ -334,7 +333,7 @@ def turbulence_sigmas(friction_velocity_ms: float, z_m: float, obukhov_length_m:
     else:
         su, sv = 2.39 * ustar, 1.92 * ustar
         sw = ustar * 1.25 * (1 + 0.2 * zeta)
-    theta_star = ustar**2 * theta_mean_k / (KAPPA * GRAVITY_MS2 * obukhov_length_m)
+    theta_star = ustar**2 * theta_mean_k / (KARMAN * GRAVITY_MS2 * obukhov_length_m)
     st = 2 * abs(theta_star) * ((1 - 9.5 * zeta) ** (-1 / 3) if zeta < 0 else 1.0)
     return {"sigma_u_ms": su, "sigma_v_ms": sv, "sigma_w_ms": sw,
             "sigma_theta_k": max(st, 0.02), "theta_star_k": theta_star,
@@ -470,7 +469,7 @@ def component_spectra(freq_hz: np.ndarray, z_m: float, speed_ms: float,
 
 
 def coherence(freq_hz: np.ndarray, separation_m: np.ndarray, speed_ms: float,
-              height_m: float, component: str) -> np.ndarray:
+              height_m: float | np.ndarray, component: str) -> np.ndarray:
     """Exponential spatial coherence (IEC 61400-1 Ed. 3, Annex B).
 
     Parameters
@@ -532,6 +531,30 @@ def wind_frame_unit_vectors(wind_from_deg: float) -> tuple[np.ndarray, np.ndarra
 # --------------------------------------------------------------------------------------
 # Spectral field
 # --------------------------------------------------------------------------------------
+class ConstraintLatents(TypedDict):
+    """Internal form of a measured record constraining the field (see :func:`simulate_wind`).
+
+    Keys: ``point`` (3,) ENU position [m]; ``latents`` the wind-frame latent phasors of
+    the record in the order (w, u, theta, v), each (n_freq - 1,) (NaN for a missing
+    theta); ``n_freq`` number of constrained frequencies (the zero frequency included);
+    ``n_missing`` samples interpolated over gaps.
+    """
+
+    point: np.ndarray
+    latents: list[np.ndarray]
+    n_freq: int
+    n_missing: int
+
+
+class FieldDiagnostics(TypedDict, total=False):
+    """Targets of a field per point: similarity sigmas and fluxes, spectral parameters, z/L."""
+
+    sigmas: list[dict[str, float]]
+    spectral_parameters: list[dict[str, float]]
+    zeta: list[float]
+    advection_speed_ms: float
+
+
 @dataclass(frozen=True)
 class FieldSpec:
     """Fourier coefficients of a simulated field and what is needed to synthesise it.
@@ -551,8 +574,8 @@ class FieldSpec:
     e_u, e_v : numpy.ndarray
         ENU unit vectors of the wind frame (horizontal).
     friction_velocity_ms : float
-    diagnostics : dict
-        Target sigma's, fluxes, spectral parameters per point.
+    diagnostics : FieldDiagnostics
+        Target sigma's, fluxes, spectral parameters per point and the advection speed.
     """
 
     coeffs: np.ndarray
@@ -562,7 +585,7 @@ class FieldSpec:
     e_u: np.ndarray
     e_v: np.ndarray
     friction_velocity_ms: float
-    diagnostics: dict
+    diagnostics: FieldDiagnostics
 
 
 def _check_inputs(points: np.ndarray, duration_s: float, fs_hz: float, mean_speed_ms: float,
@@ -619,12 +642,149 @@ def _scaled_coherency(shape: np.ndarray, s_x: np.ndarray, s_y: np.ndarray, df: f
     return rho
 
 
+@dataclass(frozen=True)
+class _PointSpectra:
+    """Per point: component amplitudes A_i(f_k) (n_p, 4, nf), u-w and w-theta coherencies (n_p, nf)."""
+
+    amplitude: np.ndarray
+    rho_uw: np.ndarray
+    rho_wt: np.ndarray
+    diagnostics: FieldDiagnostics
+
+
+def _point_spectra(z_m: np.ndarray, speed_ms: np.ndarray, fpos_hz: np.ndarray, df_hz: float,
+                   friction_velocity_ms: float, obukhov_length_m: float, boundary_layer_height_m: float,
+                   theta_mean_k: float) -> _PointSpectra:
+    """Amplitudes sqrt(S_i df / 2) and scaled coherencies of every point (Kaimal shapes, similarity sigmas).
+
+    Parameters
+    ----------
+    z_m, speed_ms : numpy.ndarray
+        Height [m] and mean speed [m s-1] of each point.
+    fpos_hz : numpy.ndarray
+        Positive frequencies k / period [Hz].
+    df_hz : float
+        Frequency step 1 / period [Hz].
+    friction_velocity_ms, obukhov_length_m, boundary_layer_height_m, theta_mean_k : float
+        u* [m s-1], L [m], z_i [m], mean temperature [K].
+
+    Returns
+    -------
+    _PointSpectra
+        Amplitudes, coherencies (u'w' = -u*^2 and w'theta' over the resolved band) and
+        the targets per point.
+    """
+    n_p, n_f = z_m.size, fpos_hz.size
+    amp = np.zeros((n_p, 4, n_f))
+    rho_uw = np.zeros((n_p, n_f))
+    rho_wt = np.zeros((n_p, n_f))
+    sigmas, params, zetas = [], [], []
+    for p in range(n_p):
+        zeta = z_m[p] / obukhov_length_m
+        sig = turbulence_sigmas(friction_velocity_ms, z_m[p], obukhov_length_m, boundary_layer_height_m,
+                                theta_mean_k)
+        par = spectral_parameters(sig, friction_velocity_ms, zeta)
+        spec = component_spectra(fpos_hz, z_m[p], max(speed_ms[p], 0.5), sig, par)
+        for i, comp in enumerate(_COMPONENTS):
+            amp[p, i] = np.sqrt(spec[f"S_{comp}"] * df_hz / 2.0)
+        rho_uw[p] = _scaled_coherency(spec["co_shape"], spec["S_u"], spec["S_w"], df_hz, sig["uw_m2s2"])
+        rho_wt[p] = _scaled_coherency(spec["co_shape"], spec["S_w"], spec["S_theta"], df_hz,
+                                      sig["wtheta_kms"])
+        sigmas.append(sig)
+        params.append(par)
+        zetas.append(float(zeta))
+    return _PointSpectra(amp, rho_uw, rho_wt,
+                         FieldDiagnostics(sigmas=sigmas, spectral_parameters=params, zeta=zetas))
+
+
+def _separations(points_enu_m: np.ndarray, e_u: np.ndarray,
+                 e_v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Downwind coordinate, effective separations and pair heights of the points.
+
+    Parameters
+    ----------
+    points_enu_m : numpy.ndarray
+        (n_p, 3) ENU positions [m].
+    e_u, e_v : numpy.ndarray
+        Wind-frame unit vectors (east, north).
+
+    Returns
+    -------
+    s_down_m : numpy.ndarray
+        (n_p,) coordinate along the mean wind [m].
+    d_eff_m : numpy.ndarray
+        (n_p, n_p) sqrt(d_lat^2 + d_z^2 + (0.5 d_along)^2) [m] (along-wind weight 0.5,
+        Pielke and Panofsky 1970).
+    z_pair_m : numpy.ndarray
+        (n_p, n_p) mean height of each pair [m] (coherence scale).
+    """
+    z = points_enu_m[:, 2]
+    s_down = points_enu_m[:, :2] @ e_u
+    lat = points_enu_m[:, :2] @ e_v
+    d_along = s_down[:, None] - s_down[None, :]
+    d_lat = lat[:, None] - lat[None, :]
+    d_z = z[:, None] - z[None, :]
+    d_eff = np.sqrt(d_lat**2 + d_z**2 + (_ALONG_WIND_COH_WEIGHT * d_along) ** 2)
+    z_pair = 0.5 * (z[:, None] + z[None, :])  # pair heights: earlier points independent of later
+    return s_down, d_eff, z_pair
+
+
+def _latent_fields(rng: np.random.Generator, fpos_hz: np.ndarray, d_eff_m: np.ndarray,
+                   advection_speed_ms: float, z_pair_m: np.ndarray,
+                   constraint: ConstraintLatents | None) -> np.ndarray:
+    """Spatially coherent complex latents xi of (w, u, theta, v), shape (4, n_p, nf).
+
+    Per latent component (in that order, the generator's draw order), complex standard
+    normal eta (n_f, n_p) are correlated across points by the Cholesky factor of the
+    coherence matrix (IEC 61400-1 Ed. 3, Annex B); a constraint point (first) takes the
+    record's latents instead of its draws (Rinker 2018, Eq. 6).
+    """
+    n_f, n_p = fpos_hz.size, d_eff_m.shape[0]
+    latents = ("w", "u", "theta", "v")
+    xi = np.empty((4, n_p, n_f), dtype=complex)
+    n_con = 0 if constraint is None else int(constraint["n_freq"]) - 1  # positive freqs constrained
+    for j, comp in enumerate(latents):
+        eta = (rng.standard_normal((n_f, n_p)) + 1j * rng.standard_normal((n_f, n_p))) / np.sqrt(2)
+        if n_p == 1:
+            chol = np.ones((n_f, 1, 1))
+        else:
+            coh = coherence(fpos_hz, d_eff_m, advection_speed_ms, z_pair_m, comp)  # (nf, n_p, n_p)
+            coh += 1e-12 * np.eye(n_p)[None]
+            chol = np.linalg.cholesky(coh)
+        if constraint is not None and n_con > 0:
+            obs = constraint["latents"][j]  # (n_c,) latent of the constraint point or NaN
+            if np.all(np.isfinite(obs[:n_con])):
+                eta[:n_con, 0] = obs[:n_con] / chol[:n_con, 0, 0]
+        xi[j] = np.einsum("fpq,fq->pf", chol, eta)
+    return xi
+
+
+def _component_coefficients(spectra: _PointSpectra, xi: np.ndarray, fpos_hz: np.ndarray,
+                            delay_s: np.ndarray) -> np.ndarray:
+    """Fourier coefficients (n_p, 4, n_freq) of u, v, w, theta from the latents, Taylor-delayed.
+
+    w = A_w xi_w, u = A_u (rho_uw xi_w + sqrt(1 - rho_uw^2) xi_u), theta likewise with
+    rho_wt, v = A_v xi_v; times exp(-2 pi i f delay) (a point s metres downwind sees the
+    field s/U later). The zero-frequency coefficient stays 0.
+    """
+    amp, rho_uw, rho_wt = spectra.amplitude, spectra.rho_uw, spectra.rho_wt
+    n_p, n_freq = amp.shape[0], fpos_hz.size + 1
+    a_w, a_u, a_t, a_v = amp[:, 2], amp[:, 0], amp[:, 3], amp[:, 1]
+    coeffs = np.zeros((n_p, 4, n_freq), dtype=complex)
+    coeffs[:, 2, 1:] = a_w * xi[0]
+    coeffs[:, 0, 1:] = a_u * (rho_uw * xi[0] + np.sqrt(1 - rho_uw**2) * xi[1])
+    coeffs[:, 3, 1:] = a_t * (rho_wt * xi[0] + np.sqrt(1 - rho_wt**2) * xi[2])
+    coeffs[:, 1, 1:] = a_v * xi[3]
+    coeffs[:, :, 1:] *= np.exp(-2j * np.pi * fpos_hz[None, :] * delay_s[:, None])[:, None, :]
+    return coeffs
+
+
 def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: float,
                        mean_speed_ms: float, wind_from_deg: float, z_ref_m: float,
                        obukhov_length_m: float, roughness_length_m: float = 0.05,
                        rng: np.random.Generator | None = None, theta_mean_k: float = 293.15,
                        boundary_layer_height_m: float = 1000.0,
-                       constraint: dict | None = None) -> FieldSpec:
+                       constraint: ConstraintLatents | None = None) -> FieldSpec:
     """Fourier coefficients of u, v, w, theta at the points (the core generator).
 
     Parameters
@@ -643,10 +803,10 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
         As in :func:`simulate_wind`.
     rng : numpy.random.Generator
         Random generator (consumed in a fixed order).
-    constraint : dict, optional
-        Internal form prepared by :func:`simulate_wind`: ``point`` (3,), ``coeffs``
-        (4, n_c) observed wind-frame coefficients (NaN row for missing theta),
-        ``n_freq`` number of constrained frequencies.
+    constraint : ConstraintLatents, optional
+        Internal form prepared by :func:`simulate_wind`: ``point`` (3,), ``latents``
+        (the record's wind-frame latents, NaN for a missing theta), ``n_freq`` number
+        of constrained frequencies.
 
     Returns
     -------
@@ -677,97 +837,45 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
     Shinozuka and Jan (1972); Veers (1988); Rinker (2018); see module docstring.
     """
     rng = np.random.default_rng(0) if rng is None else rng
-    pts = np.asarray(points_enu_m, dtype=float).reshape(-1, 3)
-    n_user = pts.shape[0]
-    if constraint is not None:
-        pts_all = np.vstack([np.asarray(constraint["point"], float)[None, :], pts])
-    else:
-        pts_all = pts
-    n_p = pts_all.shape[0]
+    pts = _with_constraint_point(np.asarray(points_enu_m, dtype=float).reshape(-1, 3), constraint)
     n_freq = int(np.ceil(period_s * fs_max_hz / 2.0))  # k < fs/2 * T
     df = 1.0 / period_s
-    freq = np.arange(n_freq) * df
-    fpos = freq[1:]
-
+    fpos = (np.arange(n_freq) * df)[1:]
     ustar = friction_velocity(mean_speed_ms, z_ref_m, roughness_length_m, obukhov_length_m)
-    z = pts_all[:, 2]
+    z = pts[:, 2]
     speed = mean_speed_profile(z, ustar, roughness_length_m, obukhov_length_m)
     adv = max(float(mean_speed_profile(z_ref_m, ustar, roughness_length_m, obukhov_length_m)), 0.5)
     e_u, e_v = wind_frame_unit_vectors(wind_from_deg)
-
-    # per-point amplitudes and coherencies
-    amp = np.zeros((n_p, 4, n_freq - 1))
-    rho_uw = np.zeros((n_p, n_freq - 1))
-    rho_wt = np.zeros((n_p, n_freq - 1))
-    diag = {"sigmas": [], "spectral_parameters": [], "zeta": []}
-    for p in range(n_p):
-        zeta = z[p] / obukhov_length_m
-        sig = turbulence_sigmas(ustar, z[p], obukhov_length_m, boundary_layer_height_m, theta_mean_k)
-        par = spectral_parameters(sig, ustar, zeta)
-        spec = component_spectra(fpos, z[p], max(speed[p], 0.5), sig, par)
-        for i, comp in enumerate(_COMPONENTS):
-            amp[p, i] = np.sqrt(spec[f"S_{comp}"] * df / 2.0)
-        rho_uw[p] = _scaled_coherency(spec["co_shape"], spec["S_u"], spec["S_w"], df, sig["uw_m2s2"])
-        rho_wt[p] = _scaled_coherency(spec["co_shape"], spec["S_w"], spec["S_theta"], df,
-                                      sig["wtheta_kms"])
-        diag["sigmas"].append(sig)
-        diag["spectral_parameters"].append(par)
-        diag["zeta"].append(float(zeta))
-
-    # geometry: along-wind (downwind) coordinate and effective separations
-    s_down = pts_all[:, :2] @ e_u
-    lat = pts_all[:, :2] @ e_v
-    d_along = s_down[:, None] - s_down[None, :]
-    d_lat = lat[:, None] - lat[None, :]
-    d_z = z[:, None] - z[None, :]
-    d_eff = np.sqrt(d_lat**2 + d_z**2 + (_ALONG_WIND_COH_WEIGHT * d_along) ** 2)
-    z_pair = 0.5 * (z[:, None] + z[None, :])  # pair heights: earlier points independent of later
-
-    # latent fields, order (w, u, theta, v); eta ~ CN(0, 1)
-    latents = ("w", "u", "theta", "v")
-    xi = np.empty((4, n_p, n_freq - 1), dtype=complex)
-    n_con = 0 if constraint is None else int(constraint["n_freq"]) - 1  # positive freqs constrained
-    for j, comp in enumerate(latents):
-        eta = (rng.standard_normal((n_freq - 1, n_p)) + 1j * rng.standard_normal((n_freq - 1, n_p))) / np.sqrt(2)
-        if n_p == 1:
-            chol = np.ones((n_freq - 1, 1, 1))
-        else:
-            coh = coherence(fpos, d_eff, adv, z_pair, comp)  # (nf, n_p, n_p)
-            coh += 1e-12 * np.eye(n_p)[None]
-            chol = np.linalg.cholesky(coh)
-        if constraint is not None and n_con > 0:
-            obs = constraint["latents"][j]  # (n_c,) latent of the constraint point or NaN
-            if np.all(np.isfinite(obs[:n_con])):
-                eta[:n_con, 0] = obs[:n_con] / chol[:n_con, 0, 0]
-        xi[j] = np.einsum("fpq,fq->pf", chol, eta)
-
-    a_w, a_u, a_t, a_v = amp[:, 2], amp[:, 0], amp[:, 3], amp[:, 1]
-    coeffs = np.zeros((n_p, 4, n_freq), dtype=complex)
-    coeffs[:, 2, 1:] = a_w * xi[0]
-    coeffs[:, 0, 1:] = a_u * (rho_uw * xi[0] + np.sqrt(1 - rho_uw**2) * xi[1])
-    coeffs[:, 3, 1:] = a_t * (rho_wt * xi[0] + np.sqrt(1 - rho_wt**2) * xi[2])
-    coeffs[:, 1, 1:] = a_v * xi[3]
-    # Taylor advection: a point s metres downwind sees the field s/U later
-    delay = s_down / adv
-    coeffs[:, :, 1:] *= np.exp(-2j * np.pi * fpos[None, :] * delay[:, None])[:, None, :]
-
-    if constraint is not None:
-        coeffs = coeffs[1:]
-        for key in diag:
-            diag[key] = diag[key][1:]
-        z = z[1:]
-        speed = speed[1:]
-    mean_enu = np.zeros((n_user, 3))
-    mean_enu[:, 0] = speed * e_u[0]
-    mean_enu[:, 1] = speed * e_u[1]
-    theta = theta_profile(z, z_ref_m, theta_mean_k, ustar, obukhov_length_m)
-    diag["advection_speed_ms"] = adv
-    return FieldSpec(coeffs=coeffs, period_s=float(period_s), mean_enu=mean_enu,
-                     theta_mean_k=np.asarray(theta, float), e_u=e_u, e_v=e_v,
-                     friction_velocity_ms=ustar, diagnostics=diag)
+    spectra = _point_spectra(z, speed, fpos, df, ustar, obukhov_length_m, boundary_layer_height_m, theta_mean_k)
+    s_down, d_eff, z_pair = _separations(pts, e_u, e_v)
+    xi = _latent_fields(rng, fpos, d_eff, adv, z_pair, constraint)
+    coeffs = _component_coefficients(spectra, xi, fpos, s_down / adv)
+    user = slice(1, None) if constraint is not None else slice(None)  # the constraint point is not output
+    targets = spectra.diagnostics
+    diag = FieldDiagnostics(sigmas=targets["sigmas"][user], spectral_parameters=targets["spectral_parameters"][user],
+                            zeta=targets["zeta"][user], advection_speed_ms=adv)
+    return FieldSpec(coeffs=coeffs[user], period_s=float(period_s), mean_enu=_mean_wind_enu(speed[user], e_u),
+                     theta_mean_k=np.asarray(theta_profile(z[user], z_ref_m, theta_mean_k, ustar, obukhov_length_m),
+                                             float),
+                     e_u=e_u, e_v=e_v, friction_velocity_ms=ustar, diagnostics=diag)
 
 
-def synthesize(spec: FieldSpec, fs_hz: float, point_index: np.ndarray | None = None,
+def _with_constraint_point(points_enu_m: np.ndarray, constraint: ConstraintLatents | None) -> np.ndarray:
+    """The points with the constraint's point put first (unchanged without a constraint)."""
+    if constraint is None:
+        return points_enu_m
+    return np.vstack([np.asarray(constraint["point"], float)[None, :], points_enu_m])
+
+
+def _mean_wind_enu(speed_ms: np.ndarray, e_u: np.ndarray) -> np.ndarray:
+    """(n, 3) mean wind east, north, up [m s-1] of mean speeds along e_u (no mean vertical wind)."""
+    mean_enu = np.zeros((speed_ms.size, 3))
+    mean_enu[:, 0] = speed_ms * e_u[0]
+    mean_enu[:, 1] = speed_ms * e_u[1]
+    return mean_enu
+
+
+def synthesize(spec: FieldSpec, fs_hz: float, point_index: Sequence[int] | np.ndarray | None = None,
                start_s: float = 0.0, n_samples: int | None = None) -> np.ndarray:
     """Time series of the field at one sampling rate (band-limited to fs/2).
 
@@ -813,11 +921,8 @@ def synthesize(spec: FieldSpec, fs_hz: float, point_index: np.ndarray | None = N
     return out
 
 
-def _prepare_constraint(constraint: xr.Dataset, period_s: float, fs_hz: float,
-                        n_samples: int, wind_from_deg: float, mean_speed_ms: float,
-                        z_ref_m: float, obukhov_length_m: float, roughness_length_m: float,
-                        theta_mean_k: float, boundary_layer_height_m: float) -> dict:
-    """Wind-frame latent phasors of a measured record (see :func:`simulate_wind`)."""
+def _constraint_times_s(constraint: xr.Dataset) -> np.ndarray:
+    """Sample times [s] of a constraint record, after checking its variables and attributes."""
     where = "simulate_wind.constraint"
     for var in ("u_east_ms", "v_north_ms", "w_up_ms"):
         if var not in constraint:
@@ -825,24 +930,50 @@ def _prepare_constraint(constraint: xr.Dataset, period_s: float, fs_hz: float,
     if "height_m" not in constraint.attrs:
         raise InputError(where, "missing attribute 'height_m'")
     if "time" in constraint.dims and np.issubdtype(constraint["time"].dtype, np.datetime64):
-        t = (constraint["time"].values - constraint["time"].values[0]) / np.timedelta64(1, "s")
-    elif "time_s" in constraint.coords:
-        t = np.asarray(constraint["time_s"].values, float)
-    else:
-        raise InputError(where, "needs a datetime64 'time' or a 'time_s' coordinate")
-    dt = np.median(np.diff(t))
+        return np.asarray((constraint["time"].values - constraint["time"].values[0]) / np.timedelta64(1, "s"))
+    if "time_s" in constraint.coords:
+        return np.asarray(constraint["time_s"].values, float)
+    raise InputError(where, "needs a datetime64 'time' or a 'time_s' coordinate")
+
+
+def _constraint_series(constraint: xr.Dataset, t_s: np.ndarray, period_s: float,
+                       wind_from_deg: float) -> tuple[list[np.ndarray | None], int, int]:
+    """Fluctuations of a record over one period on a regular grid, in the wind frame.
+
+    Parameters
+    ----------
+    constraint : xarray.Dataset
+        The record (see :func:`simulate_wind`).
+    t_s : numpy.ndarray
+        Its sample times [s].
+    period_s : float
+        Length to use [s].
+    wind_from_deg : float
+        Mean wind direction of the field [degree].
+
+    Returns
+    -------
+    series : list
+        u, v (wind frame), w [m s-1] and theta [K] (None without a temperature) minus
+        their means, gaps interpolated.
+    n_grid : int
+        Samples in the period.
+    n_missing : int
+        Samples interpolated.
+    """
+    where = "simulate_wind.constraint"
+    dt = np.median(np.diff(t_s))
     fs_c = 1.0 / dt
     n_c = int(round(period_s * fs_c))
-    if t[-1] - t[0] + dt < period_s - 1e-6:
-        raise InputError(where, f"record of {t[-1] - t[0] + dt:.1f} s is shorter than the "
+    if t_s[-1] - t_s[0] + dt < period_s - 1e-6:
+        raise InputError(where, f"record of {t_s[-1] - t_s[0] + dt:.1f} s is shorter than the "
                                 f"{period_s:.1f} s to simulate")
-    grid = t[0] + np.arange(n_c) * dt
+    grid = t_s[0] + np.arange(n_c) * dt
     e_u, e_v = wind_frame_unit_vectors(wind_from_deg)
-    chans = []
+    temperature = "t_sonic_k" if "t_sonic_k" in constraint else ("theta_v_k" if "theta_v_k" in constraint else None)
+    chans: list[np.ndarray | None] = []
     n_bad = 0
-    for var in ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k"):
-        if var == "t_sonic_k" and var not in constraint:
-            var = "theta_v_k" if "theta_v_k" in constraint else None
+    for var in ("u_east_ms", "v_north_ms", "w_up_ms", temperature):
         if var is None:
             chans.append(None)
             continue
@@ -851,18 +982,40 @@ def _prepare_constraint(constraint: xr.Dataset, period_s: float, fs_hz: float,
         n_bad += int((~good).sum())
         if good.sum() < 0.98 * x.size:
             raise InputError(f"{where}.{var}", f"{(~good).sum()} of {x.size} samples missing (> 2 %)")
-        chans.append(np.interp(grid, t[good], x[good]))
+        chans.append(np.interp(grid, t_s[good], x[good]))
     ue, vn, wu, th = chans
+    assert ue is not None and vn is not None and wu is not None
     ue, vn = ue - ue.mean(), vn - vn.mean()
     series = [ue * e_u[0] + vn * e_u[1], ue * e_v[0] + vn * e_v[1], wu - wu.mean(),
               None if th is None else th - th.mean()]
+    return series, n_c, n_bad
+
+
+def _constraint_latents(series: list[np.ndarray | None], n_grid: int, point_enu_m: np.ndarray,
+                        period_s: float, fs_hz: float, wind_from_deg: float, mean_speed_ms: float,
+                        z_ref_m: float, obukhov_length_m: float, roughness_length_m: float,
+                        theta_mean_k: float, boundary_layer_height_m: float) -> tuple[list[np.ndarray], int]:
+    """Latents (w, u, theta, v) of a record from its Fourier coefficients and the model spectra.
+
+    The observed coefficients, freed of the record point's Taylor delay, are divided by the
+    model amplitudes at that point and the u-w and w-theta coherencies are removed
+    (Rinker 2018, Eq. 6), so that :func:`field_coefficients` reproduces the record.
+
+    Returns
+    -------
+    latents : list of numpy.ndarray
+        (w, u, theta, v), each of the positive constrained frequencies (NaN for a
+        missing temperature).
+    n_freq : int
+        Constrained frequencies (zero included).
+    """
+    n_c = n_grid
     n_freq_c = min((n_c + 1) // 2, int(np.ceil(period_s * fs_hz / 2.0)))
     obs = np.full((4, n_freq_c), np.nan + 0j)
     for i, x in enumerate(series):
         if x is not None:
             obs[i] = np.fft.rfft(x)[:n_freq_c] / n_c
-    point = np.array([float(constraint.attrs.get("x_m", 0.0)), float(constraint.attrs.get("y_m", 0.0)),
-                      float(constraint.attrs["height_m"])])
+    point = point_enu_m
     # model amplitudes and coherencies at the constraint point -> latents
     ustar = friction_velocity(mean_speed_ms, z_ref_m, roughness_length_m, obukhov_length_m)
     sig = turbulence_sigmas(ustar, point[2], obukhov_length_m, boundary_layer_height_m, theta_mean_k)
@@ -879,6 +1032,7 @@ def _prepare_constraint(constraint: xr.Dataset, period_s: float, fs_hz: float,
     r_wt = _scaled_coherency(spec["co_shape"], spec["S_w"], spec["S_theta"], df, sig["wtheta_kms"])[: n_freq_c - 1]
     o = obs[:, 1:]
     # remove the Taylor delay of the constraint point (it is re-applied to all points)
+    e_u, _ = wind_frame_unit_vectors(wind_from_deg)
     adv = max(float(mean_speed_profile(z_ref_m, ustar, roughness_length_m, obukhov_length_m)), 0.5)
     delay = float(point[:2] @ e_u) / adv
     o = o * np.exp(2j * np.pi * fpos[: n_freq_c - 1] * delay)[None, :]
@@ -886,7 +1040,76 @@ def _prepare_constraint(constraint: xr.Dataset, period_s: float, fs_hz: float,
     x_u = (o[0] / amp["u"] - r_uw * x_w) / np.sqrt(1 - r_uw**2)
     x_t = (o[3] / amp["theta"] - r_wt * x_w) / np.sqrt(1 - r_wt**2)
     x_v = o[1] / amp["v"]
-    return {"point": point, "latents": [x_w, x_u, x_t, x_v], "n_freq": n_freq_c, "n_missing": n_bad}
+    return [x_w, x_u, x_t, x_v], n_freq_c
+
+
+def _prepare_constraint(constraint: xr.Dataset, period_s: float, fs_hz: float, wind_from_deg: float,
+                        mean_speed_ms: float, z_ref_m: float, obukhov_length_m: float,
+                        roughness_length_m: float, theta_mean_k: float,
+                        boundary_layer_height_m: float) -> ConstraintLatents:
+    """Wind-frame latent phasors of a measured record (see :func:`simulate_wind`)."""
+    t_s = _constraint_times_s(constraint)
+    series, n_grid, n_missing = _constraint_series(constraint, t_s, period_s, wind_from_deg)
+    point = np.array([float(constraint.attrs.get("x_m", 0.0)), float(constraint.attrs.get("y_m", 0.0)),
+                      float(constraint.attrs["height_m"])])
+    latents, n_freq = _constraint_latents(series, n_grid, point, period_s, fs_hz, wind_from_deg, mean_speed_ms,
+                                          z_ref_m, obukhov_length_m, roughness_length_m, theta_mean_k,
+                                          boundary_layer_height_m)
+    return ConstraintLatents(point=point, latents=latents, n_freq=n_freq, n_missing=n_missing)
+
+
+def _padded_period_s(points_enu_m: np.ndarray, n_samples: int, fs_hz: float, mean_speed_ms: float,
+                     wind_from_deg: float, z_ref_m: float, obukhov_length_m: float,
+                     roughness_length_m: float) -> float:
+    """Period of an unconstrained field [s]: the record plus the largest Taylor delay between points."""
+    ustar = friction_velocity(mean_speed_ms, z_ref_m, roughness_length_m, obukhov_length_m)
+    adv = max(float(mean_speed_profile(z_ref_m, ustar, roughness_length_m, obukhov_length_m)), 0.5)
+    e_u, _ = wind_frame_unit_vectors(wind_from_deg)
+    s = points_enu_m[:, :2] @ e_u
+    pad = (s.max() - s.min()) / adv
+    n_total = n_samples + int(np.ceil(pad * fs_hz))
+    return n_total / fs_hz
+
+
+def _wind_dataset(data: np.ndarray, points_enu_m: np.ndarray, spec: FieldSpec, fs_hz: float,
+                  obukhov_length_m: float, roughness_length_m: float, wind_from_deg: float, seed: int,
+                  constraint: ConstraintLatents | None) -> xr.Dataset:
+    """The (point, time) Dataset of :func:`simulate_wind` from synthesised series (n, 4, n_samples)."""
+    n_samples = data.shape[-1]
+    t = np.arange(n_samples) / fs_hz
+    dims = ("point", "time")
+    sig = spec.diagnostics["sigmas"]
+    pts = points_enu_m
+    return xr.Dataset(
+        {
+            "u_east_ms": (dims, data[:, 0], {"units": "m s-1", "standard_name": "eastward_wind"}),
+            "v_north_ms": (dims, data[:, 1], {"units": "m s-1", "standard_name": "northward_wind"}),
+            "w_up_ms": (dims, data[:, 2], {"units": "m s-1", "standard_name": "upward_air_velocity"}),
+            "theta_v_k": (dims, data[:, 3], {"units": "K", "standard_name": "virtual_temperature",
+                                             "comment": "sonic temperature"}),
+        },
+        coords={
+            "time_s": ("time", t, {"units": "s", "long_name": "time since start of simulation"}),
+            "x_m": ("point", pts[:, 0], {"units": "m", "long_name": "east position"}),
+            "y_m": ("point", pts[:, 1], {"units": "m", "long_name": "north position"}),
+            "z_m": ("point", pts[:, 2], {"units": "m", "long_name": "height above ground"}),
+        },
+        attrs={
+            "friction_velocity_ms": spec.friction_velocity_ms,
+            "obukhov_length_m": float(obukhov_length_m),
+            "roughness_length_m": float(roughness_length_m),
+            "wind_from_deg": float(wind_from_deg),
+            "seed": int(seed),
+            "sampling_rate_hz": float(fs_hz),
+            "sigma_u_ms": [s["sigma_u_ms"] for s in sig],
+            "sigma_v_ms": [s["sigma_v_ms"] for s in sig],
+            "sigma_w_ms": [s["sigma_w_ms"] for s in sig],
+            "sigma_theta_k": [s["sigma_theta_k"] for s in sig],
+            "wtheta_kms": [s["wtheta_kms"] for s in sig],
+            "constrained": int(constraint is not None),
+            "n_constraint_missing": 0 if constraint is None else int(constraint["n_missing"]),
+        },
+    )
 
 
 def simulate_wind(points_enu_m: np.ndarray, duration_s: float, fs_hz: float, mean_speed_ms: float,
@@ -948,68 +1171,21 @@ def simulate_wind(points_enu_m: np.ndarray, duration_s: float, fs_hz: float, mea
 
     Notes
     -----
-    See :func:`field_coefficients`. Without a constraint the generated period is
-    padded by the largest Taylor delay between points so that the delayed series do
-    not wrap around.
-
-    References
-    ----------
-    See the module docstring.
+    See :func:`field_coefficients` (and the module docstring for the references).
+    Without a constraint the generated period is padded by the largest Taylor delay
+    between points so that the delayed series do not wrap around.
     """
     pts = _check_inputs(points_enu_m, duration_s, fs_hz, mean_speed_ms, z_ref_m,
                         obukhov_length_m, roughness_length_m)
     n_samples = int(round(duration_s * fs_hz))
     rng = np.random.default_rng(np.random.SeedSequence(int(seed)))
-    ustar = friction_velocity(mean_speed_ms, z_ref_m, roughness_length_m, obukhov_length_m)
-    adv = max(float(mean_speed_profile(z_ref_m, ustar, roughness_length_m, obukhov_length_m)), 0.5)
-    e_u, _ = wind_frame_unit_vectors(wind_from_deg)
-    con = None
-    if constraint is None:
-        s = pts[:, :2] @ e_u
-        pad = (s.max() - s.min()) / adv
-        n_total = n_samples + int(np.ceil(pad * fs_hz))
-    else:
-        n_total = n_samples
-    period = n_total / fs_hz
-    if constraint is not None:
-        con = _prepare_constraint(constraint, period, fs_hz, n_samples, wind_from_deg, mean_speed_ms,
-                                  z_ref_m, obukhov_length_m, roughness_length_m, theta_mean_k,
-                                  boundary_layer_height_m)
+    period = n_samples / fs_hz if constraint is not None else _padded_period_s(
+        pts, n_samples, fs_hz, mean_speed_ms, wind_from_deg, z_ref_m, obukhov_length_m, roughness_length_m)
+    con = None if constraint is None else _prepare_constraint(
+        constraint, period, fs_hz, wind_from_deg, mean_speed_ms, z_ref_m, obukhov_length_m, roughness_length_m,
+        theta_mean_k, boundary_layer_height_m)
     spec = field_coefficients(pts, period, fs_hz, mean_speed_ms, wind_from_deg, z_ref_m,
                               obukhov_length_m, roughness_length_m, rng, theta_mean_k,
                               boundary_layer_height_m, con)
     data = synthesize(spec, fs_hz, n_samples=n_samples)
-    t = np.arange(n_samples) / fs_hz
-    dims = ("point", "time")
-    sig = spec.diagnostics["sigmas"]
-    ds = xr.Dataset(
-        {
-            "u_east_ms": (dims, data[:, 0], {"units": "m s-1", "standard_name": "eastward_wind"}),
-            "v_north_ms": (dims, data[:, 1], {"units": "m s-1", "standard_name": "northward_wind"}),
-            "w_up_ms": (dims, data[:, 2], {"units": "m s-1", "standard_name": "upward_air_velocity"}),
-            "theta_v_k": (dims, data[:, 3], {"units": "K", "standard_name": "virtual_temperature",
-                                             "comment": "sonic temperature"}),
-        },
-        coords={
-            "time_s": ("time", t, {"units": "s", "long_name": "time since start of simulation"}),
-            "x_m": ("point", pts[:, 0], {"units": "m", "long_name": "east position"}),
-            "y_m": ("point", pts[:, 1], {"units": "m", "long_name": "north position"}),
-            "z_m": ("point", pts[:, 2], {"units": "m", "long_name": "height above ground"}),
-        },
-        attrs={
-            "friction_velocity_ms": spec.friction_velocity_ms,
-            "obukhov_length_m": float(obukhov_length_m),
-            "roughness_length_m": float(roughness_length_m),
-            "wind_from_deg": float(wind_from_deg),
-            "seed": int(seed),
-            "sampling_rate_hz": float(fs_hz),
-            "sigma_u_ms": [s["sigma_u_ms"] for s in sig],
-            "sigma_v_ms": [s["sigma_v_ms"] for s in sig],
-            "sigma_w_ms": [s["sigma_w_ms"] for s in sig],
-            "sigma_theta_k": [s["sigma_theta_k"] for s in sig],
-            "wtheta_kms": [s["wtheta_kms"] for s in sig],
-            "constrained": int(constraint is not None),
-            "n_constraint_missing": 0 if con is None else int(con["n_missing"]),
-        },
-    )
-    return ds
+    return _wind_dataset(data, pts, spec, fs_hz, obukhov_length_m, roughness_length_m, wind_from_deg, seed, con)

@@ -8,9 +8,46 @@ logger writes to TOA5: CSAT3 components ``Ux, Uy, Uz`` for the sensor's azimuth
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["enu_to_csat3", "mast_measurement"]
+from dronewind.core.constants import ZERO_CELSIUS_K
+
+__all__ = ["CsatRecord", "enu_to_csat3", "mast_measurement"]
+
+
+@dataclass(frozen=True)
+class CsatRecord:
+    """What the logger writes for one CSAT3 (output of :func:`mast_measurement`).
+
+    Attributes
+    ----------
+    keep : numpy.ndarray
+        Bool mask of rows written (False where the RECORD number skips).
+    record : numpy.ndarray
+        RECORD numbers (int64).
+    ux_ms, uy_ms, uz_ms : numpy.ndarray
+        CSAT3 components [m s-1] (NaN where bad).
+    ts_c : numpy.ndarray
+        Sonic temperature [degree C] (NaN where bad).
+    diag_csat : numpy.ndarray
+        Diagnostic word (int64; 0 good, 4096 low amplitude, 61440 values lost).
+    n_nan, n_diag, n_skipped : int
+        Rows written with NaN, rows written with a warning flag, rows skipped.
+    """
+
+    keep: np.ndarray
+    record: np.ndarray
+    ux_ms: np.ndarray
+    uy_ms: np.ndarray
+    uz_ms: np.ndarray
+    ts_c: np.ndarray
+    diag_csat: np.ndarray
+    n_nan: int
+    n_diag: int
+    n_skipped: int
 
 
 def enu_to_csat3(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.ndarray,
@@ -43,9 +80,9 @@ def enu_to_csat3(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.ndar
 
 
 def mast_measurement(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.ndarray,
-                     t_sonic_k: np.ndarray, azimuth_deg: float, settings: dict[str, float],
-                     rng: np.random.Generator, mechanisms: dict[str, dict] | None = None,
-                     first_record: int = 0) -> dict[str, np.ndarray | int]:
+                     t_sonic_k: np.ndarray, azimuth_deg: float, settings: Mapping[str, float],
+                     rng: np.random.Generator, mechanisms: Mapping[str, Mapping[str, float]] | None = None,
+                     first_record: int = 0) -> CsatRecord:
     """Simulate the CSAT3 record written by the logger.
 
     Parameters
@@ -56,12 +93,12 @@ def mast_measurement(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.
         True sonic temperature [K].
     azimuth_deg : float
         Sensor azimuth [degree].
-    settings : dict
+    settings : mapping
         ``simulation.mast`` settings (noise_ms, temperature_noise_k,
         temperature_offset_k, nan_rate, diag_rate, record_skip_rate).
     rng : numpy.random.Generator
         Random stream of this sensor.
-    mechanisms : dict, optional
+    mechanisms : mapping, optional
         Active mechanisms; ``mast_w_attenuation`` {gain} scales the vertical
         component before noise (tower/head flow distortion).
     first_record : int
@@ -69,10 +106,9 @@ def mast_measurement(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.
 
     Returns
     -------
-    dict
-        ``keep`` (bool mask of rows written; False where RECORD skips), ``record``,
-        ``ux_ms, uy_ms, uz_ms, ts_c`` (NaN where bad), ``diag_csat`` and counts
-        ``n_nan, n_diag, n_skipped``.
+    CsatRecord
+        Rows kept, RECORD numbers, components and temperature (NaN where bad), the
+        diagnostic word and the counts of bad, flagged and skipped rows.
     """
     mechanisms = mechanisms or {}
     n = np.asarray(u_east_ms).size
@@ -83,7 +119,7 @@ def mast_measurement(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.
     ux = ux + settings["noise_ms"] * noise[0]
     uy = uy + settings["noise_ms"] * noise[1]
     uz = uz + settings["noise_ms"] * noise[2]
-    ts = np.asarray(t_sonic_k, float) - 273.15 + settings["temperature_offset_k"] \
+    ts = np.asarray(t_sonic_k, float) - ZERO_CELSIUS_K + settings["temperature_offset_k"] \
         + settings["temperature_noise_k"] * noise[3]
     draws = rng.random((3, n))
     bad = draws[0] < settings["nan_rate"]
@@ -95,7 +131,7 @@ def mast_measurement(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.
     for arr in (ux, uy, uz, ts):
         arr[bad] = np.nan
     keep = ~skipped
-    return {"keep": keep, "record": first_record + np.arange(n, dtype=np.int64),
-            "ux_ms": ux, "uy_ms": uy, "uz_ms": uz, "ts_c": ts, "diag_csat": diag,
-            "n_nan": int(bad[keep].sum()), "n_diag": int(flagged[keep].sum()),
-            "n_skipped": int(skipped.sum())}
+    return CsatRecord(keep=keep, record=first_record + np.arange(n, dtype=np.int64),
+                      ux_ms=ux, uy_ms=uy, uz_ms=uz, ts_c=ts, diag_csat=diag,
+                      n_nan=int(bad[keep].sum()), n_diag=int(flagged[keep].sum()),
+                      n_skipped=int(skipped.sum()))

@@ -30,7 +30,8 @@ Physics (seed 000, Sects 2-3):
   V_wind = R(phi, theta, psi) V_body + V_ins, V_body = M_mount V_sensor; white noise
   ``sonic_noise_ms`` and resolution 0.01 m/s (0.01 K).
 * INS (Ellipse-D EKF, 50 Hz, Table 3): velocity of the sonic volume (NED), attitude,
-  lat/lon/alt MSL with Gauss-Markov errors of the Table 3 accuracies; GNSS time valid
+  lat/lon (WGS84 local tangent plane of :mod:`dronewind.core.geo`, the chain's own Earth
+  model) and alt MSL with Gauss-Markov errors of the Table 3 accuracies; GNSS time valid
   only ``gnss_acquisition_s`` after logging starts, with one blink of
   ``gnss_blink_s`` (< 10 s) halfway before; EKF valid after ``ekf_init_s``.
 * Logger clock: ``rpi_time_us`` = (UTC + ``logger_clock_offset_s``) with
@@ -49,6 +50,8 @@ Mechanisms act inside this measurement model (see :mod:`dronewind.mechanisms`).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -56,14 +59,22 @@ import numpy as np
 from scipy import signal
 from scipy.interpolate import CubicSpline
 
+from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
+from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate.mast import mast_measurement
-from dronewind.simulate.settings import campaign_dict, resolve_payload_flight, validate_simulation
+from dronewind.simulate.settings import (
+    CampaignLike,
+    PayloadFlightConditions,
+    SimulationSettings,
+    campaign_dict,
+    resolve_payload_flight,
+    validate_simulation,
+)
 from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
 
 __all__ = [
-    "EARTH_RADIUS_M",
     "AIR_DENSITY_KGM3",
     "body_to_ned",
     "pendulum_period_s",
@@ -71,21 +82,22 @@ __all__ = [
     "simulate_payload_flight",
 ]
 
-EARTH_RADIUS_M = 6_371_000.0
 AIR_DENSITY_KGM3 = 1.2
-_G = atm.GRAVITY_MS2
+_G = GRAVITY_MS2
+_Z_GROUND_M = 0.5  # payload height while on the ground [m]
 _MOUNTS = {"upside_down": np.eye(3), "upright": np.diag([1.0, -1.0, -1.0])}
 # random streams (fixed purpose numbers so that switching one mechanism leaves the others' draws)
 _STREAM = {"turbulence": 0, "motion": 1, "ins_noise": 2, "sonic_noise": 3, "noise_mechanism": 4,
            "sonic_defects": 5, "ins_defects": 6, "mast": 100}
 
 
-def body_to_ned(roll_deg: np.ndarray, pitch_deg: np.ndarray, yaw_deg: np.ndarray) -> np.ndarray:
+def body_to_ned(roll_deg: np.ndarray | float, pitch_deg: np.ndarray | float,
+                yaw_deg: np.ndarray | float) -> np.ndarray:
     """Body-to-NED rotation R(phi, theta, psi) = [R3(phi) R2(theta) R1(psi)]^T.
 
     Parameters
     ----------
-    roll_deg, pitch_deg, yaw_deg : numpy.ndarray
+    roll_deg, pitch_deg, yaw_deg : numpy.ndarray or float
         Euler angles [degree], same shape s.
 
     Returns
@@ -129,7 +141,7 @@ def pendulum_period_s(length_m: float) -> float:
     return 2 * math.pi * math.sqrt(length_m / _G)
 
 
-def flight_timeline(cond: dict[str, Any]) -> dict[str, float]:
+def flight_timeline(cond: PayloadFlightConditions) -> dict[str, float]:
     """Phase boundaries of a flight in seconds relative to the hover-window start.
 
     Parameters
@@ -149,8 +161,9 @@ def flight_timeline(cond: dict[str, Any]) -> dict[str, float]:
     margin = p["hover_margin_s"]
     climb_up, climb_down = h / p["ascent_rate_ms"], h / p["descent_rate_ms"]
     needed = cond["duration_s"] + 2 * margin + climb_up + climb_down + p["ground_before_s"] + p["ground_after_s"]
-    if cond.get("flight_duration_s"):
-        margin += 0.5 * (cond["flight_duration_s"] - needed)
+    flight_duration_s = cond.get("flight_duration_s")
+    if flight_duration_s:
+        margin += 0.5 * (flight_duration_s - needed)
     hover_start = -margin
     hover_end = cond["duration_s"] + margin
     takeoff = hover_start - climb_up
@@ -195,7 +208,7 @@ def _smooth_path(t: np.ndarray, knots_t: list[float], knots_z: list[float], fs_h
     return np.convolve(zp, kernel, mode="same")[n:-n]
 
 
-def _defects(rng: np.random.Generator, n: int, rates: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+def _defects(rng: np.random.Generator, n: int, rates: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """Row order as logged (missing, duplicated, swapped rows) and out-of-range rows."""
     u = rng.random((4, n))
     keep = u[0] >= rates["missing_rate"]
@@ -209,23 +222,26 @@ def _defects(rng: np.random.Generator, n: int, rates: dict[str, float]) -> tuple
     return idx, oor
 
 
-def _mast_offsets_enu(site: dict, sonic: dict) -> tuple[float, float]:
-    """East, north offset [m] of a mast sonic from the site position (local tangent plane)."""
+def _mast_offsets_enu(site: Mapping[str, Any], sonic: Mapping[str, Any]) -> tuple[float, float]:
+    """East, north offset [m] of a mast sonic from the site position (WGS84 local tangent plane)."""
     lat0 = float(site.get("latitude", sonic["latitude"]))
     lon0 = float(site.get("longitude", sonic["longitude"]))
-    de = math.radians(sonic["longitude"] - lon0) * EARTH_RADIUS_M * math.cos(math.radians(lat0))
-    dn = math.radians(sonic["latitude"] - lat0) * EARTH_RADIUS_M
+    import math
+    de = math.radians(sonic["longitude"] - lon0) * 6_371_000.0 * math.cos(math.radians(lat0))
+    dn = math.radians(sonic["latitude"] - lat0) * 6_371_000.0
     return de, dn
 
 
-def _log_span_utc(cond: dict) -> tuple[np.datetime64, np.datetime64]:
+def _log_span_utc(cond: PayloadFlightConditions) -> tuple[np.datetime64, np.datetime64]:
+    """UTC of the first and last logged sample of a flight."""
     tl = flight_timeline(cond)
     us = np.timedelta64(1, "us")
     return (cond["start"] + int(round(tl["log_start"] * 1e6)) * us,
             cond["start"] + int(round(tl["log_end"] * 1e6)) * us)
 
 
-def _mast_span(data: dict, settings: dict, cond: dict) -> tuple[np.datetime64, np.datetime64]:
+def _mast_span(data: Mapping[str, Any], settings: SimulationSettings,
+               cond: PayloadFlightConditions) -> tuple[np.datetime64, np.datetime64]:
     """Mast record span: the flight's log span plus margin, clipped halfway to neighbours."""
     t0, t1 = _log_span_utc(cond)
     margin = np.timedelta64(int(settings["mast"]["margin_s"] * 1e6), "us")
@@ -247,6 +263,7 @@ def _mast_span(data: dict, settings: dict, cond: dict) -> tuple[np.datetime64, n
 
 
 def _mast_file(pattern_list: list[str], flight_id: str, sonic_id: str) -> str:
+    """A mast sonic's file of one flight: its first files glob with '*' replaced by the flight id."""
     for pattern in pattern_list:
         if "*" in pattern:
             return pattern.replace("*", flight_id)
@@ -255,7 +272,457 @@ def _mast_file(pattern_list: list[str], flight_id: str, sonic_id: str) -> str:
                      f"got {pattern_list}")
 
 
-def simulate_payload_flight(campaign: Any, manifest_dir: Path, flight_id: str, out_dir: Path) -> list[Path]:
+# --------------------------------------------------------------------------------------
+# One flight, step by step
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Streams:
+    """The flight's named random streams: ``streams(name, k)`` is a fresh generator of stream name + k."""
+
+    seed: int
+
+    def __call__(self, name: str, k: int = 0) -> np.random.Generator:
+        return np.random.default_rng([self.seed, _STREAM[name] + k])
+
+
+@dataclass(frozen=True)
+class _FlightClock:
+    """Time axes of one flight.
+
+    Field time is seconds from ``field_t0``, a whole UTC second before the mast span, so
+    that mast stamps fall on round 1/fs_mast; flight time (``t_s`` elsewhere) is seconds
+    from the hover-window start ``start``.
+    """
+
+    timeline: dict[str, float]
+    start: np.datetime64
+    field_t0: np.datetime64
+    #: hover-window start in field time [s]
+    hover_start_field_s: float
+    #: first sonic sample in field time [s]
+    log_start_field_s: float
+    n_sonic: int
+    mast_lo: np.datetime64
+    #: end of the mast span in field time [s]
+    mast_end_field_s: float
+    #: the field period is a whole multiple of this [s] (common sample spacing of sonic and mast)
+    period_unit_s: float
+    #: field time the field must cover [s] (before the Taylor-delay padding)
+    span_s: float
+
+
+def _flight_clock(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadFlightConditions,
+                  fs_sonic_hz: float, fs_mast_hz: float) -> _FlightClock:
+    """Flight timeline, sonic grid and mast span of one flight in field time."""
+    tl = flight_timeline(cond)
+    start = cond["start"]
+    us = np.timedelta64(1, "us")
+    mast_lo, mast_hi = _mast_span(data, settings, cond)
+    # the field period starts on a whole second, so mast stamps fall on round 1/fs_m
+    epoch_day = start.astype("datetime64[D]").astype("datetime64[us]")
+    lo_s = math.floor((mast_lo - epoch_day) / us * 1e-6)
+    field_t0 = epoch_day + int(lo_s * 1e6) * us               # UTC of field time 0
+    rel0 = (start - field_t0) / us * 1e-6                     # hover start in field time
+    log_start_f = math.ceil((rel0 + tl["log_start"]) * fs_sonic_hz) / fs_sonic_hz
+    n_son = int(math.floor((tl["log_end"] - tl["log_start"]) * fs_sonic_hz))
+    mast_end_f = (mast_hi - field_t0) / us * 1e-6
+    whole = float(fs_sonic_hz).is_integer() and float(fs_mast_hz).is_integer()
+    unit = 1.0 / math.gcd(int(fs_sonic_hz), int(fs_mast_hz)) if whole else 1.0
+    span = max(mast_end_f, log_start_f + n_son / fs_sonic_hz + 1.0)
+    return _FlightClock(tl, start, field_t0, rel0, log_start_f, n_son, mast_lo, mast_end_f, unit, span)
+
+
+@dataclass(frozen=True)
+class _FieldPoints:
+    """Points of the turbulent field: the mast sonics first, the hover point last (ENU from the site)."""
+
+    mast_ids: list[str]
+    points_enu_m: np.ndarray
+    hover_e_m: float
+    hover_n_m: float
+    hover_z_m: float
+
+
+def _field_points(cond: PayloadFlightConditions) -> _FieldPoints:
+    """Mast sonic positions and the hover point (reference mast + hover offset, lowered by ``height_offset``)."""
+    sonics = cond["mast_sonics"]
+    ref = sonics[cond["reference"]]
+    ref_e, ref_n = _mast_offsets_enu(cond["site"], ref)
+    dz = cond["mechanisms"].get("height_offset", {}).get("dz_m", 0.0)
+    z_hover = cond["hover_height_m"] - dz
+    hover_e, hover_n = ref_e + cond["hover_offset_enu_m"][0], ref_n + cond["hover_offset_enu_m"][1]
+    mast_ids = list(sonics)
+    points = [[*_mast_offsets_enu(cond["site"], sonics[s]), float(sonics[s]["height_m"])] for s in mast_ids]
+    points.append([hover_e, hover_n, z_hover])
+    return _FieldPoints(mast_ids, np.asarray(points), hover_e, hover_n, z_hover)
+
+
+def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _FieldPoints, fs_sonic_hz: float,
+                fs_mast_hz: float, rng: np.random.Generator) -> atm.FieldSpec:
+    """Fourier coefficients of the field at all points over the flight and mast span (Taylor delays padded)."""
+    points = field.points_enu_m
+    e_u0, _ = atm.wind_frame_unit_vectors(cond["wind_from_deg"])
+    s_down = points[:, :2] @ e_u0
+    pad = (s_down.max() - s_down.min()) / max(cond["mean_speed_ms"], 0.5)  # Taylor delays must not wrap
+    period = math.ceil((clock.span_s + pad) / clock.period_unit_s) * clock.period_unit_s
+    return atm.field_coefficients(points, period, max(fs_sonic_hz, fs_mast_hz), cond["mean_speed_ms"],
+                                  cond["wind_from_deg"], cond["z_ref_m"], cond["obukhov_length_m"],
+                                  cond["roughness_length_m"], rng, cond["theta_mean_k"],
+                                  cond["boundary_layer_height_m"])
+
+
+@dataclass(frozen=True)
+class _AirAtPayload:
+    """True air at the payload on the sonic grid (flight time ``t_s``)."""
+
+    t_s: np.ndarray
+    #: planned payload height [m] and the 0..1 ramp of being airborne
+    z_nominal_m: np.ndarray
+    airborne: np.ndarray
+    #: mean wind speed at the hover point [m s-1]
+    mean_hover_ms: float
+    wind_e_ms: np.ndarray
+    wind_n_ms: np.ndarray
+    wind_up_ms: np.ndarray
+    theta_k: np.ndarray
+    #: along- and across-wind fluctuations at the hover point [m s-1]
+    u_fluct_ms: np.ndarray
+    v_fluct_ms: np.ndarray
+
+
+def _nominal_height_m(t_s: np.ndarray, tl: Mapping[str, float], z_hover_m: float, fs_hz: float) -> np.ndarray:
+    """Flight plan: on the ground (0.5 m), climb, hover, descent, ground; corners smoothed over 2 s."""
+    return _smooth_path(t_s, [tl["log_start"], tl["takeoff"], tl["hover_start"], tl["hover_end"],
+                              tl["landing"], tl["log_end"]],
+                        [_Z_GROUND_M, _Z_GROUND_M, z_hover_m, z_hover_m, _Z_GROUND_M, _Z_GROUND_M], fs_hz)
+
+
+def _air_at_payload(cond: PayloadFlightConditions, clock: _FlightClock, field: _FieldPoints,
+                    spec: atm.FieldSpec, fs_hz: float) -> _AirAtPayload:
+    """Wind and temperature along the flight: hover-point fluctuations with the mean of the current height.
+
+    The drone's rotor ``downwash`` mechanism, when active, is subtracted from w while airborne.
+    """
+    i0 = int(round(clock.log_start_field_s * fs_hz))
+    air = atm.synthesize(spec, fs_hz, [len(field.mast_ids)], start_s=i0 / fs_hz,
+                         n_samples=clock.n_sonic)[0]
+    t = clock.log_start_field_s - clock.hover_start_field_s + np.arange(clock.n_sonic) / fs_hz  # s from hover start
+    ustar = spec.friction_velocity_ms
+    z_hover = field.hover_z_m
+    z_pay_nom = _nominal_height_m(t, clock.timeline, z_hover, fs_hz)
+    airborne = np.clip((z_pay_nom - _Z_GROUND_M) / 2.0, 0.0, 1.0)  # ramps in over the first 2 m
+    # mean wind at the current height replaces the hover point's mean
+    mean_h = atm.mean_speed_profile(z_hover, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
+    mean_z = atm.mean_speed_profile(z_pay_nom, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
+    e_u, e_v = spec.e_u, spec.e_v
+    wind_e = air[0] + (mean_z - mean_h) * e_u[0]
+    wind_n = air[1] + (mean_z - mean_h) * e_u[1]
+    wind_up = air[2].copy()
+    theta_h = float(spec.theta_mean_k[-1])
+    theta = air[3] + atm.theta_profile(z_pay_nom, z_hover, theta_h, ustar, cond["obukhov_length_m"]) - theta_h
+    u_fl = (air[0] - spec.mean_enu[-1, 0]) * e_u[0] + (air[1] - spec.mean_enu[-1, 1]) * e_u[1]
+    v_fl = (air[0] - spec.mean_enu[-1, 0]) * e_v[0] + (air[1] - spec.mean_enu[-1, 1]) * e_v[1]
+    if "downwash" in cond["mechanisms"]:  # downdraft of the drone's rotors reaching the payload
+        dw = cond["mechanisms"]["downwash"]
+        w_dw = dw["w0_ms"] * np.exp(-np.hypot(wind_e, wind_n) / dw["u_scale_ms"])
+        wind_up = wind_up - airborne * w_dw
+    return _AirAtPayload(t, z_pay_nom, airborne, float(mean_h), wind_e, wind_n, wind_up, theta, u_fl, v_fl)
+
+
+@dataclass(frozen=True)
+class _Motion:
+    """True path (cubic splines of flight time) and attitude of the payload on the sonic grid."""
+
+    t_s: np.ndarray
+    east_m: CubicSpline
+    north_m: CubicSpline
+    up_m: CubicSpline
+    roll_deg: np.ndarray
+    pitch_deg: np.ndarray
+    yaw_deg: np.ndarray
+    #: body-to-NED rotation R(roll, pitch, yaw), (n, 3, 3)
+    rotation: np.ndarray
+
+
+def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e_u: np.ndarray,
+              e_v: np.ndarray, rng: np.random.Generator,
+              fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Payload position: linearised pendulum under a jittering drone, forced by the turbulent drag.
+
+    Seed 000, Sect. 2.3 (see the module docstring); draws the along, across and vertical
+    hover jitter from ``rng`` in that order.
+
+    Returns
+    -------
+    east_m, north_m, up_m : numpy.ndarray
+        Payload position (ENU from the site) [m].
+    """
+    n = air.t_s.size
+    airborne = air.airborne
+    l_m = p["pendulum_length_m"]
+    omega0 = math.sqrt(_G / l_m)
+    u_mean = max(air.mean_hover_ms, 0.1)
+    k_drag = AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean / p["mass_kg"]
+    c_a = max(k_drag, 2 * p["min_damping_ratio"] * omega0)
+    c_c = max(0.5 * k_drag, 2 * p["min_damping_ratio"] * omega0)
+    trail = l_m * 0.5 * AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean**2 / (p["mass_kg"] * _G)
+    jit_a = _lowpass_noise(rng, n, fs_hz, p["hover_jitter_time_s"], p["hover_jitter_m"])
+    jit_c = _lowpass_noise(rng, n, fs_hz, p["hover_jitter_time_s"], p["hover_jitter_m"])
+    jit_z = _lowpass_noise(rng, n, fs_hz, p["hover_jitter_time_s"], 0.5 * p["hover_jitter_m"])
+    d_a, d_c = airborne * jit_a, airborne * jit_c
+    p_a = _oscillator(omega0**2 * (d_a + airborne * trail) + airborne * k_drag * air.u_fluct_ms, omega0, c_a, fs_hz)
+    p_c = _oscillator(omega0**2 * d_c + airborne * 0.5 * k_drag * air.v_fluct_ms, omega0, c_c, fs_hz)
+    r_h = np.hypot(p_a - d_a, p_c - d_c)
+    z_pay = air.z_nominal_m + airborne * (jit_z + l_m - np.sqrt(np.maximum(l_m**2 - r_h**2, 0.0)))
+    pos_e = field.hover_e_m + p_a * e_u[0] + p_c * e_v[0]
+    pos_n = field.hover_n_m + p_a * e_u[1] + p_c * e_v[1]
+    return pos_e, pos_n, z_pay
+
+
+def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, spec: atm.FieldSpec,
+                    rng: np.random.Generator, fs_hz: float) -> _Motion:
+    """Pendulum path and attitude (seed 000, Sect. 2.3).
+
+    Roll: the drone banks into lateral gusts (0.5 s lag) plus jitter; pitch: trim plus
+    jitter; yaw weathervanes to the direction the relative air comes from (first order)
+    plus jitter. ``rng`` (the motion stream) is drawn in the order hover jitter (along,
+    across, vertical), roll, pitch, yaw jitter.
+    """
+    t = air.t_s
+    n = t.size
+    pos_e, pos_n, z_pay = _pendulum(p, air, field, spec.e_u, spec.e_v, rng, fs_hz)
+    u_mean = max(air.mean_hover_ms, 0.1)
+    roll_k = AIR_DENSITY_KGM3 * p["drone_drag_area_m2"] * u_mean / (p["drone_mass_kg"] * _G)
+    roll = np.degrees(_first_order(roll_k * air.v_fluct_ms, 0.5, fs_hz)) * air.airborne \
+        + _lowpass_noise(rng, n, fs_hz, p["attitude_jitter_time_s"], p["drone_roll_jitter_deg"])
+    pitch = p["pitch_trim_deg"] + _lowpass_noise(rng, n, fs_hz, p["attitude_jitter_time_s"], p["pitch_jitter_deg"])
+    spl_e, spl_n, spl_z = (CubicSpline(t, x) for x in (pos_e, pos_n, z_pay))
+    rel_e, rel_n = air.wind_e_ms - spl_e(t, 1), air.wind_n_ms - spl_n(t, 1)
+    from_dir = np.unwrap(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
+    yaw = np.degrees(_first_order(from_dir, p["yaw_time_constant_s"], fs_hz)) \
+        + _lowpass_noise(rng, n, fs_hz, p["attitude_jitter_time_s"], p["yaw_jitter_deg"])
+    return _Motion(t, spl_e, spl_n, spl_z, roll, pitch, yaw, body_to_ned(roll, pitch, yaw))
+
+
+def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, motion: _Motion,
+                        streams: _Streams) -> tuple[np.ndarray, np.ndarray]:
+    """What the payload sonic measures: relative air in the sensor frame and sonic temperature.
+
+    The exact inverse of the correction V_wind = R V_body + V_ins, V_body = M V_sensor,
+    with the ``mount_misalignment``, ``w_gain`` and ``sonic_noise`` mechanisms, white
+    noise and the sensor's resolution (seed 000, Table 2).
+
+    Returns
+    -------
+    v_sensor_ms : numpy.ndarray
+        (n, 3) u, v, w [m s-1].
+    t_sonic_c : numpy.ndarray
+        Sonic temperature [degree C].
+    """
+    p, mech, t = cond["payload"], cond["mechanisms"], motion.t_s
+    vel_e, vel_n, vel_up = motion.east_m(t, 1), motion.north_m(t, 1), motion.up_m(t, 1)
+    rel_ned = np.stack([air.wind_n_ms - vel_n, air.wind_e_ms - vel_e, -(air.wind_up_ms - vel_up)], axis=-1)
+    v_body = np.einsum("tji,tj->ti", motion.rotation, rel_ned)          # R^T (V_wind - V_ins)
+    m_sb = _MOUNTS[cond["sonic_mount"]]
+    if "mount_misalignment" in mech:
+        mm = mech["mount_misalignment"]
+        m_sb = m_sb @ body_to_ned(mm["roll_deg"], mm["pitch_deg"], mm["yaw_deg"])
+    v_sensor = v_body @ m_sb                                   # (M^T v) row-wise
+    if "w_gain" in mech:
+        v_sensor[:, 2] *= mech["w_gain"]["gain"]
+    v_sensor += p["sonic_noise_ms"] * streams("sonic_noise").standard_normal(v_sensor.shape)
+    if "sonic_noise" in mech:
+        v_sensor += mech["sonic_noise"]["sigma_ms"] * streams("noise_mechanism").standard_normal(v_sensor.shape)
+    t_c = air.theta_k - ZERO_CELSIUS_K + p["temperature_offset_k"] + p["temperature_noise_k"] * \
+        streams("sonic_noise", 10).standard_normal(t.size)
+    res = p["sonic_resolution_ms"]
+    if res > 0:
+        v_sensor = np.round(v_sensor / res) * res
+    if p["temperature_resolution_k"] > 0:
+        t_c = np.round(t_c / p["temperature_resolution_k"]) * p["temperature_resolution_k"]
+    return v_sensor, t_c
+
+
+def _logger_clock_us(t_s: np.ndarray, log_t0_s: float, start: np.datetime64, p: Mapping[str, float]) -> np.ndarray:
+    """Logger clock ``rpi_time_us`` of flight times: UTC + ``logger_clock_offset_s``, drifting by the ppm."""
+    us = np.timedelta64(1, "us")
+    clock = (t_s - log_t0_s) * (1 + p["logger_clock_drift_ppm"] * 1e-6)
+    base = (start - np.datetime64("1970-01-01T00:00:00", "us")) / us * 1e-6 + log_t0_s + p["logger_clock_offset_s"]
+    return np.round((base + clock) * 1e6).astype(np.int64)
+
+
+def _sonic_stamps_us(cond: PayloadFlightConditions, t_s: np.ndarray) -> np.ndarray:
+    """Logger stamps of the sonic rows, shifted by the ``sonic_ins_lag`` and ``clock_drift`` mechanisms."""
+    mech, log_t0 = cond["mechanisms"], t_s[0]
+    t_stamp = t_s.copy()
+    if "sonic_ins_lag" in mech:
+        t_stamp = t_stamp - mech["sonic_ins_lag"]["lag_s"]
+    if "clock_drift" in mech:
+        t_stamp = t_stamp + mech["clock_drift"]["ppm"] * 1e-6 * (t_s - log_t0)
+    return _logger_clock_us(t_stamp, log_t0, cond["start"], cond["payload"])
+
+
+@dataclass(frozen=True)
+class _InsRecord:
+    """INS rows on the INS-rate grid of flight time ``t_s`` (ENU position from the site, NED velocity)."""
+
+    t_s: np.ndarray
+    east_m: np.ndarray
+    north_m: np.ndarray
+    up_m: np.ndarray
+    vel_n_ms: np.ndarray
+    vel_e_ms: np.ndarray
+    vel_d_ms: np.ndarray
+    roll_deg: np.ndarray
+    pitch_deg: np.ndarray
+    yaw_deg: np.ndarray
+
+
+def _ins_truth(cond: PayloadFlightConditions, motion: _Motion, fs_hz: float) -> _InsRecord:
+    """What a perfect INS would log: attitude (``attitude_lag``), position and velocity (``lever_arm``).
+
+    The yaw is not yet wrapped to (-180, 180].
+    """
+    mech, t = cond["mechanisms"], motion.t_s
+    n_ins = int(math.floor((t[-1] - t[0]) * fs_hz)) + 1
+    ti = t[0] + np.arange(n_ins) / fs_hz
+    ti = ti[ti <= t[-1]]
+    att_t = ti - mech.get("attitude_lag", {}).get("lag_s", 0.0)
+    att_t = np.clip(att_t, t[0], t[-1])
+    roll_i = np.interp(att_t, t, motion.roll_deg)
+    pitch_i = np.interp(att_t, t, motion.pitch_deg)
+    yaw_unw = np.interp(att_t, t, motion.yaw_deg)
+    pe, pn, pz = motion.east_m(ti), motion.north_m(ti), motion.up_m(ti)
+    ve, vn, vu = motion.east_m(ti, 1), motion.north_m(ti, 1), motion.up_m(ti, 1)
+    if "lever_arm" in mech:  # INS refers to sonic + R r_body: adds R r and d(R r)/dt
+        la = mech["lever_arm"]
+        r_ned = motion.rotation @ np.array([la["x_m"], la["y_m"], la["z_m"]])   # (n, 3) NED offset
+        offs = [CubicSpline(t, r_ned[:, k]) for k in range(3)]
+        pn, pe, pz = pn + offs[0](ti), pe + offs[1](ti), pz - offs[2](ti)
+        vn, ve, vu = vn + offs[0](ti, 1), ve + offs[1](ti, 1), vu - offs[2](ti, 1)
+    return _InsRecord(ti, pe, pn, pz, vn, ve, -vu, roll_i, pitch_i, yaw_unw)
+
+
+def _add_ins_errors(cond: PayloadFlightConditions, ins: _InsRecord, rng: np.random.Generator,
+                    fs_hz: float) -> _InsRecord:
+    """Gauss-Markov errors of the Table 3 accuracies (seed 000), ``heading_bias``, yaw wrapped to (-180, 180].
+
+    ``rng`` (the INS-noise stream) is drawn in the order vel N, E, D, roll, pitch, yaw,
+    position E, N, up.
+    """
+    p, mech = cond["payload"], cond["mechanisms"]
+    n = ins.t_s.size
+    tau = p["ins_noise_time_s"]
+
+    def gm(sigma: float) -> np.ndarray:
+        if tau > 0:
+            return _lowpass_noise(rng, n, fs_hz, tau, sigma, order=1)
+        return sigma * rng.standard_normal(n)
+
+    vn = ins.vel_n_ms + gm(p["ins_velocity_noise_ms"])
+    ve = ins.vel_e_ms + gm(p["ins_velocity_noise_ms"])
+    vd = ins.vel_d_ms + gm(p["ins_velocity_noise_ms"])
+    roll_i = ins.roll_deg + gm(p["ins_roll_pitch_noise_deg"])
+    pitch_i = ins.pitch_deg + gm(p["ins_roll_pitch_noise_deg"])
+    yaw_unw = ins.yaw_deg + gm(p["ins_heading_noise_deg"]) + mech.get("heading_bias", {}).get("deg", 0.0)
+    yaw_i = (yaw_unw + 180.0) % 360.0 - 180.0
+    yaw_i = np.where(yaw_i == -180.0, 180.0, yaw_i)
+    pe = ins.east_m + gm(p["ins_horizontal_position_noise_m"])
+    pn = ins.north_m + gm(p["ins_horizontal_position_noise_m"])
+    pz = ins.up_m + gm(p["ins_vertical_position_noise_m"])
+    return _InsRecord(ins.t_s, pe, pn, pz, vn, ve, vd, roll_i, pitch_i, yaw_i)
+
+
+def _ins_lat_lon(cond: PayloadFlightConditions, east_m: np.ndarray,
+                 north_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Latitude and longitude of ENU offsets from the site (the reference mast's position by default; WGS84)."""
+    ref = cond["mast_sonics"][cond["reference"]]
+    site = cond["site"]
+    lat0 = float(site.get("latitude", ref["latitude"]))
+    lon0 = float(site.get("longitude", ref["longitude"]))
+    import math
+    lat = lat0 + np.degrees(north_m / 6_371_000.0)
+    lon = lon0 + np.degrees(east_m / (6_371_000.0 * math.cos(math.radians(lat0))))
+    return lat, lon
+
+
+def _ins_validity(cond: PayloadFlightConditions, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``time_valid`` (GNSS time, with one blink before it is stable) and ``ekf_valid`` flags of INS rows."""
+    p, tl = cond["payload"], flight_timeline(cond)
+    since_log = t_s - t_s[0]
+    acq, blink = p["gnss_acquisition_s"], p["gnss_blink_s"]
+    time_valid = (since_log >= acq).astype(np.int64)
+    if blink > 0 and acq > 2 * blink + 10:
+        b0 = 0.5 * acq
+        time_valid[(since_log >= b0) & (since_log < b0 + blink)] = 1
+    if tl["log_start"] + acq + 10.0 > tl["hover_start"]:
+        raise InputError("simulation.payload.gnss_acquisition_s",
+                         f"GNSS time would become stable after the hover starts in flight {cond['flight_id']}")
+    ekf_valid = (since_log >= p["ekf_init_s"]).astype(np.int64)
+    return time_valid, ekf_valid
+
+
+def _write_sonic_log(path: Path, cond: PayloadFlightConditions, stamps_us: np.ndarray, v_sensor_ms: np.ndarray,
+                     t_sonic_c: np.ndarray, streams: _Streams) -> Path:
+    """Sonic CSV with row defects (missing, duplicated, swapped rows; out-of-range values)."""
+    order, oor = _defects(streams("sonic_defects"), stamps_us.size, cond["defects"]["sonic"])
+    r_def = streams("sonic_defects", 1)
+    cols = np.column_stack([v_sensor_ms, t_sonic_c])
+    bad_rows = np.flatnonzero(oor)
+    bad_cols = r_def.integers(0, 4, bad_rows.size)
+    bad_vals = np.where(r_def.random(bad_rows.size) < 0.5, -99.99, 99.99)  # beyond 40 m/s and 50 C
+    cols[bad_rows, bad_cols] = bad_vals
+    return write_payload_sonic_csv(path, stamps_us[order], cols[order, 0], cols[order, 1], cols[order, 2],
+                                   cols[order, 3])
+
+
+def _write_ins_log(path: Path, cond: PayloadFlightConditions, ins: _InsRecord, valid: tuple[np.ndarray, np.ndarray],
+                   log_t0_s: float, streams: _Streams) -> Path:
+    """INS CSV (lat/lon/alt, ``valid`` = time_valid and ekf_valid flags, logger and UTC times) with row defects."""
+    us = np.timedelta64(1, "us")
+    lat, lon = _ins_lat_lon(cond, ins.east_m, ins.north_m)
+    alt = float(cond["site"].get("altitude_m", 0.0)) + ins.up_m
+    time_valid, ekf_valid = valid
+    utc = cond["start"] + np.round(ins.t_s * 1e6).astype(np.int64) * us
+    ins_rpi = _logger_clock_us(ins.t_s, log_t0_s, cond["start"], cond["payload"])
+    o, oor_i = _defects(streams("ins_defects"), ins.t_s.size, cond["defects"]["ins"])
+    ins_cols = np.column_stack([ins.vel_n_ms, ins.vel_e_ms, ins.vel_d_ms, ins.roll_deg, ins.pitch_deg])
+    bad_rows = np.flatnonzero(oor_i)
+    bad_cols = streams("ins_defects", 1).integers(0, 5, bad_rows.size)
+    ins_cols[bad_rows, bad_cols] = 999.0
+    return write_ins_csv(path, ins_rpi[o], utc[o], time_valid[o], ekf_valid[o], lat[o], lon[o], alt[o],
+                         ins_cols[o, 0], ins_cols[o, 1], ins_cols[o, 2], ins_cols[o, 3], ins_cols[o, 4],
+                         ins.yaw_deg[o])
+
+
+def _write_mast_records(out_dir: Path, cond: PayloadFlightConditions, settings: SimulationSettings,
+                        clock: _FlightClock, field: _FieldPoints, spec: atm.FieldSpec,
+                        streams: _Streams) -> list[Path]:
+    """One TOA5 per mast sonic over the mast span (CSAT3 measurement model, RECORD from 2020-01-01)."""
+    us = np.timedelta64(1, "us")
+    fs_m = settings["mast"]["rate_hz"]
+    m0 = int(math.ceil((clock.mast_lo - clock.field_t0) / us * 1e-6 * fs_m))
+    m1 = int(math.floor(clock.mast_end_field_s * fs_m))
+    mast_series = atm.synthesize(spec, fs_m, list(range(len(field.mast_ids))), start_s=m0 / fs_m,
+                                 n_samples=m1 - m0)
+    mast_times = clock.field_t0 + np.round((m0 + np.arange(m1 - m0)) / fs_m * 1e6).astype(np.int64) * us
+    rec0 = int(round((clock.field_t0 - np.datetime64("2020-01-01T00:00:00", "us")) / us * 1e-6 * fs_m)) + m0
+    written = []
+    for k, sid in enumerate(field.mast_ids):
+        sonic = cond["mast_sonics"][sid]
+        meas = mast_measurement(mast_series[k, 0], mast_series[k, 1], mast_series[k, 2], mast_series[k, 3],
+                                float(sonic["azimuth_deg"]), settings["mast"], streams("mast", k),
+                                cond["mechanisms"], rec0)
+        keep = meas.keep
+        path = out_dir / _mast_file(list(sonic["files"]), cond["flight_id"], sid)
+        write_toa5(path, mast_times[keep], meas.record[keep], meas.ux_ms[keep], meas.uy_ms[keep],
+                   meas.uz_ms[keep], meas.ts_c[keep], meas.diag_csat[keep], table=f"ts_{sid}")
+        written.append(path)
+    return written
+
+
+def simulate_payload_flight(campaign: CampaignLike, manifest_dir: Path, flight_id: str,
+                            out_dir: Path) -> list[Path]:
     """Write the L0 files of one virtual payload flight and of every mast sonic.
 
     Parameters
@@ -298,231 +765,18 @@ def simulate_payload_flight(campaign: Any, manifest_dir: Path, flight_id: str, o
     settings = validate_simulation(data)
     cond = resolve_payload_flight(data, flight_id, settings)
     out_dir = Path(out_dir)
-    p = cond["payload"]
-    mech = cond["mechanisms"]
-    seed = cond["seed"]
-
-    def rng(name: str, k: int = 0) -> np.random.Generator:
-        return np.random.default_rng([seed, _STREAM[name] + k])
-
-    # ---------------- time grids -----------------------------------------------------
+    p, streams = cond["payload"], _Streams(cond["seed"])
     fs_s, fs_i, fs_m = p["sonic_rate_hz"], p["ins_rate_hz"], settings["mast"]["rate_hz"]
-    tl = flight_timeline(cond)
-    start = cond["start"]
-    us = np.timedelta64(1, "us")
-    mast_lo, mast_hi = _mast_span(data, settings, cond)
-    # the field period starts on a whole second, so mast stamps fall on round 1/fs_m
-    epoch_day = start.astype("datetime64[D]").astype("datetime64[us]")
-    lo_s = math.floor((mast_lo - epoch_day) / us * 1e-6)
-    field_t0 = epoch_day + int(lo_s * 1e6) * us               # UTC of field time 0
-    rel0 = (start - field_t0) / us * 1e-6                     # hover start in field time
-    log_start_f = math.ceil((rel0 + tl["log_start"]) * fs_s) / fs_s
-    n_son = int(math.floor((tl["log_end"] - tl["log_start"]) * fs_s))
-    mast_end_f = (mast_hi - field_t0) / us * 1e-6
-    unit = 1.0 / math.gcd(int(fs_s), int(fs_m)) if float(fs_s).is_integer() and float(fs_m).is_integer() else 1.0
-    span = max(mast_end_f, log_start_f + n_son / fs_s + 1.0)
-
-    # ---------------- turbulence at mast sonics (first) and the hover point ------------
-    sonics = cond["mast_sonics"]
-    ref = sonics[cond["reference"]]
-    ref_e, ref_n = _mast_offsets_enu(cond["site"], ref)
-    dz = mech.get("height_offset", {}).get("dz_m", 0.0)
-    z_hover = cond["hover_height_m"] - dz
-    hover_e, hover_n = ref_e + cond["hover_offset_enu_m"][0], ref_n + cond["hover_offset_enu_m"][1]
-    mast_ids = list(sonics)
-    points = [[*_mast_offsets_enu(cond["site"], sonics[s]), float(sonics[s]["height_m"])] for s in mast_ids]
-    points.append([hover_e, hover_n, z_hover])
-    points = np.asarray(points)
-    e_u0, _ = atm.wind_frame_unit_vectors(cond["wind_from_deg"])
-    s_down = points[:, :2] @ e_u0
-    pad = (s_down.max() - s_down.min()) / max(cond["mean_speed_ms"], 0.5)  # Taylor delays must not wrap
-    period = math.ceil((span + pad) / unit) * unit
-    spec = atm.field_coefficients(points, period, max(fs_s, fs_m), cond["mean_speed_ms"], cond["wind_from_deg"],
-                                  cond["z_ref_m"], cond["obukhov_length_m"], cond["roughness_length_m"],
-                                  rng("turbulence"), cond["theta_mean_k"], cond["boundary_layer_height_m"])
-    i0 = int(round(log_start_f * fs_s))
-    air = atm.synthesize(spec, fs_s, [len(mast_ids)], start_s=i0 / fs_s, n_samples=n_son)[0]
-
-    # ---------------- flight path, pendulum, attitude (sonic grid, true UTC) -----------
-    t = log_start_f - rel0 + np.arange(n_son) / fs_s          # s from hover-window start
-    ustar = spec.friction_velocity_ms
-    l_m = p["pendulum_length_m"]
-    z_ground = 0.5
-    z_pay_nom = _smooth_path(t, [tl["log_start"], tl["takeoff"], tl["hover_start"], tl["hover_end"],
-                                 tl["landing"], tl["log_end"]],
-                             [z_ground, z_ground, z_hover, z_hover, z_ground, z_ground], fs_s)
-    airborne = np.clip((z_pay_nom - z_ground) / 2.0, 0.0, 1.0)  # ramps in over the first 2 m
-    # mean wind at the current height replaces the hover point's mean
-    mean_h = atm.mean_speed_profile(z_hover, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
-    mean_z = atm.mean_speed_profile(z_pay_nom, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
-    e_u, e_v = spec.e_u, spec.e_v
-    wind_e = air[0] + (mean_z - mean_h) * e_u[0]
-    wind_n = air[1] + (mean_z - mean_h) * e_u[1]
-    wind_up = air[2].copy()
-    theta_h = float(spec.theta_mean_k[-1])
-    theta = air[3] + atm.theta_profile(z_pay_nom, z_hover, theta_h, ustar, cond["obukhov_length_m"]) - theta_h
-    u_fl = (air[0] - spec.mean_enu[-1, 0]) * e_u[0] + (air[1] - spec.mean_enu[-1, 1]) * e_u[1]
-    v_fl = (air[0] - spec.mean_enu[-1, 0]) * e_v[0] + (air[1] - spec.mean_enu[-1, 1]) * e_v[1]
-    if "downwash" in mech:  # downdraft of the drone's rotors reaching the payload
-        dw = mech["downwash"]
-        w_dw = dw["w0_ms"] * np.exp(-np.hypot(wind_e, wind_n) / dw["u_scale_ms"])
-        wind_up = wind_up - airborne * w_dw
-
-    r_mot = rng("motion")
-    omega0 = math.sqrt(_G / l_m)
-    u_mean = max(float(mean_h), 0.1)
-    k_drag = AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean / p["mass_kg"]
-    c_a = max(k_drag, 2 * p["min_damping_ratio"] * omega0)
-    c_c = max(0.5 * k_drag, 2 * p["min_damping_ratio"] * omega0)
-    trail = l_m * 0.5 * AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean**2 / (p["mass_kg"] * _G)
-    jit_a = _lowpass_noise(r_mot, n_son, fs_s, p["hover_jitter_time_s"], p["hover_jitter_m"])
-    jit_c = _lowpass_noise(r_mot, n_son, fs_s, p["hover_jitter_time_s"], p["hover_jitter_m"])
-    jit_z = _lowpass_noise(r_mot, n_son, fs_s, p["hover_jitter_time_s"], 0.5 * p["hover_jitter_m"])
-    d_a, d_c = airborne * jit_a, airborne * jit_c
-    p_a = _oscillator(omega0**2 * (d_a + airborne * trail) + airborne * k_drag * u_fl, omega0, c_a, fs_s)
-    p_c = _oscillator(omega0**2 * d_c + airborne * 0.5 * k_drag * v_fl, omega0, c_c, fs_s)
-    r_h = np.hypot(p_a - d_a, p_c - d_c)
-    z_pay = z_pay_nom + airborne * (jit_z + l_m - np.sqrt(np.maximum(l_m**2 - r_h**2, 0.0)))
-    pos_e = hover_e + p_a * e_u[0] + p_c * e_v[0]
-    pos_n = hover_n + p_a * e_u[1] + p_c * e_v[1]
-    # attitude
-    roll_k = AIR_DENSITY_KGM3 * p["drone_drag_area_m2"] * u_mean / (p["drone_mass_kg"] * _G)
-    roll = np.degrees(_first_order(roll_k * v_fl, 0.5, fs_s)) * airborne \
-        + _lowpass_noise(r_mot, n_son, fs_s, p["attitude_jitter_time_s"], p["drone_roll_jitter_deg"])
-    pitch = p["pitch_trim_deg"] + _lowpass_noise(r_mot, n_son, fs_s, p["attitude_jitter_time_s"], p["pitch_jitter_deg"])
-    spl_e, spl_n, spl_z = (CubicSpline(t, x) for x in (pos_e, pos_n, z_pay))
-    vel_e, vel_n, vel_up = spl_e(t, 1), spl_n(t, 1), spl_z(t, 1)
-    rel_e, rel_n = wind_e - vel_e, wind_n - vel_n
-    from_dir = np.unwrap(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
-    yaw = np.degrees(_first_order(from_dir, p["yaw_time_constant_s"], fs_s)) \
-        + _lowpass_noise(r_mot, n_son, fs_s, p["attitude_jitter_time_s"], p["yaw_jitter_deg"])
-
-    # ---------------- sonic measurement ----------------------------------------------
-    r_true = body_to_ned(roll, pitch, yaw)
-    rel_ned = np.stack([wind_n - vel_n, wind_e - vel_e, -(wind_up - vel_up)], axis=-1)
-    v_body = np.einsum("tji,tj->ti", r_true, rel_ned)          # R^T (V_wind - V_ins)
-    m_sb = _MOUNTS[cond["sonic_mount"]]
-    if "mount_misalignment" in mech:
-        mm = mech["mount_misalignment"]
-        m_sb = m_sb @ body_to_ned(mm["roll_deg"], mm["pitch_deg"], mm["yaw_deg"])
-    v_sensor = v_body @ m_sb                                   # (M^T v) row-wise
-    if "w_gain" in mech:
-        v_sensor[:, 2] *= mech["w_gain"]["gain"]
-    v_sensor += p["sonic_noise_ms"] * rng("sonic_noise").standard_normal(v_sensor.shape)
-    if "sonic_noise" in mech:
-        v_sensor += mech["sonic_noise"]["sigma_ms"] * rng("noise_mechanism").standard_normal(v_sensor.shape)
-    t_c = theta - 273.15 + p["temperature_offset_k"] + p["temperature_noise_k"] * \
-        rng("sonic_noise", 10).standard_normal(n_son)
-    res = p["sonic_resolution_ms"]
-    if res > 0:
-        v_sensor = np.round(v_sensor / res) * res
-    if p["temperature_resolution_k"] > 0:
-        t_c = np.round(t_c / p["temperature_resolution_k"]) * p["temperature_resolution_k"]
-
-    # ---------------- clocks ---------------------------------------------------------
-    log_t0 = t[0]
-
-    def rpi_us(t_rel: np.ndarray) -> np.ndarray:
-        utc_s = t_rel  # s from hover-window start
-        clock = (utc_s - log_t0) * (1 + p["logger_clock_drift_ppm"] * 1e-6)
-        base = (start - np.datetime64("1970-01-01T00:00:00", "us")) / us * 1e-6 + log_t0 + p["logger_clock_offset_s"]
-        return np.round((base + clock) * 1e6).astype(np.int64)
-
-    t_stamp = t.copy()
-    if "sonic_ins_lag" in mech:
-        t_stamp = t_stamp - mech["sonic_ins_lag"]["lag_s"]
-    if "clock_drift" in mech:
-        t_stamp = t_stamp + mech["clock_drift"]["ppm"] * 1e-6 * (t - log_t0)
-    son_rpi = rpi_us(t_stamp)
-
-    # ---------------- INS -------------------------------------------------------------
-    n_ins = int(math.floor((t[-1] - t[0]) * fs_i)) + 1
-    ti = t[0] + np.arange(n_ins) / fs_i
-    ti = ti[ti <= t[-1]]
-    att_t = ti - mech.get("attitude_lag", {}).get("lag_s", 0.0)
-    att_t = np.clip(att_t, t[0], t[-1])
-    roll_i = np.interp(att_t, t, roll)
-    pitch_i = np.interp(att_t, t, pitch)
-    yaw_unw = np.interp(att_t, t, yaw)
-    pe, pn, pz = spl_e(ti), spl_n(ti), spl_z(ti)
-    ve, vn, vu = spl_e(ti, 1), spl_n(ti, 1), spl_z(ti, 1)
-    if "lever_arm" in mech:  # INS refers to sonic + R r_body: adds R r and d(R r)/dt
-        la = mech["lever_arm"]
-        r_ned = r_true @ np.array([la["x_m"], la["y_m"], la["z_m"]])   # (n, 3) NED offset
-        offs = [CubicSpline(t, r_ned[:, k]) for k in range(3)]
-        pn, pe, pz = pn + offs[0](ti), pe + offs[1](ti), pz - offs[2](ti)
-        vn, ve, vu = vn + offs[0](ti, 1), ve + offs[1](ti, 1), vu - offs[2](ti, 1)
-    r_noise = rng("ins_noise")
-    tau = p["ins_noise_time_s"]
-    gm = (lambda s: _lowpass_noise(r_noise, ti.size, fs_i, tau, s, order=1)) if tau > 0 else \
-        (lambda s: s * r_noise.standard_normal(ti.size))
-    vn = vn + gm(p["ins_velocity_noise_ms"])
-    ve = ve + gm(p["ins_velocity_noise_ms"])
-    vd = -vu + gm(p["ins_velocity_noise_ms"])
-    roll_i = roll_i + gm(p["ins_roll_pitch_noise_deg"])
-    pitch_i = pitch_i + gm(p["ins_roll_pitch_noise_deg"])
-    yaw_unw = yaw_unw + gm(p["ins_heading_noise_deg"]) + mech.get("heading_bias", {}).get("deg", 0.0)
-    yaw_i = (yaw_unw + 180.0) % 360.0 - 180.0
-    yaw_i = np.where(yaw_i == -180.0, 180.0, yaw_i)
-    pe = pe + gm(p["ins_horizontal_position_noise_m"])
-    pn = pn + gm(p["ins_horizontal_position_noise_m"])
-    pz = pz + gm(p["ins_vertical_position_noise_m"])
-    site = cond["site"]
-    lat0 = float(site.get("latitude", ref["latitude"]))
-    lon0 = float(site.get("longitude", ref["longitude"]))
-    lat = lat0 + np.degrees(pn / EARTH_RADIUS_M)
-    lon = lon0 + np.degrees(pe / (EARTH_RADIUS_M * math.cos(math.radians(lat0))))
-    alt = float(site.get("altitude_m", 0.0)) + pz
-    since_log = ti - t[0]
-    acq, blink = p["gnss_acquisition_s"], p["gnss_blink_s"]
-    time_valid = (since_log >= acq).astype(np.int64)
-    if blink > 0 and acq > 2 * blink + 10:
-        b0 = 0.5 * acq
-        time_valid[(since_log >= b0) & (since_log < b0 + blink)] = 1
-    if tl["log_start"] + acq + 10.0 > tl["hover_start"]:
-        raise InputError("simulation.payload.gnss_acquisition_s",
-                         f"GNSS time would become stable after the hover starts in flight {flight_id}")
-    ekf_valid = (since_log >= p["ekf_init_s"]).astype(np.int64)
-    utc = start + np.round(ti * 1e6).astype(np.int64) * us
-    ins_rpi = rpi_us(ti)
-
-    # ---------------- defects and writing ------------------------------------------------
+    clock = _flight_clock(data, settings, cond, fs_s, fs_m)
+    field = _field_points(cond)  # turbulence at the mast sonics (first) and the hover point
+    spec = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"))
+    air = _air_at_payload(cond, clock, field, spec, fs_s)
+    motion = _payload_motion(p, air, field, spec, streams("motion"), fs_s)
+    v_sensor, t_c = _sonic_sensor_frame(cond, air, motion, streams)
+    stamps = _sonic_stamps_us(cond, motion.t_s)
+    ins = _add_ins_errors(cond, _ins_truth(cond, motion, fs_i), streams("ins_noise"), fs_i)
+    valid = _ins_validity(cond, ins.t_s)  # raises before anything is written
     flight = cond["flight"]
-    sonic_path = out_dir / str(flight["sonic"]["file"])
-    ins_path = out_dir / str(flight["ins"]["file"])
-    order, oor = _defects(rng("sonic_defects"), n_son, cond["defects"]["sonic"])
-    r_def = rng("sonic_defects", 1)
-    cols = np.column_stack([v_sensor, t_c])
-    bad_rows = np.flatnonzero(oor)
-    bad_cols = r_def.integers(0, 4, bad_rows.size)
-    bad_vals = np.where(r_def.random(bad_rows.size) < 0.5, -99.99, 99.99)  # beyond 40 m/s and 50 C
-    cols[bad_rows, bad_cols] = bad_vals
-    write_payload_sonic_csv(sonic_path, son_rpi[order], cols[order, 0], cols[order, 1], cols[order, 2],
-                            cols[order, 3])
-    order_i, oor_i = _defects(rng("ins_defects"), ti.size, cond["defects"]["ins"])
-    ins_cols = np.column_stack([vn, ve, vd, roll_i, pitch_i])
-    bad_rows = np.flatnonzero(oor_i)
-    bad_cols = rng("ins_defects", 1).integers(0, 5, bad_rows.size)
-    ins_cols[bad_rows, bad_cols] = 999.0
-    o = order_i
-    write_ins_csv(ins_path, ins_rpi[o], utc[o], time_valid[o], ekf_valid[o], lat[o], lon[o], alt[o],
-                  ins_cols[o, 0], ins_cols[o, 1], ins_cols[o, 2], ins_cols[o, 3], ins_cols[o, 4], yaw_i[o])
-    written = [sonic_path, ins_path]
-
-    # ---------------- mast sonics ------------------------------------------------------
-    m0 = int(math.ceil((mast_lo - field_t0) / us * 1e-6 * fs_m))
-    m1 = int(math.floor(mast_end_f * fs_m))
-    mast_series = atm.synthesize(spec, fs_m, list(range(len(mast_ids))), start_s=m0 / fs_m, n_samples=m1 - m0)
-    mast_times = field_t0 + np.round((m0 + np.arange(m1 - m0)) / fs_m * 1e6).astype(np.int64) * us
-    rec0 = int(round((field_t0 - np.datetime64("2020-01-01T00:00:00", "us")) / us * 1e-6 * fs_m)) + m0
-    for k, sid in enumerate(mast_ids):
-        sonic = sonics[sid]
-        meas = mast_measurement(mast_series[k, 0], mast_series[k, 1], mast_series[k, 2], mast_series[k, 3],
-                                float(sonic["azimuth_deg"]), settings["mast"], rng("mast", k), mech, rec0)
-        keep = meas["keep"]
-        path = out_dir / _mast_file(list(sonic["files"]), flight_id, sid)
-        write_toa5(path, mast_times[keep], meas["record"][keep], meas["ux_ms"][keep], meas["uy_ms"][keep],
-                   meas["uz_ms"][keep], meas["ts_c"][keep], meas["diag_csat"][keep], table=f"ts_{sid}")
-        written.append(path)
-    return written
-
+    written = [_write_sonic_log(out_dir / str(flight["sonic"]["file"]), cond, stamps, v_sensor, t_c, streams),
+               _write_ins_log(out_dir / str(flight["ins"]["file"]), cond, ins, valid, motion.t_s[0], streams)]
+    return written + _write_mast_records(out_dir, cond, settings, clock, field, spec, streams)

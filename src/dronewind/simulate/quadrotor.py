@@ -1,6 +1,7 @@
 r"""Virtual SWUF-3D quadrotor fleet flights and the tower reference (seed 001).
 
-Forward model of a hovering quadrotor (the inverse of :mod:`dronewind.quadrotor.calibration`):
+Forward model of a hovering quadrotor (its physics in :mod:`dronewind.simulate.airframe`,
+independent of the processing chain's inversion in :mod:`dronewind.quadrotor`):
 
 1. the wind at the UAV's hover point (from :func:`dronewind.simulate.atmosphere.simulate_wind`,
    or any function with the same signature) minus the vehicle's own velocity gives the
@@ -47,18 +48,24 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
-import scipy.signal
 
 from dronewind.errors import InputError
-from dronewind.quadrotor.calibration import GRAVITY_MS2, DragLaw, attitude_from_tilt, tilt_from_speed
+from dronewind.simulate.airframe import (
+    AirframeDrag,
+    attitude_from_tilt,
+    rayleigh_tilt_rad,
+    regime_tilt,
+    weathervane_heading_deg,
+)
+from dronewind.simulate.common import first_order_lag, merge_settings, ornstein_uhlenbeck
 from dronewind.simulate.settings import flight_seed  # SHA-256 of "<campaign seed>:<flight id>"
 
-__all__ = ["DEFAULTS", "simulate_quadrotor_flight", "simulate_uav_log",
-           "tower_reference_frame", "quadrotor_mechanisms", "regime_tilt", "log_profile_wind", "first_order_lag"]
+__all__ = ["DEFAULTS", "simulate_quadrotor_flight", "simulate_uav_log", "tower_reference_frame",
+           "quadrotor_mechanisms", "log_profile_wind"]
 
 #: Default ``simulation.quadrotor`` settings (units in the key names).
 DEFAULTS: dict[str, Any] = {
@@ -81,13 +88,6 @@ DEFAULTS: dict[str, Any] = {
     "roughness_length_m": 0.05,
     "uavs": {},
 }
-
-
-def _merge(base: Mapping, over: Mapping) -> dict:
-    out = dict(base)
-    for k, v in (over or {}).items():
-        out[k] = _merge(base[k], v) if isinstance(v, Mapping) and isinstance(base.get(k), Mapping) else v
-    return out
 
 
 def quadrotor_mechanisms(simulation: Mapping | None, flight_id: str | None = None) -> dict[str, Any]:
@@ -149,87 +149,88 @@ def _regime_table(rows: list[Mapping], where: str) -> list[dict[str, float]]:
     return sorted(table, key=lambda e: e["min_speed_ms"])
 
 
-def regime_tilt(speed_ms: np.ndarray, regime: list[Mapping]) -> np.ndarray:
-    r"""Tilt from a piecewise power drag law (seed 002, Eq. 1 and Table 2, inverted).
+# ----------------------------------------------------------------------------- one UAV
+
+
+def hover_wander(rng: np.random.Generator, n: int, position_sd_m: tuple[float, float],
+                 position_timescale_s: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """East, north and up excursions of a hovering UAV (Ornstein-Uhlenbeck each) [m].
 
     Parameters
     ----------
-    speed_ms : array_like
-        Relative air speed (>= 0) [m s-1].
-    regime : list of mapping
-        Ranges ``min_speed_ms``, ``max_speed_ms``, ``b`` [-], ``c`` [m s-1 (m s-2)^-b];
-        speeds outside every range use the nearest one.
+    rng : numpy.random.Generator
+        Random source (east, north, up drawn in this order).
+    n : int
+        Number of samples.
+    position_sd_m : (float, float)
+        Standard deviation of horizontal (per axis) and vertical wander [m] (seed 001,
+        Sect. 4.3: 0.19 m and 0.85 m).
+    position_timescale_s : float
+        Time scale of the wander [s].
+    fs_hz : float
+        Sampling rate [Hz].
 
     Returns
     -------
-    numpy.ndarray
-        Tilt [rad].
-
-    Notes
-    -----
-    .. math:: a = (U/c_k)^{1/b_k},\qquad \gamma = \arcsin(a/g)
-
-    with :math:`a` the wind force per unit mass [m s-2].
+    dx_east_m, dy_north_m, dz_up_m : numpy.ndarray
     """
-    u = np.abs(np.asarray(speed_ms, float))
-    mids = np.array([0.5 * (r["min_speed_ms"] + r["max_speed_ms"]) for r in regime])
-    k = np.zeros(u.shape, dtype=int)
-    for j, r in enumerate(regime):
-        k = np.where((u >= r["min_speed_ms"]) & (u < r["max_speed_ms"]), j, k)
-    inside = np.zeros(u.shape, dtype=bool)
-    for r in regime:
-        inside |= (u >= r["min_speed_ms"]) & (u < r["max_speed_ms"])
-    k = np.where(inside, k, np.argmin(np.abs(u[..., None] - mids), axis=-1))
-    b = np.array([r["b"] for r in regime])[k]
-    c = np.array([r["c"] for r in regime])[k]
-    accel = (u / c) ** (1.0 / b)
-    return np.arcsin(np.clip(accel / GRAVITY_MS2, 0.0, 0.99))
+    sd_h, sd_v = position_sd_m
+    dx = ornstein_uhlenbeck(rng, n, sd_h, position_timescale_s, fs_hz)
+    dy = ornstein_uhlenbeck(rng, n, sd_h, position_timescale_s, fs_hz)
+    dz = ornstein_uhlenbeck(rng, n, sd_v, position_timescale_s, fs_hz)
+    return dx, dy, dz
 
 
-def first_order_lag(x: np.ndarray, tau_s: float, fs_hz: float) -> np.ndarray:
-    """First-order low-pass (exact discretisation of dy/dt = (x - y)/tau), y[0] = x[0]."""
-    if tau_s <= 0:
-        return np.asarray(x, float).copy()
-    a = np.exp(-1.0 / (fs_hz * tau_s))
-    y, _ = scipy.signal.lfilter([1 - a], [1, -a], x, zi=[a * x[0]])
-    return y
+def platform_velocity(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, fs_hz: float,
+                      prescribed_ms: tuple[np.ndarray, np.ndarray] | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """True east, north and down velocity of the UAV [m s-1]: the wander's derivative, or a
+    prescribed horizontal velocity (east, north)."""
+    n = dx.size
+    dt = 1.0 / fs_hz
+    if prescribed_ms is not None:
+        ve_true, vn_true = (np.asarray(v, float) for v in prescribed_ms)
+    else:
+        ve_true = np.gradient(dx, dt) if n > 1 else np.zeros(n)
+        vn_true = np.gradient(dy, dt) if n > 1 else np.zeros(n)
+    vd_true = -np.gradient(dz, dt) if n > 1 else np.zeros(n)
+    return ve_true, vn_true, vd_true
 
 
-def _ou(rng: np.random.Generator, n: int, sd: float, tau_s: float, fs_hz: float) -> np.ndarray:
-    """Ornstein-Uhlenbeck series with standard deviation ``sd`` and time scale ``tau_s``."""
-    if sd <= 0:
-        return np.zeros(n)
-    a = np.exp(-1.0 / (fs_hz * tau_s))
-    e = rng.standard_normal(n) * sd * np.sqrt(1 - a * a)
-    e[0] = rng.standard_normal() * sd
-    y, _ = scipy.signal.lfilter([1.0], [1, -a], e, zi=[0.0])
-    return y
+def relative_wind(wind_east_ms: np.ndarray, wind_north_ms: np.ndarray, ve_true: np.ndarray,
+                  vn_true: np.ndarray, response_lag_s: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Speed [m s-1] and from-direction [degree] of the air relative to the UAV, lagged by
+    ``response_lag_s`` (the attitude's response, mechanism ``response_lag``)."""
+    rel_e = first_order_lag(wind_east_ms - ve_true, response_lag_s, fs_hz)
+    rel_n = first_order_lag(wind_north_ms - vn_true, response_lag_s, fs_hz)
+    return np.hypot(rel_e, rel_n), np.degrees(np.arctan2(-rel_e, -rel_n)) % 360.0
 
 
-def _weathervane(from_deg: np.ndarray, tilt_rad: np.ndarray, tau_s: float, min_roll_deg: float,
-                 fs_hz: float, psi0_deg: float) -> np.ndarray:
-    """Heading that turns towards ``from_deg`` (first order) while |roll| > min_roll_deg.
+def true_attitude_deg(speed_ms: np.ndarray, from_deg: np.ndarray, fs_hz: float, drag: AirframeDrag,
+                      regime: list[Mapping] | None = None,
+                      weathervane: Mapping | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Roll, pitch and yaw (in (-180, 180]) that balance the relative wind [degree].
 
-    Hand-written loop: the dead band makes the response state-dependent, which a linear
-    filter cannot express.
+    The tilt comes from the drag law (``regime`` replaces ``drag``), the lean is towards the
+    wind, the heading follows the wind (perfectly when ``weathervane`` is None, else through
+    :func:`dronewind.simulate.airframe.weathervane_heading_deg` with ``tau_s`` and
+    ``min_roll_deg``).
     """
-    n = from_deg.size
-    psi = np.empty(n)
-    p = psi0_deg
-    a = 1.0 - np.exp(-1.0 / (fs_hz * max(tau_s, 1e-9)))
-    sin_min = np.sin(np.radians(min_roll_deg))
-    st = np.sin(tilt_rad)
-    for i in range(n):
-        d = (from_deg[i] - p + 180.0) % 360.0 - 180.0
-        roll_sin = st[i] * np.sin(np.radians(d))
-        if abs(roll_sin) > sin_min:
-            p = p + a * d
-        psi[i] = p
-    return psi
+    if regime:
+        tilt = regime_tilt(speed_ms, regime)
+    else:
+        tilt = rayleigh_tilt_rad(speed_ms, drag.cd0a0_m2, drag.cp_m2_per_rad, drag.mass_kg, drag.rho_kgm3)
+    if weathervane is None:
+        psi = from_deg.copy()
+    else:
+        psi = weathervane_heading_deg(from_deg, tilt, float(weathervane.get("tau_s", 3.0)),
+                                      float(weathervane.get("min_roll_deg", 1.0)), fs_hz, float(from_deg[0]))
+    roll, pitch = attitude_from_tilt(tilt, np.radians(from_deg - psi))
+    return np.degrees(roll), np.degrees(pitch), (psi + 180.0) % 360.0 - 180.0
 
 
 def simulate_uav_log(wind_east_ms: np.ndarray, wind_north_ms: np.ndarray, fs_hz: float,
-                     rng: np.random.Generator, *, law: DragLaw | None = None,
+                     rng: np.random.Generator, *, law: AirframeDrag | None = None,
                      regime: list[Mapping] | None = None, pitch_offset_deg: float = 0.0,
                      yaw_offset_deg: float = 0.0, response_lag_s: float = 0.0,
                      weathervane: Mapping | None = None, attitude_noise_deg: float = 0.0,
@@ -247,10 +248,11 @@ def simulate_uav_log(wind_east_ms: np.ndarray, wind_north_ms: np.ndarray, fs_hz:
         Sampling rate [Hz].
     rng : numpy.random.Generator
         Random source (position wander and noise).
-    law : DragLaw, optional
+    law : AirframeDrag, optional
         ``rayleigh`` drag law (seed 001, Eqs. 12-17); default Eq. 18.
     regime : list of mapping, optional
-        ``drag_regime`` table; replaces ``law`` (see :func:`regime_tilt`).
+        ``drag_regime`` table; replaces ``law`` (see
+        :func:`dronewind.simulate.airframe.regime_tilt`).
     pitch_offset_deg, yaw_offset_deg : float
         Logged minus true [degree].
     response_lag_s : float
@@ -279,48 +281,24 @@ def simulate_uav_log(wind_east_ms: np.ndarray, wind_north_ms: np.ndarray, fs_hz:
     Notes
     -----
     The relative air velocity :math:`\mathbf{V}_{rel} = \mathbf{V}_{wind} - \dot{\mathbf{x}}`
-    is lagged, its magnitude gives the tilt (Eqs. 12-17 inverted,
-    :func:`dronewind.quadrotor.calibration.tilt_from_speed`), its from-direction the lean azimuth;
-    roll and pitch follow from tilt and lean relative to the heading
-    (:func:`dronewind.quadrotor.calibration.attitude_from_tilt`). Without noise, lag and wander and
-    with a perfect weather vane, :func:`dronewind.quadrotor.calibration.wind_from_attitude` returns
-    the input wind to rounding.
+    is lagged, its magnitude gives the tilt (:func:`dronewind.simulate.airframe.rayleigh_tilt_rad`),
+    its from-direction the lean azimuth; roll and pitch follow from tilt and lean relative
+    to the heading (:func:`dronewind.simulate.airframe.attitude_from_tilt`). The processing
+    chain (:func:`dronewind.quadrotor.wind.wind_from_attitude`) must return the input wind
+    to rounding without noise, lag and wander and with a perfect weather vane.
     """
-    law = law or DragLaw()
+    law = law or AirframeDrag()
     we = np.asarray(wind_east_ms, float)
     wn = np.asarray(wind_north_ms, float)
     n = we.size
-    dt = 1.0 / fs_hz
-    sd_h, sd_v = position_sd_m
-    dx = _ou(rng, n, sd_h, position_timescale_s, fs_hz)
-    dy = _ou(rng, n, sd_h, position_timescale_s, fs_hz)
-    dz = _ou(rng, n, sd_v, position_timescale_s, fs_hz)
-    if platform_velocity_ms is not None:
-        ve_true, vn_true = (np.asarray(v, float) for v in platform_velocity_ms)
-    else:
-        ve_true = np.gradient(dx, dt) if n > 1 else np.zeros(n)
-        vn_true = np.gradient(dy, dt) if n > 1 else np.zeros(n)
-    vd_true = -np.gradient(dz, dt) if n > 1 else np.zeros(n)
-    rel_e = first_order_lag(we - ve_true, response_lag_s, fs_hz)
-    rel_n = first_order_lag(wn - vn_true, response_lag_s, fs_hz)
-    speed = np.hypot(rel_e, rel_n)
-    from_deg = np.degrees(np.arctan2(-rel_e, -rel_n)) % 360.0
-    if regime:
-        tilt = regime_tilt(speed, regime)
-    else:
-        tilt = tilt_from_speed(speed, law.cd0a0_m2, law.cp_m2_per_rad, law.mass_kg, law.rho_kgm3)
-    if weathervane is None:
-        psi = from_deg.copy()
-    else:
-        psi = _weathervane(from_deg, tilt, float(weathervane.get("tau_s", 3.0)),
-                           float(weathervane.get("min_roll_deg", 1.0)), fs_hz, float(from_deg[0]))
-    roll, pitch = attitude_from_tilt(tilt, np.radians(from_deg - psi))
-    true_roll, true_pitch = np.degrees(roll), np.degrees(pitch)
-    true_yaw = (psi + 180.0) % 360.0 - 180.0
+    dx, dy, dz = hover_wander(rng, n, position_sd_m, position_timescale_s, fs_hz)
+    ve_true, vn_true, vd_true = platform_velocity(dx, dy, dz, fs_hz, platform_velocity_ms)
+    speed, from_deg = relative_wind(we, wn, ve_true, vn_true, response_lag_s, fs_hz)
+    true_roll, true_pitch, true_yaw = true_attitude_deg(speed, from_deg, fs_hz, law, regime, weathervane)
     noise = (lambda s: rng.standard_normal(n) * s) if attitude_noise_deg > 0 else (lambda s: 0.0)
     vnoise = (lambda: rng.standard_normal(n) * gnss_velocity_noise_ms) if gnss_velocity_noise_ms > 0 \
         else (lambda: 0.0)
-    return {
+    return {  # noise drawn in this order: roll, pitch, yaw, north, east, down
         "roll_deg": true_roll + noise(attitude_noise_deg),
         "pitch_deg": true_pitch + pitch_offset_deg + noise(attitude_noise_deg),
         "yaw_deg": (true_yaw + yaw_offset_deg + noise(attitude_noise_deg) + 180.0) % 360.0 - 180.0,
@@ -328,6 +306,9 @@ def simulate_uav_log(wind_east_ms: np.ndarray, wind_north_ms: np.ndarray, fs_hz:
         "dx_east_m": dx, "dy_north_m": dy, "dz_up_m": dz,
         "true_roll_deg": true_roll, "true_pitch_deg": true_pitch, "true_yaw_deg": true_yaw,
     }
+
+
+# ----------------------------------------------------------------------------- tower and wind
 
 
 def tower_reference_frame(time: np.ndarray, heights_m: np.ndarray, wind_east_ms: np.ndarray,
@@ -360,7 +341,7 @@ def tower_reference_frame(time: np.ndarray, heights_m: np.ndarray, wind_east_ms:
     for j, h in enumerate(np.asarray(heights_m, float)):
         df = pd.DataFrame({"b": bins, "s": speed[j], "e": wind_east_ms[j], "n": wind_north_ms[j]})
         g = df.groupby("b").mean()
-        frm = np.degrees(np.arctan2(-g["e"], -g["n"])) % 360.0
+        frm = cast(pd.Series, np.degrees(np.arctan2(-g["e"], -g["n"])) % 360.0)
         rows.append(pd.DataFrame({"t": t_ns[0] + g.index.to_numpy() * step, "height_m": h,
                                   "wind_speed_ms": g["s"].round(3).to_numpy(),
                                   "wind_from_deg": frm.round(2).to_numpy()}))
@@ -374,7 +355,9 @@ def _iso(t: np.ndarray) -> np.ndarray:
     return np.char.add(s.astype(str), "Z")
 
 
-def _local_to_latlon(east_m, north_m, lat0, lon0):
+def _local_to_latlon(east_m: np.ndarray, north_m: np.ndarray, lat0: float,
+                     lon0: float) -> tuple[np.ndarray, np.ndarray]:
+    """Latitude and longitude of east/north offsets on a sphere [degree] (metre-scale hover)."""
     r = 6_371_000.0
     return lat0 + np.degrees(north_m / r), lon0 + np.degrees(east_m / (r * np.cos(np.radians(lat0))))
 
@@ -419,8 +402,8 @@ def log_profile_wind(points_enu_m: np.ndarray, duration_s: float, fs_hz: float,
     along = np.empty((len(heights), n))
     cross = np.empty((len(heights), n))
     for j in range(len(heights)):
-        along[j] = _ou(rng, n, 1.0, timescale_s, fs_hz)
-        cross[j] = _ou(rng, n, 1.0, timescale_s, fs_hz)
+        along[j] = ornstein_uhlenbeck(rng, n, 1.0, timescale_s, fs_hz)
+        cross[j] = ornstein_uhlenbeck(rng, n, 1.0, timescale_s, fs_hz)
     sig = turbulence_intensity * u_mean[:, None]
     ua = u_mean[:, None] + sig * along[inv]
     uc = 0.8 * sig * cross[inv]
@@ -433,15 +416,160 @@ def log_profile_wind(points_enu_m: np.ndarray, duration_s: float, fs_hz: float,
                       coords={"time_s": ("time", np.arange(n) / fs_hz)})
 
 
-def simulate_quadrotor_flight(campaign: dict, manifest_dir: Path, flight_id: str, out_dir: Path,
+# ----------------------------------------------------------------------------- one flight
+
+
+#: Keys of ``simulation.quadrotor_flights.<id>``.
+CONDITION_KEYS: tuple[str, ...] = ("start", "end", "wind_speed_ms", "wind_from_deg", "heights_m",
+                                   "obukhov_length_m", "z_ref_m", "reference_heights_m")
+
+
+def fleet_settings(settings: Mapping[str, Any] | None) -> dict[str, Any]:
+    """``simulation.quadrotor`` merged into :data:`DEFAULTS` (unknown keys raise InputError)."""
+    unknown = sorted(set(settings or {}) - set(DEFAULTS))
+    if unknown:
+        raise InputError(f"simulation.quadrotor.{unknown[0]}", f"unknown setting; expected one of {sorted(DEFAULTS)}")
+    return merge_settings(DEFAULTS, settings or {})
+
+
+def flight_conditions(simulation: Mapping[str, Any], flight_id: str) -> Mapping[str, Any]:
+    """``simulation.quadrotor_flights.<flight_id>``, checked (InputError names the key)."""
+    cond = (simulation.get("quadrotor_flights") or {}).get(flight_id)
+    where = f"simulation.quadrotor_flights.{flight_id}"
+    unknown = sorted(set(cond or {}) - set(CONDITION_KEYS))
+    if unknown:
+        raise InputError(f"{where}.{unknown[0]}", "unknown setting; expected start, end, wind_speed_ms, "
+                                                  "wind_from_deg, heights_m, obukhov_length_m, z_ref_m, "
+                                                  "reference_heights_m")
+    if not cond:
+        raise InputError(where, "missing flight conditions (start, end, wind_speed_ms, "
+                                "wind_from_deg, heights_m)")
+    for key in ("start", "end", "wind_speed_ms", "wind_from_deg"):
+        if key not in cond:
+            raise InputError(f"{where}.{key}", "required")
+    return cond
+
+
+def flight_span(cond: Mapping[str, Any], cfg: Mapping[str, Any],
+                where: str) -> tuple[np.datetime64, np.datetime64, float, float]:
+    """Start and end of the flight, the tower's padding on both sides [s] and the total simulated time [s]."""
+    start = np.datetime64(str(cond["start"]).rstrip("Z"), "ns")
+    end = np.datetime64(str(cond["end"]).rstrip("Z"), "ns")
+    if end <= start:
+        raise InputError(f"{where}.end", "end must be after start")
+    pad = float(cfg["reference_padding_s"])
+    dur_s = (end - start).astype(np.int64) / 1e9
+    return start, end, pad, dur_s + 2 * pad
+
+
+def sample_points(cond: Mapping[str, Any], cfg: Mapping[str, Any], uav_ids: list[str],
+                  where: str) -> tuple[dict[str, float], np.ndarray, tuple[float, float], np.ndarray]:
+    """Where the wind is simulated: the UAVs ``tower_distance_m`` upwind of the tower, the tower heights.
+
+    Returns
+    -------
+    heights : dict
+        UAV id -> hover height [m] (the flight's ``heights_m``, else the reference heights in turn).
+    reference_heights_m : numpy.ndarray
+        Tower heights [m].
+    hover_en_m : (float, float)
+        East and north of the UAVs from the tower [m].
+    points : numpy.ndarray
+        ``(n_uav + n_tower, 3)`` east, north, up [m]: the UAVs, then the tower heights.
+    """
+    heights = dict(cond.get("heights_m") or {})
+    extra = sorted(set(heights) - set(uav_ids))
+    if extra:
+        raise InputError(f"{where}.heights_m.{extra[0]}", f"not a UAV of this flight (UAVs: {uav_ids})")
+    default_h = list(cfg["reference_heights_m"])
+    for k, u in enumerate(uav_ids):
+        heights.setdefault(u, default_h[k % len(default_h)])
+    ref_h = np.asarray(cond.get("reference_heights_m", cfg["reference_heights_m"]), float)
+    frm = float(cond["wind_from_deg"])
+    dist = float(cfg["tower_distance_m"])
+    ux, uy = dist * np.sin(np.radians(frm)), dist * np.cos(np.radians(frm))
+    points = np.array([[ux, uy, float(heights[u])] for u in uav_ids] + [[0.0, 0.0, h] for h in ref_h])
+    return heights, ref_h, (ux, uy), points
+
+
+def wind_at_points(wind_fn: Callable, points: np.ndarray, total_s: float, fs_hz: float, cond: Mapping[str, Any],
+                   cfg: Mapping[str, Any], seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """East and north wind ``(point, time)`` [m s-1] from ``wind_fn`` (signature of
+    :func:`dronewind.simulate.atmosphere.simulate_wind`) for the flight's conditions."""
+    ds = wind_fn(points, total_s, fs_hz, float(cond["wind_speed_ms"]), float(cond["wind_from_deg"]),
+                 float(cond.get("z_ref_m", cfg["z_ref_m"])),
+                 float(cond.get("obukhov_length_m", cfg["obukhov_length_m"])),
+                 roughness_length_m=float(cfg["roughness_length_m"]), seed=seed)
+    return np.asarray(ds["u_east_ms"].values, float), np.asarray(ds["v_north_ms"].values, float)
+
+
+def _uav_settings(uav: str, mech: Mapping[str, Any], cfg: Mapping[str, Any]) -> dict[str, Any]:
+    """Keyword arguments of :func:`simulate_uav_log` for one UAV (mechanisms override ``uavs``)."""
+    ucfg = (cfg.get("uavs") or {}).get(uav) or {}
+    return {"regime": mech["drag_regime"],
+            "pitch_offset_deg": float(mech["pitch_offset"].get(uav, ucfg.get("pitch_offset_deg", 0.0))),
+            "yaw_offset_deg": float(mech["yaw_offset"].get(uav, ucfg.get("yaw_offset_deg", 0.0))),
+            "response_lag_s": mech["response_lag_s"], "weathervane": cfg["weathervane"],
+            "attitude_noise_deg": float(cfg["attitude_noise_deg"]),
+            "gnss_velocity_noise_ms": float(cfg["gnss_velocity_noise_ms"]),
+            "position_sd_m": (float(cfg["hover_position_sd_m"]["horizontal"]),
+                              float(cfg["hover_position_sd_m"]["vertical"])),
+            "position_timescale_s": float(cfg["position_timescale_s"])}
+
+
+def climb_and_descent(height_m: float, n: int, fs_hz: float, climb_ms: float,
+                      signals: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Height above ground [m] and logged downward velocity [m s-1] of a flight that climbs at
+    ``climb_ms``, hovers (with the wander of ``signals``) and descends; the hover selection of the
+    chain excludes climb and descent."""
+    tt = np.arange(n) / fs_hz
+    t_climb = height_m / climb_ms
+    z = np.minimum(np.minimum(tt / t_climb, (tt[-1] - tt) / t_climb), 1.0) * height_m
+    vd = np.where(tt < t_climb, -climb_ms, np.where(tt[-1] - tt < t_climb, climb_ms, 0.0))
+    hovering = z >= height_m
+    return z + np.where(hovering, signals["dz_up_m"], 0.0), np.where(hovering, signals["vel_d_ms"], vd)
+
+
+def uav_log_frame(time: np.ndarray, signals: Mapping[str, np.ndarray], z_m: np.ndarray, vel_d_ms: np.ndarray,
+                  hover_en_m: tuple[float, float], site: Mapping[str, Any]) -> pd.DataFrame:
+    """The quadrotor CSV of the data contract (values rounded as a logger writes them)."""
+    lat0, lon0, alt0 = float(site["latitude"]), float(site["longitude"]), float(site["altitude_m"])
+    lat, lon = _local_to_latlon(hover_en_m[0] + signals["dx_east_m"], hover_en_m[1] + signals["dy_north_m"],
+                                lat0, lon0)
+    return pd.DataFrame({
+        "time_utc": _iso(time),
+        "roll_deg": np.round(signals["roll_deg"], 4), "pitch_deg": np.round(signals["pitch_deg"], 4),
+        "yaw_deg": np.round(signals["yaw_deg"], 4),
+        "vel_n_ms": np.round(signals["vel_n_ms"], 4), "vel_e_ms": np.round(signals["vel_e_ms"], 4),
+        "vel_d_ms": np.round(vel_d_ms, 4),
+        "lat_deg": np.round(lat, 8), "lon_deg": np.round(lon, 8), "alt_m": np.round(alt0 + z_m, 3),
+    })
+
+
+def _write_csv(frame: pd.DataFrame, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    frame.to_csv(path, index=False)
+    return path
+
+
+def _flight_entry(campaign: Mapping[str, Any], flight_id: str) -> Mapping[str, Any]:
+    flights = {f["id"]: f for f in campaign.get("quadrotor_flights") or []}
+    if flight_id not in flights:
+        raise InputError("quadrotor_flights", f"no quadrotor flight {flight_id!r}; "
+                                              f"known: {sorted(flights)}")
+    return flights[flight_id]
+
+
+def simulate_quadrotor_flight(campaign: Mapping[str, Any], manifest_dir: Path, flight_id: str, out_dir: Path,
                               *, wind_fn: Callable | None = None) -> list[Path]:
     r"""Write the L0 files of one virtual quadrotor "drone tower" flight.
 
     Parameters
     ----------
-    campaign : dict
+    campaign : mapping
         Parsed manifest with ``site``, ``quadrotor_flights`` and ``simulation`` (seed,
-        ``quadrotor`` settings, ``mechanisms``).
+        ``quadrotor`` settings, ``quadrotor_flights`` conditions, ``mechanisms``); a
+        :class:`dronewind.manifest.Campaign` works too.
     manifest_dir : Path
         Folder of the manifest (kept for symmetry with the other simulators; paths are
         written under ``out_dir``).
@@ -473,112 +601,30 @@ def simulate_quadrotor_flight(campaign: dict, manifest_dir: Path, flight_id: str
     reproducible on its own.
     """
     out_dir = Path(out_dir)
-    campaign = getattr(campaign, "data", campaign)  # a dronewind.manifest.Campaign works too
-    flights = {f["id"]: f for f in campaign.get("quadrotor_flights") or []}
-    if flight_id not in flights:
-        raise InputError("quadrotor_flights", f"no quadrotor flight {flight_id!r}; "
-                                              f"known: {sorted(flights)}")
-    flight = flights[flight_id]
+    campaign = getattr(campaign, "data", campaign)
+    flight = _flight_entry(campaign, flight_id)
     sim = campaign.get("simulation") or {}
-    unknown = sorted(set(sim.get("quadrotor") or {}) - set(DEFAULTS))
-    if unknown:
-        raise InputError(f"simulation.quadrotor.{unknown[0]}", f"unknown setting; expected one of {sorted(DEFAULTS)}")
-    cfg = _merge(DEFAULTS, sim.get("quadrotor") or {})
-    cond = (sim.get("quadrotor_flights") or {}).get(flight_id)
-    where = f"simulation.quadrotor_flights.{flight_id}"
-    unknown = sorted(set(cond or {}) - {"start", "end", "wind_speed_ms", "wind_from_deg", "heights_m",
-                                        "obukhov_length_m", "z_ref_m", "reference_heights_m"})
-    if unknown:
-        raise InputError(f"{where}.{unknown[0]}", "unknown setting; expected start, end, wind_speed_ms, "
-                                                  "wind_from_deg, heights_m, obukhov_length_m, z_ref_m, "
-                                                  "reference_heights_m")
-    if not cond:
-        raise InputError(where, "missing flight conditions (start, end, wind_speed_ms, "
-                                "wind_from_deg, heights_m)")
-    for key in ("start", "end", "wind_speed_ms", "wind_from_deg"):
-        if key not in cond:
-            raise InputError(f"{where}.{key}", "required")
+    cfg = fleet_settings(sim.get("quadrotor"))
+    cond = flight_conditions(sim, flight_id)
     mech = quadrotor_mechanisms(sim, flight_id)
     seed = flight_seed(int(sim.get("seed", 0)), flight_id)
     rng = np.random.default_rng(seed)
     fs = float(cfg["fs_hz"])
-    start = np.datetime64(str(cond["start"]).rstrip("Z"), "ns")
-    end = np.datetime64(str(cond["end"]).rstrip("Z"), "ns")
-    if end <= start:
-        raise InputError(f"{where}.end", "end must be after start")
-    pad = float(cfg["reference_padding_s"])
-    dur_s = (end - start).astype(np.int64) / 1e9
-    total_s = dur_s + 2 * pad
-    site = campaign["site"]
-    lat0, lon0, alt0 = float(site["latitude"]), float(site["longitude"]), float(site["altitude_m"])
-    heights = dict(cond.get("heights_m") or {})
+    start, end, pad, total_s = flight_span(cond, cfg, f"simulation.quadrotor_flights.{flight_id}")
     uav_ids = [u["id"] for u in flight["uavs"]]
-    extra = sorted(set(heights) - set(uav_ids))
-    if extra:
-        raise InputError(f"{where}.heights_m.{extra[0]}", f"not a UAV of this flight (UAVs: {uav_ids})")
-    default_h = list(cfg["reference_heights_m"])
-    for k, u in enumerate(uav_ids):
-        heights.setdefault(u, default_h[k % len(default_h)])
-    ref_h = np.asarray(cond.get("reference_heights_m", cfg["reference_heights_m"]), float)
-    frm = float(cond["wind_from_deg"])
-    dist = float(cfg["tower_distance_m"])
-    ux, uy = dist * np.sin(np.radians(frm)), dist * np.cos(np.radians(frm))
-    points = np.array([[ux, uy, float(heights[u])] for u in uav_ids] + [[0.0, 0.0, h] for h in ref_h])
-    wind_fn = wind_fn or _default_wind_fn()
-    ds = wind_fn(points, total_s, fs, float(cond["wind_speed_ms"]), frm,
-                 float(cond.get("z_ref_m", cfg["z_ref_m"])),
-                 float(cond.get("obukhov_length_m", cfg["obukhov_length_m"])),
-                 roughness_length_m=float(cfg["roughness_length_m"]), seed=seed)
-    ue = np.asarray(ds["u_east_ms"].values, float)
-    vn = np.asarray(ds["v_north_ms"].values, float)
-    n_all = ue.shape[1]
-    offsets_ns = np.round(np.arange(n_all) / fs * 1e9).astype("int64").astype("timedelta64[ns]")
+    heights, ref_h, hover_en, points = sample_points(cond, cfg, uav_ids, f"simulation.quadrotor_flights.{flight_id}")
+    ue, vn = wind_at_points(wind_fn or _default_wind_fn(), points, total_s, fs, cond, cfg, seed)
+    offsets_ns = np.round(np.arange(ue.shape[1]) / fs * 1e9).astype("int64").astype("timedelta64[ns]")
     t_all = start - np.timedelta64(int(pad * 1e9), "ns") + offsets_ns
-    law = DragLaw.from_dict({**cfg["drag"], "mass_kg": cfg["mass_kg"], "rho_kgm3": cfg["rho_kgm3"]})
-    uav_cfg = cfg.get("uavs") or {}
+    law = AirframeDrag.from_settings({**cfg["drag"], "mass_kg": cfg["mass_kg"], "rho_kgm3": cfg["rho_kgm3"]})
     inflight = (t_all >= start) & (t_all < end)
-    t_f = t_all[inflight]
     paths: list[Path] = []
-    climb = float(cfg["climb_speed_ms"])
     for k, u in enumerate(uav_ids):
-        ucfg = uav_cfg.get(u) or {}
-        p_off = float(mech["pitch_offset"].get(u, ucfg.get("pitch_offset_deg", 0.0)))
-        y_off = float(mech["yaw_offset"].get(u, ucfg.get("yaw_offset_deg", 0.0)))
-        sig = simulate_uav_log(
-            ue[k, inflight], vn[k, inflight], fs, rng, law=law, regime=mech["drag_regime"],
-            pitch_offset_deg=p_off, yaw_offset_deg=y_off, response_lag_s=mech["response_lag_s"],
-            weathervane=cfg["weathervane"], attitude_noise_deg=float(cfg["attitude_noise_deg"]),
-            gnss_velocity_noise_ms=float(cfg["gnss_velocity_noise_ms"]),
-            position_sd_m=(float(cfg["hover_position_sd_m"]["horizontal"]),
-                           float(cfg["hover_position_sd_m"]["vertical"])),
-            position_timescale_s=float(cfg["position_timescale_s"]))
-        # climb at the start and descent at the end (excluded by the hover selection)
-        h = float(heights[u])
-        tt = np.arange(t_f.size) / fs
-        t_climb = h / climb
-        z = np.minimum(np.minimum(tt / t_climb, (tt[-1] - tt) / t_climb), 1.0) * h
-        vd = np.where(tt < t_climb, -climb, np.where(tt[-1] - tt < t_climb, climb, 0.0))
-        hovering = z >= h
-        z = z + np.where(hovering, sig["dz_up_m"], 0.0)
-        vel_d = np.where(hovering, sig["vel_d_ms"], vd)
-        lat, lon = _local_to_latlon(ux + sig["dx_east_m"], uy + sig["dy_north_m"], lat0, lon0)
-        frame = pd.DataFrame({
-            "time_utc": _iso(t_f),
-            "roll_deg": np.round(sig["roll_deg"], 4), "pitch_deg": np.round(sig["pitch_deg"], 4),
-            "yaw_deg": np.round(sig["yaw_deg"], 4),
-            "vel_n_ms": np.round(sig["vel_n_ms"], 4), "vel_e_ms": np.round(sig["vel_e_ms"], 4),
-            "vel_d_ms": np.round(vel_d, 4),
-            "lat_deg": np.round(lat, 8), "lon_deg": np.round(lon, 8), "alt_m": np.round(alt0 + z, 3),
-        })
-        rel = next(x["file"] for x in flight["uavs"] if x["id"] == u)
-        path = out_dir / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        frame.to_csv(path, index=False)
-        paths.append(path)
+        sig = simulate_uav_log(ue[k, inflight], vn[k, inflight], fs, rng, law=law, **_uav_settings(u, mech, cfg))
+        z, vel_d = climb_and_descent(float(heights[u]), int(inflight.sum()), fs, float(cfg["climb_speed_ms"]), sig)
+        frame = uav_log_frame(t_all[inflight], sig, z, vel_d, hover_en, campaign["site"])
+        paths.append(_write_csv(frame, out_dir / next(x["file"] for x in flight["uavs"] if x["id"] == u)))
     nu = len(uav_ids)
     ref = tower_reference_frame(t_all, ref_h, ue[nu:], vn[nu:], float(cfg["tower_averaging_s"]))
-    rpath = out_dir / flight["reference"]
-    rpath.parent.mkdir(parents=True, exist_ok=True)
-    ref.to_csv(rpath, index=False)
-    paths.append(rpath)
+    paths.append(_write_csv(ref, out_dir / flight["reference"]))
     return paths

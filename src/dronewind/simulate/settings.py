@@ -15,14 +15,19 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import math
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any, Protocol, TypedDict, cast
 
 import numpy as np
 
 from dronewind.errors import InputError
-from dronewind.mechanisms import get_mechanism, validate_parameters
+from dronewind.mechanisms import ParameterValue, get_mechanism, validate_parameters
 
 __all__ = [
+    "CampaignLike",
+    "MechanismEntry",
+    "SimulationSettings",
+    "PayloadFlightConditions",
     "ATMOSPHERE_DEFAULTS",
     "PAYLOAD_DEFAULTS",
     "MAST_DEFAULTS",
@@ -111,7 +116,78 @@ _FLIGHT_KEYS = {
 }
 
 
-def campaign_dict(campaign: Any) -> dict[str, Any]:
+class ManifestLike(Protocol):
+    """An object holding a parsed manifest in ``data`` (such as ``dronewind.manifest.Campaign``)."""
+
+    @property
+    def data(self) -> Mapping[str, Any]:
+        """The manifest content."""
+        ...
+
+
+#: A parsed manifest (YAML content, hence ``Any`` values) or an object holding one.
+CampaignLike = Mapping[str, Any] | ManifestLike
+
+
+class MechanismEntry(TypedDict):
+    """One validated ``simulation.mechanisms`` item."""
+
+    mechanism: str
+    #: Catalog parameters (floats; identifiers or tables for some quadrotor mechanisms).
+    parameters: dict[str, ParameterValue]
+    #: Flight ids it acts on (None: every flight).
+    flights: list[str] | None
+    platforms: tuple[str, ...]
+
+
+class SimulationSettings(TypedDict):
+    """Output of :func:`validate_simulation` (every number with its default filled in)."""
+
+    seed: int
+    atmosphere: dict[str, float]
+    payload: dict[str, float]
+    #: ``sonic`` and ``ins`` row-defect rates.
+    defects: dict[str, dict[str, float]]
+    mast: dict[str, float]
+    mechanisms: list[MechanismEntry]
+    #: Raw per-flight condition mappings (checked by :func:`resolve_payload_flight`).
+    payload_flights: dict[str, Any]
+
+
+class PayloadFlightConditions(TypedDict):
+    """Output of :func:`resolve_payload_flight`: every condition of one payload flight."""
+
+    flight_id: str
+    #: The manifest's payload flight entry.
+    flight: dict[str, Any]
+    #: Id of the reference mast sonic.
+    reference: str
+    #: Sonic id -> manifest sonic entry plus ``mast_id``, ``latitude``, ``longitude``.
+    mast_sonics: dict[str, dict[str, Any]]
+    site: dict[str, Any]
+    mean_speed_ms: float
+    wind_from_deg: float
+    z_ref_m: float
+    obukhov_length_m: float
+    roughness_length_m: float
+    boundary_layer_height_m: float
+    theta_mean_k: float
+    hover_height_m: float
+    #: Hover-window start (naive UTC).
+    start: np.datetime64
+    duration_s: float
+    payload: dict[str, float]
+    defects: dict[str, dict[str, float]]
+    mast: dict[str, float]
+    #: Payload/mast mechanisms active in this flight: name -> parameters.
+    mechanisms: dict[str, dict[str, float]]
+    flight_duration_s: float | None
+    hover_offset_enu_m: list[float]
+    seed: int
+    sonic_mount: str
+
+
+def campaign_dict(campaign: CampaignLike) -> dict[str, Any]:
     """The manifest content as a dict.
 
     Parameters
@@ -130,7 +206,7 @@ def campaign_dict(campaign: Any) -> dict[str, Any]:
     return dict(data)
 
 
-def parse_time(value: Any, where: str) -> np.datetime64:
+def parse_time(value: str | _dt.datetime, where: str) -> np.datetime64:
     """Parse a UTC time of the manifest.
 
     Parameters
@@ -147,7 +223,7 @@ def parse_time(value: Any, where: str) -> np.datetime64:
     """
     if isinstance(value, _dt.datetime):
         if value.tzinfo is not None:
-            value = value.astimezone(_dt.timezone.utc).replace(tzinfo=None)
+            value = value.astimezone(_dt.UTC).replace(tzinfo=None)
         return np.datetime64(value, "us")
     text = str(value).strip()
     if text.endswith("Z"):
@@ -178,8 +254,9 @@ def flight_seed(campaign_seed: int, flight_id: str) -> int:
     return int.from_bytes(digest[:8], "little")
 
 
-def _number(value: Any, where: str, lower: float, upper: float, unit: str,
+def _number(value: object, where: str, lower: float, upper: float, unit: str,
             lower_exclusive: bool = False) -> float:
+    """``value`` as a float within [lower, upper] [unit], or an InputError naming ``where``."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(where, f"expected a number [{unit}], got {value!r}")
     x = float(value)
@@ -192,6 +269,7 @@ def _number(value: Any, where: str, lower: float, upper: float, unit: str,
 
 def _block(section: Mapping[str, Any] | None, defaults: dict[str, tuple[float, float, float, str]],
            where: str, exclusive: tuple[str, ...] = ()) -> dict[str, float]:
+    """A settings block checked against its defaults table (unknown keys rejected, defaults filled in)."""
     section = dict(section or {})
     if not isinstance(section, dict):
         raise InputError(where, "expected a mapping")
@@ -205,11 +283,12 @@ def _block(section: Mapping[str, Any] | None, defaults: dict[str, tuple[float, f
     return out
 
 
-def _mechanisms(sim: Mapping[str, Any], flight_ids: set[str]) -> list[dict[str, Any]]:
+def _mechanisms(sim: Mapping[str, Any], flight_ids: set[str]) -> list[MechanismEntry]:
+    """The ``simulation.mechanisms`` list checked against the catalog and the flight ids."""
     items = sim.get("mechanisms") or []
     if not isinstance(items, list):
         raise InputError("simulation.mechanisms", "expected a list of {mechanism, parameters, flights}")
-    out = []
+    out: list[MechanismEntry] = []
     for i, item in enumerate(items):
         where = f"simulation.mechanisms[{i}]"
         if not isinstance(item, Mapping) or "mechanism" not in item:
@@ -227,33 +306,13 @@ def _mechanisms(sim: Mapping[str, Any], flight_ids: set[str]) -> list[dict[str, 
             bad = [f for f in flights if f not in flight_ids]
             if bad:
                 raise InputError(f"{where}.flights", f"unknown flight id(s) {bad}; known: {sorted(flight_ids)}")
-        out.append({"mechanism": mech.name, "parameters": params,
-                    "flights": None if flights is None else list(flights), "platforms": mech.platforms})
+        out.append(MechanismEntry(mechanism=mech.name, parameters=params,
+                                  flights=None if flights is None else list(flights), platforms=mech.platforms))
     return out
 
 
-def validate_simulation(campaign: Any) -> dict[str, Any]:
-    """Validate the ``simulation:`` section for payload flights and masts.
-
-    Parameters
-    ----------
-    campaign : dict or manifest.Campaign
-        The manifest content.
-
-    Returns
-    -------
-    dict
-        ``seed`` (int), ``atmosphere``, ``payload``, ``defects`` (``sonic``/``ins``),
-        ``mast`` (dicts of floats with defaults filled in), ``mechanisms`` (list of
-        ``{mechanism, parameters, flights, platforms}``) and ``payload_flights``
-        (raw per-flight mappings, checked by :func:`resolve_payload_flight`).
-
-    Raises
-    ------
-    InputError
-        Naming the setting (key path) and what was expected.
-    """
-    data = campaign_dict(campaign)
+def _simulation_section(data: Mapping[str, Any]) -> Mapping[str, Any]:
+    """The ``simulation:`` mapping, its keys and its seed checked."""
     sim = data.get("simulation")
     if not isinstance(sim, Mapping) or not sim:
         raise InputError("simulation", "the manifest has no simulation: section (a measured campaign)")
@@ -265,6 +324,11 @@ def validate_simulation(campaign: Any) -> dict[str, Any]:
     seed = sim.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputError("simulation.seed", f"expected a non-negative integer, got {seed!r}")
+    return sim
+
+
+def _payload_settings(sim: Mapping[str, Any]) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
+    """``simulation.payload`` and its ``defects`` (sonic, ins) with defaults filled in."""
     payload_raw = dict(sim.get("payload") or {})
     defects_raw = payload_raw.pop("defects", None) or {}
     if not isinstance(defects_raw, Mapping):
@@ -276,15 +340,19 @@ def validate_simulation(campaign: Any) -> dict[str, Any]:
                      exclusive=("pendulum_length_m", "mass_kg", "drag_area_m2"))
     defects = {k: _block(defects_raw.get(k), DEFECT_DEFAULTS, f"simulation.payload.defects.{k}")
                for k in ("sonic", "ins")}
-    mast = _block(sim.get("mast"), MAST_DEFAULTS, "simulation.mast")
+    return payload, defects
+
+
+def _check_whole_rates(payload: Mapping[str, float], mast: Mapping[str, float]) -> None:
+    """Sonic, INS and mast rates must be whole numbers of Hz."""
     for where, block, key in (("simulation.payload", payload, "sonic_rate_hz"),
                               ("simulation.payload", payload, "ins_rate_hz"), ("simulation.mast", mast, "rate_hz")):
         if not float(block[key]).is_integer():
             raise InputError(f"{where}.{key}", f"expected a whole number of Hz, got {block[key]}")
-    atmosphere = _block(sim.get("atmosphere"), ATMOSPHERE_DEFAULTS, "simulation.atmosphere",
-                        exclusive=("roughness_length_m",))
-    payload_ids = [str(f.get("id")) for f in data.get("payload_flights") or []]
-    quad_ids = [str(f.get("id")) for f in data.get("quadrotor_flights") or []]
+
+
+def _payload_flight_conditions(sim: Mapping[str, Any], payload_ids: list[str]) -> dict[str, Any]:
+    """``simulation.payload_flights``: exactly one entry per manifest payload flight."""
     flights_raw = sim.get("payload_flights") or {}
     if not isinstance(flights_raw, Mapping):
         raise InputError("simulation.payload_flights", "expected a mapping flight id -> conditions")
@@ -297,9 +365,43 @@ def validate_simulation(campaign: Any) -> dict[str, Any]:
             raise InputError(f"simulation.payload_flights.{fid}",
                              "missing conditions for this payload flight (mean_speed_ms, "
                              "wind_from_deg, z_over_L or obukhov_length_m, ...)")
+    return dict(flights_raw)
+
+
+def validate_simulation(campaign: CampaignLike) -> SimulationSettings:
+    """Validate the ``simulation:`` section for payload flights and masts.
+
+    Parameters
+    ----------
+    campaign : dict or manifest.Campaign
+        The manifest content.
+
+    Returns
+    -------
+    SimulationSettings
+        ``seed`` (int), ``atmosphere``, ``payload``, ``defects`` (``sonic``/``ins``),
+        ``mast`` (dicts of floats with defaults filled in), ``mechanisms`` (list of
+        ``{mechanism, parameters, flights, platforms}``) and ``payload_flights``
+        (raw per-flight mappings, checked by :func:`resolve_payload_flight`).
+
+    Raises
+    ------
+    InputError
+        Naming the setting (key path) and what was expected.
+    """
+    data = campaign_dict(campaign)
+    sim = _simulation_section(data)
+    payload, defects = _payload_settings(sim)
+    mast = _block(sim.get("mast"), MAST_DEFAULTS, "simulation.mast")
+    _check_whole_rates(payload, mast)
+    atmosphere = _block(sim.get("atmosphere"), ATMOSPHERE_DEFAULTS, "simulation.atmosphere",
+                        exclusive=("roughness_length_m",))
+    payload_ids = [str(f.get("id")) for f in data.get("payload_flights") or []]
+    quad_ids = [str(f.get("id")) for f in data.get("quadrotor_flights") or []]
+    flights_raw = _payload_flight_conditions(sim, payload_ids)
     mechanisms = _mechanisms(sim, set(payload_ids) | set(quad_ids))
-    out = {"seed": int(seed), "atmosphere": atmosphere, "payload": payload, "defects": defects,
-           "mast": mast, "mechanisms": mechanisms, "payload_flights": dict(flights_raw)}
+    out = SimulationSettings(seed=int(sim.get("seed", 0)), atmosphere=atmosphere, payload=payload, defects=defects,
+                             mast=mast, mechanisms=mechanisms, payload_flights=flights_raw)
     # check every flight now so that errors surface before any simulation runs
     for fid in payload_ids:
         resolve_payload_flight(data, fid, out)
@@ -307,6 +409,7 @@ def validate_simulation(campaign: Any) -> dict[str, Any]:
 
 
 def _mast_sonics(data: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """Every mast sonic by id, with its mast's id and position (default: the site's)."""
     site = data.get("site") or {}
     out = {}
     for mast in data.get("masts") or []:
@@ -319,8 +422,154 @@ def _mast_sonics(data: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     return out
 
 
-def resolve_payload_flight(campaign: Any, flight_id: str,
-                           settings: dict[str, Any] | None = None) -> dict[str, Any]:
+def _flight_entry(data: Mapping[str, Any], settings: SimulationSettings,
+                  flight_id: str) -> tuple[dict[str, Any], Mapping[str, Any]]:
+    """The manifest's payload flight and its ``simulation.payload_flights`` conditions (keys checked)."""
+    flights = {str(f.get("id")): f for f in data.get("payload_flights") or []}
+    if flight_id not in flights:
+        raise InputError("flight_id", f"no payload flight {flight_id!r} (known: {sorted(flights)})")
+    where = f"simulation.payload_flights.{flight_id}"
+    cond = settings["payload_flights"].get(flight_id)
+    if not isinstance(cond, Mapping):
+        raise InputError(where, "expected a mapping of conditions")
+    unknown = sorted(set(cond) - _FLIGHT_KEYS)
+    if unknown:
+        raise InputError(f"{where}.{unknown[0]}", f"unknown setting; expected one of {sorted(_FLIGHT_KEYS)}")
+    return dict(flights[flight_id]), cond
+
+
+def _reference_sonic(flight: Mapping[str, Any], sonics: Mapping[str, Any], flight_id: str) -> str:
+    """Id of the flight's reference mast sonic (must be a mast sonic of the manifest)."""
+    ref = str(flight.get("reference"))
+    if ref not in sonics:
+        raise InputError(f"payload_flights.{flight_id}.reference", f"{ref!r} is not a mast sonic id ({sorted(sonics)})")
+    return ref
+
+
+def _obukhov_length_m(cond: Mapping[str, Any], where: str, z_ref_m: float) -> float:
+    """L [m] from exactly one of ``z_over_L`` (at z_ref_m, 0 = neutral) or ``obukhov_length_m``."""
+    has_z, has_l = "z_over_L" in cond, "obukhov_length_m" in cond
+    if has_z == has_l:
+        raise InputError(f"{where}.z_over_L", "give exactly one of z_over_L (at z_ref_m) or obukhov_length_m")
+    if has_z:
+        zeta = _number(cond["z_over_L"], f"{where}.z_over_L", -5.0, 5.0, "1")
+        return math.inf if zeta == 0 else z_ref_m / zeta
+    ol = cond["obukhov_length_m"]
+    if isinstance(ol, str) and ol.strip().lower() in ("inf", "+inf", "-inf", ".inf"):
+        ol = math.inf
+    if isinstance(ol, bool) or not isinstance(ol, (int, float)) or (math.isfinite(ol) and abs(ol) < 1.0) \
+            or math.isnan(ol):
+        raise InputError(f"{where}.obukhov_length_m", f"expected |L| >= 1 m or inf, got {ol!r}")
+    return float(ol)
+
+
+def _wind_conditions(cond: Mapping[str, Any], where: str, reference_height_m: float) -> dict[str, float]:
+    """``mean_speed_ms``, ``wind_from_deg``, ``z_ref_m`` and ``obukhov_length_m`` of a flight."""
+    for key in ("mean_speed_ms", "wind_from_deg"):
+        if key not in cond:
+            raise InputError(f"{where}.{key}", "missing (required)")
+    out = {"mean_speed_ms": _number(cond["mean_speed_ms"], f"{where}.mean_speed_ms", 0.0, 40.0, "m s-1",
+                                    lower_exclusive=True),
+           "wind_from_deg": _number(cond["wind_from_deg"], f"{where}.wind_from_deg", 0.0, 360.0, "degree")}
+    out["z_ref_m"] = _number(cond.get("z_ref_m", reference_height_m), f"{where}.z_ref_m", 0.5, 1000.0, "m")
+    out["obukhov_length_m"] = _obukhov_length_m(cond, where, out["z_ref_m"])
+    return out
+
+
+def _flight_atmosphere(cond: Mapping[str, Any], where: str, atmosphere: Mapping[str, float]) -> dict[str, float]:
+    """Roughness length, boundary-layer depth and temperature: the flight's overrides of the atmosphere block."""
+    return {key: _number(cond.get(key, atmosphere[key]), f"{where}.{key}", lo, hi, unit,
+                         lower_exclusive=key == "roughness_length_m")
+            for key, (_, lo, hi, unit) in ATMOSPHERE_DEFAULTS.items()}
+
+
+def _hover_window(cond: Mapping[str, Any], flight: Mapping[str, Any], where: str,
+                  flight_id: str) -> tuple[np.datetime64, float]:
+    """Hover-window start (UTC) and length [s]: the conditions' or the manifest window's."""
+    window = flight.get("window") or {}
+    if "start" in cond:
+        start = parse_time(cond["start"], f"{where}.start")
+    elif window.get("start") is not None:
+        start = parse_time(window["start"], f"payload_flights.{flight_id}.window.start")
+    else:
+        raise InputError(f"{where}.start", "missing: give start (or a window in the manifest flight)")
+    if "duration_s" in cond:
+        duration = _number(cond["duration_s"], f"{where}.duration_s", 0.0, 7200.0, "s", lower_exclusive=True)
+    elif window.get("end") is not None:
+        end = parse_time(window["end"], f"payload_flights.{flight_id}.window.end")
+        duration = float((end - start) / np.timedelta64(1, "us")) * 1e-6
+        if duration <= 0:
+            raise InputError(f"payload_flights.{flight_id}.window", "end must be after start")
+    else:
+        raise InputError(f"{where}.duration_s", "missing: give duration_s (or a window end)")
+    return start, duration
+
+
+def _flight_mechanisms(mechanisms: list[MechanismEntry], flight_id: str) -> dict[str, dict[str, float]]:
+    """Payload and mast mechanisms acting on one flight: name -> parameters (each at most once)."""
+    mechs: dict[str, dict[str, float]] = {}
+    for m in mechanisms:
+        if ("payload" in m["platforms"] or "mast" in m["platforms"]) and \
+                (m["flights"] is None or flight_id in m["flights"]):
+            if m["mechanism"] in mechs:
+                raise InputError("simulation.mechanisms",
+                                 f"mechanism {m['mechanism']!r} given twice for flight {flight_id}")
+            # payload and mast mechanisms have float parameters only (catalog)
+            mechs[m["mechanism"]] = cast(dict[str, float], dict(m["parameters"]))
+    return mechs
+
+
+def _check_hover_height(hover_height_m: float, mechanisms: Mapping[str, Mapping[str, float]],
+                        flight_id: str) -> None:
+    """The ``height_offset`` mechanism must leave the payload more than 2 m above ground."""
+    dz = mechanisms.get("height_offset", {}).get("dz_m", 0.0)
+    if hover_height_m - dz <= 2.0:
+        raise InputError("simulation.mechanisms.height_offset.dz_m",
+                         f"puts flight {flight_id} at {hover_height_m - dz} m (must stay > 2 m)")
+
+
+def _flight_duration_s(cond: Mapping[str, Any], where: str, duration_s: float, hover_height_m: float,
+                       payload: Mapping[str, float]) -> float | None:
+    """``flight_duration_s`` (None if not set); it must hold the hover window and the flight plan."""
+    climb = hover_height_m / payload["ascent_rate_ms"] + hover_height_m / payload["descent_rate_ms"]
+    needed = duration_s + 2 * payload["hover_margin_s"] + climb + payload["ground_before_s"] + \
+        payload["ground_after_s"]
+    if "flight_duration_s" not in cond:
+        return None
+    fd = _number(cond["flight_duration_s"], f"{where}.flight_duration_s", 0.0, 4 * 3600.0, "s",
+                 lower_exclusive=True)
+    if needed > fd:
+        raise InputError(f"{where}.duration_s",
+                         f"hover window of {duration_s:.0f} s is longer than the flight: with ascent, descent, "
+                         f"margins and ground time it needs {needed:.0f} s > flight_duration_s = {fd:.0f} s")
+    return fd
+
+
+def _hover_offset_enu_m(cond: Mapping[str, Any], where: str, wind_from_deg: float) -> list[float]:
+    """Payload position relative to the reference mast [m, m] (default 35 m right, 10 m upwind)."""
+    if "hover_offset_enu_m" in cond:
+        off = cond["hover_offset_enu_m"]
+        if not isinstance(off, (list, tuple)) or len(off) != 2:
+            raise InputError(f"{where}.hover_offset_enu_m", f"expected [east_m, north_m], got {off!r}")
+        return [_number(v, f"{where}.hover_offset_enu_m", -2000, 2000, "m") for v in off]
+    # default: 35 m to the right of the mast looking downwind and 10 m upwind (assumed;
+    # seed 000, Fig. 7 shows hovering a few tens of metres from the tower)
+    a = math.radians(wind_from_deg)
+    e_u = (-math.sin(a), -math.cos(a))
+    e_right = (e_u[1], -e_u[0])
+    return [35 * e_right[0] - 10 * e_u[0], 35 * e_right[1] - 10 * e_u[1]]
+
+
+def _sonic_mount(flight: Mapping[str, Any], flight_id: str) -> str:
+    """``upside_down`` (default) or ``upright``."""
+    mount = str((flight.get("sonic") or {}).get("mount", "upside_down"))
+    if mount not in ("upside_down", "upright"):
+        raise InputError(f"payload_flights.{flight_id}.sonic.mount", "expected upside_down or upright")
+    return mount
+
+
+def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
+                           settings: SimulationSettings | None = None) -> PayloadFlightConditions:
     """All conditions of one payload flight, defaults filled in and checked.
 
     Parameters
@@ -329,12 +578,12 @@ def resolve_payload_flight(campaign: Any, flight_id: str,
         Manifest content.
     flight_id : str
         Payload flight id.
-    settings : dict, optional
+    settings : SimulationSettings, optional
         Output of :func:`validate_simulation` (computed if omitted).
 
     Returns
     -------
-    dict
+    PayloadFlightConditions
         Keys: ``flight_id, seed`` (flight seed), ``mean_speed_ms, wind_from_deg,
         obukhov_length_m, z_ref_m, hover_height_m, start`` (datetime64[us]),
         ``duration_s, flight_duration_s`` (None if not set), ``hover_offset_enu_m``
@@ -352,111 +601,25 @@ def resolve_payload_flight(campaign: Any, flight_id: str,
     data = campaign_dict(campaign)
     if settings is None:
         settings = validate_simulation(data)
-    flights = {str(f.get("id")): f for f in data.get("payload_flights") or []}
-    if flight_id not in flights:
-        raise InputError("flight_id", f"no payload flight {flight_id!r} (known: {sorted(flights)})")
-    flight = flights[flight_id]
+    flight, cond = _flight_entry(data, settings, flight_id)
     where = f"simulation.payload_flights.{flight_id}"
-    cond = settings["payload_flights"].get(flight_id)
-    if not isinstance(cond, Mapping):
-        raise InputError(where, "expected a mapping of conditions")
-    unknown = sorted(set(cond) - _FLIGHT_KEYS)
-    if unknown:
-        raise InputError(f"{where}.{unknown[0]}", f"unknown setting; expected one of {sorted(_FLIGHT_KEYS)}")
     sonics = _mast_sonics(data)
-    ref = str(flight.get("reference"))
-    if ref not in sonics:
-        raise InputError(f"payload_flights.{flight_id}.reference", f"{ref!r} is not a mast sonic id ({sorted(sonics)})")
-    out: dict[str, Any] = {"flight_id": flight_id, "flight": dict(flight), "reference": ref,
-                           "mast_sonics": sonics, "site": dict(data.get("site") or {})}
-    for key in ("mean_speed_ms", "wind_from_deg"):
-        if key not in cond:
-            raise InputError(f"{where}.{key}", "missing (required)")
-    out["mean_speed_ms"] = _number(cond["mean_speed_ms"], f"{where}.mean_speed_ms", 0.0, 40.0, "m s-1",
-                                   lower_exclusive=True)
-    out["wind_from_deg"] = _number(cond["wind_from_deg"], f"{where}.wind_from_deg", 0.0, 360.0, "degree")
-    z_ref = cond.get("z_ref_m", sonics[ref]["height_m"])
-    out["z_ref_m"] = _number(z_ref, f"{where}.z_ref_m", 0.5, 1000.0, "m")
-    has_z, has_l = "z_over_L" in cond, "obukhov_length_m" in cond
-    if has_z == has_l:
-        raise InputError(f"{where}.z_over_L", "give exactly one of z_over_L (at z_ref_m) or obukhov_length_m")
-    if has_z:
-        zeta = _number(cond["z_over_L"], f"{where}.z_over_L", -5.0, 5.0, "1")
-        out["obukhov_length_m"] = math.inf if zeta == 0 else out["z_ref_m"] / zeta
-    else:
-        ol = cond["obukhov_length_m"]
-        if isinstance(ol, str) and ol.strip().lower() in ("inf", "+inf", "-inf", ".inf"):
-            ol = math.inf
-        if isinstance(ol, bool) or not isinstance(ol, (int, float)) or (math.isfinite(ol) and abs(ol) < 1.0) \
-                or math.isnan(ol):
-            raise InputError(f"{where}.obukhov_length_m", f"expected |L| >= 1 m or inf, got {ol!r}")
-        out["obukhov_length_m"] = float(ol)
-    for key, (default, lo, hi, unit) in ATMOSPHERE_DEFAULTS.items():
-        out[key] = _number(cond.get(key, settings["atmosphere"][key]), f"{where}.{key}", lo, hi, unit,
-                           lower_exclusive=key == "roughness_length_m")
+    ref = _reference_sonic(flight, sonics, flight_id)
+    wind = _wind_conditions(cond, where, sonics[ref]["height_m"])
+    atmosphere = _flight_atmosphere(cond, where, settings["atmosphere"])
     hover = cond.get("hover_height_m", flight.get("target_height_m", sonics[ref]["height_m"]))
-    out["hover_height_m"] = _number(hover, f"{where}.hover_height_m", 0.0, 500.0, "m", lower_exclusive=True)
-    window = flight.get("window") or {}
-    if "start" in cond:
-        start = parse_time(cond["start"], f"{where}.start")
-    elif window.get("start") is not None:
-        start = parse_time(window["start"], f"payload_flights.{flight_id}.window.start")
-    else:
-        raise InputError(f"{where}.start", "missing: give start (or a window in the manifest flight)")
-    out["start"] = start
-    if "duration_s" in cond:
-        duration = _number(cond["duration_s"], f"{where}.duration_s", 0.0, 7200.0, "s", lower_exclusive=True)
-    elif window.get("end") is not None:
-        end = parse_time(window["end"], f"payload_flights.{flight_id}.window.end")
-        duration = float((end - start) / np.timedelta64(1, "us")) * 1e-6
-        if duration <= 0:
-            raise InputError(f"payload_flights.{flight_id}.window", "end must be after start")
-    else:
-        raise InputError(f"{where}.duration_s", "missing: give duration_s (or a window end)")
-    out["duration_s"] = duration
+    hover_height = _number(hover, f"{where}.hover_height_m", 0.0, 500.0, "m", lower_exclusive=True)
+    start, duration = _hover_window(cond, flight, where, flight_id)
     payload = settings["payload"]
-    out["payload"], out["defects"], out["mast"] = payload, settings["defects"], settings["mast"]
-    mechs: dict[str, dict[str, Any]] = {}
-    for m in settings["mechanisms"]:
-        if ("payload" in m["platforms"] or "mast" in m["platforms"]) and \
-                (m["flights"] is None or flight_id in m["flights"]):
-            if m["mechanism"] in mechs:
-                raise InputError("simulation.mechanisms",
-                                 f"mechanism {m['mechanism']!r} given twice for flight {flight_id}")
-            mechs[m["mechanism"]] = dict(m["parameters"])
-    out["mechanisms"] = mechs
-    dz = mechs.get("height_offset", {}).get("dz_m", 0.0)
-    if out["hover_height_m"] - dz <= 2.0:
-        raise InputError("simulation.mechanisms.height_offset.dz_m",
-                         f"puts flight {flight_id} at {out['hover_height_m'] - dz} m (must stay > 2 m)")
-    # the hover window must fit in the flight
-    climb = out["hover_height_m"] / payload["ascent_rate_ms"] + out["hover_height_m"] / payload["descent_rate_ms"]
-    needed = duration + 2 * payload["hover_margin_s"] + climb + payload["ground_before_s"] + payload["ground_after_s"]
-    if "flight_duration_s" in cond:
-        fd = _number(cond["flight_duration_s"], f"{where}.flight_duration_s", 0.0, 4 * 3600.0, "s",
-                     lower_exclusive=True)
-        if needed > fd:
-            raise InputError(f"{where}.duration_s",
-                             f"hover window of {duration:.0f} s is longer than the flight: with ascent, descent, "
-                             f"margins and ground time it needs {needed:.0f} s > flight_duration_s = {fd:.0f} s")
-        out["flight_duration_s"] = fd
-    else:
-        out["flight_duration_s"] = None
-    if "hover_offset_enu_m" in cond:
-        off = cond["hover_offset_enu_m"]
-        if not isinstance(off, (list, tuple)) or len(off) != 2:
-            raise InputError(f"{where}.hover_offset_enu_m", f"expected [east_m, north_m], got {off!r}")
-        out["hover_offset_enu_m"] = [_number(v, f"{where}.hover_offset_enu_m", -2000, 2000, "m") for v in off]
-    else:
-        # default: 35 m to the right of the mast looking downwind and 10 m upwind (assumed;
-        # seed 000, Fig. 7 shows hovering a few tens of metres from the tower)
-        a = math.radians(out["wind_from_deg"])
-        e_u = (-math.sin(a), -math.cos(a))
-        e_right = (e_u[1], -e_u[0])
-        out["hover_offset_enu_m"] = [35 * e_right[0] - 10 * e_u[0], 35 * e_right[1] - 10 * e_u[1]]
-    out["seed"] = flight_seed(settings["seed"], flight_id)
-    out["sonic_mount"] = str((flight.get("sonic") or {}).get("mount", "upside_down"))
-    if out["sonic_mount"] not in ("upside_down", "upright"):
-        raise InputError(f"payload_flights.{flight_id}.sonic.mount", "expected upside_down or upright")
-    return out
-
+    mechs = _flight_mechanisms(settings["mechanisms"], flight_id)
+    _check_hover_height(hover_height, mechs, flight_id)
+    return PayloadFlightConditions(
+        flight_id=flight_id, flight=flight, reference=ref, mast_sonics=sonics, site=dict(data.get("site") or {}),
+        mean_speed_ms=wind["mean_speed_ms"], wind_from_deg=wind["wind_from_deg"], z_ref_m=wind["z_ref_m"],
+        obukhov_length_m=wind["obukhov_length_m"], roughness_length_m=atmosphere["roughness_length_m"],
+        boundary_layer_height_m=atmosphere["boundary_layer_height_m"], theta_mean_k=atmosphere["theta_mean_k"],
+        hover_height_m=hover_height, start=start, duration_s=duration, payload=payload,
+        defects=settings["defects"], mast=settings["mast"], mechanisms=mechs,
+        flight_duration_s=_flight_duration_s(cond, where, duration, hover_height, payload),
+        hover_offset_enu_m=_hover_offset_enu_m(cond, where, wind["wind_from_deg"]),
+        seed=flight_seed(settings["seed"], flight_id), sonic_mount=_sonic_mount(flight, flight_id))

@@ -34,9 +34,9 @@ Forward model: the flow at the UAS is the CTA flow advected over 2.5 m (the UAS 
 upstream of the CTA) plus a slow positional drift (optical-flow hold, Sect. 2.1); the
 attitude follows the relative air through a first-order lag ``response_lag_s`` and the
 body-axis drag law of seed 002, Eq. 1 (default coefficients: Table 2, per speed range)
-inverted by fixed-point iteration; logged attitude = true + per-UAS offsets + white
-vibration noise ``attitude_noise_deg`` (the noise floor that limits the resolvable
-turbulence, Sect. 4); the UAS log is a block average to ``fs_uas_hz``.
+inverted by fixed-point iteration (:func:`dronewind.simulate.airframe.attitude_from_relative_air`);
+logged attitude = true + per-UAS offsets + white vibration noise ``attitude_noise_deg``
+(the noise floor that limits the resolvable turbulence, Sect. 4); the UAS log is a block average to ``fs_uas_hz``.
 
 Gusts: IEC 61400-1 extreme operating gust (seed 002, Eq. 4, duration 10.5 s); velocity
 steps: a tanh ramp with 10-90 % time ``step_rise_s`` (Sect. 3.2.4, 40 s repetitions);
@@ -52,7 +52,7 @@ References
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -60,11 +60,10 @@ import numpy as np
 import pandas as pd
 
 from dronewind.errors import InputError
-from dronewind.quadrotor.calibration import GRAVITY_MS2, SEED002_RANGES, DragLaw
-from dronewind.simulate.quadrotor import _merge, _ou, first_order_lag
+from dronewind.simulate.airframe import TABLE2_COEFFICIENTS, AirframeDrag, attitude_from_relative_air
+from dronewind.simulate.common import first_order_lag, merge_settings, ornstein_uhlenbeck
 
-__all__ = ["TUNNEL_DEFAULTS", "iec_gust", "step_series", "von_karman_series",
-           "attitude_from_relative_air", "simulate_tunnel"]
+__all__ = ["TUNNEL_DEFAULTS", "iec_gust", "step_series", "von_karman_series", "tunnel_settings", "simulate_tunnel"]
 
 #: Default ``simulation.tunnel`` settings.
 TUNNEL_DEFAULTS: dict[str, Any] = {
@@ -74,7 +73,7 @@ TUNNEL_DEFAULTS: dict[str, Any] = {
     "fs_cta_hz": 100.0,            # turbulence runs
     "fs_cta_steady_hz": 20.0,      # all other runs
     "mass_kg": 0.645,
-    "drag": {"law": "body_axis", **SEED002_RANGES},
+    "drag": {"law": "body_axis", **TABLE2_COEFFICIENTS},
     "uas_settings": {              # truth per UAS: accelerometer offsets, drag scale
         "uas06": {"pitch_offset_deg": 0.8, "roll_offset_deg": -0.3, "drag_scale": 1.00},
         "uas31": {"pitch_offset_deg": -1.2, "roll_offset_deg": 0.4, "drag_scale": 1.03},
@@ -205,59 +204,7 @@ def von_karman_series(n: int, fs_hz: float, sigma_ms: float, length_m: float, me
     return x / np.std(x) * sigma_ms
 
 
-def _inverse_power(x: np.ndarray, b, c) -> np.ndarray:
-    return np.sign(x) * (np.abs(x) / c) ** (1.0 / b)
-
-
-def attitude_from_relative_air(air_fwd_ms: np.ndarray, air_right_ms: np.ndarray, law: DragLaw,
-                               drag_scale: float = 1.0, n_iter: int = 40) -> tuple[np.ndarray, np.ndarray]:
-    r"""Roll and pitch of a UAS whose body-axis drag law balances a relative air velocity.
-
-    Parameters
-    ----------
-    air_fwd_ms, air_right_ms : array_like
-        Horizontal air velocity relative to the UAS in the heading frame [m s-1]
-        (a head wind has ``air_fwd_ms < 0``).
-    law : DragLaw
-        ``body_axis`` law (seed 002, Eq. 1, Table 2).
-    drag_scale : float
-        Factor on the drag force of this UAS (portability, Sect. 3.2.1).
-    n_iter : int
-        Fixed-point iterations.
-
-    Returns
-    -------
-    roll_rad, pitch_rad : numpy.ndarray
-
-    Notes
-    -----
-    Inverts :math:`(a_f, a_r) = R(\phi,\theta,0)_{1:2,1:2}(u, v)` with
-    :math:`u = \operatorname{sgn}a_x\,c_x|a_x|^{b_x}`, :math:`a_x = g\sin\theta`,
-    :math:`a_y = -g\cos\theta\sin\phi` (seed 002, Eqs. 1-2), iterating
-    :math:`v = a_r/\cos\phi`, :math:`u = (a_f - \sin\theta\sin\phi\,v)/\cos\theta`; the
-    range :math:`k` is chosen by the head-wind speed :math:`-u`. Converges because the
-    coupling terms are second order in the (small) angles.
-    """
-    af = np.asarray(air_fwd_ms, float)
-    ar = np.asarray(air_right_ms, float)
-    g = GRAVITY_MS2  # the body-axis law maps accelerations (force per unit mass)
-    edges = np.asarray(law.edges_ms)
-    bx, cx = np.asarray(law.b_x), np.asarray(law.c_x)
-    phi = np.zeros_like(af)
-    th = np.zeros_like(af)
-    for _ in range(n_iter):
-        v = ar / np.cos(phi)
-        u = (af - np.sin(th) * np.sin(phi) * v) / np.cos(th)
-        head = -u  # ranges (-inf, e1], (e1, e2), [e2, inf) as in seed 002, Table 2
-        k = (head > edges[0]).astype(int) + np.sum(head[..., None] >= edges[1:], axis=-1)
-        fx = _inverse_power(u, bx[k], cx[k]) * drag_scale
-        th = np.arcsin(np.clip(fx / g, -0.95, 0.95))
-        fy = _inverse_power(v, law.b_y, law.c_y) * drag_scale
-        phi = np.arcsin(np.clip(-fy / (g * np.cos(th)), -0.95, 0.95))
-    return phi, th
-
-
-def _write_run(out: Path, run: dict, flow_cta: np.ndarray, fs: float, cfg: dict, law: DragLaw,
+def _write_run(out: Path, run: dict, flow_cta: np.ndarray, fs: float, cfg: dict, law: AirframeDrag,
                rng: np.random.Generator, rows: list) -> list[Path]:
     """Simulate the UAS in ``flow_cta`` (sampled at ``fs``) and write both files."""
     uas = run["uas"]
@@ -265,7 +212,7 @@ def _write_run(out: Path, run: dict, flow_cta: np.ndarray, fs: float, cfg: dict,
     n = flow_cta.size
     delay = int(round(cfg["advection_distance_m"] / max(np.mean(flow_cta), 1.0) * fs))
     flow_uas = np.concatenate([flow_cta[delay:], np.full(delay, flow_cta[-1])]) if delay else flow_cta.copy()
-    drift = _ou(rng, n, cfg["drift_sd_ms"], cfg["drift_timescale_s"], fs)
+    drift = ornstein_uhlenbeck(rng, n, cfg["drift_sd_ms"], cfg["drift_timescale_s"], fs)
     rel_speed = first_order_lag(flow_uas - drift, cfg["response_lag_s"], fs)
     beta = np.radians(run["aos_deg"])
     # air moves towards north; the nose points to 180 + aos: relative air in the heading frame
@@ -309,6 +256,132 @@ def _stepped(v_max: float, step: float, hold_s: float, fs: float) -> tuple[np.nd
     return flow, speeds
 
 
+#: Columns of ``runs.csv`` that do not apply to every kind, and their empty values.
+_RUN_BASE: dict[str, Any] = {"aos_deg": 0.0, "v0_ms": np.nan, "vg_ms": np.nan, "vdu_ms": np.nan,
+                             "ti_percent": np.nan, "steps_ms": "", "hold_s": np.nan, "first_event_s": np.nan,
+                             "period_s": np.nan, "n_events": np.nan}
+#: Columns of ``runs.csv``.
+_RUN_COLUMNS = ["run_id", "kind", "uas", "aos_deg", "v0_ms", "vg_ms", "vdu_ms", "ti_percent", "duration_s",
+                "fs_cta_hz", "fs_uas_hz", "steps_ms", "hold_s", "first_event_s", "period_s", "n_events", "cta_file",
+                "uas_file"]
+
+
+def _calibration_runs(out: Path, cfg: dict, law: AirframeDrag, rng: np.random.Generator, rows: list,
+                      fs: float) -> list[Path]:
+    """Stepped runs of the calibration UAS at AoS 0 (up to ``v_max_ms``) and +-90 degree (16 m/s)."""
+    c = cfg["calibration"]
+    vmax = list(c["v_max_ms"])
+    paths = []
+    for i, aos in enumerate(c["aos_deg"]):
+        flow, speeds = _stepped(vmax[i % len(vmax)] if aos == 0 else 16.0, c["step_ms"], c["hold_s"], fs)
+        run = {**_RUN_BASE, "run_id": f"cal{i:02d}", "kind": "calibration", "uas": cfg["calibration_uas"],
+               "aos_deg": float(aos), "steps_ms": ";".join(f"{s:g}" for s in speeds), "hold_s": c["hold_s"]}
+        paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
+    return paths
+
+
+def _sideslip_runs(out: Path, cfg: dict, law: AirframeDrag, rng: np.random.Generator, rows: list,
+                   fs: float) -> list[Path]:
+    """Stepped runs of the calibration UAS at each angle of sideslip (seed 002, Sect. 3.2.2)."""
+    c = cfg["sideslip"]
+    paths = []
+    for i, aos in enumerate(c["aos_deg"]):
+        flow, speeds = _stepped(c["v_max_ms"], 2.0, c["hold_s"], fs)
+        run = {**_RUN_BASE, "run_id": f"aos{i:02d}", "kind": "sideslip", "uas": cfg["calibration_uas"],
+               "aos_deg": float(aos), "steps_ms": ";".join(f"{s:g}" for s in speeds), "hold_s": c["hold_s"]}
+        paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
+    return paths
+
+
+def _portability_runs(out: Path, cfg: dict, law: AirframeDrag, rng: np.random.Generator, rows: list,
+                      fs: float) -> list[Path]:
+    """One stepped run per UAS at AoS 0 (portability of the calibration, Sect. 3.2.1)."""
+    c = cfg["portability"]
+    paths = []
+    for i, uas in enumerate(cfg["uas"]):
+        flow, speeds = _stepped(c["v_max_ms"], 2.0, c["hold_s"], fs)
+        run = {**_RUN_BASE, "run_id": f"port{i:02d}", "kind": "portability", "uas": uas,
+               "steps_ms": ";".join(f"{s:g}" for s in speeds), "hold_s": c["hold_s"]}
+        paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
+    return paths
+
+
+def _gust_runs(out: Path, cfg: dict, law: AirframeDrag, rng: np.random.Generator, rows: list,
+               fs: float) -> list[Path]:
+    """Repeated IEC gusts per (V0, Vg) preset, the first at 10 s (Sect. 3.2.3, Table A2)."""
+    c = cfg["gusts"]
+    paths = []
+    for i, (v0, vg) in enumerate(c["presets"]):
+        n_ev, period = int(c["repetitions"]), float(c["period_s"])
+        t = np.arange(int(round((n_ev * period + 10.0) * fs))) / fs
+        flow = np.full(t.size, float(v0))
+        for k in range(n_ev):
+            flow = np.where((t >= 10 + k * period) & (t <= 10 + k * period + c["duration_s"]),
+                            iec_gust(t - 10 - k * period, v0, vg, c["duration_s"]), flow)
+        run = {**_RUN_BASE, "run_id": f"gust{i:02d}", "kind": "gust", "uas": cfg["calibration_uas"], "v0_ms": v0,
+               "vg_ms": vg, "first_event_s": 10.0, "period_s": period, "n_events": n_ev}
+        paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
+    return paths
+
+
+def _step_runs(out: Path, cfg: dict, law: AirframeDrag, rng: np.random.Generator, rows: list,
+               fs: float) -> list[Path]:
+    """Repeated up and down velocity steps per (V_l, dV) preset (Sect. 3.2.4, Table A3)."""
+    c = cfg["steps"]
+    reps = list(np.atleast_1d(c["repetitions"]))
+    paths = []
+    for i, (v0, vdu) in enumerate(c["presets"]):
+        n_ev, period = int(reps[i % len(reps)]), float(c["period_s"])
+        t = np.arange(int(round(n_ev * period * fs))) / fs
+        flow = np.full(t.size, float(v0))
+        for k in range(n_ev):
+            t0 = k * period
+            seg = (t >= t0) & (t < t0 + period)
+            flow[seg] = step_series(t[seg], v0, v0 + vdu, t0 + period / 4, t0 + 3 * period / 4, c["step_rise_s"])
+        run = {**_RUN_BASE, "run_id": f"step{i:02d}", "kind": "step", "uas": cfg["calibration_uas"], "v0_ms": v0,
+               "vdu_ms": vdu, "first_event_s": 0.0, "period_s": period, "n_events": n_ev}
+        paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
+    return paths
+
+
+def _turbulence_runs(out: Path, cfg: dict, law: AirframeDrag, rng: np.random.Generator, rows: list,
+                     fs: float) -> list[Path]:
+    """Statistical turbulence per (mean, TI) preset at ``fs_cta_hz`` (Sect. 3.2.5, Table A4); a
+    mean of 0 stands for the fan-only flow."""
+    c = cfg["turbulence"]
+    fs_t = float(cfg["fs_cta_hz"])
+    n = int(round(c["duration_s"] * fs_t))
+    paths = []
+    for i, (v0, ti) in enumerate(c["presets"]):
+        fan = v0 <= 0
+        mean = c["fan_mean_ms"] if fan else v0
+        length = c["fan_length_m"] if fan else c["turbulence_length_m"]
+        flow = mean + von_karman_series(n, fs_t, ti / 100 * mean, length, mean, rng)
+        run = {**_RUN_BASE, "run_id": f"turb{i:02d}", "kind": "turbulence", "uas": cfg["calibration_uas"],
+               "v0_ms": float(mean), "ti_percent": float(ti)}
+        paths += _write_run(out, run, np.maximum(flow, 0.3), fs_t, cfg, law, rng, rows)
+    return paths
+
+
+#: Run kinds in the order they are simulated (one random generator for all).
+_KINDS: dict[str, Callable[..., list[Path]]] = {
+    "calibration": _calibration_runs, "sideslip": _sideslip_runs, "portability": _portability_runs,
+    "gust": _gust_runs, "step": _step_runs, "turbulence": _turbulence_runs,
+}
+
+
+def tunnel_settings(settings: dict | None) -> dict[str, Any]:
+    """``simulation.tunnel`` merged into :data:`TUNNEL_DEFAULTS`, checked (InputError names the key)."""
+    unknown = set(settings or {}) - set(TUNNEL_DEFAULTS) - {"kinds"}
+    if unknown:
+        raise InputError("simulation.tunnel", f"unknown setting(s) {sorted(unknown)}; expected "
+                                              f"{sorted(TUNNEL_DEFAULTS)} or kinds")
+    cfg = merge_settings(TUNNEL_DEFAULTS, settings or {})
+    if cfg["calibration_uas"] not in cfg["uas"]:
+        raise InputError("simulation.tunnel.calibration_uas", f"{cfg['calibration_uas']!r} is not in uas")
+    return cfg
+
+
 def simulate_tunnel(settings: dict, out_dir: Path, seed: int) -> list[Path]:
     """Write a virtual wind-tunnel campaign (seed 002): CTA signals, UAS logs and ``runs.csv``.
 
@@ -332,87 +405,18 @@ def simulate_tunnel(settings: dict, out_dir: Path, seed: int) -> list[Path]:
     InputError
         Unknown setting, calibration UAS not in ``uas``, or a bad drag law.
     """
-    unknown = set(settings or {}) - set(TUNNEL_DEFAULTS) - {"kinds"}
-    if unknown:
-        raise InputError("simulation.tunnel", f"unknown setting(s) {sorted(unknown)}; expected "
-                                              f"{sorted(TUNNEL_DEFAULTS)} or kinds")
-    cfg = _merge(TUNNEL_DEFAULTS, settings or {})
-    if cfg["calibration_uas"] not in cfg["uas"]:
-        raise InputError("simulation.tunnel.calibration_uas", f"{cfg['calibration_uas']!r} is not in uas")
-    kinds = set(cfg.get("kinds") or ["calibration", "sideslip", "portability", "gust", "step", "turbulence"])
-    law = DragLaw.from_dict({**cfg["drag"], "mass_kg": cfg["mass_kg"]})
+    cfg = tunnel_settings(settings)
+    kinds = set(cfg.get("kinds") or list(_KINDS))
+    law = AirframeDrag.from_settings({**cfg["drag"], "mass_kg": cfg["mass_kg"]})
     rng = np.random.default_rng(seed)
     out = Path(out_dir)
     fs = float(cfg["fs_cta_steady_hz"])
     rows: list[dict] = []
     paths: list[Path] = []
-    base = {"aos_deg": 0.0, "v0_ms": np.nan, "vg_ms": np.nan, "vdu_ms": np.nan, "ti_percent": np.nan,
-            "steps_ms": "", "hold_s": np.nan, "first_event_s": np.nan, "period_s": np.nan, "n_events": np.nan}
-    cal_uas = cfg["calibration_uas"]
-    if "calibration" in kinds:
-        c = cfg["calibration"]
-        vmax = list(c["v_max_ms"])
-        for i, aos in enumerate(c["aos_deg"]):
-            flow, speeds = _stepped(vmax[i % len(vmax)] if aos == 0 else 16.0, c["step_ms"], c["hold_s"], fs)
-            run = {**base, "run_id": f"cal{i:02d}", "kind": "calibration", "uas": cal_uas, "aos_deg": float(aos),
-                   "steps_ms": ";".join(f"{s:g}" for s in speeds), "hold_s": c["hold_s"]}
-            paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
-    if "sideslip" in kinds:
-        c = cfg["sideslip"]
-        for i, aos in enumerate(c["aos_deg"]):
-            flow, speeds = _stepped(c["v_max_ms"], 2.0, c["hold_s"], fs)
-            run = {**base, "run_id": f"aos{i:02d}", "kind": "sideslip", "uas": cal_uas, "aos_deg": float(aos),
-                   "steps_ms": ";".join(f"{s:g}" for s in speeds), "hold_s": c["hold_s"]}
-            paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
-    if "portability" in kinds:
-        c = cfg["portability"]
-        for i, uas in enumerate(cfg["uas"]):
-            flow, speeds = _stepped(c["v_max_ms"], 2.0, c["hold_s"], fs)
-            run = {**base, "run_id": f"port{i:02d}", "kind": "portability", "uas": uas,
-                   "steps_ms": ";".join(f"{s:g}" for s in speeds), "hold_s": c["hold_s"]}
-            paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
-    if "gust" in kinds:
-        c = cfg["gusts"]
-        for i, (v0, vg) in enumerate(c["presets"]):
-            n_ev, period = int(c["repetitions"]), float(c["period_s"])
-            t = np.arange(int(round((n_ev * period + 10.0) * fs))) / fs
-            flow = np.full(t.size, float(v0))
-            for k in range(n_ev):
-                flow = np.where((t >= 10 + k * period) & (t <= 10 + k * period + c["duration_s"]),
-                                iec_gust(t - 10 - k * period, v0, vg, c["duration_s"]), flow)
-            run = {**base, "run_id": f"gust{i:02d}", "kind": "gust", "uas": cal_uas, "v0_ms": v0, "vg_ms": vg,
-                   "first_event_s": 10.0, "period_s": period, "n_events": n_ev}
-            paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
-    if "step" in kinds:
-        c = cfg["steps"]
-        reps = list(np.atleast_1d(c["repetitions"]))
-        for i, (v0, vdu) in enumerate(c["presets"]):
-            n_ev, period = int(reps[i % len(reps)]), float(c["period_s"])
-            t = np.arange(int(round(n_ev * period * fs))) / fs
-            flow = np.full(t.size, float(v0))
-            for k in range(n_ev):
-                t0 = k * period
-                seg = (t >= t0) & (t < t0 + period)
-                flow[seg] = step_series(t[seg], v0, v0 + vdu, t0 + period / 4, t0 + 3 * period / 4, c["step_rise_s"])
-            run = {**base, "run_id": f"step{i:02d}", "kind": "step", "uas": cal_uas, "v0_ms": v0, "vdu_ms": vdu,
-                   "first_event_s": 0.0, "period_s": period, "n_events": n_ev}
-            paths += _write_run(out, run, flow, fs, cfg, law, rng, rows)
-    if "turbulence" in kinds:
-        c = cfg["turbulence"]
-        fs_t = float(cfg["fs_cta_hz"])
-        n = int(round(c["duration_s"] * fs_t))
-        for i, (v0, ti) in enumerate(c["presets"]):
-            fan = v0 <= 0
-            mean = c["fan_mean_ms"] if fan else v0
-            length = c["fan_length_m"] if fan else c["turbulence_length_m"]
-            flow = mean + von_karman_series(n, fs_t, ti / 100 * mean, length, mean, rng)
-            run = {**base, "run_id": f"turb{i:02d}", "kind": "turbulence", "uas": cal_uas,
-                   "v0_ms": float(mean), "ti_percent": float(ti)}
-            paths += _write_run(out, run, np.maximum(flow, 0.3), fs_t, cfg, law, rng, rows)
-    index = pd.DataFrame(rows, columns=["run_id", "kind", "uas", "aos_deg", "v0_ms", "vg_ms", "vdu_ms",
-                                        "ti_percent", "duration_s", "fs_cta_hz", "fs_uas_hz", "steps_ms",
-                                        "hold_s", "first_event_s", "period_s", "n_events", "cta_file",
-                                        "uas_file"])
+    for kind, simulate_runs in _KINDS.items():
+        if kind in kinds:
+            paths += simulate_runs(out, cfg, law, rng, rows, fs)
+    index = pd.DataFrame(rows, columns=_RUN_COLUMNS)
     (out / "tunnel").mkdir(parents=True, exist_ok=True)
     index.to_csv(out / "tunnel" / "runs.csv", index=False)
     paths.append(out / "tunnel" / "runs.csv")

@@ -13,6 +13,7 @@ from typing import Any
 
 from dronewind import __version__
 from dronewind.core.cf import atomic_write_text, config_hash, sha256_file
+from dronewind.core.products import open_product as open_product  # re-exported: steps and scripts read products
 from dronewind.manifest import load_campaign
 
 LOG = logging.getLogger("dronewind")
@@ -78,7 +79,7 @@ def campaign_record(manifest: str | Path, output: str | Path, config: Mapping[st
         The written file.
     """
     campaign = load_campaign(manifest)
-    record = {
+    record: dict[str, Any] = {
         "campaign": campaign.name,
         "manifest": str(campaign.path),
         "manifest_sha256": sha256_file(campaign.path),
@@ -98,38 +99,3 @@ def campaign_record(manifest: str | Path, output: str | Path, config: Mapping[st
         len(record["mast_sonics"]),
     )
     return atomic_write_text(output, json.dumps(record, indent=2, sort_keys=True) + "\n")
-
-
-def open_product(path: str | Path) -> Any:
-    """Open a dronewind NetCDF with all its groups merged into one dataset.
-
-    Quantities without a CF standard name live in NetCDF-4 groups (see
-    :mod:`dronewind.core.cf`); this reads the root group and every group listed in the
-    global attribute ``groups`` and merges them (global attributes of the root kept).
-
-    Parameters
-    ----------
-    path : str or Path
-        A file written by :func:`dronewind.core.cf.write_netcdf`.
-
-    Returns
-    -------
-    xarray.Dataset
-        Loaded into memory.
-    """
-    import xarray as xr
-
-    with xr.open_dataset(path, engine="netcdf4") as root:
-        ds = root.load()
-    names = [g.strip() for g in str(ds.attrs.get("groups", "")).split(",") if g.strip()]
-    parts = [ds]
-    for name in names:
-        with xr.open_dataset(path, group=name, engine="netcdf4") as group:
-            parts.append(group.load())
-    merged = xr.merge(parts, compat="override", join="outer", combine_attrs="override")
-    merged.attrs = dict(ds.attrs)
-    for name in list(merged.variables):
-        dim = name[: -len("_name")] if name.endswith("_name") else None
-        if dim and dim in merged.dims and merged[name].dims == (dim,):
-            merged = merged.assign_coords({dim: merged[name].values.astype(str)}).drop_vars(name)
-    return merged

@@ -1,5 +1,9 @@
 """Diagnosis steps, from files to files (see :mod:`dronewind.diagnose`).
 
+Each step takes what it uses as arguments: the per-flight steps the one-flight view of the
+manifest (:func:`dronewind.manifest.payload_flight_manifest`) and the ``processing`` and
+``diagnosis`` settings of their rule, the campaign-level steps the manifest file.
+
 1. :func:`measured_features` (per flight): residual features of the processed flight.
 2. :func:`forward_probes` (per flight): the forward model of the flight, baseline and
    every candidate mechanism at its probe levels, processed like the measured flight.
@@ -21,10 +25,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from dronewind.core.cf import atomic_write_text
+from dronewind.core.cf import atomic_write_text, strip_cf, track_from_cf
+from dronewind.core.products import open_product
 from dronewind.manifest import load_campaign
-from dronewind.steps.common import LOG, open_product
-from dronewind.steps.payload import _strip_cf, _track_from_cf
+from dronewind.steps.common import LOG
 
 
 def _json_default(value: Any) -> Any:
@@ -53,40 +57,76 @@ def write_json(path: str | Path, data: Any) -> Path:
 
 def _load_flight(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | Path, l3_file: str | Path
                  ) -> tuple[Any, Any, Any, Any]:
-    sonic = _strip_cf(open_product(sonic_l1))
-    ins = _track_from_cf(_strip_cf(open_product(ins_l1)))
-    l2 = _track_from_cf(_strip_cf(open_product(drone_l2)))
-    l3 = _strip_cf(open_product(l3_file))
+    sonic = strip_cf(open_product(sonic_l1))
+    ins = track_from_cf(strip_cf(open_product(ins_l1)))
+    l2 = track_from_cf(strip_cf(open_product(drone_l2)))
+    l3 = strip_cf(open_product(l3_file))
     return sonic, ins, l2, l3
 
 
-def measured_features(manifest: str | Path, flight_id: str, sonic_l1: str | Path, ins_l1: str | Path,
-                      drone_l2: str | Path, l3_file: str | Path, output: str | Path,
-                      config: Mapping[str, Any]) -> Path:
-    """Residual features of one processed flight, and the forward model's conditions, as JSON."""
+def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | Path, l3_file: str | Path,
+                      output: str | Path, *, campaign: Mapping[str, Any], flight_id: str,
+                      sonic_ins_lag: Mapping[str, Any], hover: Mapping[str, Any], max_missing_fraction: float) -> Path:
+    """Residual features of one processed flight, and the forward model's conditions, as JSON.
+
+    Parameters
+    ----------
+    sonic_l1, ins_l1, drone_l2, l3_file : str or Path
+        The flight's products.
+    output : str or Path
+        JSON file to write.
+    campaign : mapping
+        One-flight view of the manifest (:func:`dronewind.manifest.payload_flight_manifest`).
+    flight_id : str
+        Payload flight id.
+    sonic_ins_lag, hover, max_missing_fraction
+        ``processing`` settings of the sonic-INS lag feature.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
     from dronewind.diagnose import forward
-    from dronewind.diagnose.features import features_to_dict
+    from dronewind.diagnose.features import binned_spectra, features_to_dict
 
-    campaign = load_campaign(manifest)
     sonic, ins, l2, l3 = _load_flight(sonic_l1, ins_l1, drone_l2, l3_file)
-    feats = forward.measured_features(campaign.data, flight_id, sonic, ins, l2, l3, config)
-    conditions = forward.forward_conditions(campaign.data, flight_id, l3, l2)
+    feats = forward.measured_features(campaign, flight_id, sonic, ins, l2, l3, sonic_ins_lag=sonic_ins_lag,
+                                      hover=hover, max_missing_fraction=max_missing_fraction)
+    conditions = forward.forward_conditions(campaign, flight_id, l3, l2)
     LOG.info("flight %s: features %s", flight_id, feats.values)
-    from dronewind.diagnose.features import binned_spectra
-
     return write_json(output, {"flight": flight_id, "features": features_to_dict(feats), "conditions": conditions,
                                "usable": int(l2.attrs.get("usable", 1)), "spectra": binned_spectra(l3)})
 
 
-def forward_probes(manifest: str | Path, flight_id: str, measured_json: str | Path, output: str | Path,
-                   config: Mapping[str, Any]) -> Path:
-    """Forward-model runs (baseline seeds and every probe) of one flight, as JSON."""
+def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: Mapping[str, Any], flight_id: str,
+                   processing: Mapping[str, Any], seeds: Sequence[int]) -> Path:
+    """Forward-model runs (baseline seeds and every probe) of one flight, as JSON.
+
+    Parameters
+    ----------
+    measured_json : str or Path
+        Output of :func:`measured_features` (the forward conditions).
+    output : str or Path
+        JSON file to write.
+    campaign : mapping
+        One-flight view of the manifest.
+    flight_id : str
+        Payload flight id.
+    processing : mapping
+        ``processing`` settings of the chain (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+    seeds : sequence of int
+        ``diagnosis.seeds``.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
     from dronewind.diagnose import forward
 
-    campaign = load_campaign(manifest)
     measured = json.loads(Path(measured_json).read_text())
-    runs = forward.probe_runs(campaign.data, flight_id, measured["conditions"], config,
-                              seeds=tuple(config.get("diagnosis", {}).get("seeds", (101, 202))))
+    runs = forward.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds))
     return write_json(output, runs)
 
 
@@ -130,12 +170,15 @@ def extended_manifest(campaign_data: Mapping[str, Any], conditions: Mapping[str,
 
 def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path],
                       forward_files: Sequence[str | Path], output_json: str | Path,
-                      output_manifest: str | Path, config: Mapping[str, Any]) -> Path:
-    """Fit and score every candidate, name causes; write diagnosis.json and the extended manifest."""
+                      output_manifest: str | Path, *, alpha: float, max_causes: int, min_gain: float) -> Path:
+    """Fit and score every candidate, name causes; write diagnosis.json and the extended manifest.
+
+    ``alpha``, ``max_causes`` and ``min_gain`` are the ``diagnosis`` settings (see
+    :func:`dronewind.diagnose.campaign.diagnose`).
+    """
     from dronewind.diagnose import campaign as dc
 
     campaign = load_campaign(manifest)
-    diag_cfg = config.get("diagnosis", {})
     ev = _evidence(measured_files, forward_files)
     if len(ev.flights) < 2:
         result_json = {"campaign": campaign.name, "baseline": {"metrics": {}}, "candidates": [],
@@ -146,9 +189,7 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
         atomic_write_text(output_manifest, yaml.safe_dump(extended_manifest(campaign.data, conditions, []),
                                                           sort_keys=False))
         return Path(output_json)
-    result = dc.diagnose(ev, alpha=float(diag_cfg.get("alpha", 0.01)),
-                         max_causes=int(diag_cfg.get("max_causes", 3)),
-                         min_gain=float(diag_cfg.get("min_gain", dc.MIN_GAIN)))
+    result = dc.diagnose(ev, alpha=float(alpha), max_causes=int(max_causes), min_gain=float(min_gain))
     out = dc.to_json(result, campaign.name)
     out["baseline"]["residuals"] = dc.residual_table(ev)
     out["baseline"]["wind_speed_slopes"] = dc.wind_speed_slopes(ev)
@@ -166,9 +207,12 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
     return write_json(output_json, out)
 
 
-def extended_run(extended_manifest_file: str | Path, flight_id: str, output: str | Path,
-                 config: Mapping[str, Any], seeds: Sequence[int] = (303, 404)) -> Path:
-    """Rerun one flight of the extended campaign (fresh seeds) and store its features."""
+def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flight_id: str,
+                 processing: Mapping[str, Any], seeds: Sequence[int] = (303, 404)) -> Path:
+    """Rerun one flight of the extended campaign (fresh seeds) and store its features.
+
+    ``processing`` holds the chain settings (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+    """
     from dronewind.diagnose import forward
     from dronewind.diagnose.features import features_to_dict
 
@@ -183,14 +227,14 @@ def extended_run(extended_manifest_file: str | Path, flight_id: str, output: str
     mechanisms = data["simulation"].get("mechanisms") or []
     for k, seed in enumerate(seeds):
         feats, products = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, mechanisms, seed),
-                                              flight_id, config)
+                                              flight_id, processing)
         out["runs"].append(features_to_dict(feats))
         if k == 0:
             # spectra before/after with common random numbers: the same seed without the mechanisms
             out["spectra"] = {"extended": binned_spectra(products["l3"])}
             if mechanisms:
                 _, base = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, [], seed),
-                                              flight_id, config)
+                                              flight_id, processing)
                 out["spectra"]["baseline"] = binned_spectra(base["l3"])
             else:
                 out["spectra"]["baseline"] = out["spectra"]["extended"]
@@ -204,6 +248,7 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
     from dronewind.diagnose import campaign as dc
     from dronewind.diagnose import report
     from dronewind.diagnose.features import FEATURES
+    from dronewind.figures import diagnosis as diagnosis_figures
 
     diag = json.loads(Path(diagnosis_json).read_text())
     ev = _evidence(measured_files, forward_files)
@@ -234,6 +279,7 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
         m = json.loads(Path(path).read_text())
         if m.get("spectra"):
             measured_spectra[m["flight"]] = m["spectra"]
-    figs = report.figures(ev, after, diag, Path(figures_dir))
-    figs += report.spectra_figure(ev, measured_spectra, model_spectra, diag, Path(figures_dir))
+    figs = diagnosis_figures.residuals_figure(ev, after, diag, Path(figures_dir), features=FEATURES,
+                                              labels=report.FEATURE_LABELS)
+    figs += diagnosis_figures.spectra_figure(ev, measured_spectra, model_spectra, diag, Path(figures_dir))
     return [Path(output_md), Path(output_csv), *figs]

@@ -6,6 +6,10 @@
 3. :func:`published_rerun` (per sample): baseline and extended model rerun with fresh
    seeds; Table 5-like statistics.
 4. :func:`published_report`: Markdown report and the before/after figure.
+
+The per-sample steps take the one-flight view of the manifest (with the flight's
+``simulation`` atmosphere settings, which :func:`dronewind.diagnose.published.table4_conditions`
+uses) and the ``processing`` and ``diagnosis`` settings of their rule as arguments.
 """
 
 from __future__ import annotations
@@ -16,31 +20,53 @@ from pathlib import Path
 from typing import Any
 
 from dronewind.core.cf import atomic_write_text
-from dronewind.manifest import load_campaign
 from dronewind.steps.common import LOG
 from dronewind.steps.diagnosis import write_json
 
 __all__ = ["published_forward", "published_diagnosis", "published_rerun", "published_report"]
 
 
-def published_forward(published_file: str | Path, manifest: str | Path, flight_id: str, output: str | Path,
-                      config: Mapping[str, Any]) -> Path:
-    """Forward-model runs (baseline seeds and every probe) of one sample at its Table 4 conditions."""
+def published_forward(published_file: str | Path, output: str | Path, *, campaign: Mapping[str, Any],
+                      flight_id: str, processing: Mapping[str, Any], seeds: Sequence[int]) -> Path:
+    """Forward-model runs (baseline seeds and every probe) of one sample at its Table 4 conditions.
+
+    Parameters
+    ----------
+    published_file : str or Path
+        Published-results file.
+    output : str or Path
+        JSON file to write.
+    campaign : mapping
+        One-flight view of the manifest that reconstructs the experiment.
+    flight_id : str
+        Sample (payload flight) id.
+    processing : mapping
+        ``processing`` settings of the chain (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+    seeds : sequence of int
+        ``diagnosis.seeds``.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
     from dronewind.diagnose import forward
     from dronewind.diagnose import published as dp
 
     pub = dp.load_published(published_file)
-    campaign = load_campaign(manifest)
-    conditions = dp.table4_conditions(pub, flight_id, campaign.data)
+    conditions = dp.table4_conditions(pub, flight_id, campaign)
     LOG.info("sample %s: Table 4 conditions %s", flight_id, conditions)
-    runs = forward.probe_runs(campaign.data, flight_id, conditions, config,
-                              seeds=tuple(config.get("diagnosis", {}).get("seeds", (101, 202))))
+    runs = forward.probe_runs(campaign, flight_id, conditions, processing, seeds=tuple(seeds))
     return write_json(output, runs)
 
 
-def published_diagnosis(published_file: str | Path, forward_files: Sequence[str | Path], output: str | Path,
-                        config: Mapping[str, Any]) -> Path:
-    """Fit and score every mechanism against the published numbers; write JSON."""
+def published_diagnosis(published_file: str | Path, forward_files: Sequence[str | Path], output: str | Path, *,
+                        alpha: float, max_causes: int) -> Path:
+    """Fit and score every mechanism against the published numbers; write JSON.
+
+    ``alpha`` and ``max_causes`` are the ``diagnosis`` settings; at most 2 causes are named
+    from the published numbers.
+    """
     from dronewind.diagnose import published as dp
 
     pub = dp.load_published(published_file)
@@ -48,29 +74,31 @@ def published_diagnosis(published_file: str | Path, forward_files: Sequence[str 
     for path in forward_files:
         run = json.loads(Path(path).read_text())
         forward[run["flight"]] = run
-    diag_cfg = config.get("diagnosis", {})
-    result = dp.analyse(pub, forward, alpha=float(diag_cfg.get("alpha", 0.01)),
-                        max_causes=int(min(diag_cfg.get("max_causes", 2), 2)))
+    result = dp.analyse(pub, forward, alpha=float(alpha), max_causes=int(min(max_causes, 2)))
     LOG.info("published numbers: named %s, baseline chi2 %.1f", result["named_causes"], result["baseline"]["chi2"])
     return write_json(output, result)
 
 
-def published_rerun(published_file: str | Path, manifest: str | Path, flight_id: str, diagnosis_json: str | Path,
-                    output: str | Path, config: Mapping[str, Any], seeds: Sequence[int] = (303, 404)) -> Path:
-    """Baseline and extended model of one sample at Table 4 conditions (common random numbers per seed)."""
+def published_rerun(published_file: str | Path, diagnosis_json: str | Path, output: str | Path, *,
+                    campaign: Mapping[str, Any], flight_id: str, processing: Mapping[str, Any],
+                    seeds: Sequence[int] = (303, 404)) -> Path:
+    """Baseline and extended model of one sample at Table 4 conditions (common random numbers per seed).
+
+    ``campaign`` is the one-flight view of the manifest, ``processing`` the chain settings
+    (as for :func:`published_forward`); ``seeds`` are fresh seeds, not ``diagnosis.seeds``.
+    """
     from dronewind.diagnose import forward
     from dronewind.diagnose import published as dp
 
     pub = dp.load_published(published_file)
-    campaign = load_campaign(manifest)
     diag = json.loads(Path(diagnosis_json).read_text())
-    conditions = dp.table4_conditions(pub, flight_id, campaign.data)
+    conditions = dp.table4_conditions(pub, flight_id, campaign)
     out: dict[str, Any] = {"flight": flight_id, "seeds": list(seeds), "mechanisms": diag["extended_mechanisms"],
                            "baseline": [], "extended": []}
     for seed in seeds:
         for model, mechanisms in (("baseline", []), ("extended", diag["extended_mechanisms"])):
             feats, products = forward.run_forward(
-                forward.forward_manifest(campaign.data, flight_id, conditions, mechanisms, seed), flight_id, config)
+                forward.forward_manifest(campaign, flight_id, conditions, mechanisms, seed), flight_id, processing)
             out[model].append(dp.flight_summary(products["l3"], feats.values))
         LOG.info("sample %s: seed %d rerun done", flight_id, seed)
     return write_json(output, out)
@@ -96,54 +124,6 @@ def published_report(published_file: str | Path, diagnosis_json: str | Path, rer
 
 
 def _figure(summary: Mapping[str, Any], pub: Mapping[str, Any], png: Path, pdf: Path) -> None:
-    import matplotlib
+    from dronewind.figures.published import published_before_after_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from dronewind.figures.payload import save_figure
-
-    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4.2))
-    styles = {"baseline": dict(marker="o", color="0.5", label="baseline model"),
-              "extended": dict(marker="s", color="tab:red", label="extended model")}
-    for model, style in styles.items():
-        per = summary["claims"][model]["per_flight"]
-        u = np.array([v["U_ms"] for v in per.values()])
-        d = np.array([v["dsigma_w_ms"] for v in per.values()])
-        a.plot(u, d, ls="none", **style)
-        fit = summary["dsigma_w"][model]
-        xx = np.linspace(0, max(u.max(), 11), 10)
-        a.plot(xx, fit["intercept_ms"] + fit["slope_per_ms"] * xx, color=style["color"], lw=0.8)
-        b.plot([v["Sw_Su_mast"] for v in per.values()], [v["Sw_Su_drone"] for v in per.values()], ls="none",
-               **style)
-    points = summary["dsigma_w"].get("published_table5", {}).get("points", {})
-    for k, (u, d) in points.items():
-        a.plot(u, d, marker="*", ms=14, color="k", ls="none", label="Table 5" if k == sorted(points)[0] else None)
-        a.annotate(k, (u, d), textcoords="offset points", xytext=(5, 5))
-    a.axhline(0, color="k", lw=0.5)
-    a.set_xlabel("mean wind speed at the mast, Table 4 [m s$^{-1}$]")
-    a.set_ylabel(r"$\sigma_{w,\mathrm{drone}} - \sigma_{w,\mathrm{mast}}$ [m s$^{-1}$]")
-    a.set_title("σ_w excess against wind speed (Sect. 5.2)")
-    a.legend(fontsize=8)
-    iso = 4.0 / 3.0
-    b.axhline(iso, color="k", lw=0.6)
-    b.axvline(iso, color="k", lw=0.6)
-    claims = pub["claims"]
-    b.axhline(claims["sw_su_drone_max"]["value"], color="tab:blue", ls="--", lw=0.8, label="drone max (Sect. 6)")
-    b.axvline(claims["sw_su_mast_min"]["value"], color="tab:green", ls="--", lw=0.8, label="mast min (Sect. 6)")
-    if "sw_su_mast_range" in claims:
-        lo, hi = claims["sw_su_mast_range"]["value"]
-        b.axvspan(lo, hi, color="tab:green", alpha=0.08, label="mast range (Sect. 5.2)")
-    lo_y, hi_y = b.get_ylim()
-    b.set_ylim(min(lo_y, 1.2), max(hi_y, claims["sw_su_drone_max"]["value"] + 0.1))
-    b.set_xlabel(r"mast $\langle S_w/S_u\rangle$")
-    b.set_ylabel(r"drone $\langle S_w/S_u\rangle$")
-    b.set_title("quadrants, 2 < f_r < 10 (Fig. 15)")
-    b.legend(fontsize=7)
-    fig.tight_layout()
-    stem = png.with_suffix("")
-    if pdf.with_suffix("") != stem:
-        raise ValueError(f"figure outputs must share a stem: {png} and {pdf}")
-    save_figure(fig, stem)
-    plt.close(fig)
+    published_before_after_figure(summary, pub, png, pdf)

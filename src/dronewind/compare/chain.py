@@ -1,0 +1,160 @@
+"""The comparison chain, datasets in and datasets out: drone and mast L2 to L3, L3 to L4.
+
+The workflow steps (:mod:`dronewind.steps.payload`) wrap these functions in file input and
+output; the diagnosis runs :func:`compute_l3` in-process on forward-model flights
+(:mod:`dronewind.diagnose.forward`). Settings come in explicitly, as the sub-mappings of
+the workflow configuration; their defaults live once, in the configuration schema
+(:func:`dronewind.manifest.default_config`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from dronewind.compare.align import align_drone_mast
+from dronewind.compare.l4 import flight_l4
+from dronewind.core import rotation as rot
+from dronewind.errors import ProcessingError
+
+__all__ = ["planar_fits", "compute_l3", "compute_l4", "period_time"]
+
+#: Global attributes of the L3 that each L4 keeps.
+_L4_ATTRS = ("lag_sonic_ins_s", "lag_drone_mast_s", "drone_usable", "drone_unusable_reason", "reference")
+
+
+def planar_fits(mast_l2: xr.Dataset, rotation: str) -> dict[str, rot.PlanarFit] | None:
+    """The mast's stored planar fit when ``rotation == "planar_fit"``, else ``None``.
+
+    Parameters
+    ----------
+    mast_l2 : xarray.Dataset
+        Mast L2 with the attributes of :func:`dronewind.mast.chain.record_planar_fit`.
+    rotation : str
+        ``processing.rotation``.
+
+    Returns
+    -------
+    dict or None
+        ``{"mast": fit}``.
+
+    Raises
+    ------
+    ProcessingError
+        ``planar_fit`` requested but the mast record has no planar fit.
+    """
+    if rotation != "planar_fit":
+        return None
+    fit = rot.planar_fit_from_attrs(dict(mast_l2.attrs))
+    if fit is None:
+        raise ProcessingError(
+            f"rotation 'planar_fit' requested but mast sonic {mast_l2.attrs.get('sensor_id', '?')} has no planar fit: "
+            f"{mast_l2.attrs.get('planar_fit_note', 'not computed')} (choose rotation: double, or provide a longer "
+            "mast record with at least 3 half-hours from several directions)")
+    return {"mast": fit}
+
+
+def _streamline_attrs(ds: xr.Dataset) -> None:
+    """CF names of the streamline components (in place).
+
+    CF ``x_wind``/``y_wind`` are components along the axes of the coordinate system in
+    use; here x points along the mean wind of each sensor.
+    """
+    ds["u_ms"].attrs.update(standard_name="x_wind", comment="x axis along the mean wind (streamline coordinates)")
+    ds["v_ms"].attrs.update(standard_name="y_wind", comment="y axis 90 degrees counter-clockwise from x")
+    ds["w_ms"].attrs.update(standard_name="upward_air_velocity", comment="normal to the mean streamline plane")
+
+
+def compute_l3(
+    drone_l2: xr.Dataset, mast_l2: xr.Dataset, flight: Mapping[str, Any], drone_mast: Mapping[str, Any], rotation: str
+) -> xr.Dataset:
+    """L3: drone-mast lag, common 8 Hz base, streamline rotation (see :func:`dronewind.compare.align.align_drone_mast`).
+
+    Parameters
+    ----------
+    drone_l2, mast_l2 : xarray.Dataset
+        L2 of the drone and of its reference mast sonic over the flight.
+    flight : mapping
+        Payload flight entry of the manifest (``target_height_m`` when the L2 has no height).
+    drone_mast : mapping
+        ``processing.drone_mast``: ``max_lag_s`` [s] and ``decimation`` (seed 000, Sect. 4.4).
+    rotation : str
+        ``processing.rotation``: ``single``, ``double``, ``triple`` or ``planar_fit`` (the
+        mast's whole-record fit; the drone is double-rotated).
+
+    Returns
+    -------
+    xarray.Dataset
+        Both sensors aligned, decimated, in streamline coordinates, with the drone's lag and
+        usability attributes.
+    """
+    ds = align_drone_mast(
+        drone_l2, mast_l2, max_lag_s=float(drone_mast["max_lag_s"]), decimate=int(drone_mast["decimation"]),
+        rotation=rotation, planar_fit=planar_fits(mast_l2, rotation),
+        drone_height_m=float(drone_l2.attrs.get("height_m", flight.get("target_height_m", float("nan")))),
+    )
+    ds.attrs["lag_sonic_ins_s"] = float(drone_l2.attrs.get("lag_sonic_ins_s", float("nan")))
+    ds.attrs["drone_usable"] = int(drone_l2.attrs.get("usable", 1))
+    ds.attrs["drone_unusable_reason"] = str(drone_l2.attrs.get("unusable_reason", ""))
+    if rotation == "planar_fit":
+        ds.attrs["rotation_note"] = ("planar fit (Wilczak et al. 2001) for the mast sonic, from its whole record; "
+                                     "double rotation for the drone, whose frame is re-levelled every flight")
+    _streamline_attrs(ds)
+    return ds
+
+
+def period_time(ds: xr.Dataset, times: np.ndarray) -> xr.Dataset:
+    """Scalar time coordinate (mid-period) with bounds for statistics over a record (CF 7.1).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Statistics of a record.
+    times : numpy.ndarray
+        Time stamps of the record (datetime64).
+
+    Returns
+    -------
+    xarray.Dataset
+        With ``time`` (one value, the middle of the record, ``bounds = "time_bnds"``) and
+        ``time_bnds(time, nv)``.
+    """
+    t0, t1 = times.min(), times.max()
+    out = ds.assign_coords(time=xr.DataArray([t0 + (t1 - t0) / 2], dims=("time",), attrs={"bounds": "time_bnds"}))
+    out["time_bnds"] = xr.DataArray(np.array([[t0, t1]]), dims=("time", "nv"))
+    return out
+
+
+def compute_l4(l3: xr.Dataset, sensor: str, spectra: Mapping[str, Any], quadrant: Mapping[str, Any]) -> xr.Dataset:
+    """L4 of one sensor (see :func:`dronewind.compare.l4.flight_l4`) with a period time coordinate.
+
+    Parameters
+    ----------
+    l3 : xarray.Dataset
+        L3 of the flight.
+    sensor : str
+        ``"drone"`` or ``"mast"``.
+    spectra : mapping
+        ``processing.spectra``: Welch ``segments``, ``overlap`` [1] and smoothing ``bins``.
+    quadrant : mapping
+        ``processing.quadrant``: ``fr_min``, ``fr_max`` (reduced-frequency band) and
+        ``min_speed_ms`` [m s-1] of the quadrant ratios.
+
+    Returns
+    -------
+    xarray.Dataset
+        Statistics, spectra, fits, uncertainties and scales, with the L3's lag and
+        usability attributes (seed 000, Sects. 4.1-4.3).
+    """
+    ds = flight_l4(
+        l3, sensor, n_segments=int(spectra["segments"]), overlap=float(spectra["overlap"]),
+        n_bins=int(spectra["bins"]), fr_band=(float(quadrant["fr_min"]), float(quadrant["fr_max"])),
+        quadrant_min_speed_ms=float(quadrant["min_speed_ms"]),
+    )
+    for key in _L4_ATTRS:
+        if key in l3.attrs:
+            ds.attrs[key] = l3.attrs[key]
+    return period_time(ds, l3["time"].values)

@@ -1,0 +1,155 @@
+"""Reading stored dronewind products: NetCDF files with their groups, L4 files by flight and sensor.
+
+The readers of the top layer (figures, tables, workflow steps): they open what
+:func:`dronewind.core.cf.write_netcdf` wrote and hand back plain :class:`xarray.Dataset`
+objects and stored scalars; nothing is computed here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from dronewind.errors import InputError
+
+__all__ = ["L4Products", "drone_usable", "load_l4_products", "open_by_flight", "open_product", "stored_scalar"]
+
+PathLike = str | Path
+
+#: L4 products of a campaign: ``{flight: {"drone": Dataset, "mast": Dataset}}``.
+L4Products = dict[str, dict[str, xr.Dataset]]
+
+
+def open_product(path: str | Path) -> xr.Dataset:
+    """Open a dronewind NetCDF with all its groups merged into one dataset.
+
+    Quantities without a CF standard name live in NetCDF-4 groups (see
+    :mod:`dronewind.core.cf`); this reads the root group and every group listed in the
+    global attribute ``groups`` and merges them (global attributes of the root kept).
+
+    Parameters
+    ----------
+    path : str or Path
+        A file written by :func:`dronewind.core.cf.write_netcdf`.
+
+    Returns
+    -------
+    xarray.Dataset
+        Loaded into memory.
+    """
+    with xr.open_dataset(path, engine="netcdf4") as root:
+        ds = root.load()
+    names = [g.strip() for g in str(ds.attrs.get("groups", "")).split(",") if g.strip()]
+    parts = [ds]
+    for name in names:
+        with xr.open_dataset(path, group=name, engine="netcdf4") as group:
+            parts.append(group.load())
+    merged = xr.merge(parts, compat="override", join="outer", combine_attrs="override")
+    merged.attrs = dict(ds.attrs)
+    for var in list(merged.variables):
+        if not (isinstance(var, str) and var.endswith("_name")):
+            continue
+        dim = var[: -len("_name")]
+        if dim and dim in merged.dims and merged[var].dims == (dim,):
+            merged = merged.assign_coords({dim: merged[var].values.astype(str)}).drop_vars(var)
+    return merged
+
+
+def open_by_flight(files: Iterable[PathLike]) -> dict[str, xr.Dataset]:
+    """Open one product per flight (L2 drone or L3 files) and index them by flight.
+
+    Parameters
+    ----------
+    files : iterable of path
+        Product files; the flight is the global attribute ``flight``, else the file name
+        up to its first underscore.
+
+    Returns
+    -------
+    dict of str to xarray.Dataset
+        Flight -> product, flights in sorted order (a later file of the same flight wins).
+    """
+    out = {}
+    for path in files:
+        ds = open_product(path)
+        flight = str(ds.attrs.get("flight", Path(path).stem.split("_")[0]))
+        out[flight] = ds
+    return {k: out[k] for k in sorted(out)}
+
+
+def load_l4_products(l4_files: Iterable[PathLike]) -> L4Products:
+    """Open L4 files and index them by flight and sensor.
+
+    Parameters
+    ----------
+    l4_files : iterable of path
+        L4 files (``<flight>_<sensor>.nc``) written by :func:`dronewind.steps.l4`.
+
+    Returns
+    -------
+    dict
+        ``{flight: {"drone": Dataset, "mast": Dataset}}`` (a sensor absent when its file is
+        not given), flights in sorted order.
+
+    Raises
+    ------
+    InputError
+        A file without the global attributes ``flight`` and ``sensor``, or two files for
+        the same flight and sensor.
+    """
+    out: L4Products = {}
+    for path in l4_files:
+        ds = open_product(path)
+        flight, sensor = ds.attrs.get("flight"), ds.attrs.get("sensor")
+        if flight is None or sensor is None:
+            raise InputError(str(path), "expected global attributes 'flight' and 'sensor' (an L4 product)")
+        slot = out.setdefault(str(flight), {})
+        if str(sensor) in slot:
+            raise InputError(str(path), f"second L4 file for flight {flight} sensor {sensor}")
+        slot[str(sensor)] = ds
+    return {k: out[k] for k in sorted(out)}
+
+
+def stored_scalar(ds: xr.Dataset | None, name: str) -> float:
+    """A stored scalar (the first element of the variable), NaN when the product or variable is missing.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset or None
+        Product.
+    name : str
+        Variable name.
+
+    Returns
+    -------
+    float
+        The stored value [units of the variable].
+    """
+    if ds is None or name not in ds.variables:
+        return math.nan
+    return float(np.asarray(ds[name].values).reshape(-1)[0])
+
+
+def drone_usable(products: Mapping[str, xr.Dataset]) -> tuple[bool, str]:
+    """Whether a flight's drone record is usable, and the stored reason when it is not.
+
+    Parameters
+    ----------
+    products : mapping
+        One flight's L4 products (``{"drone": Dataset, "mast": Dataset}``).
+
+    Returns
+    -------
+    usable : bool
+        The drone L4 attribute ``drone_usable`` (true when absent); false without a drone product.
+    reason : str
+        The attribute ``drone_unusable_reason`` ("" when absent).
+    """
+    drone = products.get("drone")
+    if drone is None:
+        return False, "no drone L4 product"
+    return bool(int(drone.attrs.get("drone_usable", 1))), str(drone.attrs.get("drone_unusable_reason", ""))

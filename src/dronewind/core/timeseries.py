@@ -1,0 +1,123 @@
+"""Small time-series helpers shared by the processing chains.
+
+Time stamps of the products are ``datetime64[ns]``; the chains compute in float seconds
+since a reference stamp, obtained by subtracting int64 nanoseconds before converting (so a
+flight keeps sub-microsecond resolution). These helpers check the time axis and the
+variables of an input dataset, fill NaN by linear interpolation in time and find the
+longest run of a mask.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import xarray as xr
+
+from dronewind.errors import InputError
+
+__all__ = ["NS_PER_S", "fill_nan_by_time", "longest_true_run", "require_variables", "time_ns"]
+
+#: Nanoseconds per second.
+NS_PER_S: int = 1_000_000_000
+
+
+def time_ns(ds: xr.Dataset, where: str) -> np.ndarray:
+    """The ``time`` coordinate of a dataset as int64 nanoseconds, checked.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Dataset with a ``time`` coordinate (or variable).
+    where : str
+        Name of the dataset in error messages.
+
+    Returns
+    -------
+    numpy.ndarray
+        int64 nanoseconds since 1970-01-01 [ns], strictly increasing, at least 2 values.
+
+    Raises
+    ------
+    InputError
+        No ``time``, fewer than 2 samples, or time not strictly increasing.
+    """
+    if "time" not in ds.coords and "time" not in ds.variables:
+        raise InputError(where, "dataset has no 'time' coordinate")
+    t = np.asarray(ds["time"].values).astype("datetime64[ns]").astype(np.int64)
+    if t.size < 2:
+        raise InputError(f"{where}:time", f"need at least 2 samples, got {t.size}")
+    if np.any(np.diff(t) <= 0):
+        raise InputError(f"{where}:time", "time must be strictly increasing (L1 removes duplicates and sorts)")
+    return t
+
+
+def require_variables(ds: xr.Dataset, names: Sequence[str], where: str) -> None:
+    """Raise :class:`~dronewind.errors.InputError` unless ``ds`` holds every variable of ``names``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Input dataset.
+    names : sequence of str
+        Required variable names.
+    where : str
+        Name of the dataset in the error message.
+    """
+    missing = [n for n in names if n not in ds.variables]
+    if missing:
+        raise InputError(where, f"missing variables {missing}; expected {list(names)}")
+
+
+def fill_nan_by_time(t_s: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, int]:
+    """Linear interpolation in time over NaNs (the ends held at the nearest valid value).
+
+    Parameters
+    ----------
+    t_s : numpy.ndarray
+        Sample times [s], increasing.
+    x : numpy.ndarray
+        Series on ``t_s`` [any unit].
+
+    Returns
+    -------
+    filled : numpy.ndarray
+        ``x`` with its non-finite samples interpolated (``x`` itself when there is nothing
+        to fill, or when no sample is finite).
+    n_filled : int
+        Number of samples filled (0 when no sample is finite).
+    """
+    bad = ~np.isfinite(x)
+    n_bad = int(bad.sum())
+    if n_bad == 0:
+        return x, 0
+    if n_bad == x.size:
+        return x, 0
+    out = x.copy()
+    out[bad] = np.interp(t_s[bad], t_s[~bad], x[~bad])
+    return out, n_bad
+
+
+def longest_true_run(mask: np.ndarray) -> tuple[int, int, int]:
+    """The longest run of True values of a mask.
+
+    Parameters
+    ----------
+    mask : numpy.ndarray
+        1-D boolean mask.
+
+    Returns
+    -------
+    start, stop : int
+        Index of the run's first sample and one past its last; (0, 0) if there is no True.
+    n_runs : int
+        Number of runs of True (0 if none).
+    """
+    m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
+    d = np.diff(m.astype(np.int8))
+    starts = np.flatnonzero(d == 1)
+    stops = np.flatnonzero(d == -1)
+    if starts.size == 0:
+        return 0, 0, 0
+    k = int(np.argmax(stops - starts))
+    return int(starts[k]), int(stops[k]), int(starts.size)

@@ -1,0 +1,217 @@
+"""The look shared by the campaign figures: canvas, colours, unit labels, notes, saving.
+
+Every figure is built on :func:`new_figure` (fixed size and resolution, Agg canvas, no
+pyplot global state) and written by :func:`save_figure` as ``<out_stem>.png`` and
+``<out_stem>.pdf`` (atomic rename, no time stamps in the metadata, so identical inputs give
+identical bytes). What a figure leaves out is never dropped silently: :func:`add_notes`
+lists it below the axes with the stored reason (:func:`status_text`).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import textwrap
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+from dronewind.core.qc import STATUS_FLAG_MEANINGS
+from dronewind.tables import default_detail_flights
+
+__all__ = [
+    "DPI", "DRONE_COLOUR", "HEIGHT_MARKERS", "MAST_COLOUR", "SENSOR_COLOURS", "UNIT_KMS", "UNIT_M2S2", "UNIT_MS",
+    "UNUSABLE_COLOUR", "PathLike", "add_notes", "chosen_flights", "flight_colours", "legend", "minutes",
+    "new_figure", "no_data", "save_figure", "start_label", "status_text",
+]
+
+PathLike = str | Path
+
+#: Resolution of the PNG files [dots per inch]; the pixel size is figsize x DPI.
+DPI = 120
+DRONE_COLOUR = "tab:blue"
+MAST_COLOUR = "tab:orange"
+UNUSABLE_COLOUR = "0.6"
+#: Sensors in drawing order with their colours (drone first, so the mast is drawn on top).
+SENSOR_COLOURS: tuple[tuple[str, str], ...] = (("drone", DRONE_COLOUR), ("mast", MAST_COLOUR))
+#: Markers of the reference heights, lowest first (seed 000: circles 30 m, triangles 60 m).
+HEIGHT_MARKERS = ("o", "^", "s", "D", "v", "P")
+
+#: Units in axis labels and titles (matplotlib mathtext), one spelling for every figure.
+UNIT_MS = "m s$^{-1}$"
+UNIT_M2S2 = "m$^2$ s$^{-2}$"
+UNIT_KMS = "K m s$^{-1}$"
+
+
+# ----------------------------------------------------------------------------- canvas and output
+
+
+def new_figure(width_in: float, height_in: float) -> Figure:
+    """An empty figure of fixed size on the Agg canvas, with constrained layout.
+
+    Parameters
+    ----------
+    width_in, height_in : float
+        Size [inch]; the PNG has ``width_in * DPI`` x ``height_in * DPI`` pixels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = Figure(figsize=(width_in, height_in), dpi=DPI)
+    FigureCanvasAgg(fig)
+    fig.set_layout_engine(ConstrainedLayoutEngine(h_pad=0.04, w_pad=0.04))
+    return fig
+
+
+def add_notes(fig: Figure, notes: Sequence[str]) -> list[str]:
+    """List what was skipped (and why) below the axes; reserve room in the layout.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        Figure made by :func:`new_figure`.
+    notes : sequence of str
+        One sentence per skipped item; empty strings and repeats are dropped.
+
+    Returns
+    -------
+    list of str
+        The de-duplicated notes (also stored in the file metadata by :func:`save_figure`).
+    """
+    notes = list(dict.fromkeys(n for n in notes if n))
+    if not notes:
+        return notes
+    width_in, height_in = fig.get_size_inches()
+    chars = max(40, int(width_in * 14))
+    lines: list[str] = []
+    for note in notes:
+        lines += textwrap.wrap(note, chars) or [""]
+    line_in = 0.16
+    frac = min(0.45, (len(lines) * line_in + 0.1) / height_in)
+    engine = fig.get_layout_engine()
+    if isinstance(engine, ConstrainedLayoutEngine):
+        engine.set(rect=(0.0, frac, 1.0, 1.0 - frac))
+    fig.text(0.01, frac - 0.02 / height_in, "\n".join(lines), ha="left", va="top", fontsize=7.5, color="0.25",
+             family="DejaVu Sans")
+    return notes
+
+
+def save_figure(fig: Figure, out_stem: PathLike, notes: Sequence[str] = ()) -> list[Path]:
+    """Write PNG and PDF atomically, without time stamps.
+
+    The notes (what was skipped and why) also go into the metadata: PNG text chunk
+    ``Description``, PDF ``Subject``; "none" when nothing was skipped.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The drawn figure.
+    out_stem : str or Path
+        Output path without suffix (folders are created).
+    notes : sequence of str
+        What was skipped, for the metadata.
+
+    Returns
+    -------
+    list of Path
+        The PNG and the PDF.
+    """
+    stem = Path(out_stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    text = " | ".join(notes) if notes else "none"
+    paths = []
+    for ext, meta in ((".png", {"Software": None, "Title": stem.name, "Description": f"skipped: {text}"}),
+                      (".pdf", {"CreationDate": None, "Creator": "dronewind", "Title": stem.name,
+                                "Subject": f"skipped: {text}"})):
+        target = stem.with_name(stem.name + ext)
+        handle, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        os.close(handle)
+        try:
+            fig.savefig(tmp, format=ext[1:], dpi=DPI, metadata=meta)
+            os.chmod(tmp, 0o644)  # mkstemp creates 0600; figures are ordinary readable files
+            os.replace(tmp, target)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        paths.append(target)
+    return paths
+
+
+# ----------------------------------------------------------------------------- panels
+
+
+def legend(ax: Axes, **kwargs: Any) -> None:
+    """Legend only when something labelled was drawn (an empty legend warns)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**kwargs)
+
+
+def no_data(ax: Axes, text: str) -> None:
+    """Write ``text`` in the middle of an empty panel and remove its ticks."""
+    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, fontsize=9, color="0.3", wrap=True)
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def flight_colours(flights: Sequence[str]) -> dict[str, Any]:
+    """One colour per flight (``tab10``, ``tab20`` above ten flights), in sorted flight order."""
+    from matplotlib import colormaps
+
+    cmap = colormaps["tab10"] if len(flights) <= 10 else colormaps["tab20"]
+    return {f: cmap(i % cmap.N) for i, f in enumerate(sorted(flights))}
+
+
+def chosen_flights(flights: Sequence[str] | None, available: Sequence[str]) -> list[str]:
+    """The flights drawn in detail: those asked for, else the first and seventh available."""
+    return list(flights) if flights is not None else default_detail_flights(list(available))
+
+
+def minutes(time: np.ndarray) -> np.ndarray:
+    """Time axis in minutes since the first sample [min]."""
+    t = np.asarray(time).astype("datetime64[ns]")
+    return (t - t[0]) / np.timedelta64(60, "s")
+
+
+def start_label(time: np.ndarray) -> str:
+    """The first time stamp as ``YYYY-MM-DD hh:mm:ss`` (for axis labels)."""
+    t0 = np.datetime64(np.asarray(time)[0], "s")
+    return str(np.datetime_as_string(t0, unit="s")).replace("T", " ")
+
+
+# ----------------------------------------------------------------------------- notes
+
+
+def status_text(ds: xr.Dataset | None, status: str) -> str:
+    """Why a stored quantity is NaN: the meaning and reason of its ``status_<status>`` flag.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset or None
+        The L4 product (None when missing).
+    status : str
+        Status name (the flag variable is ``status_<status>``).
+
+    Returns
+    -------
+    str
+        Flag meaning and stored reason, or why none is available.
+    """
+    if ds is None:
+        return "no product"
+    var = f"status_{status}"
+    if var in ds.variables:
+        flag = int(np.asarray(ds[var].values).reshape(-1)[0])
+        meaning = STATUS_FLAG_MEANINGS[flag] if 0 <= flag < len(STATUS_FLAG_MEANINGS) else str(flag)
+        reason = str(ds[var].attrs.get("reason", "")).strip()
+        if flag == 0:
+            return f"NaN while {var} = ok"
+        return f"{meaning}{': ' + reason if reason else ''}"
+    return f"NaN or missing, no {var} stored"

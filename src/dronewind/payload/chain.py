@@ -1,0 +1,118 @@
+"""The payload chain, datasets in and datasets out: raw sonic and INS files to L1, L1 to L2.
+
+The workflow steps (:mod:`dronewind.steps.payload`) wrap these functions in file input and
+output; the diagnosis runs them in-process on forward-model flights
+(:mod:`dronewind.diagnose.forward`), so a measured and a simulated flight go through
+identical code. Settings come in explicitly, as the sub-mappings of the workflow
+configuration (``processing.despike``, ``processing.hover``, ...); their defaults live once,
+in the configuration schema (:func:`dronewind.manifest.default_config`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from dronewind.manifest import parse_utc
+from dronewind.payload import io as io_payload
+from dronewind.payload import sync
+
+__all__ = ["flight_window", "compute_payload_l1", "compute_payload_l2"]
+
+
+def flight_window(flight: Mapping[str, Any]) -> tuple[np.datetime64, np.datetime64] | None:
+    """The hover window a manifest flight declares, or ``None`` (the chain then finds it).
+
+    Parameters
+    ----------
+    flight : mapping
+        Payload flight entry of the manifest (optional ``window: {start, end}``, UTC).
+
+    Returns
+    -------
+    tuple of numpy.datetime64 or None
+        Start and end.
+    """
+    window = flight.get("window")
+    if not window:
+        return None
+    return parse_utc(window["start"]), parse_utc(window["end"])
+
+
+def compute_payload_l1(
+    sonic_file: str | Path, ins_file: str | Path, despike: Mapping[str, Any]
+) -> tuple[xr.Dataset, xr.Dataset]:
+    """Payload sonic and INS L1 datasets (library names; see :mod:`dronewind.payload.io`).
+
+    The INS file is parsed once, for the logger-clock fit and for the INS L1 (seed 000,
+    Sect. 3.2).
+
+    Parameters
+    ----------
+    sonic_file, ins_file : str or Path
+        Raw payload sonic and INS CSV files of one flight.
+    despike : mapping
+        ``processing.despike``: ``window_s`` [s] and ``n_mad`` of the moving-MAD despiking.
+
+    Returns
+    -------
+    sonic, ins : xarray.Dataset
+        L1 payload sonic (sensor frame, UTC) and L1 INS.
+    """
+    table = io_payload.load_ins_table(ins_file)
+    sonic = io_payload.payload_sonic_l1(
+        sonic_file, ins_file, despike_window_s=float(despike["window_s"]),
+        despike_n_mad=float(despike["n_mad"]), ins_table=table,
+    )
+    return sonic, io_payload.ins_l1(ins_file, ins_table=table)
+
+
+def compute_payload_l2(
+    sonic: xr.Dataset,
+    ins: xr.Dataset,
+    flight: Mapping[str, Any],
+    site_altitude_m: float,
+    *,
+    sonic_ins_lag: Mapping[str, Any],
+    hover: Mapping[str, Any],
+    max_missing_fraction: float,
+) -> xr.Dataset:
+    """Payload L2: hover window, sonic-INS lag, motion correction (see :func:`dronewind.payload.sync.payload_l2`).
+
+    Parameters
+    ----------
+    sonic, ins : xarray.Dataset
+        L1 payload sonic and INS (library names).
+    flight : mapping
+        Payload flight entry of the manifest (``sonic.mount``, optional ``window`` and
+        ``target_height_m``).
+    site_altitude_m : float
+        Ground altitude of the site above mean sea level [m].
+    sonic_ins_lag : mapping
+        ``processing.sonic_ins_lag``: ``max_lag_s`` and ``step_s`` of the lag search [s]
+        (seed 000, Sect. 3.3).
+    hover : mapping
+        ``processing.hover``: ``alt_tol_m``, ``horiz_tol_m`` [m] and ``min_duration_s`` [s]
+        of the hover window (seed 000, Sect. 3.2).
+    max_missing_fraction : float
+        ``processing.max_missing_fraction``: most missing data that are gap-filled [1].
+
+    Returns
+    -------
+    xarray.Dataset
+        L2 drone wind in east/north/up with the flight's ``target_height_m`` attribute.
+    """
+    ds = sync.payload_l2(
+        sonic, ins, mount=flight["sonic"].get("mount", "upside_down"),
+        max_lag_s=float(sonic_ins_lag["max_lag_s"]), lag_step_s=float(sonic_ins_lag["step_s"]),
+        window=flight_window(flight), max_missing_fraction=float(max_missing_fraction),
+        min_hover_s=float(hover["min_duration_s"]),
+        hover_alt_tol_m=float(hover["alt_tol_m"]), hover_horiz_tol_m=float(hover["horiz_tol_m"]),
+        site_altitude_m=float(site_altitude_m),
+    )
+    ds.attrs["target_height_m"] = float(flight.get("target_height_m", float("nan")))
+    return ds

@@ -1,0 +1,339 @@
+r"""The drag balance of a hovering quadrotor: drag laws, attitude geometry, body-axis forces.
+
+The SWUF-3D method (seed 001, Sects. 4-5; seed 002, Sect. 2.1): a quadrotor that holds
+its position leans into the wind until the horizontal component of its thrust balances
+the aerodynamic drag. Its tilt therefore measures the wind speed, and, in PX4's
+weather-vane mode (the nose is yawed into the wind), its yaw measures the direction.
+This module holds the physics the processing chain inverts (attitude to air speed); the
+wind itself is assembled in :mod:`dronewind.quadrotor.wind`.
+
+Conventions (``../shared/DESIGN.md``): roll :math:`\phi`, pitch :math:`\theta`, yaw
+:math:`\psi` in degrees as logged (PX4: pitch negative nose-down, yaw clockwise from true
+north); body-to-NED rotation :math:`R(\phi,\theta,\psi)` of seed 001, Eq. D1. A quadrotor
+facing into the wind leans nose-down, so its *tilt* :math:`\gamma = -\theta > 0`.
+
+Two drag laws are implemented:
+
+``rayleigh`` (seed 001, Eqs. 12-17)
+    :math:`m g \sin\gamma = \tfrac{\rho}{2} c_dA(\gamma) V^2`,
+    :math:`c_dA = c_{d,0}A_0 + c_p\,\gamma`. Seed 001, Eq. 18 gives
+    :math:`c_dA = 0.03 - 0.047\,\theta`; we read its :math:`\theta` as the tilt
+    magnitude, i.e. ``cp_m2_per_rad = -0.047`` with :math:`\gamma \ge 0`. The other
+    reading (drag area growing with tilt) makes a 10 m/s wind need a 33 degree tilt and
+    puts 15 m/s out of reach, while this one gives 11 degrees at 10 m/s and 18 degrees
+    at 15 m/s, close to the seed 002 coefficients (Table 2: 10 degrees at 8 m/s).
+``body_axis`` (seed 002, Eq. 1 and Table 2)
+    body-axis wind accelerations :math:`a_x = F_{w,x}/m = g\sin\theta`,
+    :math:`a_y = -g\cos\theta\sin\phi` (seed 001, Eqs. 9-10 at rest; the sign of the
+    roll term in the published Eq. 10 is a typo, gravity in the body frame is
+    :math:`+mg\cos\theta\sin\phi`), air velocity relative to the vehicle
+    :math:`u = \operatorname{sgn}(a_x)\,c_x|a_x|^{b_x}`,
+    :math:`v = \operatorname{sgn}(a_y)\,c_y|a_y|^{b_y}`, with :math:`(b_x, c_x)` chosen
+    per speed range, rotated to the earth frame with :math:`R`.
+
+References
+----------
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+   (``../shared/papers/001_*.txt``), Sects. 4-5, Eqs. 9-18, Table 1, D1.
+.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+   (``../shared/papers/002_*.txt``), Eqs. 1-2, Table 2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from dronewind.core.constants import GRAVITY_MS2
+from dronewind.errors import InputError
+
+__all__ = [
+    "RHO_KGM3", "MASS_KG", "SEED001_AERO", "SEED002_RANGES", "MIN_DRAG_AREA_M2", "DragLaw",
+    "rotation_body_to_ned", "drag_area_m2", "speed_from_tilt", "tilt_from_attitude",
+    "body_accelerations_ms2", "body_axis_relative_air",
+]
+
+#: Air density assumed constant in seed 001, Sect. 4.2 [kg m-3].
+RHO_KGM3: float = 1.2
+#: Take-off mass of the Holybro QAV250 quadrotor, seed 001 Table 1 [kg].
+MASS_KG: float = 0.65
+#: Universal aerodynamic parameters of seed 001, Eq. 18 (slope on the tilt, see module doc).
+SEED001_AERO: dict[str, float] = {"cd0a0_m2": 0.03, "cp_m2_per_rad": -0.047}
+#: Floor of the drag area [m2] (see :func:`speed_from_tilt`).
+MIN_DRAG_AREA_M2: float = 1e-4
+#: Longitudinal speed-range coefficients of seed 002, Table 2: (upper edge [m s-1], b_x, c_x);
+#: lateral (b_y, c_y) = (0.860, 5.600).
+SEED002_RANGES: dict[str, object] = {
+    "edges_ms": [4.0, 12.0],
+    "b_x": [0.784, 0.882, 0.635],
+    "c_x": [6.338, 7.604, 8.600],
+    "b_y": 0.860,
+    "c_y": 5.600,
+}
+
+
+@dataclass(frozen=True)
+class DragLaw:
+    """Parameters of the drag law that maps tilt to wind speed.
+
+    Parameters
+    ----------
+    law : {"rayleigh", "body_axis"}
+        Seed 001 Eqs. 12-17 or seed 002 Eq. 1 with speed ranges (see module doc).
+    cd0a0_m2 : float
+        :math:`c_{d,0}A_0` [m2] (rayleigh).
+    cp_m2_per_rad : float
+        :math:`c_p` [m2 rad-1], slope of :math:`c_dA` on the tilt (rayleigh).
+    edges_ms : tuple of float
+        Upper edges of the longitudinal speed ranges [m s-1] (body_axis); ranges are
+        (-inf, e1], (e1, e2), [e2, inf) as in seed 002, Table 2.
+    b_x, c_x : tuple of float
+        Exponent [-] and factor [m s-1 N^-b] per range (body_axis).
+    b_y, c_y : float
+        Lateral exponent and factor (body_axis).
+    mass_kg : float
+        Vehicle mass [kg].
+    rho_kgm3 : float
+        Air density [kg m-3].
+    """
+
+    law: str = "rayleigh"
+    cd0a0_m2: float = SEED001_AERO["cd0a0_m2"]
+    cp_m2_per_rad: float = SEED001_AERO["cp_m2_per_rad"]
+    edges_ms: tuple[float, ...] = tuple(SEED002_RANGES["edges_ms"])  # type: ignore[arg-type]
+    b_x: tuple[float, ...] = tuple(SEED002_RANGES["b_x"])  # type: ignore[arg-type]
+    c_x: tuple[float, ...] = tuple(SEED002_RANGES["c_x"])  # type: ignore[arg-type]
+    b_y: float = float(SEED002_RANGES["b_y"])  # type: ignore[arg-type]
+    c_y: float = float(SEED002_RANGES["c_y"])  # type: ignore[arg-type]
+    mass_kg: float = MASS_KG
+    rho_kgm3: float = RHO_KGM3
+
+    def __post_init__(self) -> None:
+        if self.law not in ("rayleigh", "body_axis"):
+            raise InputError("drag law", f"law {self.law!r}; expected 'rayleigh' or 'body_axis'")
+        if self.law == "body_axis" and not (len(self.b_x) == len(self.c_x) == len(self.edges_ms) + 1):
+            raise InputError("drag law", "body_axis needs len(b_x) == len(c_x) == len(edges_ms) + 1")
+        if self.mass_kg <= 0 or self.rho_kgm3 <= 0:
+            raise InputError("drag law", "mass_kg and rho_kgm3 must be > 0")
+
+    @classmethod
+    def from_dict(cls, d: Mapping | None) -> DragLaw:
+        """Build from a settings mapping (unknown keys raise InputError)."""
+        d = dict(d or {})
+        names = set(cls.__dataclass_fields__)
+        unknown = set(d) - names
+        if unknown:
+            raise InputError("drag law", f"unknown key(s) {sorted(unknown)}; allowed {sorted(names)}")
+        for k in ("edges_ms", "b_x", "c_x"):
+            if k in d:
+                d[k] = tuple(float(v) for v in np.atleast_1d(d[k]))
+        return cls(**d)
+
+
+# --------------------------------------------------------------------------------------
+# Rotation and drag balance
+# --------------------------------------------------------------------------------------
+
+def rotation_body_to_ned(roll_rad: np.ndarray, pitch_rad: np.ndarray,
+                         yaw_rad: np.ndarray) -> np.ndarray:
+    r"""Body-to-NED rotation matrix :math:`R(\phi,\theta,\psi)` (seed 001, Eq. D1).
+
+    Parameters
+    ----------
+    roll_rad, pitch_rad, yaw_rad : array_like
+        Euler angles [rad], broadcastable.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(..., 3, 3)``.
+
+    Notes
+    -----
+    .. math::
+        R = \begin{bmatrix}
+        c_\theta c_\psi & c_\psi s_\theta s_\phi - c_\phi s_\psi & c_\psi s_\theta c_\phi + s_\phi s_\psi\\
+        c_\theta s_\psi & c_\phi c_\psi + s_\theta s_\phi s_\psi & -s_\phi c_\psi + s_\theta c_\phi s_\psi\\
+        -s_\theta & c_\theta s_\phi & c_\theta c_\phi \end{bmatrix}
+
+    (Seed 002, Eq. 2 prints :math:`\cos\theta\sin\phi` in row 2, column 1: a typo.)
+    """
+    phi, th, psi = np.broadcast_arrays(np.asarray(roll_rad, float), np.asarray(pitch_rad, float),
+                                       np.asarray(yaw_rad, float))
+    cf, sf, ct, st, cp, sp = np.cos(phi), np.sin(phi), np.cos(th), np.sin(th), np.cos(psi), np.sin(psi)
+    r = np.empty(phi.shape + (3, 3))
+    r[..., 0, 0] = ct * cp
+    r[..., 0, 1] = cp * st * sf - cf * sp
+    r[..., 0, 2] = cp * st * cf + sf * sp
+    r[..., 1, 0] = ct * sp
+    r[..., 1, 1] = cf * cp + st * sf * sp
+    r[..., 1, 2] = -sf * cp + st * cf * sp
+    r[..., 2, 0] = -st
+    r[..., 2, 1] = ct * sf
+    r[..., 2, 2] = ct * cf
+    return r
+
+
+def drag_area_m2(tilt_rad: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: float) -> np.ndarray:
+    r"""Drag area as a function of tilt (seed 001, Eqs. 16-17).
+
+    Parameters
+    ----------
+    tilt_rad : array_like
+        Tilt :math:`\gamma = -\theta` [rad] (its magnitude is used).
+    cd0a0_m2 : float
+        :math:`c_{d,0}A_0` [m2].
+    cp_m2_per_rad : float
+        :math:`c_p` [m2 rad-1].
+
+    Returns
+    -------
+    numpy.ndarray
+        :math:`c_dA` [m2].
+
+    Notes
+    -----
+    .. math:: c_dA = c_{d,0}A_0 + c_p\,|\gamma|
+    """
+    return cd0a0_m2 + cp_m2_per_rad * np.abs(np.asarray(tilt_rad, float))
+
+
+def speed_from_tilt(tilt_rad: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: float,
+                    mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3) -> np.ndarray:
+    r"""Wind speed from tilt by the drag balance (seed 001, Eqs. 12-17).
+
+    Parameters
+    ----------
+    tilt_rad : array_like
+        Tilt into the wind [rad]; negative means leaning away (tail wind), giving a
+        negative speed.
+    cd0a0_m2, cp_m2_per_rad : float
+        Drag-area parameters (Eq. 17).
+    mass_kg, rho_kgm3 : float
+        Mass [kg] and air density [kg m-3].
+
+    Returns
+    -------
+    numpy.ndarray
+        Signed relative air speed along the lean direction [m s-1].
+
+    Notes
+    -----
+    .. math:: V = \operatorname{sgn}\gamma\sqrt{\frac{2 m g |\sin\gamma|}{\rho\, c_dA(\gamma)}}
+
+    :math:`c_dA` is floored at :data:`MIN_DRAG_AREA_M2` (a linear law can cross zero at
+    large tilt; the floor keeps the calibration's residuals finite and large there).
+    """
+    g = np.asarray(tilt_rad, float)
+    cda = np.maximum(drag_area_m2(g, cd0a0_m2, cp_m2_per_rad), MIN_DRAG_AREA_M2)
+    v2 = 2.0 * mass_kg * GRAVITY_MS2 * np.abs(np.sin(g)) / (rho_kgm3 * cda)
+    return np.sign(g) * np.sqrt(v2)
+
+
+def tilt_from_attitude(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""Tilt angle and lean direction relative to the nose from roll and pitch.
+
+    Parameters
+    ----------
+    roll_rad, pitch_rad : array_like
+        Roll and pitch [rad].
+
+    Returns
+    -------
+    tilt_rad : numpy.ndarray
+        Angle between the thrust axis and the vertical [rad], >= 0.
+    lean_rel_rad : numpy.ndarray
+        Direction the thrust axis leans to, clockwise from the nose [rad] (0: nose-down).
+
+    Notes
+    -----
+    The upward thrust axis :math:`-b_3` in the heading frame (forward, right, up) is
+    :math:`(-\sin\theta\cos\phi,\ \sin\phi,\ \cos\theta\cos\phi)` (third column of
+    :math:`R`, seed 001 Eq. D1, with :math:`\psi=0`), so
+    :math:`\gamma = \operatorname{atan2}(\sqrt{f^2+r^2},\,\cos\theta\cos\phi)` (atan2
+    rather than arccos for accuracy at small tilt).
+    """
+    phi = np.asarray(roll_rad, float)
+    th = np.asarray(pitch_rad, float)
+    fwd = -np.sin(th) * np.cos(phi)
+    right = np.sin(phi)
+    tilt = np.arctan2(np.hypot(fwd, right), np.cos(th) * np.cos(phi))
+    return tilt, np.arctan2(right, fwd)
+
+
+def body_accelerations_ms2(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""Horizontal body-axis wind accelerations of a vehicle at rest (seed 001, Eqs. 9-10, 13).
+
+    Parameters
+    ----------
+    roll_rad, pitch_rad : array_like
+        Roll and pitch [rad].
+
+    Returns
+    -------
+    ax_ms2, ay_ms2 : numpy.ndarray
+        Wind force per unit mass along body x (forward) and y (right) [m s-2]: the
+        "accelerations measured by the autopilot's avionics" that seed 002 (Sect. 3.1)
+        relates to the wind speed.
+
+    Notes
+    -----
+    .. math:: a_x = F_{w,x}/m = g\sin\theta,\qquad a_y = F_{w,y}/m = -g\cos\theta\sin\phi
+    """
+    th = np.asarray(pitch_rad, float)
+    phi = np.asarray(roll_rad, float)
+    return GRAVITY_MS2 * np.sin(th), -GRAVITY_MS2 * np.cos(th) * np.sin(phi)
+
+
+def _power(f: np.ndarray, b, c) -> np.ndarray:
+    return np.sign(f) * c * np.abs(f) ** b
+
+
+def body_axis_relative_air(ax_ms2: np.ndarray, ay_ms2: np.ndarray,
+                           law: DragLaw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Air velocity relative to the vehicle in body axes from the wind forces (seed 002, Eq. 1).
+
+    Parameters
+    ----------
+    ax_ms2, ay_ms2 : array_like
+        Body-axis wind accelerations [m s-2] (:func:`body_accelerations_ms2`).
+    law : DragLaw
+        ``law="body_axis"`` coefficients.
+
+    Returns
+    -------
+    u_ms, v_ms : numpy.ndarray
+        Relative air velocity along body x and y [m s-1].
+    range_index : numpy.ndarray of int
+        Longitudinal speed range used per sample.
+
+    Notes
+    -----
+    .. math:: u = \operatorname{sgn}(a_x)\,c_{x,k}|a_x|^{b_{x,k}},\qquad
+              v = \operatorname{sgn}(a_y)\,c_y|a_y|^{b_y}
+
+    with :math:`a` in m s-2 (the coefficients of seed 002, Table 2 are for accelerations;
+    with forces in N they would need 36 degree of tilt at 16 m/s).
+
+    The range :math:`k` is chosen by the acceleration: range :math:`k` ends where its
+    own law reaches the range's upper speed edge, :math:`|a_k| = (e_k/c_k)^{1/b_k}`, and
+    :math:`k` is the number of such thresholds :math:`|a_x|` exceeds (for head wind;
+    tail wind, :math:`a_x > 0`, uses the first range, whose interval in Table 2 of seed
+    002 extends to -18 m/s). Table 2 is not continuous at the edges, so the speed jumps
+    slightly where the range changes.
+    """
+    fx = np.asarray(ax_ms2, float)
+    fy = np.asarray(ay_ms2, float)
+    edges = np.asarray(law.edges_ms, float)
+    bx = np.asarray(law.b_x, float)
+    cx = np.asarray(law.c_x, float)
+    thresholds = (edges / cx[:-1]) ** (1.0 / bx[:-1])
+    head = -fx  # positive for a head wind (nose down)
+    idx = np.sum(head[..., None] > thresholds, axis=-1) if thresholds.size else np.zeros(fx.shape, int)
+    idx = np.where(head > 0, idx, 0)
+    u = _power(fx, bx[idx], cx[idx])
+    v = _power(fy, law.b_y, law.c_y)
+    return u, v, idx
+

@@ -1,0 +1,427 @@
+r"""Averaging windows of the hover paired with the tower reference: the calibration data set.
+
+Seed 001 compares 10-min means (Sect. 5) and 2-min means (Appendix C) of the UAV wind
+with the tower. :func:`flight_windows` cuts one UAV's hover into such windows; within a
+window the attitude is averaged in short blocks (1 s) before the non-linear drag law is
+applied, and each window is paired with the tower records at the nearest height.
+:func:`campaign_windows` does this for every UAV log of a campaign, listing the logs that
+cannot be used. :class:`WindowArrays` holds blocks and windows as arrays for the repeated
+model evaluations of the calibrations.
+
+References
+----------
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+   (``../shared/papers/001_*.txt``), Sects. 4.3, 5, Appendix C.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from dronewind.errors import InputError
+from dronewind.quadrotor.drag import DragLaw
+from dronewind.quadrotor.hover import hover_segment
+from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
+from dronewind.quadrotor.wind import wind_from_attitude
+
+__all__ = ["circular_mean_deg", "flight_windows", "campaign_windows", "WindowArrays", "select_windows"]
+
+
+def circular_mean_deg(angles_deg: np.ndarray, weights: np.ndarray | None = None) -> float:
+    r"""Weighted circular mean of angles [degree], in [0, 360); NaN if no finite pair.
+
+    Parameters
+    ----------
+    angles_deg : array_like
+        Angles [degree].
+    weights : array_like, optional
+        Weights (e.g. wind speed for a vector-mean direction); default 1.
+
+    Returns
+    -------
+    float
+        :math:`\operatorname{atan2}(\sum w\sin a, \sum w\cos a)` [degree].
+    """
+    a = np.radians(np.asarray(angles_deg, float))
+    w = np.ones_like(a) if weights is None else np.asarray(weights, float)
+    ok = np.isfinite(a) & np.isfinite(w)
+    if not ok.any():
+        return float("nan")
+    return float(np.degrees(np.arctan2(np.sum(w[ok] * np.sin(a[ok])),
+                                       np.sum(w[ok] * np.cos(a[ok])))) % 360.0)
+
+
+# --------------------------------------------------------------------------------------
+# Windows of one UAV log
+# --------------------------------------------------------------------------------------
+
+def _reference_source(reference: xr.Dataset) -> str:
+    return f"{reference.attrs.get('source_file', 'tower reference')}"
+
+
+def reference_at_height(reference: xr.Dataset, height_m: float, height_tol_m: float,
+                        where: str) -> tuple[xr.Dataset, float]:
+    """Tower records at the reference height nearest to the hover height.
+
+    Parameters
+    ----------
+    reference : xarray.Dataset
+        Tower reference (:func:`dronewind.quadrotor.io.read_tower_reference`).
+    height_m : float
+        Hover height above ground [m].
+    height_tol_m : float
+        Largest accepted height difference [m].
+    where : str
+        Flight and UAV, for the error message.
+
+    Returns
+    -------
+    records : xarray.Dataset
+        ``reference`` at that height (dimension ``time``).
+    ref_height_m : float
+        Its height [m].
+
+    Raises
+    ------
+    InputError
+        No reference height within ``height_tol_m``.
+    """
+    ref_h = reference["height_m"].to_numpy()
+    k_h = int(np.argmin(np.abs(ref_h - height_m)))
+    if abs(ref_h[k_h] - height_m) > height_tol_m:
+        raise InputError(f"{_reference_source(reference)} [height_m]",
+                         f"{where}: no reference height within {height_tol_m} m of the hover "
+                         f"height {height_m:.1f} m (available {list(np.round(ref_h, 1))})")
+    return reference.isel(height=k_h), ref_h[k_h]
+
+
+def window_edges(hover: Mapping[str, Any], window_s: float, where: str) -> tuple[list[np.datetime64], int]:
+    """Edges of the averaging windows of a hover.
+
+    Parameters
+    ----------
+    hover : mapping
+        ``start``, ``end``, ``duration_s`` of :func:`dronewind.quadrotor.hover.hover_segment`.
+    window_s : float
+        Averaging time [s]. The hover is cut into ``floor(duration / window_s)`` windows;
+        a hover shorter than one window but at least half of it gives one window over the
+        whole hover.
+    where : str
+        Flight and UAV, for the error message.
+
+    Returns
+    -------
+    edges : list of numpy.datetime64
+        ``n + 1`` edges of ``n`` windows.
+    n_full : int
+        Number of full windows (0 for the one short window).
+
+    Raises
+    ------
+    InputError
+        Hover shorter than half a window.
+    """
+    dur = hover["duration_s"]
+    n_win = int(dur // window_s)
+    if n_win == 0 and dur >= 0.5 * window_s:
+        return [hover["start"], hover["end"] + np.timedelta64(1, "ns")], n_win
+    if n_win == 0:
+        raise InputError(where, f"hover of {dur:.0f} s is shorter than half the averaging "
+                                f"window ({window_s:.0f} s)")
+    step = np.timedelta64(int(round(window_s * 1e9)), "ns")
+    return [hover["start"] + k * step for k in range(n_win + 1)], n_win
+
+
+def reference_coverage(ref_time: np.ndarray, ref_speed_ms: np.ndarray, t0: np.datetime64,
+                       t1: np.datetime64, interval_s: float) -> tuple[np.ndarray, int]:
+    """Tower records inside a window and the number expected.
+
+    Parameters
+    ----------
+    ref_time, ref_speed_ms : numpy.ndarray
+        Record times and speeds at the reference height.
+    t0, t1 : numpy.datetime64
+        Window start (inclusive) and end (exclusive).
+    interval_s : float
+        Spacing of the records [s].
+
+    Returns
+    -------
+    selected : numpy.ndarray of bool
+        Finite records inside the window.
+    expected : int
+        Records expected at ``interval_s``.
+    """
+    rsel = (ref_time >= t0) & (ref_time < t1) & np.isfinite(ref_speed_ms)
+    expected = max(1, int(round((t1 - t0).astype("int64") / 1e9 / interval_s)))
+    return rsel, expected
+
+
+def block_means(sub: xr.Dataset, t0: np.datetime64, block_s: float) -> tuple[pd.DataFrame, int]:
+    """Attitude and GNSS velocity averaged in blocks of ``block_s`` from ``t0``.
+
+    Parameters
+    ----------
+    sub : xarray.Dataset
+        Hover samples of one window.
+    t0 : numpy.datetime64
+        Window start.
+    block_s : float
+        Block length [s].
+
+    Returns
+    -------
+    blocks : pandas.DataFrame
+        ``roll_deg``, ``pitch_deg``, ``vel_n_ms``, ``vel_e_ms``, ``yaw_deg`` (circular mean,
+        0-360) per block with all values finite.
+    n_all : int
+        Number of blocks before those without a finite sample were left out.
+    """
+    tb = ((sub["time"].to_numpy() - t0).astype("int64") // int(block_s * 1e9)).astype(np.int64)
+    frame = pd.DataFrame({
+        "b": tb, "roll_deg": sub["roll_deg"].to_numpy(), "pitch_deg": sub["pitch_deg"].to_numpy(),
+        "sy": np.sin(np.radians(sub["yaw_deg"].to_numpy())),
+        "cy": np.cos(np.radians(sub["yaw_deg"].to_numpy())),
+        "vel_n_ms": sub["vel_n_ms"].to_numpy(), "vel_e_ms": sub["vel_e_ms"].to_numpy()})
+    g = frame.groupby("b").mean()
+    g["yaw_deg"] = np.degrees(np.arctan2(g["sy"], g["cy"])) % 360.0
+    n_all_blocks = len(g)
+    g = g.drop(columns=["sy", "cy"]).dropna()  # blocks without any finite sample: counted
+    return g, n_all_blocks
+
+
+def _coverage_error(reference: xr.Dataset, where: str, k: int, t0: np.datetime64, t1: np.datetime64,
+                    n_found: int, expected: int, ref_height_m: float) -> InputError:
+    return InputError(_reference_source(reference),
+                      f"{where}: the reference does not cover window {k} "
+                      f"({np.datetime_as_string(t0, 's')}Z to "
+                      f"{np.datetime_as_string(t1, 's')}Z): {n_found} of "
+                      f"{expected} records at {ref_height_m:g} m")
+
+
+def flight_windows(ds: xr.Dataset, reference: xr.Dataset, site_altitude_m: float,
+                   flight: str, uav: str, window_s: float = 600.0, block_s: float = 1.0,
+                   height_tol_m: float = 5.0, min_coverage: float = 0.8,
+                   hover_kwargs: Mapping | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    r"""Cut a UAV's hover into averaging windows and pair each with the tower reference.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Quadrotor log (:func:`dronewind.quadrotor.io.read_quadrotor`).
+    reference : xarray.Dataset
+        Tower reference (:func:`dronewind.quadrotor.io.read_tower_reference`).
+    site_altitude_m : float
+        Ground altitude above MSL [m]; height above ground is ``alt_m - site_altitude_m``.
+    flight, uav : str
+        Identifiers stored in the tables.
+    window_s : float
+        Averaging time [s]: 600 (seed 001, Sect. 5) or 120 (Appendix C); see
+        :func:`window_edges`.
+    block_s : float
+        The attitude is averaged in blocks of this length [s] before the (non-linear)
+        wind computation (:func:`block_means`).
+    height_tol_m : float
+        Largest difference between hover height and the nearest reference height [m].
+    min_coverage : float
+        Smallest fraction of the expected reference records inside a window.
+    hover_kwargs : mapping, optional
+        Passed to :func:`dronewind.quadrotor.hover.hover_segment`.
+
+    Returns
+    -------
+    blocks : pandas.DataFrame
+        One row per block: ``window_key``, ``roll_deg``, ``pitch_deg``, ``yaw_deg``
+        (circular mean), ``vel_n_ms``, ``vel_e_ms``.
+    windows : pandas.DataFrame
+        One row per window: ``window_key`` (``flight/uav/k``), ``flight``, ``uav``,
+        ``window``, ``start``, ``end``, ``height_m``, ``ref_height_m``, ``ref_speed_ms``
+        (scalar mean), ``ref_from_deg`` (speed-weighted vector mean), ``n_blocks``,
+        ``n_blocks_nan`` (blocks left out for a missing value), ``n_ref``, ``sigma_h_m``,
+        ``sigma_v_m``, ``hover_s``, ``n_dropped_s`` (hover seconds outside any window).
+
+    Raises
+    ------
+    InputError
+        UAV never hovers; no reference height within ``height_tol_m``; reference not
+        covering a window.
+    """
+    where = f"flight {flight}, uav {uav}"
+    mask, info = hover_segment(ds, where=where, **dict(hover_kwargs or {}))
+    height = info["alt_m"] - site_altitude_m
+    ref, ref_height = reference_at_height(reference, height, height_tol_m, where)
+    edges, n_win = window_edges(info, window_s, where)
+    t = ds["time"].to_numpy()
+    ref_sp = ref["wind_speed_ms"].to_numpy()
+    interval = float(reference.attrs.get("sampling_interval_s") or 60.0)
+    dur = info["duration_s"]
+    common = {"flight": flight, "uav": uav, "height_m": height, "ref_height_m": float(ref_height),
+              "sigma_h_m": info["sigma_h_m"], "sigma_v_m": info["sigma_v_m"], "hover_s": dur,
+              "n_dropped_s": float(dur - (edges[-1] - edges[0]).astype("int64") / 1e9) if n_win else 0.0}
+    blocks_out, windows_out = [], []
+    for k in range(len(edges) - 1):
+        key = f"{flight}/{uav}/{k}"
+        t0, t1 = edges[k], edges[k + 1]
+        rsel, expected = reference_coverage(ref["time"].to_numpy(), ref_sp, t0, t1, interval)
+        if rsel.sum() < min_coverage * expected:
+            raise _coverage_error(reference, where, k, t0, t1, int(rsel.sum()), expected, ref_height)
+        g, n_all_blocks = block_means(ds.isel(time=np.flatnonzero(mask & (t >= t0) & (t < t1))), t0, block_s)
+        g["window_key"] = key
+        blocks_out.append(g.reset_index(drop=True))
+        windows_out.append({
+            "window_key": key, "window": k, "start": t0, "end": t1,
+            "ref_speed_ms": float(np.mean(ref_sp[rsel])),
+            "ref_from_deg": circular_mean_deg(ref["wind_from_deg"].to_numpy()[rsel], ref_sp[rsel]),
+            "n_blocks": len(g), "n_blocks_nan": n_all_blocks - len(g), "n_ref": int(rsel.sum()), **common})
+    return pd.concat(blocks_out, ignore_index=True), _window_table(windows_out)
+
+
+#: Column order of the window table of :func:`flight_windows`.
+WINDOW_COLUMNS: tuple[str, ...] = (
+    "window_key", "flight", "uav", "window", "start", "end", "height_m", "ref_height_m", "ref_speed_ms",
+    "ref_from_deg", "n_blocks", "n_blocks_nan", "n_ref", "sigma_h_m", "sigma_v_m", "hover_s", "n_dropped_s",
+)
+
+
+def _window_table(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    return pd.DataFrame(rows)[list(WINDOW_COLUMNS)]
+
+
+# --------------------------------------------------------------------------------------
+# Every UAV log of a campaign
+# --------------------------------------------------------------------------------------
+
+def campaign_windows(campaign: Mapping, manifest_dir: str | Path, window_s: float = 600.0,
+                     strict: bool = False, **kwargs) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Read every quadrotor flight of a campaign and build its averaging windows.
+
+    Parameters
+    ----------
+    campaign : mapping
+        Parsed manifest (``site.altitude_m``, ``quadrotor_flights``).
+    manifest_dir : str or Path
+        Folder the manifest's paths are relative to.
+    window_s : float
+        Averaging time [s] (600 or 120).
+    strict : bool
+        Raise on the first bad UAV log instead of recording it.
+    **kwargs
+        Passed to :func:`flight_windows`.
+
+    Returns
+    -------
+    blocks, windows : pandas.DataFrame
+        Concatenated :func:`flight_windows` output.
+    problems : pandas.DataFrame
+        ``flight``, ``uav``, ``file``, ``error``: UAV logs left out (e.g. a UAV that
+        never hovers, a reference that does not cover the flight), so that nothing is
+        dropped silently.
+
+    Raises
+    ------
+    InputError
+        With ``strict``, or when no window at all could be built.
+    """
+    root = Path(manifest_dir)
+    site_alt = float(campaign["site"]["altitude_m"])
+    blocks, windows, problems = [], [], []
+    for flight in campaign.get("quadrotor_flights") or []:
+        try:
+            ref = read_tower_reference(root / flight["reference"])
+        except InputError as exc:
+            if strict:
+                raise
+            problems += [{"flight": flight["id"], "uav": u["id"], "file": flight["reference"], "error": str(exc)}
+                         for u in flight["uavs"]]
+            continue
+        for uav in flight["uavs"]:
+            try:
+                b, w = flight_windows(read_quadrotor(root / uav["file"]), ref, site_alt, flight["id"],
+                                      uav["id"], window_s=window_s, **kwargs)
+            except InputError as exc:
+                if strict:
+                    raise
+                problems.append({"flight": flight["id"], "uav": uav["id"], "file": uav["file"], "error": str(exc)})
+                continue
+            blocks.append(b)
+            windows.append(w)
+    if not windows:
+        raise InputError("quadrotor_flights", "no usable quadrotor window in the campaign"
+                         + (f"; first problem: {problems[0]['error']}" if problems else ""))
+    return (pd.concat(blocks, ignore_index=True), pd.concat(windows, ignore_index=True),
+            pd.DataFrame(problems, columns=["flight", "uav", "file", "error"]))
+
+
+# --------------------------------------------------------------------------------------
+# The calibration data set as arrays
+# --------------------------------------------------------------------------------------
+
+class WindowArrays:
+    """Blocks and windows as arrays, for fast repeated model evaluation.
+
+    Parameters
+    ----------
+    blocks, windows : pandas.DataFrame
+        :func:`flight_windows` output (blocks of windows not in ``windows`` are ignored).
+
+    Raises
+    ------
+    InputError
+        Duplicated ``window_key`` values.
+    """
+
+    def __init__(self, blocks: pd.DataFrame, windows: pd.DataFrame) -> None:
+        keys = pd.Index(windows["window_key"])
+        if not keys.is_unique:
+            raise InputError("windows", "window_key values must be unique")
+        idx = keys.get_indexer(blocks["window_key"])
+        keep = idx >= 0
+        self.win = idx[keep]
+        self.roll = blocks["roll_deg"].to_numpy(float)[keep]
+        self.pitch = blocks["pitch_deg"].to_numpy(float)[keep]
+        self.yaw = blocks["yaw_deg"].to_numpy(float)[keep]
+        self.vn = blocks["vel_n_ms"].to_numpy(float)[keep]
+        self.ve = blocks["vel_e_ms"].to_numpy(float)[keep]
+        self.nwin = len(windows)
+        self.count = np.bincount(self.win, minlength=self.nwin).astype(float)
+        self.ref = windows["ref_speed_ms"].to_numpy(float)
+        self.uav = windows["uav"].astype(str).to_numpy()
+        self.block_uav = self.uav[self.win]
+
+    def speed(self, law: DragLaw, pitch_offset_deg: np.ndarray | float, method: str,
+              signed: bool = False) -> np.ndarray:
+        """Window-mean wind speed [m s-1].
+
+        ``signed``: the speed of a block is negative when the wind comes from behind the
+        nose (negative head-wind component). Under weather-vane mode that only happens
+        with a wrong pitch offset, so the calibration uses it to rule out the mirror
+        solution (tilt reflected through zero gives the same unsigned speed).
+        """
+        w = wind_from_attitude(self.roll, self.pitch, self.yaw, self.vn, self.ve, law=law,
+                               pitch_offset_deg=pitch_offset_deg, method=method)
+        sp = w["speed_ms"]
+        if signed:
+            psi = np.radians(self.yaw)
+            head = -(w["v_north_ms"] * np.cos(psi) + w["u_east_ms"] * np.sin(psi))
+            sp = np.where(head < 0, -sp, sp)
+        s = np.bincount(self.win, weights=sp, minlength=self.nwin)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return s / self.count
+
+
+def select_windows(blocks: pd.DataFrame, windows: pd.DataFrame, flights: Iterable[str] | None,
+                   uavs: Iterable[str] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Windows of the given flights and UAVs (all when None) and their blocks."""
+    w = windows
+    if flights is not None:
+        w = w[w["flight"].astype(str).isin([str(f) for f in flights])]
+    if uavs is not None:
+        w = w[w["uav"].astype(str).isin([str(u) for u in uavs])]
+    b = blocks[blocks["window_key"].isin(w["window_key"])]
+    return b, w.reset_index(drop=True)
