@@ -16,12 +16,12 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from dronewind.core.geo import local_tangent_plane_m
 from dronewind.errors import InputError
 
 __all__ = ["hover_segment", "hover_accuracy"]
 
 #: Mean earth radius of the local east/north approximation [m].
-_EARTH_RADIUS_M = 6_371_000.0
 
 
 def _longest_run(mask: np.ndarray) -> tuple[int, int]:
@@ -50,11 +50,8 @@ def _close_gaps(mask: np.ndarray, max_gap: int) -> np.ndarray:
 
 def _local_en_m(lat_deg: np.ndarray, lon_deg: np.ndarray, lat0: float,
                 lon0: float) -> tuple[np.ndarray, np.ndarray]:
-    """East and north of (lat0, lon0) on a sphere [m] (metre-scale hover excursions only)."""
-    r = _EARTH_RADIUS_M
-    north = np.radians(lat_deg - lat0) * r
-    east = np.radians(lon_deg - lon0) * r * np.cos(np.radians(lat0))
-    return east, north
+    """East and north of (lat0, lon0) [m] on the WGS84 tangent plane (:mod:`dronewind.core.geo`)."""
+    return local_tangent_plane_m(lat_deg, lon_deg, lat0, lon0)
 
 
 def hover_segment(ds: xr.Dataset, horiz_tol_m: float = 4.0, alt_tol_m: float = 3.0,

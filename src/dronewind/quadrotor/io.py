@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from dronewind.core.geo import from_local_tangent_plane
 from dronewind.errors import InputError
 
 __all__ = [
@@ -64,7 +65,6 @@ QUADROTOR_COLUMNS: tuple[str, ...] = (
 #: Columns of the long-form tower reference CSV (data contract).
 REFERENCE_COLUMNS: tuple[str, ...] = ("time_utc", "height_m", "wind_speed_ms", "wind_from_deg")
 
-_EARTH_RADIUS_M = 6_371_000.0
 
 _ISO_Z = re.compile(r"^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,9})?Z$")
 
@@ -317,8 +317,7 @@ def _ulog_track(ulog: Any, t_us: np.ndarray) -> tuple[dict[str, np.ndarray], str
         ref_lon = float(np.median(lpos["ref_lon"]))
         ref_alt = float(np.median(lpos["ref_alt"]))
         x_n, y_e, z_d = (_interp_at(t_us, lpos["timestamp"], lpos[k]) for k in ("x", "y", "z"))
-        tr["lat_deg"] = ref_lat + np.degrees(x_n / _EARTH_RADIUS_M)
-        tr["lon_deg"] = ref_lon + np.degrees(y_e / (_EARTH_RADIUS_M * np.cos(np.radians(ref_lat))))
+        tr["lat_deg"], tr["lon_deg"] = from_local_tangent_plane(y_e, x_n, ref_lat, ref_lon)
         tr["alt_m"] = ref_alt - z_d
         source = "vehicle_local_position"
     if gpos is not None and len(gpos["timestamp"]):

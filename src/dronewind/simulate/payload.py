@@ -226,10 +226,8 @@ def _mast_offsets_enu(site: Mapping[str, Any], sonic: Mapping[str, Any]) -> tupl
     """East, north offset [m] of a mast sonic from the site position (WGS84 local tangent plane)."""
     lat0 = float(site.get("latitude", sonic["latitude"]))
     lon0 = float(site.get("longitude", sonic["longitude"]))
-    import math
-    de = math.radians(sonic["longitude"] - lon0) * 6_371_000.0 * math.cos(math.radians(lat0))
-    dn = math.radians(sonic["latitude"] - lat0) * 6_371_000.0
-    return de, dn
+    de, dn = local_tangent_plane_m(sonic["latitude"], sonic["longitude"], lat0, lon0)
+    return float(de), float(dn)
 
 
 def _log_span_utc(cond: PayloadFlightConditions) -> tuple[np.datetime64, np.datetime64]:
@@ -640,10 +638,7 @@ def _ins_lat_lon(cond: PayloadFlightConditions, east_m: np.ndarray,
     site = cond["site"]
     lat0 = float(site.get("latitude", ref["latitude"]))
     lon0 = float(site.get("longitude", ref["longitude"]))
-    import math
-    lat = lat0 + np.degrees(north_m / 6_371_000.0)
-    lon = lon0 + np.degrees(east_m / (6_371_000.0 * math.cos(math.radians(lat0))))
-    return lat, lon
+    return from_local_tangent_plane(east_m, north_m, lat0, lon0)
 
 
 def _ins_validity(cond: PayloadFlightConditions, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

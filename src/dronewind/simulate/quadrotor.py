@@ -53,6 +53,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
+from dronewind.core.geo import from_local_tangent_plane
 from dronewind.errors import InputError
 from dronewind.simulate.airframe import (
     AirframeDrag,
@@ -357,9 +358,8 @@ def _iso(t: np.ndarray) -> np.ndarray:
 
 def _local_to_latlon(east_m: np.ndarray, north_m: np.ndarray, lat0: float,
                      lon0: float) -> tuple[np.ndarray, np.ndarray]:
-    """Latitude and longitude of east/north offsets on a sphere [degree] (metre-scale hover)."""
-    r = 6_371_000.0
-    return lat0 + np.degrees(north_m / r), lon0 + np.degrees(east_m / (r * np.cos(np.radians(lat0))))
+    """Latitude and longitude of east/north offsets [degree] (WGS84 tangent plane, :mod:`dronewind.core.geo`)."""
+    return from_local_tangent_plane(east_m, north_m, lat0, lon0)
 
 
 def _default_wind_fn():
