@@ -200,3 +200,40 @@ def test_block_means_of_a_long_record_recover_the_plane():
     np.testing.assert_allclose(again.matrix(), fit.matrix(), atol=1e-12)
     assert again.tilt_deg == pytest.approx(fit.tilt_deg)
     assert rotation.planar_fit_from_attrs(rotation.planar_fit_attrs(None, "too few blocks")) is None
+
+
+@pytest.mark.parametrize("sigma_v, sigma_w, vw", [
+    (1.2, 1.3, 0.019),   # Table 5, s7 drone: sigma_w > sigma_v (seed 000); gamma = -4.3 deg
+    (1.2, 1.3, -0.019),
+    (1.0, 0.7, 0.05),    # the usual case sigma_v > sigma_w
+    (0.6, 1.1, 0.20),
+])
+def test_triple_rotation_keeps_roll_within_45_degrees(sigma_v, sigma_w, vw):
+    """McMillen (1988): the roll is the root of tan(2 gamma) with |gamma| <= 45 deg; the other
+    root (chosen by a full-range atan2 when sigma_w > sigma_v) swaps v and w."""
+    rng = np.random.default_rng(5)
+    n = 40_000
+    cov = np.array([[sigma_v**2, vw], [vw, sigma_w**2]])
+    v, w = rng.multivariate_normal([0.0, 0.0], cov, size=n).T
+    u = 8.0 + rng.standard_normal(n)
+    v -= v.mean()
+    w -= w.mean()
+    _, v3, w3, ang = rotation.triple_rotation(u, v, w)
+    vv, ww, c = np.mean(v * v), np.mean(w * w), np.mean(v * w)
+    expected = np.rad2deg(0.5 * np.arctan(2.0 * c / (vv - ww)))
+    assert abs(ang["roll_deg"]) <= 45.0
+    assert ang["roll_deg"] == pytest.approx(expected, abs=1e-6)
+    assert abs(np.mean(v3 * w3)) < 1e-10
+    # v stays the crosswind and w the vertical component (no exchange of variances): each
+    # rotated standard deviation is nearer its own unrotated value than the other one
+    assert abs(np.std(w3) - np.std(w)) < abs(np.std(w3) - np.std(v))
+    assert abs(np.std(v3) - np.std(v)) < abs(np.std(v3) - np.std(w))
+
+
+def test_triple_rotation_table5_s7_angle():
+    """With Table 5's s7 drone values (sigma_v 1.2, sigma_w 1.3 m/s) and v'w' = 0.019 m2/s2 the
+    roll is -4.3 deg (the old full-range atan2 gave +85.7 deg)."""
+    gamma = np.rad2deg(rotation.roll_angle_rad(0.019, 1.2**2, 1.3**2))
+    assert gamma == pytest.approx(-4.3, abs=0.05)
+    assert np.rad2deg(rotation.roll_angle_rad(0.0, 1.0, 2.0)) == 0.0
+    assert np.rad2deg(rotation.roll_angle_rad(0.1, 1.0, 1.0)) == pytest.approx(45.0)

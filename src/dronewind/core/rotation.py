@@ -29,6 +29,7 @@ __all__ = [
     "single_rotation",
     "double_rotation",
     "triple_rotation",
+    "roll_angle_rad",
     "planar_fit_tilt",
     "apply_planar_fit",
     "block_means",
@@ -117,6 +118,31 @@ def double_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
     return u1 * cb + w1 * sb, v1, -u1 * sb + w1 * cb, angles
 
 
+def roll_angle_rad(vw_m2s2: float, vv_m2s2: float, ww_m2s2: float) -> float:
+    """Roll angle of the third rotation that zeroes v'w' (McMillen 1988), within +/-45 degrees.
+
+    Parameters
+    ----------
+    vw_m2s2 : float
+        Covariance :math:`\\overline{v'w'}` after the double rotation [m2 s-2].
+    vv_m2s2, ww_m2s2 : float
+        Variances :math:`\\overline{v'^2}`, :math:`\\overline{w'^2}` [m2 s-2].
+
+    Returns
+    -------
+    float
+        :math:`\\gamma` [rad] with :math:`\\tan 2\\gamma = 2\\overline{v'w'}/(\\overline{v'^2} -
+        \\overline{w'^2})` and :math:`|\\gamma| \\le \\pi/4`; :math:`\\pm\\pi/4` when the variances are
+        equal, 0 when the covariance is zero too.
+    """
+    gamma = 0.5 * np.arctan2(2.0 * vw_m2s2, vv_m2s2 - ww_m2s2)  # in (-pi/2, pi/2]
+    if gamma > np.pi / 4:
+        gamma -= np.pi / 2
+    elif gamma < -np.pi / 4:
+        gamma += np.pi / 2
+    return float(gamma)
+
+
 def triple_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]:
     """Double rotation followed by a roll rotation so that cov(v, w) = 0.
@@ -137,11 +163,16 @@ def triple_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
     -----
     .. math::
 
-        \\gamma = \\tfrac12 \\operatorname{atan2}\\left(2\\overline{v_2'w_2'},
-            \\overline{v_2'^2} - \\overline{w_2'^2}\\right), \\quad
+        \\tan 2\\gamma = \\frac{2\\overline{v_2'w_2'}}{\\overline{v_2'^2} - \\overline{w_2'^2}},
+        \\quad |\\gamma| \\le 45^\\circ, \\quad
         v_3 = v_2\\cos\\gamma + w_2\\sin\\gamma, \\quad w_3 = -v_2\\sin\\gamma + w_2\\cos\\gamma .
 
-    The means stay zero because the roll mixes only v and w, both of zero mean.
+    Both roots of :math:`\\tan 2\\gamma` (90 degrees apart) make :math:`\\overline{v_3'w_3'} = 0`;
+    McMillen (1988) takes the one with :math:`|\\gamma| \\le 45^\\circ`
+    (:func:`roll_angle_rad`). The other root exchanges v and w: with
+    :math:`\\sigma_w > \\sigma_v` the full-range ``atan2`` would pick it and turn the
+    vertical component into the crosswind one. The means stay zero because the roll mixes
+    only v and w, both of zero mean.
 
     References
     ----------
@@ -149,7 +180,7 @@ def triple_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
     """
     u2, v2, w2, angles = double_rotation(u_ms, v_ms, w_ms)
     vp, wp = v2 - v2.mean(), w2 - w2.mean()
-    gamma = 0.5 * np.arctan2(2.0 * np.mean(vp * wp), np.mean(vp * vp) - np.mean(wp * wp))
+    gamma = roll_angle_rad(float(np.mean(vp * wp)), float(np.mean(vp * vp)), float(np.mean(wp * wp)))
     cg, sg = np.cos(gamma), np.sin(gamma)
     angles["roll_deg"] = float(np.rad2deg(gamma))
     return u2, v2 * cg + w2 * sg, -v2 * sg + w2 * cg, angles
