@@ -196,3 +196,12 @@ def test_contract_violations_raise() -> None:
     bad.attrs = {}
     with pytest.raises(InputError, match="sampling_rate_hz"):
         l4.flight_l4(bad, "mast")
+
+
+def test_fits_use_the_l3_filter_passband(l3: xr.Dataset) -> None:
+    """flight_l4 fits the spectral models only up to the L3 anti-alias passband edge."""
+    unfiltered = l4.flight_l4(l3, "mast")
+    assert unfiltered.attrs["spectral_fit_f_max_hz"] == pytest.approx(FS_HZ / 2)
+    filtered = l4.flight_l4(l3.assign_attrs(fir_passband_edge_hz=3.0), "mast")
+    assert filtered.attrs["spectral_fit_f_max_hz"] == 3.0
+    assert float(filtered["fit_b_w"]) != float(unfiltered["fit_b_w"])  # fewer bins, another fit

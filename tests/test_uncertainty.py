@@ -96,3 +96,24 @@ def test_threshold_and_undefined_cases() -> None:
         uncertainty.relative_random_error(phi, 100.0)  # neither time scale nor fs
     with pytest.raises(InputError):
         uncertainty.product_series(np.ones(3), np.ones(4))
+
+
+def test_eq11_is_the_variance_of_the_vw_series_not_the_printed_form() -> None:
+    """Eq. 11 as computed (and documented in paper_uncertainty): the variance of the v'w'
+    product series over u*^4. The printed form (mean of (v'w')^2 over u*^4, minus 1) differs
+    by 1 - mean(v'w')^2/u*^4 in the bracket and is negative here (weak v under a strong
+    momentum flux), so it is no variance."""
+    rng = np.random.default_rng(3)
+    n = 20_000
+    v, w = 0.3 * rng.standard_normal(n), rng.standard_normal(n)
+    u = -1.0 * w + 0.5 * rng.standard_normal(n)  # u'w' < 0 strong, v'w' ~ 0 after a double rotation
+    phi = v * w
+    ustar2 = float(np.sqrt(np.mean(u * w) ** 2 + np.mean(v * w) ** 2))
+    z, tau, speed = 30.0, 1800.0, 5.0
+    got = uncertainty.paper_uncertainty(phi, z, tau, speed, ustar2).value
+    expected = np.sqrt(z / (tau * speed) * (np.mean(phi**2) - np.mean(phi) ** 2) / ustar2**2)
+    assert got == pytest.approx(expected, rel=1e-12)
+    printed_bracket = np.mean(phi**2) / ustar2**2 - 1.0
+    code_bracket = (np.mean(phi**2) - np.mean(phi) ** 2) / ustar2**2
+    assert code_bracket - printed_bracket == pytest.approx(1.0 - np.mean(phi) ** 2 / ustar2**2, rel=1e-9)
+    assert printed_bracket < 0 < code_bracket

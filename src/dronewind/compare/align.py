@@ -601,6 +601,7 @@ def _l3_attrs(lag: float, xcorr: np.ndarray, at_edge: bool, rotation: str, r: _R
         "sampling_rate_hz": float(fs_out),
         "fir_design": (f"Kaiser-window FIR, {taps.size} taps, cutoff {fs_out * 0.4375:g} Hz, transition "
                        f"{0.375 * fs_out:g}-{0.5 * fs_out:g} Hz, 60 dB, centred (zero phase)"),
+        "fir_passband_edge_hz": float(0.375 * fs_out),
         "n_samples": int(n_samples),
         **{k: int(v) for k, v in counts.items()},
         "processing_log": "\n".join(log),

@@ -41,6 +41,16 @@ __all__ = ["STATUS_FLAG_MEANINGS", "flight_l4", "record_l4"]
 
 _S = {name: i for i, name in enumerate(STATUS_FLAG_MEANINGS)}
 
+#: Known low bias of the exponential-fit integral scale of u, stored as the ``comment`` of
+#: ``T_u_s`` and ``L_u_m`` (measured by tests/test_scales.py::test_exponential_fit_low_bias_for_u).
+EXPONENTIAL_FIT_BIAS_U: str = (
+    "Known low bias: the exponential fit to the autocovariance (up to its first zero crossing, after linear "
+    "detrending of a finite record) underestimates the integral scale of u, whose autocovariance decays slowly. "
+    "On 28-min von Karman u series the median estimate is 0.99, 0.93, 0.87 and 0.80 of the true time scale for "
+    "T = 5, 10, 20 and 40 s (T / record = 0.3 to 2.4 %); read L_u as a lower bound when T_u exceeds about 1 % "
+    "of the record."
+)
+
 _L3_VARS = ("u_ms", "v_ms", "w_ms", "theta_v_k")
 
 
@@ -106,7 +116,7 @@ def record_l4(
     u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, theta_v_k: np.ndarray, fs_hz: float, height_m: float,
     wind_from_deg: float = np.nan, *, n_segments: int = 3, overlap: float = 0.5, window: str = "hamming",
     n_bins: int = 100, min_segment_samples: int = 64, min_samples: int = 16, quadrant_min_speed_ms: float = 2.0,
-    fr_band: tuple[float, float] = (2.0, 10.0),
+    fr_band: tuple[float, float] = (2.0, 10.0), fit_f_max_hz: float | None = None,
 ) -> xr.Dataset:
     r"""L4 analysis of one record in streamline coordinates (numpy entry point).
 
@@ -135,6 +145,10 @@ def record_l4(
         Spectral ratios only above this mean speed (2 m s-1, seed 000 Sect. 4.1).
     fr_band : (float, float), optional
         Reduced-frequency band of the ratios (2, 10).
+    fit_f_max_hz : float, optional
+        Highest frequency of the spectral-model fits (Eqs 4-7) [Hz]: the passband edge of
+        the anti-alias filter the record went through (:func:`flight_l4` takes it from the
+        L3 attribute ``fir_passband_edge_hz``). Default: every frequency (an unfiltered record).
 
     Returns
     -------
@@ -162,6 +176,7 @@ def record_l4(
     nonfinite = {k: int(np.count_nonzero(~np.isfinite(a))) for k, a in arrays.items()}
     duration_s = n / fs_hz
     attrs = _l4_attrs(fs_hz, n, nonfinite, n_segments, overlap, window, n_bins)
+    attrs["spectral_fit_f_max_hz"] = float(fs_hz / 2.0 if fit_f_max_hz is None else fit_f_max_hz)
     vel_ok, temp_ok, (vel_flag, vel_reason), (temp_flag, temp_reason) = _input_status(n, nonfinite, min_samples)
     m = _moments(arrays, vel_ok, temp_ok)
     b.status("status_statistics", "velocity statistics", vel_flag, vel_reason)
@@ -170,7 +185,8 @@ def record_l4(
     _obukhov_part(b, m, height_m, temp_ok, temp_flag, temp_reason)
     _spectral_part(b, m.up, m.vp, m.wp, m.thp, fs_hz, height_m, m.speed, m.ustar, vel_flag, vel_reason, temp_ok,
                    n_segments=n_segments, overlap=overlap, window=window, n_bins=n_bins,
-                   min_segment=min_segment_samples, min_speed=quadrant_min_speed_ms, fr_band=fr_band)
+                   min_segment=min_segment_samples, min_speed=quadrant_min_speed_ms, fr_band=fr_band,
+                   fit_f_max_hz=fit_f_max_hz)
     _scale_part(b, arrays["u"], arrays["v"], arrays["w"], fs_hz, m.speed, m.su, vel_flag, vel_reason)
     _uncertainty_part(b, m.up, m.vp, m.wp, m.thp, fs_hz, height_m, duration_s, m.speed, m.ustar, m.su, m.sv, m.sw,
                       m.wt, vel_flag, vel_reason, temp_ok, temp_flag, temp_reason)
@@ -333,7 +349,7 @@ def _spectral_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None, wp
                    thp: np.ndarray | None, fs_hz: float, height_m: float, speed: float, ustar: float,
                    vel_flag: str, vel_reason: str, temp_ok: bool, *, n_segments: int, overlap: float,
                    window: str, n_bins: int, min_segment: int, min_speed: float,
-                   fr_band: tuple[float, float]) -> None:
+                   fr_band: tuple[float, float], fit_f_max_hz: float | None = None) -> None:
     """Spectra, co-spectra, model fits and spectral ratios (seed 000, Eqs 4-8)."""
     flag, reason, nperseg = _spectral_status(up, vel_flag, vel_reason, n_segments, overlap, min_segment)
     binned, dof = None, None
@@ -347,7 +363,7 @@ def _spectral_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None, wp
                      f"({binned.n_empty_bins} empty dropped)")
     b.status("status_spectra", "spectra and co-spectra", flag, reason)
     fb, vals, fr = _spectrum_vars(b, binned, height_m, speed)
-    _fit_part(b, fb, vals, fr, dof, height_m, speed, ustar, flag, reason)
+    _fit_part(b, fb, vals, fr, dof, height_m, speed, ustar, flag, reason, fit_f_max_hz)
     _ratio_part(b, fb, vals, height_m, speed, flag, reason, fr_band, min_speed)
 
 
@@ -427,8 +443,10 @@ def _spectrum_vars(b: _Builder, binned: spectra.BinnedSpectrum | None, height_m:
 
 
 def _fit_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, fr: np.ndarray, dof: np.ndarray | None,
-              height_m: float, speed: float, ustar: float, flag: str, reason: str) -> None:
-    """Fits of the spectral models, seed 000 Eqs 4-7, and the fitted curves."""
+              height_m: float, speed: float, ustar: float, flag: str, reason: str,
+              f_max_hz: float | None = None) -> None:
+    """Fits of the spectral models, seed 000 Eqs 4-7, within the filter passband (``f_max_hz``), and the
+    fitted curves."""
     for comp, row in zip(("u", "v", "w", "uw"), vals[:4], strict=True):
         model, eq = _FITS[comp]
         if flag != "ok":
@@ -437,7 +455,7 @@ def _fit_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, fr: np.ndarray, dof
         else:
             start = spectra.MODEL_START[comp]
             fit = spectra.fit_spectral_model(fb, row, height_m, speed, ustar, model, start=start,
-                                             bin_dof=dof)
+                                             bin_dof=dof, f_max_hz=f_max_hz)
             fstat, freason = _status_of(fit.converged, "fit_not_converged", fit.reason)
         b.scalar(f"fit_a_{comp}", fit.a, "1", f"coefficient a_{comp} of the {model} model ({eq}, seed 000)")
         b.scalar(f"fit_b_{comp}", fit.b, "1", f"coefficient b_{comp} of the {model} model ({eq}, seed 000)")
@@ -495,8 +513,9 @@ def _scale_part(b: _Builder, u: np.ndarray, v: np.ndarray, w: np.ndarray, fs_hz:
                 lflag, lreason = tflag, treason
             else:
                 lflag, lreason = "taylor_hypothesis_invalid", ls.reason
-        b.scalar(f"T_{comp}_s", t_s, "s", f"integral time scale of {comp} (exponential fit, Eqs 14-15)")
-        b.scalar(f"L_{comp}_m", l_m, "m", f"integral length scale of {comp} (Taylor, Eqs 16-17)")
+        extra = {"comment": EXPONENTIAL_FIT_BIAS_U} if comp == "u" else {}
+        b.scalar(f"T_{comp}_s", t_s, "s", f"integral time scale of {comp} (exponential fit, Eqs 14-15)", **extra)
+        b.scalar(f"L_{comp}_m", l_m, "m", f"integral length scale of {comp} (Taylor, Eqs 16-17)", **extra)
         b.status(f"status_T_{comp}", f"integral time scale of {comp}", tflag, treason)
         b.status(f"status_L_{comp}", f"integral length scale of {comp}", lflag, lreason)
 
@@ -595,6 +614,8 @@ def flight_l4(l3: xr.Dataset, sensor: str, **options: Any) -> xr.Dataset:
         raise InputError("L3 dataset attribute 'sampling_rate_hz'", "missing")
     sel = l3.sel(sensor=sensor)
     wind_from = float(sel["wind_from_deg"]) if "wind_from_deg" in sel else np.nan
+    if "fir_passband_edge_hz" in l3.attrs:
+        options.setdefault("fit_f_max_hz", float(l3.attrs["fir_passband_edge_hz"]))
     out = record_l4(
         sel["u_ms"].values, sel["v_ms"].values, sel["w_ms"].values, sel["theta_v_k"].values,
         float(fs), float(sel["height_m"]), wind_from, **options,

@@ -483,6 +483,7 @@ def fit_spectral_model(
     model: ModelName,
     start: tuple[float, float] | None = None,
     bin_dof: np.ndarray | None = None,
+    f_max_hz: float | None = None,
 ) -> SpectralFit:
     r"""Least-squares fit of a spectral model of seed 000, Eqs 4-7, in reduced frequency.
 
@@ -506,6 +507,12 @@ def fit_spectral_model(
     bin_dof : array-like, optional
         Degrees of freedom of each binned value (:func:`binned_dof`). Enables the
         log-bias correction below; without it, bins are treated as exact.
+    f_max_hz : float, optional
+        Highest frequency fitted [Hz]: the passband edge of the anti-alias filter the
+        record went through (L3 attribute ``fir_passband_edge_hz``). Above it the filter's
+        roll-off, not the atmosphere, shapes the spectrum; fitting it steepens the
+        high-frequency slope and biases b high (+24 % for a Kaimal w spectrum decimated
+        32 -> 8 Hz with the 3-4 Hz transition band). Default: every frequency.
 
     Returns
     -------
@@ -531,6 +538,10 @@ def fit_spectral_model(
         raise InputError("fit_spectral_model(model)", f"expected one of {sorted(_MODELS)}, got {model!r}")
     f = np.asarray(f_hz, dtype=float)
     s = np.real(np.asarray(spectrum))
+    if f_max_hz is not None:
+        keep = f <= f_max_hz
+        f, s = f[keep], s[keep]
+        bin_dof = None if bin_dof is None else np.asarray(bin_dof)[keep]
     nan_fit = SpectralFit(np.nan, np.nan, False, np.nan, 0, model)
     if not (np.isfinite(speed_ms) and speed_ms > 0 and np.isfinite(u_star_ms) and u_star_ms > 0):
         return _replace_reason(nan_fit, f"needs positive mean speed and u* (got U={speed_ms}, u*={u_star_ms})")

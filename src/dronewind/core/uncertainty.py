@@ -17,8 +17,18 @@ mean of the squared product (the only reading that gives a non-negative quantity
 :math:`\overline{(a'b')^2}/N^2 - 1` with normaliser :math:`N = u_*^2` (Eqs 10-11) or
 :math:`\overline{w'\theta_v'}` (Eq. 12), and implement it as the product-series variance
 :math:`(\overline{\phi^2} - \bar\phi^2)/N^2`. This equals the printed form for Eqs 10 (when
-:math:`\overline{v'w'} = 0`), 12 and 13, and for Eq. 11 it differs by
-:math:`\overline{v'w'}^2/u_*^4` (the printed form would not be a variance).
+:math:`\overline{v'w'} = 0`, so that :math:`u_*^2 = |\overline{u'w'}|`), 12 and 13.
+
+Eq. 11 (:math:`a_{vw}`) is the exception. Printed, it reads
+:math:`a_{vw}^2 = \frac{z}{\tau\bar u}\left(\overline{(v'w')^2}/u_*^4 - 1\right)`: the "-1" is
+:math:`\overline{u'w'}^2/u_*^4` of Eq. 10 carried over, and for the cross-wind flux it is not
+the squared mean of the product series, so the printed quantity is no variance (it is even
+negative when :math:`\overline{(v'w')^2} < u_*^4`, i.e. a weak cross-wind component under a
+strong momentum flux). The code
+computes the variance of the :math:`v'w'` series,
+:math:`a_{vw}^2 = \frac{z}{\tau\bar u}\,\left(\overline{(v'w')^2} - \overline{v'w'}^2\right)/u_*^4`,
+which exceeds the printed form by :math:`1 - \overline{v'w'}^2/u_*^4` (between 0 and 1 in the
+bracket). The two agree only when :math:`\overline{v'w'}^2 = u_*^4`.
 
 References
 ----------
@@ -207,12 +217,15 @@ def paper_uncertainty(
     -----
     .. math::
        a_{uw}^2 = \frac{z}{\tau\bar u}\,\frac{\overline{\phi^2}-\bar\phi^2}{u_*^4},\quad
+       a_{vw}^2 = \frac{z}{\tau\bar u}\,\frac{\overline{(v'w')^2}-\overline{v'w'}^2}{u_*^4},\quad
        a_{\theta_v w}^2 = \frac{z}{\tau\bar u}
             \left(\frac{\overline{(w'\theta_v')^2}}{\overline{w'\theta_v'}^2} - 1\right),\quad
        a_{\xi^2}^2 = \frac{4z}{\tau\bar u}
             \left(\frac{\overline{\xi'^4}}{\overline{\xi'^2}^2} - 1\right)
 
-    (Eqs 10-13; see the module note on the garbled numerators.)
+    (Eqs 10-13; see the module note on the garbled numerators.) For Eq. 11 this is the variance
+    of the :math:`v'w'` product series; the printed Eq. 11 subtracts 1 instead of
+    :math:`\overline{v'w'}^2/u_*^4` and is not a variance (module note).
     """
     p = np.asarray(phi, dtype=float)
     if p.ndim != 1 or p.size < 2 or not np.all(np.isfinite(p)):
