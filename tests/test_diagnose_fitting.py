@@ -10,7 +10,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dronewind.diagnose.fitting import ParameterResponse, ResponseModel, ambiguity_sets, score_candidate
+from dronewind.diagnose.fitting import (
+    ParameterResponse,
+    ResponseModel,
+    ambiguity_sets,
+    fit_parameters,
+    score_candidate,
+)
 
 N_FLIGHTS, N_FEATURES = 10, 6
 
@@ -86,3 +92,36 @@ def test_parameter_response_validates_levels():
         ParameterResponse("p", np.array([1.0, 2.0]), np.zeros((2, 2, 1)), 0.0, -1, 1)
     with pytest.raises(ValueError, match="increasing"):
         ParameterResponse("p", np.array([1.0, 0.0]), np.zeros((2, 2, 1)), 0.0, -1, 1)
+
+
+def test_signed_parameters_are_probed_on_both_sides_and_bounded_by_the_catalog():
+    """Every parameter that can take either sign about its baseline is probed on both sides,
+    so an even response is never extrapolated across the baseline."""
+    from dronewind.diagnose.forward import PROBES, baseline_level
+    from dronewind.mechanisms import get_mechanism
+
+    for probe in PROBES:
+        spec = next(p for p in get_mechanism(probe.mechanism).parameters if p.name == probe.parameter)
+        base = baseline_level(probe.mechanism, probe.parameter)
+        if spec.lower < base < spec.upper and probe.mechanism not in ("downwash",):
+            assert min(probe.levels) < base < max(probe.levels), probe
+
+
+def test_heading_bias_beyond_the_probes_is_recovered_within_the_physical_range():
+    """A hidden heading bias of -10 deg with a response that is odd in one feature and even in
+    another (direction difference ~ deg, a sigma ratio ~ deg^2) is recovered when the probes
+    straddle zero and the bound is the catalog range (+/-30 deg); the previous bound (probe
+    span, [-6, 12] for probes at 0, 6) could not reach it."""
+    levels = np.array([-12.0, -6.0, 0.0, 6.0, 12.0])
+    n_flights, truth = 4, -10.0
+
+    def response(deg):
+        return np.stack([np.full(n_flights, 1.0 * deg), np.full(n_flights, 0.002 * deg**2)], axis=-1)
+
+    features = np.stack([response(lv) for lv in levels], axis=1)  # (flights, levels, 2)
+    model = ResponseModel("heading_bias", features[:, 2, :],
+                          [ParameterResponse("deg", levels, features, 0.0, -30.0, 30.0)])
+    y = response(truth)
+    sigma = np.full_like(y, 0.5)
+    fit = fit_parameters(model, y, sigma, np.arange(n_flights))
+    assert fit.theta[0] == pytest.approx(truth, abs=0.5)

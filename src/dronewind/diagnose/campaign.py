@@ -145,7 +145,8 @@ def _probe_tables(ev: CampaignEvidence, forward: Mapping[str, Mapping[str, Any]]
 
 def _response_model(ev: CampaignEvidence, candidate: str, params: Mapping[str, Mapping[float, np.ndarray]]
                      ) -> ResponseModel:
-    """One candidate's response tables (baseline level from the first baseline seed), bounds widened by a span."""
+    """One candidate's response tables (baseline level from the first baseline seed), bounded by the
+    parameter's physical range in the catalog (:mod:`dronewind.mechanisms`)."""
     mech = get_mechanism(ev.mechanism_of[candidate])
     responses = []
     for par in mech.parameter_names:
@@ -156,10 +157,8 @@ def _response_model(ev: CampaignEvidence, candidate: str, params: Mapping[str, M
         levels = sorted(set(params[par]) | {base})
         features = np.stack([ev.baseline_seed0 if np.isclose(lv, base) else params[par][lv] for lv in levels],
                             axis=1)
-        span = max(levels) - min(levels)
-        lower = max(spec.lower, min(levels) - span)
-        upper = min(spec.upper, max(levels) + span)
-        responses.append(ParameterResponse(par, np.array(levels, dtype=float), features, base, lower, upper))
+        responses.append(ParameterResponse(par, np.array(levels, dtype=float), features, base,
+                                           float(spec.lower), float(spec.upper)))
     return ResponseModel(candidate, ev.baseline, responses)
 
 

@@ -88,24 +88,28 @@ MECHANISM_BASELINES: dict[tuple[str, str], float] = {
     ("mast_w_attenuation", "gain"): 1.0,
 }
 
-#: The probes of every payload/mast mechanism of the catalog (DESIGN.md).
+#: The probes of every payload/mast mechanism of the catalog (DESIGN.md). A parameter that can
+#: take either sign about its baseline (a lag, an angle, an offset, a gain about 1) is probed on
+#: both sides, so that the response of an even (e.g. quadratic) feature is never extrapolated
+#: from one side to the other; the fit bounds are the catalog's physical range
+#: (:mod:`dronewind.mechanisms`), not the probe span.
 PROBES: tuple[Probe, ...] = (
     Probe("sonic_ins_lag", "sonic_ins_lag", "lag_s", (-0.3, 0.3)),
-    Probe("clock_drift", "clock_drift", "ppm", (300.0,)),
-    Probe("mount_misalignment", "mount_misalignment", "roll_deg", (4.0,)),
-    Probe("mount_misalignment", "mount_misalignment", "pitch_deg", (4.0,)),
-    Probe("mount_misalignment", "mount_misalignment", "yaw_deg", (6.0,)),
-    Probe("heading_bias", "heading_bias", "deg", (6.0,)),
+    Probe("clock_drift", "clock_drift", "ppm", (-300.0, 300.0)),
+    Probe("mount_misalignment", "mount_misalignment", "roll_deg", (-4.0, 4.0)),
+    Probe("mount_misalignment", "mount_misalignment", "pitch_deg", (-4.0, 4.0)),
+    Probe("mount_misalignment", "mount_misalignment", "yaw_deg", (-6.0, 6.0)),
+    Probe("heading_bias", "heading_bias", "deg", (-8.0, 8.0)),
     Probe("attitude_lag", "attitude_lag", "lag_s", (0.1, 0.3)),
-    Probe("lever_arm", "lever_arm", "x_m", (0.6,)),
-    Probe("lever_arm", "lever_arm", "y_m", (0.6,)),
-    Probe("lever_arm", "lever_arm", "z_m", (0.6,)),
+    Probe("lever_arm", "lever_arm", "x_m", (-0.6, 0.6)),
+    Probe("lever_arm", "lever_arm", "y_m", (-0.6, 0.6)),
+    Probe("lever_arm", "lever_arm", "z_m", (-0.6, 0.6)),
     Probe("w_gain", "w_gain", "gain", (0.85, 1.2)),
     Probe("sonic_noise", "sonic_noise", "sigma_ms", (0.15, 0.35)),
-    Probe("height_offset", "height_offset", "dz_m", (6.0, 15.0)),
+    Probe("height_offset", "height_offset", "dz_m", (-6.0, 6.0, 15.0)),
     Probe("downwash@u_scale_ms=3", "downwash", "w0_ms", (1.0,), (("u_scale_ms", 3.0),)),
     Probe("downwash@u_scale_ms=8", "downwash", "w0_ms", (1.0,), (("u_scale_ms", 8.0),)),
-    Probe("mast_w_attenuation", "mast_w_attenuation", "gain", (0.85,)),
+    Probe("mast_w_attenuation", "mast_w_attenuation", "gain", (0.85, 1.1)),
 )
 
 
