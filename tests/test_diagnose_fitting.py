@@ -125,3 +125,36 @@ def test_heading_bias_beyond_the_probes_is_recovered_within_the_physical_range()
     sigma = np.full_like(y, 0.5)
     fit = fit_parameters(model, y, sigma, np.arange(n_flights))
     assert fit.theta[0] == pytest.approx(truth, abs=0.5)
+
+
+def _evidence(y, sigma, speeds):
+    from dronewind.diagnose.campaign import CampaignEvidence
+
+    base = np.zeros_like(y)
+    return CampaignEvidence([f"f{i}" for i in range(y.shape[0])], y, sigma, sigma, np.ones(y.shape[1]), base, base,
+                            [{"mean_speed_ms": float(s)} for s in speeds])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_unexplained_residual_is_reported_and_null_is_clean(seed):
+    """Goodness of fit and 'unexplained' (diagnosis.json): a model error common to all flights
+    (a mean offset of 1.5 sigma in one feature) or growing by 1 sigma per m/s in another is
+    reported; pure sampling noise reports nothing (alpha 0.01 over all features)."""
+    from dronewind.diagnose.campaign import goodness_of_fit, unexplained_features
+    from dronewind.diagnose.features import FEATURES
+
+    rng = np.random.default_rng(seed)
+    n, m = 10, len(FEATURES)
+    speeds = np.linspace(3.0, 12.0, n)
+    sigma = np.full((n, m), 0.1)
+    noise = rng.normal(0.0, 0.1, (n, m))
+    null = _evidence(noise, sigma, speeds)
+    assert unexplained_features(null, np.zeros((n, m))) == []
+    assert goodness_of_fit(null, np.zeros((n, m)), 0)["p_value"] > 1e-4
+    y = noise.copy()
+    y[:, 0] += 0.15  # offset: mean z = 1.5 on 10 flights
+    y[:, 3] += 0.1 * (speeds - speeds.mean())  # trend: 0.1 per m/s (1 sigma per m/s)
+    missed = {u["feature"]: u for u in unexplained_features(_evidence(y, sigma, speeds), np.zeros((n, m)))}
+    assert set(missed) == {FEATURES[0], FEATURES[3]}
+    assert missed[FEATURES[0]]["mean_z"] == pytest.approx(1.5, abs=0.7)
+    assert missed[FEATURES[3]]["slope_per_ms"] == pytest.approx(0.1, abs=0.045)  # 4 standard errors (0.011)

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.stats
 
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.fitting import (
@@ -46,7 +47,7 @@ from dronewind.diagnose.fitting import (
 from dronewind.diagnose.forward import baseline_level
 from dronewind.mechanisms import get_mechanism
 
-__all__ = ["CampaignEvidence", "assemble", "diagnose", "DiagnosisResult"]
+__all__ = ["CampaignEvidence", "assemble", "diagnose", "DiagnosisResult", "goodness_of_fit", "unexplained_features"]
 
 K_MIN = 1.0
 #: Smallest held-out gain for a named cause (a cause explaining < 5 % of the held-out
@@ -323,8 +324,12 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
         mech = ev.mechanism_of[cand]
         if mech not in named:
             named.append(mech)
+    extended = combined_prediction(result)
+    n_fitted = sum(len(s.parameter_names) for _, s in result.named)
     return {
         "campaign": campaign,
+        "goodness_of_fit": goodness_of_fit(ev, extended, n_fitted),
+        "unexplained": unexplained_features(ev, extended),
         "baseline": {"metrics": {**baseline_metrics(ev), "heldout_chi2": float(
             next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")}},
         "candidates": candidates,
@@ -339,6 +344,87 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
                   "squares, leave-one-flight-out gain, likelihood-ratio test at alpha=0.01 Bonferroni-corrected "
                   "over mechanisms, greedy naming; see dronewind.diagnose",
     }
+
+
+def goodness_of_fit(ev: CampaignEvidence, prediction: np.ndarray, n_parameters: int) -> dict[str, float]:
+    """Chi-square goodness of fit of a prediction (the baseline or the extended model).
+
+    Parameters
+    ----------
+    ev : CampaignEvidence
+        Measured features and their residual errors.
+    prediction : numpy.ndarray
+        Predicted features, (n_flights, n_features).
+    n_parameters : int
+        Parameters fitted to obtain the prediction (0 for the baseline).
+
+    Returns
+    -------
+    dict
+        ``chi2``, ``dof`` (finite residuals minus fitted parameters) and ``p_value``
+        (upper tail of the chi-square distribution).
+
+    Notes
+    -----
+    .. math:: \\chi^2 = \\sum_{i,f} \\left(\\frac{y_{i,f} - \\hat y_{i,f}}{\\sigma_{i,f}}\\right)^2
+
+    The errors are diagonal; features computed from one series are correlated, so the
+    p-value is approximate (too small when correlated features share one misfit).
+    """
+    per = chi2(ev.y, prediction, ev.sigma)
+    n = int(np.sum(np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0) & np.isfinite(prediction)))
+    dof = max(n - int(n_parameters), 1)
+    value = float(per.sum())
+    return {"chi2": value, "dof": dof, "p_value": float(scipy.stats.chi2.sf(value, dof))}
+
+
+def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: float = 0.01) -> list[dict[str, Any]]:
+    """Features the prediction still misses: a mean offset or a trend with wind speed over flights.
+
+    Parameters
+    ----------
+    ev : CampaignEvidence
+        Measured features, errors and flight conditions.
+    prediction : numpy.ndarray
+        Predicted features (the model with the named causes), (n_flights, n_features).
+    alpha : float
+        False-alarm rate over all features (Bonferroni over features and the two tests).
+
+    Returns
+    -------
+    list of dict
+        One entry per missed feature: ``feature``, ``mean_z`` (mean normalised residual over
+        flights), ``slope_per_ms`` (residual against mean wind speed [feature unit per m s-1]),
+        ``p_mean``, ``p_slope`` and ``n_flights``. Empty when the prediction fits.
+
+    Notes
+    -----
+    For each feature, with :math:`z_i` the normalised residuals of the :math:`n` flights,
+    :math:`\\sqrt{n}\\,\\bar z` is standard normal when the model is right (the errors include
+    the overdispersion about the flight mean, so a common offset is not absorbed by them);
+    the slope of :math:`z` against wind speed is tested by its t statistic. This is where
+    model error that no catalog mechanism describes is reported, instead of a named cause.
+    """
+    speed = np.array([c.get("mean_speed_ms", np.nan) for c in ev.conditions], dtype=float)
+    slopes = wind_speed_slopes(ev, prediction)
+    n_tests = 2 * len(FEATURES)
+    out = []
+    for j, feat in enumerate(FEATURES):
+        z = (ev.y[:, j] - prediction[:, j]) / ev.sigma[:, j]
+        ok = np.isfinite(z)
+        n = int(ok.sum())
+        if n < 2:
+            continue
+        mean_z = float(np.mean(z[ok]))
+        p_mean = float(2.0 * scipy.stats.norm.sf(abs(mean_z) * np.sqrt(n)))
+        p_slope = 1.0
+        s_ok = ok & np.isfinite(speed)
+        if s_ok.sum() >= 3 and np.ptp(speed[s_ok]) > 0:
+            p_slope = float(scipy.stats.linregress(speed[s_ok], z[s_ok]).pvalue)
+        if min(p_mean, p_slope) < alpha / n_tests:
+            out.append({"feature": feat, "mean_z": mean_z, "slope_per_ms": slopes.get(feat, float("nan")),
+                        "p_mean": p_mean, "p_slope": p_slope, "n_flights": n})
+    return out
 
 
 def residual_table(ev: CampaignEvidence, prediction: np.ndarray | None = None) -> list[dict[str, Any]]:

@@ -53,6 +53,28 @@ def _named_summary(mechanism: str, entry: Mapping[str, Any]) -> str:
     return f"`{mechanism}` ({', '.join(parts)}; held-out gain {_fmt(entry['gain'], 2)})"
 
 
+def _fit_lines(diag: Mapping[str, Any]) -> list[str]:
+    """Goodness of fit of the model with the named causes, and what it still misses."""
+    gof = diag.get("goodness_of_fit") or {}
+    out = []
+    if gof:
+        out.append(f"**Goodness of fit** (model with the named causes): χ² = {_fmt(gof.get('chi2'))} for "
+                   f"{gof.get('dof', '–')} degrees of freedom, p = {_fmt(gof.get('p_value'), 2)}.")
+    missed = diag.get("unexplained")
+    if missed:
+        out += ["", "**Unexplained residual:** the model with the named causes still misses these features "
+                "(model error that no catalog mechanism describes; not named as a cause):", "",
+                "| feature | mean z | slope vs U [per m/s] | p (mean) | p (slope) | flights |",
+                "|---|---|---|---|---|---|"]
+        out += [f"| {FEATURE_LABELS.get(m['feature'], m['feature'])} | {_fmt(m['mean_z'], 2)} | "
+                f"{_fmt(m['slope_per_ms'])} | {_fmt(m['p_mean'], 2)} | {_fmt(m['p_slope'], 2)} | {m['n_flights']} |"
+                for m in missed]
+    elif missed is not None:
+        out.append("Nothing is left unexplained: no feature's mean residual or trend with wind speed is "
+                   "significant (Bonferroni over features).")
+    return out
+
+
 def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mapping[str, float],
              rows: Sequence[Mapping[str, Any]]) -> str:
     """The report as Markdown.
@@ -78,8 +100,9 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
     if named:
         lines.append("**Named cause(s):** " + ", ".join(_named_summary(m, diag["named_estimates"][m]) for m in named))
     else:
-        lines.append("**No mechanism is significant:** the forward model without any mechanism explains the "
-                     "measured drone–mast differences within their sampling errors.")
+        lines.append("**No mechanism is significant:** no catalog mechanism explains the measured drone–mast "
+                     "differences better than the forward model without one.")
+    lines += ["", *_fit_lines(diag)]
     lines += ["", "## What the baseline simulation gets wrong", "",
               "The forward model without any mechanism was run for every flight with the conditions measured "
               "by the reference mast (mean wind, direction, temperature, u*, Obukhov length) and the drone's hover "
