@@ -298,7 +298,8 @@ def write_products(folder: Path, name: str = "fixcamp", seed: int = 0) -> Path:
         for sensor in ("drone", "mast"):
             l4_files.append(pipeline.l4(l3_file, l4_dir / f"{spec.flight}_{sensor}.nc", campaign=name,
                                         flight_id=spec.flight, sensor=sensor, reference=sonics[spec.reference],
-                                        spectra=proc["spectra"], quadrant=proc["quadrant"]))
+                                        spectra=proc["spectra"], quadrant=proc["quadrant"],
+                                        detrending=proc["detrending"]))
     pipeline.flight_stats(l4_files, root / "tables" / "flight_stats.csv")
     return root
 

@@ -205,3 +205,18 @@ def test_fits_use_the_l3_filter_passband(l3: xr.Dataset) -> None:
     filtered = l4.flight_l4(l3.assign_attrs(fir_passband_edge_hz=3.0), "mast")
     assert filtered.attrs["spectral_fit_f_max_hz"] == 3.0
     assert float(filtered["fit_b_w"]) != float(unfiltered["fit_b_w"])  # fewer bins, another fit
+
+
+def test_block_mean_detrending_is_recorded_and_differs_on_a_trend(l3: xr.Dataset) -> None:
+    """detrending = block_mean removes only the mean: the slow trend of make_l3's u (0.002 m/s per
+    minute over 28 min) then adds to sigma_u; linear removes it. Recorded in attrs["detrending"]."""
+    lin = l4.flight_l4(l3, "drone")
+    blk = l4.flight_l4(l3, "drone", detrending="block_mean")
+    assert lin.attrs["detrending"].startswith("linear") and blk.attrs["detrending"].startswith("block mean")
+    assert "block mean removed" in blk["sigma_u_ms"].attrs["long_name"]
+    u = l3.sel(sensor="drone")["u_ms"].values
+    expected = float(np.std(u))  # population standard deviation about the block mean
+    assert float(blk["sigma_u_ms"]) == pytest.approx(expected, rel=1e-12)
+    assert float(blk["sigma_u_ms"]) > float(lin["sigma_u_ms"])
+    with pytest.raises(InputError, match="block_mean"):
+        l4.flight_l4(l3, "drone", detrending="quadratic")

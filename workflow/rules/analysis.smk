@@ -42,6 +42,7 @@ rule l4:
         reference=reference_sonic,
         spectra=PROCESSING["spectra"],
         quadrant=PROCESSING["quadrant"],
+        detrending=PROCESSING["detrending"],
     script:
         "../../scripts/l4.py"
 

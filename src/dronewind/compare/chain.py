@@ -128,7 +128,8 @@ def period_time(ds: xr.Dataset, times: np.ndarray) -> xr.Dataset:
     return out
 
 
-def compute_l4(l3: xr.Dataset, sensor: str, spectra: Mapping[str, Any], quadrant: Mapping[str, Any]) -> xr.Dataset:
+def compute_l4(l3: xr.Dataset, sensor: str, spectra: Mapping[str, Any], quadrant: Mapping[str, Any],
+               detrending: str) -> xr.Dataset:
     """L4 of one sensor (see :func:`dronewind.compare.l4.flight_l4`) with a period time coordinate.
 
     Parameters
@@ -142,6 +143,8 @@ def compute_l4(l3: xr.Dataset, sensor: str, spectra: Mapping[str, Any], quadrant
     quadrant : mapping
         ``processing.quadrant``: ``fr_min``, ``fr_max`` (reduced-frequency band) and
         ``min_speed_ms`` [m s-1] of the quadrant ratios.
+    detrending : {"linear", "block_mean"}
+        ``processing.detrending``: fluctuations about a line or the block mean.
 
     Returns
     -------
@@ -152,7 +155,7 @@ def compute_l4(l3: xr.Dataset, sensor: str, spectra: Mapping[str, Any], quadrant
     ds = flight_l4(
         l3, sensor, n_segments=int(spectra["segments"]), overlap=float(spectra["overlap"]),
         n_bins=int(spectra["bins"]), fr_band=(float(quadrant["fr_min"]), float(quadrant["fr_max"])),
-        quadrant_min_speed_ms=float(quadrant["min_speed_ms"]),
+        quadrant_min_speed_ms=float(quadrant["min_speed_ms"]), detrending=str(detrending),
     )
     for key in _L4_ATTRS:
         if key in l3.attrs:

@@ -117,6 +117,7 @@ def record_l4(
     wind_from_deg: float = np.nan, *, n_segments: int = 3, overlap: float = 0.5, window: str = "hamming",
     n_bins: int = 100, min_segment_samples: int = 64, min_samples: int = 16, quadrant_min_speed_ms: float = 2.0,
     fr_band: tuple[float, float] = (2.0, 10.0), fit_f_max_hz: float | None = None,
+    detrending: str = "linear",
 ) -> xr.Dataset:
     r"""L4 analysis of one record in streamline coordinates (numpy entry point).
 
@@ -149,6 +150,10 @@ def record_l4(
         Highest frequency of the spectral-model fits (Eqs 4-7) [Hz]: the passband edge of
         the anti-alias filter the record went through (:func:`flight_l4` takes it from the
         L3 attribute ``fir_passband_edge_hz``). Default: every frequency (an unfiltered record).
+    detrending : {"linear", "block_mean"}, optional
+        Fluctuations about a least-squares line (seed 000) or about the block mean (the
+        Reynolds decomposition; EddyPro's and EC-PeT's default), for every statistic,
+        spectrum, autocovariance and uncertainty. Recorded in ``attrs["detrending"]``.
 
     Returns
     -------
@@ -175,19 +180,20 @@ def record_l4(
     n = arrays["u"].size
     nonfinite = {k: int(np.count_nonzero(~np.isfinite(a))) for k, a in arrays.items()}
     duration_s = n / fs_hz
-    attrs = _l4_attrs(fs_hz, n, nonfinite, n_segments, overlap, window, n_bins)
+    method = _detrend_method(detrending)
+    attrs = _l4_attrs(fs_hz, n, nonfinite, n_segments, overlap, window, n_bins, method)
     attrs["spectral_fit_f_max_hz"] = float(fs_hz / 2.0 if fit_f_max_hz is None else fit_f_max_hz)
     vel_ok, temp_ok, (vel_flag, vel_reason), (temp_flag, temp_reason) = _input_status(n, nonfinite, min_samples)
-    m = _moments(arrays, vel_ok, temp_ok)
+    m = _moments(arrays, vel_ok, temp_ok, method)
     b.status("status_statistics", "velocity statistics", vel_flag, vel_reason)
     b.status("status_temperature", "temperature statistics and buoyancy flux", temp_flag, temp_reason)
-    _moment_part(b, m, wind_from_deg, height_m, duration_s)
+    _moment_part(b, m, wind_from_deg, height_m, duration_s, method)
     _obukhov_part(b, m, height_m, temp_ok, temp_flag, temp_reason)
     _spectral_part(b, m.up, m.vp, m.wp, m.thp, fs_hz, height_m, m.speed, m.ustar, vel_flag, vel_reason, temp_ok,
                    n_segments=n_segments, overlap=overlap, window=window, n_bins=n_bins,
                    min_segment=min_segment_samples, min_speed=quadrant_min_speed_ms, fr_band=fr_band,
                    fit_f_max_hz=fit_f_max_hz)
-    _scale_part(b, arrays["u"], arrays["v"], arrays["w"], fs_hz, m.speed, m.su, vel_flag, vel_reason)
+    _scale_part(b, arrays["u"], arrays["v"], arrays["w"], fs_hz, m.speed, m.su, vel_flag, vel_reason, method)
     _uncertainty_part(b, m.up, m.vp, m.wp, m.thp, fs_hz, height_m, duration_s, m.speed, m.ustar, m.su, m.sv, m.sw,
                       m.wt, vel_flag, vel_reason, temp_ok, temp_flag, temp_reason)
     attrs["processing_log"] = "\n".join(["l4: statistics, spectra, fits, scales, uncertainties computed"] + b.log)
@@ -217,14 +223,30 @@ def _check_record(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, theta_v_
     return arrays
 
 
+def _detrend_method(detrending: str) -> stats.Detrend:
+    """The :func:`dronewind.core.stats.fluctuation` method of a ``detrending`` setting."""
+    methods: dict[str, stats.Detrend] = {"linear": "linear", "block_mean": "constant"}
+    if detrending not in methods:
+        raise InputError("L4 detrending", f"expected 'linear' or 'block_mean', got {detrending!r}")
+    return methods[detrending]
+
+
+#: Text of the ``detrending`` attribute and the suffix of the standard-deviation long names.
+_DETRENDING_TEXT: dict[str, tuple[str, str]] = {
+    "linear": ("linear (least squares) before every statistic, spectrum and autocovariance", "linearly detrended"),
+    "constant": ("block mean (Reynolds decomposition) removed before every statistic, spectrum and autocovariance",
+                 "block mean removed"),
+}
+
+
 def _l4_attrs(fs_hz: float, n: int, nonfinite: dict[str, int], n_segments: int, overlap: float, window: str,
-              n_bins: int) -> dict[str, Any]:
+              n_bins: int, method: stats.Detrend = "linear") -> dict[str, Any]:
     """Dataset attributes describing the record and the methods (the log is added at the end)."""
     return {
         "sampling_rate_hz": float(fs_hz),
         "n_samples": int(n),
         **{f"n_nonfinite_{k}": v for k, v in nonfinite.items()},
-        "detrending": "linear (least squares) before every statistic, spectrum and autocovariance",
+        "detrending": _DETRENDING_TEXT[method][0],
         "spectral_method": (
             f"Welch, {n_segments} segments, {overlap:.0%} overlap, {window} window, one-sided density; "
             f"{n_bins} logarithmic bins (seed 000 Sect. 4.4)"
@@ -261,16 +283,18 @@ def _input_status(n: int, nonfinite: dict[str, int], min_samples: int
     return vel_ok, temp_ok, (vel_flag, vel_reason), (temp_flag, temp_reason)
 
 
-def _moments(arrays: dict[str, np.ndarray], vel_ok: bool, temp_ok: bool) -> _Moments:
+def _moments(arrays: dict[str, np.ndarray], vel_ok: bool, temp_ok: bool,
+             method: stats.Detrend = "linear") -> _Moments:
     """Mean speed, standard deviations, skewness, kurtosis, fluxes, u*, TKE and I_u (seed 000, Sect. 4.1).
 
-    Linearly detrended fluctuations; the temperature statistics only when ``temp_ok``.
+    Fluctuations about a line or the block mean (``method``); the temperature statistics only
+    when ``temp_ok``.
     """
     nan = np.nan
     u, v, w, th = arrays["u"], arrays["v"], arrays["w"], arrays["theta"]
     if vel_ok:
         speed, _ = stats.mean_wind(u, v)
-        up, vp, wp = (stats.detrend(x) for x in (u, v, w))
+        up, vp, wp = (stats.fluctuation(x, method) for x in (u, v, w))
         su, sv, sw = (float(np.sqrt(np.mean(x * x))) for x in (up, vp, wp))
         uw, vw = float(np.mean(up * wp)), float(np.mean(vp * wp))
         skew = [float(stats.skewness(x, "none")) for x in (up, vp, wp)]
@@ -282,14 +306,15 @@ def _moments(arrays: dict[str, np.ndarray], vel_ok: bool, temp_ok: bool) -> _Mom
     else:
         m = _Moments(float(nan), nan, nan, nan, nan, nan, [nan] * 3, [nan] * 3, nan, nan, nan, None, None, None)
     if temp_ok:
-        m.thp = stats.detrend(th)
+        m.thp = stats.fluctuation(th, method)
         m.wt, m.ut = float(np.mean(m.wp * m.thp)), float(np.mean(m.up * m.thp))
         m.th_mean = float(np.mean(th))
         m.sT = float(np.sqrt(np.mean(m.thp * m.thp)))
     return m
 
 
-def _moment_part(b: _Builder, m: _Moments, wind_from_deg: float, height_m: float, duration_s: float) -> None:
+def _moment_part(b: _Builder, m: _Moments, wind_from_deg: float, height_m: float, duration_s: float,
+                 method: stats.Detrend = "linear") -> None:
     """The scalar variables of the one-point statistics (:func:`_moments`)."""
     b.scalar("U_ms", m.speed, "m s-1", "mean horizontal wind speed (speed of the mean vector)", "wind_speed")
     b.scalar("wind_from_deg", wind_from_deg, "degree", "mean wind-from direction before rotation",
@@ -297,7 +322,7 @@ def _moment_part(b: _Builder, m: _Moments, wind_from_deg: float, height_m: float
     b.scalar("height_m", height_m, "m", "measurement height above ground", "height", positive="up")
     b.scalar("duration_s", duration_s, "s", "averaging time (record length)")
     for comp, s_val in zip("uvw", (m.su, m.sv, m.sw), strict=True):
-        b.scalar(f"sigma_{comp}_ms", s_val, "m s-1", f"standard deviation of {comp} (linearly detrended)")
+        b.scalar(f"sigma_{comp}_ms", s_val, "m s-1", f"standard deviation of {comp} ({_DETRENDING_TEXT[method][1]})")
     for comp, g, k in zip("uvw", m.skew, m.kurt, strict=True):
         b.scalar(f"skewness_{comp}", g, "1", f"skewness of {comp}")
         b.scalar(f"kurtosis_{comp}", k, "1", f"kurtosis of {comp} (Pearson, 3 for Gaussian)")
@@ -494,15 +519,15 @@ def _ratio_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, height_m: float, 
 
 
 def _scale_part(b: _Builder, u: np.ndarray, v: np.ndarray, w: np.ndarray, fs_hz: float, speed: float, su: float,
-                vel_flag: str, vel_reason: str) -> None:
+                vel_flag: str, vel_reason: str, method: stats.Detrend = "linear") -> None:
     """Integral time and length scales (seed 000, Eqs 14-17)."""
     for comp, x in zip("uvw", (u, v, w), strict=True):
         if vel_flag != "ok":
             t_s, l_m = np.nan, np.nan
             tflag, treason, lflag, lreason = vel_flag, vel_reason, vel_flag, vel_reason
         else:
-            # raw series (linear detrend inside): the zero-variance test is relative to |x|
-            its = scales.integral_time_scale(x, fs_hz, method="linear")
+            # raw series (detrended inside): the zero-variance test is relative to |x|
+            its = scales.integral_time_scale(x, fs_hz, method=method)
             t_s = its.time_scale_s
             tflag, treason = _status_of(its.converged, "fit_not_converged", its.reason)
             ls = scales.integral_length_scale(t_s, speed, su)

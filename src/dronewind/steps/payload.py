@@ -427,7 +427,8 @@ def l3(drone_l2_file: str | Path, mast_l2_file: str | Path, output: str | Path, 
 
 
 def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str, sensor: str,
-       reference: Mapping[str, Any], spectra: Mapping[str, Any], quadrant: Mapping[str, Any]) -> Path:
+       reference: Mapping[str, Any], spectra: Mapping[str, Any], quadrant: Mapping[str, Any],
+       detrending: str) -> Path:
     """L3 -> L4 file for one flight and sensor: statistics, spectra, fits, uncertainties, scales.
 
     Parameters
@@ -444,13 +445,15 @@ def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str
         Manifest entry of the flight's reference sonic, with its mast's position.
     spectra, quadrant : mapping
         ``processing.spectra`` and ``processing.quadrant``.
+    detrending : str
+        ``processing.detrending`` (``linear`` or ``block_mean``).
 
     Returns
     -------
     Path
         The written file.
     """
-    ds = compute_l4(strip_cf(open_product(l3_file)), sensor, spectra, quadrant)
+    ds = compute_l4(strip_cf(open_product(l3_file)), sensor, spectra, quadrant, detrending)
     LOG.info("flight %s %s L4: U = %.2f m/s, sigma_w = %.3f m/s", flight_id, sensor,
              float(ds["U_ms"]), float(ds["sigma_w_ms"]))
     fields = {"campaign": campaign, "flight": flight_id, "sensor": sensor}
