@@ -47,7 +47,10 @@ def _validate_campaign_args(parser: argparse.ArgumentParser) -> None:
 def _validate_campaign(args: argparse.Namespace) -> int:
     from dronewind.manifest import load_campaign
 
-    campaign = load_campaign(args.manifest, check_files=False if args.no_files else None)
+    try:
+        campaign = load_campaign(args.manifest, check_files=False if args.no_files else None)
+    except UnicodeDecodeError as exc:
+        raise InputError(args.manifest, f"not a text (YAML) file: {exc.reason} at byte {exc.start}") from exc
     kind = "virtual (simulated)" if campaign.simulated else "measured"
     print(
         f"{campaign.path}: valid {kind} campaign {campaign.name!r}: "
