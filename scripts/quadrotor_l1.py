@@ -6,4 +6,4 @@ from dronewind.steps.quadrotor import quadrotor_l1
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
     quadrotor_l1(sm.params.campaign, sm.wildcards.qflight, sm.wildcards.quav, sm.input.raw, sm.params.site,
-                 sm.output[0])
+                 sm.output[0], simulated=sm.params.simulated)

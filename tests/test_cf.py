@@ -120,3 +120,25 @@ def test_strip_cf_drops_the_station_coordinates(tmp_path):
     assert not {"station", "lat", "lon", "alt"} & set(ds.variables)
     assert all("coordinates" not in v.attrs and "coordinates" not in v.encoding for v in ds.variables.values())
     write(tmp_path / "again.nc", ds)  # can be written again
+
+
+def test_source_states_measured_or_virtual_and_later_levels_inherit_it(tmp_path):
+    import netCDF4
+
+    from dronewind.core.cf import DATA_SOURCES, data_source
+
+    measured = sample_dataset()
+    measured.attrs["source"] = data_source(False)
+    virtual = sample_dataset()
+    virtual.attrs["source"] = data_source(True)
+    l1_measured = write(tmp_path / "l1_measured.nc", measured)
+    l1_virtual = write(tmp_path / "l1_virtual.nc", virtual)
+    # a later level given no source inherits its input's
+    l2 = write(tmp_path / "l2.nc", sample_dataset(), inputs=[l1_measured])
+    unknown = write(tmp_path / "unknown.nc", sample_dataset())
+    with netCDF4.Dataset(l1_measured) as a, netCDF4.Dataset(l1_virtual) as b, netCDF4.Dataset(l2) as c, \
+            netCDF4.Dataset(unknown) as d:
+        assert a.source.startswith("measured") and "virtual" not in a.source
+        assert b.source.startswith("virtual campaign")
+        assert c.source == a.source
+        assert d.source == DATA_SOURCES["unknown"]

@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from dronewind.cli import SUBCOMMANDS, build_parser
 
 EXE = Path(sys.executable).with_name("dronewind")
@@ -38,3 +40,77 @@ def test_show_config_prints_the_defaults_under_the_given_settings(tmp_path):
     expected = default_config()
     expected["processing"]["spectra"]["segments"] = 5
     assert shown == expected
+
+
+# ----------------------------------------------------------------------------- bad input: one line, exit 1
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([str(EXE), *args], capture_output=True, text=True, check=False)
+
+
+def assert_one_line_error(proc: subprocess.CompletedProcess, command: str, *fragments: str) -> None:
+    assert proc.returncode != 0, proc.stdout
+    assert "Traceback" not in proc.stderr, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"dronewind {command}: error: "), proc.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, lines[0])
+
+
+@pytest.fixture()
+def bad_inputs(tmp_path):
+    """A missing file, a text file that is not NetCDF, a binary file, a bad YAML and a bad manifest."""
+    not_nc = tmp_path / "notes.nc"
+    not_nc.write_text("not a NetCDF file\n")
+    binary = tmp_path / "garbage.bin"
+    binary.write_bytes(bytes(range(256)) * 4)
+    bad_yaml = tmp_path / "broken.yaml"
+    bad_yaml.write_text("processing: [\n")
+    bad_manifest = tmp_path / "manifest.yaml"
+    bad_manifest.write_text("name: bad\nsite: {latitude: 43, longitude: 0.3, altitude_m: 600}\nmasts: []\n"
+                            "payload_flights:\n  - {id: s1, reference: nowhere, sonic: {file: a}, ins: {file: b}}\n")
+    return {"missing": tmp_path / "missing.nc", "not_nc": not_nc, "binary": binary, "bad_yaml": bad_yaml,
+            "bad_manifest": bad_manifest}
+
+
+def test_check_cf_bad_input(bad_inputs):
+    assert_one_line_error(run_cli("check-cf", str(bad_inputs["missing"])), "check-cf", "missing.nc: no such file")
+    assert_one_line_error(run_cli("check-cf", str(bad_inputs["not_nc"])), "check-cf", "notes.nc: not a NetCDF file")
+    assert_one_line_error(run_cli("check-cf", str(bad_inputs["bad_manifest"])), "check-cf", "not a NetCDF file")
+    assert_one_line_error(run_cli("check-cf", str(bad_inputs["not_nc"].parent)), "check-cf", "not a file")
+
+
+def test_check_cf_reports_each_bad_file_and_checks_the_good_ones(bad_inputs, tmp_path):
+    from tests.test_cf import write
+
+    good = write(tmp_path / "mast.nc")
+    proc = run_cli("check-cf", str(bad_inputs["missing"]), str(good))
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert f"{good}: passes" in proc.stdout and "missing.nc: no such file" in proc.stderr
+
+
+def test_validate_campaign_bad_input(bad_inputs):
+    assert_one_line_error(run_cli("validate-campaign", str(bad_inputs["missing"])), "validate-campaign",
+                          "missing.nc", "does not exist")
+    assert_one_line_error(run_cli("validate-campaign", str(bad_inputs["not_nc"])), "validate-campaign",
+                          "notes.nc", "expected a mapping")
+    assert_one_line_error(run_cli("validate-campaign", str(bad_inputs["binary"])), "validate-campaign",
+                          "garbage.bin")
+    assert_one_line_error(run_cli("validate-campaign", str(bad_inputs["bad_yaml"])), "validate-campaign",
+                          "broken.yaml", "not valid YAML")
+    assert_one_line_error(run_cli("validate-campaign", str(bad_inputs["bad_manifest"])), "validate-campaign",
+                          "manifest.yaml", "payload_flights[0].reference")
+
+
+def test_show_config_bad_input(bad_inputs, tmp_path):
+    assert_one_line_error(run_cli("show-config", str(bad_inputs["missing"])), "show-config", "missing.nc: no such file")
+    assert_one_line_error(run_cli("show-config", str(bad_inputs["binary"])), "show-config", "garbage.bin")
+    assert_one_line_error(run_cli("show-config", str(bad_inputs["bad_yaml"])), "show-config",
+                          "broken.yaml:2: not valid YAML")
+    assert_one_line_error(run_cli("show-config", str(bad_inputs["bad_manifest"])), "show-config",
+                          "a campaign manifest is given as --config campaign=<manifest>")
+    typo = tmp_path / "typo.yaml"
+    typo.write_text("processing:\n  rotatoin: double\n")
+    assert_one_line_error(run_cli("show-config", str(typo)), "show-config",
+                          "processing.rotatoin is not a setting: did you mean 'rotation'?")

@@ -179,7 +179,7 @@ def _flight(raw_, fid, tmp, uav_files=None, reference=None):
     files = uav_files or {u: folder / "quad" / fid / f"{u}.csv" for u in OFFSETS}
     l1 = {u: tmp / f"{fid}_{u}.nc" for u in files}
     for uav, path in files.items():
-        pq.quadrotor_l1("quadcamp", fid, uav, path, SITE, l1[uav])
+        pq.quadrotor_l1("quadcamp", fid, uav, path, SITE, l1[uav], simulated=True)
     flight = {"id": fid, "uavs": [{"id": u, "file": str(f)} for u, f in files.items()]}
     settings = default_config()["quadrotor"]
     pq.quadrotor_windows(flight, l1, reference or folder / "tower" / f"{fid}_reference.csv", SITE["altitude_m"],

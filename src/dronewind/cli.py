@@ -7,13 +7,14 @@ also be run and debugged by hand, outside Snakemake.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from dronewind import __version__
-from dronewind.errors import DronewindError
+from dronewind.errors import DronewindError, InputError
 
 EPILOG = """\
 examples:
@@ -46,7 +47,10 @@ def _validate_campaign_args(parser: argparse.ArgumentParser) -> None:
 def _validate_campaign(args: argparse.Namespace) -> int:
     from dronewind.manifest import load_campaign
 
-    campaign = load_campaign(args.manifest, check_files=False if args.no_files else None)
+    try:
+        campaign = load_campaign(args.manifest, check_files=False if args.no_files else None)
+    except UnicodeDecodeError as exc:
+        raise InputError(args.manifest, f"not a text (YAML) file: {exc.reason} at byte {exc.start}") from exc
     kind = "virtual (simulated)" if campaign.simulated else "measured"
     print(
         f"{campaign.path}: valid {kind} campaign {campaign.name!r}: "
@@ -60,11 +64,32 @@ def _check_cf_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("files", type=Path, nargs="+", help="NetCDF files")
 
 
+def _netcdf_problem(path: Path) -> str | None:
+    """Why ``path`` cannot be checked (missing, not a file, not NetCDF), or None."""
+    import netCDF4
+
+    if not path.exists():
+        return "no such file"
+    if not path.is_file():
+        return "not a file"
+    try:
+        with netCDF4.Dataset(path):
+            pass
+    except OSError as exc:
+        return f"not a NetCDF file ({exc.strerror or exc})"
+    return None
+
+
 def _check_cf(args: argparse.Namespace) -> int:
     from dronewind.core.cf import check_compliance
 
     status = 0
     for path in args.files:
+        problem = _netcdf_problem(path)
+        if problem is not None:
+            print(f"dronewind check-cf: error: {path}: {problem}", file=sys.stderr)
+            status = 1
+            continue
         ok, report = check_compliance(path)
         print(f"{path}: {'passes' if ok else 'FAILS'} CF-1.11 and ACDD-1.3 (normal criteria)")
         if not ok:
@@ -86,15 +111,42 @@ def _merge(base: dict, override: dict) -> dict:
     return out
 
 
+def _read_config_file(path: Path) -> dict:
+    """One config file (YAML mapping); errors name the file and the line."""
+    import yaml
+
+    if not path.is_file():
+        raise InputError(path, "no such file" if not path.exists() else "not a file")
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise InputError(path, f"not a text (YAML) file: {exc.reason}") from exc
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
+        raise InputError(where, f"not valid YAML: {getattr(exc, 'problem', None) or exc}") from exc
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise InputError(path, "expected a mapping of settings (processing:, diagnosis:, ...), "
+                               f"got {type(data).__name__}")
+    return data
+
+
 def _show_config(args: argparse.Namespace) -> int:
     import yaml
 
-    from dronewind.manifest import with_defaults
+    from dronewind.config import check_config
 
     config: dict = {}
     for path in args.configfiles:
-        config = _merge(config, yaml.safe_load(path.read_text(encoding="utf-8")) or {})
-    print(yaml.safe_dump(with_defaults(config), sort_keys=False), end="")
+        config = _merge(config, _read_config_file(path))
+    # the same typing and checks as the workflow (a typo is an error naming the nearest key)
+    config = check_config({"campaign": "", "results_dir": "", **config})
+    for key in ("campaign", "results_dir"):
+        if config[key] == "":
+            del config[key]
+    print(yaml.safe_dump(config, sort_keys=False), end="")
     return 0
 
 
@@ -156,10 +208,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
-    except DronewindError as exc:
-        print(f"dronewind {args.command}: error: {exc}", file=sys.stderr)
-        return 1
+    except (DronewindError, OSError) as exc:
+        return _fail(args.command, exc)
+    except Exception as exc:  # noqa: BLE001 - one line for the user; the traceback on request
+        if os.environ.get("DRONEWIND_DEBUG"):
+            raise
+        return _fail(args.command, exc, f"{type(exc).__name__}: ", " (DRONEWIND_DEBUG=1 shows the traceback)")
 
+
+def _fail(command: str, exc: BaseException, prefix: str = "", suffix: str = "") -> int:
+    """Print a one-line error of a subcommand to standard error; the exit status (1)."""
+    if isinstance(exc, OSError) and exc.filename is not None:
+        text = f"{exc.filename}: {exc.strerror or exc}"
+    else:
+        text = " ".join(str(exc).split())
+    print(f"dronewind {command}: error: {prefix}{text}{suffix}", file=sys.stderr)
+    return 1
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

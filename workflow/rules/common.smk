@@ -8,6 +8,7 @@ from pathlib import Path
 
 from snakemake.utils import min_version, validate
 
+from dronewind.config import check_config
 from dronewind.diagnose.forward import CHAIN_SETTINGS
 from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
@@ -18,7 +19,11 @@ from dronewind.steps.payload import simulation_manifest
 min_version("9.0")
 
 
-# Missing settings take their defaults from the schema, the one place defaults are kept.
+# Settings are typed by the schema (a --config value reaches here as text), checked (a range,
+# an allowed value, an unknown key with the nearest valid name: before any job runs, so a
+# mistyped key never falls back to a default), and missing ones take their defaults from the
+# schema, the one place defaults are kept.
+config.update(check_config(config, defaults=False))
 validate(config, "../schemas/config.schema.yaml")
 
 # The manifest is validated before any job runs: a bad manifest stops the workflow with
@@ -212,15 +217,6 @@ SIMULATION = simulation_manifest(CAMPAIGN.data) if CAMPAIGN.simulated else None
 # (SWUF-3D fleet flights, seed 001, and the wind tunnel, seed 002; rules in quadrotor.smk and tunnel.smk)
 # Settings: the top-level `quadrotor:` section (defaults in the schema); per-flight and per-UAV
 # rules get their flight's manifest entry and the site as params, never the manifest file.
-
-for _old, _new in (
-    (("processing", "quadrotor"), "quadrotor"),
-    (("diagnosis", "quadrotor_min_gain"), "quadrotor.diagnosis.min_gain"),
-):
-    if _old[1] in (config.get(_old[0]) or {}):
-        raise ValueError(
-            f"config: {'.'.join(_old)} is now {_new} (workflow/schemas/config.schema.yaml)"
-        )
 
 QUAD = canonical(config["quadrotor"])
 QUAD_DIR = RESULTS / "quadrotor"

@@ -45,6 +45,7 @@ rule quadrotor_l1:
     params:
         campaign=CAMPAIGN.name,
         site=SITE,
+        simulated=CAMPAIGN.simulated,
     script:
         "../../scripts/quadrotor_l1.py"
 

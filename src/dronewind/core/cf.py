@@ -74,13 +74,48 @@ _FIXED_GLOBAL_ATTRS: dict[str, str] = {
     "publisher_institution": "dronewind project",
     "license": "CC-BY-4.0 unless the input data licence says otherwise",
     "acknowledgment": "Methods after Ghirardelli et al. (SAMURAI-S) and Wetz et al. (SWUF-3D).",
-    "source": "sonic anemometers on drones and masts, and the dronewind virtual campaign",
     "platform_vocabulary": "https://vocab.nerc.ac.uk/collection/L06/current/",
     "instrument_vocabulary": "https://vocab.nerc.ac.uk/collection/L05/current/",
     "keywords_vocabulary": "GCMD Science Keywords",
     "product_version": __version__,
     "software_version": __version__,
 }
+
+#: ``source`` global attribute by origin of the raw data: a manifest without a ``simulation:``
+#: section is measured data, one with it a virtual campaign (raw files written by the simulator).
+DATA_SOURCES: dict[str, str] = {
+    "measured": "measured: sonic anemometers (and INS or quadrotor logs) on drones and masts, raw files "
+                "named by the campaign manifest",
+    "virtual": "virtual campaign: raw files written by the dronewind simulator (dronewind.simulate), "
+               "not measured",
+    "unknown": "not recorded: written outside the dronewind workflow",
+}
+
+
+def data_source(simulated: bool) -> str:
+    """The ``source`` attribute of a product: measured data or the virtual campaign.
+
+    Parameters
+    ----------
+    simulated : bool
+        True when the campaign manifest has a ``simulation:`` section.
+    """
+    return DATA_SOURCES["virtual" if simulated else "measured"]
+
+
+def _inherited_source(inputs: Iterable[str | Path]) -> str | None:
+    """The ``source`` of the NetCDF inputs a product is computed from (None if none has one)."""
+    import netCDF4
+
+    found = []
+    for path in map(Path, inputs):
+        if path.suffix != ".nc" or not path.is_file():
+            continue
+        with netCDF4.Dataset(path) as nc:
+            if "source" in nc.ncattrs():
+                found.append(str(nc.getncattr("source")))
+    return " + ".join(dict.fromkeys(found)) or None
+
 
 _KEYWORDS = (
     "EARTH SCIENCE > ATMOSPHERE > ATMOSPHERIC WINDS > TURBULENCE, "
@@ -481,7 +516,9 @@ def write_netcdf(
         What produced this file (one line); prefixed with a UTC stamp and appended to the
         dataset's existing ``history``.
     inputs : iterable of path
-        Files this output was computed from; their SHA-256 go into ``input_checksums``.
+        Files this output was computed from; their SHA-256 go into ``input_checksums``, and
+        the ``source`` of NetCDF inputs (measured or virtual campaign, :func:`data_source`) is
+        inherited when neither ``ds.attrs`` nor ``extra_attrs`` give one.
     config : mapping, optional
         Settings the product was computed with (workflow products: the configuration keys
         of their rule, nested as in ``config.yaml``); hashed into ``config_sha256``.
@@ -517,7 +554,13 @@ def write_netcdf(
         raise ValueError(f"{path}: a timeSeries file needs a station_id")
     out = _prepare_variables(_add_station(ds, station_id, latitude, longitude, height_m))
     attrs = _discovery_attrs(ds, title, summary, processing_level)
+    inputs = list(inputs)
     attrs.update(_provenance_attrs(ds, path, history, inputs, config))
+    # measured or virtual: stated by the L1 step (the manifest), inherited by every later level
+    attrs["source"] = (
+        (extra_attrs or {}).get("source") or ds.attrs.get("source") or _inherited_source(inputs)
+        or DATA_SOURCES["unknown"]
+    )
     _feature_type_attrs(attrs, feature_type)
     attrs.update(_coverage_attrs(out))
     attrs.update({k: v for k, v in (extra_attrs or {}).items() if v is not None})

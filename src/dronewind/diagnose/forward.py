@@ -38,6 +38,7 @@ import xarray as xr
 
 from dronewind.compare.chain import compute_l3
 from dronewind.core.constants import KARMAN
+from dronewind.core.progress import Progress
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.errors import InputError
 from dronewind.manifest import payload_flight_manifest
@@ -486,31 +487,33 @@ def probe_runs(
 
     out: dict[str, Any] = {"flight": flight_id, "conditions": dict(conditions), "seeds": list(seeds),
                            "baseline": [], "probes": []}
+    levels = [(probe, level) for probe in probes for level in probe.levels]
+    progress = Progress("probe", len(seeds) + len(levels), "run")
     for seed in seeds:
-        feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed), flight_id,
-                               processing)
+        with progress.item(f"flight {flight_id} baseline seed {seed}"):
+            feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed), flight_id,
+                                   processing)
         out["baseline"].append(features_to_dict(feats))
-        LOG.info("flight %s: baseline seed %d done", flight_id, seed)
-    for probe in probes:
-        for level in probe.levels:
-            mech = [{"mechanism": probe.mechanism, "parameters": _probe_parameters(probe, level)}]
-            try:
+    for probe, level in levels:
+        name = f"flight {flight_id} {probe.candidate} {probe.parameter}={level:g}"
+        mech = [{"mechanism": probe.mechanism, "parameters": _probe_parameters(probe, level)}]
+        try:
+            with progress.item(name):
                 feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0]),
                                        flight_id, processing)
-            except InputError as exc:
-                # a level outside what this flight allows (e.g. a height offset deeper than
-                # the measured hover height): recorded and left out; the candidate's response
-                # for this flight then has fewer levels (NaN where missing)
-                LOG.warning("flight %s: probe %s %s=%g skipped: %s", flight_id, probe.candidate, probe.parameter,
-                            level, exc)
-                out.setdefault("skipped_probes", []).append({"candidate": probe.candidate,
-                                                             "parameter": probe.parameter, "level": float(level),
-                                                             "reason": str(exc)})
-                continue
-            out["probes"].append({"candidate": probe.candidate, "mechanism": probe.mechanism,
-                                  "parameter": probe.parameter, "level": float(level),
-                                  "fixed": dict(probe.fixed), "features": features_to_dict(feats)})
-            LOG.info("flight %s: %s %s=%g done", flight_id, probe.candidate, probe.parameter, level)
+        except InputError as exc:
+            # a level outside what this flight allows (e.g. a height offset deeper than
+            # the measured hover height): recorded and left out; the candidate's response
+            # for this flight then has fewer levels (NaN where missing)
+            progress.skipped(name, str(exc))
+            out.setdefault("skipped_probes", []).append({"candidate": probe.candidate,
+                                                         "parameter": probe.parameter, "level": float(level),
+                                                         "reason": str(exc)})
+            continue
+        out["probes"].append({"candidate": probe.candidate, "mechanism": probe.mechanism,
+                              "parameter": probe.parameter, "level": float(level),
+                              "fixed": dict(probe.fixed), "features": features_to_dict(feats)})
+    progress.finished()
     return out
 
 

@@ -32,9 +32,10 @@ References
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from dronewind.core.progress import Progress
 from dronewind.figures.fluxes import fig13_fluxes_obukhov, fig16_uncertainty
 from dronewind.figures.positions import fig07_positions
 from dronewind.figures.quadrant import fig15_quadrant
@@ -146,20 +147,28 @@ def draw_all(results_dir: PathLike, figures_dir: PathLike, flights: Sequence[str
     l2 = sorted((root / "netcdf" / "L2").glob("*_drone.nc"))
     l3 = sorted((root / "netcdf" / "L3").glob("*.nc"))
     l4 = sorted((root / "netcdf" / "L4").glob("*_*.nc"))
-    paths: list[Path] = []
-    paths += fig04_tke_lag(l2, out / "fig04_tke_lag")
-    paths += fig07_positions(l2, l4, root / "campaign.json", out / "fig07_positions")
-    paths += fig08_timeseries(l3, l4, out / "fig08_timeseries", flights)
-    paths += fig09_velocity_spectra(l4, out / "fig09_velocity_spectra", flights)
-    paths += fig10_temperature_series(l3, l4, out / "fig10_temperature_series", flights)
-    paths += fig11_temperature_spectra(l4, out / "fig11_temperature_spectra", flights)
-    paths += fig12_mean_and_sigma(l4, out / "fig12_mean_and_sigma")
-    paths += fig13_fluxes_obukhov(l4, out / "fig13_fluxes_obukhov")
-    paths += fig14_length_scales(l4, out / "fig14_length_scales")
-    paths += fig15_quadrant(l4, out / "fig15_quadrant")
-    paths += fig16_uncertainty(l4, out / "fig16_uncertainty")
     detail = None if flights is None else ([f for f in sorted({Path(p).stem.split("_")[0] for p in l4})
                                             if f not in set(flights)] or None)
-    paths += figB1_normalised_velocity_spectra(l4, out / "figB1_normalised_velocity_spectra", detail)
-    paths += figB2_normalised_temperature_spectra(l4, out / "figB2_normalised_temperature_spectra", detail)
+    drawers: list[tuple[str, Callable[[Path], list[Path]]]] = [
+        ("fig04_tke_lag", lambda base: fig04_tke_lag(l2, base)),
+        ("fig07_positions", lambda base: fig07_positions(l2, l4, root / "campaign.json", base)),
+        ("fig08_timeseries", lambda base: fig08_timeseries(l3, l4, base, flights)),
+        ("fig09_velocity_spectra", lambda base: fig09_velocity_spectra(l4, base, flights)),
+        ("fig10_temperature_series", lambda base: fig10_temperature_series(l3, l4, base, flights)),
+        ("fig11_temperature_spectra", lambda base: fig11_temperature_spectra(l4, base, flights)),
+        ("fig12_mean_and_sigma", lambda base: fig12_mean_and_sigma(l4, base)),
+        ("fig13_fluxes_obukhov", lambda base: fig13_fluxes_obukhov(l4, base)),
+        ("fig14_length_scales", lambda base: fig14_length_scales(l4, base)),
+        ("fig15_quadrant", lambda base: fig15_quadrant(l4, base)),
+        ("fig16_uncertainty", lambda base: fig16_uncertainty(l4, base)),
+        ("figB1_normalised_velocity_spectra", lambda base: figB1_normalised_velocity_spectra(l4, base, detail)),
+        ("figB2_normalised_temperature_spectra",
+         lambda base: figB2_normalised_temperature_spectra(l4, base, detail)),
+    ]
+    progress = Progress("figure", len(drawers), "drawn")
+    paths: list[Path] = []
+    for name, draw in drawers:
+        with progress.item(name):
+            paths += draw(out / name)
+    progress.finished()
     return paths

@@ -26,7 +26,14 @@ from typing import Any
 import xarray as xr
 
 from dronewind.compare.chain import compute_l3, compute_l4
-from dronewind.core.cf import atomic_write_text, strip_cf, track_from_cf, track_to_cf, write_netcdf
+from dronewind.core.cf import (
+    atomic_write_text,
+    data_source,
+    strip_cf,
+    track_from_cf,
+    track_to_cf,
+    write_netcdf,
+)
 from dronewind.core.products import open_product
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.mechanisms import get_mechanism
@@ -249,6 +256,7 @@ def simulate_payload(campaign: Mapping[str, Any], flight_id: str, manifest_dir: 
 def payload_l1(
     sonic_file: str | Path, ins_file: str | Path, out_sonic: str | Path, out_ins: str | Path, *, campaign: str,
     flight_id: str, site: Mapping[str, Any], target_height_m: float | None, despike: Mapping[str, Any],
+    simulated: bool,
 ) -> tuple[Path, Path]:
     """L0 -> L1 files for one payload flight: sonic and INS to UTC with range/spike/gap QC.
 
@@ -266,6 +274,8 @@ def payload_l1(
         The flight's nominal height above ground [m], if the manifest gives one.
     despike : mapping
         ``processing.despike``.
+    simulated : bool
+        The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
 
     Returns
     -------
@@ -277,6 +287,7 @@ def payload_l1(
     LOG.info("sonic L1: %d samples; %s", sonic.sizes["time"], sonic.attrs.get("processing_log", ""))
     LOG.info("INS L1: %d samples; %s", ins.sizes["time"], ins.attrs.get("processing_log", ""))
     fields = {"campaign": campaign, "flight": flight_id}
+    sonic.attrs["source"] = ins.attrs["source"] = data_source(simulated)
     where = Position(site["latitude"], site["longitude"], float(target_height_m or 0.0) or None)
     settings = {"processing": {"despike": despike}}
     return (write_product(sonic, out_sonic, "payload_sonic_l1", fields, where, [sonic_file, ins_file], settings),
@@ -284,7 +295,7 @@ def payload_l1(
 
 
 def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, sonic: Mapping[str, Any],
-            despike: Mapping[str, Any]) -> Path:
+            despike: Mapping[str, Any], simulated: bool) -> Path:
     """L0 -> L1 file for one mast sonic: TOA5 files to east/north/up with QC flags.
 
     Parameters
@@ -300,6 +311,8 @@ def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, s
         (:meth:`dronewind.manifest.Campaign.mast_sonics`).
     despike : mapping
         ``processing.despike``.
+    simulated : bool
+        The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
 
     Returns
     -------
@@ -307,6 +320,7 @@ def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, s
         The written file.
     """
     ds = compute_mast_l1(files, sonic, despike)
+    ds.attrs["source"] = data_source(simulated)
     LOG.info("mast %s L1: %d samples from %d file(s); %s", sonic["id"], ds.sizes["time"], len(files),
              ds.attrs.get("processing_log", ""))
     fields = {"campaign": campaign, "sonic": sonic["id"], "mast": sonic["mast_id"],

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from dronewind.core.cf import atomic_write_text, strip_cf, track_from_cf, write_netcdf
+from dronewind.core.cf import atomic_write_text, data_source, strip_cf, track_from_cf, write_netcdf
 from dronewind.errors import InputError, ProcessingError
 from dronewind.quadrotor import chain
 from dronewind.quadrotor.chain import QUAD_TABLES
@@ -148,7 +148,7 @@ def simulate_tunnel(simulation: Mapping[str, Any], runs: str, out_dir: str | Pat
 
 
 def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, site: Mapping[str, Any],
-                 out_l1: str | Path) -> Path:
+                 out_l1: str | Path, *, simulated: bool) -> Path:
     """L0 -> L1 NetCDF of one UAV log (attitude and GNSS in CF form).
 
     Parameters
@@ -164,6 +164,8 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
     out_l1 : str or Path
         L1 NetCDF to write.
 
+    simulated : bool
+        The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
     Returns
     -------
     Path
@@ -185,7 +187,8 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
                 "logged, time sorted and de-duplicated (seed 001 Sect. 2).",
         processing_level="L1: UTC time, sorted, duplicates removed", history=f"quadrotor_flight {flight_id} {uav}",
         inputs=[log_file], config={}, station_id=f"{flight_id}_{uav}", latitude=lat, longitude=lon,
-        height_m=height, extra_attrs={"campaign": campaign, "flight": flight_id, "uav": uav},
+        height_m=height, extra_attrs={"campaign": campaign, "flight": flight_id, "uav": uav,
+                                      "source": data_source(simulated)},
         nonstandard_group="platform_velocity")
 
 
