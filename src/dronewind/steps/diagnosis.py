@@ -27,6 +27,7 @@ import yaml
 
 from dronewind.core.cf import atomic_write_text, strip_cf, track_from_cf
 from dronewind.core.products import open_product
+from dronewind.diagnose import campaign as dc
 from dronewind.manifest import load_campaign
 from dronewind.steps.common import LOG
 
@@ -130,8 +131,8 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
     return write_json(output, runs)
 
 
-def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str | Path]) -> Any:
-    from dronewind.diagnose import campaign as dc
+def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str | Path]) -> dc.CampaignEvidence:
+    """The campaign evidence of the usable flights' measured and forward-model feature files."""
 
     measured, fwd = {}, {}
     for path in measured_files:
@@ -176,7 +177,6 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
     ``alpha``, ``max_causes`` and ``min_gain`` are the ``diagnosis`` settings (see
     :func:`dronewind.diagnose.campaign.diagnose`).
     """
-    from dronewind.diagnose import campaign as dc
 
     campaign = load_campaign(manifest)
     ev = _evidence(measured_files, forward_files)
@@ -245,7 +245,6 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
                      forward_files: Sequence[str | Path], extended_files: Sequence[str | Path],
                      output_md: str | Path, output_csv: str | Path, figures_dir: str | Path) -> list[Path]:
     """Before/after numbers (baseline vs rerun extended model), Markdown report, figures."""
-    from dronewind.diagnose import campaign as dc
     from dronewind.diagnose import report
     from dronewind.diagnose.features import FEATURES
     from dronewind.figures import diagnosis as diagnosis_figures
