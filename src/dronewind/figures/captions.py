@@ -281,6 +281,8 @@ def verdict_sentence(diag: Mapping[str, Any]) -> str:
     """
     named = list(diag.get("named_causes") or [])
     cands = {c["mechanism"]: c for c in reversed(diag.get("candidates") or [])}
+    if not named and not cands and diag.get("note"):
+        return f"Not diagnosed: {diag['note']}."
     if not named:
         text = ("No mechanism is significant: the forward model without any mechanism explains the measured "
                 "drone-mast differences within their sampling errors.")

@@ -31,7 +31,8 @@ from dronewind.tables import default_detail_flights
 
 __all__ = [
     "DPI", "DRONE_COLOUR", "HEIGHT_MARKERS", "MAST_COLOUR", "PAPERS", "REFERENCES", "SENSOR_COLOURS", "UNIT_KMS",
-    "UNIT_M2S2", "UNIT_MS", "UNUSABLE_COLOUR", "PathLike", "add_notes", "chosen_flights", "flight_colours", "legend",
+    "UNIT_M2S2", "UNIT_MS", "UNUSABLE_COLOUR", "PathLike", "add_notes", "chosen_flights", "figure_legend",
+    "flight_colours", "legend",
     "minutes", "new_figure", "no_data", "place_labels", "save_figure", "start_label", "status_text",
 ]
 
@@ -170,9 +171,28 @@ def save_figure(fig: Figure, out_stem: PathLike, notes: Sequence[str] = ()) -> l
 
 
 def legend(ax: Axes, **kwargs: Any) -> None:
-    """Legend only when something labelled was drawn (an empty legend warns)."""
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(**kwargs)
+    """Legend above the axes, right-aligned, one row: it never covers data (only when something is labelled).
+
+    ``loc`` and ``ncol`` given by a caller are ignored; other keyword arguments (font size)
+    pass through. Titles drawn at the left of the same axes stay clear of it.
+    """
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        kwargs.pop("loc", None)
+        kwargs.pop("ncol", None)
+        ax.legend(handles, labels, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(handles),
+                  borderaxespad=0.2, frameon=False, columnspacing=1.0, handlelength=1.5, **kwargs)
+
+
+def figure_legend(fig: Figure) -> None:
+    """One legend for the whole figure, above the panels: every label drawn in any axes, once."""
+    seen: dict[str, Any] = {}
+    for ax in fig.axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            seen.setdefault(label, handle)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), loc="outside upper center", ncol=len(seen), fontsize=7.5,
+                   frameon=False)
 
 
 def _overlaps(box: Bbox, others: Sequence[Bbox]) -> bool:
