@@ -38,58 +38,62 @@ TABLE_SUBCATEGORIES = {
 }
 
 
-def report_figures():
-    """Figure name -> PNG of every figure this campaign's report shows."""
-    names = []
-    if PAYLOAD_FLIGHTS:
-        names += FIGURES + ["diagnosis_residuals", "diagnosis_spectra"]
-    if PUBLISHED:
-        names.append("published_before_after")
-    if QUAD_FLIGHTS:
-        names += list(QUAD_FIGURES)
-    if TUNNEL_RUNS is not None:
-        names += list(TUNNEL_FIGURES)
-    return {name: str(RESULTS / "figures" / f"{name}.png") for name in names}
-
-
-def report_tables():
-    """Names of the table pages this campaign's report shows."""
-    names = []
-    if PAYLOAD_FLIGHTS:
-        names += [
-            "table4_flights",
-            "table5_statistics",
-            "flight_stats",
-            "diagnosis_evidence",
-        ]
-    if PUBLISHED:
-        names.append("published_numbers")
-    if QUAD_FLIGHTS:
-        names += ["quadrotor_calibration", "quadrotor_table2", "quadrotor_table3"]
-    if TUNNEL_RUNS is not None:
-        names.append("tunnel_calibration")
-    return names
-
-
-def report_inputs():
-    """Stored results the front page and the captions are written from."""
-    out = [str(RESULTS / "campaign.json")]
-    out += [str(RESULTS / REPORT_TABLES[t][1]) for t in report_tables()]
-    if PAYLOAD_FLIGHTS:
-        out.append(str(RESULTS / "diagnosis.json"))
-        out += expand(
-            str(RESULTS / "netcdf" / "L4" / "{flight}_{sensor}.nc"),
-            flight=PAYLOAD_FLIGHTS,
-            sensor=["drone", "mast"],
+# What this campaign's report shows: figures (name -> PNG), table pages, and the stored results
+# the front page and the captions are written from.
+REPORT_FIGURES = {
+    name: str(RESULTS / "figures" / f"{name}.png")
+    for name in (
+        FIGURES + ["diagnosis_residuals", "diagnosis_spectra"]
+        if PAYLOAD_FLIGHTS
+        else []
+    )
+    + (["published_before_after"] if PUBLISHED else [])
+    + (list(QUAD_FIGURES) if QUAD_FLIGHTS else [])
+    + (list(TUNNEL_FIGURES) if TUNNEL_RUNS is not None else [])
+}
+REPORT_TABLE_NAMES = (
+    (
+        ["table4_flights", "table5_statistics", "flight_stats", "diagnosis_evidence"]
+        if PAYLOAD_FLIGHTS
+        else []
+    )
+    + (["published_numbers"] if PUBLISHED else [])
+    + (
+        ["quadrotor_calibration", "quadrotor_table2", "quadrotor_table3"]
+        if QUAD_FLIGHTS
+        else []
+    )
+    + (["tunnel_calibration"] if TUNNEL_RUNS is not None else [])
+)
+REPORT_INPUTS = list(
+    dict.fromkeys(
+        [str(RESULTS / "campaign.json")]
+        + [str(RESULTS / REPORT_TABLES[t][1]) for t in REPORT_TABLE_NAMES]
+        + (
+            [str(RESULTS / "diagnosis.json")]
+            + expand(
+                str(RESULTS / "netcdf" / "L4" / "{flight}_{sensor}.nc"),
+                flight=PAYLOAD_FLIGHTS,
+                sensor=["drone", "mast"],
+            )
+            if PAYLOAD_FLIGHTS
+            else []
         )
-    if PUBLISHED:
-        out += [
-            str(RESULTS / "published" / "diagnosis.json"),
-            str(RESULTS / "published" / "before_after.json"),
-        ]
-    if QUAD_FLIGHTS or TUNNEL_RUNS is not None:
-        out.append(str(RESULTS / "quadrotor_diagnosis.json"))
-    return list(dict.fromkeys(out))
+        + (
+            [
+                str(RESULTS / "published" / "diagnosis.json"),
+                str(RESULTS / "published" / "before_after.json"),
+            ]
+            if PUBLISHED
+            else []
+        )
+        + (
+            [str(RESULTS / "quadrotor_diagnosis.json")]
+            if QUAD_FLIGHTS or TUNNEL_RUNS is not None
+            else []
+        )
+    )
+)
 
 
 rule campaign_record:
@@ -166,8 +170,8 @@ rule figures:
 rule report_pages:
     """The report's front page, table pages and figure captions, from the stored results."""
     input:
-        results=report_inputs(),
-        figures=list(report_figures().values()),
+        results=REPORT_INPUTS,
+        figures=list(REPORT_FIGURES.values()),
     output:
         summary=report(
             RESULTS / "report" / "summary.html",
@@ -177,7 +181,7 @@ rule report_pages:
         ),
         captions=[
             str(RESULTS / "report" / "captions" / f"{name}.rst")
-            for name in report_figures()
+            for name in REPORT_FIGURES
         ],
         tables=[
             report(
@@ -186,7 +190,7 @@ rule report_pages:
                 category="Tables",
                 subcategory=TABLE_SUBCATEGORIES[name],
             )
-            for name in report_tables()
+            for name in REPORT_TABLE_NAMES
         ],
     log:
         log_path("report_pages"),
@@ -195,9 +199,9 @@ rule report_pages:
     conda:
         ENV
     params:
-        results=str(RESULTS),
-        out_dir=str(RESULTS / "report"),
-        figures=report_figures(),
-        tables=report_tables(),
+        results=lambda wc, input: str(Path(input.results[0]).parent),
+        out_dir=lambda wc, output: str(Path(output.summary).parent),
+        figures=REPORT_FIGURES,
+        tables=REPORT_TABLE_NAMES,
     script:
         "../../scripts/report_pages.py"

@@ -401,7 +401,7 @@ def quadrotor_captions(tables_dir: PathLike) -> dict[str, str]:
         n_uav, n_flight = len(cal), win["flight"].nunique()
         val = win[win["validation"].astype(bool)] if "validation" in win else win.iloc[0:0]
         rmse = f"{cal['rmse_ms'].min():.2f} to {cal['rmse_ms'].max():.2f} {MS}"
-        heights = sorted({float(h) for h in win["ref_height_m"].dropna()})
+        heights = sorted({float(h) for h in win["ref_height_m"].dropna().to_numpy(dtype=float)})
         hs = flight_list([f"{h:g}" for h in heights]) + " m" if heights else "no height"
         out.update({
             "quadrotor_fig3_individual": f"10-min wind speed of {n_uav} UAVs against the tower over {n_flight} flights "
@@ -423,8 +423,8 @@ def quadrotor_captions(tables_dir: PathLike) -> dict[str, str]:
         })
     tun = _csv(tables / "tunnel_calibration.csv")
     if tun is not None:
-        ranges = flight_list([f"{r.axis} {_speed_range(float(r.lower_ms), float(r.upper_ms))}"
-                              for r in tun.itertuples()])
+        ranges = flight_list([f"{axis} {_speed_range(lo, hi)}" for axis, lo, hi in zip(
+            tun["axis"], tun["lower_ms"].to_numpy(dtype=float), tun["upper_ms"].to_numpy(dtype=float), strict=True)])
         out.update({
             "tunnel_fig4_sideslip": f"RMSE of the UAS speed against the CTA speed per angle of sideslip (wind-tunnel "
             f"calibration per speed range: {ranges}). After {P002}, Fig. 4.",
