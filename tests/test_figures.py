@@ -261,14 +261,23 @@ def test_point_labels_do_not_overlap(saved_figures: dict) -> None:
 def test_no_marker_is_clipped(saved_figures: dict) -> None:
     checked = 0
     for name, fig in saved_figures.items():
+        renderer = fig.canvas.get_renderer()
         for ax in fig.axes:
             (x0, x1), (y0, y1) = sorted(ax.get_xlim()), sorted(ax.get_ylim())
+            frame = ax.get_window_extent(renderer)
             for line in ax.get_lines():
                 if line.get_linestyle() not in ("None", "none", "") or line.get_marker() in (None, "None", ""):
                     continue
                 x, y = (np.asarray(v, dtype=float) for v in line.get_data())
                 ok = np.isfinite(x) & np.isfinite(y)
+                if not ok.any():
+                    continue
                 assert np.all((x[ok] >= x0) & (x[ok] <= x1) & (y[ok] >= y0) & (y[ok] <= y1)), (name, x, y)
+                # the whole marker, not only its centre, lies inside the axes
+                half = 0.5 * line.get_markersize() * fig.dpi / 72.0
+                px = ax.transData.transform(np.column_stack([x[ok], y[ok]]))
+                assert np.all((px[:, 0] - frame.x0 >= half) & (frame.x1 - px[:, 0] >= half)
+                              & (px[:, 1] - frame.y0 >= half) & (frame.y1 - px[:, 1] >= half)), (name, x, y)
                 checked += int(ok.sum())
     assert checked > 50
 
