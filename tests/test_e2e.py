@@ -18,7 +18,6 @@ import pytest
 
 from dronewind.core.cf import check_compliance
 from dronewind.steps import FLIGHT_STATS_COLUMNS, open_product
-from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -35,14 +34,9 @@ def run_workflow(manifest: Path, results: Path, extra_config: Path) -> subproces
 
 
 @pytest.fixture(scope="module")
-def campaign_run(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("e2e")
-    manifest = write_small_campaign(folder)
-    extra = folder / "short.yaml"
-    extra.write_text(SHORT_HOVER)
-    proc = run_workflow(manifest, folder / "results_a", extra)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return folder, manifest, extra, folder / "results_a" / "smallcamp"
+def campaign_run(small_campaign_run):
+    """The session's run of the small campaign (tests/conftest.py), shared with tests/test_report.py."""
+    return small_campaign_run
 
 
 def test_every_netcdf_passes_the_compliance_checker(campaign_run):

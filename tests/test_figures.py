@@ -70,8 +70,8 @@ def test_every_figure_written_and_readable(drawn: Path) -> None:
 
 
 def test_png_size_is_figsize_times_dpi(drawn: Path) -> None:
-    # fixed sizes (no tight bounding box): fig04 is 6.5 x 4.6 in, fig15 10.5 x 4.8 in
-    assert mpimg.imread(drawn / "fig04_tke_lag.png").shape[:2] == (round(4.6 * DPI), round(6.5 * DPI))
+    # fixed sizes (no tight bounding box): fig04 is 8 x 4.6 in (legend outside), fig15 10.5 x 4.8 in
+    assert mpimg.imread(drawn / "fig04_tke_lag.png").shape[:2] == (round(4.6 * DPI), round(8.0 * DPI))
     assert mpimg.imread(drawn / "fig15_quadrant.png").shape[:2] == (round(4.8 * DPI),
                                                                     round(10.5 * DPI))
     # Fig. 9: 4 panels per detailed flight (2 flights): 13 x (3.1 * 2 + 0.3) in
@@ -164,3 +164,153 @@ def test_diagnosis_figures_from_evidence(tmp_path: Path) -> None:
     spec = diagnosis.spectra_figure(empty, {}, {}, diag, tmp_path / "empty")
     assert _description(res[0]) == "skipped: no usable flight"
     assert _description(spec[0]) == "skipped: no flight with stored spectra"
+
+
+# ----------------------------------------------------------------------------- layout: nothing hides data
+
+
+class _Spy:
+    """Records every figure the figure functions save (the real save still runs)."""
+
+    def __init__(self) -> None:
+        self.figures: dict[str, object] = {}
+
+    def wrap(self, real):
+        def save(fig, out_stem, notes=()):
+            self.figures[Path(out_stem).name] = fig
+            return real(fig, out_stem, notes)
+        return save
+
+
+@pytest.fixture(scope="module")
+def saved_figures(products: Path, tmp_path_factory) -> dict:
+    """Every campaign figure of the products fixture (several flights, 30 and 60 m) and the diagnosis figures."""
+    from dronewind.figures import positions, quadrant, scatter, style
+
+    spy = _Spy()
+    mp = pytest.MonkeyPatch()
+    for module in (campaign, diagnosis, fluxes, positions, quadrant, scatter, spectra, statistics, synchronisation,
+                   timeseries):
+        if hasattr(module, "save_figure"):
+            mp.setattr(module, "save_figure", spy.wrap(style.save_figure))
+    try:
+        out = tmp_path_factory.mktemp("layout")
+        campaign.draw_all(products, out)
+        ev = _evidence(4)
+        diag = {"campaign": "demo", "named_causes": ["w_gain"]}
+        diagnosis.residuals_figure(ev, ev.baseline + 0.1, diag, out, features=FEATURES, labels=FEATURE_LABELS)
+        model = {f: {"baseline": _binned(0.9), "extended": _binned(0.9)} for f in ev.flights}
+        diagnosis.spectra_figure(ev, {f: _binned(1.0) for f in ev.flights}, model, diag, out)
+    finally:
+        mp.undo()
+    return spy.figures
+
+
+def _data_points(ax) -> np.ndarray:
+    """Display coordinates of every drawn data point of the lines of ``ax`` inside its view."""
+    pts = []
+    (x0, x1), (y0, y1) = sorted(ax.get_xlim()), sorted(ax.get_ylim())
+    for line in ax.get_lines():
+        x, y = (np.asarray(v, dtype=float) for v in line.get_data())
+        if line.get_transform() != ax.transData or x.size == 0:
+            continue  # axis-fraction lines (axhline/axvline) are frame, not data
+        keep = np.isfinite(x) & np.isfinite(y) & (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+        if keep.any():
+            pts.append(ax.transData.transform(np.column_stack([x[keep], y[keep]])))
+    return np.vstack(pts) if pts else np.empty((0, 2))
+
+
+def _boxes_overlap(boxes) -> list[tuple[int, int]]:
+    return [(i, j) for i in range(len(boxes)) for j in range(i + 1, len(boxes)) if boxes[i].overlaps(boxes[j])]
+
+
+def test_no_legend_covers_data(saved_figures: dict) -> None:
+    assert {"fig04_tke_lag", "fig07_positions", "fig13_fluxes_obukhov", "fig15_quadrant",
+            "diagnosis_spectra"} <= set(saved_figures)
+    for name, fig in saved_figures.items():
+        renderer = fig.canvas.get_renderer()
+        legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+        for leg in legends:
+            box = leg.get_window_extent(renderer)
+            for ax in fig.axes:
+                pts = _data_points(ax)
+                inside = (pts[:, 0] > box.x0) & (pts[:, 0] < box.x1) & (pts[:, 1] > box.y0) & (pts[:, 1] < box.y1)
+                assert not inside.any(), f"{name}: legend covers {int(inside.sum())} data points of an axes"
+                titles = [t for t in (ax.title, ax._left_title, ax._right_title) if t.get_text()]
+                for title in titles:
+                    assert not box.overlaps(title.get_window_extent(renderer)), (name, title.get_text())
+
+
+def test_point_labels_do_not_overlap(saved_figures: dict) -> None:
+    from matplotlib.text import Text
+
+    labelled = 0
+    for name, fig in saved_figures.items():
+        renderer = fig.canvas.get_renderer()
+        for ax in fig.axes:
+            texts = [t for t in ax.texts if t.get_visible() and t.get_text()]
+            for t in texts:
+                if hasattr(t, "update_positions"):
+                    t.update_positions(renderer)
+            boxes = [Text.get_window_extent(t, renderer) for t in texts]
+            assert not _boxes_overlap(boxes), (name, [t.get_text() for t in texts])
+            labelled += len(texts)
+    assert labelled > 10
+
+
+def test_no_marker_is_clipped(saved_figures: dict) -> None:
+    checked = 0
+    for name, fig in saved_figures.items():
+        renderer = fig.canvas.get_renderer()
+        for ax in fig.axes:
+            (x0, x1), (y0, y1) = sorted(ax.get_xlim()), sorted(ax.get_ylim())
+            frame = ax.get_window_extent(renderer)
+            for line in ax.get_lines():
+                if line.get_linestyle() not in ("None", "none", "") or line.get_marker() in (None, "None", ""):
+                    continue
+                x, y = (np.asarray(v, dtype=float) for v in line.get_data())
+                ok = np.isfinite(x) & np.isfinite(y)
+                if not ok.any():
+                    continue
+                assert np.all((x[ok] >= x0) & (x[ok] <= x1) & (y[ok] >= y0) & (y[ok] <= y1)), (name, x, y)
+                # the whole marker, not only its centre, lies inside the axes
+                half = 0.5 * line.get_markersize() * fig.dpi / 72.0
+                px = ax.transData.transform(np.column_stack([x[ok], y[ok]]))
+                assert np.all((px[:, 0] - frame.x0 >= half) & (frame.x1 - px[:, 0] >= half)
+                              & (px[:, 1] - frame.y0 >= half) & (frame.y1 - px[:, 1] >= half)), (name, x, y)
+                checked += int(ok.sum())
+    assert checked > 50
+
+
+def test_tick_labels_do_not_collide(saved_figures: dict) -> None:
+    for name, fig in saved_figures.items():
+        renderer = fig.canvas.get_renderer()
+        for ax in fig.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                lo, hi = sorted(axis.get_view_interval())
+                labels = [t.label1 for t in axis.get_major_ticks()
+                          if lo <= t.get_loc() <= hi and t.label1.get_visible() and t.label1.get_text()]
+                boxes = [lab.get_window_extent(renderer) for lab in labels]
+                assert not _boxes_overlap(boxes), (name, [lab.get_text() for lab in labels])
+
+
+def test_symlog_ticks_are_thinned_decades() -> None:
+    from dronewind.figures.scatter import symlog_ticks
+
+    ticks = symlog_ticks(5e4, 1.0)
+    assert len(ticks) <= 5 and 0.0 in ticks and 1e4 in ticks and -1e4 in ticks
+    assert symlog_ticks(50.0, 10.0) == [-10.0, 0.0, 10.0]
+
+
+def test_captions_state_this_campaign(products: Path) -> None:
+    from dronewind.figures.captions import campaign_captions
+
+    captions = campaign_captions(products)
+    assert set(captions) == set(campaign.figure_captions())
+    fig12 = captions["fig12_mean_and_sigma"]
+    # the fixture compares at 30 m (s01, s02) and 60 m (s03, s04); s04 is unusable
+    assert "circles: reference sonic at 30 m (s01 and s02)" in fig12
+    assert "triangles: reference sonic at 60 m (s03 and s04)" in fig12
+    assert "s04 (hover window" in fig12 and "Ghirardelli et al. (2025), Fig. 12" in fig12
+    assert "low_wind_speed" in captions["fig15_quadrant"] and "s02" in captions["fig15_quadrant"]
+    assert all("seed 000" not in text for text in captions.values())

@@ -4,6 +4,7 @@
 # change), never the whole config: per-flight rules get their flight's manifest entry, its
 # reference sonic's entry and the `processing` keys they use; the manifest file is an input
 # only of the rules that read all of it (campaign record, campaign diagnosis).
+import os
 from pathlib import Path
 
 from snakemake.utils import min_version, validate
@@ -109,6 +110,11 @@ def bench_path(rule_name, *wildcard_names):
     return str(RESULTS / "benchmarks" / rule_name / f"{parts}.tsv")
 
 
+def report_caption(name):
+    """Caption of a figure in the HTML report: written from the data by rule report_pages (report.smk)."""
+    return os.path.abspath(RESULTS / "report" / "captions" / f"{name}.rst")
+
+
 def all_outputs():
     """Everything the default target builds for this campaign."""
     out = [str(RESULTS / "campaign.json")]
@@ -126,6 +132,7 @@ def all_outputs():
     if PUBLISHED:
         out.append(str(RESULTS / "published" / "report.md"))
     out += quadrotor_targets() + tunnel_targets()
+    out.append(str(RESULTS / "report" / "summary.html"))
     return out
 
 

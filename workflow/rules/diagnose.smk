@@ -110,14 +110,16 @@ rule diagnosis_report:
         csv=RESULTS / "diagnosis" / "residuals.csv",
         png=report(
             RESULTS / "figures" / "diagnosis_residuals.png",
-            caption="../report/diagnosis_residuals.rst",
+            caption=report_caption("diagnosis_residuals"),
             category="Diagnosis",
+            subcategory="Campaign diagnosis",
         ),
         pdf=RESULTS / "figures" / "diagnosis_residuals.pdf",
         spectra_png=report(
             RESULTS / "figures" / "diagnosis_spectra.png",
-            caption="../report/diagnosis_spectra.rst",
+            caption=report_caption("diagnosis_spectra"),
             category="Diagnosis",
+            subcategory="Campaign diagnosis",
         ),
         spectra_pdf=RESULTS / "figures" / "diagnosis_spectra.pdf",
     log:

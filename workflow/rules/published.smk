@@ -77,8 +77,9 @@ rule published_report:
         json=RESULTS / "published" / "before_after.json",
         png=report(
             RESULTS / "figures" / "published_before_after.png",
-            caption="../report/published_before_after.rst",
+            caption=report_caption("published_before_after"),
             category="Diagnosis",
+            subcategory="Published numbers",
         ),
         pdf=RESULTS / "figures" / "published_before_after.pdf",
     log:

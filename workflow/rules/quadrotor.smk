@@ -4,6 +4,14 @@
 # file), so a change to one flight reruns only that flight's jobs.
 from dronewind.steps.quadrotor import QUAD_TABLES
 
+# quadrotor figures in the report's "Validation" subcategory (the others: "Calibration")
+QUAD_VALIDATION = (
+    "quadrotor_fig5_validation",
+    "quadrotor_fig7_timeseries",
+    "quadrotor_fig8_profiles",
+    "quadrotor_fig9_variance",
+)
+
 if CAMPAIGN.simulated:
     # One simulate rule per flight: its outputs are the files the manifest names for the
     # flight's UAVs and tower, which no wildcard pattern can describe.
@@ -151,7 +159,15 @@ rule quadrotor_figures:
         l2=lambda wc: quad_nc("L2", quad_timeseries_flight()),
         reference=lambda wc: quad_raw(quad_timeseries_flight())[1],
     output:
-        [str(RESULTS / "figures" / f"{name}.png") for name in QUAD_FIGURES],
+        [
+            report(
+                str(RESULTS / "figures" / f"{name}.png"),
+                caption=report_caption(name),
+                category="Quadrotor fleet",
+                subcategory="Validation" if name in QUAD_VALIDATION else "Calibration",
+            )
+            for name in QUAD_FIGURES
+        ],
     log:
         log_path("quadrotor_figures"),
     benchmark:

@@ -54,7 +54,15 @@ if TUNNEL_RUNS is not None:
         input:
             [str(RESULTS / "tables" / f"tunnel_{t}.csv") for t in TUNNEL_TABLES],
         output:
-            [str(RESULTS / "figures" / f"{name}.png") for name in TUNNEL_FIGURES],
+            [
+                report(
+                    str(RESULTS / "figures" / f"{name}.png"),
+                    caption=report_caption(name),
+                    category="Wind tunnel",
+                    subcategory="Calibration and verification",
+                )
+                for name in TUNNEL_FIGURES
+            ],
         log:
             log_path("tunnel_figures"),
         benchmark:

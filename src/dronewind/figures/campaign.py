@@ -1,4 +1,4 @@
-r"""The campaign figures of seed 000 as one set: captions, registry and :func:`draw_all`.
+r"""The campaign figures of Ghirardelli et al. (2025) as one set: captions, registry and :func:`draw_all`.
 
 Every figure reads stored NetCDF files (L2, L3, L4; opened with
 :func:`dronewind.core.products.open_product`) and the campaign record ``campaign.json``,
@@ -46,11 +46,13 @@ from dronewind.figures.spectra import (
     figB2_normalised_temperature_spectra,
 )
 from dronewind.figures.statistics import fig12_mean_and_sigma, fig14_length_scales
-from dronewind.figures.style import PathLike
+from dronewind.figures.style import PAPERS, PathLike
 from dronewind.figures.synchronisation import fig04_tke_lag
 from dronewind.figures.timeseries import fig08_timeseries, fig10_temperature_series
 
 __all__ = ["FIGURE_FUNCTIONS", "draw_all", "figure_captions"]
+
+P000 = PAPERS["000"]
 
 
 def figure_captions() -> dict[str, str]:
@@ -59,50 +61,52 @@ def figure_captions() -> dict[str, str]:
     Returns
     -------
     dict of str to str
-        Name -> caption (plain text with a few reStructuredText-safe symbols), for the
-        Snakemake report.
+        Name -> what the figure shows, independent of any campaign (plain text). The
+        report's captions say what a campaign's figure shows:
+        :func:`dronewind.figures.captions.campaign_captions`.
     """
     return {
         "fig04_tke_lag": "Turbulent kinetic energy of the motion-corrected payload wind versus the lag added to "
         "the sonic clock relative to the INS, one curve per flight, each normalised by its minimum (after "
-        "seed 000, Fig. 4). Dashed and dash-dot vertical lines: smallest and largest lag of minimum TKE among "
+        f"{P000}, Fig. 4). Dashed and dash-dot vertical lines: smallest and largest lag of minimum TKE among "
         "the usable flights. Unusable flights grey, dashed.",
         "fig07_positions": "Left: payload height above ground (GNSS altitude minus site altitude) during the "
         "hover windows, with the mast sonic heights dotted. Right: payload position east/north of the mast, "
         "sonic head azimuths as black lines; coloured arrows from the median position point where the wind "
-        "measured by the reference mast sonic blows to, its mean speed written at the head (after seed 000, Fig. 7).",
+        "measured by the reference mast sonic blows to, its mean speed and direction in the legend "
+        f"(after {P000}, Fig. 7).",
         "fig08_timeseries": "Streamwise (u), cross-wind (v) and vertical (w) velocity in streamline coordinates "
         "(L3, 8 Hz), drone (blue) and reference mast sonic (orange), for the detailed flights; titles give the "
-        "heights and mean speeds from L4 (after seed 000, Fig. 8).",
+        f"heights and mean speeds from L4 (after {P000}, Fig. 8).",
         "fig09_velocity_spectra": "Frequency-weighted spectra f S_u, f S_v, f S_w (log-log) and co-spectrum "
         "f Re(S_uw) (linear y), drone (blue) and mast (orange), with the blunt/pointed model fitted to the drone "
-        "(black, seed 000 Eqs 4-7); standard deviations and u'w' in the panel titles (after seed 000, Fig. 9).",
+        f"(black, {P000} Eqs 4-7); standard deviations and u'w' in the panel titles (after {P000}, Fig. 9).",
         "fig10_temperature_series": "Sonic temperature fluctuations (minus the stored mean of each sensor), "
-        "drone (blue) and mast (orange), for the detailed flights; the means are in the legend (after seed 000, "
+        f"drone (blue) and mast (orange), for the detailed flights; the means are in the legend (after {P000}, "
         "Fig. 10).",
         "fig11_temperature_spectra": "Frequency-weighted sonic-temperature spectrum f S_theta (log-log) and "
         "co-spectra f Re(S_w theta) and f Re(S_u theta) (linear y), drone (blue) and mast (orange) (after seed "
         "000, Fig. 11).",
         "fig12_mean_and_sigma": "Drone versus mast mean wind speed and standard deviations of u, v, w, one colour "
-        "per flight; circles: reference sonic at the lower height (30 m), triangles: the upper (60 m); dashed: "
-        "1:1 (after seed 000, Fig. 12).",
+        "per flight, one marker per reference height (lowest first: circles, triangles, squares); dashed: "
+        f"1:1 (after {P000}, Fig. 12).",
         "fig13_fluxes_obukhov": "Drone versus mast covariances u'w', v'w', w'theta_v' and Obukhov length L "
-        "(symmetric-log axes); markers as in Fig. 12 (after seed 000, Fig. 13).",
+        f"(symmetric-log axes); markers as in Fig. 12 (after {P000}, Fig. 13).",
         "fig14_length_scales": "Drone versus mast integral length scales L_u, L_v, L_w (exponential fit of the "
-        "autocovariance and Taylor's hypothesis); flights where I_u >= 0.5 or U <= 1 m/s are left out and listed "
-        "(after seed 000, Fig. 14).",
+        "autocovariance and Taylor's hypothesis); flights where I_u >= 0.5 or U <= 1 m s⁻¹ are left out and listed "
+        f"(after {P000}, Fig. 14).",
         "fig15_quadrant": "Quadrant analysis of the frequency-averaged spectral ratios <S_w/S_u> (left) and "
         "<S_v/S_u> (right) over 2 < f z/U < 10, drone versus mast, coloured by the mast mean speed; lines at the "
-        "isotropic 4/3; grey triangles: mean speed below the low-wind limit (after seed 000, Figs 6 and 15).",
-        "fig16_uncertainty": "Normalised random-uncertainty metrics (seed 000 Eqs 10-13) of the variances, "
+        f"isotropic 4/3; grey triangles: mean speed below the low-wind limit (after {P000}, Figs 6 and 15).",
+        "fig16_uncertainty": f"Normalised random-uncertainty metrics ({P000} Eqs 10-13) of the variances, "
         "momentum fluxes and buoyancy flux, drone (y) versus mast (x); green: below 0.5, low statistical "
-        "uncertainty (after seed 000, Fig. 16).",
+        f"uncertainty (after {P000}, Fig. 16).",
         "figB1_normalised_velocity_spectra": "Spectra of u, v, w normalised by their variances, and the u-w "
         "co-spectrum normalised by u'w', drone (blue) and mast (orange), for the flights not shown in detail "
-        "(after seed 000, Fig. B1).",
+        f"(after {P000}, Fig. B1).",
         "figB2_normalised_temperature_spectra": "Sonic-temperature spectrum normalised by its variance and the "
         "w-theta and u-theta co-spectra normalised by their covariances, drone (blue) and mast (orange), for the "
-        "flights not shown in detail (after seed 000, Fig. B2).",
+        f"flights not shown in detail (after {P000}, Fig. B2).",
     }
 
 

@@ -15,11 +15,10 @@ from typing import Any, Protocol
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.figure import Figure
 
-from dronewind.figures.style import save_figure
+from dronewind.figures.style import UNIT_MS, new_figure, save_figure
 
-__all__ = ["RESIDUAL_FEATURES", "Evidence", "residuals_figure", "spectra_figure"]
+__all__ = ["RESIDUAL_FEATURES", "Evidence", "residuals_figure", "spectra_figure", "spread_by_speed"]
 
 #: Features shown in the residual figure (3 x 3 panels).
 RESIDUAL_FEATURES: tuple[str, ...] = (
@@ -39,8 +38,11 @@ class Evidence(Protocol):
 
 
 def _named(diag: Mapping[str, Any]) -> str:
-    """The named causes of ``diagnosis.json`` as text ("none" without any)."""
-    return ", ".join(diag.get("named_causes") or []) or "none"
+    """The verdict of ``diagnosis.json`` in a few words (for the figure titles)."""
+    named = list(diag.get("named_causes") or [])
+    if not named:
+        return "no mechanism significant"
+    return "named cause" + ("s" if len(named) > 1 else "") + ": " + ", ".join(named)
 
 
 # ----------------------------------------------------------------------------- residuals
@@ -57,7 +59,7 @@ def _residual_panel(ax: Axes, ev: Evidence, after: np.ndarray | None, speed_ms: 
         ax.errorbar(speed_ms + 0.1, r1, yerr=ev.sigma[:, j], fmt="s", color="tab:blue", label="extended model",
                     capsize=2)
     ax.axhline(0, color="k", lw=0.8)
-    ax.set_xlabel("mast mean wind speed [m s$^{-1}$]")
+    ax.set_xlabel("mast mean wind speed (m s$^{-1}$)")
     ax.set_ylabel("measured − predicted")
     ax.set_title(label, fontsize=9)
     ax.grid(alpha=0.3)
@@ -88,22 +90,22 @@ def residuals_figure(ev: Evidence, after: np.ndarray | None, diag: Mapping[str, 
         Written files.
     """
     speed = np.array([c.get("mean_speed_ms", np.nan) for c in ev.conditions], dtype=float)
-    fig = Figure(figsize=(12, 10), dpi=100)
+    fig = new_figure(12, 10)
     axes = fig.subplots(3, 3)
     for ax, feat in zip(axes.ravel(), RESIDUAL_FEATURES, strict=True):
         _residual_panel(ax, ev, after, speed, list(features).index(feat), labels[feat])
     if ev.flights:
-        axes[0, 0].legend(fontsize=8)
+        handles, names = axes[0, 0].get_legend_handles_labels()
+        fig.legend(handles, names, loc="outside upper center", ncol=len(names), fontsize=8, frameon=False)
     note = "" if ev.flights else " (no usable flight)"
-    fig.suptitle(f"Diagnosis of {diag.get('campaign')}: residuals before and after (named: {_named(diag)}){note}")
-    fig.tight_layout()
+    fig.suptitle(f"Diagnosis of {diag.get('campaign')}: residuals before and after ({_named(diag)}){note}")
     return save_figure(fig, out_dir / "diagnosis_residuals", [note.strip(" ()")] if note else ())
 
 
 # ----------------------------------------------------------------------------- spectra
 
 
-def _spread_by_speed(flights: list[str], speed_ms: Mapping[str, float], n_flights: int) -> list[str]:
+def spread_by_speed(flights: list[str], speed_ms: Mapping[str, float], n_flights: int) -> list[str]:
     """Up to ``n_flights`` flights spread over the wind-speed range (lowest, middle, highest)."""
     flights = sorted(flights, key=lambda f: speed_ms[f])
     if len(flights) > n_flights:
@@ -112,20 +114,37 @@ def _spread_by_speed(flights: list[str], speed_ms: Mapping[str, float], n_flight
     return flights
 
 
+def _same_model(model: Mapping[str, Any], comp: str) -> bool:
+    """Whether the extended model's drone spectrum is the baseline's (nothing named: one curve)."""
+    base, ext = model.get("baseline"), model.get("extended")
+    if not base or not ext:
+        return False
+    return bool(np.array_equal(np.asarray(base["f_hz"]), np.asarray(ext["f_hz"]))
+                and np.allclose(base[f"drone_{comp}"], ext[f"drone_{comp}"], rtol=1e-9, atol=0.0))
+
+
 def _spectra_panel(ax: Axes, measured: Mapping[str, Any], model: Mapping[str, Any], comp: str, title: str) -> None:
-    """Premultiplied spectra of one component: measured drone and mast, baseline and extended model drone."""
+    """Premultiplied spectra of one component: measured drone and mast, baseline and extended model drone.
+
+    When the extended model is the baseline (nothing named), one model curve is drawn and
+    labelled so; otherwise the baseline (dashed) is drawn over the extended model.
+    """
     f = np.asarray(measured["f_hz"])
     ax.loglog(f, f * np.asarray(measured[f"drone_{comp}"]), color="k", lw=1.4, label="measured drone")
     ax.loglog(f, f * np.asarray(measured[f"mast_{comp}"]), color="0.6", lw=1.0, label="measured mast")
-    for key, colour in (("baseline", "tab:red"), ("extended", "tab:blue")):
+    same = _same_model(model, comp)
+    styles = {"extended": ("tab:blue", "-", 2, "extended model drone"),
+              "baseline": ("tab:red", "--", 3, "baseline model drone")}
+    if same:
+        styles = {"baseline": ("tab:red", "-", 2, "model drone (baseline = extended: nothing named)")}
+    for key, (colour, ls, z, label) in styles.items():
         s = model.get(key)
         if s:
             fm = np.asarray(s["f_hz"])
-            ax.loglog(fm, fm * np.asarray(s[f"drone_{comp}"]), color=colour, lw=1.0,
-                      ls="--" if key == "baseline" else "-", label=f"{key} model drone")
+            ax.loglog(fm, fm * np.asarray(s[f"drone_{comp}"]), color=colour, lw=1.0, ls=ls, zorder=z, label=label)
     ax.set_title(title, fontsize=9)
-    ax.set_xlabel("f [Hz]")
-    ax.set_ylabel(f"$fS_{comp}$ [m$^2$ s$^{{-2}}$]")
+    ax.set_xlabel("f (Hz)")
+    ax.set_ylabel(f"$fS_{comp}$ (m$^2$ s$^{{-2}}$)")
     ax.grid(alpha=0.3, which="both")
 
 
@@ -159,17 +178,16 @@ def spectra_figure(ev: Evidence, measured: Mapping[str, Mapping[str, Any]], mode
         Written files.
     """
     speed = {f: c.get("mean_speed_ms", np.nan) for f, c in zip(ev.flights, ev.conditions, strict=True)}
-    flights = _spread_by_speed([f for f in ev.flights if f in measured and f in model], speed, n_flights)
-    fig = Figure(figsize=(11, 3.4 * max(len(flights), 1)), dpi=100)
+    flights = spread_by_speed([f for f in ev.flights if f in measured and f in model], speed, n_flights)
+    fig = new_figure(11, 3.4 * max(len(flights), 1))
     axes = np.atleast_2d(fig.subplots(max(len(flights), 1), 2))
     notes = [] if flights else ["no flight with stored spectra"]
     for row, flight in zip(axes, flights, strict=False):
         for ax, comp in zip(row, ("u", "w"), strict=True):
             _spectra_panel(ax, measured[flight], model[flight], comp,
-                           f"{flight}, U = {speed[flight]:.1f} m/s: $fS_{comp}$")
+                           f"{flight}, mast $\\bar u$ = {speed[flight]:.1f} {UNIT_MS}: $fS_{comp}$")
     if flights:
-        axes[0, 0].legend(fontsize=7)
-    fig.suptitle(f"Diagnosis of {diag.get('campaign')}: spectra, measured vs model before/after "
-                 f"(named: {_named(diag)})")
-    fig.tight_layout()
+        handles, names = axes[0, 0].get_legend_handles_labels()
+        fig.legend(handles, names, loc="outside upper center", ncol=len(names), fontsize=7.5, frameon=False)
+    fig.suptitle(f"Diagnosis of {diag.get('campaign')}: spectra, measured vs model before/after ({_named(diag)})")
     return save_figure(fig, out_dir / "diagnosis_spectra", notes)

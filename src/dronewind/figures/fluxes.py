@@ -60,11 +60,11 @@ def _uncertainty_quantities(metric: str) -> list[Quantity]:
 
 
 def _low_uncertainty_patch(ax: Axes, threshold: float, letter: str) -> None:
-    """Axes from 0, the green square below ``threshold``, the 1:1 line and the panel letter."""
+    """Axes from just below 0 (markers at 0 stay whole), the green square below ``threshold``, 1:1, the letter."""
     lo, hi = ax.get_xlim()
     top = max(hi, 1.1 * threshold)
-    ax.set_xlim(0.0, top)
-    ax.set_ylim(0.0, top)
+    ax.set_xlim(-0.04 * top, top)
+    ax.set_ylim(-0.04 * top, top)
     ax.fill_between([0.0, threshold], 0.0, threshold, color="tab:green", alpha=0.25, lw=0, zorder=0)
     ax.plot([0.0, top], [0.0, top], color="k", lw=0.8, ls="--")
     ax.set_title(f"({letter})", fontsize=9, loc="left")

@@ -13,22 +13,24 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 import xarray as xr
 from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 from dronewind.core.geo import local_tangent_plane_m
 from dronewind.core.products import L4Products, load_l4_products, open_by_flight, stored_scalar
 from dronewind.figures.style import (
+    UNIT_MS,
     UNUSABLE_COLOUR,
     PathLike,
     add_notes,
     flight_colours,
-    legend,
     minutes,
     new_figure,
     no_data,
@@ -39,7 +41,7 @@ __all__ = ["fig07_positions"]
 
 
 class _Arrow(NamedTuple):
-    """A wind arrow: start east/north of the mast [m], direction the wind blows to [m s-1], colour, speed."""
+    """A wind arrow: start east/north of the mast [m], wind vector [m s-1], colour, speed [m s-1], from [deg]."""
 
     east_m: float
     north_m: float
@@ -47,6 +49,8 @@ class _Arrow(NamedTuple):
     v_ms: float
     colour: Any
     speed_ms: float
+    from_deg: float
+    flight: str
 
 
 class _LineStyle(NamedTuple):
@@ -131,19 +135,21 @@ def _wind_arrow(ax: Axes, flight: str, ds: xr.Dataset, origin: tuple[float, floa
     ax.plot(e0, n0, marker="o", ms=4, color=colour)
     if np.isfinite(speed) and np.isfinite(wfrom) and speed > 0:
         return _Arrow(float(e0), float(n0), -speed * math.sin(math.radians(wfrom)),
-                      -speed * math.cos(math.radians(wfrom)), colour, speed)
+                      -speed * math.cos(math.radians(wfrom)), colour, speed, wfrom, flight)
     notes.append(f"{flight}: no wind arrow (mast U_ms or wind_from_deg missing or NaN).")
     return None
 
 
 def _draw_flights(ax_h: Axes, ax_p: Axes, drones: Mapping[str, xr.Dataset], l4: L4Products, site_altitude_m: float,
-                  origin: tuple[float, float], notes: list[str]) -> tuple[list[float], list[_Arrow]]:
-    """Height series and track of every flight; return the track extents [m] and the wind arrows."""
+                  origin: tuple[float, float], notes: list[str]
+                  ) -> tuple[list[float], list[_Arrow], dict[str, _LineStyle]]:
+    """Height series and track of every flight; return the track extents [m], the wind arrows, the line styles."""
     colours = flight_colours(list(drones))
     span = [1.0]
     arrows = []
+    styles = {}
     for flight, ds in drones.items():
-        style = _line_style(flight, ds, colours[flight], notes)
+        style = styles[flight] = _line_style(flight, ds, colours[flight], notes)
         _height_series(ax_h, flight, ds, site_altitude_m, style, notes)
         extent = _track(ax_p, flight, ds, origin, style, notes)
         if extent is None:
@@ -152,14 +158,14 @@ def _draw_flights(ax_h: Axes, ax_p: Axes, drones: Mapping[str, xr.Dataset], l4: 
         arrow = _wind_arrow(ax_p, flight, ds, origin, l4.get(flight, {}).get("mast"), style.colour, notes)
         if arrow is not None:
             arrows.append(arrow)
-    return span, arrows
+    return span, arrows, styles
 
 
 # ----------------------------------------------------------------------------- panels
 
 
 def _finish_height_panel(ax: Axes, sonics: Mapping[str, Mapping[str, Any]], have_drones: bool) -> None:
-    """Dotted lines at the mast sonic heights, labels, legend (or a no-data note)."""
+    """Dotted lines at the mast sonic heights with their labels, axis labels (or a no-data note)."""
     heights = sorted({float(s["height_m"]) for s in sonics.values()})
     for h in heights:
         ax.axhline(h, color="k", lw=0.8, ls=":")
@@ -167,36 +173,52 @@ def _finish_height_panel(ax: Axes, sonics: Mapping[str, Mapping[str, Any]], have
     ax.set_xlabel("time since start of the hover window (min)")
     ax.set_ylabel("payload height above ground (m)")
     ax.grid(alpha=0.3)
-    if have_drones:
-        legend(ax, fontsize=7, ncol=2)
-    else:
+    if not have_drones:
         no_data(ax, "no L2 drone files")
 
 
 def _mast_and_sonic_heads(ax: Axes, sonics: Mapping[str, Mapping[str, Any]], lim_m: float) -> None:
-    """The mast at the origin and a line towards each sonic head's azimuth, listed in a box."""
+    """The mast at the origin and a line towards each sonic head's azimuth (listed in the legend)."""
     ax.plot(0, 0, marker="s", color="k", ms=7, ls="none")
-    ax.annotate("mast", (0, 0), xytext=(5, 5), textcoords="offset points", fontsize=8)
-    lines = []
-    for sid, sonic in sonics.items():
+    for sonic in sonics.values():
         az_deg = float(sonic.get("azimuth_deg", math.nan))
         if np.isfinite(az_deg):
             az = math.radians(az_deg)
             ax.plot([0, 0.2 * lim_m * math.sin(az)], [0, 0.2 * lim_m * math.cos(az)], color="k", lw=1.0)
-            lines.append(f"{sid}: {float(sonic['height_m']):g} m, head towards {az_deg:g}°")
-    if lines:
-        ax.text(0.02, 0.02, "\n".join(lines), transform=ax.transAxes, fontsize=7, va="bottom", ha="left",
-                bbox={"facecolor": "w", "edgecolor": "0.7", "alpha": 0.9})
 
 
 def _draw_wind_arrows(ax: Axes, arrows: Iterable[_Arrow], lim_m: float) -> None:
-    """Direction-only arrows of fixed length; the stored speed is written at the head."""
+    """Direction-only arrows of fixed length (the stored speeds are in the figure legend)."""
     length = 0.25 * lim_m
-    for e0, n0, u, v, colour, speed in arrows:
+    for e0, n0, u, v, colour, speed, *_ in arrows:
         ax.annotate("", xy=(e0 + length * u / speed, n0 + length * v / speed), xytext=(e0, n0),
                     arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 1.6})
-        ax.annotate(f"{speed:.1f} m s$^{{-1}}$", (e0 + 1.45 * length * u / speed, n0 + 1.45 * length * v / speed),
-                    fontsize=7, color=colour if colour != UNUSABLE_COLOUR else "0.4", ha="center", va="center")
+
+
+def _flight_legend(fig: Figure, drones: Mapping[str, xr.Dataset], arrows: Sequence[_Arrow],
+                   styles: Mapping[str, _LineStyle], site_altitude_m: float,
+                   sonics: Mapping[str, Mapping[str, Any]]) -> None:
+    """One legend outside the panels: per flight its colour, median height and the mast wind; the sonic heads."""
+    wind = {a.flight: a for a in arrows}
+    handles: list[Any] = []
+    for flight, style in styles.items():
+        ds = drones[flight]
+        text = style.label
+        if "altitude" in ds.variables:
+            text += f", {float(np.nanmedian(ds['altitude'].values)) - site_altitude_m:.0f} m"
+        if flight in wind:
+            a = wind[flight]
+            text += f": {a.speed_ms:.1f} {UNIT_MS} from {a.from_deg:.0f}°"
+        handles.append(Line2D([], [], color=style.colour, ls=style.ls, lw=1.4, label=text))
+    handles.append(Line2D([], [], color="k", marker="s", ms=6, ls="none", label="mast"))
+    for sid, sonic in sonics.items():
+        az_deg = float(sonic.get("azimuth_deg", math.nan))
+        if np.isfinite(az_deg):
+            handles.append(Line2D([], [], color="k", lw=1.0,
+                                  label=f"{sid} ({float(sonic['height_m']):g} m) head towards {az_deg:g}°"))
+    if handles:
+        fig.legend(handles=handles, loc="outside right upper", fontsize=7, frameon=False,
+                   title="flight, median height: mast wind", title_fontsize=7)
 
 
 def _finish_position_panel(ax: Axes, lim_m: float) -> None:
@@ -238,9 +260,10 @@ def fig07_positions(l2_drone_files: Iterable[PathLike], l4_files: Iterable[PathL
     -----
     Height = GNSS ``altitude`` - site ``altitude_m``. Arrows start at the stored nominal
     position of the drone file (median of the track) and point where the wind blows to
-    (reference mast's stored ``wind_from_deg``); they have a fixed length and the mast's
-    stored ``U_ms`` is written at the head (seed 000 scales them to a 2 m/s reference
-    vector, which makes 10 m/s arrows leave the panel).
+    (reference mast's stored ``wind_from_deg``); they have a fixed length (Ghirardelli et al. (2025)
+    scale them to a 2 m s-1 reference vector, which makes 10 m s-1 arrows leave the panel). No text is drawn on
+    the data: one legend outside the panels gives each flight's colour, median height and
+    the mast's stored ``U_ms`` and ``wind_from_deg``, and the sonic heads' azimuths.
     """
     content = _campaign_content(campaign_json)
     sonics = _sonics(content)
@@ -249,11 +272,13 @@ def fig07_positions(l2_drone_files: Iterable[PathLike], l4_files: Iterable[PathL
     ax_h, ax_p = fig.subplots(1, 2, width_ratios=[1.2, 1.0])
     notes: list[str] = []
     origin = _mast_origin(content, sonics, notes)
-    span, arrows = _draw_flights(ax_h, ax_p, drones, load_l4_products(l4_files),
-                                 float(content["site"]["altitude_m"]), origin, notes)
+    site_altitude_m = float(content["site"]["altitude_m"])
+    span, arrows, styles = _draw_flights(ax_h, ax_p, drones, load_l4_products(l4_files), site_altitude_m, origin,
+                                         notes)
     _finish_height_panel(ax_h, sonics, bool(drones))
     lim = 1.15 * max(span)
     _mast_and_sonic_heads(ax_p, sonics, lim)
     _draw_wind_arrows(ax_p, arrows, lim)
     _finish_position_panel(ax_p, lim)
+    _flight_legend(fig, drones, arrows, styles, site_altitude_m, sonics)
     return save_figure(fig, out_stem, add_notes(fig, notes))

@@ -49,8 +49,8 @@ def _sigma_w_panel(a: Axes, summary: Mapping[str, Any]) -> None:
         a.plot(u, d, marker="*", ms=14, color="k", ls="none", label="Table 5" if k == sorted(points)[0] else None)
         a.annotate(k, (u, d), textcoords="offset points", xytext=(5, 5))
     a.axhline(0, color="k", lw=0.5)
-    a.set_xlabel("mean wind speed at the mast, Table 4 [m s$^{-1}$]")
-    a.set_ylabel(r"$\sigma_{w,\mathrm{drone}} - \sigma_{w,\mathrm{mast}}$ [m s$^{-1}$]")
+    a.set_xlabel("mean wind speed at the mast, Table 4 (m s$^{-1}$)")
+    a.set_ylabel(r"$\sigma_{w,\mathrm{drone}} - \sigma_{w,\mathrm{mast}}$ (m s$^{-1}$)")
     a.set_title("σ_w excess against wind speed (Sect. 5.2)")
     a.legend(fontsize=8)
 

@@ -20,8 +20,8 @@ from dronewind.figures.style import (
     UNIT_MS,
     PathLike,
     add_notes,
-    legend,
     new_figure,
+    place_labels,
     save_figure,
     status_text,
 )
@@ -43,9 +43,9 @@ def _speed_norm(l4: L4Products) -> Normalize:
 
 
 def _ratio_points(ax: Axes, l4: L4Products, name: str, norm: Normalize, cmap: Colormap, low_speed_ms: float,
-                  notes: list[str]) -> list[float]:
-    """Plot drone against mast ratio ``name`` of every usable flight; return the drawn values."""
-    values = []
+                  notes: list[str]) -> dict[str, tuple[float, float]]:
+    """Plot drone against mast ratio ``name`` of every usable flight; return flight -> drawn (mast, drone)."""
+    values: dict[str, tuple[float, float]] = {}
     for flight, prod in l4.items():
         usable, reason = drone_usable(prod)
         if not usable:
@@ -62,8 +62,7 @@ def _ratio_points(ax: Axes, l4: L4Products, name: str, norm: Normalize, cmap: Co
             ax.plot(x, y, ls="none", marker="^", ms=8, color="0.6", mec="k", mew=0.5)
         else:
             ax.plot(x, y, ls="none", marker="o", ms=8, color=cmap(norm(speed)), mec="k", mew=0.5)
-        ax.annotate(flight, (x, y), xytext=(4, 4), textcoords="offset points", fontsize=7)
-        values += [x, y]
+        values[flight] = (x, y)
     return values
 
 
@@ -89,14 +88,15 @@ def _quadrant_frame(ax: Axes, values: list[float], label: str) -> None:
 
 
 def _speed_key(fig: Figure, axes: Sequence[Axes], norm: Normalize, cmap: Colormap, low_speed_ms: float) -> None:
-    """Colour bar of the mast speed and the legend entry of the low-wind triangles."""
+    """Colour bar of the mast speed and, outside the panels, the key of the low-wind triangles."""
     from matplotlib.cm import ScalarMappable
+    from matplotlib.lines import Line2D
 
     fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=list(axes), label=f"mast $\\bar u$ ({UNIT_MS})",
                  shrink=0.85)
-    axes[0].plot([], [], ls="none", marker="^", color="0.6", mec="k",
-                 label=f"$\\bar u$ < {low_speed_ms:g} {UNIT_MS}")
-    legend(axes[0], fontsize=7, loc="lower center")
+    key = Line2D([], [], ls="none", marker="^", color="0.6", mec="k",
+                 label=f"mast $\\bar u$ < {low_speed_ms:g} {UNIT_MS}")
+    fig.legend(handles=[key], loc="outside right lower", fontsize=7, frameon=False)
 
 
 def fig15_quadrant(l4_files: Iterable[PathLike], out_stem: PathLike, low_speed_ms: float = 2.0) -> list[Path]:
@@ -132,8 +132,15 @@ def fig15_quadrant(l4_files: Iterable[PathLike], out_stem: PathLike, low_speed_m
     notes: list[str] = []
     norm = _speed_norm(l4)
     cmap = colormaps["viridis"]
+    drawn = []
     for ax, (name, label) in zip(axes, RATIOS, strict=True):
         values = _ratio_points(ax, l4, name, norm, cmap, low_speed_ms, notes)
-        _quadrant_frame(ax, values, label)
+        _quadrant_frame(ax, [v for xy in values.values() for v in xy], label)
+        drawn.append(values)
     _speed_key(fig, axes, norm, cmap, low_speed_ms)
-    return save_figure(fig, out_stem, add_notes(fig, notes))
+    notes = add_notes(fig, notes)  # the layout is final before the labels are placed
+    for ax, values in zip(axes, drawn, strict=True):
+        crowded = place_labels(ax, list(values.values()), list(values), marker_size_pt=8.0)
+        if crowded:
+            ax.set_title(f"not labelled (crowded): {', '.join(crowded)}", fontsize=7, loc="left")
+    return save_figure(fig, out_stem, notes)

@@ -110,7 +110,7 @@ def _fig3_individual(win: pd.DataFrame, label: str, path: Path, note: str) -> Pa
     fig, ax = _figure()
     _scatter_by_uav(ax, win, "ref_speed_ms", "speed_individual_ms")
     _one_to_one(ax, win["ref_speed_ms"], win["speed_individual_ms"])
-    ax.set(xlabel="tower wind speed [m/s]", ylabel="UAV wind speed [m/s]",
+    ax.set(xlabel="tower wind speed (m s$^{-1}$)", ylabel="UAV wind speed (m s$^{-1}$)",
            title=f"individual calibration, {win['flight'].nunique()} flights, {label}")
     ax.legend(fontsize=7, ncol=2)
     return _save(fig, path, note)
@@ -125,8 +125,8 @@ def _fig4_regression(win: pd.DataFrame, summary: dict[str, Any], path: Path, ski
     if curve:
         ax.plot(curve["tilt_deg"], curve["speed_ms"], "k-",
                 label=f"c_d0A0 = {aero.get('cd0a0_m2', np.nan):.4f} m2, c_p = {aero.get('cp_m2_per_rad', np.nan):.4f}")
-    ax.set(xlabel="tilt, offset-corrected [degree]", ylabel="tower wind speed [m/s]",
-           title="universal regression (seed 001 Eq. 18 form)")
+    ax.set(xlabel="tilt, offset-corrected (°)", ylabel="tower wind speed (m s$^{-1}$)",
+           title="universal regression (Wetz et al. (2021), Eq. 18 form)")
     ax.legend(fontsize=7, ncol=2)
     note = skipped if summary.get("converged", True) else "calibration NOT converged; " + skipped
     return _save(fig, path, note)
@@ -137,7 +137,7 @@ def _fig5_validation(val: pd.DataFrame, path: Path, note: str) -> Path:
     fig, ax = _figure()
     _scatter_by_uav(ax, val, "ref_speed_ms", "uav_speed_ms")
     _one_to_one(ax, val["ref_speed_ms"], val["uav_speed_ms"])
-    ax.set(xlabel="tower wind speed [m/s]", ylabel="UAV wind speed [m/s]",
+    ax.set(xlabel="tower wind speed (m s$^{-1}$)", ylabel="UAV wind speed (m s$^{-1}$)",
            title=f"validation flights ({val['flight'].nunique()}), universal law + pitch offsets")
     ax.legend(fontsize=7, ncol=2)
     return _save(fig, path, note)
@@ -148,8 +148,8 @@ def _fig6_direction(val: pd.DataFrame, path: Path, note: str) -> Path:
     fig, ax = _figure()
     _scatter_by_uav(ax, val, "ref_from_deg", "uav_from_deg")
     ax.plot([0, 360], [0, 360], color="0.5", lw=0.8, ls="--")
-    ax.set(xlim=(0, 360), ylim=(0, 360), xlabel="tower wind direction [degree]",
-           ylabel="UAV wind direction (corrected yaw) [degree]", title="wind direction with yaw offsets")
+    ax.set(xlim=(0, 360), ylim=(0, 360), xlabel="tower wind direction (°)",
+           ylabel="UAV wind direction (corrected yaw) (°)", title="wind direction with yaw offsets")
     ax.legend(fontsize=7, ncol=2)
     return _save(fig, path, note)
 
@@ -188,8 +188,8 @@ def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path,
         t = np.concatenate([d["time"].values for _, d in series])
         ax.set_xlim(t.min(), t.max())
         ax_one.legend(fontsize=7)
-    ax_one.set(ylabel="wind speed [m/s]", title=f"flight {flight}: (a) highest UAV vs tower, (b) all UAVs")
-    ax.set(xlabel="time (UTC)", ylabel="wind speed [m/s]")
+    ax_one.set(ylabel="wind speed (m s$^{-1}$)", title=f"flight {flight}: (a) highest UAV vs tower, (b) all UAVs")
+    ax.set(xlabel="time (UTC)", ylabel="wind speed (m s$^{-1}$)")
     ax.xaxis.set_major_formatter(DateFormatter("%H:%M"))
     ax.legend(fontsize=7, ncol=4)
     return _save(fig, path, "; ".join(notes))
@@ -204,7 +204,7 @@ def _fig8_profiles(prof: pd.DataFrame, path: Path, note: str) -> Path:
         ax.errorbar(g["uav_speed_ms"], g["height_m"], xerr=g["rmse_ms"], fmt="o" + style, ms=4,
                     label=f"UAVs, flight {flight}")
         ax.plot(g["ref_speed_ms"], g["ref_height_m"], "k" + style, marker="s", ms=4, label=f"tower, flight {flight}")
-    ax.set(xlabel="wind speed [m/s]", ylabel="height [m]", title="profiles (error bars: UAV RMSE, Sect. 5.3)")
+    ax.set(xlabel="wind speed (m s$^{-1}$)", ylabel="height (m)", title="profiles (error bars: UAV RMSE, Sect. 5.3)")
     ax.legend(fontsize=7)
     return _save(fig, path, note)
 
@@ -219,7 +219,8 @@ def _fig9_variance(win: pd.DataFrame, path: Path) -> Path:
         note = f"{int((~ok).sum())} window(s) without a variance" if (~ok).any() else ""
     else:
         note = "no tower variance stored"
-    ax.set(xlabel="tower variance of 1-min means [m2/s2]", ylabel="UAV variance of 1-min means [m2/s2]",
+    ax.set(xlabel="tower variance of 1-min means (m$^2$ s$^{-2}$)",
+           ylabel="UAV variance of 1-min means (m$^2$ s$^{-2}$)",
            title="wind-speed variance per window")
     ax.legend(fontsize=7, ncol=2)
     return _save(fig, path, note)
@@ -284,11 +285,11 @@ def _tunnel_fig4_sideslip(side: pd.DataFrame, path: Path) -> Path:
     if len(side) and "speed_bin_ms" in side:
         s = side[side["speed_bin_ms"].notna()]
         for aos, g in s.groupby("aos_deg"):
-            ax.plot(g["speed_bin_ms"], g["rmse_ms"], "o-", ms=3, label=f"AoS {aos:g} deg")
+            ax.plot(g["speed_bin_ms"], g["rmse_ms"], "o-", ms=3, label=f"AoS {aos:g}°")
         ax.legend(fontsize=7)
     else:
         note = "no sideslip runs"
-    ax.set(xlabel="CTA wind speed [m/s]", ylabel="RMSE of the UAS speed [m/s]", title="angle of sideslip")
+    ax.set(xlabel="CTA wind speed (m s$^{-1}$)", ylabel="RMSE of the UAS speed (m s$^{-1}$)", title="angle of sideslip")
     return _save(fig, path, note)
 
 
@@ -302,7 +303,8 @@ def _tunnel_fig5_portability(acc: pd.DataFrame, path: Path) -> Path:
         ax.plot(g["cta_ms"], np.abs(g["error_ms"]), "o-", ms=3, label=str(uas))
     if len(po):
         ax.legend(fontsize=7)
-    ax.set(xlabel="CTA wind speed [m/s]", ylabel="|UAS - CTA| per step [m/s]", title="portability of the calibration")
+    ax.set(xlabel="CTA wind speed (m s$^{-1}$)", ylabel="|UAS - CTA| per step (m s$^{-1}$)",
+           title="portability of the calibration")
     return _save(fig, path, note)
 
 
@@ -317,7 +319,7 @@ def _tunnel_fig6_gusts(gs: pd.DataFrame, path: Path) -> Path:
         ax.plot(x, gs["rmse_vp_ms"], "s-", label="Vp")
         ax.set_xticks(x, lab, rotation=45, fontsize=7)
         ax.legend(fontsize=7)
-    ax.set(xlabel="preset V0 / Vg [m/s]", ylabel="RMSE [m/s]", title="IEC gusts")
+    ax.set(xlabel="preset V0 / Vg (m s$^{-1}$)", ylabel="RMSE (m s$^{-1}$)", title="IEC gusts")
     return _save(fig, path, note)
 
 
@@ -333,7 +335,7 @@ def _tunnel_fig7_steps(ss: pd.DataFrame, path: Path) -> Path:
             ax.plot(x, ss[col], mk, label=name)
         ax.set_xticks(x, lab, fontsize=7)
         ax.legend(fontsize=7)
-    ax.set(xlabel="preset V_l + dV [m/s]", ylabel="RMSE [m/s]", title="velocity steps")
+    ax.set(xlabel="preset V_l + dV (m s$^{-1}$)", ylabel="RMSE (m s$^{-1}$)", title="velocity steps")
     return _save(fig, path, note)
 
 
@@ -346,7 +348,7 @@ def _tunnel_fig9_variance(tb: pd.DataFrame, path: Path) -> Path:
         ax.plot(tb["var_cta_cut_fmax"], tb["var_uas"], "ro", ms=4, label="CTA cut at the UAS's f_max")
         _one_to_one(ax, np.r_[tb["var_cta_full"], tb["var_cta_cut_fmax"]], tb["var_uas"])
         ax.legend(fontsize=7)
-    ax.set(xlabel="CTA variance [m2/s2]", ylabel="UAS variance [m2/s2]", title="turbulence variance")
+    ax.set(xlabel="CTA variance (m$^2$ s$^{-2}$)", ylabel="UAS variance (m$^2$ s$^{-2}$)", title="turbulence variance")
     return _save(fig, path, note)
 
 

@@ -29,7 +29,7 @@ from dronewind.figures.style import (
     status_text,
 )
 
-__all__ = ["Quantity", "scatter_figure", "scatter_legend", "scatter_panels"]
+__all__ = ["Quantity", "scatter_figure", "scatter_legend", "scatter_panels", "symlog_ticks"]
 
 #: A quantity of a scatter panel: (L4 variable, label, unit).
 Quantity = tuple[str, str, str]
@@ -85,21 +85,81 @@ def _scatter_points(ax: Axes, l4: L4Products, name: str, notes: list[str],
     return xs, ys
 
 
+def symlog_ticks(limit: float, linthresh: float, max_ticks: int = 5) -> list[float]:
+    """Ticks of a symmetric-log axis from ``-limit`` to ``limit``: 0 and every n-th decade beyond ``linthresh``.
+
+    Parameters
+    ----------
+    limit : float
+        Largest absolute value on the axis.
+    linthresh : float
+        Half-width of the linear region (a power of ten).
+    max_ticks : int
+        Most ticks (the decades are thinned, symmetrically, until they fit).
+
+    Returns
+    -------
+    list of float
+        Tick positions, ascending.
+    """
+    k0 = round(math.log10(linthresh))
+    k1 = math.floor(math.log10(max(limit, linthresh)))
+    decades = list(range(k0, k1 + 1))
+    step = 1
+    while 1 + 2 * len(decades[::step]) > max_ticks and step < len(decades):
+        step += 1
+    kept = decades[::-1][::step][::-1]  # keep the largest decade
+    return sorted([0.0] + [10.0 ** k for k in kept] + [-(10.0 ** k) for k in kept])
+
+
+def _decade_label(value: float, _pos: int | None = None) -> str:
+    """``0``, ``$10^{3}$`` or ``$-10^{3}$``."""
+    if value == 0:
+        return "0"
+    k = round(math.log10(abs(value)))
+    return f"${'-' if value < 0 else ''}10^{{{k}}}$"
+
+
+def _symlog_limits(ax: Axes, values: list[float]) -> None:
+    """Symmetric-log scales, limits padded in the transformed (drawn) space, decade ticks."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+
+    lin = max(1.0, 10 ** math.floor(math.log10(max(min(abs(v) for v in values), 1e-9))))
+    ax.set_xscale("symlog", linthresh=lin)
+    ax.set_yscale("symlog", linthresh=lin)
+    trans = ax.xaxis.get_transform()
+    t = trans.transform(np.asarray(values, dtype=float))
+    lo, hi = float(np.min(t)), float(np.max(t))
+    pad = 0.08 * (hi - lo) if hi > lo else 0.5
+    lo_v, hi_v = trans.inverted().transform(np.array([lo - pad, hi + pad]))
+    ax.set_xlim(lo_v, hi_v)
+    ax.set_ylim(lo_v, hi_v)
+    ticks = [v for v in symlog_ticks(max(abs(lo_v), abs(hi_v)), lin) if lo_v <= v <= hi_v]
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(FixedLocator(ticks))
+        axis.set_major_formatter(FuncFormatter(_decade_label))
+        axis.set_minor_locator(NullLocator())
+
+
 def _square_limits(ax: Axes, name: str, values: list[float], symlog: Sequence[str], one_to_one: bool) -> None:
     """Equal padded x and y limits around the drawn values, the 1:1 line, symmetric-log scales if asked."""
-    lo, hi = min(values), max(values)
-    pad = 0.08 * (hi - lo) if hi > lo else max(abs(hi) * 0.1, 1e-3)
-    lo, hi = lo - pad, hi + pad
-    if name not in symlog and lo > 0 and lo < 0.3 * hi:
-        lo = 0.0
-    if one_to_one:
-        ax.plot([lo, hi], [lo, hi], color="k", lw=0.8, ls="--")
-    ax.set_xlim(lo, hi)
-    ax.set_ylim(lo, hi)
+    from matplotlib.ticker import MaxNLocator
+
     if name in symlog:
-        lin = max(1.0, 10 ** math.floor(math.log10(max(min(abs(v) for v in values), 1e-9))))
-        ax.set_xscale("symlog", linthresh=lin)
-        ax.set_yscale("symlog", linthresh=lin)
+        _symlog_limits(ax, values)
+        lo, hi = ax.get_xlim()
+    else:
+        lo, hi = min(values), max(values)
+        pad = 0.08 * (hi - lo) if hi > lo else max(abs(hi) * 0.1, 1e-3)
+        lo, hi = lo - pad, hi + pad
+        if lo > 0 and lo < 0.3 * hi:
+            lo = 0.0
+        ax.set_xlim(lo, hi)
+        ax.set_ylim(lo, hi)
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=4))  # tick labels never run into each other
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=5))
+    if one_to_one:
+        ax.plot([lo, hi], [lo, hi], color="k", lw=0.8, ls="--", scalex=False, scaley=False)
 
 
 def scatter_panels(l4: L4Products, axes: Iterable[Axes], quantities: Sequence[Quantity], notes: list[str],

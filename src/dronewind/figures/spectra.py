@@ -31,7 +31,7 @@ from dronewind.figures.style import (
     PathLike,
     add_notes,
     chosen_flights,
-    legend,
+    figure_legend,
     new_figure,
     no_data,
     save_figure,
@@ -224,7 +224,6 @@ def _velocity_spectra_row(row: Sequence[Axes], prod: Products, usable: bool, fli
                      f" {unit}", fontsize=8, loc="left")
         ax.set_xlabel("f (Hz)")
         ax.set_ylabel(ylabel)
-    legend(row[0], fontsize=7, loc="lower left")
 
 
 def fig09_velocity_spectra(l4_files: Iterable[PathLike], out_stem: PathLike,
@@ -258,6 +257,7 @@ def fig09_velocity_spectra(l4_files: Iterable[PathLike], out_stem: PathLike,
     fig, axes = _panel_grid(13.0, 3.1 * nrow + 0.3, nrow, 4, chosen)
     notes: list[str] = []
     _draw_flights(axes, l4, chosen, notes, _velocity_spectra_row)
+    figure_legend(fig)
     return save_figure(fig, out_stem, add_notes(fig, notes))
 
 
@@ -279,7 +279,6 @@ def _temperature_spectra_column(col: Sequence[Axes], prod: Products, usable: boo
                      fontsize=8, loc="left")
     col[2].set_title(f"$\\overline{{u'\\theta_v'}}$ {_fmt_pair(prod, 'uT_Kms', usable, '{:.3f}')} {UNIT_KMS}",
                      fontsize=8, loc="left")
-    legend(col[0], fontsize=7, loc="lower left")
 
 
 def fig11_temperature_spectra(l4_files: Iterable[PathLike], out_stem: PathLike,
@@ -306,6 +305,7 @@ def fig11_temperature_spectra(l4_files: Iterable[PathLike], out_stem: PathLike,
     fig, axes = _panel_grid(5.0 * ncol, 8.0, 3, ncol, chosen)
     notes: list[str] = []
     _draw_flights(axes.T, l4, chosen, notes, _temperature_spectra_column)
+    figure_legend(fig)
     return save_figure(fig, out_stem, add_notes(fig, notes))
 
 
@@ -320,7 +320,6 @@ def _normalised_spectra_row(panels: Sequence[tuple[str, str, str, bool]], row: S
         ax.set_ylabel(f"{ylabel} (–)")
         ax.set_xlabel("f (Hz)")
     row[0].set_title(flight, fontsize=9, loc="left")
-    legend(row[0], fontsize=7, loc="lower left")
 
 
 def _normalised_spectra_figure(l4_files: Iterable[PathLike], out_stem: PathLike, flights: Sequence[str] | None,
@@ -332,6 +331,7 @@ def _normalised_spectra_figure(l4_files: Iterable[PathLike], out_stem: PathLike,
     fig, axes = _panel_grid(width_in, 2.5 * nrow + 0.4, nrow, len(panels), chosen)
     notes: list[str] = []
     _draw_flights(axes, l4, chosen, notes, partial(_normalised_spectra_row, panels))
+    figure_legend(fig)
     return save_figure(fig, out_stem, add_notes(fig, notes))
 
 

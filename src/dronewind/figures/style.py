@@ -9,6 +9,7 @@ lists it below the axes with the stored reason (:func:`status_text`).
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 import textwrap
@@ -22,14 +23,17 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.layout_engine import ConstrainedLayoutEngine
+from matplotlib.text import Text
+from matplotlib.transforms import Bbox
 
 from dronewind.core.qc import STATUS_FLAG_MEANINGS
 from dronewind.tables import default_detail_flights
 
 __all__ = [
-    "DPI", "DRONE_COLOUR", "HEIGHT_MARKERS", "MAST_COLOUR", "SENSOR_COLOURS", "UNIT_KMS", "UNIT_M2S2", "UNIT_MS",
-    "UNUSABLE_COLOUR", "PathLike", "add_notes", "chosen_flights", "flight_colours", "legend", "minutes",
-    "new_figure", "no_data", "save_figure", "start_label", "status_text",
+    "DPI", "DRONE_COLOUR", "HEIGHT_MARKERS", "MAST_COLOUR", "PAPERS", "REFERENCES", "SENSOR_COLOURS", "UNIT_KMS",
+    "UNIT_M2S2", "UNIT_MS", "UNUSABLE_COLOUR", "PathLike", "add_notes", "chosen_flights", "figure_legend",
+    "flight_colours", "legend",
+    "minutes", "new_figure", "no_data", "place_labels", "save_figure", "start_label", "status_text",
 ]
 
 PathLike = str | Path
@@ -48,6 +52,24 @@ HEIGHT_MARKERS = ("o", "^", "s", "D", "v", "P")
 UNIT_MS = "m s$^{-1}$"
 UNIT_M2S2 = "m$^2$ s$^{-2}$"
 UNIT_KMS = "K m s$^{-1}$"
+
+#: The three papers the project follows (``../shared/papers/000_*``, ``001_*``, ``002_*``), cited by
+#: authors and year in captions and reports.
+PAPERS = {
+    "000": "Ghirardelli et al. (2025)",
+    "001": "Wetz et al. (2021)",
+    "002": "Kistner et al. (2024)",
+}
+#: Full references of :data:`PAPERS`, for the report.
+REFERENCES = {
+    "000": "Ghirardelli, M., Kral, S. T., Cheynet, E., and Reuder, J.: SAMURAI-S: Sonic Anemometer on a "
+           "Multi-Rotor drone for Atmospheric turbulence Investigation in a Sling load configuration, "
+           "Atmos. Meas. Tech., 2025.",
+    "001": "Wetz, T., Wildmann, N., and Beyrich, F.: Distributed wind measurements with multiple quadrotor "
+           "unmanned aerial vehicles in the atmospheric boundary layer, Atmos. Meas. Tech., 14, 3795-3814, 2021.",
+    "002": "Kistner, J., Neuhaus, L., and Wildmann, N.: High resolution wind speed measurements with quadcopter "
+           "UAS: calibration and verification in a wind tunnel with active grid, Atmos. Meas. Tech., 2024.",
+}
 
 
 # ----------------------------------------------------------------------------- canvas and output
@@ -149,9 +171,100 @@ def save_figure(fig: Figure, out_stem: PathLike, notes: Sequence[str] = ()) -> l
 
 
 def legend(ax: Axes, **kwargs: Any) -> None:
-    """Legend only when something labelled was drawn (an empty legend warns)."""
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(**kwargs)
+    """Legend above the axes, right-aligned, one row: it never covers data (only when something is labelled).
+
+    ``loc`` and ``ncol`` given by a caller are ignored; other keyword arguments (font size)
+    pass through. Titles drawn at the left of the same axes stay clear of it.
+    """
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        kwargs.pop("loc", None)
+        kwargs.pop("ncol", None)
+        ax.legend(handles, labels, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(handles),
+                  borderaxespad=0.2, frameon=False, columnspacing=1.0, handlelength=1.5, **kwargs)
+
+
+def figure_legend(fig: Figure) -> None:
+    """One legend for the whole figure, above the panels: every label drawn in any axes, once."""
+    seen: dict[str, Any] = {}
+    for ax in fig.axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            seen.setdefault(label, handle)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), loc="outside upper center", ncol=len(seen), fontsize=7.5,
+                   frameon=False)
+
+
+def _overlaps(box: Bbox, others: Sequence[Bbox]) -> bool:
+    return any(box.overlaps(o) for o in others)
+
+
+#: Offsets tried for a point label [points], nearest first; the last ring gets a leader line.
+_LABEL_OFFSETS: tuple[tuple[float, float], ...] = (
+    (5, 5), (5, -5), (-5, 5), (-5, -5), (7, 0), (-7, 0), (0, 8), (0, -8),
+    (12, 12), (12, -12), (-12, 12), (-12, -12), (16, 0), (-16, 0), (0, 16), (0, -16),
+)
+_LEADER_RADII_PT = (22.0, 32.0, 44.0)
+
+
+def place_labels(ax: Axes, points: Sequence[tuple[float, float]], texts: Sequence[str],
+                 marker_size_pt: float = 8.0, fontsize: float = 7.0) -> list[str]:
+    """Label data points without any label overlapping another label, a marker or the axes edge.
+
+    Each label is tried at offsets around its point, nearest first, then further out with a
+    thin leader line; the first position whose text box (display coordinates, after the
+    layout) lies inside the axes and clear of every marker and every label placed so far is
+    kept; texts already in the axes are kept clear too. The figure is drawn once first, so
+    the layout (and hence the data-to-display transform) is final when boxes are measured.
+
+    Parameters
+    ----------
+    ax : Axes
+        Axes holding the points (limits already set).
+    points : sequence of (float, float)
+        Data coordinates of the labelled points.
+    texts : sequence of str
+        One label per point.
+    marker_size_pt : float
+        Marker size of the points [points]; their boxes are kept clear.
+    fontsize : float
+        Label size [points].
+
+    Returns
+    -------
+    list of str
+        Labels that found no free place (not drawn; the caller names them elsewhere).
+    """
+    fig = ax.get_figure()
+    assert fig is not None
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    scale = fig.dpi / 72.0
+    frame = ax.get_window_extent(renderer)
+    half = 0.5 * marker_size_pt * scale
+    xy = ax.transData.transform(np.asarray(points, dtype=float).reshape(-1, 2)) if len(points) else np.empty((0, 2))
+    taken = [Bbox.from_extents(x - half, y - half, x + half, y + half) for x, y in xy]
+    taken += [Text.get_window_extent(t, renderer) for t in ax.texts if t.get_visible() and t.get_text()]
+    rings = [(dx, dy, False) for dx, dy in _LABEL_OFFSETS]
+    for r in _LEADER_RADII_PT:
+        rings += [(r * math.cos(a), r * math.sin(a), True) for a in np.radians(np.arange(0, 360, 30))]
+    unplaced = []
+    for point, text in zip(points, texts, strict=True):
+        for dx, dy, leader in rings:
+            ann = ax.annotate(text, point, xytext=(dx, dy), textcoords="offset points", fontsize=fontsize,
+                              ha="left" if dx > 0 else "right" if dx < 0 else "center",
+                              va="bottom" if dy > 0 else "top" if dy < 0 else "center",
+                              arrowprops={"arrowstyle": "-", "lw": 0.5, "color": "0.4", "shrinkA": 0,
+                                          "shrinkB": 3} if leader else None)
+            ann.update_positions(renderer)
+            box = Text.get_window_extent(ann, renderer)  # the text only, without its leader line
+            if frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1) and not _overlaps(box, taken):
+                taken.append(box)
+                break
+            ann.remove()
+        else:
+            unplaced.append(text)
+    return unplaced
 
 
 def no_data(ax: Axes, text: str) -> None:

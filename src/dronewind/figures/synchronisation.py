@@ -8,8 +8,9 @@ of each stored curve by its minimum.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -21,7 +22,6 @@ from dronewind.figures.style import (
     PathLike,
     add_notes,
     flight_colours,
-    legend,
     new_figure,
     no_data,
     save_figure,
@@ -30,25 +30,52 @@ from dronewind.figures.style import (
 __all__ = ["fig04_tke_lag"]
 
 
-def _tke_curve(ax: Axes, flight: str, ds: xr.Dataset, colour: object, notes: list[str]) -> float:
-    """Draw one flight's normalised TKE curve; return its stored lag if the flight counts for the window [s]."""
+class _Curve(NamedTuple):
+    """A drawn TKE curve: lags [s], TKE / min(TKE) [-], the stored lag [s] (NaN if not counted for the window)."""
+
+    lag_s: np.ndarray
+    norm: np.ndarray
+    stored_lag_s: float
+
+
+def _tke_curve(ax: Axes, flight: str, ds: xr.Dataset, colour: object, notes: list[str]) -> _Curve | None:
+    """Draw one flight's normalised TKE curve and mark its minimum; None when nothing is stored."""
     if "tke_m2s2" not in ds.variables:
         notes.append(f"{flight}: no TKE-vs-lag curve stored.")
-        return math.nan
+        return None
     tke = np.asarray(ds["tke_m2s2"].values, dtype=float)
     lag = np.asarray(ds["lag_s"].values if "lag_s" in ds.variables else ds["lag"].values, dtype=float)
     finite = np.isfinite(tke) & (tke > 0)
     if not finite.any():
         notes.append(f"{flight}: TKE curve all NaN.")
-        return math.nan
+        return None
     norm = tke / np.min(tke[finite])
+    k = int(np.nanargmin(np.where(finite, norm, np.nan)))
+    stored = float(ds.attrs.get("lag_sonic_ins_s", math.nan))
     if bool(int(ds.attrs.get("usable", 1))):
-        ax.plot(lag, norm, color=colour, lw=1.4, label=flight)
-        return float(ds.attrs.get("lag_sonic_ins_s", math.nan))
+        ax.plot(lag, norm, color=colour, lw=1.4, label=f"{flight} (lag {stored:+.3f} s)")
+        ax.plot(lag[k], norm[k], ls="none", marker="o", ms=4, color=colour, mec="k", mew=0.4)
+        return _Curve(lag, norm, stored)
     ax.plot(lag, norm, color=UNUSABLE_COLOUR, lw=1.0, ls="--", label=f"{flight} (unusable)")
+    ax.plot(lag[k], norm[k], ls="none", marker="o", ms=4, color=UNUSABLE_COLOUR, mec="k", mew=0.4)
     notes.append(f"{flight}: drone record unusable ({ds.attrs.get('unusable_reason', '') or 'no reason'}); "
                  "curve grey, lag not used for the window.")
-    return math.nan
+    return _Curve(lag, norm, math.nan)
+
+
+def _y_top(curves: Sequence[_Curve], x0: float, x1: float, top: float, margin_s: float = 0.1) -> float:
+    """Upper y limit: at least ``top``, and high enough that every curve is seen around its minimum.
+
+    Around its minimum means within ``margin_s`` of the lag at the minimum (and inside the
+    x range), so that no flight's curve is cut off by the limit; capped at 2.
+    """
+    highest = top
+    for c in curves:
+        k = int(np.nanargmin(c.norm))
+        near = (np.abs(c.lag_s - c.lag_s[k]) <= margin_s) & (c.lag_s >= x0) & (c.lag_s <= x1)
+        if near.any():
+            highest = max(highest, float(np.nanmax(c.norm[near])))
+    return min(2.0, 1.0 + 1.05 * (highest - 1.0))
 
 
 def _lag_window(ax: Axes, lags: list[float], xlim: tuple[float, float]) -> tuple[float, float]:
@@ -70,8 +97,9 @@ def fig04_tke_lag(l2_drone_files: Iterable[PathLike], out_stem: PathLike,
     out_stem : str or Path
         Output path without suffix.
     xlim, ylim : (float, float)
-        Axis limits (seed 000: -1 to 1 s and 1 to 1.1); the x range widens to include
-        every stored lag.
+        Axis limits (Ghirardelli et al. (2025): -1 to 1 s and 1 to 1.1); the x range widens
+        to include every stored lag, the y range so that every curve is seen within 0.1 s of
+        its minimum (marked with a dot).
 
     Returns
     -------
@@ -81,19 +109,18 @@ def fig04_tke_lag(l2_drone_files: Iterable[PathLike], out_stem: PathLike,
     Notes
     -----
     Vertical lines at the smallest (dashed) and largest (dash-dot) stored
-    ``lag_sonic_ins_s`` of the usable flights: the window holding all minima (seed 000,
-    Sect. 3.3: -0.185 s to 0 s).
+    ``lag_sonic_ins_s`` of the usable flights: the window holding all minima (Ghirardelli
+    et al. (2025), Sect. 3.3: -0.185 s to 0 s). The legend, with each flight's stored lag,
+    is outside the axes.
     """
     products = open_by_flight(l2_drone_files)
     colours = flight_colours(list(products))
-    fig = new_figure(6.5, 4.6)
+    fig = new_figure(8.0, 4.6)
     ax = fig.add_subplot()
     notes: list[str] = []
-    lags: list[float] = []
-    for flight, ds in products.items():
-        lag = _tke_curve(ax, flight, ds, colours[flight], notes)
-        if np.isfinite(lag):
-            lags.append(lag)
+    curves = [c for flight, ds in products.items()
+              if (c := _tke_curve(ax, flight, ds, colours[flight], notes)) is not None]
+    lags = [c.stored_lag_s for c in curves if np.isfinite(c.stored_lag_s)]
     if lags:
         x0, x1 = _lag_window(ax, lags, xlim)
     else:
@@ -101,10 +128,11 @@ def fig04_tke_lag(l2_drone_files: Iterable[PathLike], out_stem: PathLike,
         if not products:
             no_data(ax, "no L2 drone files")
     ax.set_xlim(x0, x1)
-    ax.set_ylim(*ylim)
+    top = _y_top(curves, x0, x1, ylim[1])
+    ax.set_ylim(ylim[0] - 0.02 * (top - ylim[0]), top)  # the minima (= 1) sit just above the axis
     ax.set_xlabel("lag of the sonic relative to the INS (s)")
     ax.set_ylabel("TKE / min(TKE) (–)")
     ax.grid(alpha=0.3)
-    if products:
-        legend(ax, fontsize=7.5, ncol=2, loc="upper center")
+    if products and ax.get_legend_handles_labels()[0]:
+        fig.legend(loc="outside right upper", fontsize=7.5, frameon=False)
     return save_figure(fig, out_stem, add_notes(fig, notes))
