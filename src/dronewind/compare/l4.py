@@ -151,9 +151,8 @@ def record_l4(
         the anti-alias filter the record went through (:func:`flight_l4` takes it from the
         L3 attribute ``fir_passband_edge_hz``). Default: every frequency (an unfiltered record).
     detrending : {"linear", "block_mean"}, optional
-        Fluctuations about a least-squares line (seed 000) or about the block mean (the
-        Reynolds decomposition; EddyPro's and EC-PeT's default), for every statistic,
-        spectrum, autocovariance and uncertainty. Recorded in ``attrs["detrending"]``.
+        Fluctuations about a least-squares line (seed 000) or the block mean, for every
+        statistic (``attrs["detrending"]``).
 
     Returns
     -------
@@ -164,16 +163,11 @@ def record_l4(
     Raises
     ------
     InputError
-        Series of unequal length, or a non-positive sampling rate or height. Bad *data*
-        (NaN, too short, calm, no convergence) never raises: see the ``status_*``
-        variables.
+        Unequal lengths, non-positive rate or height; bad *data* never raises (``status_*``).
 
     Notes
     -----
-    Statistics use linearly detrended fluctuations. The mean speed is that of the
-    horizontal mean vector :math:`\sqrt{\bar u^2 + \bar v^2}` (= :math:`\bar u` after a
-    double rotation). The Obukhov length (Eq. 9) uses the mean sonic temperature in K
-    for :math:`\bar\theta_v`, as the paper does.
+    Mean speed: :math:`\sqrt{\bar u^2 + \bar v^2}`; Eq. 9 uses the mean sonic temperature [K].
     """
     b = _Builder()
     arrays = _check_record(u_ms, v_ms, w_ms, theta_v_k, fs_hz, height_m)

@@ -508,13 +508,10 @@ def write_netcdf(
         Data; variables carry ``units`` and ``standard_name`` or ``long_name``.
     path : str or Path
         Destination file; its folder is created.
-    title, summary : str
-        ACDD discovery text.
-    processing_level : str
-        Data level (``"L1"`` ... ``"L4"``) with a few words.
+    title, summary, processing_level : str
+        ACDD discovery text; data level (``"L1"`` ... ``"L4"``) with a few words.
     history : str
-        What produced this file (one line); prefixed with a UTC stamp and appended to the
-        dataset's existing ``history``.
+        What produced this file (one line), UTC-stamped and appended to ``ds``'s ``history``.
     inputs : iterable of path
         Files this output was computed from; their SHA-256 go into ``input_checksums``, and
         the ``source`` of NetCDF inputs (measured or virtual campaign, :func:`data_source`) is
@@ -528,15 +525,12 @@ def write_netcdf(
     station_id : str, optional
         Identifier of the sensor/platform (``cf_role = timeseries_id``); required when
         ``feature_type`` is ``"timeSeries"``.
-    latitude, longitude : float, optional
-        Nominal position [degrees].
-    height_m : float, optional
-        Nominal sensor height above ground [m].
+    latitude, longitude, height_m : float, optional
+        Nominal position [degrees] and sensor height above ground [m].
     extra_attrs : mapping, optional
-        More global attributes (e.g. flight id, lags).
+        More global attributes (flight id, lags).
     groups : mapping of str to xarray.Dataset, optional
-        Sub-groups for quantities without a CF standard name (e.g. ``"spectra"``);
-        read back with ``xarray.open_dataset(path, group=name)``.
+        Sub-groups for quantities without a CF standard name (``open_dataset(path, group=name)``).
     nonstandard_group : str, optional
         Move every data variable without a ``standard_name`` (QC flags excepted) from
         ``ds`` into a group of this name (see :func:`split_standard`).

@@ -508,26 +508,21 @@ def fit_spectral_model(
         Degrees of freedom of each binned value (:func:`binned_dof`). Enables the
         log-bias correction below; without it, bins are treated as exact.
     f_max_hz : float, optional
-        Highest frequency fitted [Hz]: the passband edge of the anti-alias filter the
-        record went through (L3 attribute ``fir_passband_edge_hz``). Above it the filter's
-        roll-off, not the atmosphere, shapes the spectrum; fitting it steepens the
-        high-frequency slope and biases b high (+24 % for a Kaimal w spectrum decimated
-        32 -> 8 Hz with the 3-4 Hz transition band). Default: every frequency.
+        Highest frequency fitted [Hz]: the anti-alias passband edge (L3
+        ``fir_passband_edge_hz``); the filter's roll-off above it biases b high. Default: all.
 
     Returns
     -------
     SpectralFit
-        Coefficients with a convergence flag and reason; never raises for data
-        problems.
+        Coefficients, convergence flag and reason; never raises for data problems.
 
     Notes
     -----
     Auto-spectra are fitted to :math:`\log_{10}(fS/u_*^2)` so that every decade of the
     log-binned spectrum (including the inertial subrange the -5/3 check is about)
-    weighs equally. A binned value with :math:`\nu_b` degrees of freedom is
-    (approximately) a :math:`\chi^2_{\nu_b}/\nu_b` variable times the true spectrum,
-    whose logarithm is biased low by :math:`\psi(\nu_b/2) - \ln(\nu_b/2)` (about -0.19
-    in ln for the single estimates of the low-frequency bins); this bias is added to
+    weighs equally. A binned value with :math:`\nu_b` degrees of freedom is about a
+    :math:`\chi^2_{\nu_b}/\nu_b` variable times the true spectrum, its logarithm biased by
+    :math:`\psi(\nu_b/2) - \ln(\nu_b/2)` (about -0.19 in ln for single estimates); this bias is added to
     the model, otherwise the peak (hence a, b) comes out 20-35 % low on synthetic
     spectra. The co-spectrum
     changes sign, so it is fitted in linear space, scaled by its largest magnitude.

@@ -75,6 +75,25 @@ def _fit_lines(diag: Mapping[str, Any]) -> list[str]:
     return out
 
 
+def _candidate_lines(diag: Mapping[str, Any]) -> list[str]:
+    """The candidate table and the ambiguity sets of the report."""
+    lines: list[str] = []
+    lines += ["", "## Candidates (fitted on all flights, scored leaving one flight out)", "",
+              "| mechanism | estimate | uncertainty | held-out gain | LR p-value | significant |",
+              "|---|---|---|---|---|---|"]
+    for c in diag.get("candidates") or []:
+        est = ", ".join(f"{k} = {_fmt(v)}" for k, v in c["estimate"].items())
+        unc = ", ".join(f"{k} ± {_fmt(v, 2)}" for k, v in c["uncertainty"].items())
+        lines.append(f"| `{c['mechanism']}` | {est} | {unc} | {_fmt(c['gain'], 3)} | {_fmt(c['p_value'], 2)} "
+                     f"| {'yes' if c['significant'] else 'no'} |")
+    amb = diag.get("ambiguity_sets") or []
+    lines += ["", "## Ambiguity", ""]
+    lines.append("Mechanisms the data cannot tell apart (their fitted predictions differ by less than 2σ): "
+                 + "; ".join("{" + ", ".join(f"`{m}`" for m in g) + "}" for g in amb) if amb else
+                 "No two significant candidates predict the same features within their errors.")
+    return lines
+
+
 def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mapping[str, float],
              rows: Sequence[Mapping[str, Any]]) -> str:
     """The report as Markdown.
@@ -127,19 +146,7 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
         max_abs_z = np.nanmax(np.abs(z)) if np.isfinite(z).any() else np.nan
         lines.append(f"| {FEATURE_LABELS.get(feat, feat)} | {_fmt(mean_meas)} | {_fmt(mean_pred)} "
                      f"| {_fmt(mean_z, 2)} | {_fmt(max_abs_z, 2)} | {_fmt(slopes.get(feat))} |")
-    lines += ["", "## Candidates (fitted on all flights, scored leaving one flight out)", "",
-              "| mechanism | estimate | uncertainty | held-out gain | LR p-value | significant |",
-              "|---|---|---|---|---|---|"]
-    for c in diag.get("candidates") or []:
-        est = ", ".join(f"{k} = {_fmt(v)}" for k, v in c["estimate"].items())
-        unc = ", ".join(f"{k} ± {_fmt(v, 2)}" for k, v in c["uncertainty"].items())
-        lines.append(f"| `{c['mechanism']}` | {est} | {unc} | {_fmt(c['gain'], 3)} | {_fmt(c['p_value'], 2)} "
-                     f"| {'yes' if c['significant'] else 'no'} |")
-    amb = diag.get("ambiguity_sets") or []
-    lines += ["", "## Ambiguity", ""]
-    lines.append("Mechanisms the data cannot tell apart (their fitted predictions differ by less than 2σ): "
-                 + "; ".join("{" + ", ".join(f"`{m}`" for m in g) + "}" for g in amb) if amb else
-                 "No two significant candidates predict the same features within their errors.")
+    lines += _candidate_lines(diag)
     lines += ["", "## The extended model", ""]
     mechs = ((diag.get("extended") or {}).get("mechanisms")) or []
     if mechs:
