@@ -4,6 +4,7 @@
 # change), never the whole config: per-flight rules get their flight's manifest entry, its
 # reference sonic's entry and the `processing` keys they use; the manifest file is an input
 # only of the rules that read all of it (campaign record, campaign diagnosis).
+import os
 from pathlib import Path
 
 from snakemake.utils import min_version, validate
@@ -11,7 +12,7 @@ from snakemake.utils import min_version, validate
 from dronewind.diagnose.forward import CHAIN_SETTINGS
 from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
-from dronewind.manifest import load_campaign, payload_flight_manifest
+from dronewind.manifest import confined_path, load_campaign, payload_flight_manifest
 from dronewind.simulate.settings import validate_simulation
 from dronewind.steps.payload import simulation_manifest
 
@@ -157,13 +158,13 @@ def reference_of(wc):
 
 
 def l0_root(wildcards, output):
-    """L0 folder of a simulated campaign, inferred from a simulate rule's sonic output."""
-    sonic = Path(output.sonic)
-    flight = next(
-        f for f in CAMPAIGN.payload_flights if L0 / f["sonic"]["file"] == sonic
-    )
-    depth = len(Path(flight["sonic"]["file"]).parts)
-    return str(sonic.parents[depth - 1])
+    """L0 folder of a simulated campaign (results/<name>/L0); the rule's outputs lie below it.
+
+    The manifest validation keeps every virtual-campaign path relative and below L0.
+    """
+    for path in output:
+        confined_path(L0, os.path.relpath(path, L0), "simulate output")
+    return str(L0)
 
 
 # ----------------------------------------------------------------------------- payload flights: params
@@ -296,10 +297,8 @@ def quad_simulation(flight_id):
 
 
 def quad_l0_root(wildcards, output):
-    """L0 folder of a simulated campaign, inferred from a quadrotor simulate rule's reference output."""
-    ref = Path(output.reference)
-    flight = next(f for f in CAMPAIGN.quadrotor_flights if L0 / f["reference"] == ref)
-    return str(ref.parents[len(Path(flight["reference"]).parts) - 1])
+    """L0 folder of a simulated campaign, for the quadrotor simulate rules (see l0_root)."""
+    return l0_root(wildcards, output)
 
 
 def quad_nc(level, flight_id):

@@ -18,7 +18,8 @@ Bad input policy (every removal is counted in ``ds.attrs["n_*"]`` and described 
   ``time_valid`` = 1): removed, counted (``n_corrupt_lines``), the first few line numbers
   logged; more than 5 % corrupt lines -> InputError naming the file and the first bad line;
 * exact duplicate rows: dropped (``n_duplicates``); rows repeating a time stamp with other
-  values: the first kept (``n_time_conflicts``);
+  values: all of them dropped, none trusted (``n_time_conflicts``, lines logged; more than
+  5 % -> InputError);
 * rows out of order by less than ``clock_jump_tol_s`` (1 s): sorted (``n_out_of_order``);
 * an isolated row whose time stamp is more than ``clock_jump_tol_s`` from both neighbours
   while the neighbours agree: a corrupt time stamp, removed (``n_time_outliers``);
@@ -55,7 +56,7 @@ from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
-from dronewind.errors import InputError
+from dronewind.errors import InputError, describe_header
 
 __all__ = [
     "ClockFit",
@@ -149,9 +150,7 @@ def _split_lines(path: str | os.PathLike[str], expected: tuple[str, ...]) -> tup
         raise InputError(path, f"empty file; expected header {','.join(expected)!r}")
     header = tuple(h.strip() for h in lines[0].split(","))
     if header != expected:
-        raise InputError(
-            f"{path}:1", f"header is {lines[0].strip()!r}, expected {','.join(expected)!r}"
-        )
+        raise InputError(f"{path}:1", describe_header(header, expected))
     body = lines[1:]
     line_numbers = np.arange(2, len(body) + 2)
     blank = np.fromiter((not ln.strip() for ln in body), dtype=bool, count=len(body))
@@ -263,8 +262,14 @@ def _parse_csv(
     return table
 
 
-def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float) -> None:
-    """Drop exact duplicates and time conflicts, check backward jumps, sort by rpi_time_us."""
+def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
+                max_conflict_fraction: float = 0.05) -> None:
+    """Drop exact duplicates and time conflicts, check backward jumps, sort by rpi_time_us.
+
+    Rows repeating a time stamp with other values conflict: every row of such a time stamp
+    is dropped (counted in ``n_time_conflicts``, lines logged); more than
+    ``max_conflict_fraction`` of the rows raises :class:`InputError`.
+    """
     t = table.columns["rpi_time_us"]
     frame = pd.DataFrame({c: table.columns[c] for c in ["rpi_time_us", *value_cols]})
     dup = frame.duplicated(keep="first").to_numpy()
@@ -272,9 +277,17 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float) -
     keep = np.flatnonzero(~dup)
     table.take(keep)
     t = table.columns["rpi_time_us"]
-    conflict = pd.Series(t).duplicated(keep="first").to_numpy()
+    conflict = pd.Series(t).duplicated(keep=False).to_numpy()
     n_conf = int(conflict.sum())
     if n_conf:
+        lines = table.line_no[conflict][:_N_LOGGED_LINES].tolist()
+        if n_conf > max_conflict_fraction * t.size:
+            raise InputError(f"{table.path}:{lines[0]}",
+                             f"{n_conf} of {t.size} rows repeat an rpi_time_us with other values "
+                             f"(> {100 * max_conflict_fraction:g} %; first at lines {lines}): expected one row "
+                             "per time stamp")
+        table.log.append(f"order: {n_conf} rows repeating an rpi_time_us with other values dropped, none "
+                         f"trusted (lines {lines})")
         table.take(np.flatnonzero(~conflict))
         t = table.columns["rpi_time_us"]
     # An isolated corrupt-but-numeric time stamp (its neighbours agree with each other but
@@ -318,7 +331,7 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float) -
     table.counts["n_out_of_order"] = n_late
     table.log.append(
         f"order: {n_dup} exact duplicate rows dropped, {n_conf} rows repeating a time stamp "
-        f"with other values dropped (first kept), {n_late} out-of-order rows sorted"
+        f"with other values dropped, {n_late} out-of-order rows sorted"
     )
 
 
@@ -733,8 +746,12 @@ def _increasing_utc(utc: np.ndarray, counts: dict[str, int], log: list[str]) -> 
 
 
 def _ins_qc(cols: dict[str, np.ndarray], fs_hz: float, despike: bool, counts: dict[str, int], log: list[str],
-            ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+            path: str | os.PathLike[str] = "ins") -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Range, missing and (optional) spike flags of the INS; flagged rows set to NaN.
+
+    A variable without a single valid value raises :class:`InputError` naming the file and
+    the column (a flagged value flags its whole row, so later steps could not tell which
+    column was empty).
 
     Parameters
     ----------
@@ -768,6 +785,10 @@ def _ins_qc(cols: dict[str, np.ndarray], fs_hz: float, despike: bool, counts: di
         x = cols[name].astype(float)
         missing = ~np.isfinite(x)
         bad = range_mask(np.where(missing, np.nan, x), lo, hi)
+        if (missing | bad).all():
+            raise InputError(f"{path} [{name}]", f"column {name} holds no valid value in its {x.size} rows after the "
+                             f"stable GNSS time ({int(missing.sum())} empty or NaN, {int(bad.sum())} outside "
+                             f"[{lo:g}, {hi:g}]); expected the INS's {name}")
         n_range += int(bad.sum())
         n_nan += int(missing.sum())
         qc[bad] |= QC_OUT_OF_RANGE
@@ -918,7 +939,7 @@ def ins_l1(
         log.append(f"gaps: {counts['n_gaps_over_1s']} INS gaps > 1 s (not filled; longest "
                    f"{ins_steps.max() / _US:.2f} s)")  # fmt: skip
     fs_hz = _nominal_rate(t_rpi)
-    data, qc = _ins_qc(cols, fs_hz, despike, counts, log)
+    data, qc = _ins_qc(cols, fs_hz, despike, counts, log, ins_path)
     ds = _ins_dataset(data, cols, qc, utc[sel], t_rpi[sel])
     _finish_attrs(ds, counts, log, ins.fit, fs_hz, str(ins_path), t_rpi[sel])
     return ds

@@ -28,6 +28,7 @@ import xarray as xr
 from dronewind.compare.chain import compute_l3, compute_l4
 from dronewind.core.cf import atomic_write_text, strip_cf, track_from_cf, track_to_cf, write_netcdf
 from dronewind.core.products import open_product
+from dronewind.manifest import confined_path
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.mechanisms import get_mechanism
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
@@ -214,6 +215,21 @@ def simulation_manifest(campaign_data: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
+def _check_l0_paths(campaign: Mapping[str, Any], flight_id: str, out_dir: Path) -> None:
+    """Every file the simulator writes for a flight stays below the L0 folder (else ManifestError).
+
+    The manifest validation rejects such paths already; this guards a caller that passes a
+    manifest it did not validate.
+    """
+    flight = next(f for f in campaign.get("payload_flights") or [] if f["id"] == flight_id)
+    for part in ("sonic", "ins"):
+        confined_path(out_dir, str(flight[part]["file"]), f"payload flight {flight_id} {part}.file")
+    for mast in campaign.get("masts") or []:
+        for sonic in mast["sonics"]:
+            for pattern in sonic["files"]:
+                confined_path(out_dir, str(pattern).replace("*", flight_id), f"mast sonic {sonic['id']} files")
+
+
 def simulate_payload(campaign: Mapping[str, Any], flight_id: str, manifest_dir: str | Path,
                      out_dir: str | Path) -> list[Path]:
     """Write the raw files of one simulated payload flight (sonic, INS, mast TOA5).
@@ -237,6 +253,7 @@ def simulate_payload(campaign: Mapping[str, Any], flight_id: str, manifest_dir: 
     """
     from dronewind.simulate.payload import simulate_payload_flight
 
+    _check_l0_paths(campaign, flight_id, Path(out_dir))
     paths = simulate_payload_flight(dict(campaign), Path(manifest_dir), flight_id, Path(out_dir))
     for path in paths:
         LOG.info("wrote %s", path)
