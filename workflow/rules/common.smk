@@ -5,6 +5,7 @@
 # reference sonic's entry and the `processing` keys they use; the manifest file is an input
 # only of the rules that read all of it (campaign record, campaign diagnosis).
 import os
+import sys
 from pathlib import Path
 
 from snakemake.utils import min_version, validate
@@ -14,6 +15,7 @@ from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
 from dronewind.manifest import confined_path, load_campaign, payload_flight_manifest
 from dronewind.simulate.settings import validate_simulation
+from dronewind.steps.lock import acquire_results_lock, release_results_lock
 from dronewind.steps.payload import simulation_manifest
 
 min_version("9.0")
@@ -33,6 +35,28 @@ RESULTS = Path(config["results_dir"]) / CAMPAIGN.name
 # a measured campaign's raw files are where its manifest says.
 L0 = RESULTS / "L0" if CAMPAIGN.simulated else CAMPAIGN.directory
 ENV = "../../envs/dronewind.yaml"
+
+
+# One run at a time on a results folder, across checkouts: a lock file under
+# results/<name>/ (dronewind.steps.lock), taken when jobs are about to run (never in a
+# dry run) and released at the end. A lock left by a killed run is taken over, so an
+# interrupted run is resumed by running the same command again (the default profile sets
+# rerun-incomplete and nolock: Snakemake's own lock would need --unlock after kill -9).
+onstart:
+    if workflow.is_main_process:
+        _note = acquire_results_lock(RESULTS, workflow.basedir)
+        if _note:
+            print(_note, file=sys.stderr)
+
+
+onsuccess:
+    if workflow.is_main_process:
+        release_results_lock(RESULTS)
+
+
+onerror:
+    if workflow.is_main_process:
+        release_results_lock(RESULTS)
 
 PAYLOAD_FLIGHTS = [f["id"] for f in CAMPAIGN.payload_flights]
 QUAD_FLIGHTS = [f["id"] for f in CAMPAIGN.quadrotor_flights]

@@ -20,6 +20,7 @@ rule payload_l1:
         site=SITE,
         target_height_m=target_height,
         despike=PROCESSING["despike"],
+        data_root=str(L0),
     script:
         "../../scripts/payload_l1.py"
 
@@ -39,5 +40,6 @@ rule mast_l1:
         campaign=CAMPAIGN.name,
         sonic=mast_sonic,
         despike=PROCESSING["despike"],
+        data_root=str(L0),
     script:
         "../../scripts/mast_l1.py"
