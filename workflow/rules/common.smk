@@ -58,6 +58,7 @@ onerror:
     if workflow.is_main_process:
         release_results_lock(RESULTS)
 
+
 PAYLOAD_FLIGHTS = [f["id"] for f in CAMPAIGN.payload_flights]
 QUAD_FLIGHTS = [f["id"] for f in CAMPAIGN.quadrotor_flights]
 MAST_SONICS = list(CAMPAIGN.mast_sonics())

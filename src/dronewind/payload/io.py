@@ -201,10 +201,11 @@ def _parse_field(s: pd.Series, kind: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _parse_rows(rows: list[list[str]], expected: tuple[str, ...], kinds: dict[str, str],
-                ) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Column arrays of the rows with the right field count, and the mask of corrupt rows."""
+                ) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, int]]:
+    """Column arrays of the rows with the right field count, the mask of corrupt rows and bad fields per column."""
     bad = np.zeros(len(rows), dtype=bool)
     cols: dict[str, np.ndarray] = {}
+    per_column: dict[str, int] = {}
     frame = pd.DataFrame(rows, columns=list(expected), dtype=object) if rows else None
     for name in expected:
         if frame is None:
@@ -212,7 +213,9 @@ def _parse_rows(rows: list[list[str]], expected: tuple[str, ...], kinds: dict[st
             continue
         cols[name], bad_field = _parse_field(frame[name].astype(str).str.strip(), kinds[name])
         bad |= bad_field
-    return cols, bad
+        if bad_field.any():
+            per_column[name] = int(bad_field.sum())
+    return cols, bad, per_column
 
 
 def _parse_csv(
@@ -234,7 +237,7 @@ def _parse_csv(
     split = [ln.split(",") for ln in body]
     good_count = np.fromiter((len(f) == ncol for f in split), dtype=bool, count=n_lines)
     rows = [f for f, g in zip(split, good_count, strict=True) if g]
-    cols, bad = _parse_rows(rows, expected, kinds)
+    cols, bad, per_column = _parse_rows(rows, expected, kinds)
     if extra_bad is not None and len(rows):
         bad |= extra_bad(cols)
     good_lines = line_numbers[good_count]
@@ -244,8 +247,10 @@ def _parse_csv(
         raise InputError(
             f"{path}:{int(corrupt[0])}",
             f"{n_corrupt} of {n_lines} data lines corrupt (> {100 * max_corrupt_fraction:g} %); "
-            f"first corrupt lines {corrupt[:_N_LOGGED_LINES].tolist()}; expected "
-            f"{ncol} comma-separated fields {','.join(expected)}",
+            f"first corrupt lines {corrupt[:_N_LOGGED_LINES].tolist()}; "
+            f"{int((~good_count).sum())} lines without {ncol} fields"
+            + "".join(f", {n} bad {name} fields" for name, n in sorted(per_column.items(), key=lambda kv: -kv[1]))
+            + f"; expected {ncol} comma-separated fields {','.join(expected)}",
         )
     keep = ~bad
     table = _Table(path=str(path), columns={k: v[keep] for k, v in cols.items()}, line_no=good_lines[keep],
@@ -277,19 +282,6 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
     keep = np.flatnonzero(~dup)
     table.take(keep)
     t = table.columns["rpi_time_us"]
-    conflict = pd.Series(t).duplicated(keep=False).to_numpy()
-    n_conf = int(conflict.sum())
-    if n_conf:
-        lines = table.line_no[conflict][:_N_LOGGED_LINES].tolist()
-        if n_conf > max_conflict_fraction * t.size:
-            raise InputError(f"{table.path}:{lines[0]}",
-                             f"{n_conf} of {t.size} rows repeat an rpi_time_us with other values "
-                             f"(> {100 * max_conflict_fraction:g} %; first at lines {lines}): expected one row "
-                             "per time stamp")
-        table.log.append(f"order: {n_conf} rows repeating an rpi_time_us with other values dropped, none "
-                         f"trusted (lines {lines})")
-        table.take(np.flatnonzero(~conflict))
-        t = table.columns["rpi_time_us"]
     # An isolated corrupt-but-numeric time stamp (its neighbours agree with each other but
     # it is more than the tolerance away from both) is a corrupt row, not a clock jump.
     tol_us = clock_jump_tol_s * _US
@@ -321,6 +313,21 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
             f"rpi_time_us steps back by {deficit[i] / _US:.3f} s relative to earlier rows "
             f"(> {clock_jump_tol_s:g} s): logger clock jump; not corrected, fix or split the file",
         )
+    # Conflicts after the jump check: a clock set back repeats earlier stamps, and is a jump.
+    conflict = pd.Series(t).duplicated(keep=False).to_numpy()
+    n_conf = int(conflict.sum())
+    if n_conf:
+        lines = table.line_no[conflict][:_N_LOGGED_LINES].tolist()
+        if n_conf > max_conflict_fraction * t.size:
+            raise InputError(f"{table.path}:{lines[0]}",
+                             f"{n_conf} of {t.size} rows repeat an rpi_time_us with other values "
+                             f"(> {100 * max_conflict_fraction:g} %; first at lines {lines}): expected one row "
+                             "per time stamp")
+        table.log.append(f"order: {n_conf} rows repeating an rpi_time_us with other values dropped, none "
+                         f"trusted (lines {lines})")
+        table.take(np.flatnonzero(~conflict))
+        t = table.columns["rpi_time_us"]
+    run_max = np.maximum.accumulate(t)
     late = np.zeros(t.size, dtype=bool)
     late[1:] = t[1:] < run_max[:-1]
     n_late = int(late.sum())
@@ -1009,7 +1016,10 @@ def _after_stable_time(cols: dict[str, np.ndarray], rpi_stable_us: int, sonic_pa
     before = t < rpi_stable_us
     n_before = int(before.sum())
     if n_before == t.size:
-        raise InputError(sonic_path, "all sonic rows precede the INS's stable valid GNSS time")
+        raise InputError(sonic_path, f"all {t.size} sonic rows precede the INS's stable valid GNSS time: the sonic's "
+                         f"logger time ends {(rpi_stable_us - int(t.max())) / _US:.1f} s before it (rpi_time_us "
+                         f"{int(t.max())} < {rpi_stable_us}); expected sonic rows after it (the sonic and INS files "
+                         "of one flight, logging together)")
     cols = {k: v[~before] for k, v in cols.items()}
     counts["n_before_stable_time"] = n_before
     log.append(f"gnss_time: {n_before} sonic rows before the INS's stable GNSS time discarded")
@@ -1058,8 +1068,13 @@ def _sonic_on_full_clock(cols: dict[str, np.ndarray], sonic_path: str | os.PathL
 
 
 def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply_elevation_limit: bool,
-              despike_window_s: float, despike_n_mad: float, counts: dict[str, int], log: list[str]) -> np.ndarray:
+              despike_window_s: float, despike_n_mad: float, counts: dict[str, int], log: list[str],
+              source: str | os.PathLike[str] = "sonic") -> np.ndarray:
     """Missing, range (RM Young 81000) and spike flags of the sonic; flagged samples set to NaN in ``vals``.
+
+    A column without a single valid value raises :class:`InputError` naming the file and
+    the column (a flag on one variable sets the whole sample to NaN, so later steps could
+    not tell which column was empty).
 
     Parameters
     ----------
@@ -1083,6 +1098,11 @@ def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply
         int8 QC bitmask (:mod:`dronewind.core.qc`).
     """
     n = have.size
+    empty = [name for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c") if not np.isfinite(vals[name][have]).any()]
+    if empty:
+        raise InputError(f"{source} [{', '.join(empty)}]", f"column(s) {', '.join(empty)} hold no valid value in the "
+                         f"{int(have.sum())} sonic rows after the INS's stable GNSS time; expected numbers in m s-1 "
+                         "(speeds) and degC (temperature)")
     qc = np.zeros(n, dtype=np.int8)
     missing = ~(np.isfinite(vals["u_ms"]) & np.isfinite(vals["v_ms"])
                 & np.isfinite(vals["w_ms"]) & np.isfinite(vals["t_sonic_c"]))  # fmt: skip
@@ -1097,6 +1117,13 @@ def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply
             elev = np.rad2deg(np.arctan2(vals["w_ms"], np.hypot(vals["u_ms"], vals["v_ms"])))
             out |= range_mask(elev, *lim["elevation_deg"])
     qc[out] |= QC_OUT_OF_RANGE
+    n_logged = max(int(have.sum()), 1)
+    if out.sum() > 0.5 * n_logged:
+        raise InputError(f"{source} [u_ms, v_ms, w_ms, t_sonic_c]",
+                         f"{int(out.sum())} of {n_logged} sonic samples ({100 * out.sum() / n_logged:.0f} %) beyond "
+                         f"the RM Young 81000 range (|V| <= {lim['speed_ms'][1]:g} m/s, {lim['t_sonic_c'][0]:g}.."
+                         f"{lim['t_sonic_c'][1]:g} degC; median |V| {np.nanmedian(speed):.3g}): expected m s-1 and "
+                         "degC, not another unit (cm/s, km/h, K)")
     spikes = np.zeros(n, dtype=bool)
     for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c"):
         x = np.where(qc == 0, vals[name], np.nan)
@@ -1211,7 +1238,8 @@ def payload_sonic_l1(
     cols = _after_stable_time(cols, ins.rpi_stable_us, sonic_path, counts, log)
     t_full, vals, have = _sonic_on_full_clock(cols, sonic_path, max_gap_s, counts, log)
     fs_hz = _nominal_rate(t_full)
-    qc = _sonic_qc(vals, have, fs_hz, apply_elevation_limit, despike_window_s, despike_n_mad, counts, log)
+    qc = _sonic_qc(vals, have, fs_hz, apply_elevation_limit, despike_window_s, despike_n_mad, counts, log,
+                   sonic_path)
     _count_extrapolated(t_full, ins.fit, counts, log)
     log = [*log, *(f"ins {line}" for line in ins.log)]
     counts["n_ins_before_stable_time"] = ins.counts["n_before_stable_time"]

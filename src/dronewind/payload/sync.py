@@ -415,7 +415,7 @@ def _apply_window(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, window: tuple[Any, A
     tr.counts["n_sonic_outside_window"] = int((~keep_s).sum())
     tr.counts["n_ins_outside_window"] = int((~keep_i).sum())
     if keep_s.sum() < 2 or keep_i.sum() < 2:
-        raise InputError(f"{tr.where} [window]", _window_miss(w0, w1, ts_ns, ti_ns, int(keep_s.sum()),
+        raise InputError(f"{tr.where} [window]", _window_miss(int(w0), int(w1), ts_ns, ti_ns, int(keep_s.sum()),
                                                                int(keep_i.sum())))
     sonic_l1 = sonic_l1.isel(time=np.flatnonzero(keep_s))
     ins_l1 = ins_l1.isel(time=np.flatnonzero(keep_i))

@@ -34,7 +34,8 @@ from dronewind.mechanisms import get_mechanism
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 from dronewind.steps.common import LOG
 
-__all__ = ["ProductSpec", "PRODUCTS", "Position", "write_product", "source_name", "simulation_manifest", "simulate_payload",
+__all__ = ["ProductSpec", "PRODUCTS", "Position", "write_product", "source_name", "simulation_manifest",
+           "simulate_payload",
            "payload_l1", "mast_l1", "payload_l2", "mast_l2", "l3", "l4", "FLIGHT_STATS_COLUMNS", "flight_stats"]
 
 
