@@ -267,6 +267,23 @@ def _parse_csv(
     return table
 
 
+def _check_backward_jump(table: _Table, t: np.ndarray, clock_jump_tol_s: float) -> None:
+    """Raise :class:`ClockJumpError` at the first backward step in row order larger than the tolerance.
+
+    A late row lies below the running maximum by less than the tolerance; a larger deficit
+    means the clock was set back.
+    """
+    deficit = np.maximum.accumulate(t) - t
+    jump = np.flatnonzero(deficit > clock_jump_tol_s * _US)
+    if jump.size:
+        i = int(jump[0])
+        raise ClockJumpError(
+            f"{table.path}:{int(table.line_no[i])}",
+            f"rpi_time_us steps back by {deficit[i] / _US:.3f} s relative to earlier rows "
+            f"(> {clock_jump_tol_s:g} s): logger clock jump; not corrected, fix or split the file",
+        )
+
+
 def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
                 max_conflict_fraction: float = 0.05) -> None:
     """Drop exact duplicates and time conflicts, check backward jumps, sort by rpi_time_us.
@@ -282,6 +299,20 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
     keep = np.flatnonzero(~dup)
     table.take(keep)
     t = table.columns["rpi_time_us"]
+    conflict = pd.Series(t).duplicated(keep=False).to_numpy()
+    n_conf = int(conflict.sum())
+    if n_conf:
+        lines = table.line_no[conflict][:_N_LOGGED_LINES].tolist()
+        if n_conf > max_conflict_fraction * t.size:
+            _check_backward_jump(table, t, clock_jump_tol_s)  # a clock set back repeats earlier stamps: a jump
+            raise InputError(f"{table.path}:{lines[0]}",
+                             f"{n_conf} of {t.size} rows repeat an rpi_time_us with other values "
+                             f"(> {100 * max_conflict_fraction:g} %; first at lines {lines}): expected one row "
+                             "per time stamp")
+        table.log.append(f"order: {n_conf} rows repeating an rpi_time_us with other values dropped, none "
+                         f"trusted (lines {lines})")
+        table.take(np.flatnonzero(~conflict))
+        t = table.columns["rpi_time_us"]
     # An isolated corrupt-but-numeric time stamp (its neighbours agree with each other but
     # it is more than the tolerance away from both) is a corrupt row, not a clock jump.
     tol_us = clock_jump_tol_s * _US
@@ -301,32 +332,7 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
             table.take(np.flatnonzero(~iso))
             t = table.columns["rpi_time_us"]
     table.counts["n_time_outliers"] = n_iso
-    # Backward steps in row order: a late row lies below the running maximum by less than
-    # the tolerance; a larger deficit means the clock was set back.
-    run_max = np.maximum.accumulate(t)
-    deficit = run_max - t
-    jump = np.flatnonzero(deficit > tol_us)
-    if jump.size:
-        i = int(jump[0])
-        raise ClockJumpError(
-            f"{table.path}:{int(table.line_no[i])}",
-            f"rpi_time_us steps back by {deficit[i] / _US:.3f} s relative to earlier rows "
-            f"(> {clock_jump_tol_s:g} s): logger clock jump; not corrected, fix or split the file",
-        )
-    # Conflicts after the jump check: a clock set back repeats earlier stamps, and is a jump.
-    conflict = pd.Series(t).duplicated(keep=False).to_numpy()
-    n_conf = int(conflict.sum())
-    if n_conf:
-        lines = table.line_no[conflict][:_N_LOGGED_LINES].tolist()
-        if n_conf > max_conflict_fraction * t.size:
-            raise InputError(f"{table.path}:{lines[0]}",
-                             f"{n_conf} of {t.size} rows repeat an rpi_time_us with other values "
-                             f"(> {100 * max_conflict_fraction:g} %; first at lines {lines}): expected one row "
-                             "per time stamp")
-        table.log.append(f"order: {n_conf} rows repeating an rpi_time_us with other values dropped, none "
-                         f"trusted (lines {lines})")
-        table.take(np.flatnonzero(~conflict))
-        t = table.columns["rpi_time_us"]
+    _check_backward_jump(table, t, clock_jump_tol_s)
     run_max = np.maximum.accumulate(t)
     late = np.zeros(t.size, dtype=bool)
     late[1:] = t[1:] < run_max[:-1]
