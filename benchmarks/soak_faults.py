@@ -32,9 +32,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import xarray as xr
 import yaml
 
+from dronewind.core.products import open_product
 from dronewind.manifest import load_campaign
 from dronewind.steps.payload import simulate_payload, simulation_manifest
 
@@ -84,31 +84,48 @@ def _write(path: Path, lines: list[str]) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
+def _time(line: str) -> int | None:
+    """The rpi_time_us of a payload line, or None for a line an earlier fault corrupted."""
+    try:
+        return int(line.split(",", 1)[0])
+    except ValueError:
+        return None
+
+
 def _rpi_range(path: Path, frac0: float, frac1: float) -> tuple[int, int]:
     """Logger times at two fractions of a payload file's span."""
-    lines = _lines(path)
-    t0, t1 = int(lines[1].split(",", 1)[0]), int(lines[-1].split(",", 1)[0])
+    times = [t for t in map(_time, _lines(path)[1:]) if t is not None]
+    t0, t1 = min(times), max(times)
     return int(t0 + frac0 * (t1 - t0)), int(t0 + frac1 * (t1 - t0))
 
 
 def _drop_span(path: Path, start_frac: float, seconds: float) -> None:
     a, _ = _rpi_range(path, start_frac, start_frac)
-    _write(path, [ln for k, ln in enumerate(_lines(path)) if k == 0 or not a <= int(ln.split(",", 1)[0]) < a +
-                  int(seconds * 1e6)])
+    b = a + int(seconds * 1e6)
+    _write(path, [ln for k, ln in enumerate(_lines(path)) if k == 0 or not a <= (_time(ln) or 0) < b])
 
 
 def _edit(path: Path, column: str, func: Callable[[str], str], every: int = 1, offset: int = 1) -> None:
     lines = _lines(path)
-    j = lines[0].split(",").index(column)
+    header = lines[0].split(",")
+    if column not in header:
+        return  # an earlier fault renamed it
+    j = header.index(column)
     for k in range(offset, len(lines), every):
         fields = lines[k].split(",")
-        fields[j] = func(fields[j])
-        lines[k] = ",".join(fields)
+        if len(fields) == len(header):
+            fields[j] = func(fields[j])
+            lines[k] = ",".join(fields)
     _write(path, lines)
 
 
 def _scale(factor: float) -> Callable[[str], str]:
-    return lambda s: s if s in ("", "nan") else f"{float(s) * factor:.6g}"
+    def scaled(s: str) -> str:
+        try:
+            return f"{float(s) * factor:.6g}"
+        except ValueError:
+            return s
+    return scaled
 
 
 def f_corrupt_lines(d: Path, fid: str, rng: np.random.Generator) -> None:
@@ -154,7 +171,12 @@ def f_sonic_gap_5s(d: Path, fid: str, rng: np.random.Generator) -> None:
 
 
 def f_yaw_0_360(d: Path, fid: str, rng: np.random.Generator) -> None:
-    _edit(d / "flights" / fid / "ins.csv", "yaw_deg", lambda s: s if s == "" else f"{float(s) % 360:.4f}")
+    def wrapped(s: str) -> str:
+        try:
+            return f"{float(s) % 360:.4f}"
+        except ValueError:
+            return s
+    _edit(d / "flights" / fid / "ins.csv", "yaw_deg", wrapped)
 
 
 def f_mast_nan_diag(d: Path, fid: str, rng: np.random.Generator) -> None:
@@ -194,8 +216,9 @@ def f_clock_back(d: Path, fid: str, rng: np.random.Generator) -> None:
     p = d / "flights" / fid / "sonic.csv"
     lines = _lines(p)
     for k in range(len(lines) // 2, len(lines)):
-        t, rest = lines[k].split(",", 1)
-        lines[k] = f"{int(t) - 20_000_000},{rest}"
+        t = _time(lines[k])
+        if t is not None:
+            lines[k] = f"{t - 20_000_000},{lines[k].split(',', 1)[1]}"
     _write(p, lines)
 
 
@@ -255,11 +278,11 @@ def outcome(results: Path, fid: str) -> dict[str, Any]:
     l4 = base / "netcdf" / "L4" / f"{fid}_drone.nc"
     if not l4.exists():
         return {"status": "error", "error": _named_error(base / "logs", fid)}
-    with xr.open_dataset(base / "netcdf" / "L2" / f"{fid}_drone.nc") as l2, xr.open_dataset(l4) as ds:
-        usable = int(l2.attrs["usable"])
-        out = {"status": "ok" if usable else "unusable", "reason": str(l2.attrs.get("unusable_reason", "")),
-               "numbers": {k: float(ds[k]) for k in NUMBERS}, "lag_sonic_ins_s": float(l2.attrs["lag_sonic_ins_s"])}
-    return out
+    l2 = open_product(base / "netcdf" / "L2" / f"{fid}_drone.nc")
+    ds = open_product(l4)
+    usable = int(l2.attrs["usable"])
+    return {"status": "ok" if usable else "unusable", "reason": str(l2.attrs.get("unusable_reason", "")),
+            "numbers": {k: float(ds[k]) for k in NUMBERS}, "lag_sonic_ins_s": float(l2.attrs["lag_sonic_ins_s"])}
 
 
 def main() -> int:

@@ -6,14 +6,24 @@ this module:
 1. INS gaps (NaN or ``ekf_valid == 0``) filled linearly in time (:func:`_fill_ins_gaps`);
 2. hover window = longest contiguous run of
    :func:`dronewind.core.filtering.hover_window_mask` (seed 000, Sect. 3.2;
-   :func:`_hover_window`);
+   :func:`_hover_window`); the 2 % rule applies to the INS too, counting filled samples
+   and absent rows (gaps in time) against the samples expected at the INS rate
+   (:func:`_ins_coverage`);
 3. sonic gaps filled with :func:`dronewind.core.filtering.gap_fill_linear` on the hover
    window +/- ``max_lag_s`` (> 2 % missing: ``usable = 0``, data not filled and the NaN
-   samples interpolated only for the lag search; :func:`_sonic_segment`);
+   samples interpolated only for the lag search; :func:`_sonic_segment`); missing samples
+   are counted against the samples the hover window should hold at the sonic rate, so a
+   sonic record that ends early counts what it lacks;
 4. lag of minimum TKE (:func:`tke_vs_lag`, seed 000, Sect. 3.3; :func:`_sonic_ins_lag`);
 5. INS interpolated to the shifted sonic times and the wind corrected
    (:func:`dronewind.payload.motion.motion_correct`, seed 000, Eqs. 1-2;
-   :func:`_correct_motion`), east/north/up wind at the sonic rate.
+   :func:`_correct_motion`), east/north/up wind at the sonic rate; the duration is measured
+   on the sonic samples used (:func:`_used_duration`), and the plausibility checks of
+   :mod:`dronewind.payload.checks` run (hover height, INS velocity against the GNSS position,
+   sonic range; :func:`_plausibility`).
+
+Every failed check adds a reason (``usable = 0``); errors name the flight and its files
+(the L1 ``source_file`` attributes), the variable and the numbers.
 
 The drone-to-mast alignment (L3) is :mod:`dronewind.compare.align`.
 
