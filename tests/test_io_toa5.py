@@ -138,7 +138,7 @@ def test_missing_column_raises(tmp_path):
     header = [HEADER[0], HEADER[1].replace(',"Uz"', ""), HEADER[2], HEADER[3]]
     rows = [",".join(r.split(",")[:4] + r.split(",")[5:]) for r in synthetic_rows(20)]
     p = write_toa5(tmp_path / "changed.dat", rows, header)
-    with pytest.raises(InputError, match=r"changed\.dat:2: required column 'Uz' missing"):
+    with pytest.raises(InputError, match=r"changed\.dat:2: required column\(s\) Uz missing"):
         mast_l1(p, 0.0, 1.0, "s")
 
 

@@ -1,12 +1,17 @@
 """Campaign manifests and workflow settings: loading, validation and defaults before any job runs.
 
-A manifest (YAML, format in ../shared/DESIGN.md "Campaign manifest") is validated in two
+A manifest (YAML, format in ../shared/DESIGN.md "Campaign manifest") is validated in three
 passes and every problem is reported with the manifest file, the key path and what was
 expected:
 
 1. structure, against the JSON schema ``dronewind/schemas/campaign.schema.json``
    (missing keys, wrong types, bad identifiers and times);
-2. meaning: duplicate flight, mast or sensor ids; a payload flight whose ``reference`` is
+2. paths: a virtual campaign's data paths are where the simulator writes
+   (``results/<name>/L0/<path>``), so they must be relative and stay below that folder
+   (absolute paths and ``..`` above it are rejected); a measured campaign's files are only
+   read and may lie anywhere (absolute, or relative to the manifest). The campaign name
+   cannot start with ``.`` (``..`` would put the results in the parent of ``results_dir``);
+3. meaning: duplicate flight, mast or sensor ids; a payload flight whose ``reference`` is
    not a mast sonic id; a window whose end is not after its start; and, for measured
    campaigns (no ``simulation:`` section), files that do not exist and globs that match
    nothing.
@@ -27,6 +32,8 @@ import copy
 import datetime as _dt
 import glob
 import json
+import ntpath
+import posixpath
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -40,7 +47,7 @@ import yaml
 from dronewind.errors import ManifestError
 
 __all__ = ["Campaign", "load_campaign", "campaign_schema", "parse_utc", "config_schema", "default_config",
-           "with_defaults", "payload_flight_manifest"]
+           "with_defaults", "payload_flight_manifest", "data_paths", "path_problem", "confined_path"]
 
 
 def campaign_schema() -> dict[str, Any]:
@@ -284,8 +291,82 @@ def payload_flight_manifest(data: Mapping[str, Any], flight_id: str, *, atmosphe
     return out
 
 
+def data_paths(data: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """Every data path a manifest names, with its key path.
+
+    Parameters
+    ----------
+    data : mapping
+        Manifest content (after the structural validation).
+
+    Returns
+    -------
+    list of (str, str)
+        ``(key path, path as written)``: mast sonic files (globs), payload sonic and INS
+        files, quadrotor references and UAV logs, the tunnel run index.
+    """
+    out: list[tuple[str, str]] = []
+    for i, mast in enumerate(data.get("masts") or []):
+        for j, sonic in enumerate(mast.get("sonics") or []):
+            out += [(f"masts[{i}].sonics[{j}].files[{k}]", str(p)) for k, p in enumerate(sonic.get("files") or [])]
+    for i, flight in enumerate(data.get("payload_flights") or []):
+        out += [(f"payload_flights[{i}].{part}.file", str(flight[part]["file"])) for part in ("sonic", "ins")]
+    for i, flight in enumerate(data.get("quadrotor_flights") or []):
+        out.append((f"quadrotor_flights[{i}].reference", str(flight["reference"])))
+        out += [(f"quadrotor_flights[{i}].uavs[{j}].file", str(u["file"])) for j, u in enumerate(flight["uavs"])]
+    if (data.get("tunnel") or {}).get("runs"):
+        out.append(("tunnel.runs", str(data["tunnel"]["runs"])))
+    return out
+
+
+def path_problem(rel: str, *, confined: bool) -> str | None:
+    """What is wrong with a data path of a manifest, or ``None``.
+
+    Parameters
+    ----------
+    rel : str
+        The path as written in the manifest.
+    confined : bool
+        The path is written to (a virtual campaign's L0 file under ``results/<name>/L0/``):
+        it must be relative and stay below that folder. Measured data are only read and
+        may lie anywhere (absolute, or ``..`` above the manifest).
+
+    Returns
+    -------
+    str or None
+        The problem and what was expected.
+    """
+    if any(ord(c) < 32 for c in rel):
+        return f"path {rel!r} holds a control character; expected a plain file path"
+    if not confined:
+        return None
+    if posixpath.isabs(rel) or ntpath.isabs(rel) or rel.startswith("~"):
+        return (f"absolute path {rel!r} in a virtual campaign: the simulator writes its raw files under "
+                "results/<name>/L0/, so give a path relative to the manifest (e.g. flights/s01/sonic.csv)")
+    norm = posixpath.normpath(rel.replace("\\", "/"))
+    if norm == ".." or norm.startswith("../"):
+        return (f"path {rel!r} leaves results/<name>/L0/ ('..' above its top): a virtual campaign's raw "
+                "files are written there, so give a path inside it (e.g. flights/s01/sonic.csv)")
+    if norm in (".", ""):
+        return f"path {rel!r} names the L0 folder itself; expected a file below it"
+    return None
+
+
+def _path_checks(data: dict[str, Any]) -> list[tuple[str, str]]:
+    """Paths that a virtual campaign would write outside ``results/<name>/L0/``, control characters."""
+    confined = bool(data.get("simulation"))
+    problems = []
+    for key, rel in data_paths(data):
+        what = path_problem(rel, confined=confined)
+        if what:
+            problems.append((key, what))
+    return problems
+
+
 def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> list[tuple[str, str]]:
-    problems: list[tuple[str, str]] = []
+    problems: list[tuple[str, str]] = _path_checks(data)
+    if problems:
+        return problems
     root = path.parent
     sonic_ids: dict[str, str] = {}
     for i, mast in enumerate(data.get("masts") or []):
@@ -405,3 +486,38 @@ def load_campaign(path: str | Path, *, check_files: bool | None = None) -> Campa
             what += "\n" + "\n".join(f"  also [{k}]: {w}" for k, w in problems[1:])
         raise ManifestError(path, key, what)
     return Campaign(path=path, data=data)
+
+
+def confined_path(root: str | Path, rel: str, where: str = "path") -> Path:
+    """``root / rel`` when it stays below ``root`` (both resolved), else an error.
+
+    The last line of defence of every writer that takes a path from a manifest: the
+    manifest validation already rejects such paths (:func:`path_problem`).
+
+    Parameters
+    ----------
+    root : str or Path
+        Folder the path must stay in (e.g. ``results/<name>/L0``).
+    rel : str
+        Path relative to ``root``.
+    where : str
+        Key path or name for the message.
+
+    Returns
+    -------
+    Path
+        The joined path (not resolved: symbolic links inside ``root`` are kept).
+
+    Raises
+    ------
+    ManifestError
+        The path is absolute or leaves ``root``.
+    """
+    what = path_problem(str(rel), confined=True)
+    base = Path(root)
+    out = base / str(rel)
+    if what is None and not out.resolve().is_relative_to(base.resolve()):
+        what = f"path {rel!r} resolves to {out.resolve()}, outside {base.resolve()}"
+    if what:
+        raise ManifestError(str(base), where, what)
+    return out

@@ -5,6 +5,7 @@
 # reference sonic's entry and the `processing` keys they use; the manifest file is an input
 # only of the rules that read all of it (campaign record, campaign diagnosis).
 import os
+import sys
 from pathlib import Path
 
 from snakemake.utils import min_version, validate
@@ -13,8 +14,9 @@ from dronewind.config import check_config
 from dronewind.diagnose.forward import CHAIN_SETTINGS
 from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
-from dronewind.manifest import load_campaign, payload_flight_manifest
+from dronewind.manifest import confined_path, load_campaign, payload_flight_manifest
 from dronewind.simulate.settings import validate_simulation
+from dronewind.steps.lock import acquire_results_lock, release_results_lock
 from dronewind.steps.payload import simulation_manifest
 
 min_version("9.0")
@@ -38,6 +40,29 @@ RESULTS = Path(config["results_dir"]) / CAMPAIGN.name
 # a measured campaign's raw files are where its manifest says.
 L0 = RESULTS / "L0" if CAMPAIGN.simulated else CAMPAIGN.directory
 ENV = "../../envs/dronewind.yaml"
+
+
+# One run at a time on a results folder, across checkouts: a lock file under
+# results/<name>/ (dronewind.steps.lock), taken when jobs are about to run (never in a
+# dry run) and released at the end. A lock left by a killed run is taken over, so an
+# interrupted run is resumed by running the same command again (the default profile sets
+# rerun-incomplete and nolock: Snakemake's own lock would need --unlock after kill -9).
+onstart:
+    if workflow.is_main_process:
+        _note = acquire_results_lock(RESULTS, workflow.basedir)
+        if _note:
+            print(_note, file=sys.stderr)
+
+
+onsuccess:
+    if workflow.is_main_process:
+        release_results_lock(RESULTS)
+
+
+onerror:
+    if workflow.is_main_process:
+        release_results_lock(RESULTS)
+
 
 PAYLOAD_FLIGHTS = [f["id"] for f in CAMPAIGN.payload_flights]
 QUAD_FLIGHTS = [f["id"] for f in CAMPAIGN.quadrotor_flights]
@@ -169,13 +194,13 @@ def reference_of(wc):
 
 
 def l0_root(wildcards, output):
-    """L0 folder of a simulated campaign, inferred from a simulate rule's sonic output."""
-    sonic = Path(output.sonic)
-    flight = next(
-        f for f in CAMPAIGN.payload_flights if L0 / f["sonic"]["file"] == sonic
-    )
-    depth = len(Path(flight["sonic"]["file"]).parts)
-    return str(sonic.parents[depth - 1])
+    """L0 folder of a simulated campaign (results/<name>/L0); the rule's outputs lie below it.
+
+    The manifest validation keeps every virtual-campaign path relative and below L0.
+    """
+    for path in output:
+        confined_path(L0, os.path.relpath(path, L0), "simulate output")
+    return str(L0)
 
 
 # ----------------------------------------------------------------------------- payload flights: params
@@ -299,10 +324,8 @@ def quad_simulation(flight_id):
 
 
 def quad_l0_root(wildcards, output):
-    """L0 folder of a simulated campaign, inferred from a quadrotor simulate rule's reference output."""
-    ref = Path(output.reference)
-    flight = next(f for f in CAMPAIGN.quadrotor_flights if L0 / f["reference"] == ref)
-    return str(ref.parents[len(Path(flight["reference"]).parts) - 1])
+    """L0 folder of a simulated campaign, for the quadrotor simulate rules (see l0_root)."""
+    return l0_root(wildcards, output)
 
 
 def quad_nc(level, flight_id):

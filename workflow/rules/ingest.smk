@@ -21,6 +21,7 @@ rule payload_l1:
         target_height_m=target_height,
         despike=PROCESSING["despike"],
         simulated=CAMPAIGN.simulated,
+        data_root=str(L0),
     script:
         "../../scripts/payload_l1.py"
 
@@ -41,5 +42,6 @@ rule mast_l1:
         sonic=mast_sonic,
         despike=PROCESSING["despike"],
         simulated=CAMPAIGN.simulated,
+        data_root=str(L0),
     script:
         "../../scripts/mast_l1.py"

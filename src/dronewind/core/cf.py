@@ -38,6 +38,7 @@ only time-dependent attribute is ``date_created``; set the environment variable
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import hashlib
 import json
 import os
@@ -476,6 +477,11 @@ def _write_atomically(out: xr.Dataset, groups: Mapping[str, xr.Dataset], path: P
             group_out.to_netcdf(tmp_name, mode="a", group=group_name, format="NETCDF4", engine="netcdf4")
         os.chmod(tmp_name, 0o644)
         os.replace(tmp_name, path)
+    except (OSError, RuntimeError) as exc:  # netCDF4 reports a full disk as RuntimeError("NetCDF: HDF error")
+        Path(tmp_name).unlink(missing_ok=True)
+        raise OSError(getattr(exc, "errno", None) or errno.EIO,
+                      f"{path}: could not write the NetCDF file ({exc}); is the disk full or the folder not "
+                      "writable? The previous file, if any, is unchanged") from exc
     except BaseException:
         Path(tmp_name).unlink(missing_ok=True)
         raise

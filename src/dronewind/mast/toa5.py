@@ -26,6 +26,7 @@ from __future__ import annotations
 import csv
 import glob
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,6 +49,7 @@ REQUIRED_TOA5_COLUMNS: tuple[str, ...] = (
 )  # fmt: skip
 
 _N_LOGGED = 5
+_TIMESTAMP_RE = re.compile(r"\d{4}-\d{2}-\d{2}[ T]\d{1,2}:\d{2}")
 
 
 def csat3_to_enu(
@@ -120,17 +122,27 @@ def _read_header(p: Path, required: Sequence[str]) -> tuple[list[str], list[list
     lines = text.splitlines()
     if len(lines) < 4:
         raise InputError(p, f"only {len(lines)} lines; a TOA5 file has 4 header lines")
-    header = [next(csv.reader([ln])) for ln in lines[:4]]
+    header = [next(csv.reader([ln]), []) for ln in lines[:4]]
     if not header[0] or header[0][0] != "TOA5":
-        raise InputError(f"{p}:1", f"first field is {header[0][:1]}, expected 'TOA5'")
+        raise InputError(f"{p}:1", "line 1 does not start with the field \"TOA5\"; expected a Campbell TOA5 file "
+                         "(4 header lines: environment, field names, units, processing)")
     names = [h.strip() for h in header[1]]
-    for col in required:
-        if col not in names:
-            raise InputError(
-                f"{p}:2", f"required column {col!r} missing from the TOA5 header; found {names}"
-            )
+    missing = [col for col in required if col not in names]
+    if missing:
+        raise InputError(f"{p}:2", f"required column(s) {', '.join(missing)} missing from the TOA5 field-name line "
+                         f"({len(names)} fields; required: {', '.join(required)})")
+    dup = sorted({n for n in names if names.count(n) > 1 and n in required})
     if len(set(names)) != len(names):
-        raise InputError(f"{p}:2", f"duplicated column names in {names}")
+        raise InputError(f"{p}:2", f"repeated field names{': ' + ', '.join(dup) if dup else ''}; "
+                         f"expected each of {', '.join(required)} once")
+    for k in (2, 3):  # units and processing lines: a data row there means a header line is missing
+        if header[k] and _TIMESTAMP_RE.match(header[k][0].strip()):
+            raise InputError(f"{p}:{k + 1}", f"line {k + 1} is a data row (it starts with a TIMESTAMP); expected "
+                             f"header line {k + 1} of 4 ({'units' if k == 2 else 'processing'}): the file has "
+                             f"only {k} header lines, restore the missing one")
+        if len(header[k]) != len(names):
+            raise InputError(f"{p}:{k + 1}", f"header line {k + 1} ({'units' if k == 2 else 'processing'}) has "
+                             f"{len(header[k])} fields, expected {len(names)} (one per field name of line 2)")
     units = dict(zip(names, (h.strip() for h in header[2]), strict=False))
     return lines, header, names, units
 
@@ -266,20 +278,41 @@ def _read_files(files: list[Path], max_corrupt_fraction: float, counts: dict[str
     return frames
 
 
-def _merge_records(frames: list[pd.DataFrame], n_files: int, counts: dict[str, int], log: list[str]) -> pd.DataFrame:
-    """Concatenate the files in time order, dropping duplicate rows and repeated time stamps."""
+def _merge_records(frames: list[pd.DataFrame], files: list[Path], counts: dict[str, int], log: list[str],
+                   max_corrupt_fraction: float) -> pd.DataFrame:
+    """Concatenate the files in time order, dropping exact duplicate rows and conflicting time stamps.
+
+    Rows that repeat a TIMESTAMP with other values conflict: no rule says which one is
+    right, so every row of such a time stamp is dropped (the sample becomes missing on the
+    grid), counted in ``n_time_conflicts`` (rows) and reported with its file and line.
+    More than ``max_corrupt_fraction`` of the rows in conflict raises :class:`InputError`.
+    """
     data = pd.concat(frames, ignore_index=True)
     cols = ["time", "RECORD", "Ux", "Uy", "Uz", "Ts", "diag_csat"]
     exact_dup = data.duplicated(subset=cols, keep="first").to_numpy()
     data = data.loc[~exact_dup]
     data = data.sort_values("time", kind="stable")
-    conflict = data.duplicated(subset=["time"], keep="first").to_numpy()
+    conflict = data.duplicated(subset=["time"], keep=False).to_numpy()
+    n_conflict = int(conflict.sum())
+    if n_conflict:
+        where = [f"{files[int(f)].name}:{int(ln)}" for f, ln in
+                 zip(data["_file"].to_numpy()[conflict][:_N_LOGGED], data["_line"].to_numpy()[conflict][:_N_LOGGED],
+                     strict=True)]
+        n_rows = len(data)
+        if n_conflict > max_corrupt_fraction * n_rows:
+            first = int(np.flatnonzero(conflict)[0])
+            raise InputError(f"{files[int(data['_file'].iloc[first])]}:{int(data['_line'].iloc[first])}",
+                             f"{n_conflict} of {n_rows} rows repeat a TIMESTAMP with other values "
+                             f"(> {100 * max_corrupt_fraction:g} %; first at {', '.join(where)}): "
+                             "expected one row per time stamp")
+        log.append(f"order: {n_conflict} rows at {int(data.loc[conflict, 'time'].nunique())} time stamps repeated "
+                   f"with other values dropped, none trusted (first at {', '.join(where)})")
     data = data.loc[~conflict].reset_index(drop=True)
     counts["n_duplicates"] = int(exact_dup.sum())
-    counts["n_time_conflicts"] = int(conflict.sum())
-    log.append(f"order: {n_files} files concatenated in time order, "
-               f"{int(exact_dup.sum())} duplicate rows and {int(conflict.sum())} rows repeating a "
-               "TIMESTAMP with other values dropped")  # fmt: skip
+    counts["n_time_conflicts"] = n_conflict
+    log.append(f"order: {len(files)} files concatenated in time order, "
+               f"{int(exact_dup.sum())} exact duplicate rows dropped, {n_conflict} rows with a conflicting "
+               "TIMESTAMP dropped")  # fmt: skip
     return data
 
 
@@ -463,7 +496,8 @@ def mast_l1(
     log: list[str] = []
     counts = {"n_lines": 0, "n_corrupt_lines": 0, "n_nonnumeric": 0, "n_record_skips": 0,
               "n_record_restarts": 0}  # fmt: skip
-    data = _merge_records(_read_files(files, max_corrupt_fraction, counts, log), len(files), counts, log)
+    data = _merge_records(_read_files(files, max_corrupt_fraction, counts, log), files, counts, log,
+                          max_corrupt_fraction)
     data, grid = _regular_grid(data, files, max_gap_s, counts)
     ux, uy, uz, ts_c, diag = (_on_grid(data, grid, c) for c in ("Ux", "Uy", "Uz", "Ts", "diag_csat"))
     qc = _mast_qc(ux, uy, uz, ts_c, diag, grid, despike, despike_window_s, despike_n_mad, counts)
@@ -478,6 +512,6 @@ def mast_l1(
     ds = _mast_dataset(ux, uy, uz, ts_c, diag, qc, grid.time, azimuth_deg)
     ds.attrs.update({k: int(v) for k, v in counts.items()})
     ds.attrs.update(azimuth_deg=float(azimuth_deg), height_m=float(height_m), sensor_id=str(sensor_id),
-                    sampling_rate_hz=float(round(grid.fs_hz, 6)), source_files=", ".join(str(f) for f in files),
+                    sampling_rate_hz=float(round(grid.fs_hz, 6)), source_files=", ".join(f.name for f in files),
                     processing_log="\n".join(log))
     return ds

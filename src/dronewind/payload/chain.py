@@ -71,6 +71,12 @@ def compute_payload_l1(
     return sonic, io_payload.ins_l1(ins_file, ins_table=table)
 
 
+def _target_height(flight: Mapping[str, Any]) -> float | None:
+    """The flight's target height above ground [m], or None when the manifest gives none."""
+    value = flight.get("target_height_m")
+    return None if value is None else float(value)
+
+
 def compute_payload_l2(
     sonic: xr.Dataset,
     ins: xr.Dataset,
@@ -104,7 +110,10 @@ def compute_payload_l2(
     Returns
     -------
     xarray.Dataset
-        L2 drone wind in east/north/up with the flight's ``target_height_m`` attribute.
+        L2 drone wind in east/north/up with the flight's ``target_height_m`` attribute. The
+        hover height is checked against ``target_height_m``, the INS velocity against the
+        GNSS position and the sonic against its range (:mod:`dronewind.payload.checks`); a
+        failed check sets ``usable = 0`` with the reason.
     """
     ds = sync.payload_l2(
         sonic, ins, mount=flight["sonic"].get("mount", "upside_down"),
@@ -112,7 +121,7 @@ def compute_payload_l2(
         window=flight_window(flight), max_missing_fraction=float(max_missing_fraction),
         min_hover_s=float(hover["min_duration_s"]),
         hover_alt_tol_m=float(hover["alt_tol_m"]), hover_horiz_tol_m=float(hover["horiz_tol_m"]),
-        site_altitude_m=float(site_altitude_m),
+        site_altitude_m=float(site_altitude_m), target_height_m=_target_height(flight), flight_id=str(flight["id"]),
     )
     ds.attrs["target_height_m"] = float(flight.get("target_height_m", float("nan")))
     return ds

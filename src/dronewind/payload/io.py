@@ -18,7 +18,8 @@ Bad input policy (every removal is counted in ``ds.attrs["n_*"]`` and described 
   ``time_valid`` = 1): removed, counted (``n_corrupt_lines``), the first few line numbers
   logged; more than 5 % corrupt lines -> InputError naming the file and the first bad line;
 * exact duplicate rows: dropped (``n_duplicates``); rows repeating a time stamp with other
-  values: the first kept (``n_time_conflicts``);
+  values: all of them dropped, none trusted (``n_time_conflicts``, lines logged; more than
+  5 % -> InputError);
 * rows out of order by less than ``clock_jump_tol_s`` (1 s): sorted (``n_out_of_order``);
 * an isolated row whose time stamp is more than ``clock_jump_tol_s`` from both neighbours
   while the neighbours agree: a corrupt time stamp, removed (``n_time_outliers``);
@@ -55,7 +56,7 @@ from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
-from dronewind.errors import InputError
+from dronewind.errors import InputError, describe_header
 
 __all__ = [
     "ClockFit",
@@ -149,9 +150,7 @@ def _split_lines(path: str | os.PathLike[str], expected: tuple[str, ...]) -> tup
         raise InputError(path, f"empty file; expected header {','.join(expected)!r}")
     header = tuple(h.strip() for h in lines[0].split(","))
     if header != expected:
-        raise InputError(
-            f"{path}:1", f"header is {lines[0].strip()!r}, expected {','.join(expected)!r}"
-        )
+        raise InputError(f"{path}:1", describe_header(header, expected))
     body = lines[1:]
     line_numbers = np.arange(2, len(body) + 2)
     blank = np.fromiter((not ln.strip() for ln in body), dtype=bool, count=len(body))
@@ -202,10 +201,11 @@ def _parse_field(s: pd.Series, kind: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _parse_rows(rows: list[list[str]], expected: tuple[str, ...], kinds: dict[str, str],
-                ) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Column arrays of the rows with the right field count, and the mask of corrupt rows."""
+                ) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, int]]:
+    """Column arrays of the rows with the right field count, the mask of corrupt rows and bad fields per column."""
     bad = np.zeros(len(rows), dtype=bool)
     cols: dict[str, np.ndarray] = {}
+    per_column: dict[str, int] = {}
     frame = pd.DataFrame(rows, columns=list(expected), dtype=object) if rows else None
     for name in expected:
         if frame is None:
@@ -213,7 +213,9 @@ def _parse_rows(rows: list[list[str]], expected: tuple[str, ...], kinds: dict[st
             continue
         cols[name], bad_field = _parse_field(frame[name].astype(str).str.strip(), kinds[name])
         bad |= bad_field
-    return cols, bad
+        if bad_field.any():
+            per_column[name] = int(bad_field.sum())
+    return cols, bad, per_column
 
 
 def _parse_csv(
@@ -235,7 +237,7 @@ def _parse_csv(
     split = [ln.split(",") for ln in body]
     good_count = np.fromiter((len(f) == ncol for f in split), dtype=bool, count=n_lines)
     rows = [f for f, g in zip(split, good_count, strict=True) if g]
-    cols, bad = _parse_rows(rows, expected, kinds)
+    cols, bad, per_column = _parse_rows(rows, expected, kinds)
     if extra_bad is not None and len(rows):
         bad |= extra_bad(cols)
     good_lines = line_numbers[good_count]
@@ -245,8 +247,10 @@ def _parse_csv(
         raise InputError(
             f"{path}:{int(corrupt[0])}",
             f"{n_corrupt} of {n_lines} data lines corrupt (> {100 * max_corrupt_fraction:g} %); "
-            f"first corrupt lines {corrupt[:_N_LOGGED_LINES].tolist()}; expected "
-            f"{ncol} comma-separated fields {','.join(expected)}",
+            f"first corrupt lines {corrupt[:_N_LOGGED_LINES].tolist()}; "
+            f"{int((~good_count).sum())} lines without {ncol} fields"
+            + "".join(f", {n} bad {name} fields" for name, n in sorted(per_column.items(), key=lambda kv: -kv[1]))
+            + f"; expected {ncol} comma-separated fields {','.join(expected)}",
         )
     keep = ~bad
     table = _Table(path=str(path), columns={k: v[keep] for k, v in cols.items()}, line_no=good_lines[keep],
@@ -263,8 +267,31 @@ def _parse_csv(
     return table
 
 
-def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float) -> None:
-    """Drop exact duplicates and time conflicts, check backward jumps, sort by rpi_time_us."""
+def _check_backward_jump(table: _Table, t: np.ndarray, clock_jump_tol_s: float) -> None:
+    """Raise :class:`ClockJumpError` at the first backward step in row order larger than the tolerance.
+
+    A late row lies below the running maximum by less than the tolerance; a larger deficit
+    means the clock was set back.
+    """
+    deficit = np.maximum.accumulate(t) - t
+    jump = np.flatnonzero(deficit > clock_jump_tol_s * _US)
+    if jump.size:
+        i = int(jump[0])
+        raise ClockJumpError(
+            f"{table.path}:{int(table.line_no[i])}",
+            f"rpi_time_us steps back by {deficit[i] / _US:.3f} s relative to earlier rows "
+            f"(> {clock_jump_tol_s:g} s): logger clock jump; not corrected, fix or split the file",
+        )
+
+
+def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
+                max_conflict_fraction: float = 0.05) -> None:
+    """Drop exact duplicates and time conflicts, check backward jumps, sort by rpi_time_us.
+
+    Rows repeating a time stamp with other values conflict: every row of such a time stamp
+    is dropped (counted in ``n_time_conflicts``, lines logged); more than
+    ``max_conflict_fraction`` of the rows raises :class:`InputError`.
+    """
     t = table.columns["rpi_time_us"]
     frame = pd.DataFrame({c: table.columns[c] for c in ["rpi_time_us", *value_cols]})
     dup = frame.duplicated(keep="first").to_numpy()
@@ -272,9 +299,18 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float) -
     keep = np.flatnonzero(~dup)
     table.take(keep)
     t = table.columns["rpi_time_us"]
-    conflict = pd.Series(t).duplicated(keep="first").to_numpy()
+    conflict = pd.Series(t).duplicated(keep=False).to_numpy()
     n_conf = int(conflict.sum())
     if n_conf:
+        lines = table.line_no[conflict][:_N_LOGGED_LINES].tolist()
+        if n_conf > max_conflict_fraction * t.size:
+            _check_backward_jump(table, t, clock_jump_tol_s)  # a clock set back repeats earlier stamps: a jump
+            raise InputError(f"{table.path}:{lines[0]}",
+                             f"{n_conf} of {t.size} rows repeat an rpi_time_us with other values "
+                             f"(> {100 * max_conflict_fraction:g} %; first at lines {lines}): expected one row "
+                             "per time stamp")
+        table.log.append(f"order: {n_conf} rows repeating an rpi_time_us with other values dropped, none "
+                         f"trusted (lines {lines})")
         table.take(np.flatnonzero(~conflict))
         t = table.columns["rpi_time_us"]
     # An isolated corrupt-but-numeric time stamp (its neighbours agree with each other but
@@ -296,18 +332,8 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float) -
             table.take(np.flatnonzero(~iso))
             t = table.columns["rpi_time_us"]
     table.counts["n_time_outliers"] = n_iso
-    # Backward steps in row order: a late row lies below the running maximum by less than
-    # the tolerance; a larger deficit means the clock was set back.
+    _check_backward_jump(table, t, clock_jump_tol_s)
     run_max = np.maximum.accumulate(t)
-    deficit = run_max - t
-    jump = np.flatnonzero(deficit > tol_us)
-    if jump.size:
-        i = int(jump[0])
-        raise ClockJumpError(
-            f"{table.path}:{int(table.line_no[i])}",
-            f"rpi_time_us steps back by {deficit[i] / _US:.3f} s relative to earlier rows "
-            f"(> {clock_jump_tol_s:g} s): logger clock jump; not corrected, fix or split the file",
-        )
     late = np.zeros(t.size, dtype=bool)
     late[1:] = t[1:] < run_max[:-1]
     n_late = int(late.sum())
@@ -318,7 +344,7 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float) -
     table.counts["n_out_of_order"] = n_late
     table.log.append(
         f"order: {n_dup} exact duplicate rows dropped, {n_conf} rows repeating a time stamp "
-        f"with other values dropped (first kept), {n_late} out-of-order rows sorted"
+        f"with other values dropped, {n_late} out-of-order rows sorted"
     )
 
 
@@ -733,8 +759,12 @@ def _increasing_utc(utc: np.ndarray, counts: dict[str, int], log: list[str]) -> 
 
 
 def _ins_qc(cols: dict[str, np.ndarray], fs_hz: float, despike: bool, counts: dict[str, int], log: list[str],
-            ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+            path: str | os.PathLike[str] = "ins") -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Range, missing and (optional) spike flags of the INS; flagged rows set to NaN.
+
+    A variable without a single valid value raises :class:`InputError` naming the file and
+    the column (a flagged value flags its whole row, so later steps could not tell which
+    column was empty).
 
     Parameters
     ----------
@@ -768,6 +798,10 @@ def _ins_qc(cols: dict[str, np.ndarray], fs_hz: float, despike: bool, counts: di
         x = cols[name].astype(float)
         missing = ~np.isfinite(x)
         bad = range_mask(np.where(missing, np.nan, x), lo, hi)
+        if (missing | bad).all():
+            raise InputError(f"{path} [{name}]", f"column {name} holds no valid value in its {x.size} rows after the "
+                             f"stable GNSS time ({int(missing.sum())} empty or NaN, {int(bad.sum())} outside "
+                             f"[{lo:g}, {hi:g}]); expected the INS's {name}")
         n_range += int(bad.sum())
         n_nan += int(missing.sum())
         qc[bad] |= QC_OUT_OF_RANGE
@@ -918,7 +952,7 @@ def ins_l1(
         log.append(f"gaps: {counts['n_gaps_over_1s']} INS gaps > 1 s (not filled; longest "
                    f"{ins_steps.max() / _US:.2f} s)")  # fmt: skip
     fs_hz = _nominal_rate(t_rpi)
-    data, qc = _ins_qc(cols, fs_hz, despike, counts, log)
+    data, qc = _ins_qc(cols, fs_hz, despike, counts, log, ins_path)
     ds = _ins_dataset(data, cols, qc, utc[sel], t_rpi[sel])
     _finish_attrs(ds, counts, log, ins.fit, fs_hz, str(ins_path), t_rpi[sel])
     return ds
@@ -988,7 +1022,10 @@ def _after_stable_time(cols: dict[str, np.ndarray], rpi_stable_us: int, sonic_pa
     before = t < rpi_stable_us
     n_before = int(before.sum())
     if n_before == t.size:
-        raise InputError(sonic_path, "all sonic rows precede the INS's stable valid GNSS time")
+        raise InputError(sonic_path, f"all {t.size} sonic rows precede the INS's stable valid GNSS time: the sonic's "
+                         f"logger time ends {(rpi_stable_us - int(t.max())) / _US:.1f} s before it (rpi_time_us "
+                         f"{int(t.max())} < {rpi_stable_us}); expected sonic rows after it (the sonic and INS files "
+                         "of one flight, logging together)")
     cols = {k: v[~before] for k, v in cols.items()}
     counts["n_before_stable_time"] = n_before
     log.append(f"gnss_time: {n_before} sonic rows before the INS's stable GNSS time discarded")
@@ -1037,8 +1074,13 @@ def _sonic_on_full_clock(cols: dict[str, np.ndarray], sonic_path: str | os.PathL
 
 
 def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply_elevation_limit: bool,
-              despike_window_s: float, despike_n_mad: float, counts: dict[str, int], log: list[str]) -> np.ndarray:
+              despike_window_s: float, despike_n_mad: float, counts: dict[str, int], log: list[str],
+              source: str | os.PathLike[str] = "sonic") -> np.ndarray:
     """Missing, range (RM Young 81000) and spike flags of the sonic; flagged samples set to NaN in ``vals``.
+
+    A column without a single valid value raises :class:`InputError` naming the file and
+    the column (a flag on one variable sets the whole sample to NaN, so later steps could
+    not tell which column was empty).
 
     Parameters
     ----------
@@ -1062,6 +1104,11 @@ def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply
         int8 QC bitmask (:mod:`dronewind.core.qc`).
     """
     n = have.size
+    empty = [name for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c") if not np.isfinite(vals[name][have]).any()]
+    if empty:
+        raise InputError(f"{source} [{', '.join(empty)}]", f"column(s) {', '.join(empty)} hold no valid value in the "
+                         f"{int(have.sum())} sonic rows after the INS's stable GNSS time; expected numbers in m s-1 "
+                         "(speeds) and degC (temperature)")
     qc = np.zeros(n, dtype=np.int8)
     missing = ~(np.isfinite(vals["u_ms"]) & np.isfinite(vals["v_ms"])
                 & np.isfinite(vals["w_ms"]) & np.isfinite(vals["t_sonic_c"]))  # fmt: skip
@@ -1076,6 +1123,13 @@ def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply
             elev = np.rad2deg(np.arctan2(vals["w_ms"], np.hypot(vals["u_ms"], vals["v_ms"])))
             out |= range_mask(elev, *lim["elevation_deg"])
     qc[out] |= QC_OUT_OF_RANGE
+    n_logged = max(int(have.sum()), 1)
+    if out.sum() > 0.5 * n_logged:
+        raise InputError(f"{source} [u_ms, v_ms, w_ms, t_sonic_c]",
+                         f"{int(out.sum())} of {n_logged} sonic samples ({100 * out.sum() / n_logged:.0f} %) beyond "
+                         f"the RM Young 81000 range (|V| <= {lim['speed_ms'][1]:g} m/s, {lim['t_sonic_c'][0]:g}.."
+                         f"{lim['t_sonic_c'][1]:g} degC; median |V| {np.nanmedian(speed):.3g}): expected m s-1 and "
+                         "degC, not another unit (cm/s, km/h, K)")
     spikes = np.zeros(n, dtype=bool)
     for name in ("u_ms", "v_ms", "w_ms", "t_sonic_c"):
         x = np.where(qc == 0, vals[name], np.nan)
@@ -1190,7 +1244,8 @@ def payload_sonic_l1(
     cols = _after_stable_time(cols, ins.rpi_stable_us, sonic_path, counts, log)
     t_full, vals, have = _sonic_on_full_clock(cols, sonic_path, max_gap_s, counts, log)
     fs_hz = _nominal_rate(t_full)
-    qc = _sonic_qc(vals, have, fs_hz, apply_elevation_limit, despike_window_s, despike_n_mad, counts, log)
+    qc = _sonic_qc(vals, have, fs_hz, apply_elevation_limit, despike_window_s, despike_n_mad, counts, log,
+                   sonic_path)
     _count_extrapolated(t_full, ins.fit, counts, log)
     log = [*log, *(f"ins {line}" for line in ins.log)]
     counts["n_ins_before_stable_time"] = ins.counts["n_before_stable_time"]

@@ -6,14 +6,24 @@ this module:
 1. INS gaps (NaN or ``ekf_valid == 0``) filled linearly in time (:func:`_fill_ins_gaps`);
 2. hover window = longest contiguous run of
    :func:`dronewind.core.filtering.hover_window_mask` (seed 000, Sect. 3.2;
-   :func:`_hover_window`);
+   :func:`_hover_window`); the 2 % rule applies to the INS too, counting filled samples
+   and absent rows (gaps in time) against the samples expected at the INS rate
+   (:func:`_ins_coverage`);
 3. sonic gaps filled with :func:`dronewind.core.filtering.gap_fill_linear` on the hover
    window +/- ``max_lag_s`` (> 2 % missing: ``usable = 0``, data not filled and the NaN
-   samples interpolated only for the lag search; :func:`_sonic_segment`);
+   samples interpolated only for the lag search; :func:`_sonic_segment`); missing samples
+   are counted against the samples the hover window should hold at the sonic rate, so a
+   sonic record that ends early counts what it lacks;
 4. lag of minimum TKE (:func:`tke_vs_lag`, seed 000, Sect. 3.3; :func:`_sonic_ins_lag`);
 5. INS interpolated to the shifted sonic times and the wind corrected
    (:func:`dronewind.payload.motion.motion_correct`, seed 000, Eqs. 1-2;
-   :func:`_correct_motion`), east/north/up wind at the sonic rate.
+   :func:`_correct_motion`), east/north/up wind at the sonic rate; the duration is measured
+   on the sonic samples used (:func:`_used_duration`), and the plausibility checks of
+   :mod:`dronewind.payload.checks` run (hover height, INS velocity against the GNSS position,
+   sonic range; :func:`_plausibility`).
+
+Every failed check adds a reason (``usable = 0``); errors name the flight and its files
+(the L1 ``source_file`` attributes), the variable and the numbers.
 
 The drone-to-mast alignment (L3) is :mod:`dronewind.compare.align`.
 
@@ -38,10 +48,10 @@ import xarray as xr
 
 from dronewind.core import filtering
 from dronewind.core.cf import variable
-from dronewind.core.qc import QC_GAP_FILLED, qc_flag_attrs
+from dronewind.core.qc import QC_GAP_FILLED, QC_OUT_OF_RANGE, qc_flag_attrs
 from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, longest_true_run, require_variables, time_ns
 from dronewind.errors import InputError
-from dronewind.payload import motion
+from dronewind.payload import checks, motion
 
 __all__ = [
     "interpolate_ins",
@@ -349,6 +359,27 @@ class _Trace:
     log: list[str] = field(default_factory=list)
     counts: dict[str, int] = field(default_factory=dict)
     reasons: list[str] = field(default_factory=list)
+    where: str = "payload flight"  # flight and files, for messages
+
+
+def _describe_flight(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, flight_id: str | None) -> str:
+    """``flight s01 (sonic flights/s01/sonic.csv, INS flights/s01/ins.csv)`` for messages."""
+    files = [f"{kind} {ds.attrs['source_file']}" for kind, ds in (("sonic", sonic_l1), ("INS", ins_l1))
+             if ds.attrs.get("source_file")]
+    label = f"flight {flight_id}" if flight_id else "payload flight"
+    return f"{label} ({', '.join(files)})" if files else label
+
+
+def _utc(t_ns: int | np.integer) -> str:
+    """A time [ns since 1970] as ISO 8601 UTC to the second."""
+    return str(np.datetime_as_string(np.datetime64(int(t_ns), "ns"), unit="s")) + "Z"
+
+
+def _span(t0_ns: int, t1_ns: int) -> str:
+    """A duration [ns] in words (s, min, h or days)."""
+    s = abs(int(t1_ns) - int(t0_ns)) / _NS
+    return f"{s:.1f} s" if s < 120 else f"{s / 60:.1f} min" if s < 7200 else f"{s / 3600:.1f} h" if s < 172800 \
+        else f"{s / 86400:.1f} days"
 
 
 @dataclass
@@ -393,13 +424,29 @@ def _apply_window(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, window: tuple[Any, A
     keep_i = (ti_ns >= w0) & (ti_ns <= w1)
     tr.counts["n_sonic_outside_window"] = int((~keep_s).sum())
     tr.counts["n_ins_outside_window"] = int((~keep_i).sum())
+    if keep_s.sum() < 2 or keep_i.sum() < 2:
+        raise InputError(f"{tr.where} [window]", _window_miss(int(w0), int(w1), ts_ns, ti_ns, int(keep_s.sum()),
+                                                               int(keep_i.sum())))
     sonic_l1 = sonic_l1.isel(time=np.flatnonzero(keep_s))
     ins_l1 = ins_l1.isel(time=np.flatnonzero(keep_i))
     ts_ns, ti_ns = ts_ns[keep_s], ti_ns[keep_i]
     tr.log.append(f"window: kept {keep_s.sum()} sonic and {keep_i.sum()} INS samples in the flight window")
-    if ts_ns.size < 2 or ti_ns.size < 2:
-        raise InputError("window", "the flight window holds fewer than 2 sonic or INS samples")
     return sonic_l1, ins_l1, ts_ns, ti_ns
+
+
+def _window_miss(w0: int, w1: int, ts_ns: np.ndarray, ti_ns: np.ndarray, n_s: int, n_i: int) -> str:
+    """Why the manifest window holds (almost) no data: where it lies relative to the data."""
+    lo = int(min(ts_ns.min(), ti_ns.min())) if ts_ns.size and ti_ns.size else int(w0)
+    hi = int(max(ts_ns.max(), ti_ns.max())) if ts_ns.size and ti_ns.size else int(w1)
+    if w0 > hi:
+        where = f"the window starts {_span(hi, w0)} after the data end"
+    elif w1 < lo:
+        where = f"the window ends {_span(w1, lo)} before the data start"
+    else:
+        where = "the window overlaps the data span but holds almost no samples"
+    return (f"the manifest window {_utc(w0)} to {_utc(w1)} holds {n_s} sonic and {n_i} INS samples (at least 2 "
+            f"of each expected); the data span {_utc(lo)} to {_utc(hi)}: {where}. Check the window's date and "
+            "time zone (UTC)")
 
 
 def _fill_ins_gaps(ins_l1: xr.Dataset, ti: np.ndarray, tr: _Trace) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -436,7 +483,8 @@ def _fill_ins_gaps(ins_l1: xr.Dataset, ti: np.ndarray, tr: _Trace) -> tuple[dict
             ok = np.isfinite(x)
             x[ok] = np.rad2deg(np.unwrap(np.deg2rad(x[ok])))
         if not np.isfinite(x).any():
-            raise InputError(f"ins_l1:{k}", "no valid sample")
+            raise InputError(f"{tr.where} [INS {k}]", f"no valid {k} sample among the {ti.size} INS samples "
+                             f"({int(invalid.sum())} with ekf_valid=0)")
         ins[k], _ = fill_nan_by_time(ti, x)
     tr.counts["n_ins_filled"] = int(ins_missing.sum())
     tr.log.append(f"ins_gaps: filled {int(ins_missing.sum())} INS samples (NaN or ekf_valid=0) by linear "
@@ -475,9 +523,9 @@ def _hover_window(ins: dict[str, np.ndarray], ti: np.ndarray, ins_missing: np.nd
                                         alt_tol_m=alt_tol_m, horiz_tol_m=horiz_tol_m)
     i0, i1, n_runs = longest_true_run(hover)
     if i1 - i0 < 2:
-        raise InputError("ins_l1:alt_m/lat_deg/lon_deg",
-                         f"no hover window found (median altitude +/-{alt_tol_m:g} m, "
-                         f"+/-{horiz_tol_m:g} m horizontally)")
+        raise InputError(f"{tr.where} [INS alt_m, lat_deg, lon_deg]",
+                         f"no hover window found among {ti.size} INS samples over {ti[-1] - ti[0]:.1f} s (median "
+                         f"altitude +/-{alt_tol_m:g} m, +/-{horiz_tol_m:g} m horizontally)")
     h0, h1 = ti[i0], ti[i1 - 1]
     tr.counts["n_ins_hover"] = i1 - i0
     tr.counts["n_ins_hover_runs"] = n_runs
@@ -486,11 +534,44 @@ def _hover_window(ins: dict[str, np.ndarray], ti: np.ndarray, ins_missing: np.nd
                   f"({int(hover.sum()) - (i1 - i0)} hover-mask INS samples outside it dropped)")
     if h1 - h0 < min_hover_s:
         tr.reasons.append(f"hover window {h1 - h0:.1f} s shorter than {min_hover_s:.0f} s")
-    bad_hover = int(ins_missing[i0:i1].sum())
-    tr.counts["n_ins_filled_in_hover"] = bad_hover
-    if bad_hover > max_missing_fraction * (i1 - i0):
-        tr.reasons.append(f"{bad_hover} of {i1 - i0} INS samples in the hover window missing or ekf_valid=0")
+    _ins_coverage(ti[i0:i1], ins_missing[i0:i1], ti, max_missing_fraction, tr)
     return h0, h1
+
+
+def _ins_coverage(t_hover: np.ndarray, missing: np.ndarray, ti: np.ndarray, max_missing_fraction: float,
+                  tr: _Trace) -> None:
+    """The 2 % rule on the INS in the hover window: filled samples plus absent rows (gaps in time).
+
+    Parameters
+    ----------
+    t_hover : numpy.ndarray
+        INS times in the hover window [s].
+    missing : numpy.ndarray
+        Their samples that were missing or ``ekf_valid = 0`` (filled).
+    ti : numpy.ndarray
+        All INS times [s] (the nominal step is their median step).
+    max_missing_fraction : float
+        Largest fraction of missing samples [1] (seed 000, Sect. 3.2: 2 %).
+    tr : _Trace
+        Receives ``n_ins_filled_in_hover``, ``n_ins_absent_in_hover``, the ``ins_gaps:`` line
+        and the unusable reason.
+    """
+    dt = float(np.median(np.diff(ti)))
+    steps = np.diff(t_hover)
+    absent = int(np.sum(np.maximum(np.rint(steps / dt).astype(np.int64) - 1, 0))) if steps.size else 0
+    n_expected = t_hover.size + absent
+    bad = int(missing.sum())
+    longest = float(steps.max()) if steps.size else 0.0
+    tr.counts["n_ins_filled_in_hover"] = bad
+    tr.counts["n_ins_absent_in_hover"] = absent
+    frac = (bad + absent) / max(n_expected, 1)
+    tr.log.append(f"ins_gaps: hover window {bad} INS samples NaN or ekf_valid=0 and {absent} absent (longest step "
+                  f"{longest:.2f} s) of {n_expected} expected at {1 / dt:.3g} Hz: {100 * frac:.2f} % missing "
+                  f"(limit {100 * max_missing_fraction:g} %)")
+    if frac > max_missing_fraction:
+        tr.reasons.append(f"{100 * frac:.2f} % of the INS samples in the hover window missing ({bad} NaN or "
+                          f"ekf_valid=0, {absent} absent, longest gap {longest:.1f} s; limit "
+                          f"{100 * max_missing_fraction:g} %)")
 
 
 def _sonic_segment(sonic_l1: xr.Dataset, ts: np.ndarray, h0: float, h1: float, max_lag_s: float,
@@ -523,12 +604,12 @@ def _sonic_segment(sonic_l1: xr.Dataset, ts: np.ndarray, h0: float, h1: float, m
     """
     seg = np.flatnonzero((ts >= h0 - max_lag_s - 1.0) & (ts <= h1 + max_lag_s + 1.0))
     if seg.size < 16:
-        raise InputError("sonic_l1:time", "the sonic record does not overlap the hover window")
+        raise InputError(f"{tr.where} [sonic time]",
+                         f"the sonic record ({ts.size} samples, {ts[0] - h0:+.1f} s to {ts[-1] - h0:+.1f} s from the "
+                         f"hover start) does not overlap the {h1 - h0:.1f} s hover window found in the INS")
     ts_seg = ts[seg]
     dt_nom = float(np.median(np.diff(ts_seg)))
     fs_hz = float(sonic_l1.attrs.get("sampling_rate_hz", 1.0 / dt_nom))
-    n_expected = int(round((ts_seg[-1] - ts_seg[0]) / dt_nom)) + 1
-    tr.counts["n_sonic_missing_rows"] = max(0, n_expected - ts_seg.size)
     raw = {k: np.asarray(sonic_l1[k].values, dtype=float)[seg] for k in _SONIC_VARS}
     nan_any = np.zeros(seg.size, dtype=bool)
     usable_fill = True
@@ -537,12 +618,29 @@ def _sonic_segment(sonic_l1: xr.Dataset, ts: np.ndarray, h0: float, h1: float, m
         nan_any |= ~np.isfinite(raw[k])
         filled[k], _, ok = filtering.gap_fill_linear(raw[k], max_missing_fraction)
         usable_fill &= ok
-    n_missing_total = int(nan_any.sum()) + tr.counts["n_sonic_missing_rows"]
+    # Coverage of the hover window by the sonic data actually there: rows absent inside the
+    # record, and the parts of the hover window the record does not reach (a file cut short).
+    in_hover = (ts_seg >= h0) & (ts_seg <= h1)
+    n_expected = int(np.floor((h1 - h0) / dt_nom + 1e-6)) + 1
+    n_in_hover = int(in_hover.sum())
+    tr.counts["n_sonic_missing_rows"] = max(0, n_expected - n_in_hover)
+    tr.counts["n_sonic_expected_in_hover"] = n_expected
+    n_missing_total = int((nan_any & in_hover).sum()) + tr.counts["n_sonic_missing_rows"]
     frac = n_missing_total / max(n_expected, 1)
+    _sonic_span_log(ts_seg[in_hover], h0, h1, n_in_hover, n_expected, tr)
     filled_ok = usable_fill and frac <= max_missing_fraction
     search = _lag_search_input(raw, filled, ts_seg, nan_any, n_missing_total, frac, filled_ok,
                                max_missing_fraction, tr)
     return _SonicSegment(seg, ts_seg, fs_hz, raw, filled, search, nan_any, filled_ok)
+
+
+def _sonic_span_log(t_used: np.ndarray, h0: float, h1: float, n_in_hover: int, n_expected: int, tr: _Trace) -> None:
+    """Log where the sonic data lie in the hover window (a record that starts late or ends early)."""
+    if t_used.size == 0:
+        tr.log.append(f"sonic_coverage: no sonic sample in the {h1 - h0:.1f} s hover window")
+        return
+    tr.log.append(f"sonic_coverage: {n_in_hover} of {n_expected} sonic samples of the {h1 - h0:.1f} s hover window "
+                  f"present, from {t_used[0] - h0:.1f} s to {t_used[-1] - h0:.1f} s after its start")
 
 
 def _lag_search_input(raw: dict[str, np.ndarray], filled: dict[str, np.ndarray], ts_seg: np.ndarray,
@@ -567,8 +665,11 @@ def _lag_search_input(raw: dict[str, np.ndarray], filled: dict[str, np.ndarray],
         tr.counts["n_sonic_filled"] = int(nan_any.sum())
         tr.log.append(f"sonic_gaps: filled {int(nan_any.sum())} NaN samples linearly; "
                       f"{tr.counts['n_sonic_missing_rows']} missing rows bridged ({100 * frac:.2f} % missing)")
-    if not all(np.isfinite(search[k]).all() for k in _SONIC_VARS[:3]):
-        raise InputError("sonic_l1", "no valid sonic wind sample in the hover window")
+    empty = [k for k in _SONIC_VARS[:3] if not np.isfinite(search[k]).all()]
+    if empty:
+        raise InputError(f"{tr.where} [sonic {', '.join(empty)}]",
+                         f"no valid sonic sample of {', '.join(empty)} among the {ts_seg.size} samples around the "
+                         f"hover window ({ts_seg[-1] - ts_seg[0]:.1f} s; {n_missing_total} missing or flagged)")
     return search
 
 
@@ -643,6 +744,43 @@ def _correct_motion(seg: _SonicSegment, lag: float, hover_s: tuple[float, float]
     tr.log.append(f"motion: corrected {int(sel.sum())} samples (mount {mount}, lever arm "
                   f"{'none' if lever_arm_m is None else tuple(float(x) for x in lever_arm_m)})")
     return sel, ins_s, wind
+
+
+def _used_duration(time_out: np.ndarray, hover_s: tuple[float, float], min_hover_s: float, tr: _Trace) -> None:
+    """The hover duration measured on the sonic samples actually used (not on the INS hover)."""
+    h0, h1 = hover_s
+    span = float((time_out[-1] - time_out[0]) / np.timedelta64(1, "s")) if time_out.size >= 2 else 0.0
+    tr.log.append(f"duration: {time_out.size} sonic samples used over {span:.1f} s of the {h1 - h0:.1f} s hover "
+                  "window")
+    if span < min_hover_s:
+        tr.reasons.append(f"the sonic data used span {span:.1f} s of the {h1 - h0:.1f} s hover window (shorter than "
+                          f"{min_hover_s:.0f} s): sonic record cut short or sparse")
+
+
+def _plausibility(sonic_l1: xr.Dataset, seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndarray,
+                  ins: dict[str, np.ndarray], ins_missing: np.ndarray, alt_used_m: np.ndarray,
+                  site_altitude_m: float | None, target_height_m: float | None, max_missing_fraction: float,
+                  tr: _Trace) -> None:
+    """Unit and convention checks (:mod:`dronewind.payload.checks`); a failure is an unusable reason."""
+    results = []
+    if site_altitude_m is not None and alt_used_m.size:
+        height = float(np.median(alt_used_m) - float(site_altitude_m))
+        results.append(checks.height_check(height, target_height_m))
+    good = ~ins_missing
+    results.append(checks.velocity_position_check(
+        ti[good], ins["lat_deg"][good], ins["lon_deg"][good], ins["alt_m"][good], ins["vel_n_ms"][good],
+        ins["vel_e_ms"][good], ins["vel_d_ms"][good]))
+    if "qc_sonic" in sonic_l1.variables:
+        h0, h1 = hover_s
+        in_hover = (seg.time_s >= h0) & (seg.time_s <= h1)
+        qc = np.asarray(sonic_l1["qc_sonic"].values).astype(np.int32)[seg.index]
+        n_out = int(((qc & QC_OUT_OF_RANGE) != 0)[in_hover].sum())
+        results.append(checks.sonic_range_check(n_out, int(in_hover.sum()), max_missing_fraction,
+                                                "RM Young 81000: |V| <= 40 m/s, -50..50 degC"))
+    for result in results:
+        tr.log.append(result.log)
+        if result.reason:
+            tr.reasons.append(result.reason)
 
 
 def _l2_dataset(seg: _SonicSegment, sel: np.ndarray, ins_s: dict[str, np.ndarray],
@@ -723,6 +861,7 @@ def payload_l2(
     misalignment_deg: tuple[float, float, float] | None = None, window: tuple[Any, Any] | None = None,
     min_hover_s: float = 600.0, hover_alt_tol_m: float = 3.0, hover_horiz_tol_m: float = 4.0,
     max_missing_fraction: float = 0.02, fixed_lag_s: float | None = None, site_altitude_m: float | None = None,
+    target_height_m: float | None = None, flight_id: str | None = None, plausibility: bool = True,
 ) -> xr.Dataset:
     """Build the L2 payload dataset: synchronised, motion-corrected wind in east/north/up.
 
@@ -761,6 +900,15 @@ def payload_l2(
     site_altitude_m : float, optional
         Ground altitude above mean sea level [m]; if given, attrs ``height_m`` = median INS
         altitude in the output minus it (read by :func:`dronewind.compare.align.align_drone_mast`).
+    target_height_m : float, optional
+        The flight's target height above ground [m]; the hover height is checked against it
+        (:func:`dronewind.payload.checks.height_check`).
+    flight_id : str, optional
+        Flight id, named in messages with the L1 ``source_file`` attributes.
+    plausibility : bool
+        Run the unit and convention checks of :mod:`dronewind.payload.checks` (hover height,
+        INS velocity against the GNSS position derivative, sonic range); a failed check
+        marks the flight unusable with its reason.
 
     Returns
     -------
@@ -777,7 +925,7 @@ def payload_l2(
     Steps 1-5 of the module docstring. References: seed 000, Sects. 3.1-3.3, Eqs. 1-3.
     """
     _check_l2_inputs(sonic_l1, ins_l1, mount)
-    tr = _Trace()
+    tr = _Trace(where=_describe_flight(sonic_l1, ins_l1, flight_id))
     sonic_l1, ins_l1, ts_ns, ti_ns = _apply_window(sonic_l1, ins_l1, window, tr)
     t_ref = int(min(ts_ns[0], ti_ns[0]))
     ts, ti = (ts_ns - t_ref) / _NS, (ti_ns - t_ref) / _NS
@@ -789,6 +937,10 @@ def payload_l2(
                                                      lag_step_s, misalignment_deg, fixed_lag_s, tr)
     sel, ins_s, wind = _correct_motion(seg, lag, hover, ts.size, ti, ins, mount, lever_arm_m, misalignment_deg, tr)
     time_out = (ts_ns[seg.index][sel] + int(round(lag * _NS))).astype("datetime64[ns]")
+    _used_duration(time_out, hover, min_hover_s, tr)
+    if plausibility:
+        _plausibility(sonic_l1, seg, hover, ti, ins, ins_missing, ins_s["alt_m"], site_altitude_m, target_height_m,
+                      max_missing_fraction, tr)
     ds = _l2_dataset(seg, sel, ins_s, wind, time_out, lag_grid, tke)
     _add_qc_sonic(ds, sonic_l1, seg, sel, tr.counts["n_sonic_filled"])
     ds.attrs.update(_l2_attrs(lag, lag_tke_min, mount, lever_arm_m, misalignment_deg, seg.fs_hz, max_lag_s,

@@ -83,6 +83,17 @@ _VAR_ATTRS: dict[str, dict[str, str]] = {
 }
 
 
+def _quoted_time(field: Any) -> str:
+    """A time field for a message: quoted if it looks like a time stamp, else only described.
+
+    What a reader echoes from a file is limited to what it expected there (a time stamp).
+    """
+    text = "" if field is None or field is pd.NA else str(field)
+    if re.fullmatch(r"[0-9TZ:.+\- ]{1,40}", text):
+        return repr(text)
+    return f"(a field of {len(text)} characters that is not a time stamp)"
+
+
 def parse_time_utc(values: pd.Series | np.ndarray | list[str], where: str | Path,
                    first_line: int = 2) -> np.ndarray:
     """Parse ISO 8601 UTC strings with a trailing ``Z`` into ``datetime64[ns]``.
@@ -113,14 +124,14 @@ def parse_time_utc(values: pd.Series | np.ndarray | list[str], where: str | Path
         i = int(np.flatnonzero(~ok)[0])
         raise InputError(
             f"{where}:{first_line + i}",
-            f"time_utc {text.iloc[i]!r} is not ISO 8601 UTC with a trailing 'Z' "
+            f"time_utc {_quoted_time(text.iloc[i])} is not ISO 8601 UTC with a trailing 'Z' "
             "(expected e.g. 2020-07-24T10:19:30Z or 2020-07-24T10:19:30.25Z)",
         )
     stamps = pd.to_datetime(text.str.slice(0, -1), format="ISO8601", errors="coerce")
     if stamps.isna().any():
         i = int(np.flatnonzero(stamps.isna().to_numpy())[0])
         raise InputError(f"{where}:{first_line + i}",
-                         f"time_utc {text.iloc[i]!r} is not a valid date/time")
+                         f"time_utc {_quoted_time(text.iloc[i])} is not a valid date/time")
     return stamps.to_numpy(dtype="datetime64[ns]")
 
 

@@ -53,6 +53,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
+from dronewind.core.cf import atomic_write_text
 from dronewind.core.geo import from_local_tangent_plane
 from dronewind.errors import InputError
 from dronewind.simulate.airframe import (
@@ -547,9 +548,7 @@ def uav_log_frame(time: np.ndarray, signals: Mapping[str, np.ndarray], z_m: np.n
 
 
 def _write_csv(frame: pd.DataFrame, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    frame.to_csv(path, index=False)
-    return path
+    return atomic_write_text(path, frame.to_csv(index=False))
 
 
 def _flight_entry(campaign: Mapping[str, Any], flight_id: str) -> Mapping[str, Any]:

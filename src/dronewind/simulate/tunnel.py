@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dronewind.core.cf import atomic_write_text
 from dronewind.errors import InputError
 from dronewind.simulate.airframe import TABLE2_COEFFICIENTS, AirframeDrag, attitude_from_relative_air
 from dronewind.simulate.common import first_order_lag, merge_settings, ornstein_uhlenbeck
@@ -236,11 +237,11 @@ def _write_run(out: Path, run: dict, flow_cta: np.ndarray, fs: float, cfg: dict,
     tdir.mkdir(parents=True, exist_ok=True)
     cta_name = f"{run['run_id']}_cta.csv"
     uas_name = f"{run['run_id']}_{uas}.csv"
-    pd.DataFrame({"time_s": np.round(np.arange(n) / fs, 4), "wind_speed_ms": np.round(cta, 4)}) \
-        .to_csv(tdir / cta_name, index=False)
-    pd.DataFrame({"time_s": np.round(t_u, 4), "roll_deg": np.round(roll, 4),
-                  "pitch_deg": np.round(pitch, 4), "yaw_deg": np.round(yaw, 4)}) \
-        .to_csv(tdir / uas_name, index=False)
+    atomic_write_text(tdir / cta_name, pd.DataFrame({"time_s": np.round(np.arange(n) / fs, 4),
+                                                    "wind_speed_ms": np.round(cta, 4)}).to_csv(index=False))
+    atomic_write_text(tdir / uas_name, pd.DataFrame({
+        "time_s": np.round(t_u, 4), "roll_deg": np.round(roll, 4), "pitch_deg": np.round(pitch, 4),
+        "yaw_deg": np.round(yaw, 4)}).to_csv(index=False))
     rows.append({**run, "duration_s": n / fs, "fs_cta_hz": fs, "fs_uas_hz": fs_u,
                  "cta_file": f"tunnel/{cta_name}", "uas_file": f"tunnel/{uas_name}"})
     return [tdir / cta_name, tdir / uas_name]
@@ -418,6 +419,6 @@ def simulate_tunnel(settings: dict, out_dir: Path, seed: int) -> list[Path]:
             paths += simulate_runs(out, cfg, law, rng, rows, fs)
     index = pd.DataFrame(rows, columns=_RUN_COLUMNS)
     (out / "tunnel").mkdir(parents=True, exist_ok=True)
-    index.to_csv(out / "tunnel" / "runs.csv", index=False)
+    atomic_write_text(out / "tunnel" / "runs.csv", index.to_csv(index=False))
     paths.append(out / "tunnel" / "runs.csv")
     return paths

@@ -4,7 +4,8 @@ The simulator reaches the processing chain only through these files, so they fol
 the contract byte for byte: exact header lines, integer ``rpi_time_us``, ISO 8601 UTC
 with microseconds and a trailing ``Z`` (empty while ``time_valid`` is 0), and TOA5 with
 four header lines, Campbell-style timestamps (trailing zeros of the fraction dropped)
-and quoted ``"NAN"`` for bad samples.
+and quoted ``"NAN"`` for bad samples. Every file is written atomically (temporary file in
+the destination folder, then renamed), so a killed job never leaves a half-written L0 file.
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from dronewind.core.cf import atomic_write_text
 
 __all__ = [
     "SONIC_HEADER",
@@ -35,11 +38,8 @@ TOA5_PROCESSING = ("", "", "Smp", "Smp", "Smp", "Smp", "Smp")
 
 
 def _write_frame(path: Path, header: str, frame: pd.DataFrame) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     body = frame.to_csv(index=False, header=False, lineterminator="\n", na_rep="")
-    path.write_text(header + "\n" + body, encoding="utf-8", newline="\n")
-    return path
+    return atomic_write_text(Path(path), header + "\n" + body)
 
 
 def utc_strings(times: np.ndarray) -> np.ndarray:
@@ -203,5 +203,5 @@ def write_toa5(path: Path, times: np.ndarray, record: np.ndarray, ux_ms: np.ndar
     body = frame.to_csv(index=False, header=False, lineterminator="\n", na_rep="NAN",
                         quoting=csv.QUOTE_NONE, quotechar="'")
     body = body.replace(",NAN", ',"NAN"')
-    path.write_text("\n".join(lines) + "\n" + body, encoding="utf-8", newline="\n")
+    atomic_write_text(path, "\n".join(lines) + "\n" + body)
     return path

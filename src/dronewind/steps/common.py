@@ -71,7 +71,7 @@ def campaign_record(manifest: str | Path, output: str | Path, config: Mapping[st
     output : str or Path
         JSON file to write (``results/<name>/campaign.json``).
     config : mapping
-        Workflow configuration (hashed into the record).
+        Workflow configuration (hashed into the record, without ``results_dir``).
 
     Returns
     -------
@@ -85,7 +85,8 @@ def campaign_record(manifest: str | Path, output: str | Path, config: Mapping[st
         "manifest_sha256": sha256_file(campaign.path),
         "simulated": campaign.simulated,
         "dronewind_version": __version__,
-        "config_sha256": config_hash(dict(config)),
+        # where the results lie is not a setting: identical runs in two folders record one hash
+        "config_sha256": config_hash({k: v for k, v in config.items() if k != "results_dir"}),
         "payload_flights": [f["id"] for f in campaign.payload_flights],
         "quadrotor_flights": [f["id"] for f in campaign.quadrotor_flights],
         "mast_sonics": sorted(campaign.mast_sonics()),

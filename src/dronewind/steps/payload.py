@@ -35,12 +35,14 @@ from dronewind.core.cf import (
     write_netcdf,
 )
 from dronewind.core.products import open_product
+from dronewind.manifest import confined_path
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.mechanisms import get_mechanism
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 from dronewind.steps.common import LOG
 
-__all__ = ["ProductSpec", "PRODUCTS", "Position", "write_product", "simulation_manifest", "simulate_payload",
+__all__ = ["ProductSpec", "PRODUCTS", "Position", "write_product", "source_name", "simulation_manifest",
+           "simulate_payload",
            "payload_l1", "mast_l1", "payload_l2", "mast_l2", "l3", "l4", "FLIGHT_STATS_COLUMNS", "flight_stats"]
 
 
@@ -172,6 +174,28 @@ def write_product(
     )
 
 
+def source_name(path: str | Path, data_root: str | Path | None) -> str:
+    """A data file as recorded in a product: relative to the campaign's data folder if inside it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file read.
+    data_root : str or Path or None
+        Folder the manifest's data paths refer to; None: the path as given.
+
+    Returns
+    -------
+    str
+        POSIX path relative to ``data_root`` (e.g. ``flights/s01/sonic.csv``), or the absolute
+        path of a file outside it (a measured file elsewhere does not move with the results).
+    """
+    if data_root is None:
+        return str(path)
+    full, root = Path(path).resolve(), Path(data_root).resolve()
+    return full.relative_to(root).as_posix() if full.is_relative_to(root) else str(full)
+
+
 def _at_sonic(sonic: Mapping[str, Any], height_m: float | None = None) -> Position:
     """Position of a mast sonic (its own height unless another is given)."""
     return Position(sonic["latitude"], sonic["longitude"], float(sonic["height_m"]) if height_m is None else height_m)
@@ -221,6 +245,21 @@ def simulation_manifest(campaign_data: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
+def _check_l0_paths(campaign: Mapping[str, Any], flight_id: str, out_dir: Path) -> None:
+    """Every file the simulator writes for a flight stays below the L0 folder (else ManifestError).
+
+    The manifest validation rejects such paths already; this guards a caller that passes a
+    manifest it did not validate.
+    """
+    flight = next(f for f in campaign.get("payload_flights") or [] if f["id"] == flight_id)
+    for part in ("sonic", "ins"):
+        confined_path(out_dir, str(flight[part]["file"]), f"payload flight {flight_id} {part}.file")
+    for mast in campaign.get("masts") or []:
+        for sonic in mast["sonics"]:
+            for pattern in sonic["files"]:
+                confined_path(out_dir, str(pattern).replace("*", flight_id), f"mast sonic {sonic['id']} files")
+
+
 def simulate_payload(campaign: Mapping[str, Any], flight_id: str, manifest_dir: str | Path,
                      out_dir: str | Path) -> list[Path]:
     """Write the raw files of one simulated payload flight (sonic, INS, mast TOA5).
@@ -244,6 +283,7 @@ def simulate_payload(campaign: Mapping[str, Any], flight_id: str, manifest_dir: 
     """
     from dronewind.simulate.payload import simulate_payload_flight
 
+    _check_l0_paths(campaign, flight_id, Path(out_dir))
     paths = simulate_payload_flight(dict(campaign), Path(manifest_dir), flight_id, Path(out_dir))
     for path in paths:
         LOG.info("wrote %s", path)
@@ -257,6 +297,7 @@ def payload_l1(
     sonic_file: str | Path, ins_file: str | Path, out_sonic: str | Path, out_ins: str | Path, *, campaign: str,
     flight_id: str, site: Mapping[str, Any], target_height_m: float | None, despike: Mapping[str, Any],
     simulated: bool,
+    data_root: str | Path | None = None,
 ) -> tuple[Path, Path]:
     """L0 -> L1 files for one payload flight: sonic and INS to UTC with range/spike/gap QC.
 
@@ -276,6 +317,10 @@ def payload_l1(
         ``processing.despike``.
     simulated : bool
         The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
+    data_root : str or Path, optional
+        Folder the manifest's data paths refer to (the manifest's folder, or
+        ``results/<name>/L0`` of a virtual campaign): the ``source_file`` attributes are
+        stored relative to it, so the products do not depend on where the results lie.
 
     Returns
     -------
@@ -284,6 +329,8 @@ def payload_l1(
     """
     LOG.info("flight %s: reading %s and %s", flight_id, sonic_file, ins_file)
     sonic, ins = compute_payload_l1(sonic_file, ins_file, despike)
+    sonic.attrs.update(source_file=source_name(sonic_file, data_root), ins_source_file=source_name(ins_file, data_root))
+    ins.attrs["source_file"] = source_name(ins_file, data_root)
     LOG.info("sonic L1: %d samples; %s", sonic.sizes["time"], sonic.attrs.get("processing_log", ""))
     LOG.info("INS L1: %d samples; %s", ins.sizes["time"], ins.attrs.get("processing_log", ""))
     fields = {"campaign": campaign, "flight": flight_id}
@@ -295,7 +342,7 @@ def payload_l1(
 
 
 def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, sonic: Mapping[str, Any],
-            despike: Mapping[str, Any], simulated: bool) -> Path:
+            despike: Mapping[str, Any], simulated: bool, data_root: str | Path | None = None) -> Path:
     """L0 -> L1 file for one mast sonic: TOA5 files to east/north/up with QC flags.
 
     Parameters
@@ -313,6 +360,8 @@ def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, s
         ``processing.despike``.
     simulated : bool
         The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
+    data_root : str or Path, optional
+        As :func:`payload_l1` (``source_files`` relative to it).
 
     Returns
     -------
@@ -321,6 +370,7 @@ def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, s
     """
     ds = compute_mast_l1(files, sonic, despike)
     ds.attrs["source"] = data_source(simulated)
+    ds.attrs["source_files"] = ", ".join(source_name(f, data_root) for f in files)
     LOG.info("mast %s L1: %d samples from %d file(s); %s", sonic["id"], ds.sizes["time"], len(files),
              ds.attrs.get("processing_log", ""))
     fields = {"campaign": campaign, "sonic": sonic["id"], "mast": sonic["mast_id"],

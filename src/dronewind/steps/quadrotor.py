@@ -39,6 +39,7 @@ import pandas as pd
 
 from dronewind.core.cf import atomic_write_text, data_source, strip_cf, track_from_cf, write_netcdf
 from dronewind.errors import InputError, ProcessingError
+from dronewind.manifest import confined_path
 from dronewind.quadrotor import chain
 from dronewind.quadrotor.chain import QUAD_TABLES
 from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
@@ -83,6 +84,9 @@ def simulate_quadrotor(flight: Mapping[str, Any], simulation: Mapping[str, Any],
     """
     from dronewind.simulate.quadrotor import simulate_quadrotor_flight
 
+    confined_path(out_dir, str(flight["reference"]), f"quadrotor flight {flight['id']} reference")
+    for uav in flight["uavs"]:
+        confined_path(out_dir, str(uav["file"]), f"quadrotor flight {flight['id']} uav {uav['id']} file")
     campaign = {"site": dict(site), "quadrotor_flights": [dict(flight)], "simulation": dict(simulation)}
     paths = simulate_quadrotor_flight(campaign, Path(out_dir), str(flight["id"]), Path(out_dir))
     for path in paths:
