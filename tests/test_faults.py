@@ -93,7 +93,7 @@ def run_flight(folder: Path, data: dict[str, Any], fid: str) -> Outcome:
         mast = compute_mast_l1(_files_of(folder, data, fid)[2:], sonic_entry, PROCESSING["despike"])
         l3 = compute_l3(l2, compute_mast_l2(mast, l2, fid, PROCESSING["drone_mast"]), flight,
                         PROCESSING["drone_mast"], PROCESSING["rotation"])
-        l4 = compute_l4(l3, "drone", PROCESSING["spectra"], PROCESSING["quadrant"])
+        l4 = compute_l4(l3, "drone", PROCESSING["spectra"], PROCESSING["quadrant"], PROCESSING["detrending"])
     except DronewindError as exc:
         return Outcome("error", message=str(exc))
     numbers = {"lag_sonic_ins_s": float(l2.attrs["lag_sonic_ins_s"]), "height_m": float(l2.attrs["height_m"]),
@@ -752,7 +752,8 @@ resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))  # a disk that fil
 sonic, ins, out = sys.argv[1:4]
 try:
     payload_l1(sonic, ins, out + "/s01_sonic.nc", out + "/s01_ins.nc", campaign="faultcamp", flight_id="s01",
-               site={"latitude": 43.1, "longitude": 0.36}, target_height_m=30, despike={"window_s": 10, "n_mad": 7})
+               site={"latitude": 43.1, "longitude": 0.36}, target_height_m=30, despike={"window_s": 10, "n_mad": 7},
+               simulated=True)
 except OSError as exc:
     print("OSError:", exc)
     sys.exit(3)
