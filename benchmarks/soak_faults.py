@@ -357,4 +357,10 @@ def main() -> int:
 
 
 if __name__ == "__main__":
+    import argparse
+
+    argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="example: .venv/bin/python benchmarks/soak_faults.py   (about 2-3 min on 2 cores)",
+    ).parse_args()
     sys.exit(main())
