@@ -142,7 +142,8 @@ def test_every_readme_command_works_as_written_on_a_fresh_clone(clone):
                 sub = shell(clone, as_dry_run(line))
                 assert sub.returncode == 0 and "Job stats" in sub.stdout, (line, sub.stderr[-3000:])
             continue
-        if "--allowed-rules" in command:
+        if "--allowed-rules" in command or "--report" in command:
+            # both need a finished run: every output of the campaign stands in for one
             assert fake_processed_campaign(clone, manifest) > 100
         if "check-cf" in command:
             real_l1_files(clone)
@@ -152,6 +153,10 @@ def test_every_readme_command_works_as_written_on_a_fresh_clone(clone):
         if "--allowed-rules" in command:
             # exactly the figure and table jobs of the campaign, nothing upstream
             assert job_stats(proc.stdout) == REDRAW_JOBS, (written, proc.stdout[-3000:])
+        if "--report" in command:
+            report = clone / command.split("--report", 1)[1].split()[0]
+            assert report.is_file() and report.stat().st_size > 100_000, (written, proc.stderr[-3000:])
+        if "--allowed-rules" in command or "--report" in command:
             shutil.rmtree(clone / "results")
 
 
