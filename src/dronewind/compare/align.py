@@ -49,6 +49,15 @@ _ENU_VARS = ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k")
 # ------------------------------------------------------------------------ FIR decimation
 
 
+def default_passband_edge_hz(fs_out_hz: float) -> float:
+    """End of the anti-alias filter's passband: 0.75 of the output Nyquist frequency [Hz] (3 Hz at 8 Hz).
+
+    The one definition used by the filter design and stored in L3 (``fir_passband_edge_hz``),
+    where the L4 spectral fits stop.
+    """
+    return float(0.75 * (fs_out_hz / 2.0))
+
+
 def design_antialias_fir(
     fs_in_hz: float = 32.0,
     decimate: int = 4,
@@ -97,7 +106,7 @@ def design_antialias_fir(
         raise InputError("decimate", f"expected a positive integer, got {decimate!r}")
     nyq_out = fs_in_hz / decimate / 2.0
     f_stop = nyq_out if stopband_edge_hz is None else float(stopband_edge_hz)
-    f_pass = 0.75 * nyq_out if passband_edge_hz is None else float(passband_edge_hz)
+    f_pass = default_passband_edge_hz(2.0 * nyq_out) if passband_edge_hz is None else float(passband_edge_hz)
     if not (0 < f_pass < f_stop <= fs_in_hz / 2):
         raise InputError("design_antialias_fir", f"need 0 < passband edge {f_pass} < stopband edge {f_stop} <= "
                          f"{fs_in_hz / 2} Hz")
@@ -600,8 +609,8 @@ def _l3_attrs(lag: float, xcorr: np.ndarray, at_edge: bool, rotation: str, r: _R
         "rotation_method_mast": r.methods[1],
         "sampling_rate_hz": float(fs_out),
         "fir_design": (f"Kaiser-window FIR, {taps.size} taps, cutoff {fs_out * 0.4375:g} Hz, transition "
-                       f"{0.375 * fs_out:g}-{0.5 * fs_out:g} Hz, 60 dB, centred (zero phase)"),
-        "fir_passband_edge_hz": float(0.375 * fs_out),
+                       f"{default_passband_edge_hz(fs_out):g}-{0.5 * fs_out:g} Hz, 60 dB, centred (zero phase)"),
+        "fir_passband_edge_hz": default_passband_edge_hz(fs_out),
         "n_samples": int(n_samples),
         **{k: int(v) for k, v in counts.items()},
         "processing_log": "\n".join(log),
