@@ -21,12 +21,14 @@ class InputError(DronewindError, ValueError):
     Parameters
     ----------
     where : str or Path
-        The file (and optionally ``:line``) or setting the problem is in.
+        The file (and optionally ``:line``) or setting the problem is in; anything whose
+        ``str`` names it (e.g. an in-memory record of :mod:`dronewind.core.raw`, which
+        names the file it stands for).
     what : str
         What is wrong and what was expected.
     """
 
-    def __init__(self, where: str | os.PathLike[str], what: str) -> None:
+    def __init__(self, where: str | os.PathLike[str] | object, what: str) -> None:
         self.where = str(where)
         self.what = what
         super().__init__(f"{self.where}: {what}")

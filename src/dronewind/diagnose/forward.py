@@ -7,10 +7,18 @@ hover height, position relative to the mast and hover window. Nothing is read fr
 campaign's own ``simulation:`` section (for a virtual campaign that would be reading the
 answer). The flight is then simulated without any mechanism (the *baseline*, with two
 seeds) and with each catalog mechanism at a few *probe levels* (common random numbers:
-the first baseline seed), written as raw files, and pushed through the same chain
-functions as the measured flight (:mod:`dronewind.payload.chain`,
-:mod:`dronewind.mast.chain`, :mod:`dronewind.compare.chain`), ending in the residual
-features of :mod:`dronewind.diagnose.features`.
+the first baseline seed), and pushed through the same chain functions as the measured
+flight (:mod:`dronewind.payload.chain`, :mod:`dronewind.mast.chain`,
+:mod:`dronewind.compare.chain`), ending in the residual features of
+:mod:`dronewind.diagnose.features`.
+
+The runs stay in memory: the simulator's raw records (:mod:`dronewind.core.raw`, exactly the
+values its writers would print) go to the chain's readers without a file; the flight's true
+state (turbulence, payload motion, mast field) is simulated once per seed and reused by every
+probe of a measurement-stage mechanism (all but :data:`TRUTH_MECHANISMS`); and the products
+of records a probe leaves unchanged are reused (:class:`ForwardCache`). Each shortcut gives
+bit for bit the result of the long way round (``tests/test_forward_memory.py``), and
+:func:`file_round_trip` checks one flight through the files.
 
 Settings: the functions that run the chain take ``processing``, the ``processing`` section
 of the workflow configuration (at least the keys of :data:`CHAIN_SETTINGS`; defaults from
@@ -24,14 +32,15 @@ piecewise-linearly between levels and the baseline, see
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
 import shutil
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, NamedTuple
+from pathlib import Path, PurePath
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -39,20 +48,29 @@ import xarray as xr
 from dronewind.compare.chain import compute_l3
 from dronewind.core.constants import KARMAN
 from dronewind.core.progress import Progress
+from dronewind.core.raw import RawRecord
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.errors import InputError
 from dronewind.manifest import payload_flight_manifest
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
-from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
+from dronewind.payload.chain import compute_ins_l1, compute_payload_l2, compute_sonic_l1
 
-__all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "forward_conditions",
-           "forward_manifest", "measured_features", "run_forward", "lag_halves", "probe_runs"]
+__all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS",
+           "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
+           "record_digest", "lag_halves", "probe_runs", "file_round_trip", "run_differences"]
+
+if TYPE_CHECKING:
+    from dronewind.simulate.payload import PayloadTruth
 
 LOG = logging.getLogger("dronewind")
 
 #: Keys of ``processing`` that the chain up to L3 uses (what a forward run depends on).
 CHAIN_SETTINGS: tuple[str, ...] = ("despike", "max_missing_fraction", "hover", "sonic_ins_lag", "drone_mast",
                                    "rotation")
+#: Mechanisms that change the true state of a flight (the hover point in the field), not only
+#: its measurement: their probes simulate the flight anew; all others reuse the baseline's
+#: true state (:class:`dronewind.simulate.payload.PayloadTruth`).
+TRUTH_MECHANISMS: frozenset[str] = frozenset({"height_offset"})
 #: Keys of ``processing`` that the sonic-INS lag feature uses (:func:`measured_features`).
 LAG_SETTINGS: tuple[str, ...] = ("sonic_ins_lag", "hover", "max_missing_fraction")
 
@@ -328,7 +346,8 @@ def lag_halves(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, l2: xr.Dataset, flight:
                           "end": np.datetime_as_string(b, unit="us") + "Z"}
         try:
             ds = compute_payload_l2(sonic_l1, ins_l1, half, site_altitude_m, sonic_ins_lag=sonic_ins_lag,
-                                    hover=half_hover, max_missing_fraction=max_missing_fraction)
+                                    hover=half_hover, max_missing_fraction=max_missing_fraction,
+                                    plausibility=False)  # the checks cannot change the lag
             out.append(float(ds.attrs["lag_sonic_ins_s"]))
         except Exception as exc:  # a half without a hover: the feature is then missing
             LOG.warning("lag of half window %s-%s failed: %s", a, b, exc)
@@ -363,9 +382,58 @@ def measured_features(campaign_data: Mapping[str, Any], flight_id: str, sonic_l1
     return flight_features(l3, l2, lag_halves_s=halves, lag_step_s=float(sonic_ins_lag["step_s"]))
 
 
-def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, folder: Path, paths: list[Path],
-                           processing: Mapping[str, Any]) -> tuple[FlightFeatures, dict[str, Any]]:
-    """Process the raw files of a simulated forward flight like measured data, up to its features.
+class ForwardCache:
+    """Products of a flight's baseline run, reused by probe runs whose raw records are identical.
+
+    A probe of a measurement-stage mechanism changes one instrument's record and leaves the
+    others bit-identical to the baseline's (same true state, same random streams): a sonic
+    probe leaves the INS and the masts, an INS probe the masts, a mast probe the payload.
+    Each product is a pure function of its records and the settings, so it is looked up by a
+    digest of the records' contents (BLAKE2b of every column's bytes) and computed only
+    when absent. Entries are stored while the cache is open (the baseline run) and only read
+    after :meth:`freeze`, so memory stays one run's products.
+    """
+
+    def __init__(self) -> None:
+        self._store: dict[tuple[str, str], Any] = {}
+        self.frozen = False
+        self.hits = 0
+        self.misses = 0
+
+    def freeze(self) -> None:
+        """Stop storing: later runs only read the entries."""
+        self.frozen = True
+
+    def get(self, kind: str, key: str, make: Callable[[], Any]) -> Any:
+        """The product ``kind`` of the records with digest ``key``, made by ``make()`` if absent."""
+        if (kind, key) in self._store:
+            self.hits += 1
+            return self._store[(kind, key)]
+        self.misses += 1
+        value = make()
+        if not self.frozen:
+            self._store[(kind, key)] = value
+        return value
+
+
+def record_digest(*records: RawRecord | str | Path) -> str:
+    """Digest of records' contents (column names, dtypes and bytes) or of file paths [hex]."""
+    h = hashlib.blake2b(digest_size=16)
+    for rec in records:
+        if not isinstance(rec, RawRecord):
+            h.update(f"file:{rec}".encode())
+            continue
+        for name, col in rec.columns.items():
+            arr = np.ascontiguousarray(col)
+            h.update(f"{name}:{arr.dtype.str}:{arr.size}".encode())
+            h.update(arr.view(np.uint8).tobytes() if arr.dtype.kind != "O" else str(arr.tolist()).encode())
+    return h.hexdigest()
+
+
+def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources: Sequence[str | Path | RawRecord],
+                           processing: Mapping[str, Any],
+                           cache: ForwardCache | None = None) -> tuple[FlightFeatures, dict[str, Any]]:
+    """Process the raw records of a simulated forward flight like measured data, up to its features.
 
     Parameters
     ----------
@@ -373,31 +441,48 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, folder: 
         The forward manifest (:func:`forward_manifest`).
     flight_id : str
         Payload flight id.
-    folder : Path
-        Folder of the raw files.
-    paths : list of Path
-        Files the simulator wrote (sonic, INS, then the mast records).
+    sources : sequence of path or RawRecord
+        What the simulator made, in its order: sonic, INS, then the mast records (those of the
+        flight's reference sonic are used), as files
+        (:func:`dronewind.simulate.payload.simulate_payload_flight`) or in-memory records
+        (:func:`dronewind.simulate.payload.payload_records`).
     processing : mapping
         ``processing`` settings (keys of :data:`CHAIN_SETTINGS`).
+    cache : ForwardCache, optional
+        Products of identical records from an earlier run of the same flight and settings.
 
     Returns
     -------
     features : FlightFeatures
     products : dict
-        ``{"l2": ..., "l3": ...}`` datasets.
+        ``{"l2": ..., "l3": ..., "l1": {"sonic", "ins", "mast"}}`` datasets.
     """
+    cache = cache if cache is not None else ForwardCache()
     flight = next(f for f in manifest["payload_flights"] if f["id"] == flight_id)
-    sonic_file, ins_file = folder / flight["sonic"]["file"], folder / flight["ins"]["file"]
-    mast_files = [p for p in paths if p not in (sonic_file, ins_file)]
     sonic_info = next(s for m in manifest["masts"] for s in m["sonics"] if s["id"] == flight["reference"])
+    sonic_src, ins_src = sources[0], sources[1]
+    # the reference sonic's records: those whose path matches one of its file patterns
+    mast_srcs = [src for src in sources[2:] if any(PurePath(str(src)).match(str(pattern))
+                                                   for pattern in sonic_info["files"])]
     lag = {key: processing[key] for key in LAG_SETTINGS}
-    sonic_l1, ins_l1 = compute_payload_l1(sonic_file, ins_file, processing["despike"])
-    l2 = compute_payload_l2(sonic_l1, ins_l1, flight, float(manifest["site"]["altitude_m"]), **lag)
-    mast_l1 = compute_mast_l1(mast_files, sonic_info, processing["despike"])
+    k_ins = record_digest(ins_src)
+    k_payload = record_digest(sonic_src) + k_ins
+    ins_table, ins_l1 = cache.get("ins_l1", k_ins, lambda: compute_ins_l1(ins_src))
+    sonic_l1 = cache.get("sonic_l1", k_payload,
+                         lambda: compute_sonic_l1(sonic_src, ins_src, ins_table, processing["despike"]))
+    site_altitude_m = float(manifest["site"]["altitude_m"])
+
+    def payload_l2() -> tuple[xr.Dataset, tuple[float, float]]:
+        l2 = compute_payload_l2(sonic_l1, ins_l1, flight, site_altitude_m, **lag)
+        return l2, lag_halves(sonic_l1, ins_l1, l2, flight, site_altitude_m, **lag)
+
+    l2, halves = cache.get("l2", k_payload, payload_l2)
+    mast_l1 = cache.get("mast_l1", record_digest(*mast_srcs),
+                        lambda: compute_mast_l1(mast_srcs, sonic_info, processing["despike"]))
     mast_l2 = compute_mast_l2(mast_l1, l2, flight_id, processing["drone_mast"], source="forward mast")
     l3 = compute_l3(l2, mast_l2, flight, processing["drone_mast"], processing["rotation"])
-    features = measured_features(manifest, flight_id, sonic_l1, ins_l1, l2, l3, **lag)
-    return features, {"l2": l2, "l3": l3}
+    features = flight_features(l3, l2, lag_halves_s=halves, lag_step_s=float(processing["sonic_ins_lag"]["step_s"]))
+    return features, {"l2": l2, "l3": l3, "l1": {"sonic": sonic_l1, "ins": ins_l1, "mast": mast_l1}}
 
 
 def run_forward(
@@ -405,6 +490,8 @@ def run_forward(
     flight_id: str,
     processing: Mapping[str, Any],
     work_dir: str | Path | None = None,
+    truth: PayloadTruth | None = None,
+    cache: ForwardCache | None = None,
 ) -> tuple[FlightFeatures, dict[str, Any]]:
     """Simulate one flight of a forward manifest, process it as measured data, return its features.
 
@@ -418,26 +505,96 @@ def run_forward(
         ``processing`` settings (keys of :data:`CHAIN_SETTINGS`; the same as for the
         measured data).
     work_dir : str or Path, optional
-        Folder for the raw files (a temporary folder, removed afterwards, by default).
+        Write the raw files there and process the files (the file round trip); by default
+        the simulator's in-memory records go to the chain's readers directly
+        (:mod:`dronewind.core.raw`), which gives the same L1 (tested) without printing and
+        parsing text.
+    truth : PayloadTruth, optional
+        The flight's true state (turbulence, motion, mast field) from an earlier run of the
+        same conditions, seed and ``height_offset``: only the measurement stage is
+        simulated again (:func:`dronewind.simulate.payload.payload_records`).
+    cache : ForwardCache, optional
+        Products of identical raw records from an earlier run (:class:`ForwardCache`).
 
     Returns
     -------
     features : FlightFeatures
         Residual features of the simulated flight.
     products : dict
-        ``{"l2": ..., "l3": ...}`` datasets (for reports).
+        ``{"l2": ..., "l3": ..., "l1": {...}, "truth": PayloadTruth}``.
     """
-    from dronewind.simulate.payload import simulate_payload_flight
+    from dronewind.simulate.payload import payload_records
+    from dronewind.simulate.writers import write_record
 
-    own = work_dir is None
-    folder = Path(tempfile.mkdtemp(prefix="dronewind_forward_")) if own else Path(str(work_dir))
+    records, truth = payload_records(dict(manifest), flight_id, truth)
+    sources: list[str | Path | RawRecord] = list(records)
+    if work_dir is not None:
+        folder = Path(str(work_dir))
+        sources = [write_record(folder / rec.source, rec) for rec in records]
+    features, products = process_forward_flight(manifest, flight_id, sources, processing, cache)
+    products["truth"] = truth
+    return features, products
+
+
+def file_round_trip(manifest: Mapping[str, Any], flight_id: str, processing: Mapping[str, Any],
+                    truth: PayloadTruth | None = None) -> dict[str, Any]:
+    """Check that the in-memory forward run and its printed files give the same L1 and features.
+
+    Parameters
+    ----------
+    manifest, flight_id, processing, truth
+        As :func:`run_forward`.
+
+    Returns
+    -------
+    dict
+        ``identical`` (bool), ``differences`` (names of the L1 variables, attributes or
+        features that differ; source paths excepted).
+    """
+    mem, mem_products = run_forward(manifest, flight_id, processing, truth=truth)
+    folder = Path(tempfile.mkdtemp(prefix="dronewind_forward_"))
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        paths = simulate_payload_flight(dict(manifest), folder, flight_id, folder)
-        return process_forward_flight(manifest, flight_id, folder, paths, processing)
+        disk, disk_products = run_forward(manifest, flight_id, processing, work_dir=folder, truth=mem_products["truth"])
     finally:
-        if own:
-            shutil.rmtree(folder, ignore_errors=True)
+        shutil.rmtree(folder, ignore_errors=True)
+    differences = run_differences((mem, mem_products), (disk, disk_products))
+    return {"identical": not differences, "differences": differences}
+
+
+def run_differences(a: tuple[FlightFeatures, Mapping[str, Any]],
+                    b: tuple[FlightFeatures, Mapping[str, Any]]) -> list[str]:
+    """What differs between two forward runs: L1 variables and attributes, and features.
+
+    Parameters
+    ----------
+    a, b : (FlightFeatures, dict)
+        Outputs of :func:`run_forward`.
+
+    Returns
+    -------
+    list of str
+        ``"L1 <sensor> <variable>"``, ``"L1 <sensor> attribute <name>"`` (the source paths
+        excepted) and ``"feature <name>"`` entries; empty when the runs agree bit for bit.
+    """
+    differences = []
+    for name in ("sonic", "ins", "mast"):
+        da, db = a[1]["l1"][name], b[1]["l1"][name]
+        differences += [f"L1 {name} {v}" for v in sorted(map(str, set(da.variables) | set(db.variables)))
+                        if v not in da.variables or v not in db.variables or not da[v].identical(db[v])]
+        differences += [f"L1 {name} attribute {k}" for k in sorted(set(da.attrs) | set(db.attrs))
+                        if k not in _SOURCE_ATTRS and str(da.attrs.get(k)) != str(db.attrs.get(k))]
+    fa, fb = a[0].values, b[0].values
+    differences += [f"feature {k}" for k in sorted(set(fa) | set(fb))
+                    if not (fa.get(k) == fb.get(k) or (_isnan(fa.get(k)) and _isnan(fb.get(k))))]
+    return differences
+
+
+#: L1 attributes that name the raw source (a path for files, the manifest path for records).
+_SOURCE_ATTRS = ("source_file", "ins_source_file", "source_files")
+
+
+def _isnan(x: object) -> bool:
+    return isinstance(x, float) and math.isnan(x)
 
 
 def _probe_parameters(probe: Probe, level: float) -> dict[str, float]:
@@ -489,18 +646,24 @@ def probe_runs(
                            "baseline": [], "probes": []}
     levels = [(probe, level) for probe in probes for level in probe.levels]
     progress = Progress("probe", len(seeds) + len(levels), "run")
+    truth = None  # the first seed's true state, reused by every measurement-stage probe
+    cache = ForwardCache()  # and its products, reused where a probe leaves a record unchanged
     for seed in seeds:
         with progress.item(f"flight {flight_id} baseline seed {seed}"):
-            feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed), flight_id,
-                                   processing)
+            feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed),
+                                          flight_id, processing, cache=cache)
+        if truth is None:
+            truth = products["truth"]
+            cache.freeze()
         out["baseline"].append(features_to_dict(feats))
     for probe, level in levels:
         name = f"flight {flight_id} {probe.candidate} {probe.parameter}={level:g}"
         mech = [{"mechanism": probe.mechanism, "parameters": _probe_parameters(probe, level)}]
+        reuse = truth if probe.mechanism not in TRUTH_MECHANISMS else None
         try:
             with progress.item(name):
                 feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0]),
-                                       flight_id, processing)
+                                       flight_id, processing, truth=reuse, cache=cache)
         except InputError as exc:
             # a level outside what this flight allows (e.g. a height offset deeper than
             # the measured hover height): recorded and left out; the candidate's response
@@ -514,6 +677,7 @@ def probe_runs(
                               "parameter": probe.parameter, "level": float(level),
                               "fixed": dict(probe.fixed), "features": features_to_dict(feats)})
     progress.finished()
+    out["reused_products"] = {"hits": cache.hits, "misses": cache.misses}
     return out
 
 

@@ -17,6 +17,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind.core import rotation as rot
+from dronewind.core.raw import RawRecord
 from dronewind.errors import DronewindError, InputError
 from dronewind.mast import toa5
 
@@ -48,13 +49,15 @@ def record_planar_fit(ds: xr.Dataset) -> dict[str, float | int | str]:
     return rot.planar_fit_attrs(fit, note)
 
 
-def compute_mast_l1(files: Sequence[str | Path], sonic: Mapping[str, Any], despike: Mapping[str, Any]) -> xr.Dataset:
+def compute_mast_l1(files: Sequence[str | Path | RawRecord], sonic: Mapping[str, Any],
+                    despike: Mapping[str, Any]) -> xr.Dataset:
     """Mast sonic L1 dataset from TOA5 files, with the planar fit of the whole record.
 
     Parameters
     ----------
-    files : sequence of path
-        TOA5 files of the sonic (concatenated in time order; see :func:`dronewind.mast.toa5.mast_l1`).
+    files : sequence of path or RawRecord
+        TOA5 files of the sonic, or their in-memory records (concatenated in time order; see
+        :func:`dronewind.mast.toa5.mast_l1`).
     sonic : mapping
         Manifest entry of the sonic (``id``, ``height_m`` [m], ``azimuth_deg`` [degree]).
     despike : mapping

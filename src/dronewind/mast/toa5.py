@@ -40,6 +40,7 @@ from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_DIAG, QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
+from dronewind.core.raw import RawRecord
 from dronewind.errors import InputError
 
 __all__ = ["REQUIRED_TOA5_COLUMNS", "csat3_to_enu", "mast_l1", "read_toa5"]
@@ -85,10 +86,17 @@ def csat3_to_enu(
     return -ux * np.sin(a) + uy * np.cos(a), -ux * np.cos(a) - uy * np.sin(a)
 
 
-def _expand_paths(paths: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) -> list[Path]:
-    items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
-    out: list[Path] = []
+TOA5Source = str | os.PathLike[str] | RawRecord
+"""A TOA5 file (path or glob pattern) or its in-memory record (:mod:`dronewind.core.raw`)."""
+
+
+def _expand_paths(paths: TOA5Source | Sequence[TOA5Source]) -> list[Path | RawRecord]:
+    items = [paths] if isinstance(paths, (str, os.PathLike, RawRecord)) else list(paths)
+    out: list[Path | RawRecord] = []
     for item in items:
+        if isinstance(item, RawRecord):
+            out.append(item)
+            continue
         s = str(item)
         if any(ch in s for ch in "*?[") and not Path(s).exists():
             matches = sorted(glob.glob(s))
@@ -249,12 +257,34 @@ class _Grid:
     n_breaks: int  # number of record breaks
 
 
-def _read_files(files: list[Path], max_corrupt_fraction: float, counts: dict[str, int],
+def _record_frame(rec: RawRecord,
+                  required: Sequence[str] = REQUIRED_TOA5_COLUMNS) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The :func:`read_toa5` result of an in-memory record (no text: no corrupt rows)."""
+    missing = [col for col in required if col not in rec.columns]
+    if missing:
+        raise InputError(rec.source, f"in-memory TOA5 record lacks column(s) {', '.join(missing)}")
+    names = list(rec.columns)
+    cols = rec.checked(names, {name: "f" for name in names} | {"TIMESTAMP": "M", "RECORD": "i", "diag_csat": "i"})
+    frame = pd.DataFrame({"time": cols["TIMESTAMP"], "RECORD": cols["RECORD"]})
+    for name in names:
+        if name not in ("TIMESTAMP", "RECORD"):
+            frame[name] = cols[name].astype(float)
+    frame["_line"] = rec.line_numbers()
+    header = [[], names, [rec.units.get(n, "") for n in names], ["" for _ in names]]
+    info = {"header": header, "units": dict(rec.units), "n_lines": rec.n_rows, "n_corrupt_lines": 0,
+            "corrupt_lines": [], "n_nonnumeric": 0}
+    return frame, info
+
+
+def _read_files(files: list[Path | RawRecord], max_corrupt_fraction: float, counts: dict[str, int],
                 log: list[str]) -> list[pd.DataFrame]:
-    """Read every TOA5 file (Ts in degC), count RECORD skips and restarts; sorted by first time."""
+    """Read every TOA5 file or record (Ts in degC), count RECORD skips and restarts; sorted by first time."""
     frames: list[pd.DataFrame] = []
     for f in files:
-        frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
+        if isinstance(f, RawRecord):
+            frame, info = _record_frame(f)
+        else:
+            frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
         ts_unit = info["units"].get("Ts", "C")
         if ts_unit.strip().upper() in ("K", "KELVIN"):
             frame["Ts"] = frame["Ts"] - ZERO_CELSIUS_K
@@ -278,7 +308,7 @@ def _read_files(files: list[Path], max_corrupt_fraction: float, counts: dict[str
     return frames
 
 
-def _merge_records(frames: list[pd.DataFrame], files: list[Path], counts: dict[str, int], log: list[str],
+def _merge_records(frames: list[pd.DataFrame], files: list[Path | RawRecord], counts: dict[str, int], log: list[str],
                    max_corrupt_fraction: float) -> pd.DataFrame:
     """Concatenate the files in time order, dropping exact duplicate rows and conflicting time stamps.
 
@@ -316,7 +346,7 @@ def _merge_records(frames: list[pd.DataFrame], files: list[Path], counts: dict[s
     return data
 
 
-def _regular_grid(data: pd.DataFrame, files: list[Path], max_gap_s: float, counts: dict[str, int],
+def _regular_grid(data: pd.DataFrame, files: list[Path | RawRecord], max_gap_s: float, counts: dict[str, int],
                   ) -> tuple[pd.DataFrame, _Grid]:
     """Put the rows on their regular grid, segment by segment between record breaks (> ``max_gap_s``).
 
@@ -439,7 +469,7 @@ def _mast_dataset(ux: np.ndarray, uy: np.ndarray, uz: np.ndarray, ts_c: np.ndarr
 
 
 def mast_l1(
-    paths: str | os.PathLike[str] | Sequence[str | os.PathLike[str]], azimuth_deg: float, height_m: float,
+    paths: TOA5Source | Sequence[TOA5Source], azimuth_deg: float, height_m: float,
     sensor_id: str, max_corrupt_fraction: float = 0.05, despike_window_s: float = 10.0, despike_n_mad: float = 7.0,
     despike: bool = True, max_gap_s: float = 60.0,
 ) -> xr.Dataset:
@@ -447,8 +477,9 @@ def mast_l1(
 
     Parameters
     ----------
-    paths : str, Path or sequence of them
-        TOA5 files (glob patterns allowed); concatenated in time order.
+    paths : str, Path, RawRecord or sequence of them
+        TOA5 files (glob patterns allowed) or their in-memory records
+        (:mod:`dronewind.core.raw`); concatenated in time order.
     azimuth_deg : float
         Azimuth the CSAT3 head points to [degree, clockwise from true north].
     height_m : float

@@ -17,11 +17,12 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from dronewind.core.raw import RawRecord
 from dronewind.manifest import parse_utc
 from dronewind.payload import io as io_payload
 from dronewind.payload import sync
 
-__all__ = ["flight_window", "compute_payload_l1", "compute_payload_l2"]
+__all__ = ["flight_window", "compute_ins_l1", "compute_sonic_l1", "compute_payload_l1", "compute_payload_l2"]
 
 
 def flight_window(flight: Mapping[str, Any]) -> tuple[np.datetime64, np.datetime64] | None:
@@ -43,18 +44,62 @@ def flight_window(flight: Mapping[str, Any]) -> tuple[np.datetime64, np.datetime
     return parse_utc(window["start"]), parse_utc(window["end"])
 
 
+def compute_ins_l1(ins_file: str | Path | RawRecord) -> tuple[io_payload.InsTable, xr.Dataset]:
+    """The parsed INS (with the logger-clock fit) and the INS L1 of one flight.
+
+    Parameters
+    ----------
+    ins_file : str, Path or RawRecord
+        Raw INS CSV file, or its in-memory record (:mod:`dronewind.core.raw`).
+
+    Returns
+    -------
+    table : dronewind.payload.io.InsTable
+        Parsed rows and the clock fit (for :func:`compute_sonic_l1`).
+    ins : xarray.Dataset
+        L1 INS.
+    """
+    table = io_payload.load_ins_table(ins_file)
+    return table, io_payload.ins_l1(ins_file, ins_table=table)
+
+
+def compute_sonic_l1(sonic_file: str | Path | RawRecord, ins_file: str | Path | RawRecord,
+                     ins_table: io_payload.InsTable, despike: Mapping[str, Any]) -> xr.Dataset:
+    """Payload sonic L1: the logger clock to UTC through the INS's clock fit, QC and despiking.
+
+    Parameters
+    ----------
+    sonic_file, ins_file : str, Path or RawRecord
+        Raw payload sonic and INS CSV files of one flight, or their in-memory records.
+    ins_table : dronewind.payload.io.InsTable
+        The parsed INS of :func:`compute_ins_l1`.
+    despike : mapping
+        ``processing.despike``: ``window_s`` [s] and ``n_mad`` of the moving-MAD despiking.
+
+    Returns
+    -------
+    xarray.Dataset
+        L1 payload sonic (sensor frame, UTC).
+    """
+    return io_payload.payload_sonic_l1(
+        sonic_file, ins_file, despike_window_s=float(despike["window_s"]),
+        despike_n_mad=float(despike["n_mad"]), ins_table=ins_table,
+    )
+
+
 def compute_payload_l1(
-    sonic_file: str | Path, ins_file: str | Path, despike: Mapping[str, Any]
+    sonic_file: str | Path | RawRecord, ins_file: str | Path | RawRecord, despike: Mapping[str, Any]
 ) -> tuple[xr.Dataset, xr.Dataset]:
     """Payload sonic and INS L1 datasets (library names; see :mod:`dronewind.payload.io`).
 
     The INS file is parsed once, for the logger-clock fit and for the INS L1 (seed 000,
-    Sect. 3.2).
+    Sect. 3.2): :func:`compute_ins_l1`, then :func:`compute_sonic_l1`.
 
     Parameters
     ----------
-    sonic_file, ins_file : str or Path
-        Raw payload sonic and INS CSV files of one flight.
+    sonic_file, ins_file : str, Path or RawRecord
+        Raw payload sonic and INS CSV files of one flight, or their in-memory records
+        (:mod:`dronewind.core.raw`).
     despike : mapping
         ``processing.despike``: ``window_s`` [s] and ``n_mad`` of the moving-MAD despiking.
 
@@ -63,12 +108,8 @@ def compute_payload_l1(
     sonic, ins : xarray.Dataset
         L1 payload sonic (sensor frame, UTC) and L1 INS.
     """
-    table = io_payload.load_ins_table(ins_file)
-    sonic = io_payload.payload_sonic_l1(
-        sonic_file, ins_file, despike_window_s=float(despike["window_s"]),
-        despike_n_mad=float(despike["n_mad"]), ins_table=table,
-    )
-    return sonic, io_payload.ins_l1(ins_file, ins_table=table)
+    table, ins = compute_ins_l1(ins_file)
+    return compute_sonic_l1(sonic_file, ins_file, table, despike), ins
 
 
 def _target_height(flight: Mapping[str, Any]) -> float | None:
@@ -86,6 +127,7 @@ def compute_payload_l2(
     sonic_ins_lag: Mapping[str, Any],
     hover: Mapping[str, Any],
     max_missing_fraction: float,
+    plausibility: bool = True,
 ) -> xr.Dataset:
     """Payload L2: hover window, sonic-INS lag, motion correction (see :func:`dronewind.payload.sync.payload_l2`).
 
@@ -106,6 +148,9 @@ def compute_payload_l2(
         of the hover window (seed 000, Sect. 3.2).
     max_missing_fraction : float
         ``processing.max_missing_fraction``: most missing data that are gap-filled [1].
+    plausibility : bool
+        Run the unit and convention checks (off only where the L2 serves one number that
+        they cannot change, e.g. the lag of a half window).
 
     Returns
     -------
@@ -122,6 +167,7 @@ def compute_payload_l2(
         min_hover_s=float(hover["min_duration_s"]),
         hover_alt_tol_m=float(hover["alt_tol_m"]), hover_horiz_tol_m=float(hover["horiz_tol_m"]),
         site_altitude_m=float(site_altitude_m), target_height_m=_target_height(flight), flight_id=str(flight["id"]),
+        plausibility=plausibility,
     )
     ds.attrs["target_height_m"] = float(flight.get("target_height_m", float("nan")))
     return ds

@@ -97,11 +97,13 @@ def _interval_pairs(t_s: np.ndarray, interval_s: float) -> tuple[np.ndarray, np.
     i, j = i[ok], j[ok]
     if i.size == 0:
         return i, j
-    # non-overlapping intervals: keep every pair starting at or after the end of the previous one
+    # non-overlapping intervals: keep every pair starting at or after the end of the previous one;
+    # the next kept pair after k is the first one starting at or after t[j[k]] (the starts are
+    # sorted), so only the kept chain is walked, not every sample
+    nxt = np.searchsorted(t_s[i], t_s[j], side="left")
     keep = [0]
-    for k in range(1, i.size):
-        if t_s[i[k]] >= t_s[j[keep[-1]]]:
-            keep.append(k)
+    while (k := int(nxt[keep[-1]])) < i.size:
+        keep.append(k)
     return i[keep], j[keep]
 
 

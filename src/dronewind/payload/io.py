@@ -56,6 +56,7 @@ from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
+from dronewind.core.raw import RawRecord
 from dronewind.errors import InputError, describe_header
 
 __all__ = [
@@ -267,6 +268,29 @@ def _parse_csv(
     return table
 
 
+def _table_of_record(rec: RawRecord, expected: tuple[str, ...], kinds: dict[str, str]) -> _Table:
+    """The parsed-table form of an in-memory record (no text: no blank or corrupt lines)."""
+    dtype_kind = {"int": "i", "flag": "i", "float": "f", "utc": "M"}
+    cols = rec.checked(expected, {name: dtype_kind[kinds[name]] for name in expected})
+    flag_bad = [name for name in expected if kinds[name] == "flag" and not np.isin(cols[name], (0, 1)).all()]
+    if flag_bad:
+        raise InputError(f"{rec.source}: {flag_bad[0]}", "values other than 0 and 1 in the in-memory record")
+    n = rec.n_rows
+    table = _Table(path=rec.source, columns=cols, line_no=rec.line_numbers(), n_data_lines=n, n_blank_lines=0,
+                   corrupt_lines=[])
+    table.counts.update(n_lines=n, n_corrupt_lines=0, n_blank_lines=0)
+    table.log.append(f"parse: {n} data lines, 0 corrupt removed")
+    return table
+
+
+def _table(source: str | os.PathLike[str] | RawRecord, expected: tuple[str, ...], kinds: dict[str, str],
+           max_corrupt_fraction: float) -> _Table:
+    """Parse a file (:func:`_parse_csv`) or take an in-memory record (:mod:`dronewind.core.raw`)."""
+    if isinstance(source, RawRecord):
+        return _table_of_record(source, expected, kinds)
+    return _parse_csv(source, expected, kinds, max_corrupt_fraction)
+
+
 def _check_backward_jump(table: _Table, t: np.ndarray, clock_jump_tol_s: float) -> None:
     """Raise :class:`ClockJumpError` at the first backward step in row order larger than the tolerance.
 
@@ -352,7 +376,7 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
 
 
 def read_sonic_csv(
-    path: str | os.PathLike[str],
+    path: str | os.PathLike[str] | RawRecord,
     max_corrupt_fraction: float = 0.05,
     clock_jump_tol_s: float = 1.0,
 ) -> tuple[dict[str, np.ndarray], dict[str, int], list[str]]:
@@ -360,8 +384,9 @@ def read_sonic_csv(
 
     Parameters
     ----------
-    path : str or Path
-        CSV with header ``rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c``.
+    path : str, Path or RawRecord
+        CSV with header ``rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c``, or its in-memory record
+        (:mod:`dronewind.core.raw`).
     max_corrupt_fraction : float, optional
         Largest tolerated fraction of corrupt data lines [1]; default 0.05.
     clock_jump_tol_s : float, optional
@@ -386,13 +411,13 @@ def read_sonic_csv(
     """
     kinds = {"rpi_time_us": "int", "u_ms": "float", "v_ms": "float", "w_ms": "float",
              "t_sonic_c": "float"}  # fmt: skip
-    table = _parse_csv(path, SONIC_COLUMNS, kinds, max_corrupt_fraction)
+    table = _table(path, SONIC_COLUMNS, kinds, max_corrupt_fraction)
     _dedup_sort(table, list(SONIC_COLUMNS[1:]), clock_jump_tol_s)
     return table.columns, table.counts, table.log
 
 
 def read_ins_csv(
-    path: str | os.PathLike[str],
+    path: str | os.PathLike[str] | RawRecord,
     max_corrupt_fraction: float = 0.05,
     clock_jump_tol_s: float = 1.0,
 ) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, int], list[str]]:
@@ -400,9 +425,10 @@ def read_ins_csv(
 
     Parameters
     ----------
-    path : str or Path
+    path : str, Path or RawRecord
         CSV with header ``rpi_time_us,utc,time_valid,ekf_valid,lat_deg,lon_deg,alt_m,``
-        ``vel_n_ms,vel_e_ms,vel_d_ms,roll_deg,pitch_deg,yaw_deg``.
+        ``vel_n_ms,vel_e_ms,vel_d_ms,roll_deg,pitch_deg,yaw_deg``, or its in-memory record
+        (:mod:`dronewind.core.raw`).
     max_corrupt_fraction : float, optional
         Largest tolerated fraction of corrupt data lines [1]; default 0.05.
     clock_jump_tol_s : float, optional
@@ -428,7 +454,7 @@ def read_ins_csv(
     """
     kinds = {c: "float" for c in INS_COLUMNS}
     kinds.update(rpi_time_us="int", utc="utc", time_valid="flag", ekf_valid="int")
-    table = _parse_csv(path, INS_COLUMNS, kinds, max_corrupt_fraction)
+    table = _table(path, INS_COLUMNS, kinds, max_corrupt_fraction)
     # time_valid = 1 with an empty utc field: GNSS time cannot be used on this row.
     no_utc = (table.columns["time_valid"] == 1) & np.isnat(table.columns["utc"])
     n_no_utc = int(no_utc.sum())
@@ -647,7 +673,7 @@ class InsTable:
 
 
 def _load_ins(
-    path: str | os.PathLike[str],
+    path: str | os.PathLike[str] | RawRecord,
     min_stable_s: float,
     clock_jump_tol_s: float,
     relation_jump_tol_s: float,
@@ -702,7 +728,7 @@ def _load_ins(
 
 
 def load_ins_table(
-    ins_path: str | os.PathLike[str],
+    ins_path: str | os.PathLike[str] | RawRecord,
     min_stable_s: float = 10.0,
     clock_jump_tol_s: float = 1.0,
     relation_jump_tol_s: float = 0.1,
@@ -759,7 +785,7 @@ def _increasing_utc(utc: np.ndarray, counts: dict[str, int], log: list[str]) -> 
 
 
 def _ins_qc(cols: dict[str, np.ndarray], fs_hz: float, despike: bool, counts: dict[str, int], log: list[str],
-            path: str | os.PathLike[str] = "ins") -> tuple[dict[str, np.ndarray], np.ndarray]:
+            path: str | os.PathLike[str] | RawRecord = "ins") -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Range, missing and (optional) spike flags of the INS; flagged rows set to NaN.
 
     A variable without a single valid value raises :class:`InputError` naming the file and
@@ -889,7 +915,7 @@ def _ins_dataset(data: dict[str, np.ndarray], cols: dict[str, np.ndarray], qc: n
 
 
 def ins_l1(
-    ins_path: str | os.PathLike[str], min_stable_s: float = 10.0, clock_jump_tol_s: float = 1.0,
+    ins_path: str | os.PathLike[str] | RawRecord, min_stable_s: float = 10.0, clock_jump_tol_s: float = 1.0,
     relation_jump_tol_s: float = 0.1, max_corrupt_fraction: float = 0.05, despike: bool = False,
     ins_table: InsTable | None = None,
 ) -> xr.Dataset:
@@ -897,8 +923,8 @@ def ins_l1(
 
     Parameters
     ----------
-    ins_path : str or Path
-        INS CSV (DESIGN.md "INS file").
+    ins_path : str, Path or RawRecord
+        INS CSV (DESIGN.md "INS file") or its in-memory record.
     min_stable_s : float, optional
         A stable valid GNSS time starts at the first row from which ``time_valid`` stays 1
         for at least this long [s]; default 10 s. Earlier rows are discarded (counted in
@@ -1015,7 +1041,7 @@ def _insert_missing(rpi_time_us: np.ndarray, gap_factor: float = 1.5
     return new_t, src_idx, total_missing, long_gaps
 
 
-def _after_stable_time(cols: dict[str, np.ndarray], rpi_stable_us: int, sonic_path: str | os.PathLike[str],
+def _after_stable_time(cols: dict[str, np.ndarray], rpi_stable_us: int, sonic_path: str | os.PathLike[str] | RawRecord,
                        counts: dict[str, int], log: list[str]) -> dict[str, np.ndarray]:
     """Sonic rows from the INS's stable valid GNSS time on (earlier rows discarded and counted)."""
     t = cols["rpi_time_us"]
@@ -1032,7 +1058,7 @@ def _after_stable_time(cols: dict[str, np.ndarray], rpi_stable_us: int, sonic_pa
     return cols
 
 
-def _sonic_on_full_clock(cols: dict[str, np.ndarray], sonic_path: str | os.PathLike[str], max_gap_s: float,
+def _sonic_on_full_clock(cols: dict[str, np.ndarray], sonic_path: str | os.PathLike[str] | RawRecord, max_gap_s: float,
                          counts: dict[str, int], log: list[str],
                          ) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
     """The sonic with its logger-time gaps filled by missing samples.
@@ -1075,7 +1101,7 @@ def _sonic_on_full_clock(cols: dict[str, np.ndarray], sonic_path: str | os.PathL
 
 def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply_elevation_limit: bool,
               despike_window_s: float, despike_n_mad: float, counts: dict[str, int], log: list[str],
-              source: str | os.PathLike[str] = "sonic") -> np.ndarray:
+              source: str | os.PathLike[str] | RawRecord = "sonic") -> np.ndarray:
     """Missing, range (RM Young 81000) and spike flags of the sonic; flagged samples set to NaN in ``vals``.
 
     A column without a single valid value raises :class:`InputError` naming the file and
@@ -1184,7 +1210,8 @@ def _sonic_dataset(vals: dict[str, np.ndarray], qc: np.ndarray, t_full: np.ndarr
 
 
 def payload_sonic_l1(
-    sonic_path: str | os.PathLike[str], ins_path: str | os.PathLike[str], min_stable_s: float = 10.0,
+    sonic_path: str | os.PathLike[str] | RawRecord, ins_path: str | os.PathLike[str] | RawRecord,
+    min_stable_s: float = 10.0,
     clock_jump_tol_s: float = 1.0, relation_jump_tol_s: float = 0.1, max_corrupt_fraction: float = 0.05,
     despike_window_s: float = 10.0, despike_n_mad: float = 7.0, apply_elevation_limit: bool = False,
     max_gap_s: float = 60.0, ins_table: InsTable | None = None,
@@ -1193,10 +1220,10 @@ def payload_sonic_l1(
 
     Parameters
     ----------
-    sonic_path : str or Path
-        Sonic CSV (DESIGN.md "Payload sonic file").
-    ins_path : str or Path
-        INS CSV of the same flight (shares the logger clock).
+    sonic_path : str, Path or RawRecord
+        Sonic CSV (DESIGN.md "Payload sonic file") or its in-memory record.
+    ins_path : str, Path or RawRecord
+        INS CSV of the same flight (shares the logger clock) or its in-memory record.
     min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction : float
         As :func:`ins_l1`; `clock_jump_tol_s` applies to the sonic file too.
     despike_window_s : float, optional

@@ -61,6 +61,7 @@ from scipy.interpolate import CubicSpline
 
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
+from dronewind.core.raw import RawRecord
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate.mast import mast_measurement
@@ -72,7 +73,7 @@ from dronewind.simulate.settings import (
     resolve_payload_flight,
     validate_simulation,
 )
-from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
+from dronewind.simulate.writers import ins_record, payload_sonic_record, toa5_record, write_record
 
 __all__ = [
     "AIR_DENSITY_KGM3",
@@ -80,6 +81,9 @@ __all__ = [
     "pendulum_period_s",
     "flight_timeline",
     "simulate_payload_flight",
+    "payload_records",
+    "payload_truth",
+    "PayloadTruth",
 ]
 
 AIR_DENSITY_KGM3 = 1.2
@@ -399,7 +403,7 @@ def _air_at_payload(cond: PayloadFlightConditions, clock: _FlightClock, field: _
                     spec: atm.FieldSpec, fs_hz: float) -> _AirAtPayload:
     """Wind and temperature along the flight: hover-point fluctuations with the mean of the current height.
 
-    The drone's rotor ``downwash`` mechanism, when active, is subtracted from w while airborne.
+    The true air, without the drone's rotor ``downwash`` (see :func:`_wind_up_at_sonic`).
     """
     i0 = int(round(clock.log_start_field_s * fs_hz))
     air = atm.synthesize(spec, fs_hz, [len(field.mast_ids)], start_s=i0 / fs_hz,
@@ -420,11 +424,20 @@ def _air_at_payload(cond: PayloadFlightConditions, clock: _FlightClock, field: _
     theta = air[3] + atm.theta_profile(z_pay_nom, z_hover, theta_h, ustar, cond["obukhov_length_m"]) - theta_h
     u_fl = (air[0] - spec.mean_enu[-1, 0]) * e_u[0] + (air[1] - spec.mean_enu[-1, 1]) * e_u[1]
     v_fl = (air[0] - spec.mean_enu[-1, 0]) * e_v[0] + (air[1] - spec.mean_enu[-1, 1]) * e_v[1]
-    if "downwash" in cond["mechanisms"]:  # downdraft of the drone's rotors reaching the payload
-        dw = cond["mechanisms"]["downwash"]
-        w_dw = dw["w0_ms"] * np.exp(-np.hypot(wind_e, wind_n) / dw["u_scale_ms"])
-        wind_up = wind_up - airborne * w_dw
     return _AirAtPayload(t, z_pay_nom, airborne, float(mean_h), wind_e, wind_n, wind_up, theta, u_fl, v_fl)
+
+
+def _wind_up_at_sonic(cond: PayloadFlightConditions, air: _AirAtPayload) -> np.ndarray:
+    """Vertical wind the payload sonic sees: the true w, minus the rotors' ``downwash`` while airborne.
+
+    The downdraft changes only what the sonic measures (the payload's motion follows the
+    horizontal wind), so it belongs to the measurement stage.
+    """
+    if "downwash" not in cond["mechanisms"]:
+        return air.wind_up_ms
+    dw = cond["mechanisms"]["downwash"]
+    w_dw = dw["w0_ms"] * np.exp(-np.hypot(air.wind_e_ms, air.wind_n_ms) / dw["u_scale_ms"])
+    return air.wind_up_ms - air.airborne * w_dw
 
 
 @dataclass(frozen=True)
@@ -519,7 +532,8 @@ def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, motio
     """
     p, mech, t = cond["payload"], cond["mechanisms"], motion.t_s
     vel_e, vel_n, vel_up = motion.east_m(t, 1), motion.north_m(t, 1), motion.up_m(t, 1)
-    rel_ned = np.stack([air.wind_n_ms - vel_n, air.wind_e_ms - vel_e, -(air.wind_up_ms - vel_up)], axis=-1)
+    rel_ned = np.stack([air.wind_n_ms - vel_n, air.wind_e_ms - vel_e, -(_wind_up_at_sonic(cond, air) - vel_up)],
+                       axis=-1)
     v_body = np.einsum("tji,tj->ti", motion.rotation, rel_ned)          # R^T (V_wind - V_ins)
     m_sb = _MOUNTS[cond["sonic_mount"]]
     if "mount_misalignment" in mech:
@@ -657,8 +671,8 @@ def _ins_validity(cond: PayloadFlightConditions, t_s: np.ndarray) -> tuple[np.nd
     return time_valid, ekf_valid
 
 
-def _write_sonic_log(path: Path, cond: PayloadFlightConditions, stamps_us: np.ndarray, v_sensor_ms: np.ndarray,
-                     t_sonic_c: np.ndarray, streams: _Streams) -> Path:
+def _sonic_log(source: str, cond: PayloadFlightConditions, stamps_us: np.ndarray, v_sensor_ms: np.ndarray,
+               t_sonic_c: np.ndarray, streams: _Streams) -> RawRecord:
     """Sonic CSV with row defects (missing, duplicated, swapped rows; out-of-range values)."""
     order, oor = _defects(streams("sonic_defects"), stamps_us.size, cond["defects"]["sonic"])
     r_def = streams("sonic_defects", 1)
@@ -667,12 +681,12 @@ def _write_sonic_log(path: Path, cond: PayloadFlightConditions, stamps_us: np.nd
     bad_cols = r_def.integers(0, 4, bad_rows.size)
     bad_vals = np.where(r_def.random(bad_rows.size) < 0.5, -99.99, 99.99)  # beyond 40 m/s and 50 C
     cols[bad_rows, bad_cols] = bad_vals
-    return write_payload_sonic_csv(path, stamps_us[order], cols[order, 0], cols[order, 1], cols[order, 2],
-                                   cols[order, 3])
+    return payload_sonic_record(source, stamps_us[order], cols[order, 0], cols[order, 1], cols[order, 2],
+                                cols[order, 3])
 
 
-def _write_ins_log(path: Path, cond: PayloadFlightConditions, ins: _InsRecord, valid: tuple[np.ndarray, np.ndarray],
-                   log_t0_s: float, streams: _Streams) -> Path:
+def _ins_log(source: str, cond: PayloadFlightConditions, ins: _InsRecord, valid: tuple[np.ndarray, np.ndarray],
+             log_t0_s: float, streams: _Streams) -> RawRecord:
     """INS CSV (lat/lon/alt, ``valid`` = time_valid and ekf_valid flags, logger and UTC times) with row defects."""
     us = np.timedelta64(1, "us")
     lat, lon = _ins_lat_lon(cond, ins.east_m, ins.north_m)
@@ -685,35 +699,167 @@ def _write_ins_log(path: Path, cond: PayloadFlightConditions, ins: _InsRecord, v
     bad_rows = np.flatnonzero(oor_i)
     bad_cols = streams("ins_defects", 1).integers(0, 5, bad_rows.size)
     ins_cols[bad_rows, bad_cols] = 999.0
-    return write_ins_csv(path, ins_rpi[o], utc[o], time_valid[o], ekf_valid[o], lat[o], lon[o], alt[o],
-                         ins_cols[o, 0], ins_cols[o, 1], ins_cols[o, 2], ins_cols[o, 3], ins_cols[o, 4],
-                         ins.yaw_deg[o])
+    return ins_record(source, ins_rpi[o], utc[o], time_valid[o], ekf_valid[o], lat[o], lon[o], alt[o],
+                      ins_cols[o, 0], ins_cols[o, 1], ins_cols[o, 2], ins_cols[o, 3], ins_cols[o, 4], ins.yaw_deg[o])
 
 
-def _write_mast_records(out_dir: Path, cond: PayloadFlightConditions, settings: SimulationSettings,
-                        clock: _FlightClock, field: _FieldPoints, spec: atm.FieldSpec,
-                        streams: _Streams) -> list[Path]:
-    """One TOA5 per mast sonic over the mast span (CSAT3 measurement model, RECORD from 2020-01-01)."""
+@dataclass(frozen=True)
+class _MastTruth:
+    """True wind and temperature at every mast sonic over the mast span (at the mast rate)."""
+
+    #: (n_sonics, 4, n): east, north, up [m s-1], sonic temperature [K]
+    series: np.ndarray
+    times: np.ndarray
+    first_record: int
+
+
+def _mast_truth(settings: SimulationSettings, clock: _FlightClock, field: _FieldPoints,
+                spec: atm.FieldSpec) -> _MastTruth:
+    """The field at the mast sonics on the logger's grid (RECORD counted from 2020-01-01)."""
     us = np.timedelta64(1, "us")
     fs_m = settings["mast"]["rate_hz"]
     m0 = int(math.ceil((clock.mast_lo - clock.field_t0) / us * 1e-6 * fs_m))
     m1 = int(math.floor(clock.mast_end_field_s * fs_m))
-    mast_series = atm.synthesize(spec, fs_m, list(range(len(field.mast_ids))), start_s=m0 / fs_m,
-                                 n_samples=m1 - m0)
-    mast_times = clock.field_t0 + np.round((m0 + np.arange(m1 - m0)) / fs_m * 1e6).astype(np.int64) * us
+    series = atm.synthesize(spec, fs_m, list(range(len(field.mast_ids))), start_s=m0 / fs_m, n_samples=m1 - m0)
+    times = clock.field_t0 + np.round((m0 + np.arange(m1 - m0)) / fs_m * 1e6).astype(np.int64) * us
     rec0 = int(round((clock.field_t0 - np.datetime64("2020-01-01T00:00:00", "us")) / us * 1e-6 * fs_m)) + m0
-    written = []
+    return _MastTruth(series, times, rec0)
+
+
+def _mast_logs(cond: PayloadFlightConditions, settings: SimulationSettings, field: _FieldPoints,
+               mast: _MastTruth, streams: _Streams) -> list[RawRecord]:
+    """One TOA5 per mast sonic over the mast span (CSAT3 measurement model)."""
+    out = []
     for k, sid in enumerate(field.mast_ids):
         sonic = cond["mast_sonics"][sid]
-        meas = mast_measurement(mast_series[k, 0], mast_series[k, 1], mast_series[k, 2], mast_series[k, 3],
+        meas = mast_measurement(mast.series[k, 0], mast.series[k, 1], mast.series[k, 2], mast.series[k, 3],
                                 float(sonic["azimuth_deg"]), settings["mast"], streams("mast", k),
-                                cond["mechanisms"], rec0)
+                                cond["mechanisms"], mast.first_record)
         keep = meas.keep
-        path = out_dir / _mast_file(list(sonic["files"]), cond["flight_id"], sid)
-        write_toa5(path, mast_times[keep], meas.record[keep], meas.ux_ms[keep], meas.uy_ms[keep],
-                   meas.uz_ms[keep], meas.ts_c[keep], meas.diag_csat[keep], table=f"ts_{sid}")
-        written.append(path)
-    return written
+        out.append(toa5_record(_mast_file(list(sonic["files"]), cond["flight_id"], sid), mast.times[keep],
+                               meas.record[keep], meas.ux_ms[keep], meas.uy_ms[keep], meas.uz_ms[keep],
+                               meas.ts_c[keep], meas.diag_csat[keep], table=f"ts_{sid}"))
+    return out
+
+
+@dataclass(frozen=True)
+class PayloadTruth:
+    """The true state of one payload flight: everything the instruments see, before they measure it.
+
+    Computed once per flight, seed and hover height (:func:`payload_truth`); every mechanism
+    of the measurement stage (all but ``height_offset``, which moves the hover point in the
+    field) is applied to it by :func:`payload_records`, so the forward model's probes of
+    those mechanisms reuse one truth instead of re-drawing the turbulence and the motion.
+
+    Attributes
+    ----------
+    flight_id : str
+    seed : int
+        The flight's seed (:func:`dronewind.simulate.settings.flight_seed`).
+    hover_offset_dz_m : float
+        ``height_offset.dz_m`` the truth was made with [m].
+    """
+
+    flight_id: str
+    seed: int
+    hover_offset_dz_m: float
+    clock: _FlightClock
+    field: _FieldPoints
+    air: _AirAtPayload
+    motion: _Motion
+    mast: _MastTruth
+
+
+def _dz_m(cond: PayloadFlightConditions) -> float:
+    return float(cond["mechanisms"].get("height_offset", {}).get("dz_m", 0.0))
+
+
+def payload_truth(campaign: CampaignLike, flight_id: str) -> PayloadTruth:
+    """Turbulence at the hover point and the masts, and the payload's true motion, of one flight.
+
+    Parameters
+    ----------
+    campaign : dict or manifest.Campaign
+        Manifest content with a ``simulation:`` section (format in :mod:`dronewind.simulate`).
+    flight_id : str
+        Payload flight id.
+
+    Returns
+    -------
+    PayloadTruth
+        Depends on the flight's conditions, the payload settings, the seed and the
+        ``height_offset`` mechanism only.
+
+    Raises
+    ------
+    InputError
+        Invalid settings (named).
+    """
+    data = campaign_dict(campaign)
+    settings = validate_simulation(data)
+    cond = resolve_payload_flight(data, flight_id, settings)
+    return _truth(data, settings, cond)
+
+
+def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadFlightConditions) -> PayloadTruth:
+    p, streams = cond["payload"], _Streams(cond["seed"])
+    fs_s, fs_m = p["sonic_rate_hz"], settings["mast"]["rate_hz"]
+    clock = _flight_clock(data, settings, cond, fs_s, fs_m)
+    field = _field_points(cond)  # turbulence at the mast sonics (first) and the hover point
+    spec = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"))
+    air = _air_at_payload(cond, clock, field, spec, fs_s)
+    motion = _payload_motion(p, air, field, spec, streams("motion"), fs_s)
+    return PayloadTruth(cond["flight_id"], int(cond["seed"]), _dz_m(cond), clock, field, air, motion,
+                        _mast_truth(settings, clock, field, spec))
+
+
+def payload_records(campaign: CampaignLike, flight_id: str,
+                    truth: PayloadTruth | None = None) -> tuple[list[RawRecord], PayloadTruth]:
+    """The raw records of one virtual payload flight and of every mast sonic, in memory.
+
+    Parameters
+    ----------
+    campaign : dict or manifest.Campaign
+        Manifest content with a ``simulation:`` section.
+    flight_id : str
+        Payload flight id.
+    truth : PayloadTruth, optional
+        The flight's true state from an earlier call (same conditions and seed, same
+        ``height_offset``); computed when not given.
+
+    Returns
+    -------
+    records : list of RawRecord
+        Sonic, INS, then one TOA5 per mast sonic: exactly what
+        :func:`simulate_payload_flight` writes (its files are these records printed), with
+        the sources the manifest names (relative to the campaign's data root).
+    truth : PayloadTruth
+        The true state used (to pass to further calls).
+
+    Raises
+    ------
+    InputError
+        Invalid settings (named); GNSS time not stable before the hover.
+    ValueError
+        A ``truth`` of another flight, seed or height offset.
+    """
+    data = campaign_dict(campaign)
+    settings = validate_simulation(data)
+    cond = resolve_payload_flight(data, flight_id, settings)
+    if truth is None:
+        truth = _truth(data, settings, cond)
+    elif (truth.flight_id, truth.seed, truth.hover_offset_dz_m) != (cond["flight_id"], int(cond["seed"]), _dz_m(cond)):
+        raise ValueError(f"truth of flight {truth.flight_id} seed {truth.seed} dz {truth.hover_offset_dz_m} m does "
+                         f"not belong to flight {flight_id} seed {cond['seed']} dz {_dz_m(cond)} m")
+    p, streams, motion = cond["payload"], _Streams(cond["seed"]), truth.motion
+    v_sensor, t_c = _sonic_sensor_frame(cond, truth.air, motion, streams)
+    stamps = _sonic_stamps_us(cond, motion.t_s)
+    ins = _add_ins_errors(cond, _ins_truth(cond, motion, p["ins_rate_hz"]), streams("ins_noise"), p["ins_rate_hz"])
+    valid = _ins_validity(cond, ins.t_s)
+    flight = cond["flight"]
+    records = [_sonic_log(str(flight["sonic"]["file"]), cond, stamps, v_sensor, t_c, streams),
+               _ins_log(str(flight["ins"]["file"]), cond, ins, valid, motion.t_s[0], streams)]
+    return records + _mast_logs(cond, settings, truth.field, truth.mast, streams), truth
 
 
 def simulate_payload_flight(campaign: CampaignLike, manifest_dir: Path, flight_id: str,
@@ -756,22 +902,5 @@ def simulate_payload_flight(campaign: CampaignLike, manifest_dir: Path, flight_i
     ----------
     Seed 000, Sects 2.3, 3.1-3.2, 4, Tables 2-4 and Appendix A.
     """
-    data = campaign_dict(campaign)
-    settings = validate_simulation(data)
-    cond = resolve_payload_flight(data, flight_id, settings)
-    out_dir = Path(out_dir)
-    p, streams = cond["payload"], _Streams(cond["seed"])
-    fs_s, fs_i, fs_m = p["sonic_rate_hz"], p["ins_rate_hz"], settings["mast"]["rate_hz"]
-    clock = _flight_clock(data, settings, cond, fs_s, fs_m)
-    field = _field_points(cond)  # turbulence at the mast sonics (first) and the hover point
-    spec = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"))
-    air = _air_at_payload(cond, clock, field, spec, fs_s)
-    motion = _payload_motion(p, air, field, spec, streams("motion"), fs_s)
-    v_sensor, t_c = _sonic_sensor_frame(cond, air, motion, streams)
-    stamps = _sonic_stamps_us(cond, motion.t_s)
-    ins = _add_ins_errors(cond, _ins_truth(cond, motion, fs_i), streams("ins_noise"), fs_i)
-    valid = _ins_validity(cond, ins.t_s)  # raises before anything is written
-    flight = cond["flight"]
-    written = [_write_sonic_log(out_dir / str(flight["sonic"]["file"]), cond, stamps, v_sensor, t_c, streams),
-               _write_ins_log(out_dir / str(flight["ins"]["file"]), cond, ins, valid, motion.t_s[0], streams)]
-    return written + _write_mast_records(out_dir, cond, settings, clock, field, spec, streams)
+    records, _ = payload_records(campaign, flight_id)  # raises before anything is written
+    return [write_record(Path(out_dir) / rec.source, rec) for rec in records]

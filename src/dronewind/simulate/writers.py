@@ -17,11 +17,16 @@ import numpy as np
 import pandas as pd
 
 from dronewind.core.cf import atomic_write_text
+from dronewind.core.raw import RawRecord
 
 __all__ = [
     "SONIC_HEADER",
     "INS_HEADER",
     "TOA5_FIELDS",
+    "payload_sonic_record",
+    "ins_record",
+    "toa5_record",
+    "write_record",
     "write_payload_sonic_csv",
     "write_ins_csv",
     "write_toa5",
@@ -77,14 +82,14 @@ def campbell_timestamps(times: np.ndarray) -> np.ndarray:
     return s.to_numpy(dtype=object)
 
 
-def write_payload_sonic_csv(path: Path, rpi_time_us: np.ndarray, u_ms: np.ndarray, v_ms: np.ndarray,
-                            w_ms: np.ndarray, t_sonic_c: np.ndarray, decimals: int = 2) -> Path:
-    """Write the payload sonic file ``rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c``.
+def payload_sonic_record(source: str | Path, rpi_time_us: np.ndarray, u_ms: np.ndarray, v_ms: np.ndarray,
+                         w_ms: np.ndarray, t_sonic_c: np.ndarray, decimals: int = 2) -> RawRecord:
+    """The payload sonic file ``rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c`` as an in-memory record.
 
     Parameters
     ----------
-    path : Path
-        Output file (folders are created).
+    source : str or Path
+        Path of the file the record stands for.
     rpi_time_us : numpy.ndarray
         Logger clock stamps [us] (int64), in row order as logged.
     u_ms, v_ms, w_ms : numpy.ndarray
@@ -96,52 +101,67 @@ def write_payload_sonic_csv(path: Path, rpi_time_us: np.ndarray, u_ms: np.ndarra
 
     Returns
     -------
-    Path
+    RawRecord
+        The values rounded as :func:`write_payload_sonic_csv` prints them.
     """
-    frame = pd.DataFrame({
+    return RawRecord(str(source), {
         "rpi_time_us": np.asarray(rpi_time_us, dtype=np.int64),
         "u_ms": np.round(np.asarray(u_ms, float), decimals),
         "v_ms": np.round(np.asarray(v_ms, float), decimals),
         "w_ms": np.round(np.asarray(w_ms, float), decimals),
         "t_sonic_c": np.round(np.asarray(t_sonic_c, float), decimals),
     })
-    return _write_frame(path, SONIC_HEADER, frame)
 
 
-def write_ins_csv(path: Path, rpi_time_us: np.ndarray, utc: np.ndarray, time_valid: np.ndarray,
-                  ekf_valid: np.ndarray, lat_deg: np.ndarray, lon_deg: np.ndarray, alt_m: np.ndarray,
-                  vel_n_ms: np.ndarray, vel_e_ms: np.ndarray, vel_d_ms: np.ndarray,
-                  roll_deg: np.ndarray, pitch_deg: np.ndarray, yaw_deg: np.ndarray) -> Path:
-    """Write the INS (EKF) file with the contract header.
+def write_payload_sonic_csv(path: Path, rpi_time_us: np.ndarray, u_ms: np.ndarray, v_ms: np.ndarray,
+                            w_ms: np.ndarray, t_sonic_c: np.ndarray, decimals: int = 2) -> Path:
+    """Write the payload sonic file ``rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c``.
 
-    Parameters
-    ----------
-    path : Path
-        Output file.
-    rpi_time_us : numpy.ndarray
-        Logger clock [us] (int64).
-    utc : numpy.ndarray
-        datetime64 UTC of each row; written only where ``time_valid`` is 1.
-    time_valid, ekf_valid : numpy.ndarray
-        0/1 flags.
-    lat_deg, lon_deg : numpy.ndarray
-        Position [degree_north, degree_east] (9 decimals, about 0.1 mm).
-    alt_m : numpy.ndarray
-        Altitude above mean sea level [m].
-    vel_n_ms, vel_e_ms, vel_d_ms : numpy.ndarray
-        Velocity of the sonic's measurement volume, NED [m s-1].
-    roll_deg, pitch_deg, yaw_deg : numpy.ndarray
-        Euler angles [degree] (seed 000, Appendix A).
+    Parameters are those of :func:`payload_sonic_record` (``path``: the output file;
+    folders are created).
 
     Returns
     -------
     Path
     """
+    return write_record(path, payload_sonic_record(path, rpi_time_us, u_ms, v_ms, w_ms, t_sonic_c, decimals))
+
+
+def ins_record(source: str | Path, rpi_time_us: np.ndarray, utc: np.ndarray, time_valid: np.ndarray,
+               ekf_valid: np.ndarray, lat_deg: np.ndarray, lon_deg: np.ndarray, alt_m: np.ndarray,
+               vel_n_ms: np.ndarray, vel_e_ms: np.ndarray, vel_d_ms: np.ndarray,
+               roll_deg: np.ndarray, pitch_deg: np.ndarray, yaw_deg: np.ndarray) -> RawRecord:
+    """The INS (EKF) file with the contract header as an in-memory record.
+
+    Parameters
+    ----------
+    source : str or Path
+        Path of the file the record stands for.
+    rpi_time_us : numpy.ndarray
+        Logger clock [us] (int64).
+    utc : numpy.ndarray
+        datetime64 UTC of each row; kept (to the microsecond) only where ``time_valid``
+        is 1, NaT elsewhere (the file's field is empty there).
+    time_valid, ekf_valid : numpy.ndarray
+        0/1 flags.
+    lat_deg, lon_deg : numpy.ndarray
+        Position [degree_north, degree_east] (9 decimals, about 0.1 mm).
+    alt_m : numpy.ndarray
+        Altitude above mean sea level [m] (3 decimals).
+    vel_n_ms, vel_e_ms, vel_d_ms : numpy.ndarray
+        Velocity of the sonic's measurement volume, NED [m s-1] (4 decimals).
+    roll_deg, pitch_deg, yaw_deg : numpy.ndarray
+        Euler angles [degree] (seed 000, Appendix A; 4 decimals).
+
+    Returns
+    -------
+    RawRecord
+    """
     tv = np.asarray(time_valid, dtype=np.int64)
-    utc_text = np.where(tv == 1, utc_strings(utc), "")
-    frame = pd.DataFrame({
+    utc_us = np.asarray(utc).astype("datetime64[us]")
+    return RawRecord(str(source), {
         "rpi_time_us": np.asarray(rpi_time_us, dtype=np.int64),
-        "utc": utc_text,
+        "utc": np.where(tv == 1, utc_us, np.datetime64("NaT", "us")).astype("datetime64[ns]"),
         "time_valid": tv,
         "ekf_valid": np.asarray(ekf_valid, dtype=np.int64),
         "lat_deg": np.round(np.asarray(lat_deg, float), 9),
@@ -154,7 +174,63 @@ def write_ins_csv(path: Path, rpi_time_us: np.ndarray, utc: np.ndarray, time_val
         "pitch_deg": np.round(np.asarray(pitch_deg, float), 4),
         "yaw_deg": np.round(np.asarray(yaw_deg, float), 4),
     })
-    return _write_frame(path, INS_HEADER, frame)
+
+
+def write_ins_csv(path: Path, rpi_time_us: np.ndarray, utc: np.ndarray, time_valid: np.ndarray,
+                  ekf_valid: np.ndarray, lat_deg: np.ndarray, lon_deg: np.ndarray, alt_m: np.ndarray,
+                  vel_n_ms: np.ndarray, vel_e_ms: np.ndarray, vel_d_ms: np.ndarray,
+                  roll_deg: np.ndarray, pitch_deg: np.ndarray, yaw_deg: np.ndarray) -> Path:
+    """Write the INS (EKF) file with the contract header.
+
+    Parameters are those of :func:`ins_record` (``path``: the output file).
+
+    Returns
+    -------
+    Path
+    """
+    return write_record(path, ins_record(path, rpi_time_us, utc, time_valid, ekf_valid, lat_deg, lon_deg, alt_m,
+                                         vel_n_ms, vel_e_ms, vel_d_ms, roll_deg, pitch_deg, yaw_deg))
+
+
+def toa5_record(source: str | Path, times: np.ndarray, record: np.ndarray, ux_ms: np.ndarray, uy_ms: np.ndarray,
+                uz_ms: np.ndarray, ts_c: np.ndarray, diag_csat: np.ndarray, decimals: int = 4,
+                table: str = "ts_data") -> RawRecord:
+    """A Campbell TOA5 file of a CSAT3 as an in-memory record.
+
+    Parameters
+    ----------
+    source : str or Path
+        Path of the file the record stands for.
+    times : numpy.ndarray
+        datetime64 UTC time stamps (kept to the millisecond, as printed).
+    record : numpy.ndarray
+        RECORD numbers (int; may skip).
+    ux_ms, uy_ms, uz_ms : numpy.ndarray
+        CSAT3 components [m s-1] (DESIGN.md sign convention; NaN where bad).
+    ts_c : numpy.ndarray
+        Sonic temperature [degree C].
+    diag_csat : numpy.ndarray
+        CSAT3 diagnostic word (0 = good).
+    decimals : int
+        Decimals of the values.
+    table : str
+        Table name of the TOA5 header (``meta["table"]``).
+
+    Returns
+    -------
+    RawRecord
+        Columns ``TIMESTAMP`` (datetime64[ns]), ``RECORD``, ``Ux``, ``Uy``, ``Uz``, ``Ts``,
+        ``diag_csat``; units of the TOA5 units line; first data row on line 5.
+    """
+    return RawRecord(str(source), {
+        "TIMESTAMP": np.asarray(times).astype("datetime64[ms]").astype("datetime64[ns]"),
+        "RECORD": np.asarray(record, dtype=np.int64),
+        "Ux": np.round(np.asarray(ux_ms, float), decimals),
+        "Uy": np.round(np.asarray(uy_ms, float), decimals),
+        "Uz": np.round(np.asarray(uz_ms, float), decimals),
+        "Ts": np.round(np.asarray(ts_c, float), decimals),
+        "diag_csat": np.asarray(diag_csat, dtype=np.int64),
+    }, units=dict(zip(TOA5_FIELDS, TOA5_UNITS, strict=True)), first_line=5, meta={"table": table})
 
 
 def write_toa5(path: Path, times: np.ndarray, record: np.ndarray, ux_ms: np.ndarray, uy_ms: np.ndarray,
@@ -167,41 +243,59 @@ def write_toa5(path: Path, times: np.ndarray, record: np.ndarray, ux_ms: np.ndar
     ----------
     path : Path
         Output file.
-    times : numpy.ndarray
-        datetime64 UTC time stamps.
-    record : numpy.ndarray
-        RECORD numbers (int; may skip).
-    ux_ms, uy_ms, uz_ms : numpy.ndarray
-        CSAT3 components [m s-1] (DESIGN.md sign convention).
-    ts_c : numpy.ndarray
-        Sonic temperature [degree C].
-    diag_csat : numpy.ndarray
-        CSAT3 diagnostic word (0 = good).
+    times, record, ux_ms, uy_ms, uz_ms, ts_c, diag_csat, decimals
+        As :func:`toa5_record`.
     station, logger, serial, table, program : str
         Header line 1 fields.
-    decimals : int
-        Decimals of the values.
+
+    Returns
+    -------
+    Path
+    """
+    rec = toa5_record(path, times, record, ux_ms, uy_ms, uz_ms, ts_c, diag_csat, decimals, table=table)
+    return write_record(path, rec, station=station, logger=logger, serial=serial, program=program)
+
+
+def _toa5_text(rec: RawRecord, station: str, logger: str, serial: str, program: str) -> str:
+    env = ["TOA5", station, logger, serial, f"{logger}.Std.32", program, "24006", rec.meta.get("table", "ts_data")]
+    lines = [",".join(f'"{x}"' for x in env), ",".join(f'"{x}"' for x in TOA5_FIELDS),
+             ",".join(f'"{x}"' for x in TOA5_UNITS), ",".join(f'"{x}"' for x in TOA5_PROCESSING)]
+    cols = dict(rec.columns)
+    cols["TIMESTAMP"] = np.char.add(np.char.add('"', campbell_timestamps(cols["TIMESTAMP"]).astype(str)), '"')
+    body = pd.DataFrame(cols).to_csv(index=False, header=False, lineterminator="\n", na_rep="NAN",
+                                     quoting=csv.QUOTE_NONE, quotechar="'")
+    return "\n".join(lines) + "\n" + body.replace(",NAN", ',"NAN"')
+
+
+def write_record(path: str | Path, rec: RawRecord, *, station: str = "P2OA", logger: str = "CR3000",
+                 serial: str = "6843", program: str = "CPU:dronewind_sim.CR3") -> Path:
+    """Print an in-memory record as its raw file (atomically; folders are created).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file.
+    rec : RawRecord
+        A record of :func:`payload_sonic_record`, :func:`ins_record` or :func:`toa5_record`
+        (recognised by its columns).
+    station, logger, serial, program : str
+        TOA5 header line 1 fields (TOA5 records only; the table name is the record's
+        ``meta["table"]``).
 
     Returns
     -------
     Path
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    env = ["TOA5", station, logger, serial, f"{logger}.Std.32", program, "24006", table]
-    lines = [",".join(f'"{x}"' for x in env), ",".join(f'"{x}"' for x in TOA5_FIELDS),
-             ",".join(f'"{x}"' for x in TOA5_UNITS), ",".join(f'"{x}"' for x in TOA5_PROCESSING)]
-    frame = pd.DataFrame({
-        "TIMESTAMP": np.char.add(np.char.add('"', campbell_timestamps(times).astype(str)), '"'),
-        "RECORD": np.asarray(record, dtype=np.int64),
-        "Ux": np.round(np.asarray(ux_ms, float), decimals),
-        "Uy": np.round(np.asarray(uy_ms, float), decimals),
-        "Uz": np.round(np.asarray(uz_ms, float), decimals),
-        "Ts": np.round(np.asarray(ts_c, float), decimals),
-        "diag_csat": np.asarray(diag_csat, dtype=np.int64),
-    })
-    body = frame.to_csv(index=False, header=False, lineterminator="\n", na_rep="NAN",
-                        quoting=csv.QUOTE_NONE, quotechar="'")
-    body = body.replace(",NAN", ',"NAN"')
-    atomic_write_text(path, "\n".join(lines) + "\n" + body)
-    return path
+    names = tuple(rec.columns)
+    if names == TOA5_FIELDS:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(path, _toa5_text(rec, station, logger, serial, program))
+        return path
+    if ",".join(names) == SONIC_HEADER:
+        return _write_frame(path, SONIC_HEADER, pd.DataFrame(dict(rec.columns)))
+    if ",".join(names) == INS_HEADER:
+        cols = dict(rec.columns)
+        cols["utc"] = np.where(cols["time_valid"] == 1, utc_strings(cols["utc"]), "")
+        return _write_frame(path, INS_HEADER, pd.DataFrame(cols))
+    raise ValueError(f"{rec.source}: columns {list(names)} are none of the simulator's raw formats")

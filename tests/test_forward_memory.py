@@ -1,0 +1,138 @@
+"""The forward model in memory: raw records instead of files, one true state per flight and seed.
+
+The diagnosis simulates every flight some thirty times (dronewind.diagnose.forward). The
+simulator hands the chain in-memory records (dronewind.core.raw) and reuses the flight's
+true state (turbulence, motion, mast field) for every mechanism of the measurement stage;
+the chain reuses the products of records that a probe leaves unchanged. These tests hold
+the three shortcuts to the long way round: the files, a fresh simulation, no reuse.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from dronewind.core.raw import RawRecord
+from dronewind.diagnose import forward
+from dronewind.errors import InputError
+from dronewind.manifest import default_config
+from dronewind.mechanisms import get_mechanism
+from dronewind.payload.io import read_sonic_csv
+from dronewind.simulate.payload import payload_records, payload_truth
+from tests.test_simulate_payload import _campaign as _unit_campaign
+
+#: Catalog mechanisms of the payload flight's measurement stage (all but height_offset).
+MEASUREMENT_STAGE = ("sonic_ins_lag", "clock_drift", "mount_misalignment", "heading_bias", "attitude_lag",
+                     "lever_arm", "w_gain", "sonic_noise", "downwash", "mast_w_attenuation")
+
+
+def _campaign(mechanisms=None) -> dict:
+    """The short unit flight (400 s hover) as a forward manifest: no window, the hover is found in the data."""
+    camp = _unit_campaign(mechanisms)
+    window = camp["payload_flights"][0].pop("window")
+    camp["simulation"]["payload_flights"]["f1"]["start"] = window["start"]
+    return camp
+
+
+def _processing() -> dict:
+    proc = copy.deepcopy(default_config()["processing"])
+    proc["hover"]["min_duration_s"] = 300.0
+    return proc
+
+
+def _random_parameters(rng: np.random.Generator, name: str) -> dict[str, float]:
+    """A draw inside the middle half of each catalog range (the simulator's settings must accept it)."""
+    out = {}
+    for p in get_mechanism(name).parameters:
+        lo, hi = p.lower + 0.25 * (p.upper - p.lower), p.upper - 0.25 * (p.upper - p.lower)
+        out[p.name] = float(rng.uniform(lo, hi))
+    return out
+
+
+def _same_records(a: list[RawRecord], b: list[RawRecord]) -> None:
+    assert [r.source for r in a] == [r.source for r in b]
+    for ra, rb in zip(a, b, strict=True):
+        assert list(ra.columns) == list(rb.columns)
+        for name in ra.columns:
+            np.testing.assert_array_equal(ra.columns[name], rb.columns[name], err_msg=f"{ra.source} {name}")
+
+
+def test_in_memory_records_give_the_l1_and_features_of_their_files():
+    """One file round trip: the records, printed and parsed back, give identical L1 and features.
+
+    With row defects (duplicates, swapped rows, out-of-range values, mast NaN and skipped
+    records) and mechanisms in every instrument, so every reader path is exercised.
+    """
+    camp = _campaign([{"mechanism": "lever_arm", "parameters": {"x_m": 0.3, "y_m": -0.2, "z_m": 0.1}},
+                      {"mechanism": "mast_w_attenuation", "parameters": {"gain": 0.9}},
+                      {"mechanism": "downwash", "parameters": {"w0_ms": 0.8, "u_scale_ms": 4.0}}])
+    check = forward.file_round_trip(camp, "f1", _processing())
+    assert check == {"identical": True, "differences": []}
+
+
+def test_the_round_trip_check_names_what_differs():
+    """The comparison is not vacuous: one changed L1 value, attribute or feature is named."""
+    run = forward.run_forward(_campaign(), "f1", _processing())
+    assert forward.run_differences(run, run) == []
+    sonic = run[1]["l1"]["sonic"].copy(deep=True)
+    sonic["u_sensor_ms"].values[100] += 0.01
+    ins = run[1]["l1"]["ins"].copy()
+    ins.attrs["clock_drift_ppm"] = 1.0 + float(ins.attrs["clock_drift_ppm"])
+    feats = copy.deepcopy(run[0])
+    name = next(k for k, v in feats.values.items() if np.isfinite(v))
+    feats.values[name] += 1e-9
+    altered = (feats, {**run[1], "l1": {**run[1]["l1"], "sonic": sonic, "ins": ins}})
+    assert forward.run_differences(run, altered) == ["L1 sonic u_sensor_ms", "L1 ins attribute clock_drift_ppm",
+                                                     f"feature {name}"]
+
+
+@pytest.mark.parametrize("seed", [11, 12, 13])
+def test_reused_truth_gives_the_records_of_a_fresh_simulation(seed):
+    """Every measurement-stage mechanism, drawn at random, applied to the baseline's true state
+    gives bit for bit the records of simulating the flight with the mechanism from scratch."""
+    rng = np.random.default_rng(seed)
+    names = list(rng.choice(MEASUREMENT_STAGE, size=3, replace=False))
+    mechanisms = [{"mechanism": name, "parameters": _random_parameters(rng, name)} for name in names]
+    truth = payload_truth(_campaign(), "f1")
+    camp = _campaign(mechanisms)
+    reused, _ = payload_records(camp, "f1", truth)
+    fresh, _ = payload_records(camp, "f1")
+    _same_records(reused, fresh)
+
+
+def test_a_truth_of_another_hover_height_is_refused():
+    truth = payload_truth(_campaign(), "f1")
+    lowered = _campaign([{"mechanism": "height_offset", "parameters": {"dz_m": 5.0}}])
+    with pytest.raises(ValueError, match="dz"):
+        payload_records(lowered, "f1", truth)
+
+
+def test_reused_products_give_the_features_of_a_full_run():
+    """The cache of a baseline run, read by probe runs (sonic, INS and mast probes), changes nothing."""
+    proc = _processing()
+    base = _campaign()
+    cache = forward.ForwardCache()
+    _, products = forward.run_forward(base, "f1", proc, cache=cache)
+    cache.freeze()
+    for mech in ({"mechanism": "w_gain", "parameters": {"gain": 1.15}},
+                 {"mechanism": "heading_bias", "parameters": {"deg": -7.0}},
+                 {"mechanism": "mast_w_attenuation", "parameters": {"gain": 0.88}}):
+        camp = _campaign([mech])
+        hits = cache.hits
+        with_cache, _ = forward.run_forward(camp, "f1", proc, truth=products["truth"], cache=cache)
+        alone, _ = forward.run_forward(camp, "f1", proc)
+        assert cache.hits > hits, mech["mechanism"]
+        assert with_cache.values.keys() == alone.values.keys()
+        for key, value in alone.values.items():
+            assert with_cache.values[key] == pytest.approx(value, nan_ok=True, rel=0, abs=0), (mech, key)
+
+
+def test_a_record_with_other_columns_is_named():
+    camp = _campaign()
+    records, _ = payload_records(camp, "f1")
+    sonic = records[0]
+    bad = RawRecord(sonic.source, {k: v for k, v in sonic.columns.items() if k != "w_ms"})
+    with pytest.raises(InputError, match=r"flights/f1/sonic\.csv.*expected \['rpi_time_us'"):
+        read_sonic_csv(bad)
