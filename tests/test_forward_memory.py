@@ -136,3 +136,20 @@ def test_a_record_with_other_columns_is_named():
     bad = RawRecord(sonic.source, {k: v for k, v in sonic.columns.items() if k != "w_ms"})
     with pytest.raises(InputError, match=r"flights/f1/sonic\.csv.*expected \['rpi_time_us'"):
         read_sonic_csv(bad)
+
+
+def test_parts_run_apart_merge_into_the_whole_flight():
+    """The workflow's per-mechanism probe jobs give, merged, the runs of one job per flight."""
+    camp = _campaign()
+    conditions = camp["simulation"]["payload_flights"]["f1"]
+    probes = tuple(p for p in forward.PROBES if p.mechanism in ("w_gain", "height_offset", "mast_w_attenuation"))
+    proc = _processing()
+    whole = forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes)
+    parts = [forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, parts=[name])
+             for name in reversed(forward.probe_parts(probes))]
+    merged = forward.merge_probe_runs(parts, probes)
+    for key in ("reused_products",):
+        whole.pop(key), merged.pop(key)
+    assert merged == whole
+    with pytest.raises(InputError, match="expected each of"):
+        forward.merge_probe_runs(parts[1:], probes)

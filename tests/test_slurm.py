@@ -7,15 +7,19 @@ SLURM (not root, so packages cannot be installed and daemons cannot be started).
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
 
+from dronewind.diagnose.forward import probe_parts
 from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]
@@ -36,22 +40,43 @@ def slurm():
     return True
 
 
+class _QueueWatch(threading.Thread):
+    """Polls squeue and keeps the largest number of queued or running jobs of one rule."""
+
+    def __init__(self, rule: str) -> None:
+        super().__init__(daemon=True)
+        self.rule, self.most, self.done = rule, 0, threading.Event()
+
+    def run(self) -> None:
+        while not self.done.is_set():
+            proc = subprocess.run(["squeue", "-h", "-o", "%k"], capture_output=True, text=True, check=False)
+            n = sum(line.startswith(f"rule_{self.rule}_") for line in proc.stdout.splitlines())
+            self.most = max(self.most, n)
+            time.sleep(0.3)
+
+
 def test_small_campaign_runs_through_sbatch(slurm, tmp_path):
     manifest = write_small_campaign(tmp_path)
     results = tmp_path / "results"
     extra = tmp_path / "short.yaml"
     extra.write_text(SHORT_HOVER)
+    watch = _QueueWatch("diagnose_probe")
+    watch.start()
     proc = subprocess.run(
         [str(BIN / "snakemake"), "--workflow-profile", "profiles/slurm",
          "--slurm-init-seconds-before-status-checks", "2", "--seconds-between-status-checks", "2",
          "--slurm-no-account", "--configfile", "config/config.yaml", str(extra),
-         "--config", f"campaign={manifest}", f"results_dir={results}",
-         # the payload chain up to the contract table (the diagnosis DAG is run by test_e2e)
+         "--config", f"campaign={manifest}", f"results_dir={results}", "diagnosis={probe_jobs: mechanism}",
+         # the payload chain up to the contract table and one flight's forward model, its
+         # probes spread over one job per mechanism (the rest of the diagnosis DAG: test_e2e)
          "--", str(results / "smallcamp" / "tables" / "flight_stats.csv"),
-         str(results / "smallcamp" / "campaign.json")],
+         str(results / "smallcamp" / "campaign.json"),
+         str(results / "smallcamp" / "diagnosis" / "forward" / "s01.json")],
         cwd=REPO, capture_output=True, text=True, timeout=1500, check=False,
         env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"},
     )
+    watch.done.set()
+    watch.join()
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-4000:]
     job_ids = re.findall(r"submitted with SLURM jobid (\d+)", out)
@@ -60,3 +85,7 @@ def test_small_campaign_runs_through_sbatch(slurm, tmp_path):
     assert len(job_ids) == n_jobs >= 1, out[-3000:]
     assert (results / "smallcamp" / "campaign.json").is_file()
     assert (results / "smallcamp" / "tables" / "flight_stats.csv").is_file()
+    # the flight's probes were in the queue side by side, then joined into its forward runs
+    assert watch.most >= 3, f"at most {watch.most} diagnose_probe jobs were queued at once"
+    runs = json.loads((results / "smallcamp" / "diagnosis" / "forward" / "s01.json").read_text())
+    assert runs["parts"] == list(probe_parts()) and len(runs["baseline"]) == 2 and runs["probes"]

@@ -11,7 +11,7 @@ from pathlib import Path
 from snakemake.utils import min_version, validate
 
 from dronewind.config import check_config
-from dronewind.diagnose.forward import CHAIN_SETTINGS
+from dronewind.diagnose.forward import CHAIN_SETTINGS, probe_parts
 from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
 from dronewind.manifest import confined_path, load_campaign, payload_flight_manifest
@@ -116,8 +116,13 @@ def _alternatives(ids):
     return "|".join(map(str, ids)) if ids else "(?!x)x"
 
 
+# parts of a flight's forward-model runs when they are one job each (diagnosis.probe_jobs)
+PROBE_PARTS = list(probe_parts())
+
+
 wildcard_constraints:
     flight=_alternatives(PAYLOAD_FLIGHTS),
+    part=_alternatives(PROBE_PARTS),
     qflight=_alternatives(QUAD_FLIGHTS),
     sonic=_alternatives(MAST_SONICS),
     sensor="drone|mast",

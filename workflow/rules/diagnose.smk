@@ -26,24 +26,71 @@ rule diagnose_measured:
         "../../scripts/diagnose_measured.py"
 
 
-rule diagnose_forward:
-    input:
-        measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
-    output:
-        RESULTS / "diagnosis" / "forward" / "{flight}.json",
-    log:
-        log_path("diagnose_forward", "flight"),
-    benchmark:
-        bench_path("diagnose_forward", "flight")
-    conda:
-        ENV
-    params:
-        campaign=flight_manifest,
-        flight_id="{flight}",
-        processing=CHAIN,
-        seeds=DIAGNOSIS["seeds"],
-    script:
-        "../../scripts/diagnose_forward.py"
+if DIAGNOSIS["probe_jobs"] == "mechanism":
+
+    # one job per flight and part (the baseline seeds, each mechanism's probes), joined
+    rule diagnose_probe:
+        input:
+            measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+        output:
+            RESULTS / "diagnosis" / "forward" / "parts" / "{flight}" / "{part}.json",
+        log:
+            log_path("diagnose_probe", "flight", "part"),
+        benchmark:
+            bench_path("diagnose_probe", "flight", "part")
+        conda:
+            ENV
+        params:
+            campaign=flight_manifest,
+            flight_id="{flight}",
+            processing=CHAIN,
+            seeds=DIAGNOSIS["seeds"],
+            part="{part}",
+        script:
+            "../../scripts/diagnose_forward.py"
+
+    rule diagnose_forward:
+        input:
+            parts=expand(
+                RESULTS
+                / "diagnosis"
+                / "forward"
+                / "parts"
+                / "{{flight}}"
+                / "{part}.json",
+                part=PROBE_PARTS,
+            ),
+        output:
+            RESULTS / "diagnosis" / "forward" / "{flight}.json",
+        log:
+            log_path("diagnose_forward", "flight"),
+        benchmark:
+            bench_path("diagnose_forward", "flight")
+        conda:
+            ENV
+        script:
+            "../../scripts/merge_forward.py"
+
+else:
+
+    rule diagnose_forward:
+        input:
+            measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+        output:
+            RESULTS / "diagnosis" / "forward" / "{flight}.json",
+        log:
+            log_path("diagnose_forward", "flight"),
+        benchmark:
+            bench_path("diagnose_forward", "flight")
+        conda:
+            ENV
+        params:
+            campaign=flight_manifest,
+            flight_id="{flight}",
+            processing=CHAIN,
+            seeds=DIAGNOSIS["seeds"],
+        script:
+            "../../scripts/diagnose_forward.py"
 
 
 rule diagnose:

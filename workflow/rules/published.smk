@@ -3,24 +3,71 @@
 # Sect. 5.2/6 claims, the extended model rerun, the report.
 
 
-rule published_forward:
-    input:
-        published=PUBLISHED,
-    output:
-        RESULTS / "published" / "forward" / "{flight}.json",
-    log:
-        log_path("published_forward", "flight"),
-    benchmark:
-        bench_path("published_forward", "flight")
-    conda:
-        ENV
-    params:
-        campaign=published_manifest,
-        flight_id="{flight}",
-        processing=CHAIN,
-        seeds=DIAGNOSIS["seeds"],
-    script:
-        "../../scripts/published_forward.py"
+if DIAGNOSIS["probe_jobs"] == "mechanism":
+
+    # one job per sample and part (the baseline seeds, each mechanism's probes), joined
+    rule published_probe:
+        input:
+            published=PUBLISHED,
+        output:
+            RESULTS / "published" / "forward" / "parts" / "{flight}" / "{part}.json",
+        log:
+            log_path("published_probe", "flight", "part"),
+        benchmark:
+            bench_path("published_probe", "flight", "part")
+        conda:
+            ENV
+        params:
+            campaign=published_manifest,
+            flight_id="{flight}",
+            processing=CHAIN,
+            seeds=DIAGNOSIS["seeds"],
+            part="{part}",
+        script:
+            "../../scripts/published_forward.py"
+
+    rule published_forward:
+        input:
+            parts=expand(
+                RESULTS
+                / "published"
+                / "forward"
+                / "parts"
+                / "{{flight}}"
+                / "{part}.json",
+                part=PROBE_PARTS,
+            ),
+        output:
+            RESULTS / "published" / "forward" / "{flight}.json",
+        log:
+            log_path("published_forward", "flight"),
+        benchmark:
+            bench_path("published_forward", "flight")
+        conda:
+            ENV
+        script:
+            "../../scripts/merge_forward.py"
+
+else:
+
+    rule published_forward:
+        input:
+            published=PUBLISHED,
+        output:
+            RESULTS / "published" / "forward" / "{flight}.json",
+        log:
+            log_path("published_forward", "flight"),
+        benchmark:
+            bench_path("published_forward", "flight")
+        conda:
+            ENV
+        params:
+            campaign=published_manifest,
+            flight_id="{flight}",
+            processing=CHAIN,
+            seeds=DIAGNOSIS["seeds"],
+        script:
+            "../../scripts/published_forward.py"
 
 
 rule published_diagnosis:

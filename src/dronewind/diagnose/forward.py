@@ -57,7 +57,8 @@ from dronewind.payload.chain import compute_ins_l1, compute_payload_l2, compute_
 
 __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS",
            "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
-           "record_digest", "lag_halves", "probe_runs", "file_round_trip", "run_differences"]
+           "record_digest", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
+           "file_round_trip", "run_differences"]
 
 if TYPE_CHECKING:
     from dronewind.simulate.payload import PayloadTruth
@@ -605,6 +606,20 @@ def _probe_parameters(probe: Probe, level: float) -> dict[str, float]:
     return params
 
 
+#: Name of the part of a flight's forward runs that holds the baseline seeds (:func:`probe_parts`).
+BASELINE_PART = "baseline"
+
+
+def probe_parts(probes: tuple[Probe, ...] = PROBES) -> tuple[str, ...]:
+    """The parts a flight's forward runs split into: the baseline seeds, then one per mechanism.
+
+    Each part is an independent job of the workflow (``diagnosis.probe_jobs: mechanism``),
+    so that a cluster runs a flight's probes in parallel; :func:`merge_probe_runs` joins
+    them into what :func:`probe_runs` returns for the whole flight.
+    """
+    return (BASELINE_PART, *dict.fromkeys(p.mechanism for p in probes))
+
+
 def probe_runs(
     campaign_data: Mapping[str, Any],
     flight_id: str,
@@ -612,6 +627,7 @@ def probe_runs(
     processing: Mapping[str, Any],
     seeds: tuple[int, ...],
     probes: tuple[Probe, ...] = PROBES,
+    parts: Sequence[str] | None = None,
 ) -> dict[str, Any]:
     """Baseline and probe runs of the forward model for one flight.
 
@@ -631,6 +647,9 @@ def probe_runs(
         mechanism's effect).
     probes : tuple of Probe
         Probes to run.
+    parts : sequence of str, optional
+        Run only these parts (:func:`probe_parts`: ``"baseline"`` and mechanism names);
+        all by default.
 
     Returns
     -------
@@ -638,17 +657,29 @@ def probe_runs(
         ``{"baseline": [features per seed], "probes": [{candidate, mechanism,
         parameter, level, fixed, features}]}`` with features as
         :func:`~dronewind.diagnose.features.features_to_dict` dictionaries; probe levels a
-        flight cannot take are listed in ``skipped_probes``.
+        flight cannot take are listed in ``skipped_probes``; ``parts`` names the parts
+        run and ``reused_products`` counts the products reused (:class:`ForwardCache`).
+
+    Notes
+    -----
+    Every part gives the same numbers alone as in a run of the whole flight: the probes'
+    true state is the first seed's, simulated again when the baseline is not in the part.
     """
     from dronewind.diagnose.features import features_to_dict
+    from dronewind.simulate.payload import payload_truth
 
+    parts = tuple(probe_parts(probes)) if parts is None else tuple(parts)
+    unknown = sorted(set(parts) - set(probe_parts(probes)))
+    if unknown:
+        raise InputError("parts", f"unknown forward-run part(s) {unknown}; expected some of {probe_parts(probes)}")
     out: dict[str, Any] = {"flight": flight_id, "conditions": dict(conditions), "seeds": list(seeds),
-                           "baseline": [], "probes": []}
-    levels = [(probe, level) for probe in probes for level in probe.levels]
-    progress = Progress("probe", len(seeds) + len(levels), "run")
+                           "parts": list(parts), "baseline": [], "probes": []}
+    levels = [(probe, level) for probe in probes if probe.mechanism in parts for level in probe.levels]
+    run_seeds = seeds if BASELINE_PART in parts else ()
+    progress = Progress("probe", len(run_seeds) + len(levels), "run")
     truth = None  # the first seed's true state, reused by every measurement-stage probe
     cache = ForwardCache()  # and its products, reused where a probe leaves a record unchanged
-    for seed in seeds:
+    for seed in run_seeds:
         with progress.item(f"flight {flight_id} baseline seed {seed}"):
             feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed),
                                           flight_id, processing, cache=cache)
@@ -656,6 +687,8 @@ def probe_runs(
             truth = products["truth"]
             cache.freeze()
         out["baseline"].append(features_to_dict(feats))
+    if truth is None and any(probe.mechanism not in TRUTH_MECHANISMS for probe, _ in levels):
+        truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0]), flight_id)
     for probe, level in levels:
         name = f"flight {flight_id} {probe.candidate} {probe.parameter}={level:g}"
         mech = [{"mechanism": probe.mechanism, "parameters": _probe_parameters(probe, level)}]
@@ -678,6 +711,57 @@ def probe_runs(
                               "fixed": dict(probe.fixed), "features": features_to_dict(feats)})
     progress.finished()
     out["reused_products"] = {"hits": cache.hits, "misses": cache.misses}
+    return out
+
+
+def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ...] = PROBES) -> dict[str, Any]:
+    """Join the parts of one flight's forward runs (:func:`probe_runs` with ``parts``) into one.
+
+    Parameters
+    ----------
+    parts : sequence of dict
+        Outputs of :func:`probe_runs` for the same flight, conditions and seeds, each part
+        once, together covering :func:`probe_parts`.
+    probes : tuple of Probe
+        The probes the parts were run with (their order is the order of the result).
+
+    Returns
+    -------
+    dict
+        What :func:`probe_runs` returns for all parts in one run (``reused_products``
+        summed over the parts).
+
+    Raises
+    ------
+    InputError
+        Parts of other flights, conditions or seeds, a part twice or a part missing.
+    """
+    if not parts:
+        raise InputError("parts", "no forward-run parts to merge")
+    first = parts[0]
+    names: list[str] = []
+    for part in parts:
+        for key in ("flight", "conditions", "seeds"):
+            if part[key] != first[key]:
+                raise InputError(f"parts: {key}", f"forward-run parts disagree on {key}: {part[key]!r} and "
+                                 f"{first[key]!r}")
+        names += list(part["parts"])
+    if sorted(names) != sorted(probe_parts(probes)):
+        raise InputError("parts", f"forward-run parts {sorted(names)}; expected each of {list(probe_parts(probes))} "
+                         "once")
+    order = {(p.candidate, p.parameter, float(level)): k for k, (p, level) in
+             enumerate((p, level) for p in probes for level in p.levels)}
+    out: dict[str, Any] = {"flight": first["flight"], "conditions": first["conditions"], "seeds": first["seeds"],
+                           "parts": list(probe_parts(probes)),
+                           "baseline": next(p["baseline"] for p in parts if BASELINE_PART in p["parts"]),
+                           "probes": sorted((r for p in parts for r in p["probes"]),
+                                            key=lambda r: order[(r["candidate"], r["parameter"], float(r["level"]))])}
+    skipped = sorted((r for p in parts for r in p.get("skipped_probes", [])),
+                     key=lambda r: order[(r["candidate"], r["parameter"], float(r["level"]))])
+    if skipped:
+        out["skipped_probes"] = skipped
+    out["reused_products"] = {k: sum(int(p.get("reused_products", {}).get(k, 0)) for p in parts)
+                              for k in ("hits", "misses")}
     return out
 
 

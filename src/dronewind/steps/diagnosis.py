@@ -101,8 +101,8 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
 
 
 def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: Mapping[str, Any], flight_id: str,
-                   processing: Mapping[str, Any], seeds: Sequence[int]) -> Path:
-    """Forward-model runs (baseline seeds and every probe) of one flight, as JSON.
+                   processing: Mapping[str, Any], seeds: Sequence[int], part: str | None = None) -> Path:
+    """Forward-model runs (baseline seeds and every probe, or one part of them) of one flight, as JSON.
 
     Parameters
     ----------
@@ -118,6 +118,9 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
         ``processing`` settings of the chain (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
     seeds : sequence of int
         ``diagnosis.seeds``.
+    part : str, optional
+        Only this part (``"baseline"`` or a mechanism,
+        :func:`dronewind.diagnose.forward.probe_parts`); all by default.
 
     Returns
     -------
@@ -127,8 +130,30 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
     from dronewind.diagnose import forward
 
     measured = json.loads(Path(measured_json).read_text())
-    runs = forward.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds))
+    runs = forward.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds),
+                              parts=None if part is None else [part])
     return write_json(output, runs)
+
+
+def merge_forward_parts(part_files: Sequence[str | Path], output: str | Path) -> Path:
+    """Join the per-part forward runs of one flight into the flight's forward JSON.
+
+    Parameters
+    ----------
+    part_files : sequence of str or Path
+        Outputs of :func:`forward_probes` (or :func:`dronewind.steps.published.published_forward`)
+        with ``part``, one per part.
+    output : str or Path
+        JSON file to write (the same content as one job per flight writes).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    from dronewind.diagnose import forward
+
+    return write_json(output, forward.merge_probe_runs([json.loads(Path(f).read_text()) for f in part_files]))
 
 
 def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str | Path]) -> dc.CampaignEvidence:

@@ -27,7 +27,8 @@ __all__ = ["published_forward", "published_diagnosis", "published_rerun", "publi
 
 
 def published_forward(published_file: str | Path, output: str | Path, *, campaign: Mapping[str, Any],
-                      flight_id: str, processing: Mapping[str, Any], seeds: Sequence[int]) -> Path:
+                      flight_id: str, processing: Mapping[str, Any], seeds: Sequence[int],
+                      part: str | None = None) -> Path:
     """Forward-model runs (baseline seeds and every probe) of one sample at its Table 4 conditions.
 
     Parameters
@@ -44,6 +45,9 @@ def published_forward(published_file: str | Path, output: str | Path, *, campaig
         ``processing`` settings of the chain (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
     seeds : sequence of int
         ``diagnosis.seeds``.
+    part : str, optional
+        Only this part (``"baseline"`` or a mechanism,
+        :func:`dronewind.diagnose.forward.probe_parts`); all by default.
 
     Returns
     -------
@@ -56,7 +60,8 @@ def published_forward(published_file: str | Path, output: str | Path, *, campaig
     pub = dp.load_published(published_file)
     conditions = dp.table4_conditions(pub, flight_id, campaign)
     LOG.info("sample %s: Table 4 conditions %s", flight_id, conditions)
-    runs = forward.probe_runs(campaign, flight_id, conditions, processing, seeds=tuple(seeds))
+    runs = forward.probe_runs(campaign, flight_id, conditions, processing, seeds=tuple(seeds),
+                              parts=None if part is None else [part])
     return write_json(output, runs)
 
 
