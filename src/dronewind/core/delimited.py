@@ -326,13 +326,25 @@ def parse_times(values: Sequence[str] | pd.Series, kind: str, utc_offset_hours: 
             local = pd.to_datetime(s[~zoned], format="ISO8601", errors="coerce").to_numpy().astype("datetime64[ns]")
             t[~zoned] = local - np.timedelta64(int(round(utc_offset_hours * 3600e9)), "ns")
         return t
-    scale_ns = {"epoch_s": 1e9, "epoch_ms": 1e6}.get(kind)
-    if scale_ns is None:
+    digits = {"epoch_s": 9, "epoch_ms": 6}.get(kind)
+    if digits is None:
         raise ValueError(f"time kind {kind!r}; expected iso, epoch_s or epoch_ms")
-    x = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
-    ok = np.isfinite(x) & (np.abs(x * scale_ns) < 9.2e18)
-    ns = np.zeros(x.size, dtype=np.int64)
-    ns[ok] = np.rint(x[ok] * scale_ns).astype(np.int64)
+    scale_ns = 10**digits
+    # integer and fraction apart: a float holds an epoch in ns to about 0.2 us only
+    parts = s.str.extract(r"^([+-]?)(\d{1,13})(?:\.(\d*))?$")
+    exact = parts[1].notna().to_numpy(dtype=bool).copy()
+    exact[exact] = parts.loc[exact, 1].astype(np.int64).to_numpy() < 9_200_000_000_000_000_000 // scale_ns
+    ns = np.zeros(s.size, dtype=np.int64)
+    ok = exact.copy()
+    if exact.any():
+        whole = parts.loc[exact, 1].astype(np.int64).to_numpy()
+        frac = parts.loc[exact, 2].fillna("").str.slice(0, digits).str.pad(digits, side="right", fillchar="0")
+        sign = np.where(parts.loc[exact, 0].to_numpy() == "-", -1, 1)
+        ns[exact] = sign * (whole * scale_ns + frac.astype(np.int64).to_numpy())
+    x = pd.to_numeric(s[~exact], errors="coerce").to_numpy(dtype=float)  # exponents: float precision
+    fine = np.isfinite(x) & (np.abs(x * scale_ns) < 9.2e18)
+    ns[np.flatnonzero(~exact)[fine]] = np.rint(x[fine] * scale_ns).astype(np.int64)
+    ok[np.flatnonzero(~exact)[fine]] = True
     out = ns.astype("datetime64[ns]")
     out[~ok] = np.datetime64("NaT")
     return out
