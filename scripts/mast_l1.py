@@ -1,4 +1,4 @@
-"""Snakemake script: one mast sonic, TOA5 (L0) -> L1."""
+"""Snakemake script: one mast sonic, raw files in their declared format (L0) -> L1."""
 
 from dronewind.steps import logged, mast_l1
 

@@ -44,12 +44,26 @@ VALID = {
 }
 
 
+#: File heads in the contract formats (validate-campaign reads the first lines of every file).
+_TOA5_HEAD = (Path(__file__).parent / "data" / "io_excerpts" / "TOA5_6843.ts_Above_2012_06_07_1245_excerpt.dat"
+              ).read_text().splitlines()[:6]
+FILE_HEADS = {
+    "mast/mast30_a.dat": "\n".join(_TOA5_HEAD) + "\n",
+    "mast/mast60_a.dat": "\n".join(_TOA5_HEAD) + "\n",
+    "flights/s01/sonic.csv": "rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c\n1000000,1.0,0.5,0.1,20.0\n",
+    "flights/s01/ins.csv": "rpi_time_us,utc,time_valid,ekf_valid,lat_deg,lon_deg,alt_m,vel_n_ms,vel_e_ms,vel_d_ms,"
+                           "roll_deg,pitch_deg,yaw_deg\n1000000,,0,1,43.1,0.36,650.0,0,0,0,1,2,3\n",
+    "tower/f31_reference.csv": "time_utc,height_m,wind_speed_ms,wind_from_deg\n2020-06-30T18:00:00Z,30,5.0,270\n",
+    "quad/f31/q01.csv": "time_utc,roll_deg,pitch_deg,yaw_deg,vel_n_ms,vel_e_ms,vel_d_ms,lat_deg,lon_deg,alt_m\n"
+                        "2020-06-30T18:00:00Z,1,-5,270,0,0,0,36.6,-97.5,320\n",
+}
+
+
 def write_campaign(tmp_path: Path, data: dict, make_files: bool = True) -> Path:
     if make_files:
-        for rel in ("mast/mast30_a.dat", "mast/mast60_a.dat", "flights/s01/sonic.csv", "flights/s01/ins.csv",
-                    "tower/f31_reference.csv", "quad/f31/q01.csv"):
+        for rel, head in FILE_HEADS.items():
             (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
-            (tmp_path / rel).write_text("x\n")
+            (tmp_path / rel).write_text(head)
     path = tmp_path / "campaign.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False))
     return path

@@ -40,17 +40,22 @@ class Subcommand:
 def _validate_campaign_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("manifest", type=Path, help="campaign manifest (YAML)")
     parser.add_argument(
-        "--no-files", action="store_true", help="do not check that data files exist (structure and ids only)"
+        "--no-files", action="store_true",
+        help="do not check that data files exist and match their declared formats (structure and ids only)"
     )
 
 
 def _validate_campaign(args: argparse.Namespace) -> int:
+    from dronewind.formats import check_campaign_formats
     from dronewind.manifest import load_campaign
 
     try:
         campaign = load_campaign(args.manifest, check_files=False if args.no_files else None)
     except UnicodeDecodeError as exc:
         raise InputError(args.manifest, f"not a text (YAML) file: {exc.reason} at byte {exc.start}") from exc
+    if not args.no_files:
+        # every file's first lines against its declared format (a measured campaign)
+        check_campaign_formats(campaign)
     kind = "virtual (simulated)" if campaign.simulated else "measured"
     print(
         f"{campaign.path}: valid {kind} campaign {campaign.name!r}: "
@@ -153,7 +158,7 @@ def _show_config(args: argparse.Namespace) -> int:
 SUBCOMMANDS: list[Subcommand] = [
     Subcommand(
         "validate-campaign",
-        "validate a campaign manifest (schema, ids, windows, files)",
+        "validate a campaign manifest (schema, ids, windows, files and their declared formats)",
         "examples:\n  dronewind validate-campaign config/campaigns/mosai2023.yaml\n"
         "  dronewind validate-campaign --no-files my_campaign.yaml",
         _validate_campaign_args,

@@ -47,7 +47,8 @@ import yaml
 from dronewind.errors import ManifestError
 
 __all__ = ["Campaign", "load_campaign", "campaign_schema", "parse_utc", "config_schema", "default_config",
-           "with_defaults", "payload_flight_manifest", "data_paths", "path_problem", "confined_path"]
+           "with_defaults", "payload_flight_manifest", "data_paths", "path_problem", "confined_path",
+           "record_format", "DEFAULT_FORMATS"]
 
 
 def campaign_schema() -> dict[str, Any]:
@@ -317,6 +318,42 @@ def data_paths(data: Mapping[str, Any]) -> list[tuple[str, str]]:
     if (data.get("tunnel") or {}).get("runs"):
         out.append(("tunnel.runs", str(data["tunnel"]["runs"])))
     return out
+
+
+#: The format of a record that declares none: the contract format of its kind (DESIGN.md).
+DEFAULT_FORMATS: dict[str, str] = {"mast_sonic": "toa5", "payload_sonic": "contract_csv",
+                                   "payload_ins": "contract_csv", "quadrotor_uav": "contract_csv"}
+
+
+def record_format(record: Mapping[str, Any], kind: str, file: str | None = None) -> dict[str, Any]:
+    """The declared ``format`` of a manifest record as a mapping with ``name``.
+
+    Parameters
+    ----------
+    record : mapping
+        A mast sonic, a payload flight's ``sonic`` or ``ins`` entry, or a quadrotor UAV.
+    kind : str
+        ``mast_sonic``, ``payload_sonic``, ``payload_ins`` or ``quadrotor_uav``.
+    file : str, optional
+        The record's file (a quadrotor UAV without ``format`` is a PX4 ULog when it ends in
+        ``.ulg``, as the reader decides).
+
+    Returns
+    -------
+    dict
+        ``{"name": ...}`` and the format's settings (a copy): absent ``format`` is the
+        contract format of the kind (:data:`DEFAULT_FORMATS`); a bare name becomes
+        ``{"name": name}``.
+    """
+    declared = record.get("format")
+    if declared is None:
+        name = DEFAULT_FORMATS[kind]
+        if kind == "quadrotor_uav" and str(file or record.get("file", "")).lower().endswith(".ulg"):
+            name = "ulog"
+        return {"name": name}
+    if isinstance(declared, str):
+        return {"name": declared}
+    return copy.deepcopy(dict(declared))
 
 
 def path_problem(rel: str, *, confined: bool) -> str | None:

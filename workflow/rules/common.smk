@@ -14,6 +14,7 @@ from dronewind.config import check_config
 from dronewind.diagnose.forward import CHAIN_SETTINGS, probe_parts
 from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
+from dronewind.formats import check_campaign_formats
 from dronewind.manifest import confined_path, load_campaign, payload_flight_manifest
 from dronewind.simulate.settings import validate_simulation
 from dronewind.steps.lock import acquire_results_lock, release_results_lock
@@ -35,6 +36,10 @@ CAMPAIGN = load_campaign(config["campaign"])
 if CAMPAIGN.simulated:
     # the simulator's settings are checked before any job too (names the setting)
     validate_simulation(CAMPAIGN.data)
+else:
+    # a measured campaign's files are read in their declared formats: each file's first
+    # lines are checked against its format before any job (names the file and line)
+    check_campaign_formats(CAMPAIGN)
 RESULTS = Path(config["results_dir"]) / CAMPAIGN.name
 # A virtual campaign's raw files are written by the simulator under results/<name>/L0/;
 # a measured campaign's raw files are where its manifest says.

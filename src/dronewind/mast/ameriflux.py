@@ -48,7 +48,7 @@ import gzip
 import io
 import os
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -61,12 +61,14 @@ from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.errors import InputError
+from dronewind.mast.toa5 import _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
 
 __all__ = [
     "AMERIFLUX_GOLD_COLUMNS",
     "gill_to_enu",
     "read_ameriflux_gold",
     "read_ameriflux_gold_blocks",
+    "mast_l1_gill",
 ]
 
 #: Column order of the numeric fields (source notes, "Data columns").
@@ -117,22 +119,39 @@ def _block_start(path: Path, year: int, utc_offset_hours: float) -> np.datetime6
     return local - np.timedelta64(int(round(utc_offset_hours * 3600e9)), "ns")
 
 
-def _read_gold_values(p: Path, max_corrupt_fraction: float) -> tuple[np.ndarray, np.ndarray]:
+def _read_gold_values(p: Path, max_corrupt_fraction: float, columns: Sequence[str] = AMERIFLUX_GOLD_COLUMNS,
+                      gzipped: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The six numeric columns of a gold file and the mask of corrupt lines.
+
+    Parameters
+    ----------
+    p : Path
+        The file.
+    max_corrupt_fraction : float
+        Largest tolerated fraction of corrupt lines [1].
+    columns : sequence of str
+        The numeric fields in file order: names of :data:`AMERIFLUX_GOLD_COLUMNS` or
+        ``unused``; the fields after them must be empty.
+    gzipped : bool, optional
+        Read as gzip; default: when the name ends in ``.gz``.
 
     Returns
     -------
     values : numpy.ndarray
-        (n_lines, 6) w, u, v, T, H2O, CO2 as logged (NaN where not a number).
+        (n_lines, 6) w, u, v, T, H2O, CO2 as logged (NaN where not a number or not among
+        ``columns``).
     corrupt : numpy.ndarray
-        True for lines that do not hold six numbers.
+        True for lines whose declared columns do not all hold numbers.
 
     Raises
     ------
     InputError
-        Unreadable file, a line with fields beyond column 6, or too many corrupt lines.
+        Unreadable file, a line with fields beyond the declared columns, or too many
+        corrupt lines.
     """
-    opener = gzip.open if p.suffix.lower() == ".gz" else open
+    if gzipped is None:
+        gzipped = p.suffix.lower() == ".gz"
+    opener = gzip.open if gzipped else open
     try:
         with opener(p, "rb") as fh:
             raw = fh.read()
@@ -141,31 +160,34 @@ def _read_gold_values(p: Path, max_corrupt_fraction: float) -> tuple[np.ndarray,
     text = raw.decode("ascii", errors="replace")
     frame = pd.read_csv(
         io.StringIO(text), header=None, dtype=str, keep_default_na=False,
-        skip_blank_lines=True, names=list(range(_N_FIELDS)),
+        skip_blank_lines=True, names=list(range(max(_N_FIELDS, len(columns)))),
         on_bad_lines="error", engine="c",
     )  # fmt: skip
     n_lines = len(frame)
     if n_lines == 0:
         raise InputError(p, "no data lines")
-    extra = (frame.iloc[:, 6:] != "").to_numpy().any(axis=1)
+    n_cols = len(columns)
+    extra = (frame.iloc[:, n_cols:] != "").to_numpy().any(axis=1)
     if extra.any():
         i = int(np.flatnonzero(extra)[0])
-        raise InputError(f"{p}:{i + 1}", "non-empty field beyond column 6; expected "
-                         "w,u,v,T,H2O,CO2 followed by empty fields")  # fmt: skip
-    vals = np.empty((n_lines, 6))
-    for j in range(6):
-        vals[:, j] = pd.to_numeric(frame[j].str.strip(), errors="coerce").to_numpy(dtype=float)
-    corrupt = np.asarray(~np.isfinite(vals).all(axis=1))
+        raise InputError(f"{p}:{i + 1}", f"non-empty field beyond column {n_cols}; expected "
+                         f"{','.join(columns)} followed by empty fields")  # fmt: skip
+    vals = np.full((n_lines, 6), np.nan)
+    declared = [j for j, name in enumerate(AMERIFLUX_GOLD_COLUMNS) if name in columns]
+    for j in declared:
+        k = list(columns).index(AMERIFLUX_GOLD_COLUMNS[j])
+        vals[:, j] = pd.to_numeric(frame[k].str.strip(), errors="coerce").to_numpy(dtype=float)
+    corrupt = np.asarray(~np.isfinite(vals[:, declared]).all(axis=1))
     n_corrupt = int(corrupt.sum())
     if n_corrupt > max_corrupt_fraction * n_lines:
         i = int(np.flatnonzero(corrupt)[0])
-        raise InputError(f"{p}:{i + 1}", f"{n_corrupt} of {n_lines} lines do not hold six "
-                         "numbers")  # fmt: skip
+        raise InputError(f"{p}:{i + 1}", f"{n_corrupt} of {n_lines} lines do not hold {len(declared)} "
+                         f"numbers ({','.join(columns)})")  # fmt: skip
     return vals, corrupt
 
 
 def _gold_qc(u: np.ndarray, v: np.ndarray, w: np.ndarray, t_c: np.ndarray, corrupt: np.ndarray,
-             despike: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+             despike: bool, window_s: float = 10.0, n_mad: float = 7.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Missing, range (Gill WindMaster Pro) and spike flags.
 
     Returns
@@ -184,7 +206,7 @@ def _gold_qc(u: np.ndarray, v: np.ndarray, w: np.ndarray, t_c: np.ndarray, corru
     spikes = np.zeros(corrupt.size, dtype=bool)
     if despike:
         for x in (u, v, w, t_c):
-            spikes |= despike_moving_mad(np.where(qc == 0, x, np.nan), _FS_HZ)
+            spikes |= despike_moving_mad(np.where(qc == 0, x, np.nan), _FS_HZ, window_s, n_mad)
     qc[spikes] |= QC_SPIKE
     return qc, out, spikes
 
@@ -252,6 +274,8 @@ def _gold_attrs(p: Path, n_lines: int, n_expected: int, n_corrupt: int, out: np.
 def read_ameriflux_gold(
     path: str | os.PathLike[str], north_azimuth_deg: float = 240.0, year: int = 2000, utc_offset_hours: float = -8.0,
     height_m: float = 2.0, despike: bool = True, max_corrupt_fraction: float = 0.05,
+    columns: Sequence[str] = AMERIFLUX_GOLD_COLUMNS, gzipped: bool | None = None, despike_window_s: float = 10.0,
+    despike_n_mad: float = 7.0,
 ) -> xr.Dataset:
     """Read one AmeriFlux open-path gold half-hour file.
 
@@ -272,6 +296,14 @@ def read_ameriflux_gold(
         Flag spikes with the moving MAD (QC 2).
     max_corrupt_fraction : float, optional
         Largest tolerated fraction of lines that do not hold six numbers [1].
+    columns : sequence of str, optional
+        The numeric fields in file order (default :data:`AMERIFLUX_GOLD_COLUMNS`); must
+        include w, u, v and t_sonic_c; ``unused`` skips a field; gas columns not declared
+        are NaN.
+    gzipped : bool, optional
+        Read as gzip; default: when the name ends in ``.gz``.
+    despike_window_s, despike_n_mad : float, optional
+        Moving-MAD despiking window [s] and threshold [scaled MAD].
 
     Returns
     -------
@@ -297,10 +329,14 @@ def read_ameriflux_gold(
     if not p.is_file():
         raise InputError(p, "file not found")
     start = _block_start(p, year, utc_offset_hours)
-    vals, corrupt = _read_gold_values(p, max_corrupt_fraction)
+    missing = [c for c in ("w", "u", "v", "t_sonic_c") if c not in columns]
+    if missing:
+        raise InputError(p, f"columns {list(columns)} lack {', '.join(missing)}; expected w, u, v and t_sonic_c")
+    vals, corrupt = _read_gold_values(p, max_corrupt_fraction, columns, gzipped)
     n_lines = corrupt.size
     n_expected = int(round(_FS_HZ * _BLOCK_S))
-    qc, out, spikes = _gold_qc(vals[:, 1], vals[:, 2], vals[:, 0], vals[:, 3], corrupt, despike)
+    qc, out, spikes = _gold_qc(vals[:, 1], vals[:, 2], vals[:, 0], vals[:, 3], corrupt, despike, despike_window_s,
+                               despike_n_mad)
     time = start + (np.arange(n_lines, dtype=np.int64) * int(1e9 / _FS_HZ)).astype("timedelta64[ns]")
     ds = _gold_dataset(vals, qc, time, north_azimuth_deg)
     ds.attrs.update(_gold_attrs(p, n_lines, n_expected, int(corrupt.sum()), out, spikes, qc, despike,
@@ -339,3 +375,105 @@ def read_ameriflux_gold_blocks(
             files.append(pth)
     for f in sorted(files, key=_sort_key):
         yield read_ameriflux_gold(f, **kwargs)
+
+
+_L1_VARIABLES = ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k", "u_gill_ms", "v_gill_ms", "w_gill_ms", "t_sonic_c")
+_SUMMED_COUNTS = ("n_rows", "n_missing_rows", "n_corrupt_lines", "n_out_of_range", "n_spikes")
+
+
+def mast_l1_gill(
+    paths: Sequence[str | os.PathLike[str]], spec: Mapping[str, Any], sonic: Mapping[str, Any],
+    despike_window_s: float = 10.0, despike_n_mad: float = 7.0, despike: bool = True,
+    max_corrupt_fraction: float = 0.05, max_gap_s: float = 60.0,
+) -> xr.Dataset:
+    """Mast L1 dataset of a Gill sonic logged as AmeriFlux/Gill RAW half-hour files.
+
+    Each file is read by :func:`read_ameriflux_gold` (its QC, its frame conversion); the
+    blocks are concatenated in time order on the regular 10 Hz grid (absent samples inserted
+    as missing, gaps longer than ``max_gap_s`` kept as breaks), with the variables and
+    attributes of the mast L1 of :func:`dronewind.mast.toa5.mast_l1`.
+
+    Parameters
+    ----------
+    paths : sequence of path
+        ``G<DDD><HHMM>.RAW[.gz]`` files of the sonic.
+    spec : mapping
+        The manifest's ``format`` (``name: gill_raw``): ``columns``, ``north_azimuth_deg``
+        [degree] (default the sonic's ``azimuth_deg``), ``year`` (default 2000),
+        ``utc_offset_hours`` [h] (default 0), ``compression`` (``auto``, ``gzip``, ``none``).
+    sonic : mapping
+        Manifest entry of the sonic: ``id``, ``height_m`` [m], ``azimuth_deg`` [degree].
+    despike_window_s, despike_n_mad : float
+        Moving-MAD despiking window [s] and threshold [scaled MAD].
+    despike : bool
+        Apply the despiking (QC 2).
+    max_corrupt_fraction : float
+        Largest tolerated fraction of corrupt lines per file [1].
+    max_gap_s : float
+        Longer gaps between blocks are breaks of the time axis [s].
+
+    Returns
+    -------
+    xarray.Dataset
+        ``u_east_ms``, ``v_north_ms``, ``w_up_ms``, ``t_sonic_k`` (NaN where ``qc_mast``
+        != 0), ``u_gill_ms``, ``v_gill_ms``, ``w_gill_ms``, ``t_sonic_c`` as logged,
+        ``qc_mast``; attrs ``azimuth_deg``, ``north_azimuth_deg``, ``height_m``,
+        ``sensor_id``, ``sampling_rate_hz``, ``n_*`` counts, ``input_format``,
+        ``processing_log``.
+
+    Raises
+    ------
+    InputError
+        See :func:`read_ameriflux_gold`; no file given.
+    """
+    files = sorted((Path(p) for p in paths), key=_sort_key)
+    if not files:
+        raise InputError("format", "no gill_raw file given")
+    north = float(spec.get("north_azimuth_deg", sonic["azimuth_deg"]))
+    year, utc_offset = int(spec.get("year", 2000)), float(spec.get("utc_offset_hours", 0.0))
+    compression = str(spec.get("compression", "auto"))
+    frames, log = [], []
+    counts = dict.fromkeys(_SUMMED_COUNTS, 0)
+    for k, f in enumerate(files):
+        block = read_ameriflux_gold(
+            f, north_azimuth_deg=north, year=year, utc_offset_hours=utc_offset, height_m=float(sonic["height_m"]),
+            despike=despike, max_corrupt_fraction=max_corrupt_fraction,
+            columns=tuple(spec.get("columns", AMERIFLUX_GOLD_COLUMNS)),
+            gzipped=None if compression == "auto" else compression == "gzip",
+            despike_window_s=despike_window_s, despike_n_mad=despike_n_mad)
+        for key in _SUMMED_COUNTS:
+            counts[key] += int(block.attrs[key])
+        log.append(str(block.attrs["processing_log"]).split("\n")[0])
+        frame = pd.DataFrame({v: block[v].values for v in _L1_VARIABLES})
+        frame["qc"] = block["qc_sonic"].values.astype(float)
+        frame.insert(0, "time", block["time"].values.astype("datetime64[ns]"))
+        frame["_file"], frame["_line"] = k, np.arange(1, block.sizes["time"] + 1)
+        frames.append(frame)
+    data = pd.concat(frames, ignore_index=True).sort_values("time", kind="stable")
+    dup = data.duplicated(subset=["time"], keep="first").to_numpy()
+    counts["n_time_conflicts"] = int(dup.sum())
+    data, grid = _regular_grid(data.loc[~dup].reset_index(drop=True), files, max_gap_s, counts)
+    qc = _on_grid(data, grid, "qc")
+    qc = np.where(np.isfinite(qc), qc, QC_MISSING).astype(np.int8)
+    ds = xr.Dataset(
+        {v: ("time", _on_grid(data, grid, v)) for v in _L1_VARIABLES},
+        coords={"time": ("time", grid.time, {"long_name": "time (UTC)"})},
+    )
+    template = _gold_dataset(np.zeros((1, 6)), np.zeros(1, dtype=np.int8), grid.time[:1], north)
+    for v in _L1_VARIABLES:
+        ds[v].attrs.update(template[v].attrs)
+    ds["qc_mast"] = ("time", qc, qc_flag_attrs("mast sonic QC bitmask", (QC_OUT_OF_RANGE, QC_SPIKE, QC_MISSING)))
+    counts["n_flagged"] = int((qc != 0).sum())
+    log.append(f"grid: {grid.fs_hz:g} Hz, {counts['n_missing']} absent time stamps inserted as missing; "
+               f"{counts['n_record_breaks']} record breaks (gaps > {max_gap_s:g} s kept as breaks, not filled)")
+    log.append(f"qc: {counts['n_out_of_range']} out of Gill WindMaster Pro range, {counts['n_spikes']} spikes "
+               f"(moving MAD {despike_window_s:g} s, {despike_n_mad:g} scaled MAD{'' if despike else ', off'}); "
+               f"{counts['n_flagged']} of {grid.time.size} samples set to NaN")
+    log.append(f"frame: sonic N at {north:g} deg; u_E = U sin b - V cos b, v_N = U cos b + V sin b, w = W; "
+               f"clock UTC{utc_offset:+g} h, year {year} (the file names hold the day of year)")
+    ds.attrs.update({k: int(v) for k, v in counts.items()})
+    ds.attrs.update(azimuth_deg=float(sonic["azimuth_deg"]), north_azimuth_deg=north,
+                    height_m=float(sonic["height_m"]), sensor_id=str(sonic["id"]),
+                    sampling_rate_hz=float(round(grid.fs_hz, 6)), source_files=", ".join(f.name for f in files),
+                    input_format="gill_raw", processing_log="\n".join(log))
+    return ds

@@ -1,4 +1,4 @@
-"""The mast chain, datasets in and datasets out: TOA5 files to L1, L1 to a flight's L2.
+"""The mast chain, datasets in and datasets out: raw files (by their declared format) to L1, L1 to a flight's L2.
 
 The workflow steps (:mod:`dronewind.steps.payload`) wrap these functions in file input and
 output; the diagnosis runs them in-process on forward-model flights
@@ -19,7 +19,8 @@ import xarray as xr
 from dronewind.core import rotation as rot
 from dronewind.core.raw import RawRecord
 from dronewind.errors import DronewindError, InputError
-from dronewind.mast import toa5
+from dronewind.manifest import record_format
+from dronewind.mast import ameriflux, delimited, toa5
 
 __all__ = ["record_planar_fit", "compute_mast_l1", "window_coverage", "compute_mast_l2"]
 
@@ -51,27 +52,57 @@ def record_planar_fit(ds: xr.Dataset) -> dict[str, float | int | str]:
 
 def compute_mast_l1(files: Sequence[str | Path | RawRecord], sonic: Mapping[str, Any],
                     despike: Mapping[str, Any]) -> xr.Dataset:
-    """Mast sonic L1 dataset from TOA5 files, with the planar fit of the whole record.
+    """Mast sonic L1 dataset from the sonic's files in their declared format, with the planar fit of the record.
+
+    The reader is chosen by the sonic's ``format`` (absent: ``toa5``, the contract format):
+    ``toa5`` -> :func:`dronewind.mast.toa5.mast_l1`, ``gill_raw`` ->
+    :func:`dronewind.mast.ameriflux.mast_l1_gill`, ``delimited`` ->
+    :func:`dronewind.mast.delimited.mast_l1_delimited`. All three give the same variables
+    (``u_east_ms``, ``v_north_ms``, ``w_up_ms``, ``t_sonic_k``, ``qc_mast``) on a regular
+    grid and the attributes the later steps read (``sampling_rate_hz``, ``height_m``,
+    ``sensor_id``, ``processing_log``).
 
     Parameters
     ----------
     files : sequence of path or RawRecord
-        TOA5 files of the sonic, or their in-memory records (concatenated in time order; see
-        :func:`dronewind.mast.toa5.mast_l1`).
+        The sonic's files (concatenated in time order), or the simulator's in-memory TOA5
+        records (:mod:`dronewind.core.raw`; format ``toa5`` only).
     sonic : mapping
-        Manifest entry of the sonic (``id``, ``height_m`` [m], ``azimuth_deg`` [degree]).
+        Manifest entry of the sonic (``id``, ``height_m`` [m], ``azimuth_deg`` [degree],
+        optional ``model`` and ``format``).
     despike : mapping
         ``processing.despike``: ``window_s`` [s] and ``n_mad`` of the moving-MAD despiking.
 
     Returns
     -------
     xarray.Dataset
-        Mast L1 in east/north/up with QC flags and the planar-fit attributes.
+        Mast L1 in east/north/up with QC flags, attr ``input_format`` and the planar-fit
+        attributes.
+
+    Raises
+    ------
+    InputError
+        A format no reader knows, or what the reader raises (file and line named).
     """
-    ds = toa5.mast_l1(
-        files, azimuth_deg=float(sonic["azimuth_deg"]), height_m=float(sonic["height_m"]), sensor_id=str(sonic["id"]),
-        despike_window_s=float(despike["window_s"]), despike_n_mad=float(despike["n_mad"]),
-    )
+    fmt = record_format(sonic, "mast_sonic")
+    name = fmt["name"]
+    window_s, n_mad = float(despike["window_s"]), float(despike["n_mad"])
+    if name == "toa5":
+        ds = toa5.mast_l1(files, azimuth_deg=float(sonic["azimuth_deg"]), height_m=float(sonic["height_m"]),
+                          sensor_id=str(sonic["id"]), despike_window_s=window_s, despike_n_mad=n_mad)
+    elif name in ("gill_raw", "delimited"):
+        paths = [f for f in files if not isinstance(f, RawRecord)]
+        if len(paths) != len(files):
+            raise InputError(f"mast sonic {sonic['id']} format", f"{name!r} reads files only; in-memory records "
+                             "are TOA5 (the simulator's format)")
+        if name == "gill_raw":
+            ds = ameriflux.mast_l1_gill(paths, fmt, sonic, despike_window_s=window_s, despike_n_mad=n_mad)
+        else:
+            ds = delimited.mast_l1_delimited(paths, fmt, sonic, despike_window_s=window_s, despike_n_mad=n_mad,
+                                             where=f"mast sonic {sonic['id']} format")
+    else:
+        raise InputError(f"mast sonic {sonic['id']} format", f"{name!r}; expected toa5, gill_raw or delimited")
+    ds.attrs["input_format"] = name
     ds.attrs.update(record_planar_fit(ds))
     return ds
 

@@ -308,7 +308,7 @@ def _read_files(files: list[Path | RawRecord], max_corrupt_fraction: float, coun
     return frames
 
 
-def _merge_records(frames: list[pd.DataFrame], files: list[Path | RawRecord], counts: dict[str, int], log: list[str],
+def _merge_records(frames: list[pd.DataFrame], files: Sequence[Path | RawRecord], counts: dict[str, int], log: list[str],
                    max_corrupt_fraction: float) -> pd.DataFrame:
     """Concatenate the files in time order, dropping exact duplicate rows and conflicting time stamps.
 
@@ -346,7 +346,7 @@ def _merge_records(frames: list[pd.DataFrame], files: list[Path | RawRecord], co
     return data
 
 
-def _regular_grid(data: pd.DataFrame, files: list[Path | RawRecord], max_gap_s: float, counts: dict[str, int],
+def _regular_grid(data: pd.DataFrame, files: Sequence[Path | RawRecord], max_gap_s: float, counts: dict[str, int],
                   ) -> tuple[pd.DataFrame, _Grid]:
     """Put the rows on their regular grid, segment by segment between record breaks (> ``max_gap_s``).
 

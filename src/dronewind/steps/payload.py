@@ -343,12 +343,13 @@ def payload_l1(
 
 def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, sonic: Mapping[str, Any],
             despike: Mapping[str, Any], simulated: bool, data_root: str | Path | None = None) -> Path:
-    """L0 -> L1 file for one mast sonic: TOA5 files to east/north/up with QC flags.
+    """L0 -> L1 file for one mast sonic: its files, read in their declared format, to east/north/up with QC flags.
 
     Parameters
     ----------
     files : sequence of path
-        TOA5 files of the sonic (concatenated in time order).
+        Files of the sonic (concatenated in time order), in the format its manifest entry
+        declares (``format``; default TOA5): :func:`dronewind.mast.chain.compute_mast_l1`.
     output : str or Path
         L1 NetCDF file.
     campaign : str
