@@ -15,7 +15,8 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-QUICK = ["bench_simulate.py", "bench_ingest.py", "bench_payload_chain.py", "bench_analysis.py", "bench_quadrotor.py"]
+QUICK = ["bench_simulate.py", "bench_ingest.py", "bench_parsing.py", "bench_payload_chain.py", "bench_analysis.py",
+         "bench_quadrotor.py"]
 
 
 def main() -> int:

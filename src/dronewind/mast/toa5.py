@@ -27,7 +27,7 @@ import csv
 import glob
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from dronewind.core import textscan
 from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
@@ -130,7 +131,14 @@ def _read_header(p: Path, required: Sequence[str]) -> tuple[list[str], list[list
     lines = text.splitlines()
     if len(lines) < 4:
         raise InputError(p, f"only {len(lines)} lines; a TOA5 file has 4 header lines")
-    header = [next(csv.reader([ln]), []) for ln in lines[:4]]
+    header, names, units = _check_header(p, lines[:4], required)
+    return lines, header, names, units
+
+
+def _check_header(p: Path, head: list[str], required: Sequence[str],
+                  ) -> tuple[list[list[str]], list[str], dict[str, str]]:
+    """Split and check the four header lines `head` (see :func:`_read_header`)."""
+    header = [next(csv.reader([ln]), []) for ln in head]
     if not header[0] or header[0][0] != "TOA5":
         raise InputError(f"{p}:1", "line 1 does not start with the field \"TOA5\"; expected a Campbell TOA5 file "
                          "(4 header lines: environment, field names, units, processing)")
@@ -152,7 +160,7 @@ def _read_header(p: Path, required: Sequence[str]) -> tuple[list[str], list[list
             raise InputError(f"{p}:{k + 1}", f"header line {k + 1} ({'units' if k == 2 else 'processing'}) has "
                              f"{len(header[k])} fields, expected {len(names)} (one per field name of line 2)")
     units = dict(zip(names, (h.strip() for h in header[2]), strict=False))
-    return lines, header, names, units
+    return header, names, units
 
 
 def _numeric_frame(raw: pd.DataFrame, keep: np.ndarray, ts: pd.Series, names: list[str]) -> tuple[pd.DataFrame, int]:
@@ -166,17 +174,203 @@ def _numeric_frame(raw: pd.DataFrame, keep: np.ndarray, ts: pd.Series, names: li
         Non-numeric values (other than NAN literals and empty fields) set to NaN.
     """
     frame = pd.DataFrame({"time": ts[keep].to_numpy().astype("datetime64[ns]")})
-    frame["RECORD"] = raw.loc[keep, "RECORD"].astype(str).str.strip().astype(np.int64).to_numpy()
+    frame["RECORD"] = _record_values(raw.loc[keep, "RECORD"])
     n_nonnumeric = 0
     for col in names:
         if col in ("TIMESTAMP", "RECORD"):
             continue
-        s = raw.loc[keep, col].astype(str).str.strip()
-        v = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
-        nan_literal = s.str.upper().isin(["NAN", "-NAN", "+NAN", ""]).to_numpy(dtype=bool)
-        n_nonnumeric += int((np.isnan(v) & ~nan_literal).sum())
-        frame[col] = v
+        frame[col], n_bad = _float_values(raw.loc[keep, col])
+        n_nonnumeric += n_bad
     return frame, n_nonnumeric
+
+
+def _record_values(s: pd.Series) -> np.ndarray:
+    """int64 RECORD numbers of fields that passed :func:`_record_ok`."""
+    return s.astype(str).str.strip().astype(np.int64).to_numpy()
+
+
+def _record_ok(s: pd.Series) -> np.ndarray:
+    """True where a RECORD field is an integer literal (spaces allowed)."""
+    return s.astype(str).str.fullmatch(r"\s*[+-]?\d+\s*").to_numpy(dtype=bool)
+
+
+def _float_values(s: pd.Series) -> tuple[np.ndarray, int]:
+    """float64 values of numeric fields (NAN literals and empty -> NaN) and the count of non-numeric ones."""
+    s = s.astype(str).str.strip()
+    v = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+    nan_literal = s.str.upper().isin(["NAN", "-NAN", "+NAN", ""]).to_numpy(dtype=bool)
+    return v, int((np.isnan(v) & ~nan_literal).sum())
+
+
+@dataclass
+class _Toa5Rows:
+    """The data lines of a TOA5 file split into fields, before the corrupt ones are removed.
+
+    Attributes
+    ----------
+    header, names, units
+        As :func:`_read_header`.
+    n_lines : int
+        Data lines (all lines after the header).
+    good_count : numpy.ndarray
+        True for the data lines with one field per name.
+    ts : numpy.ndarray
+        datetime64[ns] TIMESTAMP of those lines (NaT where unparsable).
+    rec_ok : numpy.ndarray
+        True where their RECORD is an integer literal.
+    numeric : callable
+        ``numeric(keep)`` -> (frame, n_nonnumeric) of :func:`_numeric_frame` for the lines
+        ``keep`` (a mask over the lines with one field per name).
+    """
+
+    header: list[list[str]]
+    names: list[str]
+    units: dict[str, str]
+    n_lines: int
+    good_count: np.ndarray
+    ts: np.ndarray
+    rec_ok: np.ndarray
+    numeric: Callable[[np.ndarray], tuple[pd.DataFrame, int]]
+
+
+def _toa5_careful(p: Path, required: Sequence[str]) -> _Toa5Rows:
+    """Split the TOA5 lines with ``csv.reader`` and convert the columns with pandas (the reference)."""
+    lines, header, names, units = _read_header(p, required)
+    body = lines[4:]
+    n_lines = len(body)
+    if n_lines == 0:
+        raise InputError(p, "no data rows after the 4 header lines")
+    ncol = len(names)
+    # csv.reader handles the quoted TIMESTAMP and keeps every line (with its number), so
+    # rows with a wrong field count can be counted instead of being skipped silently.
+    split = list(csv.reader(body))
+    good_count = np.fromiter((len(r) == ncol for r in split), dtype=bool, count=n_lines)
+    raw = pd.DataFrame([r for r, g in zip(split, good_count, strict=True) if g], columns=names, dtype=object)
+    ts = pd.to_datetime(raw["TIMESTAMP"], format="ISO8601", errors="coerce")
+    return _Toa5Rows(header, names, units, n_lines, good_count, ts.to_numpy().astype("datetime64[ns]"),
+                     _record_ok(raw["RECORD"]), lambda keep: _numeric_frame(raw, keep, ts, names))
+
+
+def _toa5_fast(p: Path, required: Sequence[str]) -> _Toa5Rows | None:
+    """The same as :func:`_toa5_careful` from a byte-level scan, or None when it cannot vouch for that.
+
+    Hand-written for the reasons of :mod:`dronewind.core.textscan`: the careful reader's
+    line numbers, corrupt rows, NAN literals, non-numeric counts and float rounding must be
+    reproduced exactly. Lines with a byte outside printable ASCII are split by
+    ``csv.reader`` one by one (a wrong field count: corrupt; the right one: the whole file
+    goes the careful way). A quote must enclose a whole field and spaces may only occur
+    inside a quoted TIMESTAMP, else the whole file goes the careful way (``csv.reader`` and
+    ``read_csv`` could split it differently). TIMESTAMP is parsed at fixed width per length,
+    the other fields by ``read_csv``; a column that is not plain is converted by the
+    careful functions from the same strings.
+    """
+    scanned = textscan.line_safe_bytes(p)
+    if scanned is None:
+        return None
+    raw, unusual = scanned
+    head_end = -1
+    for _ in range(4):
+        head_end = raw.find(b"\n", head_end + 1)
+        if head_end < 0:
+            return None
+    head = [ln.decode("utf-8", errors="replace") for ln in raw[:head_end].split(b"\n")]
+    header, names, units = _check_header(p, head, required)
+    raw = raw[head_end + 1:]
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    starts, ends = textscan.line_bounds(buf)
+    n_lines, ncol = int(starts.size), len(names)
+    if n_lines == 0 or b"\x00" in raw:  # csv.reader raises on NUL: leave the error to the careful path
+        return None
+    odd = textscan.lines_holding(raw, buf, starts, bytes(range(0x20, 0x7F)), unusual)
+    for i in np.flatnonzero(odd):
+        line = raw[starts[i]:ends[i]].decode("utf-8", errors="replace")
+        if '"' in line or len(next(csv.reader([line]), [])) == ncol:
+            return None
+    commas = np.flatnonzero(buf == ord(","))
+    rows, cpos, first_comma = textscan.comma_grid(commas, starts, ends, ~odd, ncol)
+    good = np.zeros(n_lines, dtype=bool)
+    good[rows] = True
+    if rows.size == 0 or not _plain_quotes(buf, starts, ends, commas, first_comma, rows, cpos,
+                                           names.index("TIMESTAMP")):  # fmt: skip
+        return None
+    if rows.size == n_lines:
+        plain = raw
+    else:
+        plain = buf[np.repeat(good, np.concatenate([starts[1:], [buf.size]]) - starts)].tobytes()
+    other = [c for c in names if c != "TIMESTAMP"]
+    frame = textscan.read_numeric_columns(plain, names, other, {c: (*textscan.NAN_LITERALS, "") for c in other
+                                                                if c != "RECORD"}, quoting=True)  # fmt: skip
+    if len(frame) != rows.size:
+        return None
+    spans = {}
+    for j, name in enumerate(names):
+        start = starts[rows] if j == 0 else cpos[:, j - 1] + 1
+        end = cpos[:, j] if j < ncol - 1 else ends[rows]
+        quoted = (end - start >= 2) & (buf[np.minimum(start, buf.size - 1)] == ord('"'))
+        spans[name] = (start + quoted, end - quoted, end - start)
+    start, end, _ = spans["TIMESTAMP"]
+    ts, ts_ok = textscan.fixed_width_times(buf, start, end - start, sep=b" ")
+    if not ts_ok.all():  # not plain: the careful conversion of all TIMESTAMP strings
+        text = pd.Series(textscan.field_strings(raw, start, end), dtype=object)
+        ts = pd.to_datetime(text, format="ISO8601", errors="coerce").to_numpy().astype("datetime64[ns]")
+    record = frame["RECORD"]
+    rec_text = None if record.dtype == np.int64 else pd.Series(
+        textscan.field_strings(raw, *spans["RECORD"][:2]), dtype=object)  # fmt: skip
+    rec_ok = np.ones(rows.size, dtype=bool) if rec_text is None else _record_ok(rec_text)
+    exponent = textscan.exponent_fields(raw, buf, commas, starts, first_comma, good)
+
+    def numeric(keep: np.ndarray) -> tuple[pd.DataFrame, int]:
+        out = {"time": ts[keep],
+               "RECORD": record.to_numpy()[keep] if rec_text is None else _record_values(rec_text[keep])}
+        n_nonnumeric = 0
+        for j, col in enumerate(names):
+            if col in ("TIMESTAMP", "RECORD"):
+                continue
+            v = frame[col]
+            if v.dtype in (np.float64, np.int64) and j not in exponent \
+                    and int(spans[col][2].max()) <= textscan.FLOAT_FAST_MAX_CHARS \
+                    and not np.isinf(vals := v.to_numpy(dtype=float)).any():  # fmt: skip
+                out[col] = vals[keep]
+            else:
+                out[col], n_bad = _float_values(pd.Series(textscan.field_strings(raw, *spans[col][:2]),
+                                                          dtype=object)[keep])  # fmt: skip
+                n_nonnumeric += n_bad
+        return pd.DataFrame(out), n_nonnumeric
+
+    return _Toa5Rows(header, names, units, n_lines, good, ts, rec_ok, numeric)
+
+
+def _plain_quotes(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, commas: np.ndarray, first_comma: np.ndarray,
+                  rows: np.ndarray, cpos: np.ndarray, ts_col: int) -> bool:
+    """Every quote pair encloses a whole field of one line and spaces occur only inside quoted TIMESTAMPs.
+
+    `rows`, `cpos`: the lines with the right field count and their commas
+    (:func:`dronewind.core.textscan.comma_grid`).
+    """
+    q = np.flatnonzero(buf == ord('"'))
+    sp = np.flatnonzero(buf == ord(" "))
+    if q.size % 2:
+        return False
+    qo, qc = q[0::2], q[1::2]
+    if ts_col == 0 and qo.size == rows.size == starts.size and sp.size <= rows.size:  # the common file
+        first_end = cpos[:, 0] if cpos.shape[1] else ends
+        if (qo == starts).all() and (qc + 1 == first_end).all():
+            if sp.size == 0 or sp.size == rows.size and bool(((sp > qo) & (sp < qc)).all()):
+                return True
+    line = np.searchsorted(starts, qo, side="right") - 1
+    if q.size and not (
+        (np.searchsorted(starts, qc, side="right") - 1 == line).all()
+        and (np.searchsorted(commas, qo) == np.searchsorted(commas, qc)).all()
+        and ((qo == starts[line]) | (buf[np.maximum(qo - 1, 0)] == ord(","))).all()
+        and ((qc + 1 == ends[line]) | (buf[np.minimum(qc + 1, buf.size - 1)] == ord(","))).all()
+    ):
+        return False
+    if sp.size == 0:
+        return True
+    if not (np.searchsorted(q, sp) % 2 == 1).all():
+        return False
+    sp_line = np.searchsorted(starts, sp, side="right") - 1
+    return bool((np.searchsorted(commas, sp) - first_comma[sp_line] == ts_col).all())
 
 
 def read_toa5(
@@ -211,24 +405,19 @@ def read_toa5(
     InputError
         Missing file, not a TOA5 file (line 1), a required column missing (line 2), or too
         many corrupt rows.
+
+    Notes
+    -----
+    Plain files take a byte-level fast path (:func:`_toa5_fast`), anything else the careful
+    ``csv.reader`` one (:func:`_toa5_careful`); both give the same result.
     """
     p = Path(path)
-    lines, header, names, units = _read_header(p, required)
-    body = lines[4:]
-    n_lines = len(body)
-    if n_lines == 0:
-        raise InputError(p, "no data rows after the 4 header lines")
-    ncol = len(names)
-    # csv.reader handles the quoted TIMESTAMP and keeps every line (with its number), so
-    # rows with a wrong field count can be counted instead of being skipped silently.
-    split = list(csv.reader(body))
+    rows = _toa5_fast(p, required) or _toa5_careful(p, required)
+    n_lines, good_count = rows.n_lines, rows.good_count
+    ncol = len(rows.names)
     line_no = np.arange(5, 5 + n_lines)
-    good_count = np.fromiter((len(r) == ncol for r in split), dtype=bool, count=n_lines)
-    raw = pd.DataFrame([r for r, g in zip(split, good_count, strict=True) if g], columns=names, dtype=object)
     line_no_ok = line_no[good_count]
-    ts = pd.to_datetime(raw["TIMESTAMP"], format="ISO8601", errors="coerce")
-    rec_ok = raw["RECORD"].astype(str).str.fullmatch(r"\s*[+-]?\d+\s*").to_numpy(dtype=bool)
-    bad_ok = ts.isna().to_numpy() | ~rec_ok
+    bad_ok = np.isnat(rows.ts) | ~rows.rec_ok
     bad_lines = np.sort(np.concatenate([line_no[~good_count], line_no_ok[bad_ok]]))
     n_corrupt = int(bad_lines.size)
     if n_corrupt > max_corrupt_fraction * n_lines:
@@ -239,9 +428,9 @@ def read_toa5(
             f"{bad_lines[:_N_LOGGED].tolist()}",
         )
     keep = ~bad_ok
-    frame, n_nonnumeric = _numeric_frame(raw, keep, ts, names)
+    frame, n_nonnumeric = rows.numeric(keep)
     frame["_line"] = line_no_ok[keep]
-    info = {"header": header, "units": units, "n_lines": n_lines, "n_corrupt_lines": n_corrupt,
+    info = {"header": rows.header, "units": rows.units, "n_lines": n_lines, "n_corrupt_lines": n_corrupt,
             "corrupt_lines": bad_lines[:_N_LOGGED].tolist(), "n_nonnumeric": n_nonnumeric}
     return frame, info
 

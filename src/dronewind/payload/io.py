@@ -52,6 +52,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from dronewind.core import textscan
 from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
@@ -219,6 +220,158 @@ def _parse_rows(rows: list[list[str]], expected: tuple[str, ...], kinds: dict[st
     return cols, bad, per_column
 
 
+@dataclass
+class _Rows:
+    """Lines of a CSV split into fields and parsed, before the corrupt ones are removed.
+
+    Attributes
+    ----------
+    line_numbers : numpy.ndarray
+        File line numbers of the non-blank data lines.
+    n_blank : int
+        Blank lines dropped.
+    good_count : numpy.ndarray
+        True for the non-blank lines with the expected number of fields.
+    cols : dict of numpy.ndarray
+        Values of those lines, per column.
+    bad : numpy.ndarray
+        True for those lines with a corrupt field.
+    per_column : dict of int
+        Corrupt fields per column (columns without any left out).
+    """
+
+    line_numbers: np.ndarray
+    n_blank: int
+    good_count: np.ndarray
+    cols: dict[str, np.ndarray]
+    bad: np.ndarray
+    per_column: dict[str, int]
+
+
+def _rows_careful(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: dict[str, str]) -> _Rows:
+    """Split and parse the CSV line by line (the reference; names every header error)."""
+    body, line_numbers, n_blank = _split_lines(path, expected)
+    ncol = len(expected)
+    split = [ln.split(",") for ln in body]
+    good_count = np.fromiter((len(f) == ncol for f in split), dtype=bool, count=len(body))
+    rows = [f for f, g in zip(split, good_count, strict=True) if g]
+    cols, bad, per_column = _parse_rows(rows, expected, kinds)
+    return _Rows(line_numbers, n_blank, good_count, cols, bad, per_column)
+
+
+# Bytes of a plain line: printable ASCII except the quote (read_csv would unquote, the careful
+# split keeps it) and except spaces (the careful parse strips them, read_csv may not).
+_PLAIN_CSV = bytes(b for b in range(0x21, 0x7F) if b != ord('"'))
+
+
+def _rows_fast(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: dict[str, str]) -> _Rows | None:
+    """The same as :func:`_rows_careful`, from a byte-level scan, or None when it cannot vouch for that.
+
+    Hand-written rather than one ``pandas.read_csv`` call because the careful parse's
+    results must be reproduced exactly: its line numbers (blank lines skipped but counted,
+    lines with a wrong field count kept as corrupt lines), its NaN literals, its corrupt
+    fields per column and its float rounding (:mod:`dronewind.core.textscan`). The scan
+    finds lines and fields with numpy; ``read_csv`` converts the numbers of the plain lines;
+    the ``utc`` column is parsed at fixed width. A column that is not plain (a corrupt
+    field, a long or exponent float, an unusual time stamp) is parsed by the careful
+    :func:`_parse_field`, on the same strings as the careful path; a non-plain line with
+    the right field count (spaces, quotes, non-ASCII bytes), an unusual line break or
+    header, or an empty body makes the whole file go the careful way (returns None).
+    """
+    scanned = textscan.line_safe_bytes(path)
+    if scanned is None:
+        return None
+    raw, unusual = scanned
+    head_end = raw.find(b"\n")
+    if head_end < 0 or raw[:head_end] != ",".join(expected).encode():
+        return None
+    raw = raw[head_end + 1:]
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    starts, ends = textscan.line_bounds(buf)
+    ncol = len(expected)
+    odd = textscan.lines_holding(raw, buf, starts, _PLAIN_CSV, unusual)
+    blank = ends == starts
+    for i in np.flatnonzero(odd):
+        line = raw[starts[i]:ends[i]].decode("utf-8", errors="replace")
+        if not line.strip():
+            blank[i] = True
+        elif len(line.split(",")) == ncol:
+            return None
+    commas = np.flatnonzero(buf == ord(","))
+    rows, cpos, first_comma = textscan.comma_grid(commas, starts, ends, ~odd & ~blank, ncol)
+    if rows.size == 0:
+        return None
+    good = np.zeros(starts.size, dtype=bool)
+    good[rows] = True
+    if rows.size == starts.size:
+        plain = raw
+    else:
+        next_start = np.concatenate([starts[1:], [buf.size]])
+        plain = buf[np.repeat(good, next_start - starts)].tobytes()
+    numeric = [c for c in expected if kinds[c] != "utc"]
+    frame = textscan.read_numeric_columns(plain, list(expected), numeric,
+                                          {c: textscan.NAN_LITERALS for c in numeric if kinds[c] == "float"},
+                                          quoting=False)  # fmt: skip
+    if len(frame) != rows.size:
+        return None
+    exponent = textscan.exponent_fields(raw, buf, commas, starts, first_comma, good)
+    cols: dict[str, np.ndarray] = {}
+    bad = np.zeros(rows.size, dtype=bool)
+    per_column: dict[str, int] = {}
+    for j, name in enumerate(expected):
+        fstart = starts[rows] if j == 0 else cpos[:, j - 1] + 1
+        fend = cpos[:, j] if j < ncol - 1 else ends[rows]
+        fast = _fast_field(frame[name] if name in frame else None, kinds[name], buf, fstart, fend, j in exponent)
+        if fast is None:  # not plain: the careful conversion of the same strings
+            text = pd.Series(textscan.field_strings(raw, fstart, fend), dtype=object)
+            fast = _parse_field(text.astype(str).str.strip(), kinds[name])
+        cols[name], bad_field = fast
+        bad |= bad_field
+        if bad_field.any():
+            per_column[name] = int(bad_field.sum())
+    nonblank = ~blank
+    return _Rows(np.arange(2, starts.size + 2)[nonblank], int(blank.sum()), good[nonblank], cols, bad, per_column)
+
+
+def _fast_field(values: pd.Series | None, kind: str, buf: np.ndarray, start: np.ndarray, end: np.ndarray,
+                has_exponent: bool) -> tuple[np.ndarray, np.ndarray] | None:
+    """Values and corrupt mask of a plain column as :func:`_parse_field` gives them, or None if not plain.
+
+    Parameters
+    ----------
+    values : pandas.Series or None
+        The column as ``read_csv`` read it (None for ``utc``).
+    kind : str
+        As :func:`_parse_field`.
+    buf : numpy.ndarray
+        The bytes of the data lines.
+    start, end : numpy.ndarray
+        Byte span of the column's field in every line.
+    has_exponent : bool
+        A field of the column holds an ``e`` or ``E``.
+    """
+    n = start.size
+    if kind == "utc":
+        length = end - start
+        empty = length == 0
+        times, ok = textscan.fixed_width_times(buf, start, length, sep=b"T", suffix=b"Z")
+        return (times, np.zeros(n, dtype=bool)) if bool((ok | empty).all()) else None
+    assert values is not None
+    if kind in ("int", "flag"):
+        if values.dtype != np.int64:
+            return None
+        vals = values.to_numpy(dtype=np.int64)
+        bad = ~((vals == 0) | (vals == 1)) if kind == "flag" else np.zeros(n, dtype=bool)
+        return vals, bad
+    if values.dtype not in (np.float64, np.int64) or has_exponent \
+            or int((end - start).max()) > textscan.FLOAT_FAST_MAX_CHARS:  # fmt: skip
+        return None
+    fvals = values.to_numpy(dtype=float)
+    if np.isinf(fvals).any():
+        return None
+    return fvals, np.zeros(n, dtype=bool)  # NaN only from the nan literals
+
+
 def _parse_csv(
     path: str | os.PathLike[str],
     expected: tuple[str, ...],
@@ -231,15 +384,15 @@ def _parse_csv(
     kinds: column -> "int" (integer literal), "float" (number or nan literal), "flag"
     (0 or 1), "utc" (ISO 8601, optional trailing Z, may be empty).
     extra_bad: optional callable(columns) -> bool array of further corrupt rows.
+    Plain files take the byte-level fast path (:func:`_rows_fast`), anything else the
+    careful one (:func:`_rows_careful`); both give the same result.
     """
-    body, line_numbers, n_blank = _split_lines(path, expected)
-    n_lines = len(body)
+    parsed = _rows_fast(path, expected, kinds) or _rows_careful(path, expected, kinds)
+    line_numbers, n_blank, good_count = parsed.line_numbers, parsed.n_blank, parsed.good_count
+    cols, bad, per_column = parsed.cols, parsed.bad, parsed.per_column
+    n_lines = len(line_numbers)
     ncol = len(expected)
-    split = [ln.split(",") for ln in body]
-    good_count = np.fromiter((len(f) == ncol for f in split), dtype=bool, count=n_lines)
-    rows = [f for f, g in zip(split, good_count, strict=True) if g]
-    cols, bad, per_column = _parse_rows(rows, expected, kinds)
-    if extra_bad is not None and len(rows):
+    if extra_bad is not None and good_count.any():
         bad |= extra_bad(cols)
     good_lines = line_numbers[good_count]
     corrupt = np.sort(np.concatenate([line_numbers[~good_count], good_lines[bad]]))

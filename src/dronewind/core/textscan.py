@@ -1,0 +1,314 @@
+"""Byte-level helpers of the fast paths of the raw-text readers (payload CSV, INS CSV, TOA5).
+
+The readers parse every line carefully (``str.splitlines``, ``str.split``, pandas string
+conversions per column), which names every corrupt line but costs most of a forward run.
+Their fast paths scan the file's bytes with numpy instead and hand the numbers of the
+lines that are plain text to ``pandas.read_csv`` (C engine). The helpers here are
+hand-written because no library call gives what the fast path must prove before it may
+stand in for the careful one: that the lines, fields and values it sees are exactly those
+the careful parse sees, and every value bit for bit the same. Whatever they cannot prove
+is left to the careful parse (for one column, or for the whole file), so results,
+counts, logs and errors never depend on which path ran.
+
+Facts the helpers rely on (checked by ``tests/test_parsing_fast.py``):
+
+* For text with no other line break than ``\\n`` (and ``\\r\\n``), ``str.splitlines`` of the
+  decoded text and a split of the bytes at ``\\n`` give the same lines; invalid UTF-8
+  decoded with ``errors="replace"`` never swallows a ``\\n``.
+* ``pandas.to_numeric`` (the careful path) is not always correctly rounded (it scales by
+  inexact powers of ten beyond 1e22 and keeps 17 digits), ``pandas.read_csv`` is. A decimal
+  literal of at most 15 characters without exponent has at most 15 digits and at most 15
+  decimals: both parsers then compute one correctly rounded division or product of exact
+  doubles, so they agree bit for bit. Longer fields and fields with an exponent are
+  parsed by the careful path.
+"""
+
+from __future__ import annotations
+
+import io
+import itertools
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "FLOAT_FAST_MAX_CHARS",
+    "NAN_LITERALS",
+    "comma_grid",
+    "exponent_fields",
+    "field_strings",
+    "fixed_width_times",
+    "line_bounds",
+    "line_safe_bytes",
+    "lines_holding",
+    "read_numeric_columns",
+]
+
+_BOM = b"\xef\xbb\xbf"
+# Line breaks of str.splitlines other than \n and \r (\v, \f, FS, GS, RS, NEL, LS, PS in UTF-8).
+_OTHER_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e", b"\xc2\x85", b"\xe2\x80\xa8", b"\xe2\x80\xa9")
+_PRINTABLE = bytes(range(0x20, 0x7F)) + b"\n"
+FLOAT_FAST_MAX_CHARS = 15  # longest float field parsed by read_csv (see the module docstring)
+NAN_LITERALS: tuple[str, ...] = tuple(
+    sign + "".join(chars) for sign in ("", "+", "-") for chars in itertools.product("nN", "aA", "nN")
+)  # every spelling the careful parsers accept as a NaN literal (case-insensitive nan, +nan, -nan)
+
+
+def line_safe_bytes(path: str | os.PathLike[str]) -> tuple[bytes, bool] | None:
+    """The bytes of a file whose lines split at ``\\n`` are those of the careful reader, or None.
+
+    Parameters
+    ----------
+    path : str or Path
+        Text file.
+
+    Returns
+    -------
+    raw : bytes
+        The content without leading byte order marks and with ``\\r\\n`` turned into ``\\n``.
+    unusual : bool
+        The content holds a byte other than printable ASCII and ``\\n``.
+    None
+        When the file is missing or holds another line break (a lone ``\\r``, ``\\v``,
+        ``\\f``, ``\\x1c``-``\\x1e``, NEL, LS, PS), which only the careful reader splits
+        like ``str.splitlines``.
+    """
+    p = Path(path)
+    if not p.is_file():
+        return None
+    raw = p.read_bytes()
+    while raw.startswith(_BOM):  # the careful reader strips every leading U+FEFF
+        raw = raw[len(_BOM):]
+    rest = raw.translate(None, _PRINTABLE)  # one C-speed pass; empty for the common file
+    if not rest:
+        return raw, False
+    if any(ch in rest for ch in _OTHER_BREAKS[:5]) or (not rest.isascii() and any(
+            sep in raw for sep in _OTHER_BREAKS[5:])):  # fmt: skip
+        return None
+    if b"\r" in rest:
+        if rest.count(b"\r") != raw.count(b"\r\n"):
+            return None
+        raw = raw.translate(None, b"\r")  # every \r precedes a \n: the same as replacing \r\n by \n
+        rest = rest.translate(None, b"\r")
+    return raw, bool(rest)
+
+
+def line_bounds(buf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end (exclusive, without the ``\\n``) byte offsets of the lines of `buf`.
+
+    Parameters
+    ----------
+    buf : numpy.ndarray
+        uint8 bytes.
+
+    Returns
+    -------
+    starts, ends : numpy.ndarray
+        int64 offsets; like ``str.splitlines``, a final ``\\n`` does not open an empty line.
+    """
+    nl = np.flatnonzero(buf == 10)
+    starts = np.concatenate([[0], nl + 1])
+    ends = np.concatenate([nl, [buf.size]])
+    if starts[-1] == buf.size:
+        starts, ends = starts[:-1], ends[:-1]
+    return starts, ends
+
+
+def lines_holding(raw: bytes, buf: np.ndarray, starts: np.ndarray, allowed: bytes, unusual: bool) -> np.ndarray:
+    """Mask of the lines holding a byte not in `allowed` (``\\n`` always allowed).
+
+    Parameters
+    ----------
+    raw : bytes
+        The text (the same bytes as `buf`).
+    buf : numpy.ndarray
+        uint8 view of `raw`.
+    starts : numpy.ndarray
+        Line start offsets (:func:`line_bounds`).
+    allowed : bytes
+        Printable ASCII bytes a plain line may hold.
+    unusual : bool
+        `raw` holds bytes other than printable ASCII and ``\\n`` (:func:`line_safe_bytes`).
+
+    Returns
+    -------
+    numpy.ndarray
+        bool, one per line.
+    """
+    odd = np.zeros(starts.size, dtype=bool)
+    banned = bytes(b for b in _PRINTABLE if b not in allowed + b"\n")
+    if not unusual and not any(bytes([b]) in raw for b in banned):  # memchr per banned byte
+        return odd
+    lut = np.ones(256, dtype=bool)
+    lut[np.frombuffer(allowed + b"\n", dtype=np.uint8)] = False
+    pos = np.flatnonzero(lut[buf])
+    odd[np.searchsorted(starts, pos, side="right") - 1] = True
+    return odd
+
+
+def field_strings(raw: bytes, start: np.ndarray, end: np.ndarray) -> list[str]:
+    """The fields ``raw[start:end]`` as text (for the careful parse of one column)."""
+    return [raw[s:e].decode("utf-8", errors="replace") for s, e in zip(start.tolist(), end.tolist(), strict=True)]
+
+
+def read_numeric_columns(buf: bytes, names: list[str], usecols: list[str], nan_columns: dict[str, tuple[str, ...]],
+                         quoting: bool) -> pd.DataFrame:
+    """``pandas.read_csv`` (C engine) of plain comma-separated lines, without NaN guessing.
+
+    Parameters
+    ----------
+    buf : bytes
+        Lines with exactly ``len(names)`` fields each, no blank line.
+    names : list of str
+        Field names.
+    usecols : list of str
+        Fields to read.
+    nan_columns : dict
+        Field -> the strings read as NaN in it; no other string becomes NaN (an empty
+        field stays text, so its column comes back as text).
+    quoting : bool
+        Unquote ``"..."`` fields (TOA5); else quotes must not occur in `buf`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        int64 or float64 for columns whose every field is a number, else text.
+    """
+    return pd.read_csv(
+        io.BytesIO(buf), header=None, names=names, usecols=usecols, index_col=False, engine="c",
+        low_memory=False, na_filter=True, keep_default_na=False, na_values={k: list(v) for k, v in nan_columns.items()},
+        quoting=0 if quoting else 3, skip_blank_lines=False,
+    )  # fmt: skip
+
+
+_DAYS_IN_MONTH = np.array([0, 31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31])
+
+
+def _number(digits: dict[int, np.ndarray], first: int, stop: int) -> np.ndarray:
+    """Integer of the decimal digit columns ``first`` to ``stop - 1``."""
+    value = digits[first]
+    for j in range(first + 1, stop):
+        value = value * 10 + digits[j]
+    return value
+
+
+def _days_from_civil(year: np.ndarray, month: np.ndarray, day: np.ndarray) -> np.ndarray:
+    """Days since 1970-01-01 of proleptic Gregorian dates (H. Hinnant's algorithm; years >= 1)."""
+    y = year - (month <= 2)
+    era = y // 400
+    yoe = y - era * 400
+    doy = (153 * ((month + 9) % 12) + 2) // 5 + day - 1
+    return era * 146097 + yoe * 365 + yoe // 4 - yoe // 100 + doy - 719468
+
+
+def fixed_width_times(buf: np.ndarray, start: np.ndarray, length: np.ndarray, sep: bytes, suffix: bytes = b""
+                      ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Vectorised parse of ``YYYY-MM-DD?HH:MM:SS[.f...]`` time stamps at byte offsets of `buf`.
+
+    Hand-written because the stamps sit inside the lines (no ``datetime64`` string array to
+    convert) and because every stamp must be proven to be read as the careful parser reads
+    it: each one is checked against the fixed pattern of its length, and only those are
+    converted (date and time digits by one matrix product, exact in float64).
+
+    Parameters
+    ----------
+    buf : numpy.ndarray
+        uint8 bytes.
+    start, length : numpy.ndarray
+        Offset and length of every time stamp (with `suffix`).
+    sep : bytes
+        Byte between date and time (``b"T"`` or ``b" "``).
+    suffix : bytes, optional
+        Required trailing bytes (``b"Z"``).
+
+    Returns
+    -------
+    times : numpy.ndarray
+        datetime64[ns] (NaT where not parsed).
+    ok : numpy.ndarray
+        True where the stamp has exactly this form with 0 to 9 decimals, a real calendar
+        date of the years 1900-2199 and a time of day below 24:00:00 (the careful parser
+        reads every such stamp to the same instant; the others are left to it).
+    """
+    ns = np.zeros(start.size, dtype=np.int64)
+    ok = np.zeros(start.size, dtype=bool)
+    core = length - len(suffix)
+    counts = np.bincount(np.clip(core, 0, 30), minlength=31)
+    windows = np.lib.stride_tricks.sliding_window_view(buf, 30 + len(suffix)) if buf.size >= 30 + len(suffix) \
+        else None  # fmt: skip
+    for n in [19, *range(21, 30)]:
+        if counts[n] == 0:
+            continue
+        rows = np.flatnonzero(core == n)
+        width = n + len(suffix)
+        if windows is not None and int(start[rows].max()) < windows.shape[0]:
+            mat = windows[start[rows], :width]
+        else:
+            mat = buf[start[rows, None] + np.arange(width)]
+        pattern = b"0000-00-00" + sep + b"00:00:00" + (b"." + b"0" * (n - 20) if n > 19 else b"") + suffix
+        good = np.ones(rows.size, dtype=bool)
+        digits: dict[int, np.ndarray] = {}
+        for j, ch in enumerate(pattern):  # column by column: fast on the long axis
+            if ch == ord("0"):
+                digits[j] = mat[:, j].astype(np.int64) - 48
+                good &= (digits[j] >= 0) & (digits[j] <= 9)
+            else:
+                good &= mat[:, j] == ch
+        year, month, day = _number(digits, 0, 4), _number(digits, 5, 7), _number(digits, 8, 10)
+        hour, minute, second = _number(digits, 11, 13), _number(digits, 14, 16), _number(digits, 17, 19)
+        frac_ns = _number(digits, 20, n) * 10 ** (29 - n) if n > 19 else np.zeros(rows.size, dtype=np.int64)
+        leap = (year % 4 == 0) & ((year % 100 != 0) | (year % 400 == 0))
+        month_days = _DAYS_IN_MONTH[np.clip(month, 0, 12)] + ((month == 2) & leap)
+        good &= (year >= 1900) & (year <= 2199) & (month >= 1) & (month <= 12) & (day >= 1) & (day <= month_days)
+        good &= (hour <= 23) & (minute <= 59) & (second <= 59)
+        secs = ((_days_from_civil(year, month, day) * 24 + hour) * 60 + minute) * 60 + second
+        ns[rows] = secs * 1_000_000_000 + frac_ns
+        ok[rows] = good
+    times = np.where(ok, ns, np.iinfo(np.int64).min).astype("datetime64[ns]")
+    return times, ok
+
+
+def comma_grid(commas: np.ndarray, starts: np.ndarray, ends: np.ndarray, candidate: np.ndarray, ncol: int,
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lines with ``ncol - 1`` commas among the `candidate` lines, and their comma offsets.
+
+    Parameters
+    ----------
+    commas : numpy.ndarray
+        Sorted byte offsets of all commas.
+    starts, ends : numpy.ndarray
+        Line bounds (:func:`line_bounds`).
+    candidate : numpy.ndarray
+        Lines that may count (bool).
+    ncol : int
+        Expected fields per line.
+
+    Returns
+    -------
+    rows : numpy.ndarray
+        Indices of those lines.
+    cpos : numpy.ndarray
+        (rows.size, ncol - 1) byte offsets of their commas.
+    first_comma : numpy.ndarray
+        Index in `commas` of the first comma at or after the start of every line.
+    """
+    if candidate.all() and commas.size == starts.size * (ncol - 1):  # the common file: one reshape
+        cpos = commas.reshape(starts.size, ncol - 1)
+        if ncol == 1 or (bool((cpos[:, 0] >= starts).all()) and bool((cpos[:, -1] < ends).all())):
+            return np.arange(starts.size), cpos, np.arange(starts.size) * (ncol - 1)
+    first_comma = np.searchsorted(commas, starts)
+    rows = np.flatnonzero(candidate & (np.searchsorted(commas, ends) - first_comma == ncol - 1))
+    return rows, commas[first_comma[rows, None] + np.arange(ncol - 1)], first_comma
+
+
+def exponent_fields(raw: bytes, buf: np.ndarray, commas: np.ndarray, starts: np.ndarray, first_comma: np.ndarray,
+                    good: np.ndarray) -> set[int]:
+    """Indices of the fields holding an ``e`` or ``E`` in the `good` lines (see :func:`comma_grid`)."""
+    if b"e" not in raw and b"E" not in raw:
+        return set()
+    pos = np.flatnonzero((buf == ord("e")) | (buf == ord("E")))
+    line = np.searchsorted(starts, pos, side="right") - 1
+    keep = good[line]
+    return set(np.unique(np.searchsorted(commas, pos[keep]) - first_comma[line[keep]]).tolist())

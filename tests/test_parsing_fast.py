@@ -1,0 +1,382 @@
+"""The byte-level fast paths of the raw-text readers give exactly what the careful paths give.
+
+Each file is read twice: as the readers do (fast path where it can vouch for the result)
+and with the fast path switched off (the careful line-by-line reference). Columns must be
+equal bit for bit, counts, logs and line numbers identical, and a raised error the same
+class with the same message. The files are clean ones (where the fast path must be taken)
+and files with injected defects.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from dronewind.core import textscan
+from dronewind.mast import toa5
+from dronewind.payload import io as pio
+from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "fluxpart_csat3_toa5"
+SONIC_KINDS = {"rpi_time_us": "int", "u_ms": "float", "v_ms": "float", "w_ms": "float", "t_sonic_c": "float"}
+INS_KINDS = {**{c: "float" for c in pio.INS_COLUMNS}, "rpi_time_us": "int", "utc": "utc", "time_valid": "flag",
+             "ekf_valid": "int"}  # fmt: skip
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def outcome(fn: Callable[[], Any]) -> tuple[str, Any]:
+    """("ok", result) or ("error", (class name, message))."""
+    try:
+        return "ok", fn()
+    except Exception as exc:  # noqa: BLE001 - the class and message are compared
+        return "error", (type(exc).__name__, str(exc))
+
+
+def assert_same_arrays(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> None:
+    assert list(a) == list(b)
+    for k in b:
+        assert a[k].dtype == b[k].dtype, k
+        assert a[k].tobytes() == b[k].tobytes(), k
+
+
+def payload_both(monkeypatch: pytest.MonkeyPatch, path: Path, ins: bool) -> tuple[Any, Any]:
+    """Outcome of the reader with and without the fast path."""
+    expected, kinds = (pio.INS_COLUMNS, INS_KINDS) if ins else (pio.SONIC_COLUMNS, SONIC_KINDS)
+
+    def run() -> Any:
+        table = pio._parse_csv(path, expected, kinds, 0.05)
+        reader = pio.read_ins_csv(path) if ins else pio.read_sonic_csv(path)
+        return table, reader
+
+    fast = outcome(run)
+    with monkeypatch.context() as m:
+        m.setattr(pio, "_rows_fast", lambda *a: None)
+        careful = outcome(run)
+    return fast, careful
+
+
+def assert_payload_same(monkeypatch: pytest.MonkeyPatch, path: Path, ins: bool) -> str:
+    """Compare both paths; return "ok" or "error"."""
+    (kf, f), (kc, c) = payload_both(monkeypatch, path, ins)
+    assert kf == kc, (f, c)
+    if kf == "error":
+        assert f == c
+        return kf
+    (tf, rf), (tc, rc) = f, c
+    assert_same_arrays(tf.columns, tc.columns)
+    assert tf.line_no.tolist() == tc.line_no.tolist()
+    assert tf.counts == tc.counts and tf.log == tc.log and tf.corrupt_lines == tc.corrupt_lines
+    assert (tf.n_data_lines, tf.n_blank_lines) == (tc.n_data_lines, tc.n_blank_lines)
+    assert_same_arrays(rf[0], rc[0])
+    assert [x.tolist() if isinstance(x, np.ndarray) else x for x in rf[1:]] == \
+        [x.tolist() if isinstance(x, np.ndarray) else x for x in rc[1:]]  # fmt: skip
+    return kf
+
+
+def sonic_file(folder: Path, n: int = 400, seed: int = 0) -> Path:
+    rng = np.random.default_rng(seed)
+    rpi = 5_000_000_000 + np.rint(np.arange(n) / 32 * 1e6).astype(np.int64) + rng.integers(-300, 300, n)
+    return write_payload_sonic_csv(folder / "sonic.csv", rpi, rng.normal(5, 1, n), rng.normal(0, 1, n),
+                                   rng.normal(0, .3, n), rng.normal(20, .3, n))
+
+
+def ins_file(folder: Path, n: int = 600, seed: int = 1) -> Path:
+    rng = np.random.default_rng(seed)
+    rpi = 5_000_000_000 + np.rint(np.arange(n) / 50 * 1e6).astype(np.int64) + rng.integers(-200, 200, n)
+    utc = np.datetime64("2023-08-21T14:00:00", "us") + (rpi - rpi[0]).astype("timedelta64[us]")
+    valid = (np.arange(n) >= 50).astype(np.int64)
+    return write_ins_csv(folder / "ins.csv", rpi, utc, valid, np.ones(n, np.int64), 43.1 + rng.normal(0, 1e-5, n),
+                         0.36 + rng.normal(0, 1e-5, n), 600 + rng.normal(0, 1, n), rng.normal(0, .3, n),
+                         rng.normal(0, .3, n), rng.normal(0, .1, n), rng.normal(0, 2, n), rng.normal(0, 2, n),
+                         170 + rng.normal(0, 3, n))
+
+
+def edit_lines(path: Path, edits: dict[int, bytes | None], insert: dict[int, bytes] | None = None) -> Path:
+    """Replace (or delete, None) 0-based lines of a file and insert a line before others."""
+    lines = path.read_bytes().split(b"\n")
+    if lines[-1] == b"":
+        lines = lines[:-1]
+    out: list[bytes] = []
+    for i, ln in enumerate(lines):
+        if insert and i in insert:
+            out.append(insert[i])
+        new = edits.get(i, ln)
+        if new is not None:
+            out.append(new)
+    path.write_bytes(b"\n".join(out) + b"\n")
+    return path
+
+
+# ----------------------------------------------------------------------- payload CSVs
+
+
+def test_clean_payload_files_take_the_fast_path_and_agree(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    sonic, ins = sonic_file(tmp_path), ins_file(tmp_path)
+    assert pio._rows_fast(sonic, pio.SONIC_COLUMNS, SONIC_KINDS) is not None
+    assert pio._rows_fast(ins, pio.INS_COLUMNS, INS_KINDS) is not None
+    assert assert_payload_same(monkeypatch, sonic, ins=False) == "ok"
+    assert assert_payload_same(monkeypatch, ins, ins=True) == "ok"
+
+
+SONIC_DEFECTS: dict[str, tuple[dict[int, bytes | None], dict[int, bytes], bool]] = {
+    # name: (line edits, inserted lines, fast path expected to vouch)
+    "corrupt_value": ({5: b"5000156250,abc,0.1,0.2,20.1", 9: b"5000281250,1.0,,0.2,20.1"}, {}, True),
+    "wrong_field_count": ({6: b"5000187500,1.0,0.1", 12: b"5000375000,1,2,3,4,5"}, {}, True),
+    "blank_lines": ({}, {3: b"", 8: b"   ", 20: b"\t"}, True),
+    "nan_literals": ({4: b"5000125000,nan,NaN,-nan,+NAN", 7: b"5000218750,1.5,NAN,0.1,20"}, {}, True),
+    "binary_garbage": ({10: b"\x00\xff\xfe\x80garbage\x9c", 11: b"\xde\xad,\xbe\xef"}, {}, True),
+    "garbage_right_count": ({10: b"5000312500,1.\xff5,0.1,0.2,20.1"}, {}, False),
+    "spaces": ({3: b"5000093750, 1.25 ,0.1,0.2,20.1"}, {}, False),
+    "quotes": ({3: b'5000093750,"1.25",0.1,0.2,20.1'}, {}, False),
+    "long_and_exponent_floats": ({3: b"5000093750,1.2345678901234567,1e-23,2.5E+2,-0.00000000000000123"}, {},
+                                 True),  # fmt: skip
+    "inf_and_ints": ({3: b"5000093750,inf,-Infinity,3,+4", 4: b"+5000125000,1,2,3,4"}, {}, True),
+    "int_time_as_float": ({3: b"5000093750.0,1,2,3,4"}, {}, True),
+    "many_corrupt": ({i: b"x,y" for i in range(2, 60)}, {}, True),
+    "duplicates_and_conflicts": ({5: b"5000156250,1,2,3,4", 6: b"5000156250,1,2,3,4", 7: b"5000156250,9,9,9,9"},
+                                 {}, True),  # fmt: skip
+}
+
+
+@pytest.mark.parametrize("name", sorted(SONIC_DEFECTS))
+def test_sonic_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    edits, insert, fast_expected = SONIC_DEFECTS[name]
+    path = edit_lines(sonic_file(tmp_path), {k + 1: v for k, v in edits.items()},
+                      {k + 1: v for k, v in insert.items()})  # fmt: skip
+    assert (pio._rows_fast(path, pio.SONIC_COLUMNS, SONIC_KINDS) is not None) == fast_expected
+    assert_payload_same(monkeypatch, path, ins=False)
+
+
+@pytest.mark.parametrize("variant", ["bom", "two_boms", "crlf", "lone_cr", "form_feed", "nel", "no_final_newline",
+                                     "header_spaces", "header_wrong", "header_only", "empty"])  # fmt: skip
+def test_sonic_text_variants_same_result(variant: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = sonic_file(tmp_path, n=120)
+    text = path.read_bytes()
+    if variant == "bom":
+        text = b"\xef\xbb\xbf" + text
+    elif variant == "two_boms":
+        text = b"\xef\xbb\xbf\xef\xbb\xbf" + text
+    elif variant == "crlf":
+        text = text.replace(b"\n", b"\r\n")
+    elif variant == "lone_cr":
+        text = text.replace(b"\n", b"\r", 3)
+    elif variant == "form_feed":
+        text = text.replace(b",", b",\x0c", 1)
+    elif variant == "nel":
+        text = text.replace(b"\n", b"\n\xc2\x85", 2)
+    elif variant == "no_final_newline":
+        text = text.rstrip(b"\n")
+    elif variant == "header_spaces":
+        text = text.replace(b"u_ms,", b" u_ms ,", 1)
+    elif variant == "header_wrong":
+        text = text.replace(b"u_ms,", b"u_cm,", 1)
+    elif variant == "header_only":
+        text = text.split(b"\n")[0] + b"\n\n"
+    elif variant == "empty":
+        text = b""
+    path.write_bytes(text)
+    expect_fast = variant in ("bom", "two_boms", "crlf", "no_final_newline")
+    assert (pio._rows_fast(path, pio.SONIC_COLUMNS, SONIC_KINDS) is not None) == expect_fast
+    assert_payload_same(monkeypatch, path, ins=False)
+
+
+INS_DEFECTS: dict[str, tuple[dict[int, bytes | None], bool]] = {
+    "valid_without_utc": ({70: b"5001400000,,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1.0,1.0,170.0"}, True),
+    "bad_utc": ({70: b"5001400000,2023-13-21T14:00:01.400000Z,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1.0,1.0,170.0",
+                 71: b"5001420000,2023-02-30T14:00:01.420000Z,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1.0,1.0,170.0"},
+                True),  # fmt: skip
+    "utc_other_forms": ({70: b"5001400000,2023-08-21T14:00:01.4Z,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1.0,1.0,170.0",
+                         71: b"5001420000,2023-08-21T14:00:01.420000,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1.0,1.0,170.0",
+                         72: b"5001440000,2023-08-21 14:00:01.440000Z,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1,1,170"},
+                        False),  # fmt: skip (the space: a non-plain line with 13 fields)
+    "utc_forms_plain": ({70: b"5001400000,2023-08-21T14:00:01.4Z,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1.0,1.0,170.0",
+                         71: b"5001420000,2023-08-21T14:00:01.420000,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1,1,170.0"},
+                        True),  # fmt: skip
+    "utc_garbage": ({70: b"5001400000,garbage,1,1,43.1,0.36,600.0,0.1,0.1,0.0,1.0,1.0,170.0"}, True),
+    "flag_out_of_range": ({70: b"5001400000,2023-08-21T14:00:01.400000Z,2,1,43.1,0.36,600,0.1,0.1,0,1,1,170"},
+                          True),  # fmt: skip
+    "corrupt_and_short": ({80: b"5001600000,2023-08-21T14:00:01.6", 81: b"\xff\xfe"}, True),
+    "nan_in_ins": ({90: b"5001800000,2023-08-21T14:00:01.800000Z,1,1,nan,0.36,600,0.1,0.1,0,1,1,170"}, True),
+    "clock_jump": ({300: b"4000000000,2023-08-21T14:00:06.000000Z,1,1,43.1,0.36,600,0.1,0.1,0,1,1,170"}, True),
+}
+
+
+@pytest.mark.parametrize("name", sorted(INS_DEFECTS))
+def test_ins_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    edits, fast_expected = INS_DEFECTS[name]
+    path = edit_lines(ins_file(tmp_path), edits)
+    assert (pio._rows_fast(path, pio.INS_COLUMNS, INS_KINDS) is not None) == fast_expected
+    assert_payload_same(monkeypatch, path, ins=True)
+
+
+def test_ins_leap_day_and_year_edges_same_times(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fixed-width UTC parse on calendar edges: leap days, ends of months and years, all fraction digits."""
+    stamps = ["2024-02-29T23:59:59.999999Z", "2023-12-31T23:59:59.000001Z", "2000-02-29T00:00:00.000000Z",
+              "1900-03-01T12:00:00.500000Z", "2100-02-28T01:02:03.040506Z", "2199-12-31T23:59:59.999999Z",
+              "2023-04-30T10:00:00.000000Z", "2023-04-31T10:00:00.000000Z", "1900-02-29T00:00:00.000000Z"]
+    head = ",".join(pio.INS_COLUMNS)
+    lines = [f"{5_000_000_000 + 20_000 * i},{s},1,1,43.1,0.36,600,0.1,0.1,0,1,1,170" for i, s in enumerate(stamps)]
+    lines += [f"{5_000_000_000 + 20_000 * i},,0,1,43.1,0.36,600,0.1,0.1,0,1,1,170" for i in range(9, 300)]
+    path = tmp_path / "ins.csv"
+    path.write_text(head + "\n" + "\n".join(lines) + "\n")
+    rows = pio._rows_fast(path, pio.INS_COLUMNS, INS_KINDS)
+    assert rows is not None
+    assert rows.cols["utc"][0] == np.datetime64("2024-02-29T23:59:59.999999", "ns")
+    assert rows.bad[[7, 8]].all() and not rows.bad[:7].any()
+    assert_payload_same(monkeypatch, path, ins=True)
+
+
+def test_short_decimals_rounded_like_the_careful_parser(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Random decimal literals of up to 20 characters (the fast path reads those of <= 15)."""
+    rng = np.random.default_rng(3)
+    n = 3000
+    digits = rng.integers(0, 10, (n, 18)).astype(str)
+    length = rng.integers(1, 18, n)
+    point = rng.integers(-1, 18, n)
+    vals = []
+    for d, k, p in zip(digits, length, point, strict=True):
+        s = "".join(d[:k])
+        s = s if p < 0 or p > k else s[:p] + "." + s[p:]
+        vals.append(rng.choice(["", "-", "+"]) + (s if s.strip(".") else "0"))
+    rpi = 5_000_000_000 + 31_250 * np.arange(n)
+    path = tmp_path / "sonic.csv"
+    path.write_text("rpi_time_us,u_ms,v_ms,w_ms,t_sonic_c\n"
+                    + "".join(f"{r},{v},0.5,{v},20\n" for r, v in zip(rpi, vals, strict=True)))
+    assert assert_payload_same(monkeypatch, path, ins=False) == "ok"
+
+
+# ------------------------------------------------------------------------------ TOA5
+
+
+def toa5_both(monkeypatch: pytest.MonkeyPatch, path: Path) -> tuple[Any, Any]:
+    fast = outcome(lambda: toa5.read_toa5(path))
+    with monkeypatch.context() as m:
+        m.setattr(toa5, "_toa5_fast", lambda *a: None)
+        careful = outcome(lambda: toa5.read_toa5(path))
+    return fast, careful
+
+
+def assert_toa5_same(monkeypatch: pytest.MonkeyPatch, path: Path) -> str:
+    (kf, f), (kc, c) = toa5_both(monkeypatch, path)
+    assert kf == kc, (f, c)
+    if kf == "error":
+        assert f == c
+        return kf
+    pd.testing.assert_frame_equal(f[0], c[0], check_exact=True)
+    for col in c[0]:
+        assert f[0][col].to_numpy().tobytes() == c[0][col].to_numpy().tobytes(), col
+    assert f[1] == c[1]
+    return kf
+
+
+def toa5_file(folder: Path, n: int = 600, kelvin: bool = False, nan_every: int = 0) -> Path:
+    rng = np.random.default_rng(4)
+    t = np.datetime64("2023-08-21T14:00:00", "ns") + (np.arange(n) * 50_000_000).astype("timedelta64[ns]")
+    ts = rng.normal(20, .3, n) + (273.15 if kelvin else 0.0)
+    ux = rng.normal(2, 1, n)
+    if nan_every:
+        ux[::nan_every] = np.nan
+    path = write_toa5(folder / "TOA5_t.dat", t, np.arange(n) + 10, ux, rng.normal(0, 1, n), rng.normal(0, .3, n), ts,
+                      np.zeros(n, np.int64))
+    if kelvin:
+        path.write_bytes(path.read_bytes().replace(b'"m/s","C","unitless"', b'"m/s","K","unitless"', 1))
+    return path
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="real fluxpart TOA5 files not present")
+def test_real_toa5_files_take_the_fast_path_and_agree(monkeypatch: pytest.MonkeyPatch) -> None:
+    for f in sorted(SHARED.glob("*.dat")):
+        assert toa5._toa5_fast(f, toa5.REQUIRED_TOA5_COLUMNS) is not None
+        assert assert_toa5_same(monkeypatch, f) == "ok"
+
+
+TOA5_DEFECTS: dict[str, tuple[dict[int, bytes | None], bool]] = {
+    "quoted_nan": ({10: b'"2023-08-21 14:00:00.3",16,"NAN",0.5,0.1,20.1,0', 11: b'"2023-08-21 14:00:00.35",17,'
+                   b'1.0,"nan",0.1,"",0'}, True),  # fmt: skip
+    "unquoted_nan_and_empty": ({10: b'"2023-08-21 14:00:00.3",16,NAN,,0.1,20.1,0'}, True),
+    "wrong_field_count": ({10: b'"2023-08-21 14:00:00.3",16,1.0', 12: b""}, True),
+    "bad_timestamp_and_record": ({10: b'"2023-08-21 25:00:00.3",16,1,1,0.1,20,0', 11: b'"2023-08-21 14:00:00.35",'
+                                 b'x7,1,1,0.1,20,0'}, True),  # fmt: skip
+    "nonnumeric_value": ({10: b'"2023-08-21 14:00:00.3",16,abc,1,0.1,20,0'}, True),
+    "binary_garbage": ({10: b"\xff\xfe\x9c\x80junk", 11: b"\xde\xad,\xbe\xef"}, True),
+    "garbage_right_count": ({10: b'"2023-08-21 14:00:00.3",16,1.\xff0,1,0.1,20,0'}, False),
+    "comma_in_quotes": ({10: b'"2023-08-21 14:00:00.3",16,"1,0",1,0.1,20,0'}, False),
+    "space_outside_quotes": ({10: b'"2023-08-21 14:00:00.3",16, 1.0,1,0.1,20,0'}, False),
+    "unbalanced_quote": ({10: b'"2023-08-21 14:00:00.3,16,1.0,1,0.1,20,0'}, False),
+    "timestamp_iso_t": ({10: b'"2023-08-21T14:00:00.3",16,1.0,1,0.1,20,0'}, True),
+    "unquoted_timestamp": ({10: b"2023-08-21 14:00:00.3,16,1.0,1,0.1,20,0"}, False),  # a space outside quotes
+    "long_exponent_floats": ({10: b'"2023-08-21 14:00:00.3",16,1.2345678901234567,1e-23,2.5E+2,20,0'}, True),
+    "quoted_record": ({10: b'"2023-08-21 14:00:00.3","16",1.0,1,0.1,20,0'}, True),
+    "nul": ({10: b'"2023-08-21 14:00:00.3",16,1.0,1,0.1,20\x00,0'}, True),
+    "many_corrupt": ({i: b'"x",1' for i in range(5, 80)}, True),
+}
+
+
+@pytest.mark.parametrize("name", sorted(TOA5_DEFECTS))
+def test_toa5_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    edits, fast_expected = TOA5_DEFECTS[name]
+    path = edit_lines(toa5_file(tmp_path), edits)
+    if name != "nul":
+        assert (toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is not None) == fast_expected
+    else:
+        assert toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is None  # csv.reader's error left to it
+    assert_toa5_same(monkeypatch, path)
+
+
+@pytest.mark.parametrize("variant", ["crlf", "bom", "kelvin", "nan_values", "header_broken", "header_only",
+                                     "lone_cr"])  # fmt: skip
+def test_toa5_variants_same_result(variant: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = toa5_file(tmp_path, kelvin=variant == "kelvin", nan_every=7 if variant == "nan_values" else 0)
+    text = path.read_bytes()
+    if variant == "crlf":
+        text = text.replace(b"\n", b"\r\n")
+    elif variant == "bom":
+        text = b"\xef\xbb\xbf" + text
+    elif variant == "header_broken":
+        text = text.replace(b'"Uz",', b"", 1)
+    elif variant == "header_only":
+        text = b"\n".join(text.split(b"\n")[:4]) + b"\n"
+    elif variant == "lone_cr":
+        text = text.replace(b"\n", b"\r", 7)
+    path.write_bytes(text)
+    assert assert_toa5_same(monkeypatch, path) == ("error" if variant.startswith("header") else "ok")
+    if variant in ("crlf", "bom", "kelvin", "nan_values"):
+        assert toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is not None
+    if variant == "kelvin":  # the whole mast chain (units from the header) agrees too
+        fast = toa5.mast_l1(path, 218.0, 30.0, "m30")
+        with monkeypatch.context() as m:
+            m.setattr(toa5, "_toa5_fast", lambda *a: None)
+            careful = toa5.mast_l1(path, 218.0, 30.0, "m30")
+        assert fast.identical(careful)
+        assert float(np.nanmedian(fast["t_sonic_k"])) == pytest.approx(293.15, abs=0.2)
+
+
+# ------------------------------------------------------------------------- textscan
+
+
+def test_nan_literals_cover_every_spelling() -> None:
+    spellings = {s + "".join(c) for s in ("", "+", "-") for c in itertools.product("nN", "aA", "nN")}
+    assert set(textscan.NAN_LITERALS) == spellings
+
+
+def test_fixed_width_times_rejects_what_it_cannot_vouch_for() -> None:
+    stamps = [b"2023-08-21T14:00:01.400000Z", b"2023-08-21T24:00:01.400000Z", b"2023-08-21T14:60:01.400000Z",
+              b"2023-08-21T14:00:60.400000Z", b"2023-00-21T14:00:01.400000Z", b"2023-08-00T14:00:01.400000Z",
+              b"1899-12-31T14:00:01.400000Z", b"2023-08-21T14:00:01.4a0000Z", b"2023-08-21X14:00:01.400000Z",
+              b"2023-08-21T14:00:01.400000", b"2023-08-21T14:00:01Z", b"2023-08-21T14:00:01.123456789Z"]
+    buf = np.frombuffer(b"".join(stamps), dtype=np.uint8)
+    length = np.array([len(s) for s in stamps])
+    start = np.concatenate([[0], np.cumsum(length)[:-1]])
+    times, ok = textscan.fixed_width_times(buf, start, length, sep=b"T", suffix=b"Z")
+    assert ok.tolist() == [True] + [False] * 8 + [False, True, True]
+    assert times[0] == np.datetime64("2023-08-21T14:00:01.4", "ns")
+    assert times[-1] == np.datetime64("2023-08-21T14:00:01.123456789", "ns")
+    assert np.isnat(times[1:9]).all()
