@@ -497,8 +497,8 @@ def _read_files(files: list[Path | RawRecord], max_corrupt_fraction: float, coun
     return frames
 
 
-def _merge_records(frames: list[pd.DataFrame], files: Sequence[Path | RawRecord], counts: dict[str, int], log: list[str],
-                   max_corrupt_fraction: float) -> pd.DataFrame:
+def _merge_records(frames: list[pd.DataFrame], files: Sequence[Path | RawRecord], counts: dict[str, int],
+                   log: list[str], max_corrupt_fraction: float) -> pd.DataFrame:
     """Concatenate the files in time order, dropping exact duplicate rows and conflicting time stamps.
 
     Rows that repeat a TIMESTAMP with other values conflict: no rule says which one is
