@@ -96,8 +96,11 @@ def test_reused_truth_gives_the_records_of_a_fresh_simulation(seed):
     names = list(rng.choice(MEASUREMENT_STAGE, size=3, replace=False))
     mechanisms = [{"mechanism": name, "parameters": _random_parameters(rng, name)} for name in names]
     truth = payload_truth(_campaign(), "f1")
+    baseline, _ = payload_records(_campaign(), "f1", truth)  # fills the truth's memo of unchanged records
     camp = _campaign(mechanisms)
     reused, _ = payload_records(camp, "f1", truth)
+    again, _ = payload_records(_campaign(), "f1", truth)
+    assert all(a is b for a, b in zip(baseline, again, strict=True))
     fresh, _ = payload_records(camp, "f1")
     _same_records(reused, fresh)
 

@@ -347,8 +347,7 @@ def lag_halves(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, l2: xr.Dataset, flight:
                           "end": np.datetime_as_string(b, unit="us") + "Z"}
         try:
             ds = compute_payload_l2(sonic_l1, ins_l1, half, site_altitude_m, sonic_ins_lag=sonic_ins_lag,
-                                    hover=half_hover, max_missing_fraction=max_missing_fraction,
-                                    plausibility=False)  # the checks cannot change the lag
+                                    hover=half_hover, max_missing_fraction=max_missing_fraction, lag_only=True)
             out.append(float(ds.attrs["lag_sonic_ins_s"]))
         except Exception as exc:  # a half without a hover: the feature is then missing
             LOG.warning("lag of half window %s-%s failed: %s", a, b, exc)
@@ -418,16 +417,10 @@ class ForwardCache:
 
 
 def record_digest(*records: RawRecord | str | Path) -> str:
-    """Digest of records' contents (column names, dtypes and bytes) or of file paths [hex]."""
+    """Digest of records' contents (:attr:`dronewind.core.raw.RawRecord.digest`) or of file paths [hex]."""
     h = hashlib.blake2b(digest_size=16)
     for rec in records:
-        if not isinstance(rec, RawRecord):
-            h.update(f"file:{rec}".encode())
-            continue
-        for name, col in rec.columns.items():
-            arr = np.ascontiguousarray(col)
-            h.update(f"{name}:{arr.dtype.str}:{arr.size}".encode())
-            h.update(arr.view(np.uint8).tobytes() if arr.dtype.kind != "O" else str(arr.tolist()).encode())
+        h.update(rec.digest.encode() if isinstance(rec, RawRecord) else f"file:{rec}".encode())
     return h.hexdigest()
 
 

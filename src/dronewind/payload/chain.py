@@ -127,7 +127,7 @@ def compute_payload_l2(
     sonic_ins_lag: Mapping[str, Any],
     hover: Mapping[str, Any],
     max_missing_fraction: float,
-    plausibility: bool = True,
+    lag_only: bool = False,
 ) -> xr.Dataset:
     """Payload L2: hover window, sonic-INS lag, motion correction (see :func:`dronewind.payload.sync.payload_l2`).
 
@@ -148,9 +148,10 @@ def compute_payload_l2(
         of the hover window (seed 000, Sect. 3.2).
     max_missing_fraction : float
         ``processing.max_missing_fraction``: most missing data that are gap-filled [1].
-    plausibility : bool
-        Run the unit and convention checks (off only where the L2 serves one number that
-        they cannot change, e.g. the lag of a half window).
+    lag_only : bool
+        Stop after the sonic-INS lag search: a dataset without variables whose attributes
+        hold the lag (``lag_sonic_ins_s``, ``lag_tke_min_s``) and the reasons found so far
+        (for the lag of a part of the hover, :func:`dronewind.diagnose.forward.lag_halves`).
 
     Returns
     -------
@@ -167,7 +168,7 @@ def compute_payload_l2(
         min_hover_s=float(hover["min_duration_s"]),
         hover_alt_tol_m=float(hover["alt_tol_m"]), hover_horiz_tol_m=float(hover["horiz_tol_m"]),
         site_altitude_m=float(site_altitude_m), target_height_m=_target_height(flight), flight_id=str(flight["id"]),
-        plausibility=plausibility,
+        lag_only=lag_only,
     )
     ds.attrs["target_height_m"] = float(flight.get("target_height_m", float("nan")))
     return ds

@@ -862,6 +862,7 @@ def payload_l2(
     min_hover_s: float = 600.0, hover_alt_tol_m: float = 3.0, hover_horiz_tol_m: float = 4.0,
     max_missing_fraction: float = 0.02, fixed_lag_s: float | None = None, site_altitude_m: float | None = None,
     target_height_m: float | None = None, flight_id: str | None = None, plausibility: bool = True,
+    lag_only: bool = False,
 ) -> xr.Dataset:
     """Build the L2 payload dataset: synchronised, motion-corrected wind in east/north/up.
 
@@ -909,6 +910,10 @@ def payload_l2(
         Run the unit and convention checks of :mod:`dronewind.payload.checks` (hover height,
         INS velocity against the GNSS position derivative, sonic range); a failed check
         marks the flight unusable with its reason.
+    lag_only : bool
+        Stop after step 4 (the lag): return a dataset without variables whose attributes
+        are ``lag_sonic_ins_s``, ``lag_tke_min_s``, ``usable`` and ``unusable_reason`` (the
+        reasons found up to the lag search).
 
     Returns
     -------
@@ -935,6 +940,9 @@ def payload_l2(
     seg = _sonic_segment(sonic_l1, ts, hover[0], hover[1], max_lag_s, max_missing_fraction, tr)
     lag, lag_tke_min, lag_grid, tke = _sonic_ins_lag(seg, hover, ti, ins, mount, lever_arm_m, max_lag_s,
                                                      lag_step_s, misalignment_deg, fixed_lag_s, tr)
+    if lag_only:
+        return xr.Dataset(attrs={"lag_sonic_ins_s": float(lag), "lag_tke_min_s": float(lag_tke_min),
+                                 "usable": int(not tr.reasons), "unusable_reason": "; ".join(tr.reasons)})
     sel, ins_s, wind = _correct_motion(seg, lag, hover, ts.size, ti, ins, mount, lever_arm_m, misalignment_deg, tr)
     time_out = (ts_ns[seg.index][sel] + int(round(lag * _NS))).astype("datetime64[ns]")
     _used_duration(time_out, hover, min_hover_s, tr)

@@ -49,8 +49,9 @@ Mechanisms act inside this measurement model (see :mod:`dronewind.mechanisms`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -768,6 +769,9 @@ class PayloadTruth:
     air: _AirAtPayload
     motion: _Motion
     mast: _MastTruth
+    #: records already measured from this truth, by instrument and the mechanisms acting on it
+    #: (:func:`payload_records`): a probe that leaves an instrument alone gets the same record
+    memo: dict[tuple[str, str], Any] = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
 
 def _dz_m(cond: PayloadFlightConditions) -> float:
@@ -851,15 +855,48 @@ def payload_records(campaign: CampaignLike, flight_id: str,
     elif (truth.flight_id, truth.seed, truth.hover_offset_dz_m) != (cond["flight_id"], int(cond["seed"]), _dz_m(cond)):
         raise ValueError(f"truth of flight {truth.flight_id} seed {truth.seed} dz {truth.hover_offset_dz_m} m does "
                          f"not belong to flight {flight_id} seed {cond['seed']} dz {_dz_m(cond)} m")
-    p, streams, motion = cond["payload"], _Streams(cond["seed"]), truth.motion
-    v_sensor, t_c = _sonic_sensor_frame(cond, truth.air, motion, streams)
-    stamps = _sonic_stamps_us(cond, motion.t_s)
-    ins = _add_ins_errors(cond, _ins_truth(cond, motion, p["ins_rate_hz"]), streams("ins_noise"), p["ins_rate_hz"])
-    valid = _ins_validity(cond, ins.t_s)
-    flight = cond["flight"]
-    records = [_sonic_log(str(flight["sonic"]["file"]), cond, stamps, v_sensor, t_c, streams),
-               _ins_log(str(flight["ins"]["file"]), cond, ins, valid, motion.t_s[0], streams)]
-    return records + _mast_logs(cond, settings, truth.field, truth.mast, streams), truth
+    unknown = sorted(set(cond["mechanisms"]) - set().union(*INSTRUMENT_MECHANISMS.values(), {"height_offset"}))
+    if unknown:  # a mechanism added to the simulator must be assigned to the instrument it acts on
+        raise ValueError(f"mechanism(s) {unknown} act on no instrument of INSTRUMENT_MECHANISMS")
+    p, streams, motion, flight = cond["payload"], _Streams(cond["seed"]), truth.motion, cond["flight"]
+
+    def sonic() -> RawRecord:
+        v_sensor, t_c = _sonic_sensor_frame(cond, truth.air, motion, streams)
+        stamps = _sonic_stamps_us(cond, motion.t_s)
+        return _sonic_log(str(flight["sonic"]["file"]), cond, stamps, v_sensor, t_c, streams)
+
+    def ins() -> RawRecord:
+        rec = _add_ins_errors(cond, _ins_truth(cond, motion, p["ins_rate_hz"]), streams("ins_noise"),
+                              p["ins_rate_hz"])
+        return _ins_log(str(flight["ins"]["file"]), cond, rec, _ins_validity(cond, rec.t_s), motion.t_s[0], streams)
+
+    records = [_measured(truth, cond, settings, "sonic", sonic), _measured(truth, cond, settings, "ins", ins)]
+    return records + _measured(truth, cond, settings, "mast",
+                               lambda: _mast_logs(cond, settings, truth.field, truth.mast, streams)), truth
+
+
+#: The mechanisms that act on each instrument's record (all others act on the true state).
+INSTRUMENT_MECHANISMS: dict[str, frozenset[str]] = {
+    "sonic": frozenset({"sonic_ins_lag", "clock_drift", "mount_misalignment", "w_gain", "sonic_noise", "downwash"}),
+    "ins": frozenset({"heading_bias", "attitude_lag", "lever_arm"}),
+    "mast": frozenset({"mast_w_attenuation"}),
+}
+
+
+def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: SimulationSettings, instrument: str,
+              measure: Callable[[], Any]) -> Any:
+    """An instrument's record from a truth, measured once per setting of the mechanisms acting on it.
+
+    The key holds everything the record depends on besides the truth: the instrument's
+    mechanisms and their parameters, the payload, defect and mast settings and the times.
+    """
+    active = {name: dict(cond["mechanisms"][name]) for name in sorted(INSTRUMENT_MECHANISMS[instrument])
+              if name in cond["mechanisms"]}
+    key = (instrument, repr((active, cond["payload"], cond["defects"], settings["mast"], str(cond["start"]),
+                             str(flight_timeline(cond)))))
+    if key not in truth.memo:
+        truth.memo[key] = measure()
+    return truth.memo[key]
 
 
 def simulate_payload_flight(campaign: CampaignLike, manifest_dir: Path, flight_id: str,
