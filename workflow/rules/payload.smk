@@ -21,5 +21,59 @@ rule payload_l2:
         sonic_ins_lag=PROCESSING["sonic_ins_lag"],
         hover=PROCESSING["hover"],
         max_missing_fraction=PROCESSING["max_missing_fraction"],
+    wildcard_constraints:
+        flight=_alternatives(PAYLOAD_FLIGHTS),
     script:
         "../../scripts/payload_l2.py"
+
+
+# Rigid-mount multicopter flights: one record (sonic + platform) -> L1 -> L2 (steady segment,
+# sonic-platform lag at 1/fs, V = R M V_sensor + V_platform).
+
+
+rule rigid_l1:
+    input:
+        record=rigid_record,
+    output:
+        RESULTS / "netcdf" / "L1" / "{flight}_rigid.nc",
+    log:
+        log_path("rigid_l1", "flight"),
+    benchmark:
+        bench_path("rigid_l1", "flight")
+    conda:
+        ENV
+    wildcard_constraints:
+        flight=_alternatives(RIGID_FLIGHTS),
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        flight=flight_entry,
+        site=SITE,
+        despike=PROCESSING["despike"],
+        data_root=str(L0),
+    script:
+        "../../scripts/rigid_l1.py"
+
+
+rule rigid_l2:
+    input:
+        l1=RESULTS / "netcdf" / "L1" / "{flight}_rigid.nc",
+    output:
+        RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
+    log:
+        log_path("rigid_l2", "flight"),
+    benchmark:
+        bench_path("rigid_l2", "flight")
+    conda:
+        ENV
+    wildcard_constraints:
+        flight=_alternatives(RIGID_FLIGHTS),
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        flight=flight_entry,
+        site=SITE,
+        rigid_mount=PROCESSING["rigid_mount"],
+        max_missing_fraction=PROCESSING["max_missing_fraction"],
+    script:
+        "../../scripts/rigid_l2.py"
