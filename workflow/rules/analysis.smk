@@ -11,10 +11,10 @@ rule l3:
         log_path("l3", "flight"),
     benchmark:
         bench_path("l3", "flight")
-    conda:
-        ENV
     wildcard_constraints:
         flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
+    conda:
+        ENV
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -37,10 +37,10 @@ rule drone_l3:
         log_path("drone_l3", "flight"),
     benchmark:
         bench_path("drone_l3", "flight")
-    conda:
-        ENV
     wildcard_constraints:
         flight=_alternatives(DRONE_ONLY_FLIGHTS),
+    conda:
+        ENV
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -60,10 +60,10 @@ rule l4_drone_only:
         log_path("l4_drone_only", "flight"),
     benchmark:
         bench_path("l4_drone_only", "flight")
-    conda:
-        ENV
     wildcard_constraints:
         flight=_alternatives(DRONE_ONLY_FLIGHTS),
+    conda:
+        ENV
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -86,10 +86,10 @@ rule l4:
         log_path("l4", "flight", "sensor"),
     benchmark:
         bench_path("l4", "flight", "sensor")
-    conda:
-        ENV
     wildcard_constraints:
         flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
+    conda:
+        ENV
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",

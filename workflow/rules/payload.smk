@@ -11,6 +11,8 @@ rule payload_l2:
         log_path("payload_l2", "flight"),
     benchmark:
         bench_path("payload_l2", "flight")
+    wildcard_constraints:
+        flight=_alternatives(PAYLOAD_FLIGHTS),
     conda:
         ENV
     params:
@@ -21,8 +23,6 @@ rule payload_l2:
         sonic_ins_lag=PROCESSING["sonic_ins_lag"],
         hover=PROCESSING["hover"],
         max_missing_fraction=PROCESSING["max_missing_fraction"],
-    wildcard_constraints:
-        flight=_alternatives(PAYLOAD_FLIGHTS),
     script:
         "../../scripts/payload_l2.py"
 
@@ -40,10 +40,10 @@ rule rigid_l1:
         log_path("rigid_l1", "flight"),
     benchmark:
         bench_path("rigid_l1", "flight")
-    conda:
-        ENV
     wildcard_constraints:
         flight=_alternatives(RIGID_FLIGHTS),
+    conda:
+        ENV
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -64,10 +64,10 @@ rule rigid_l2:
         log_path("rigid_l2", "flight"),
     benchmark:
         bench_path("rigid_l2", "flight")
-    conda:
-        ENV
     wildcard_constraints:
         flight=_alternatives(RIGID_FLIGHTS),
+    conda:
+        ENV
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
