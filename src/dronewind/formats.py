@@ -19,7 +19,9 @@ What is checked, per format:
   and a first data row with as many fields;
 * ``ulog``: the ULog magic bytes ``ULog 01 12 35``;
 * ``delimited``: :func:`dronewind.core.delimited.check_delimited_head` (the mapped columns
-  in the header, the field count, the time column parsing, numbers where mapped).
+  in the header, the field count, the time column parsing, numbers where mapped); the
+  record of a rigid-mount flight (kind ``rigid_record``) is checked with its platform
+  variables (:func:`dronewind.payload.rigid.rigid_layout`).
 
 What is echoed from a file is limited: the first field of a line, a time field, a header
 line of a declared delimited file (shortened); binary content is described, never quoted.
@@ -45,10 +47,11 @@ from dronewind.core.delimited import (
     split_fields,
 )
 from dronewind.errors import InputError, ManifestError, describe_header
-from dronewind.manifest import Campaign, record_format
+from dronewind.manifest import Campaign, is_rigid, record_format
 from dronewind.mast.ameriflux import AMERIFLUX_GOLD_COLUMNS
 from dronewind.mast.toa5 import REQUIRED_TOA5_COLUMNS
 from dronewind.payload.io import INS_COLUMNS, SONIC_COLUMNS
+from dronewind.payload.rigid import rigid_layout
 from dronewind.quadrotor.io import QUADROTOR_COLUMNS
 
 __all__ = ["ULOG_MAGIC", "CONTRACT_HEADERS", "describe_content", "check_file_format", "format_problems",
@@ -223,7 +226,8 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
     if not p.is_file():
         raise InputError(p, "file not found")
     name = fmt["name"]
-    allowed = {"mast_sonic": ("toa5", "gill_raw", "delimited"), "quadrotor_uav": ("contract_csv", "ulog")}.get(
+    allowed = {"mast_sonic": ("toa5", "gill_raw", "delimited"), "quadrotor_uav": ("contract_csv", "ulog"),
+               "rigid_record": ("delimited",)}.get(
         kind, ("contract_csv",))
     if name not in allowed:
         raise InputError(where, f"format {name!r} for a {kind.replace('_', ' ')}, expected one of {', '.join(allowed)}")
@@ -231,6 +235,8 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
         _check_toa5(p)
     elif name == "gill_raw":
         _check_gill(p, fmt)
+    elif name == "delimited" and kind == "rigid_record":
+        check_delimited_head(p, rigid_layout(fmt, where))
     elif name == "delimited":
         check_delimited_head(p, delimited_layout(fmt, where))
     elif name == "ulog":
@@ -241,7 +247,7 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
 
 def _records(campaign: Campaign) -> list[tuple[str, str, dict[str, Any], list[Path]]]:
     """Every record with files: (key path, kind, format, files)."""
-    root = campaign.directory
+    root = campaign.data_root
     data = campaign.data
     out: list[tuple[str, str, dict[str, Any], list[Path]]] = []
     for i, mast in enumerate(data.get("masts") or []):
@@ -250,6 +256,10 @@ def _records(campaign: Campaign) -> list[tuple[str, str, dict[str, Any], list[Pa
             out.append((f"masts[{i}].sonics[{j}]", "mast_sonic", record_format(sonic, "mast_sonic"),
                         list(dict.fromkeys(files))))
     for i, flight in enumerate(data.get("payload_flights") or []):
+        if is_rigid(flight):
+            out.append((f"payload_flights[{i}].record", "rigid_record", dict(flight["record"]["format"]),
+                        [root / flight["record"]["file"]]))
+            continue
         for part in ("sonic", "ins"):
             kind = f"payload_{part}"
             out.append((f"payload_flights[{i}].{part}", kind, record_format(flight[part], kind),

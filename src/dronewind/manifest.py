@@ -48,7 +48,7 @@ from dronewind.errors import ManifestError
 
 __all__ = ["Campaign", "load_campaign", "campaign_schema", "parse_utc", "config_schema", "default_config",
            "with_defaults", "payload_flight_manifest", "data_paths", "path_problem", "confined_path",
-           "record_format", "DEFAULT_FORMATS"]
+           "record_format", "DEFAULT_FORMATS", "is_rigid"]
 
 
 def campaign_schema() -> dict[str, Any]:
@@ -187,6 +187,12 @@ class Campaign:
         return self.path.parent
 
     @property
+    def data_root(self) -> Path:
+        """Folder the data paths of a measured campaign refer to: ``data_root`` (absolute or
+        relative to the manifest), else the manifest's folder."""
+        return _data_root(self.path, self.data)
+
+    @property
     def simulated(self) -> bool:
         """True when the manifest has a ``simulation:`` section (a virtual campaign)."""
         return bool(self.data.get("simulation"))
@@ -233,7 +239,7 @@ class Campaign:
         For a simulated campaign, each ``*`` of a glob stands for a payload-flight id whose
         reference is this sonic (the simulator writes one file per flight and sonic).
         """
-        root = Path(root) if root is not None else self.directory
+        root = Path(root) if root is not None else self.data_root
         sonic = self.mast_sonics()[sonic_id]
         files: list[Path] = []
         for pattern in sonic["files"]:
@@ -246,6 +252,17 @@ class Campaign:
                 matches = sorted(glob.glob(str(root / pattern)))
                 files += [Path(m) for m in matches]
         return list(dict.fromkeys(files))
+
+
+def _data_root(path: Path, data: Mapping[str, Any]) -> Path:
+    """The folder data paths are relative to (see :attr:`Campaign.data_root`)."""
+    root = data.get("data_root")
+    return path.parent if not root else (path.parent / str(root)).resolve()
+
+
+def is_rigid(flight: Mapping[str, Any]) -> bool:
+    """Whether a payload flight is a rigid-mount multicopter (``platform: rigid_mount``)."""
+    return flight.get("platform", "sling_load") == "rigid_mount"
 
 
 def payload_flight_manifest(data: Mapping[str, Any], flight_id: str, *, atmosphere: bool = False
@@ -311,6 +328,9 @@ def data_paths(data: Mapping[str, Any]) -> list[tuple[str, str]]:
         for j, sonic in enumerate(mast.get("sonics") or []):
             out += [(f"masts[{i}].sonics[{j}].files[{k}]", str(p)) for k, p in enumerate(sonic.get("files") or [])]
     for i, flight in enumerate(data.get("payload_flights") or []):
+        if is_rigid(flight):
+            out.append((f"payload_flights[{i}].record.file", str(flight["record"]["file"])))
+            continue
         out += [(f"payload_flights[{i}].{part}.file", str(flight[part]["file"])) for part in ("sonic", "ins")]
     for i, flight in enumerate(data.get("quadrotor_flights") or []):
         out.append((f"quadrotor_flights[{i}].reference", str(flight["reference"])))
@@ -402,9 +422,15 @@ def _path_checks(data: dict[str, Any]) -> list[tuple[str, str]]:
 
 def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> list[tuple[str, str]]:
     problems: list[tuple[str, str]] = _path_checks(data)
+    if data.get("data_root") and data.get("simulation"):
+        problems.append(("data_root", "data_root in a virtual campaign: its raw files are written under "
+                         "results/<name>/L0/; remove data_root (it is for measured records read where they lie)"))
     if problems:
         return problems
-    root = path.parent
+    root = _data_root(path, data)
+    if check_files and not root.is_dir():
+        return [("data_root", f"folder {data.get('data_root')!r} ({root}) does not exist; expected the folder the "
+                 "data paths are relative to")]
     sonic_ids: dict[str, str] = {}
     for i, mast in enumerate(data.get("masts") or []):
         for j, sonic in enumerate(mast["sonics"]):
@@ -429,7 +455,16 @@ def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> lis
             if fid in seen_flights:
                 problems.append((f"{key}.id", f"duplicate flight id {fid!r} (also {seen_flights[fid]})"))
             seen_flights.setdefault(fid, key)
-            if section == "payload_flights":
+            if section == "payload_flights" and is_rigid(flight):
+                ref = flight.get("reference")
+                if ref is not None and ref not in sonic_ids:
+                    known = ", ".join(sorted(sonic_ids)) or "none defined"
+                    problems.append((f"{key}.reference", f"unknown mast sonic id {ref!r}; expected one of: {known} "
+                                     "(or no reference: drone-only statistics)"))
+                if check_files and not (root / flight["record"]["file"]).is_file():
+                    problems.append((f"{key}.record.file",
+                                     f"file {flight['record']['file']!r} does not exist under {root}"))
+            elif section == "payload_flights":
                 if flight["reference"] not in sonic_ids:
                     known = ", ".join(sorted(sonic_ids)) or "none defined"
                     problems.append((f"{key}.reference",

@@ -11,6 +11,8 @@ rule l3:
         log_path("l3", "flight"),
     benchmark:
         bench_path("l3", "flight")
+    wildcard_constraints:
+        flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
     conda:
         ENV
     params:
@@ -24,6 +26,57 @@ rule l3:
         "../../scripts/l3.py"
 
 
+# A flight without a reference mast (rigid mount): drone-only L3 (streamline coordinates at
+# the L2 rate) and drone L4; its flight_stats row has the mast columns empty.
+rule drone_l3:
+    input:
+        drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
+    output:
+        RESULTS / "netcdf" / "L3" / "{flight}.nc",
+    log:
+        log_path("drone_l3", "flight"),
+    benchmark:
+        bench_path("drone_l3", "flight")
+    wildcard_constraints:
+        flight=_alternatives(DRONE_ONLY_FLIGHTS),
+    conda:
+        ENV
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        flight=flight_entry,
+        site=SITE,
+        rotation=PROCESSING["rotation"],
+    script:
+        "../../scripts/drone_l3.py"
+
+
+rule l4_drone_only:
+    input:
+        l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
+    output:
+        RESULTS / "netcdf" / "L4" / "{flight}_drone.nc",
+    log:
+        log_path("l4_drone_only", "flight"),
+    benchmark:
+        bench_path("l4_drone_only", "flight")
+    wildcard_constraints:
+        flight=_alternatives(DRONE_ONLY_FLIGHTS),
+    conda:
+        ENV
+    params:
+        campaign=CAMPAIGN.name,
+        flight_id="{flight}",
+        sensor="drone",
+        reference=None,
+        site=SITE,
+        spectra=PROCESSING["spectra"],
+        quadrant=PROCESSING["quadrant"],
+        detrending=PROCESSING["detrending"],
+    script:
+        "../../scripts/l4.py"
+
+
 rule l4:
     input:
         l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
@@ -33,6 +86,8 @@ rule l4:
         log_path("l4", "flight", "sensor"),
     benchmark:
         bench_path("l4", "flight", "sensor")
+    wildcard_constraints:
+        flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
     conda:
         ENV
     params:
@@ -49,11 +104,11 @@ rule l4:
 
 rule flight_stats:
     input:
-        expand(
-            RESULTS / "netcdf" / "L4" / "{flight}_{sensor}.nc",
-            flight=PAYLOAD_FLIGHTS,
-            sensor=["drone", "mast"],
-        ),
+        [
+            str(RESULTS / "netcdf" / "L4" / f"{flight}_{sensor}.nc")
+            for flight in PAYLOAD_FLIGHTS + RIGID_FLIGHTS
+            for sensor in flight_sensors(flight)
+        ],
     output:
         RESULTS / "tables" / "flight_stats.csv",
     log:

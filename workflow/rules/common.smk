@@ -15,7 +15,12 @@ from dronewind.diagnose.forward import CHAIN_SETTINGS, probe_parts
 from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
 from dronewind.formats import check_campaign_formats
-from dronewind.manifest import confined_path, load_campaign, payload_flight_manifest
+from dronewind.manifest import (
+    confined_path,
+    is_rigid,
+    load_campaign,
+    payload_flight_manifest,
+)
 from dronewind.simulate.settings import validate_simulation
 from dronewind.steps.lock import acquire_results_lock, release_results_lock
 from dronewind.steps.payload import simulation_manifest
@@ -43,7 +48,7 @@ else:
 RESULTS = Path(config["results_dir"]) / CAMPAIGN.name
 # A virtual campaign's raw files are written by the simulator under results/<name>/L0/;
 # a measured campaign's raw files are where its manifest says.
-L0 = RESULTS / "L0" if CAMPAIGN.simulated else CAMPAIGN.directory
+L0 = RESULTS / "L0" if CAMPAIGN.simulated else CAMPAIGN.data_root
 ENV = "../../envs/dronewind.yaml"
 
 
@@ -69,7 +74,16 @@ onerror:
         release_results_lock(RESULTS)
 
 
-PAYLOAD_FLIGHTS = [f["id"] for f in CAMPAIGN.payload_flights]
+# PAYLOAD_FLIGHTS: the sling-load flights (sonic + INS files, a reference mast), which the
+# tables, figures and diagnosis cover; RIGID_FLIGHTS: rigid-mount multicopter flights
+# (platform: rigid_mount), processed to L4 and flight_stats.csv, against their reference
+# mast when they name one (RIGID_MAST_FLIGHTS), else drone only (DRONE_ONLY_FLIGHTS).
+PAYLOAD_FLIGHTS = [f["id"] for f in CAMPAIGN.payload_flights if not is_rigid(f)]
+RIGID_FLIGHTS = [f["id"] for f in CAMPAIGN.payload_flights if is_rigid(f)]
+DRONE_ONLY_FLIGHTS = [
+    f["id"] for f in CAMPAIGN.payload_flights if is_rigid(f) and not f.get("reference")
+]
+RIGID_MAST_FLIGHTS = [f for f in RIGID_FLIGHTS if f not in DRONE_ONLY_FLIGHTS]
 QUAD_FLIGHTS = [f["id"] for f in CAMPAIGN.quadrotor_flights]
 MAST_SONICS = list(CAMPAIGN.mast_sonics())
 FIGURES = list(figure_captions())
@@ -126,7 +140,7 @@ PROBE_PARTS = list(probe_parts())
 
 
 wildcard_constraints:
-    flight=_alternatives(PAYLOAD_FLIGHTS),
+    flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_FLIGHTS),
     part=_alternatives(PROBE_PARTS),
     qflight=_alternatives(QUAD_FLIGHTS),
     sonic=_alternatives(MAST_SONICS),
@@ -164,6 +178,8 @@ def all_outputs():
             str(RESULTS / "diagnosis.json"),
             str(RESULTS / "diagnosis" / "report.md"),
         ]
+    if RIGID_FLIGHTS and not PAYLOAD_FLIGHTS:
+        out.append(str(RESULTS / "tables" / "flight_stats.csv"))
     if PUBLISHED:
         out.append(str(RESULTS / "published" / "report.md"))
     out += quadrotor_targets() + tunnel_targets()
@@ -231,6 +247,16 @@ def mast_sonic(wc):
     return CAMPAIGN.mast_sonics()[wc.sonic]
 
 
+def rigid_record(wc):
+    """Input function: the record of a rigid-mount flight."""
+    return str(L0 / CAMPAIGN.payload_flight(wc.flight)["record"]["file"])
+
+
+def flight_sensors(flight_id):
+    """Sensors of a payload flight's L4: drone and mast, or drone alone without a reference."""
+    return ["drone"] if flight_id in DRONE_ONLY_FLIGHTS else ["drone", "mast"]
+
+
 def reference_sonic(wc):
     """Params function: the manifest entry of a payload flight's reference sonic."""
     return CAMPAIGN.mast_sonics()[CAMPAIGN.payload_flight(wc.flight)["reference"]]
@@ -272,7 +298,7 @@ TUNNEL_SIMULATED = bool(
 TUNNEL_RUNS = (
     None
     if not TUNNEL_RUNS_REL
-    else (L0 if TUNNEL_SIMULATED else CAMPAIGN.directory) / TUNNEL_RUNS_REL
+    else (L0 if TUNNEL_SIMULATED else CAMPAIGN.data_root) / TUNNEL_RUNS_REL
 )
 
 

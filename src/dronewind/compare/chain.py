@@ -20,7 +20,7 @@ from dronewind.compare.l4 import flight_l4
 from dronewind.core import rotation as rot
 from dronewind.errors import ProcessingError
 
-__all__ = ["planar_fits", "compute_l3", "compute_l4", "period_time"]
+__all__ = ["planar_fits", "compute_l3", "compute_drone_l3", "compute_l4", "period_time"]
 
 #: Global attributes of the L3 that each L4 keeps.
 _L4_ATTRS = ("lag_sonic_ins_s", "lag_drone_mast_s", "drone_usable", "drone_unusable_reason", "reference")
@@ -102,6 +102,63 @@ def compute_l3(
     if rotation == "planar_fit":
         ds.attrs["rotation_note"] = ("planar fit (Wilczak et al. 2001) for the mast sonic, from its whole record; "
                                      "double rotation for the drone, whose frame is re-levelled every flight")
+    _streamline_attrs(ds)
+    return ds
+
+
+def compute_drone_l3(drone_l2: xr.Dataset, flight: Mapping[str, Any], rotation: str) -> xr.Dataset:
+    """Drone-only L3 of a flight without a reference mast: the L2 in streamline coordinates.
+
+    No alignment and no decimation (there is no second sensor): the record stays at its L2
+    rate, rotated by ``rotation`` (``planar_fit`` needs a mast's whole-record fit, so the
+    drone is double-rotated, as it is beside a mast). The layout is that of
+    :func:`compute_l3` with the one sensor ``drone``, so :func:`compute_l4` reads both.
+
+    Parameters
+    ----------
+    drone_l2 : xarray.Dataset
+        L2 of the drone (regular time axis).
+    flight : mapping
+        Payload flight entry of the manifest (``target_height_m`` when the L2 has no height).
+    rotation : str
+        ``processing.rotation``.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``u_ms``, ``v_ms``, ``w_ms``, ``theta_v_k`` on (sensor, time), ``height_m`` and
+        ``wind_from_deg`` on sensor; attrs ``sampling_rate_hz``, ``rotation_method``,
+        ``lag_sonic_ins_s``, ``drone_usable``, ``drone_unusable_reason``.
+    """
+    u_e, v_n, w_u = (np.asarray(drone_l2[k].values, dtype=float) for k in ("u_east_ms", "v_north_ms", "w_up_ms"))
+    method = "double" if rotation == "planar_fit" else rotation
+    u, v, w, angles = rot.rotate(u_e, v_n, w_u, method)
+    height = float(drone_l2.attrs.get("height_m", flight.get("target_height_m", float("nan"))))
+    wind_from = float(np.rad2deg(np.arctan2(-np.mean(u_e), -np.mean(v_n))) % 360.0)
+    fs = float(drone_l2.attrs["sampling_rate_hz"])
+    two = ("sensor", "time")
+
+    def one(x: np.ndarray, units: str, **attrs: Any) -> xr.DataArray:
+        return xr.DataArray(np.asarray(x)[None, :], dims=two, attrs={"units": units, **attrs})
+
+    ds = xr.Dataset(
+        {"u_ms": one(u, "m s-1", long_name="streamwise wind"), "v_ms": one(v, "m s-1", long_name="cross wind"),
+         "w_ms": one(w, "m s-1", long_name="vertical wind"),
+         "theta_v_k": one(drone_l2["t_sonic_k"].values, "K", standard_name="virtual_temperature",
+                          units_metadata="temperature: on_scale"),
+         "height_m": xr.DataArray([height], dims=("sensor",), attrs={"units": "m", "long_name": "height above ground"}),
+         "wind_from_deg": xr.DataArray([wind_from], dims=("sensor",), attrs={
+             "units": "degree", "standard_name": "wind_from_direction"})},
+        coords={"sensor": ("sensor", ["drone"]), "time": ("time", drone_l2["time"].values)},
+    )
+    ds.attrs.update({
+        "sampling_rate_hz": fs, "rotation_method": method,
+        **{f"rotation_{k}": float(a) for k, a in angles.items()},
+        "lag_sonic_ins_s": float(drone_l2.attrs.get("lag_sonic_ins_s", float("nan"))),
+        "drone_usable": int(drone_l2.attrs.get("usable", 1)),
+        "drone_unusable_reason": str(drone_l2.attrs.get("unusable_reason", "")),
+        "processing_log": f"l3 drone only (no reference mast): {method} rotation at {fs:g} Hz, no decimation",
+    })
     _streamline_attrs(ds)
     return ds
 

@@ -12,7 +12,8 @@ A record in a format no dedicated reader knows is described in its manifest entr
   from UTC: UTC = logged - offset), ``epoch_s`` or ``epoch_ms`` (since 1970-01-01 UTC);
 * variables: per name its ``column``, ``scale``, ``offset`` and ``unit``: the value in
   ``unit`` is ``scale * logged + offset``, then converted to SI by :data:`UNITS` (m/s and
-  cm/s to m s-1, degC and K to K, ``1`` for dimensionless words).
+  cm/s to m s-1, degC and K to K, ``1`` for dimensionless words; for a platform record also
+  degree and rad to degree, m).
 
 Rows with a wrong number of fields or a time that does not parse are corrupt (removed,
 counted, their line numbers kept); ``NAN``, empty and other non-numeric values become NaN.
@@ -49,6 +50,9 @@ UNITS: dict[str, tuple[str, float, float]] = {
     "K": ("K", 1.0, 0.0),
     "degC": ("K", 1.0, ZERO_CELSIUS_K),
     "1": ("1", 1.0, 0.0),
+    "degree": ("degree", 1.0, 0.0),
+    "rad": ("degree", 180.0 / 3.141592653589793, 0.0),
+    "m": ("m", 1.0, 0.0),
 }
 #: The SI unit each variable of a sonic mapping must convert to.
 SONIC_QUANTITIES: dict[str, str] = {"u": "m s-1", "v": "m s-1", "w": "m s-1", "t": "K", "diag": "1"}

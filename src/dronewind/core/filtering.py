@@ -78,6 +78,11 @@ INSTRUMENT_LIMITS: dict[str, dict[str, Any]] = {
         "t_sonic_c": (-30.0, 50.0),
         "source": "Campbell Scientific CSAT3 manual, measurement ranges",
     },
+    "trisonica_mini": {
+        "speed_ms": (0.0, 50.0),
+        "t_sonic_c": (-25.0, 80.0),
+        "source": "Anemoment TriSonica Mini specification: wind speed 0-50 m/s, operating temperature -25..+80 degC",
+    },
     "gill_windmaster_pro": {
         "speed_ms": (0.0, 65.0),
         "t_sonic_c": (-40.0, 70.0),

@@ -25,7 +25,7 @@ from typing import Any
 
 import xarray as xr
 
-from dronewind.compare.chain import compute_l3, compute_l4
+from dronewind.compare.chain import compute_drone_l3, compute_l3, compute_l4
 from dronewind.core.cf import (
     atomic_write_text,
     data_source,
@@ -38,12 +38,14 @@ from dronewind.core.products import open_product
 from dronewind.manifest import confined_path
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.mechanisms import get_mechanism
+from dronewind.payload import rigid
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 from dronewind.steps.common import LOG
 
 __all__ = ["ProductSpec", "PRODUCTS", "Position", "write_product", "source_name", "simulation_manifest",
            "simulate_payload",
-           "payload_l1", "mast_l1", "payload_l2", "mast_l2", "l3", "l4", "FLIGHT_STATS_COLUMNS", "flight_stats"]
+           "payload_l1", "mast_l1", "payload_l2", "mast_l2", "l3", "l4", "rigid_l1", "rigid_l2", "drone_l3",
+           "FLIGHT_STATS_COLUMNS", "flight_stats"]
 
 
 # ----------------------------------------------------------------------------- one product writer
@@ -105,6 +107,24 @@ PRODUCTS: dict[str, ProductSpec] = {
         "east/north/up at the sonic rate, hover window only.",
         "L2: synchronised, motion-corrected, east/north/up", "payload_l2 {flight}", "synchronisation",
         "{flight}_drone"),
+    "rigid_l1": ProductSpec(
+        "{campaign} flight {flight}: rigid-mount sonic and platform, L1",
+        "{model} sonic fixed to a multicopter and the vehicle's velocity, attitude and position from its own log, "
+        "on one regular UTC time axis; sonic in the sensor frame; missing, range and spike flags.",
+        "L1: UTC time, QC flags, flagged values set to NaN", "rigid_l1 flight {flight}", "sensor_frame",
+        "{flight}_rigid_mount"),
+    "rigid_l2": ProductSpec(
+        "{campaign} flight {flight}: drone wind, L2",
+        "Motion-corrected wind (V = R M V_sensor + V_platform) from a sonic rigidly mounted on a multicopter, in "
+        "east/north/up at the record's rate, over the longest steady segment (altitude band, horizontal speed "
+        "limit), sonic-platform lag of minimum TKE.",
+        "L2: synchronised, motion-corrected, east/north/up", "rigid_l2 {flight}", "synchronisation",
+        "{flight}_drone"),
+    "l3_drone": ProductSpec(
+        "{campaign} flight {flight}: drone in streamline coordinates, L3",
+        "Drone wind of a flight without a reference mast, rotated into streamline coordinates at its L2 rate.",
+        "L3: streamline coordinates (drone only)", "l3 {flight} drone only", "alignment", "{flight}_drone",
+        ("campaign", "flight")),
     "mast_l2": ProductSpec(
         "{campaign} flight {flight}: reference mast sonic, L2",
         "Mast sonic {reference} in east/north/up over the hover window of flight {flight}.",
@@ -492,8 +512,8 @@ def l3(drone_l2_file: str | Path, mast_l2_file: str | Path, output: str | Path, 
 
 
 def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str, sensor: str,
-       reference: Mapping[str, Any], spectra: Mapping[str, Any], quadrant: Mapping[str, Any],
-       detrending: str) -> Path:
+       reference: Mapping[str, Any] | None, spectra: Mapping[str, Any], quadrant: Mapping[str, Any],
+       detrending: str, site: Mapping[str, Any] | None = None) -> Path:
     """L3 -> L4 file for one flight and sensor: statistics, spectra, fits, uncertainties, scales.
 
     Parameters
@@ -506,12 +526,15 @@ def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str
         Campaign name and payload flight id.
     sensor : str
         ``"drone"`` or ``"mast"``.
-    reference : mapping
-        Manifest entry of the flight's reference sonic, with its mast's position.
+    reference : mapping or None
+        Manifest entry of the flight's reference sonic, with its mast's position; None for a
+        drone-only flight (the position is then the site's).
     spectra, quadrant : mapping
         ``processing.spectra`` and ``processing.quadrant``.
     detrending : str
         ``processing.detrending`` (``linear`` or ``block_mean``).
+    site : mapping, optional
+        Manifest ``site``: the position of a drone-only flight's L4.
 
     Returns
     -------
@@ -522,8 +545,131 @@ def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str
     LOG.info("flight %s %s L4: U = %.2f m/s, sigma_w = %.3f m/s", flight_id, sensor,
              float(ds["U_ms"]), float(ds["sigma_w_ms"]))
     fields = {"campaign": campaign, "flight": flight_id, "sensor": sensor}
-    return write_product(ds, output, "l4", fields, _at_sonic(reference, float(ds["height_m"])), [l3_file],
+    if reference is None:
+        site = site or {}
+        where = Position(site.get("latitude"), site.get("longitude"), float(ds["height_m"]))
+    else:
+        where = _at_sonic(reference, float(ds["height_m"]))
+    return write_product(ds, output, "l4", fields, where, [l3_file],
                          {"processing": {"spectra": spectra, "quadrant": quadrant}})
+
+
+# ----------------------------------------------------------------------------- rigid-mount flights
+
+
+def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flight_id: str, flight: Mapping[str, Any],
+             site: Mapping[str, Any], despike: Mapping[str, Any], data_root: str | Path | None = None) -> Path:
+    """L0 -> L1 file for a rigid-mount flight: sonic and platform on one time axis with QC.
+
+    Parameters
+    ----------
+    record_file : str or Path
+        The flight's record (``record.file``), read by its ``record.format`` mapping.
+    output : str or Path
+        L1 NetCDF file.
+    campaign, flight_id : str
+        Campaign name and flight id.
+    flight : mapping
+        The flight's manifest entry (``record``, ``sonic``).
+    site : mapping
+        Manifest ``site``.
+    despike : mapping
+        ``processing.despike``.
+    data_root : str or Path, optional
+        Folder the manifest's data paths refer to (``source_file`` relative to it).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    sonic = flight.get("sonic") or {}
+    ds = rigid.rigid_l1(record_file, flight["record"]["format"], despike_window_s=float(despike["window_s"]),
+                        despike_n_mad=float(despike["n_mad"]), limits=str(sonic.get("limits", "trisonica_mini")),
+                        where=f"payload flight {flight_id} record.format")
+    ds.attrs["source_file"] = source_name(record_file, data_root)
+    ds.attrs["source"] = data_source(False)
+    LOG.info("flight %s rigid-mount L1: %d samples; %s", flight_id, ds.sizes["time"], ds.attrs["processing_log"])
+    fields = {"campaign": campaign, "flight": flight_id, "model": sonic.get("model", "3-D")}
+    where = Position(site["latitude"], site["longitude"], flight.get("target_height_m"))
+    return write_product(track_to_cf(ds), output, "rigid_l1", fields, where, [record_file],
+                         {"processing": {"despike": despike}})
+
+
+def rigid_l2(l1_file: str | Path, output: str | Path, *, campaign: str, flight_id: str, flight: Mapping[str, Any],
+             site: Mapping[str, Any], rigid_mount: Mapping[str, Any], max_missing_fraction: float) -> Path:
+    """L1 -> L2 file for a rigid-mount flight: steady segment, lag, motion correction.
+
+    Parameters
+    ----------
+    l1_file : str or Path
+        :func:`rigid_l1` output.
+    output : str or Path
+        L2 NetCDF file.
+    campaign, flight_id : str
+        Campaign name and flight id.
+    flight : mapping
+        The flight's manifest entry (``sonic`` mount, optional ``target_height_m``).
+    site : mapping
+        Manifest ``site`` (``altitude_m`` [m]).
+    rigid_mount : mapping
+        ``processing.rigid_mount``: ``alt_band_m``, ``max_horizontal_speed_ms``,
+        ``min_segment_s``, ``max_lag_s``.
+    max_missing_fraction : float
+        ``processing.max_missing_fraction``.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    l1 = track_from_cf(strip_cf(open_product(l1_file)))
+    mount = rigid.rigid_mount(flight["sonic"], f"payload flight {flight_id} sonic")
+    target = flight.get("target_height_m")
+    ds = rigid.rigid_l2(l1, mount, alt_band_m=float(rigid_mount["alt_band_m"]),
+                        max_horizontal_speed_ms=float(rigid_mount["max_horizontal_speed_ms"]),
+                        min_segment_s=float(rigid_mount["min_segment_s"]), max_lag_s=float(rigid_mount["max_lag_s"]),
+                        max_missing_fraction=float(max_missing_fraction), site_altitude_m=float(site["altitude_m"]),
+                        target_height_m=None if target is None else float(target), flight_id=flight_id)
+    ds.attrs["target_height_m"] = float(target) if target is not None else float("nan")
+    LOG.info("flight %s rigid-mount L2: lag %.3f s, usable %s %s", flight_id, ds.attrs["lag_sonic_ins_s"],
+             ds.attrs["usable"], ds.attrs["unusable_reason"])
+    ds = track_to_cf(ds)
+    where = Position(float(ds["precise_lat"].median()), float(ds["precise_lon"].median()), float(ds.attrs["height_m"]))
+    settings = {"processing": {"rigid_mount": rigid_mount, "max_missing_fraction": max_missing_fraction}}
+    return write_product(ds, output, "rigid_l2", {"campaign": campaign, "flight": flight_id}, where, [l1_file],
+                         settings)
+
+
+def drone_l3(drone_l2_file: str | Path, output: str | Path, *, campaign: str, flight_id: str,
+             flight: Mapping[str, Any], site: Mapping[str, Any], rotation: str) -> Path:
+    """L2 -> drone-only L3 file for a flight without a reference mast.
+
+    Parameters
+    ----------
+    drone_l2_file : str or Path
+        L2 of the drone.
+    output : str or Path
+        L3 NetCDF file.
+    campaign, flight_id : str
+        Campaign name and flight id.
+    flight : mapping
+        The flight's manifest entry.
+    site : mapping
+        Manifest ``site`` (position of the product).
+    rotation : str
+        ``processing.rotation``.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    ds = compute_drone_l3(track_from_cf(strip_cf(open_product(drone_l2_file))), flight, rotation)
+    LOG.info("flight %s drone-only L3: %d samples at %g Hz", flight_id, ds.sizes["time"], ds.attrs["sampling_rate_hz"])
+    where = Position(site["latitude"], site["longitude"], float(ds["height_m"].values[0]))
+    return write_product(ds, output, "l3_drone", {"campaign": campaign, "flight": flight_id}, where,
+                         [drone_l2_file], {"processing": {"rotation": rotation}})
 
 
 # ----------------------------------------------------------------------------- campaign table
