@@ -1,9 +1,9 @@
-"""Snakemake script: one UAV log of a quadrotor flight, L0 -> L1 NetCDF."""
+"""Snakemake script: every UAV log of one quadrotor flight, L0 -> L1 NetCDF (one job per flight)."""
 
 from dronewind.steps import logged
-from dronewind.steps.quadrotor import quadrotor_l1
+from dronewind.steps.quadrotor import quadrotor_l1_flight
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    quadrotor_l1(sm.params.campaign, sm.wildcards.qflight, sm.wildcards.quav, sm.input.raw, sm.params.site,
-                 sm.output[0], simulated=sm.params.simulated)
+    quadrotor_l1_flight(sm.params.campaign, sm.params.flight_id, sm.params.uavs, list(sm.input.raw), sm.params.site,
+                        list(sm.output), simulated=sm.params.simulated)

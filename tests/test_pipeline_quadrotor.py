@@ -24,7 +24,7 @@ import pytest
 import yaml
 
 from dronewind.core.cf import check_compliance, strip_cf, track_from_cf
-from dronewind.errors import InputError
+from dronewind.errors import InputError, ProcessingError
 from dronewind.manifest import default_config, load_campaign
 from dronewind.quadrotor import chain
 from dronewind.steps import open_product
@@ -159,6 +159,59 @@ def test_tunnel_tables_and_figures(run):
         assert path.is_file() and path.stat().st_size > 5000, path
 
 
+def test_l1_and_l2_run_one_job_per_flight(run):
+    """Each flight's UAVs are processed by one L1 and one L2 job (one log and benchmark per flight)."""
+    for rule in ("quadrotor_l1", "quadrotor_l2"):
+        assert sorted(p.name for p in (run / "benchmarks" / rule).iterdir()) == ["f31.tsv", "f56.tsv"]
+        assert sorted(p.name for p in (run / "logs" / rule).iterdir()) == ["f31.log", "f56.log"]
+        log = (run / "logs" / rule / "f56.log").read_text()
+        for uav in OFFSETS:
+            assert f"flight f56 uav {uav} L{rule[-1]}:" in log, log[-2000:]
+    # the per-UAV products keep their names
+    for level in ("L1", "L2"):
+        assert sorted(p.name for p in (run / "netcdf" / level / "quadrotor").iterdir()) == sorted(
+            f"{f}_{u}.nc" for f in ("f31", "f56") for u in OFFSETS)
+
+
+def _planned_jobs(run: Path) -> set[tuple[str, str]]:
+    """(rule, log-file stem) of every job a dry run on the finished campaign plans (``--summary``)."""
+    folder = run.parent.parent
+    proc = subprocess.run(
+        [str(BIN / "snakemake"), "--cores", "2", "--configfile", "config/config.yaml", str(folder / "extra.yaml"),
+         "--config", f"campaign={folder / 'quadcamp.yaml'}", f"results_dir={folder / 'results'}",
+         "--dry-run", "--summary"],
+        cwd=REPO, capture_output=True, text=True, timeout=300, check=False,
+        env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    lines = proc.stdout.splitlines()
+    header = next(i for i, line in enumerate(lines) if line.startswith("output_file\t"))
+    columns = lines[header].split("\t")
+    rows = [dict(zip(columns, line.split("\t"), strict=True)) for line in lines[header + 1:] if line.count("\t")]
+    return {(row["rule"], Path(row["log-file(s)"]).stem) for row in rows if row["plan"] == "update pending"}
+
+
+def test_edited_flight_reruns_that_flights_jobs_up_to_the_calibration(run):
+    """Changed conditions of flight f31 plan its simulate, L1 and window jobs only; then the
+    campaign calibration and, as it changes, the L2 of every flight (no tunnel job)."""
+    assert _planned_jobs(run) == set(), "a finished run plans nothing"
+    manifest = run.parent.parent / "quadcamp.yaml"
+    original, stat = manifest.read_text(), manifest.stat()
+    data = yaml.safe_load(original)
+    data["simulation"]["quadrotor_flights"]["f31"]["wind_speed_ms"] += 0.5
+    manifest.write_text(yaml.safe_dump(data, sort_keys=False))
+    try:
+        jobs = _planned_jobs(run)
+    finally:
+        manifest.write_text(original)
+        os.utime(manifest, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    rules = {rule for rule, _ in jobs}
+    assert {"quadrotor_simulate_f31", "quadrotor_l1_f31", "quadrotor_calibration", "quadrotor_l2_f31",
+            "quadrotor_l2_f56"} <= rules, jobs
+    assert ("quadrotor_windows", "f31") in jobs and ("quadrotor_windows", "f56") not in jobs, jobs
+    assert not {"quadrotor_simulate_f56", "quadrotor_l1_f56"} & rules, jobs
+    assert not any(rule.startswith("tunnel") for rule in rules), jobs
+
+
 # ----------------------------------------------------------------------------- bad input
 
 
@@ -242,3 +295,13 @@ def test_calibration_that_does_not_converge_is_flagged(raw, tmp_path):
     assert flagged and (res["summary"]["status"].startswith("NOT") or res["summary"]["aero"]["at_bound"])
     with pytest.raises(InputError, match="at least 3"):
         chain.compute_quadrotor_tables(b10.iloc[:0], w10.iloc[:0], b2.iloc[:0], w2.iloc[:0], pd.DataFrame())
+
+
+def test_flight_step_needs_one_file_per_uav(tmp_path):
+    with pytest.raises(ProcessingError, match=r"flight f31: 1 logs for 2 UAVs \(q01, q02\)"):
+        pq.quadrotor_l1_flight("quadcamp", "f31", ["q01", "q02"], [tmp_path / "q01.csv"], SITE,
+                               [tmp_path / "f31_q01.nc", tmp_path / "f31_q02.nc"], simulated=True)
+    with pytest.raises(ProcessingError, match=r"flight f31: 1 outputs for 2 UAVs"):
+        pq.quadrotor_l2_flight("quadcamp", "f31", ["q01", "q02"], ["a.nc", "b.nc"], "c.csv", "s.json", SITE,
+                               [tmp_path / "f31_q01.nc"], 1.0, {})
+    assert not list(tmp_path.iterdir())

@@ -283,12 +283,12 @@ SIMULATION = simulation_manifest(CAMPAIGN.data) if CAMPAIGN.simulated else None
 
 # ----------------------------------------------------------------------------- quadrotor and tunnel
 # (SWUF-3D fleet flights, seed 001, and the wind tunnel, seed 002; rules in quadrotor.smk and tunnel.smk)
-# Settings: the top-level `quadrotor:` section (defaults in the schema); per-flight and per-UAV
-# rules get their flight's manifest entry and the site as params, never the manifest file.
+# Settings: the top-level `quadrotor:` section (defaults in the schema). Per-flight rules get
+# what they read of their flight's manifest entry (the windows: the entry; L1 and L2, one job
+# for all the flight's UAVs: the UAV ids) and the site as params, never the manifest file.
 
 QUAD = canonical(config["quadrotor"])
 QUAD_DIR = RESULTS / "quadrotor"
-QUAD_UAVS = sorted({u["id"] for f in CAMPAIGN.quadrotor_flights for u in f["uavs"]})
 # The tunnel programme: `tunnel: {runs: tunnel/runs.csv}` in the manifest; a virtual campaign
 # with `simulation.tunnel` gets it from the simulator under L0.
 TUNNEL_RUNS_REL = (CAMPAIGN.data.get("tunnel") or {}).get("runs")
@@ -302,10 +302,6 @@ TUNNEL_RUNS = (
 )
 
 
-wildcard_constraints:
-    quav=_alternatives(QUAD_UAVS),
-
-
 def quad_uavs(flight_id):
     """UAV ids of a quadrotor flight, in manifest order."""
     return [u["id"] for u in CAMPAIGN.quadrotor_flight(flight_id)["uavs"]]
@@ -315,17 +311,6 @@ def quad_raw(flight_id):
     """Raw UAV logs of a quadrotor flight (manifest order) and its tower reference."""
     flight = CAMPAIGN.quadrotor_flight(flight_id)
     return [str(L0 / u["file"]) for u in flight["uavs"]], str(L0 / flight["reference"])
-
-
-def quad_raw_log(wc):
-    """Input function: the raw log of one UAV of a quadrotor flight."""
-    uavs = CAMPAIGN.quadrotor_flight(wc.qflight)["uavs"]
-    files = [u["file"] for u in uavs if u["id"] == wc.quav]
-    if not files:
-        raise ValueError(
-            f"{CAMPAIGN.path}: quadrotor flight {wc.qflight} has no UAV {wc.quav}"
-        )
-    return str(L0 / files[0])
 
 
 def quad_flight(wc):

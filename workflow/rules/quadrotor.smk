@@ -1,7 +1,8 @@
-# SWUF-3D quadrotor fleet (seed 001): L1 per UAV, averaging windows per flight, campaign
-# calibration and tables, calibrated L2 wind per UAV, diagnosis of the single-law model,
-# figures. Per-flight rules take the flight's manifest entry as params (never the manifest
-# file), so a change to one flight reruns only that flight's jobs.
+# SWUF-3D quadrotor fleet (seed 001): L1 of a flight's UAVs, averaging windows per flight,
+# campaign calibration and tables, calibrated L2 wind of a flight's UAVs, diagnosis of the
+# single-law model, figures. Per-flight rules take what they read of the flight's manifest
+# entry as params (never the manifest file), so a change to one flight reruns only that
+# flight's jobs up to the windows (the L2 of every flight follows the campaign calibration).
 from dronewind.steps.quadrotor import QUAD_TABLES
 
 # quadrotor figures in the report's "Validation" subcategory (the others: "Calibration")
@@ -38,24 +39,32 @@ if CAMPAIGN.simulated:
                 "../../scripts/quadrotor_simulate.py"
 
 
-rule quadrotor_l1:
-    """One UAV log to CF NetCDF (attitude and GNSS track)."""
-    input:
-        raw=quad_raw_log,
-    output:
-        RESULTS / "netcdf" / "L1" / "quadrotor" / "{qflight}_{quav}.nc",
-    log:
-        log_path("quadrotor_l1", "qflight", "quav"),
-    benchmark:
-        bench_path("quadrotor_l1", "qflight", "quav")
-    conda:
-        ENV
-    params:
-        campaign=CAMPAIGN.name,
-        site=SITE,
-        simulated=CAMPAIGN.simulated,
-    script:
-        "../../scripts/quadrotor_l1.py"
+# L1 and L2 run one job per flight, for all its UAVs (one process pays the library imports
+# once per flight): one rule per flight, whose outputs are the per-UAV files of the flight's
+# UAVs, which no wildcard pattern can describe.
+for _qf in QUAD_FLIGHTS:
+
+    rule:
+        name:
+            f"quadrotor_l1_{_qf}"
+        input:
+            raw=quad_raw(_qf)[0],
+        output:
+            quad_nc("L1", _qf),
+        log:
+            str(RESULTS / "logs" / "quadrotor_l1" / f"{_qf}.log"),
+        benchmark:
+            str(RESULTS / "benchmarks" / "quadrotor_l1" / f"{_qf}.tsv")
+        conda:
+            ENV
+        params:
+            campaign=CAMPAIGN.name,
+            flight_id=_qf,
+            uavs=quad_uavs(_qf),
+            site=SITE,
+            simulated=CAMPAIGN.simulated,
+        script:
+            "../../scripts/quadrotor_l1.py"
 
 
 rule quadrotor_windows:
@@ -105,27 +114,32 @@ rule quadrotor_calibration:
         "../../scripts/quadrotor_calibration.py"
 
 
-rule quadrotor_l2:
-    """Seed 001 Sect. 6: calibrated 1 Hz wind of one UAV."""
-    input:
-        l1=RESULTS / "netcdf" / "L1" / "quadrotor" / "{qflight}_{quav}.nc",
-        calibration=RESULTS / "tables" / "quadrotor_calibration.csv",
-        summary=QUAD_DIR / "calibration.json",
-    output:
-        RESULTS / "netcdf" / "L2" / "quadrotor" / "{qflight}_{quav}.nc",
-    log:
-        log_path("quadrotor_l2", "qflight", "quav"),
-    benchmark:
-        bench_path("quadrotor_l2", "qflight", "quav")
-    conda:
-        ENV
-    params:
-        campaign=CAMPAIGN.name,
-        site=SITE,
-        average_s=QUAD["average_s"],
-        hover=QUAD["hover"],
-    script:
-        "../../scripts/quadrotor_l2.py"
+for _qf in QUAD_FLIGHTS:
+
+    rule:
+        name:
+            f"quadrotor_l2_{_qf}"
+        input:
+            l1=quad_nc("L1", _qf),
+            calibration=RESULTS / "tables" / "quadrotor_calibration.csv",
+            summary=QUAD_DIR / "calibration.json",
+        output:
+            quad_nc("L2", _qf),
+        log:
+            str(RESULTS / "logs" / "quadrotor_l2" / f"{_qf}.log"),
+        benchmark:
+            str(RESULTS / "benchmarks" / "quadrotor_l2" / f"{_qf}.tsv")
+        conda:
+            ENV
+        params:
+            campaign=CAMPAIGN.name,
+            flight_id=_qf,
+            uavs=quad_uavs(_qf),
+            site=SITE,
+            average_s=QUAD["average_s"],
+            hover=QUAD["hover"],
+        script:
+            "../../scripts/quadrotor_l2.py"
 
 
 rule quadrotor_diagnosis:

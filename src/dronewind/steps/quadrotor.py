@@ -10,8 +10,8 @@ passes them as ``params``). Snakemake scripts in ``scripts/quadrotor_*.py`` and
 Steps and products (``R = results/<name>``):
 
 * :func:`simulate_quadrotor` / :func:`simulate_tunnel` (virtual campaigns only): L0 files.
-* :func:`quadrotor_l1` (one job per flight and UAV): ``R/netcdf/L1/quadrotor/<flight>_<uav>.nc``
-  (attitude and GNSS log in CF form).
+* :func:`quadrotor_l1_flight` (one job per flight; :func:`quadrotor_l1` for each of its UAVs):
+  ``R/netcdf/L1/quadrotor/<flight>_<uav>.nc`` (attitude and GNSS log in CF form).
 * :func:`quadrotor_windows` (one job per flight): the flight's averaging windows
   ``R/quadrotor/windows/<flight>_{windows,blocks,problems}.csv`` (10-min and 2-min windows,
   seed 001 Sect. 5 and App. C; UAV logs that cannot be used are listed, never dropped
@@ -20,8 +20,9 @@ Steps and products (``R = results/<name>``):
   contract table), ``quadrotor_table2/3/C1/C2.csv``, ``quadrotor_direction.csv``,
   ``quadrotor_windows.csv`` (per-window predictions that the figures plot),
   ``quadrotor_profiles.csv``, ``quadrotor_problems.csv`` and ``R/quadrotor/calibration.json``.
-* :func:`quadrotor_l2` (one job per flight and UAV): ``R/netcdf/L2/quadrotor/<flight>_<uav>.nc``,
-  the calibrated 1 Hz wind of the UAV (seed 001 Sect. 6).
+* :func:`quadrotor_l2_flight` (one job per flight; :func:`quadrotor_l2` for each of its UAVs):
+  ``R/netcdf/L2/quadrotor/<flight>_<uav>.nc``, the calibrated 1 Hz wind of the UAV (seed 001
+  Sect. 6).
 * :func:`quadrotor_diagnosis` (campaign): ``R/quadrotor_diagnosis.json``.
 * :func:`tunnel_analysis`: ``R/tables/tunnel_<table>.csv`` (seed 002 Table 2 equivalent,
   Figs 4-5 RMSEs, gusts, steps, turbulence).
@@ -48,8 +49,8 @@ from dronewind.tunnel.analysis import TUNNEL_TABLES
 
 __all__ = [
     "QUAD_TABLES", "TUNNEL_TABLES", "simulate_quadrotor", "simulate_tunnel", "tunnel_root",
-    "quadrotor_l1", "quadrotor_windows", "read_windows", "quadrotor_calibration", "quadrotor_l2",
-    "quadrotor_diagnosis", "tunnel_analysis",
+    "quadrotor_l1", "quadrotor_l1_flight", "quadrotor_windows", "read_windows", "quadrotor_calibration",
+    "quadrotor_l2", "quadrotor_l2_flight", "quadrotor_diagnosis", "tunnel_analysis",
 ]
 
 
@@ -194,6 +195,46 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
         height_m=height, extra_attrs={"campaign": campaign, "flight": flight_id, "uav": uav,
                                       "source": data_source(simulated)},
         nonstandard_group="platform_velocity")
+
+
+def _per_uav(flight_id: str, uavs: Sequence[str], **files: Sequence[str | Path]) -> None:
+    """Check that each list of files has one entry per UAV of the flight (same order)."""
+    for name, paths in files.items():
+        if len(paths) != len(uavs):
+            raise ProcessingError(f"quadrotor flight {flight_id}: {len(paths)} {name} for {len(uavs)} UAVs "
+                                  f"({', '.join(uavs)})")
+
+
+def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_files: Sequence[str | Path],
+                        site: Mapping[str, Any], out_l1: Sequence[str | Path], *, simulated: bool) -> list[Path]:
+    """L0 -> L1 NetCDF of every UAV of a quadrotor flight (:func:`quadrotor_l1` for each).
+
+    One workflow job per flight: the UAVs are processed in one process, which pays the
+    library imports once.
+
+    Parameters
+    ----------
+    campaign : str
+        Campaign name.
+    flight_id : str
+        Quadrotor flight id.
+    uavs : sequence of str
+        The flight's UAV ids (manifest order).
+    log_files, out_l1 : sequence of str or Path
+        Raw log and L1 file of each UAV, in the order of ``uavs``.
+    site : mapping
+        The manifest's ``site``.
+    simulated : bool
+        The campaign is virtual (stated in ``source``).
+
+    Returns
+    -------
+    list of Path
+        The written files, in the order of ``uavs``.
+    """
+    _per_uav(flight_id, uavs, logs=log_files, outputs=out_l1)
+    return [quadrotor_l1(campaign, flight_id, uav, log, site, out, simulated=simulated)
+            for uav, log, out in zip(uavs, log_files, out_l1, strict=True)]
 
 
 def quadrotor_windows(flight: Mapping[str, Any], l1_files: Mapping[str, str | Path], reference_file: str | Path,
@@ -407,6 +448,43 @@ def quadrotor_l2(campaign: str, flight_id: str, uav: str, l1_file: str | Path, c
         config={"average_s": average_s, "hover": dict(hover)}, station_id=f"{flight_id}_{uav}",
         latitude=lat, longitude=lon, height_m=height,
         extra_attrs={"campaign": campaign, "flight": flight_id, "uav": uav}, nonstandard_group="weather_vane")
+
+
+def quadrotor_l2_flight(campaign: str, flight_id: str, uavs: Sequence[str], l1_files: Sequence[str | Path],
+                        calibration_file: str | Path, summary_file: str | Path, site: Mapping[str, Any],
+                        out_l2: Sequence[str | Path], average_s: float, hover: Mapping[str, float]) -> list[Path]:
+    """L1 -> L2 NetCDF of every UAV of a quadrotor flight (:func:`quadrotor_l2` for each).
+
+    One workflow job per flight (the library imports are paid once per flight).
+
+    Parameters
+    ----------
+    campaign : str
+        Campaign name.
+    flight_id : str
+        Quadrotor flight id.
+    uavs : sequence of str
+        The flight's UAV ids (manifest order).
+    l1_files, out_l2 : sequence of str or Path
+        L1 file and L2 file of each UAV, in the order of ``uavs``.
+    calibration_file, summary_file : str or Path
+        ``tables/quadrotor_calibration.csv`` and ``quadrotor/calibration.json``.
+    site : mapping
+        The manifest's ``site``.
+    average_s : float
+        Output averaging [s].
+    hover : mapping
+        Hover selection settings.
+
+    Returns
+    -------
+    list of Path
+        The written files, in the order of ``uavs``.
+    """
+    _per_uav(flight_id, uavs, l1_files=l1_files, outputs=out_l2)
+    return [quadrotor_l2(campaign, flight_id, uav, l1, calibration_file, summary_file, site, out, average_s, hover)
+            for uav, l1, out in zip(uavs, l1_files, out_l2, strict=True)]
+
 
 
 # ----------------------------------------------------------------------------- tunnel
