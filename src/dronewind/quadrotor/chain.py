@@ -32,7 +32,6 @@ import xarray as xr
 
 from dronewind.errors import InputError
 from dronewind.quadrotor.drag import DragLaw, speed_from_tilt, tilt_from_attitude
-from dronewind.quadrotor.validation import predict_windows, seed001_tables
 from dronewind.quadrotor.wind import uav_wind_dataset, wind_from_attitude
 from dronewind.quadrotor.windows import flight_windows
 
@@ -261,6 +260,8 @@ def window_predictions(main: Mapping[str, Any], blocks: pd.DataFrame, windows: p
     """
     aero = main["aero"]
     table = main["calibration_table"]
+    from dronewind.quadrotor.validation import predict_windows  # scipy.optimize/stats: only where used
+
     ind = predict_windows(blocks, windows, main["individual"], method="tilt")
     uni = predict_windows(blocks, windows, main["universal_offsets"], aero=aero)
     params = table[["uav", "pitch_offset_deg", "yaw_offset_deg"]]
@@ -376,6 +377,8 @@ def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, bl
     InputError
         When a window length has fewer than 3 windows (nothing to calibrate).
     """
+    from dronewind.quadrotor.validation import seed001_tables  # scipy.optimize/stats: only where used
+
     res10 = seed001_tables(blocks10, windows10) if len(windows10) >= 3 else None
     res2 = seed001_tables(blocks2, windows2) if len(windows2) >= 3 else None
     if res10 is None and res2 is None:

@@ -116,7 +116,17 @@ simulated campaign's mast globs must contain ``*``), covering the flight's log s
 files of one sonic never overlap in time.
 """
 
-from dronewind.simulate.atmosphere import simulate_wind
-from dronewind.simulate.payload import simulate_payload_flight
+import importlib
+from typing import Any
 
-__all__ = ["simulate_wind", "simulate_payload_flight"]
+#: Public names re-exported lazily (PEP 562): a quadrotor or tunnel job importing its own
+#: simulator does not pay for the payload simulator's imports.
+_EXPORTS = {"simulate_wind": "atmosphere", "simulate_payload_flight": "payload"}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f"dronewind.simulate.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module 'dronewind.simulate' has no attribute {name!r}")
