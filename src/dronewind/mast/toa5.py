@@ -205,6 +205,9 @@ def read_toa5(
         many corrupt rows.
     """
     p = Path(path)
+    fast = _read_toa5_fast(p, required)
+    if fast is not None:
+        return fast
     lines, header, names, units = _read_header(p, required)
     body = lines[4:]
     n_lines = len(body)
@@ -235,6 +238,81 @@ def read_toa5(
     frame["_line"] = line_no_ok[keep]
     info = {"header": header, "units": units, "n_lines": n_lines, "n_corrupt_lines": n_corrupt,
             "corrupt_lines": bad_lines[:_N_LOGGED].tolist(), "n_nonnumeric": n_nonnumeric}
+    return frame, info
+
+
+#: The NAN literals of the row-by-row path (it compares upper-cased text with "NAN", "-NAN", "+NAN", "").
+_FAST_NA_VALUES = ["NAN", "NaN", "nan", "Nan", "-NAN", "-NaN", "-nan", "+NAN", "+NaN", "+nan", ""]
+#: A body that holds anything but printable ASCII, CR and LF takes the row-by-row path.
+_FAST_UNSAFE_BYTES = re.compile(rb"[^\x20-\x7e\r\n]")
+
+
+def _read_toa5_fast(p: Path, required: Sequence[str]) -> tuple[pd.DataFrame, dict[str, Any]] | None:
+    """:func:`read_toa5` of a clean file with pandas' C parser, or ``None`` for the row-by-row path.
+
+    A day of 20 Hz rows (1.7 million) parsed row by row holds every field as a Python
+    string (about 1.5 GB); the C parser holds the numbers. It is used only when the result
+    must equal the row-by-row path's: the header passes the same checks, the body is
+    printable ASCII with CR/LF line ends, every row has exactly the header's number of
+    fields (the C parser stops on a row with more, and the total comma count rules out
+    rows with fewer), every TIMESTAMP parses, RECORD is an integer, and every other field
+    is a number or a NAN literal. Anything else (a corrupt row, text in a numeric field, a
+    blank line) returns ``None`` and the file is read row by row, which counts and reports
+    what it finds.
+
+    Returns
+    -------
+    tuple or None
+        As :func:`read_toa5`, or ``None``.
+    """
+    if not p.is_file():
+        return None
+    data = p.read_bytes()
+    start = 3 if data.startswith(b"\xef\xbb\xbf") else 0
+    cut = start
+    for _ in range(4):
+        cut = data.find(b"\n", cut) + 1
+        if cut == 0:
+            return None
+    head_lines = data[start:cut].decode("utf-8", errors="replace").splitlines()
+    if len(head_lines) != 4:
+        return None
+    header = [next(csv.reader([ln]), []) for ln in head_lines]
+    names = [h.strip() for h in header[1]]
+    if (not header[0] or header[0][0] != "TOA5" or any(c not in names for c in required)
+            or len(set(names)) != len(names) or any(len(header[k]) != len(names) for k in (2, 3))
+            or any(header[k] and _TIMESTAMP_RE.match(header[k][0].strip()) for k in (2, 3))):
+        return None  # the row-by-row path raises the error that names the line
+    if cut == len(data) or _FAST_UNSAFE_BYTES.search(data, cut) is not None:
+        return None
+    n_cr, n_lf = data.count(b"\r", cut), data.count(b"\n", cut)
+    if n_cr and (n_cr != n_lf or data.count(b"\r\n", cut) != n_cr):
+        return None
+    n_lines = n_lf + (0 if data.endswith(b"\n") else 1)
+    if data.count(b",", cut) != n_lines * (len(names) - 1):
+        return None
+    del data  # the parser reads the file itself: one copy of the text at a time
+    numeric = {n: np.float64 for n in names if n not in ("TIMESTAMP", "RECORD")}
+    try:
+        raw = pd.read_csv(p, skiprows=4, header=None, names=names, engine="c", skip_blank_lines=False,
+                          dtype={"TIMESTAMP": str, "RECORD": np.int64, **numeric}, keep_default_na=False,
+                          na_values={n: _FAST_NA_VALUES for n in numeric}, float_precision="round_trip",
+                          encoding="utf-8-sig")
+    except (ValueError, pd.errors.ParserError):
+        return None
+    if len(raw) != n_lines:
+        return None
+    ts = pd.to_datetime(raw["TIMESTAMP"], format="ISO8601", errors="coerce")
+    if ts.isna().any():
+        return None
+    frame = pd.DataFrame({"time": ts.to_numpy().astype("datetime64[ns]")})
+    frame["RECORD"] = raw["RECORD"].to_numpy(dtype=np.int64)
+    for col in numeric:
+        frame[col] = raw[col].to_numpy(dtype=float)
+    frame["_line"] = np.arange(5, 5 + n_lines)
+    units = dict(zip(names, (h.strip() for h in header[2]), strict=False))
+    info = {"header": header, "units": units, "n_lines": n_lines, "n_corrupt_lines": 0, "corrupt_lines": [],
+            "n_nonnumeric": 0}
     return frame, info
 
 
