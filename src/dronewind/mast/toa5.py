@@ -296,7 +296,7 @@ def _read_toa5_fast(p: Path, required: Sequence[str]) -> tuple[pd.DataFrame, dic
     try:
         raw = pd.read_csv(p, skiprows=4, header=None, names=names, engine="c", skip_blank_lines=False,
                           dtype={"TIMESTAMP": str, "RECORD": np.int64, **numeric}, keep_default_na=False,
-                          na_values={n: _FAST_NA_VALUES for n in numeric}, float_precision="round_trip",
+                          na_values={n: _FAST_NA_VALUES for n in numeric},
                           encoding="utf-8-sig")
     except (ValueError, pd.errors.ParserError):
         return None
