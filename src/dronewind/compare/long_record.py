@@ -361,6 +361,12 @@ def file_l1(scanned: list[RecordFile], k: int, sonic: Mapping[str, Any], despike
                   sums, float(part.attrs["sampling_rate_hz"]), counts)
 
 
+def _file_l1_in_slot(slots: threading.BoundedSemaphore, *args: Any) -> FileL1:
+    """:func:`file_l1` once one of the ``l1_at_once`` slots is free."""
+    with slots:
+        return file_l1(*args)
+
+
 def record_planar_fit_of(parts: Sequence[FileL1]) -> dict[str, Any]:
     """The record's planar fit from the files' 30-min sums (as :func:`dronewind.mast.chain.record_planar_fit`).
 
@@ -459,7 +465,7 @@ def _reach(scanned: list[RecordFile], k: int, block_s: float) -> list[int]:
 def process_long_record(
     files: Sequence[str | Path], out_dir: str | Path, sonic: Mapping[str, Any],
     processing: Mapping[str, Any] | None = None, *, record: str = "record", n_workers: int = 2,
-    table_name: str = "block_stats.csv",
+    l1_at_once: int = 1, table_name: str = "block_stats.csv",
 ) -> LongRecordResult:
     """A long record from its TOA5 files to ``tables/block_stats.csv``, in bounded memory.
 
@@ -478,8 +484,12 @@ def process_long_record(
     record : str
         Record name (the mast or tower) in the table and file names.
     n_workers : int
-        Tasks run at once (threads); the peak memory grows with it (about one day file of
-        20 Hz rows each, see ``benchmarks/bench_long_record.py``).
+        Tasks run at once (threads).
+    l1_at_once : int
+        L1 tasks run at once (at most ``n_workers``). An L1 task holds a whole file (about
+        350 MB for a day of 20 Hz rows), a block task a few tens of MB: with the default 1,
+        one thread reads the next file while the other analyses the blocks of the last,
+        and the peak memory is that of one file (``benchmarks/bench_long_record.py``).
     table_name : str
         File name of the table.
 
@@ -505,7 +515,9 @@ def process_long_record(
     n = len(scanned)
     p_l1 = Progress("L1 file", n, "read, despiked and written")
     p_blk = Progress("block file", n, "analysed in blocks")
-    l1_tasks = [dask.delayed(file_l1, pure=False)(scanned, k, sonic, despike, out, record, p_l1) for k in range(n)]
+    slots = threading.BoundedSemaphore(max(1, int(l1_at_once)))
+    l1_tasks = [dask.delayed(_file_l1_in_slot, pure=False)(slots, scanned, k, sonic, despike, out, record, p_l1)
+                for k in range(n)]
     fit_task = dask.delayed(record_planar_fit_of, pure=False)(l1_tasks)
     use_fit = fit_task if settings.rotation == "planar_fit" else None
     first_times = [r.first_time for r in scanned]

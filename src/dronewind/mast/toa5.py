@@ -245,6 +245,8 @@ def read_toa5(
 _FAST_NA_VALUES = ["NAN", "NaN", "nan", "Nan", "-NAN", "-NaN", "-nan", "+NAN", "+NaN", "+nan", ""]
 #: A body that holds anything but printable ASCII, CR and LF takes the row-by-row path.
 _FAST_UNSAFE_BYTES = re.compile(rb"[^\x20-\x7e\r\n]")
+#: Rows parsed at a time by the C-parser path.
+_FAST_CHUNK_ROWS = 200_000
 
 
 def _read_toa5_fast(p: Path, required: Sequence[str]) -> tuple[pd.DataFrame, dict[str, Any]] | None:
@@ -293,23 +295,33 @@ def _read_toa5_fast(p: Path, required: Sequence[str]) -> tuple[pd.DataFrame, dic
         return None
     del data  # the parser reads the file itself: one copy of the text at a time
     numeric = {n: np.float64 for n in names if n not in ("TIMESTAMP", "RECORD")}
-    try:
-        raw = pd.read_csv(p, skiprows=4, header=None, names=names, engine="c", skip_blank_lines=False,
-                          dtype={"TIMESTAMP": str, "RECORD": np.int64, **numeric}, keep_default_na=False,
-                          na_values={n: _FAST_NA_VALUES for n in numeric},
-                          encoding="utf-8-sig")
+    columns: dict[str, np.ndarray] = {"time": np.empty(n_lines, "datetime64[ns]"),
+                                      "RECORD": np.empty(n_lines, np.int64),
+                                      **{n: np.empty(n_lines, float) for n in numeric}}
+    done = 0
+    try:  # in chunks: the TIMESTAMP texts of one chunk at a time, not of the whole file
+        with pd.read_csv(p, skiprows=4, header=None, names=names, engine="c", skip_blank_lines=False,
+                         dtype={"TIMESTAMP": str, "RECORD": np.int64, **numeric}, keep_default_na=False,
+                         na_values={n: _FAST_NA_VALUES for n in numeric}, encoding="utf-8-sig",
+                         chunksize=_FAST_CHUNK_ROWS) as reader:
+            for chunk in reader:
+                m = len(chunk)
+                if done + m > n_lines:
+                    return None
+                ts = pd.to_datetime(chunk["TIMESTAMP"], format="ISO8601", errors="coerce")
+                if ts.isna().any():
+                    return None
+                columns["time"][done:done + m] = ts.to_numpy().astype("datetime64[ns]")
+                columns["RECORD"][done:done + m] = chunk["RECORD"].to_numpy(dtype=np.int64)
+                for col in numeric:
+                    columns[col][done:done + m] = chunk[col].to_numpy(dtype=float)
+                done += m
     except (ValueError, pd.errors.ParserError):
         return None
-    if len(raw) != n_lines:
+    if done != n_lines:
         return None
-    ts = pd.to_datetime(raw["TIMESTAMP"], format="ISO8601", errors="coerce")
-    if ts.isna().any():
-        return None
-    frame = pd.DataFrame({"time": ts.to_numpy().astype("datetime64[ns]")})
-    frame["RECORD"] = raw["RECORD"].to_numpy(dtype=np.int64)
-    for col in numeric:
-        frame[col] = raw[col].to_numpy(dtype=float)
-    frame["_line"] = np.arange(5, 5 + n_lines)
+    columns["_line"] = np.arange(5, 5 + n_lines)
+    frame = pd.DataFrame(columns, copy=False)
     units = dict(zip(names, (h.strip() for h in header[2]), strict=False))
     info = {"header": header, "units": units, "n_lines": n_lines, "n_corrupt_lines": 0, "corrupt_lines": [],
             "n_nonnumeric": 0}
