@@ -98,7 +98,7 @@ def _vm_hwm_mb() -> float:
     return float("nan")
 
 
-def run(days: list[int], n_workers: int, keep: Path | None) -> dict:
+def run(days: list[int], n_workers: int, keep: Path | None, toa5_dir: Path | None = None) -> dict:
     """Generate max(days) daily files once, process the first N in a child process for each N."""
     tmp = Path(tempfile.mkdtemp(prefix="bench_long_record_", dir=keep))
     results = []
@@ -106,9 +106,12 @@ def run(days: list[int], n_workers: int, keep: Path | None) -> dict:
         g0 = time.perf_counter()
         # generated in a child too: this parent stays small, so that the processing children's
         # ru_maxrss (which Linux starts from the RSS of the process they were forked from) is theirs
-        gen = subprocess.run([sys.executable, __file__, "--generate", str(max(days)), "--out-dir", str(tmp / "toa5")],
-                             check=True, stdout=subprocess.PIPE, text=True)
-        files = [Path(f) for f in json.loads(gen.stdout.strip().splitlines()[-1])]
+        if toa5_dir is not None:  # files of an earlier --generate: reused, not deleted
+            files = sorted(toa5_dir.glob("mast30_*.dat"))[:max(days)]
+        else:
+            gen = subprocess.run([sys.executable, __file__, "--generate", str(max(days)), "--out-dir",
+                                  str(tmp / "toa5")], check=True, stdout=subprocess.PIPE, text=True)
+            files = [Path(f) for f in json.loads(gen.stdout.strip().splitlines()[-1])]
         gen_s = time.perf_counter() - g0
         size_gb = sum(f.stat().st_size for f in files) / 1e9
         print(f"generated {len(files)} daily TOA5 files ({size_gb:.2f} GB) in {gen_s:.0f} s", file=sys.stderr)
@@ -148,9 +151,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2, help="dask tasks at once (default 2)")
     ap.add_argument("--out", type=Path, help="write the results as JSON here")
     ap.add_argument("--tmp", type=Path, help="folder for the temporary files (default: the system's)")
+    ap.add_argument("--toa5-dir", type=Path, help="reuse the daily files of an earlier run (python "
+                    "benchmarks/bench_long_record.py --generate N --out-dir DIR) instead of generating them")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
-    ap.add_argument("--generate", type=int, help=argparse.SUPPRESS)
-    ap.add_argument("--out-dir", help=argparse.SUPPRESS)
+    ap.add_argument("--generate", type=int, help="only write N daily files into --out-dir and exit")
+    ap.add_argument("--out-dir", help="folder of --generate")
     ap.add_argument("files", nargs="*", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
@@ -159,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.generate:
         print(json.dumps([str(f) for f in write_days(Path(args.out_dir), args.generate)]))
         return 0
-    report = run(sorted(args.days), args.workers, args.tmp)
+    report = run(sorted(args.days), args.workers, args.tmp, args.toa5_dir)
     text = json.dumps(report, indent=2)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)

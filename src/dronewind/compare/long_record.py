@@ -54,7 +54,15 @@ import dask
 import numpy as np
 import xarray as xr
 
-from dronewind.compare.blocks import BlockSettings, block_stats_row, block_stats_table, record_blocks, to_ns
+from dronewind.compare.blocks import (
+    Block,
+    BlockSettings,
+    block_l4,
+    block_stats_row,
+    block_stats_table,
+    iter_blocks,
+    to_ns,
+)
 from dronewind.core import rotation as rot
 from dronewind.core.cf import atomic_write_text, write_netcdf
 from dronewind.core.progress import Progress
@@ -390,22 +398,38 @@ def record_planar_fit_of(parts: Sequence[FileL1]) -> dict[str, Any]:
     return rot.planar_fit_attrs(fit, note)
 
 
-def _open_l1(paths: Sequence[Path], t0: np.datetime64, t1: np.datetime64) -> xr.Dataset | None:
-    """The L1 variables of the blocks between t0 and t1 from the files that hold them, concatenated."""
-    parts = []
-    attrs: dict[str, Any] = {}
-    for p in paths:
-        with _NETCDF_LOCK, xr.open_dataset(p, engine="netcdf4") as ds:
-            cut = ds[["u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k"]].sel(time=slice(t0, t1)).load()
-            if not attrs:
-                attrs = dict(ds.attrs)
-        if cut.sizes["time"]:
-            parts.append(cut)
-    if not parts:
-        return None
-    out = parts[0] if len(parts) == 1 else xr.concat(parts, dim="time", data_vars="all", join="outer")
-    out.attrs = {k: attrs[k] for k in ("sampling_rate_hz", "height_m", "sensor_id") if k in attrs}
-    return out
+class _L1Files:
+    """The L1 NetCDF files a block task reads, opened lazily: one block's samples are read at a time."""
+
+    _VARS = ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k")
+
+    def __init__(self, paths: Sequence[Path]) -> None:
+        with _NETCDF_LOCK:
+            self.handles = [xr.open_dataset(p, engine="netcdf4") for p in paths]
+            times = [np.asarray(h["time"].values).astype("datetime64[ns]") for h in self.handles]
+            self.attrs = {k: self.handles[0].attrs[k] for k in ("sampling_rate_hz", "height_m", "sensor_id")
+                          if k in self.handles[0].attrs}
+        self.time = np.concatenate(times)
+        self.bounds = np.cumsum([0] + [t.size for t in times])
+
+    def block(self, samples: slice) -> xr.Dataset:
+        """The L1 variables of the samples ``samples`` of the concatenated files (read now)."""
+        a, b = int(samples.start), int(samples.stop)
+        cols: dict[str, list[np.ndarray]] = {k: [] for k in self._VARS}
+        with _NETCDF_LOCK:
+            for j, h in enumerate(self.handles):
+                lo, hi = max(a, int(self.bounds[j])), min(b, int(self.bounds[j + 1]))
+                if lo < hi:
+                    cut = h[list(self._VARS)].isel(time=slice(lo - int(self.bounds[j]), hi - int(self.bounds[j])))
+                    for k in self._VARS:
+                        cols[k].append(np.asarray(cut[k].values, dtype=float))
+        return xr.Dataset({k: ("time", np.concatenate(v)) for k, v in cols.items()},
+                          coords={"time": self.time[a:b]}, attrs=dict(self.attrs))
+
+    def close(self) -> None:
+        with _NETCDF_LOCK:
+            for h in self.handles:
+                h.close()
 
 
 def file_blocks(parts: Sequence[FileL1], k: int, first_times: Sequence[np.datetime64], settings: BlockSettings,
@@ -436,21 +460,23 @@ def file_blocks(parts: Sequence[FileL1], k: int, first_times: Sequence[np.dateti
     list of dict
         Rows (:func:`dronewind.compare.blocks.block_stats_row`).
     """
-    block_ns = int(round(settings.block_s * _NS))
-    start = None if k == 0 else first_times[k]
-    stop = None if k + 1 == len(first_times) else first_times[k + 1]
-    name = parts[0].path.name
-    with progress.item(name) if progress is not None else nullcontext():
-        lo_ns = to_ns(parts[0].first_time if start is None else start)
-        hi_ns = to_ns(parts[-1].last_time if stop is None else stop)
-        t0 = np.datetime64((lo_ns // block_ns) * block_ns, "ns")
-        t1 = np.datetime64((-(-hi_ns // block_ns) + 1) * block_ns - 1, "ns")
-        l1 = _open_l1([p.path for p in parts], t0, t1)
-        if l1 is None:
-            return []
-        fit = rot.planar_fit_from_attrs(dict(planar_fit)) if planar_fit else None
-        l4s = record_blocks(l1, settings, fit, start=start, stop=stop)
-        return [block_stats_row(x, record, sensor) for x in l4s]
+    start = None if k == 0 else to_ns(first_times[k])
+    stop = None if k + 1 == len(first_times) else to_ns(first_times[k + 1])
+    fit = rot.planar_fit_from_attrs(dict(planar_fit)) if planar_fit else None
+    rows = []
+    with progress.item(parts[0].path.name) if progress is not None else nullcontext():
+        files = _L1Files([p.path for p in parts])
+        try:
+            for block in iter_blocks(files.time, settings.block_s):
+                t0 = to_ns(block.start)
+                if (start is not None and t0 < start) or (stop is not None and t0 >= stop):
+                    continue
+                one = Block(block.index, block.start, block.end, slice(0, block.samples.stop - block.samples.start))
+                l4 = block_l4(files.block(block.samples), one, settings, fit)
+                rows.append(block_stats_row(l4, record, sensor))
+        finally:
+            files.close()
+    return rows
 
 
 def _reach(scanned: list[RecordFile], k: int, block_s: float) -> list[int]:
