@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--days", type=int, nargs="+", default=[3, 10, 30], help="record lengths [days] (default 3 10 30)")
-    ap.add_argument("--workers", type=int, default=2, help="dask tasks at once (default 2)")
+    ap.add_argument("--workers", type=int, default=1, help="dask tasks at once (default 1)")
     ap.add_argument("--out", type=Path, help="write the results as JSON here")
     ap.add_argument("--tmp", type=Path, help="folder for the temporary files (default: the system's)")
     ap.add_argument("--toa5-dir", type=Path, help="reuse the daily files of an earlier run (python "

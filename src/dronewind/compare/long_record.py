@@ -490,7 +490,7 @@ def _reach(scanned: list[RecordFile], k: int, block_s: float) -> list[int]:
 
 def process_long_record(
     files: Sequence[str | Path], out_dir: str | Path, sonic: Mapping[str, Any],
-    processing: Mapping[str, Any] | None = None, *, record: str = "record", n_workers: int = 2,
+    processing: Mapping[str, Any] | None = None, *, record: str = "record", n_workers: int = 1,
     l1_at_once: int = 1, table_name: str = "block_stats.csv",
 ) -> LongRecordResult:
     """A long record from its TOA5 files to ``tables/block_stats.csv``, in bounded memory.
@@ -510,7 +510,10 @@ def process_long_record(
     record : str
         Record name (the mast or tower) in the table and file names.
     n_workers : int
-        Tasks run at once (threads).
+        Tasks run at once (threads). Default 1: measured on 30 days of 20 Hz data, two
+        threads took the same wall time as one (the parsing, despiking and statistics hold
+        the GIL most of the time) and raised the peak memory from 689 to 1073 MB
+        (``benchmarks/results/long_record.json``).
     l1_at_once : int
         L1 tasks run at once (at most ``n_workers``). An L1 task holds a whole file (about
         350 MB for a day of 20 Hz rows), a block task a few tens of MB: with the default 1,
