@@ -32,6 +32,10 @@ __all__ = [
     "roll_angle_rad",
     "planar_fit_tilt",
     "apply_planar_fit",
+    "BlockSums",
+    "block_sums",
+    "merge_block_sums",
+    "means_of_block_sums",
     "block_means",
     "planar_fit_attrs",
     "planar_fit_from_attrs",
@@ -288,6 +292,101 @@ def planar_fit_tilt(u_mean_ms: np.ndarray, v_mean_ms: np.ndarray, w_mean_ms: np.
     )
 
 
+@dataclass(frozen=True)
+class BlockSums:
+    """Valid-sample counts and component sums per UTC block: the mergeable part of :func:`block_means`.
+
+    Sums of pieces of a record (one file at a time) merge exactly (:func:`merge_block_sums`),
+    so the planar fit of a long record needs only one piece in memory.
+
+    Attributes
+    ----------
+    index : numpy.ndarray
+        Block numbers, ``floor(t / block_s)`` of the UTC time since 1970, increasing (int64).
+    n_valid : numpy.ndarray
+        Samples with finite u, v and w per block.
+    sums : numpy.ndarray
+        (3, n_blocks) sums of u, v, w over the valid samples [m s-1].
+    """
+
+    index: np.ndarray
+    n_valid: np.ndarray
+    sums: np.ndarray
+
+
+def block_sums(time: np.ndarray, u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray,
+               block_s: float = 1800.0) -> BlockSums:
+    """Valid-sample counts and sums of u, v, w per block of ``block_s`` aligned to UTC.
+
+    Parameters
+    ----------
+    time : numpy.ndarray
+        datetime64 time stamps (UTC); gaps and breaks allowed.
+    u_ms, v_ms, w_ms : numpy.ndarray
+        Components, NaN where flagged [m s-1].
+    block_s : float
+        Block length [s]; blocks start at multiples of ``block_s`` since 1970-01-01T00Z.
+
+    Returns
+    -------
+    BlockSums
+    """
+    t_ns = np.asarray(time).astype("datetime64[ns]").astype(np.int64)
+    u, v, w = (np.asarray(a, dtype=float) for a in (u_ms, v_ms, w_ms))
+    block = t_ns // int(round(block_s * 1e9))
+    ok = np.isfinite(u) & np.isfinite(v) & np.isfinite(w)
+    index, inverse = np.unique(block, return_inverse=True)
+    n_valid = np.bincount(inverse, weights=ok.astype(float), minlength=index.size)
+    sums = np.stack([np.bincount(inverse, weights=np.where(ok, a, 0.0), minlength=index.size) for a in (u, v, w)])
+    return BlockSums(index.astype(np.int64), n_valid, sums)
+
+
+def merge_block_sums(parts: list[BlockSums]) -> BlockSums:
+    """Merge the block sums of pieces of one record (a block split between pieces is summed).
+
+    Parameters
+    ----------
+    parts : list of BlockSums
+        From :func:`block_sums` with the same ``block_s``.
+
+    Returns
+    -------
+    BlockSums
+    """
+    if not parts:
+        return BlockSums(np.empty(0, np.int64), np.empty(0), np.empty((3, 0)))
+    index, inverse = np.unique(np.concatenate([p.index for p in parts]), return_inverse=True)
+    n_valid = np.bincount(inverse, weights=np.concatenate([p.n_valid for p in parts]), minlength=index.size)
+    stacked = np.concatenate([p.sums for p in parts], axis=1)
+    sums = np.stack([np.bincount(inverse, weights=row, minlength=index.size) for row in stacked])
+    return BlockSums(index.astype(np.int64), n_valid, sums)
+
+
+def means_of_block_sums(sums: BlockSums, fs_hz: float, block_s: float = 1800.0, min_valid_fraction: float = 0.5
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Block means of the blocks with at least ``min_valid_fraction`` valid samples.
+
+    Parameters
+    ----------
+    sums : BlockSums
+        From :func:`block_sums` or :func:`merge_block_sums`.
+    fs_hz : float
+        Sampling rate [Hz].
+    block_s : float
+        Block length [s] of ``sums``.
+    min_valid_fraction : float
+        A block counts when at least this fraction of its ``block_s * fs_hz`` samples is valid [1].
+
+    Returns
+    -------
+    u, v, w : numpy.ndarray
+        Block means of the usable blocks [m s-1].
+    """
+    usable = sums.n_valid >= min_valid_fraction * block_s * fs_hz
+    u, v, w = (row[usable] / sums.n_valid[usable] for row in sums.sums)
+    return u, v, w
+
+
 def block_means(time: np.ndarray, u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray,
                 block_s: float = 1800.0, min_valid_fraction: float = 0.5, fs_hz: float | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -309,19 +408,12 @@ def block_means(time: np.ndarray, u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.n
     Returns
     -------
     u, v, w : numpy.ndarray
-        Block means of the usable blocks [m s-1].
+        Block means of the usable blocks [m s-1] (:func:`block_sums`, :func:`means_of_block_sums`).
     """
-    t_ns = np.asarray(time).astype("datetime64[ns]").astype(np.int64)
-    u, v, w = (np.asarray(a, dtype=float) for a in (u_ms, v_ms, w_ms))
     if fs_hz is None:
+        t_ns = np.asarray(time).astype("datetime64[ns]").astype(np.int64)
         fs_hz = 1e9 / float(np.median(np.diff(t_ns)))
-    block = (t_ns // int(block_s * 1e9)).astype(np.int64)
-    ok = np.isfinite(u) & np.isfinite(v) & np.isfinite(w)
-    _, inverse = np.unique(block, return_inverse=True)
-    n_valid = np.bincount(inverse, weights=ok.astype(float))
-    sums = [np.bincount(inverse, weights=np.where(ok, a, 0.0)) for a in (u, v, w)]
-    usable = n_valid >= min_valid_fraction * block_s * fs_hz
-    return tuple(s_[usable] / n_valid[usable] for s_ in sums)  # type: ignore[return-value]
+    return means_of_block_sums(block_sums(time, u_ms, v_ms, w_ms, block_s), fs_hz, block_s, min_valid_fraction)
 
 
 def planar_fit_attrs(fit: PlanarFit | None, note: str = "") -> dict[str, float | int | str]:

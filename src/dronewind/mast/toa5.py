@@ -720,6 +720,7 @@ def mast_l1(
                           max_corrupt_fraction)
     data, grid = _regular_grid(data, files, max_gap_s, counts)
     ux, uy, uz, ts_c, diag = (_on_grid(data, grid, c) for c in ("Ux", "Uy", "Uz", "Ts", "diag_csat"))
+    del data  # the rows are on the grid now; a day of 20 Hz rows is 120 MB
     qc = _mast_qc(ux, uy, uz, ts_c, diag, grid, despike, despike_window_s, despike_n_mad, counts)
     log.append(f"grid: {grid.fs_hz:g} Hz, {counts['n_missing']} absent time stamps inserted as missing; "
                f"{counts['n_record_breaks']} record breaks (gaps > {max_gap_s:g} s kept as breaks, not filled)")
