@@ -12,6 +12,7 @@ from snakemake.utils import min_version, validate
 
 from dronewind.config import check_config
 from dronewind.diagnose.forward import CHAIN_SETTINGS, probe_parts
+from dronewind.figures.blocks import BLOCK_FIGURE
 from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
 from dronewind.formats import check_campaign_formats
@@ -22,6 +23,7 @@ from dronewind.manifest import (
     payload_flight_manifest,
 )
 from dronewind.simulate.settings import validate_simulation
+from dronewind.steps.blocks import block_settings
 from dronewind.steps.lock import acquire_results_lock, release_results_lock
 from dronewind.steps.payload import simulation_manifest
 
@@ -86,6 +88,10 @@ DRONE_ONLY_FLIGHTS = [
 RIGID_MAST_FLIGHTS = [f for f in RIGID_FLIGHTS if f not in DRONE_ONLY_FLIGHTS]
 QUAD_FLIGHTS = [f["id"] for f in CAMPAIGN.quadrotor_flights]
 MAST_SONICS = list(CAMPAIGN.mast_sonics())
+# Tower- and mast-only campaigns (no payload or rigid-mount flight): the mast sonics are
+# analysed in blocks (blocks.smk) by default. In a flight campaign the mast records are the
+# flights' references and its outputs stay as they are (no blocks unless asked for by target).
+BLOCK_SONICS = MAST_SONICS if not (PAYLOAD_FLIGHTS or RIGID_FLIGHTS) else []
 FIGURES = list(figure_captions())
 
 
@@ -106,6 +112,8 @@ PROCESSING = canonical(config["processing"])
 DIAGNOSIS = canonical(config["diagnosis"])
 # settings of the chain up to L3 (what a forward-model run depends on)
 CHAIN = {key: PROCESSING[key] for key in CHAIN_SETTINGS}
+# settings of the block analysis of tower and mast records (rule mast_blocks)
+BLOCK_PROCESSING = block_settings(PROCESSING)
 SITE = CAMPAIGN.data["site"]
 
 
@@ -180,6 +188,9 @@ def all_outputs():
         ]
     if RIGID_FLIGHTS and not PAYLOAD_FLIGHTS:
         out.append(str(RESULTS / "tables" / "flight_stats.csv"))
+    if BLOCK_SONICS:
+        out.append(str(RESULTS / "tables" / "block_stats.csv"))
+        out.append(str(RESULTS / "figures" / f"{BLOCK_FIGURE}.png"))
     if PUBLISHED:
         out.append(str(RESULTS / "published" / "report.md"))
     out += quadrotor_targets() + tunnel_targets()

@@ -35,6 +35,7 @@ TABLE_SUBCATEGORIES = {
     "quadrotor_table2": "Quadrotor fleet",
     "quadrotor_table3": "Quadrotor fleet",
     "tunnel_calibration": "Wind tunnel",
+    "block_stats": "Tower and mast records",
 }
 
 
@@ -50,6 +51,7 @@ REPORT_FIGURES = {
     + (["published_before_after"] if PUBLISHED else [])
     + (list(QUAD_FIGURES) if QUAD_FLIGHTS else [])
     + (list(TUNNEL_FIGURES) if TUNNEL_RUNS is not None else [])
+    + ([BLOCK_FIGURE] if BLOCK_SONICS else [])
 }
 REPORT_TABLE_NAMES = (
     (
@@ -64,6 +66,7 @@ REPORT_TABLE_NAMES = (
         else []
     )
     + (["tunnel_calibration"] if TUNNEL_RUNS is not None else [])
+    + (["block_stats"] if BLOCK_SONICS else [])
 )
 REPORT_INPUTS = list(
     dict.fromkeys(

@@ -31,7 +31,7 @@ stationarity test, so neither do the blocks.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,6 +59,8 @@ __all__ = [
     "block_stats_table",
     "iter_blocks",
     "record_blocks",
+    "stack_blocks",
+    "stacked_block_rows",
     "to_ns",
     "utc_text",
 ]
@@ -462,3 +464,130 @@ def block_stats_table(rows: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
     table = pd.DataFrame(list(rows), columns=list(BLOCK_STATS_COLUMNS))
     table["usable"] = table["usable"].astype(bool)
     return table.sort_values(["record", "sensor", "start_utc"], kind="stable").reset_index(drop=True)
+
+
+#: Per-block attributes of :func:`block_l4` stored as variables of the stacked L4 (name, units, long name).
+_BLOCK_ATTR_VARIABLES: tuple[tuple[str, str, str], ...] = (
+    ("missing_fraction", "1", "fraction of the block's samples absent or flagged"),
+    ("n_expected_samples", "1", "samples of a full block (block length times sampling rate)"),
+    ("n_valid_samples", "1", "samples with finite u, v, w and temperature"),
+    ("n_gap_filled", "1", "samples bridged by linear interpolation"),
+    ("n_samples", "1", "time-grid points of the record inside the block"),
+)
+
+#: Attributes equal for every block of a record; kept once, as global attributes of the stack.
+_RECORD_ATTRS = ("sampling_rate_hz", "detrending", "spectral_method", "obukhov_temperature", "karman_constant",
+                 "gravity_ms2", "spectral_fit_f_max_hz", "rotation_method", "block_s", "sensor_id", "sensor")
+
+
+def stack_blocks(l4s: Sequence[xr.Dataset]) -> xr.Dataset:
+    """The L4 of a record's blocks as one dataset with the blocks along ``time``.
+
+    Every block's L4 (:func:`block_l4`) is a period statistic (``time`` = middle of the
+    block, ``time_bnds`` = its UTC bounds). Stacked, they form a CF timeSeries of
+    block statistics: scalars become ``(time,)``, spectra ``(time, frequency_bin)``. The
+    log-frequency bins of the spectra depend on the block's sample count (a block one sample
+    short has bins 0.01 % apart), so the bin centres are kept per block as the auxiliary
+    coordinate ``frequency(time, frequency_bin)`` [Hz]; blocks with fewer non-empty bins
+    (or none, when unusable) are padded with NaN (``n_estimates`` with 0).
+
+    Parameters
+    ----------
+    l4s : sequence of xarray.Dataset
+        L4 of the blocks (:func:`block_l4`), in time order, all of one sonic.
+
+    Returns
+    -------
+    xarray.Dataset
+        The L4 variables on ``time`` (and ``frequency_bin``); ``time_bnds`` [start, end) of
+        each block; ``usable`` (1/0, flag values), ``unusable_reason`` (text),
+        ``missing_fraction`` [1] and the sample counts per block; global attributes
+        ``detrending``, ``rotation_method``, ``block_s`` [s], ``spectral_method``,
+        ``sampling_rate_hz`` [Hz] and the blocks' ``processing_log`` lines prefixed with
+        their start.
+
+    Raises
+    ------
+    InputError
+        No block, or blocks processed with different settings (detrending, rotation, block length).
+    """
+    if not l4s:
+        raise InputError("blocks", "no block to stack: the record holds no sample")
+    first = l4s[0]
+    for ds in l4s[1:]:
+        for key in ("detrending", "rotation_method", "block_s", "sensor_id"):
+            if ds.attrs.get(key) != first.attrs.get(key):
+                raise InputError(f"block {ds.attrs.get('block_start_utc')} attribute {key!r}",
+                                 f"expected {first.attrs.get(key)!r} as in the first block, got {ds.attrs.get(key)!r}")
+    parts = []
+    for ds in l4s:
+        n_bins = ds.sizes.get("frequency", 0)
+        one = ds.reset_index("frequency").rename_dims(frequency="frequency_bin") if "frequency" in ds.dims else ds
+        one = one.assign_coords(frequency_bin=("frequency_bin", np.arange(n_bins, dtype=np.int32)))
+        if "frequency" in one.variables:
+            one = one.set_coords("frequency")
+        extra = {name: xr.DataArray([float(ds.attrs[name])] if name == "missing_fraction" else [int(ds.attrs[name])],
+                                    dims=("time",), attrs={"units": units, "long_name": text})
+                 for name, units, text in _BLOCK_ATTR_VARIABLES}
+        extra["usable"] = xr.DataArray(np.array([int(ds.attrs["usable"])], dtype=np.int8), dims=("time",), attrs={
+            "long_name": "block usable for block_stats.csv", "flag_values": np.array([0, 1], dtype=np.int8),
+            "flag_meanings": "unusable usable"})
+        extra["unusable_reason"] = xr.DataArray(np.array([str(ds.attrs.get("unusable_reason", ""))], dtype=object),
+                                                dims=("time",), attrs={"long_name": "why the block is unusable "
+                                                                       "(empty when usable)"})
+        parts.append(one.assign(extra))
+    fill: dict[Hashable, Any] = {k: np.nan for k in parts[0].data_vars}
+    fill["n_estimates"] = 0
+    stacked: xr.Dataset = xr.concat(parts, dim="time", data_vars="all", coords="different", compat="equals",
+                                    join="outer", fill_value=fill, combine_attrs="drop")
+    for name in list(stacked.data_vars):
+        if str(name).startswith("status_") or name == "usable":
+            stacked[name] = stacked[name].astype(np.int8)
+        stacked[name].attrs = dict(parts[0][name].attrs) if name in parts[0] else stacked[name].attrs
+    if "frequency" in stacked.coords:
+        stacked["frequency"].attrs = dict(first["frequency"].attrs) if "frequency" in first.variables else {}
+        stacked["frequency"].attrs["comment"] = ("centre of the logarithmic frequency bin; per block, as the bins "
+                                                 "depend on the block's sample count")
+    stacked["frequency_bin"].attrs = {"long_name": "index of the non-empty logarithmic frequency bin", "units": "1"}
+    stacked["time"].attrs = {"bounds": "time_bnds", "long_name": "middle of the block (UTC)"}
+    stacked.attrs = {k: first.attrs[k] for k in _RECORD_ATTRS if k in first.attrs}
+    stacked.attrs["n_blocks"] = len(l4s)
+    stacked.attrs["n_usable_blocks"] = int(sum(int(ds.attrs["usable"]) for ds in l4s))
+    stacked.attrs["processing_log"] = "\n".join(
+        f"{ds.attrs['block_start_utc']}: {line}" for ds in l4s
+        for line in str(ds.attrs.get("processing_log", "")).split("\n") if line)
+    return stacked
+
+
+def stacked_block_rows(stacked: xr.Dataset, record: str, sensor: str) -> list[dict[str, Any]]:
+    """Rows of ``block_stats.csv`` from a record's stacked block L4 (:func:`stack_blocks`).
+
+    Parameters
+    ----------
+    stacked : xarray.Dataset
+        Stacked L4 of one sonic (as written by the workflow and read back).
+    record, sensor : str
+        Record (mast) and sonic names in the rows.
+
+    Returns
+    -------
+    list of dict
+        One row per block, the columns and units of :func:`block_stats_row`.
+    """
+    require_variables(stacked, ("time_bnds", "usable", "unusable_reason", "missing_fraction"), "stacked block L4")
+    bounds = np.asarray(stacked["time_bnds"].values).astype("datetime64[ns]")
+    rows = []
+    for i in range(stacked.sizes["time"]):
+        row: dict[str, Any] = {"record": record, "sensor": sensor, "start_utc": utc_text(bounds[i, 0]),
+                               "end_utc": utc_text(bounds[i, 1])}
+        for col in BLOCK_STATS_COLUMNS:
+            if col in row or col in ("usable", "reason", "missing_fraction"):
+                continue
+            name = _L4_NAME.get(col, col)
+            row[col] = float(stacked[name].values[i]) if name in stacked else math.nan
+        row["usable"] = bool(int(stacked["usable"].values[i]))
+        reason = stacked["unusable_reason"].values[i]
+        row["reason"] = "" if reason is None or (isinstance(reason, float) and math.isnan(reason)) else str(reason)
+        row["missing_fraction"] = float(stacked["missing_fraction"].values[i])
+        rows.append({col: row[col] for col in BLOCK_STATS_COLUMNS})
+    return rows

@@ -437,3 +437,33 @@ def quadrotor_captions(tables_dir: PathLike) -> dict[str, str]:
             f"the UAS's highest resolved frequency. After {P002}, Fig. 9.",
         })
     return out
+
+
+def block_captions(tables_dir: PathLike) -> dict[str, str]:
+    """Caption of the block-series figure of a tower- or mast-only campaign from ``block_stats.csv``.
+
+    Parameters
+    ----------
+    tables_dir : str or Path
+        ``results/<campaign>/tables``.
+
+    Returns
+    -------
+    dict of str to str
+        ``{"block_series": caption}`` when the table exists, else empty.
+    """
+    table = _csv(Path(tables_dir) / "block_stats.csv")
+    if table is None:
+        return {}
+    usable = table["usable"].astype(str).str.lower().isin(("true", "1"))
+    heights = table.groupby(["record", "sensor"], sort=True)["height_m"].first()
+    sonics = [f"{key[0]} {key[1]} ({float(h):g} m)" for key, h in zip(heights.index, heights.to_numpy(), strict=True)]
+    span = f"{table['start_utc'].min()} to {table['end_utc'].max()}" if len(table) else "no block"
+    lengths = (pd.to_datetime(table["end_utc"]) - pd.to_datetime(table["start_utc"])).dt.total_seconds()
+    block = f"{lengths.iloc[0] / 60:g}-min" if len(table) else ""
+    return {"block_series": (
+        f"Block statistics of {flight_list(sonics)}, {block} blocks aligned to UTC, {span}: mean wind speed U, "
+        f"wind-from direction, σ_w, friction velocity u*, kinematic heat flux w'T', stability z/L and the "
+        f"inertial-subrange ratio S_w/S_u (tables/block_stats.csv; streamline coordinates per block, "
+        f"statistics as for the mast sonics of a flight, after {P000}, Sect. 4). {int(usable.sum())} of "
+        f"{len(table)} blocks usable; the others are listed under the axes with their reason.")}

@@ -32,6 +32,7 @@ import pandas as pd
 
 from dronewind.core.cf import atomic_write_text
 from dronewind.figures.captions import (
+    block_captions,
     campaign_captions,
     diagnosis_captions,
     flight_list,
@@ -59,6 +60,7 @@ REPORT_TABLES: dict[str, tuple[str, str]] = {
                          "tables/quadrotor_table3.csv"),
     "tunnel_calibration": (f"Wind-tunnel calibration per speed range ({PAPERS['002']}, Table 2)",
                            "tables/tunnel_calibration.csv"),
+    "block_stats": ("Tower and mast records in blocks (block_stats.csv)", "tables/block_stats.csv"),
 }
 
 _STYLE = """<style>
@@ -275,6 +277,12 @@ def _summary(results: Path, campaign: str, figures: Mapping[str, str], captions:
                 "<p>Table", "<h2>Table", 1).replace("</p>", "</h2>", 1))
     if (stats := results / "tables" / "flight_stats.csv").exists():
         parts.append("<h2>Flight statistics (drone and mast)</h2>" + csv_html(stats))
+    if (blocks := results / "tables" / "block_stats.csv").exists():
+        table = pd.read_csv(blocks)
+        usable = table["usable"].astype(str).str.lower().isin(("true", "1"))
+        parts.append(f"<h2>Tower and mast records in blocks</h2><p>{len(table)} blocks of "
+                     f"{table.groupby(['record', 'sensor']).ngroups} sonic(s), {int(usable.sum())} usable; every "
+                     "block in the table page <code>block_stats</code> (tables/block_stats.csv).</p>")
     parts.append(_figure_section(figures, captions))
     parts.append("<h2>References</h2><ul>" + "".join(f"<li>{html.escape(r)}</li>" for r in REFERENCES.values())
                  + "</ul></div>")
@@ -321,6 +329,7 @@ def report_pages(results_dir: str | Path, out_dir: str | Path, figures: Mapping[
         captions["published_before_after"] = published_caption(results / "published" / "before_after.json",
                                                                 results / "published" / "diagnosis.json")
     captions.update(quadrotor_captions(results / "tables"))
+    captions.update(block_captions(results / "tables"))
     written = []
     for name in figures:
         if name not in captions:
