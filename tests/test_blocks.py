@@ -182,3 +182,43 @@ def test_block_sums_merge_equals_whole_record_block_means():
     for x, y in zip(whole, merged, strict=True):
         np.testing.assert_allclose(x, y, rtol=1e-12)
     assert whole[0].size == 2  # 10:00 and 10:30 blocks, each more than half valid
+
+
+def test_stacked_blocks_give_the_rows_of_each_block_and_pass_cf(tmp_path):
+    """One L4 file per sonic with the blocks along time: its rows are exactly the per-block rows."""
+    from dronewind.core.cf import check_compliance
+    from dronewind.core.products import open_product
+    from dronewind.steps.blocks import block_stats, mast_blocks
+    from dronewind.steps.payload import Position, write_product
+
+    l1 = make_l1(BLOCKS)
+    l1["u_east_ms"].values[1000:1180] = np.nan  # block 1 unusable (3 % missing): no spectra, padded
+    settings = _settings(detrending="block_mean")
+    direct = [blk.block_stats_row(b, "p2oa", "m10") for b in blk.record_blocks(l1, settings)]
+    for v in ("u_east_ms", "v_north_ms", "w_up_ms"):
+        l1[v].attrs = {"units": "m s-1", "standard_name": {"u_east_ms": "eastward_wind", "v_north_ms": "northward_wind",
+                                                          "w_up_ms": "upward_air_velocity"}[v]}
+    l1["t_sonic_k"].attrs = {"units": "K", "standard_name": "virtual_temperature"}
+    sonic = {"id": "m10", "mast_id": "p2oa", "height_m": HEIGHT_M, "latitude": 43.1, "longitude": 0.36}
+    l1_file = write_product(l1, tmp_path / "mast_m10.nc", "mast_l1",
+                            {"campaign": "t", "sonic": "m10", "mast": "p2oa", "model": "CSAT3", "height_m": HEIGHT_M},
+                            Position(43.1, 0.36, HEIGHT_M), [], {})
+    out = mast_blocks(l1_file, tmp_path / "L4" / "m10.nc", campaign="t", sonic=sonic,
+                      processing={"block_s": 600.0, "detrending": "block_mean"})
+    table = tmp_path / "block_stats.csv"
+    block_stats([out], table)
+    import pandas as pd
+
+    got = pd.read_csv(table, keep_default_na=False)
+    assert list(got.columns) == list(blk.BLOCK_STATS_COLUMNS)
+    assert list(got["usable"]) == [False, True]
+    assert got["reason"][0] == direct[0]["reason"] and got["reason"][1] == ""
+    for col in ("U_ms", "sigma_w_ms", "ustar_ms", "wT_Kms", "L_m", "Sw_Su"):
+        # the CSV holds 6 significant digits: relative rounding <= 5e-6
+        assert float(got[col][1]) == pytest.approx(direct[1][col], rel=6e-6), col
+    stored = open_product(out)
+    assert stored.attrs["detrending"].startswith("block mean")
+    assert stored["frequency"].dims == ("time", "frequency_bin")
+    assert np.isnan(stored["S_w"].values[0]).all() and np.isfinite(stored["S_w"].values[1]).any()
+    passed, report = check_compliance(out)
+    assert passed, report[-2000:]
