@@ -62,36 +62,56 @@ def block_series(table_csv: PathLike, out_stem: PathLike) -> list[Path]:
     mid = start + (end - start) / 2
     table = table.assign(mid=mid.dt.tz_localize(None) if mid.dt.tz is not None else mid)
     usable = table["usable"].astype(str).str.lower().isin(("true", "1"))
-    fig = new_figure(8.0, 11.0)
-    axes = fig.subplots(len(BLOCK_PANELS), 1, sharex=True)
+    # records apart by more than a day (e.g. two campaign days months apart) get a column each
+    times = np.sort(table["mid"].to_numpy())
+    cuts = np.flatnonzero(np.diff(times) > np.timedelta64(1, "D")) if times.size else np.array([], int)
+    spans = [(times[a], times[b - 1]) for a, b in zip(np.r_[0, cuts + 1], np.r_[cuts + 1, times.size], strict=True)]
+    spans = spans if 1 <= len(spans) <= 4 else [(times[0], times[-1])] if times.size else [(None, None)]
+    fig = new_figure(4.5 + 3.5 * len(spans), 11.0)
+    grid = np.asarray(fig.subplots(len(BLOCK_PANELS), len(spans), sharex="col", sharey="row", squeeze=False))
     notes = []
     groups = list(table.groupby(["record", "sensor"], sort=True))
-    for ax, (col, label) in zip(axes, BLOCK_PANELS, strict=True):
+    gap = np.timedelta64(int(1.5 * 1e9 * max(float((pd.to_datetime(table["end_utc"]) - pd.to_datetime(
+        table["start_utc"])).dt.total_seconds().min()), 1.0)), "ns") if len(table) else np.timedelta64(0, "ns")
+    for row, (col, label) in zip(grid, BLOCK_PANELS, strict=True):
         drawn = 0
         for (record, sensor), part in groups:
             ok = part[usable.loc[part.index]]
-            y = ok[col].to_numpy(dtype=float)
+            x, y = ok["mid"].to_numpy(), ok[col].to_numpy(dtype=float)
             keep = np.isfinite(y)
-            if keep.any():
-                height = float(part["height_m"].iloc[0])
-                ax.plot(ok["mid"].to_numpy()[keep], y[keep], marker="o", ms=3, lw=0.8,
-                        label=f"{record} {sensor} ({height:g} m)")
-                drawn += int(keep.sum())
+            x, y = x[keep], y[keep]
+            # lines are broken where blocks are missing (no line across a gap)
+            brk = np.flatnonzero(np.diff(x) > gap) + 1
+            xs = np.insert(x, brk, x[brk - 1] + gap / 2) if brk.size else x
+            ys = np.insert(y, brk, np.nan) if brk.size else y
+            height = float(part["height_m"].iloc[0])
+            for ax in row:
+                ax.plot(xs, ys, marker="o", ms=3, lw=0.8, label=f"{record} {sensor} ({height:g} m)")
+            drawn += int(keep.sum())
             missing = int((~keep).sum())
             if missing:
                 notes.append(f"{col}: {missing} usable block(s) of {record} {sensor} without a value (stored NaN: "
                              "see the L4 status flags)")
-        if col == "wind_from_deg":
-            ax.set_ylim(0, 360)
-            ax.set_yticks([0, 90, 180, 270, 360])
-        if col in ("wT_Kms", "zeta"):
-            ax.axhline(0.0, color="0.5", lw=0.6)
-        ax.set_ylabel(label)
+        for ax, (t0, t1) in zip(row, spans, strict=True):
+            if t0 is not None:
+                pad = max((t1 - t0) * 0.03, np.timedelta64(30, "m"))
+                ax.set_xlim(t0 - pad, t1 + pad)
+            if col == "wind_from_deg":
+                ax.set_ylim(0, 360)
+                ax.set_yticks([0, 90, 180, 270, 360])
+            if col in ("wT_Kms", "zeta"):
+                ax.axhline(0.0, color="0.5", lw=0.6)
+        row[0].set_ylabel(label)
         if not drawn:
-            no_data(ax, f"no usable block with {col}")
+            no_data(row[0], f"no usable block with {col}")
+    axes = grid[:, 0]
     if groups and any(ax.get_legend_handles_labels()[0] for ax in axes):
         axes[0].legend(loc="lower left", bbox_to_anchor=(0.0, 1.02), ncol=2, fontsize=8, frameon=False)
-    axes[-1].set_xlabel("time (UTC), middle of the block")
+    for ax in grid[-1]:
+        for tick in ax.get_xticklabels():
+            tick.set_rotation(30)
+            tick.set_ha("right")
+    fig.supxlabel("time (UTC), middle of the block", fontsize=9)
     bad = table[~usable]
     for (record, sensor), part in bad.groupby(["record", "sensor"], sort=True):
         kinds = Counter(_reason_kind(r) for r in part["reason"].fillna(""))
