@@ -69,10 +69,15 @@ def measured_campaign(folder: Path) -> Path:
     return path
 
 
-def run(kind: str, cores: int, extra_config: list[str]) -> dict:
-    """Run the workflow once into a temporary results folder; wall time and per-stage CPU."""
+def run(kind: str, cores: int, extra_config: list[str], keep: Path | None = None) -> dict:
+    """Run the workflow once into a fresh results folder; wall time and per-stage CPU.
+
+    The folder is temporary unless ``keep`` names one (it must not exist yet).
+    """
+    if keep is not None:
+        keep.mkdir(parents=True, exist_ok=False)
     with tempfile.TemporaryDirectory(prefix=f"dronewind_bench_{kind}_") as tmp:
-        tmp_path = Path(tmp)
+        tmp_path = Path(tmp) if keep is None else keep
         config = [f"results_dir={tmp_path / 'results'}", *extra_config]
         if kind == "measured6":
             config.append(f"campaign={measured_campaign(tmp_path)}")
@@ -103,8 +108,9 @@ def main() -> None:
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--config", nargs="*", default=[], help="extra --config KEY=VALUE pairs")
     parser.add_argument("--out", type=Path, help="write the result as JSON")
+    parser.add_argument("--keep", type=Path, help="run into this new folder and keep it (default: a temporary one)")
     args = parser.parse_args()
-    result = run(args.kind, args.cores, args.config)
+    result = run(args.kind, args.cores, args.config, args.keep)
     text = json.dumps(result, indent=1)
     print(text)
     if args.out:

@@ -408,10 +408,15 @@ def read_toa5(
 
     Notes
     -----
-    Plain files take a byte-level fast path (:func:`_toa5_fast`), anything else the careful
-    ``csv.reader`` one (:func:`_toa5_careful`); both give the same result.
+    Plain files take a byte-level fast path (:func:`_toa5_fast`), large plain files a chunked
+    C-parser path that bounds the memory (:func:`_read_toa5_chunked`), anything else the
+    careful ``csv.reader`` one (:func:`_toa5_careful`); all give the same result.
     """
     p = Path(path)
+    if p.is_file() and p.stat().st_size >= _CHUNKED_MIN_BYTES:
+        chunked = _read_toa5_chunked(p, required)
+        if chunked is not None:
+            return chunked
     rows = _toa5_fast(p, required) or _toa5_careful(p, required)
     n_lines, good_count = rows.n_lines, rows.good_count
     ncol = len(rows.names)
@@ -432,6 +437,102 @@ def read_toa5(
     frame["_line"] = line_no_ok[keep]
     info = {"header": rows.header, "units": rows.units, "n_lines": n_lines, "n_corrupt_lines": n_corrupt,
             "corrupt_lines": bad_lines[:_N_LOGGED].tolist(), "n_nonnumeric": n_nonnumeric}
+    return frame, info
+
+
+#: The NAN literals of the row-by-row path (it compares upper-cased text with "NAN", "-NAN", "+NAN", "").
+_FAST_NA_VALUES = ["NAN", "NaN", "nan", "Nan", "-NAN", "-NaN", "-nan", "+NAN", "+NaN", "+nan", ""]
+#: A body that holds anything but printable ASCII, CR and LF takes the row-by-row path.
+_FAST_UNSAFE_BYTES = re.compile(rb"[^\x20-\x7e\r\n]")
+#: Rows parsed at a time by the C-parser path.
+_FAST_CHUNK_ROWS = 200_000
+#: Files from this size on are read by :func:`_read_toa5_chunked` [bytes].
+_CHUNKED_MIN_BYTES = 32_000_000
+#: Number text whose conversion read_csv and the careful path's pd.to_numeric may round
+#: differently in the last bit (an exponent, or 16 or more digits; see dronewind.core.textscan).
+_FLOAT_TEXT_UNSAFE = re.compile(rb"[eE]|[0-9.]{16,}")
+
+
+def _read_toa5_chunked(p: Path, required: Sequence[str]) -> tuple[pd.DataFrame, dict[str, Any]] | None:
+    """:func:`read_toa5` of a large clean file with pandas' C parser in chunks, or ``None``.
+
+    For files of at least :data:`_CHUNKED_MIN_BYTES` (a day of 20 Hz rows is 1.7 million
+    rows, about 100 MB): the byte-level path (:func:`_toa5_fast`) holds field offsets of the
+    whole file at once (about 1.2 GB for such a day), this one the numbers of one chunk of
+    rows at a time, so a long record's memory stays bounded. It is used only when the
+    result must equal the careful path's: the header passes the same checks, the body is
+    printable ASCII with CR/LF line ends, every row has exactly the header's number of
+    fields (the C parser stops on a row with more, and the total comma count rules out
+    rows with fewer), every TIMESTAMP parses, RECORD is an integer, and every other field
+    is a number or a NAN literal. Anything else (a corrupt row, text in a numeric field, a
+    blank line) returns ``None`` and the file is read row by row, which counts and reports
+    what it finds.
+
+    Returns
+    -------
+    tuple or None
+        As :func:`read_toa5`, or ``None``.
+    """
+    if not p.is_file():
+        return None
+    data = p.read_bytes()
+    start = 3 if data.startswith(b"\xef\xbb\xbf") else 0
+    cut = start
+    for _ in range(4):
+        cut = data.find(b"\n", cut) + 1
+        if cut == 0:
+            return None
+    head_lines = data[start:cut].decode("utf-8", errors="replace").splitlines()
+    if len(head_lines) != 4:
+        return None
+    header = [next(csv.reader([ln]), []) for ln in head_lines]
+    names = [h.strip() for h in header[1]]
+    if (not header[0] or header[0][0] != "TOA5" or any(c not in names for c in required)
+            or len(set(names)) != len(names) or any(len(header[k]) != len(names) for k in (2, 3))
+            or any(header[k] and _TIMESTAMP_RE.match(header[k][0].strip()) for k in (2, 3))):
+        return None  # the row-by-row path raises the error that names the line
+    if cut == len(data) or _FAST_UNSAFE_BYTES.search(data, cut) is not None:
+        return None
+    n_cr, n_lf = data.count(b"\r", cut), data.count(b"\n", cut)
+    if n_cr and (n_cr != n_lf or data.count(b"\r\n", cut) != n_cr):
+        return None
+    if _FLOAT_TEXT_UNSAFE.search(data, cut) is not None:
+        return None  # an exponent or 16+ digits: pd.to_numeric and read_csv may round such text differently
+    n_lines = n_lf + (0 if data.endswith(b"\n") else 1)
+    if data.count(b",", cut) != n_lines * (len(names) - 1):
+        return None
+    del data  # the parser reads the file itself: one copy of the text at a time
+    numeric = {n: np.float64 for n in names if n not in ("TIMESTAMP", "RECORD")}
+    columns: dict[str, np.ndarray] = {"time": np.empty(n_lines, "datetime64[ns]"),
+                                      "RECORD": np.empty(n_lines, np.int64),
+                                      **{n: np.empty(n_lines, float) for n in numeric}}
+    done = 0
+    try:  # in chunks: the TIMESTAMP texts of one chunk at a time, not of the whole file
+        with pd.read_csv(p, skiprows=4, header=None, names=names, engine="c", skip_blank_lines=False,
+                         dtype={"TIMESTAMP": str, "RECORD": np.int64, **numeric}, keep_default_na=False,
+                         na_values={n: _FAST_NA_VALUES for n in numeric}, encoding="utf-8-sig",
+                         chunksize=_FAST_CHUNK_ROWS) as reader:
+            for chunk in reader:
+                m = len(chunk)
+                if done + m > n_lines:
+                    return None
+                ts = pd.to_datetime(chunk["TIMESTAMP"], format="ISO8601", errors="coerce")
+                if ts.isna().any():
+                    return None
+                columns["time"][done:done + m] = ts.to_numpy().astype("datetime64[ns]")
+                columns["RECORD"][done:done + m] = chunk["RECORD"].to_numpy(dtype=np.int64)
+                for col in numeric:
+                    columns[col][done:done + m] = chunk[col].to_numpy(dtype=float)
+                done += m
+    except (ValueError, pd.errors.ParserError):
+        return None
+    if done != n_lines:
+        return None
+    columns["_line"] = np.arange(5, 5 + n_lines)
+    frame = pd.DataFrame(columns, copy=False)
+    units = dict(zip(names, (h.strip() for h in header[2]), strict=False))
+    info = {"header": header, "units": units, "n_lines": n_lines, "n_corrupt_lines": 0, "corrupt_lines": [],
+            "n_nonnumeric": 0}
     return frame, info
 
 
