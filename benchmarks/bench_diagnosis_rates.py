@@ -26,7 +26,8 @@ Rates (per label, mechanism, case and overall), each with a 95 % Wilson score in
   chi-square), the mean LR statistic per fitted parameter (nominal 1) and the share of null
   draws where some candidate passes the Bonferroni-corrected test before the gain filter.
 
-A progress log (one JSON line per draw) goes to the output path with ``.log``; the results
+Draws run in a fixed random order (so that a partial progress log mixes the cases). A
+progress log (one JSON line per draw) goes to the output path with ``.log``; the results
 file is written atomically at the end.
 """
 
@@ -192,7 +193,8 @@ def main() -> None:
         log.write(json.dumps({"command": " ".join(sys.argv), "commit": _commit(), "draws": args.draws,
                               "seed": args.seed}) + "\n")
         log.flush()
-        jobs = list(enumerate(draws))
+        # a fixed permutation, so that a partial log mixes the cases
+        jobs = [(int(k), draws[k]) for k in np.random.default_rng(args.seed).permutation(len(draws))]
         results = Pool(args.workers).imap_unordered(one, jobs) if args.workers > 1 else map(one, jobs)
         for verdict in results:
             verdicts.append(verdict)
