@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import subprocess
 import sys
@@ -50,27 +49,15 @@ import numpy as np
 import scipy.stats
 import yaml
 
-from dronewind.diagnose.experiments import Draw, judge, run_in_process, stratified_draws
+from dronewind.diagnose.experiments import Draw, judge, run_in_process, stratified_draws, wilson_interval
 
 REPO = Path(__file__).resolve().parents[1]
-#: z of a two-sided 95 % interval.
-Z95 = 1.959963984540054
-
-
-def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion k/n (Wilson 1927, J. Am. Stat. Assoc. 22, 209-212)."""
-    if n == 0:
-        return (float("nan"), float("nan"))
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return (max(0.0, centre - half), min(1.0, centre + half))
 
 
 def rate(flags: list[bool]) -> dict[str, Any]:
     """Proportion with its 95 % Wilson interval."""
     k, n = int(sum(bool(f) for f in flags)), len(flags)
-    lo, hi = wilson(k, n)
+    lo, hi = wilson_interval(k, n)
     return {"k": k, "n": n, "rate": k / n if n else float("nan"), "ci95": [lo, hi]}
 
 
@@ -188,9 +175,10 @@ def main() -> None:
     log_path = args.out.with_suffix(".log")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
+    commit = _commit()  # the code that runs, whatever is committed while it does
     verdicts = []
     with log_path.open("w") as log:
-        log.write(json.dumps({"command": " ".join(sys.argv), "commit": _commit(), "draws": args.draws,
+        log.write(json.dumps({"command": " ".join(sys.argv), "commit": commit, "draws": args.draws,
                               "seed": args.seed}) + "\n")
         log.flush()
         # a fixed permutation, so that a partial log mixes the cases
@@ -209,7 +197,7 @@ def main() -> None:
         "command": "PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/bench_diagnosis_rates.py "
                    f"--draws {args.draws} --seed {args.seed} --workers {args.workers} "
                    f"--null-share {args.null_share} --model-error-share {args.model_error_share}",
-        "commit": _commit(),
+        "commit": commit,
         "settings": {"draws": args.draws, "seed": args.seed, "null_share": args.null_share,
                      "model_error_share": args.model_error_share, "diagnosis": diag,
                      "campaign": "4 flights, 12-min hovers, 3.5-9.5 m/s (experiments.campaign_manifest)"},

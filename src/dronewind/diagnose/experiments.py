@@ -48,7 +48,7 @@ from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
            "stratified_draws", "campaign_manifest", "judge", "run_in_process", "AMBIGUOUS_WITH",
-           "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED"]
+           "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
 #: as a distance from the parameter's centre (:data:`HIDDEN_CENTRES`, else 0), on a random
@@ -158,6 +158,24 @@ def _hidden_value(rng: np.random.Generator, mechanism: str, parameter: str, sign
         side = sign if sign is not None else (-1 if rng.random() < 0.5 else 1)
         size *= side
     return round(HIDDEN_CENTRES.get((mechanism, parameter), 0.0) + size, 4)
+
+
+def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion :math:`k/n` (95 % by default).
+
+    .. math:: \\frac{\\hat p + z^2/2n \\pm z\\sqrt{\\hat p(1-\\hat p)/n + z^2/4n^2}}{1 + z^2/n}
+
+    Wilson, E. B. (1927): Probable inference, the law of succession, and statistical
+    inference. J. Am. Stat. Assoc. 22, 209-212. Keeps its coverage near 95 % for the small
+    counts and rates near 0 or 1 of a rate benchmark, where the normal interval collapses.
+    NaN for ``n`` = 0.
+    """
+    if n == 0:
+        return (float("nan"), float("nan"))
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * float(np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)))
+    return (max(0.0, centre - half), min(1.0, centre + half))
 
 
 def draw_seed(repo: str | Path) -> tuple[int, str]:
