@@ -1,88 +1,216 @@
-"""Detection and false-alarm rates of the diagnosis over many hidden-effect draws.
+"""Detection, false-alarm and estimate-error rates of the diagnosis over stratified hidden-effect draws.
 
-Each draw hides one mechanism of dronewind.diagnose.experiments.HIDDEN_RANGES (random size,
-random sign where it applies) or nothing, in a 4-flight virtual campaign of 12-minute hovers,
-then simulates, processes and diagnoses it in-process (the same library functions as the
-workflow's rules) and judges the result against the truth.
+Each draw hides, in a 4-flight virtual campaign of 12-minute hovers, either nothing (null),
+a model error (dronewind.diagnose.experiments.MODEL_ERRORS: another pendulum length or
+damping than the forward model's), or one mechanism of experiments.HIDDEN_RANGES on each
+side of its "off" value (random size); it is then simulated, processed and diagnosed
+in-process (the same library functions as the workflow's rules, default configuration) and
+judged against the truth (experiments.judge). Shares: 20 % null, 15 % model error, the rest
+cycling through the (mechanism, side) cells.
 
-    .venv/bin/python benchmarks/bench_diagnosis_rates.py --draws 24 --workers 2 --seed 1 --out rates.json
+    PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/bench_diagnosis_rates.py \\
+        --draws 60 --seed 1 --workers 1 --out benchmarks/results/diagnosis_rates.json
 
-Prints one line per draw and the rates per mechanism; about 3 CPU-minutes per draw.
+Rates (per label, mechanism, case and overall), each with a 95 % Wilson score interval:
+
+* detection: mechanism draws where the hidden mechanism is named (or in an ambiguity set
+  with a named one);
+* false alarm: null draws with any named cause; false attribution: model-error draws with
+  a named catalog cause (the right verdict is none, the misfit belongs in ``unexplained``);
+* wrong cause: mechanism draws with a named cause that is neither the truth nor ambiguous
+  with it;
+* estimate within tolerance, and the median of |estimate - truth| / tolerance over detected
+  draws with its distribution-free 95 % interval (binomial order statistics);
+* null calibration of the likelihood-ratio test: over the candidates of the null draws, the
+  share of p-values below 0.01 and 0.05 (nominal 0.01 and 0.05 if the whitened misfit is
+  chi-square), the mean LR statistic per fitted parameter (nominal 1) and the share of null
+  draws where some candidate passes the Bonferroni-corrected test before the gain filter.
+
+Draws run in a fixed random order (so that a partial progress log mixes the cases). A
+progress log (one JSON line per draw) goes to the output path with ``.log``; the results
+file is written atomically at the end.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
+import sys
 import tempfile
 import time
 from collections import defaultdict
 from multiprocessing import Pool
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import scipy.stats
 import yaml
 
-from dronewind.diagnose.experiments import draw, judge, run_in_process
+from dronewind.diagnose.experiments import Draw, judge, run_in_process, stratified_draws, wilson_interval
 
 REPO = Path(__file__).resolve().parents[1]
 
 
-def one(args: tuple[int, int, float]) -> dict:
-    seed, index, p_none = args
-    rng = np.random.default_rng([seed, index])
-    truth = draw(rng, p_none=p_none)
+def rate(flags: list[bool]) -> dict[str, Any]:
+    """Proportion with its 95 % Wilson interval."""
+    k, n = int(sum(bool(f) for f in flags)), len(flags)
+    lo, hi = wilson_interval(k, n)
+    return {"k": k, "n": n, "rate": k / n if n else float("nan"), "ci95": [lo, hi]}
+
+
+def median_ci(values: list[float]) -> dict[str, Any]:
+    """Median with a distribution-free 95 % interval from binomial order statistics."""
+    x = np.sort(np.asarray([v for v in values if np.isfinite(v)], dtype=float))
+    n = x.size
+    if n == 0:
+        return {"n": 0, "median": float("nan"), "ci95": [float("nan"), float("nan")]}
+    lo_k = int(scipy.stats.binom.ppf(0.025, n, 0.5))
+    hi_k = int(scipy.stats.binom.ppf(0.975, n, 0.5))
+    lo = float(x[lo_k - 1]) if lo_k >= 1 else float("nan")
+    hi = float(x[hi_k]) if hi_k < n else float("nan")
+    return {"n": int(n), "median": float(np.median(x)), "ci95": [lo, hi]}
+
+
+def one(args: tuple[int, Draw]) -> dict[str, Any]:
+    """Simulate, process, diagnose and judge one draw."""
+    index, truth = args
     config = yaml.safe_load((REPO / "config/config.yaml").read_text())
     start = time.perf_counter()
     try:
         with tempfile.TemporaryDirectory() as work:
             diagnosis = run_in_process(truth, config, work)
     except Exception as exc:  # a draw the chain cannot process is a failure, reported, not a crash
-        verdict = {"mechanism": truth.mechanism, "truth": truth.parameters, "named": [], "detected": False,
-                   "false_alarm": False, "estimate_ok": False, "error": f"{type(exc).__name__}: {exc}",
-                   "seconds": time.perf_counter() - start, "top": []}
-        print(json.dumps(verdict, default=str), flush=True)
+        verdict = judge(truth, {"named_causes": []})
+        verdict.update(index=index, seed=truth.seed, detected=False, estimate_ok=False,
+                       error=f"{type(exc).__name__}: {exc}", seconds=time.perf_counter() - start)
         return verdict
     verdict = judge(truth, diagnosis)
-    verdict["seconds"] = time.perf_counter() - start
-    verdict["top"] = [(c["mechanism"], round(c["gain"], 3), c["significant"]) for c in diagnosis["candidates"][:3]]
-    print(json.dumps(verdict, default=str), flush=True)
+    em = diagnosis.get("error_model", {})
+    verdict.update(
+        index=index, seed=truth.seed, seconds=time.perf_counter() - start,
+        candidates=[{"mechanism": c["mechanism"], "gain": c["gain"], "lr": c["lr_statistic"], "p": c["p_value"],
+                     "k": c["n_parameters"], "significant": c["significant"]} for c in diagnosis["candidates"]],
+        error_model={k: em.get(k) for k in ("n_seeds", "dof", "shrinkage_intensity")},
+        goodness_of_fit=diagnosis.get("goodness_of_fit"),
+        unexplained=[u["feature"] for u in diagnosis.get("unexplained", [])],
+    )
     return verdict
+
+
+def summarise(verdicts: list[dict[str, Any]], alpha: float) -> dict[str, Any]:
+    """Rates per label, mechanism and case, overall, and the null calibration of the LR test."""
+    def block(vs: list[dict[str, Any]]) -> dict[str, Any]:
+        out: dict[str, Any] = {"n": len(vs)}
+        mech = [v for v in vs if v["case"] == "mechanism"]
+        null = [v for v in vs if v["case"] == "null"]
+        model = [v for v in vs if v["case"] == "model_error"]
+        if mech:
+            out["detection"] = rate([v["detected"] for v in mech])
+            out["wrong_cause"] = rate([v["wrong_cause"] for v in mech])
+            out["estimate_within_tolerance"] = rate([v["estimate_ok"] for v in mech])
+            out["estimate_error_over_tolerance"] = median_ci([v["estimate_error"] for v in mech if v["detected"]])
+        if null:
+            out["false_alarm"] = rate([v["false_alarm"] for v in null])
+        if model:
+            out["false_attribution"] = rate([v["false_alarm"] for v in model])
+        if null or model:
+            out["any_named_without_catalog_truth"] = rate([v["false_alarm"] for v in null + model])
+        return out
+
+    groups: dict[str, dict[str, list[dict[str, Any]]]] = {"label": defaultdict(list), "mechanism": defaultdict(list),
+                                                          "case": defaultdict(list)}
+    for v in verdicts:
+        groups["label"][v["label"]].append(v)
+        groups["mechanism"][v["mechanism"] if v["case"] != "model_error" else v["label"]].append(v)
+        groups["case"][v["case"]].append(v)
+    null_cands = [c for v in verdicts if v["case"] == "null" for c in v.get("candidates", [])]
+    null_draws = [v for v in verdicts if v["case"] == "null" and v.get("candidates")]
+    n_tests = {v["index"]: len({c["mechanism"] for c in v["candidates"]}) for v in null_draws}
+    calibration = {
+        "n_candidate_tests": len(null_cands),
+        "p_below_0.01": rate([c["p"] < 0.01 for c in null_cands]),
+        "p_below_0.05": rate([c["p"] < 0.05 for c in null_cands]),
+        "mean_lr_per_parameter": float(np.mean([c["lr"] / c["k"] for c in null_cands if c["k"]]))
+        if null_cands else float("nan"),
+        "familywise_lr_pass": rate([any(c["p"] < alpha / n_tests[v["index"]] for c in v["candidates"])
+                                    for v in null_draws]),
+        "nominal_familywise_alpha": alpha,
+    }
+    intensities = [v["error_model"].get("shrinkage_intensity") for v in verdicts
+                   if v.get("error_model", {}).get("shrinkage_intensity") is not None]
+    return {
+        "overall": block(verdicts),
+        "by_case": {k: block(vs) for k, vs in sorted(groups["case"].items())},
+        "by_mechanism": {k: block(vs) for k, vs in sorted(groups["mechanism"].items())},
+        "by_label": {k: block(vs) for k, vs in sorted(groups["label"].items())},
+        "null_lr_calibration": calibration,
+        "shrinkage_intensity": median_ci(intensities) if intensities else None,
+        "failed_draws": [{"index": v["index"], "label": v["label"], "error": v["error"]}
+                         for v in verdicts if v.get("error")],
+    }
+
+
+def _commit() -> str:
+    proc = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True, check=False)
+    return proc.stdout.strip() or "unknown"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--draws", type=int, default=12)
-    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--draws", type=int, default=60)
+    parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--p-none", type=float, default=0.25)
-    parser.add_argument("--out", type=Path)
+    parser.add_argument("--null-share", type=float, default=0.2)
+    parser.add_argument("--model-error-share", type=float, default=0.15)
+    parser.add_argument("--out", type=Path, default=REPO / "benchmarks/results/diagnosis_rates.json")
     args = parser.parse_args()
+    config = yaml.safe_load((REPO / "config/config.yaml").read_text())
+    from dronewind.manifest import with_defaults
+
+    diag = with_defaults(config)["diagnosis"]
+    draws = stratified_draws(args.draws, args.seed, args.null_share, args.model_error_share)
+    log_path = args.out.with_suffix(".log")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    with Pool(args.workers) as pool:
-        verdicts = pool.map(one, [(args.seed, i, args.p_none) for i in range(args.draws)])
-    by = defaultdict(list)
-    for v in verdicts:
-        by[v["mechanism"]].append(v)
-    print(f"\n{len(verdicts)} draws in {time.perf_counter() - start:.0f} s "
-          f"({np.mean([v['seconds'] for v in verdicts]):.0f} s per draw per worker)")
-    print(f"{'mechanism':22s} {'n':>3s} {'detected':>9s} {'estimate ok':>12s} {'false alarm':>12s}")
-    for mech, vs in sorted(by.items()):
-        print(f"{mech:22s} {len(vs):3d} {np.mean([v['detected'] for v in vs]):9.2f} "
-              f"{np.mean([v['estimate_ok'] for v in vs]):12.2f} {np.mean([v['false_alarm'] for v in vs]):12.2f}")
-    errors = [v for v in verdicts if v.get("error")]
-    if errors:
-        print(f"{len(errors)} draw(s) failed in processing: " + "; ".join(f"{v['mechanism']}: {v['error']}"
-                                                                      for v in errors))
-    hidden = [v for v in verdicts if v["mechanism"] != "none"]
-    null = [v for v in verdicts if v["mechanism"] == "none"]
-    if hidden:
-        print(f"overall detection rate {np.mean([v['detected'] for v in hidden]):.2f} "
-              f"(estimate within tolerance {np.mean([v['estimate_ok'] for v in hidden]):.2f}) over {len(hidden)}")
-    if null:
-        print(f"false-alarm rate {np.mean([v['false_alarm'] for v in null]):.2f} over {len(null)} null draws")
-    if args.out:
-        args.out.write_text(json.dumps(verdicts, indent=1, default=str))
+    commit = _commit()  # the code that runs, whatever is committed while it does
+    verdicts = []
+    with log_path.open("w") as log:
+        log.write(json.dumps({"command": " ".join(sys.argv), "commit": commit, "draws": args.draws,
+                              "seed": args.seed}) + "\n")
+        log.flush()
+        # a fixed permutation, so that a partial log mixes the cases
+        jobs = [(int(k), draws[k]) for k in np.random.default_rng(args.seed).permutation(len(draws))]
+        results = Pool(args.workers).imap_unordered(one, jobs) if args.workers > 1 else map(one, jobs)
+        for verdict in results:
+            verdicts.append(verdict)
+            line = json.dumps(verdict, default=str)
+            log.write(line + "\n")
+            log.flush()
+            print(f"[{len(verdicts)}/{args.draws}] {verdict['label']}: named {verdict['named']} "
+                  f"detected={verdict['detected']} ({verdict['seconds']:.0f} s)", flush=True)
+    verdicts.sort(key=lambda v: v["index"])
+    summary = summarise(verdicts, float(diag["alpha"]))
+    result = {
+        "command": "PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/bench_diagnosis_rates.py "
+                   f"--draws {args.draws} --seed {args.seed} --workers {args.workers} "
+                   f"--null-share {args.null_share} --model-error-share {args.model_error_share}",
+        "commit": commit,
+        "settings": {"draws": args.draws, "seed": args.seed, "null_share": args.null_share,
+                     "model_error_share": args.model_error_share, "diagnosis": diag,
+                     "campaign": "4 flights, 12-min hovers, 3.5-9.5 m/s (experiments.campaign_manifest)"},
+        "wall_seconds": time.perf_counter() - start,
+        "cpu_seconds_per_draw": float(np.mean([v["seconds"] for v in verdicts])),
+        "summary": summary,
+        "draws": verdicts,
+    }
+    tmp = args.out.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(result, indent=1, default=str))
+    os.replace(tmp, args.out)
+    print(json.dumps(summary["overall"], indent=1))
+    print(json.dumps(summary["null_lr_calibration"], indent=1))
 
 
 if __name__ == "__main__":

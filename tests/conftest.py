@@ -16,6 +16,14 @@ REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 
 
+def pytest_report_header(config) -> str:
+    """The seed of the hidden-effect draws (tests/test_diagnosis_hidden.py): from the commit unless overridden."""
+    from dronewind.diagnose.experiments import DRAW_SEED_ENV, draw_seed
+
+    seed, source = draw_seed(REPO)
+    return f"hidden-effect draws: seed {seed} ({source}; set {DRAW_SEED_ENV}=<int> to replay)"
+
+
 def workflow_env() -> dict[str, str]:
     """The environment of a Snakemake subprocess: this one (PYTHONPATH included), the venv first on PATH."""
     return {**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"}

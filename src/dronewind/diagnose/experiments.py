@@ -8,13 +8,34 @@ and :func:`judge` says whether the named cause and its estimate match the truth.
 
 Sizes are drawn from ranges in which the effect on a 4-flight campaign of 12-minute hovers
 is several sampling errors; the ranges and tolerances are part of the test's statement.
+Where a parameter can lie on either side of its "off" value (a lag, an angle, a clock rate,
+a gain about 1) both sides are drawn; the one-sided ones are physically so (noise, an
+attitude lag, a mast sonic attenuating w).
+
+Three kinds of truth:
+
+* the null case: nothing hidden; the correct verdict names no cause;
+* a catalog mechanism (:data:`HIDDEN_RANGES`): it must be named and estimated within
+  :data:`TOLERANCES`;
+* a *model error* (:data:`MODEL_ERRORS`): physics the forward model does not have and no
+  catalog mechanism describes. The forward model runs the payload with the simulator's
+  default pendulum (18 m sling, damping ratio at least 0.03,
+  :func:`dronewind.diagnose.forward.forward_manifest` drops the campaign's
+  ``simulation:`` section); the truth hangs the payload on another sling or damps it
+  more. The correct verdict names no catalog cause (the misfit, if any, belongs in
+  ``unexplained``); naming one is a false attribution.
+
+CI draws change with every commit: :func:`draw_seed` derives the seed from ``git
+rev-parse HEAD`` (overridable by the ``DRONEWIND_DRAW_SEED`` environment variable).
 """
 
 from __future__ import annotations
 
 import copy
+import os
+import subprocess
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,14 +46,18 @@ from dronewind.manifest import with_defaults
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
-__all__ = ["HIDDEN_RANGES", "TOLERANCES", "Draw", "draw", "campaign_manifest", "judge", "run_in_process",
-           "AMBIGUOUS_WITH"]
+__all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
+           "stratified_draws", "campaign_manifest", "judge", "run_in_process", "AMBIGUOUS_WITH",
+           "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval"]
 
-#: mechanism -> parameter -> (low, high) magnitude range; a sign is drawn where both signs make sense.
+#: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
+#: as a distance from the parameter's centre (:data:`HIDDEN_CENTRES`, else 0), on a random
+#: side where ``signed``.
 HIDDEN_RANGES: dict[str, dict[str, tuple[float, float, bool]]] = {
     "sonic_ins_lag": {"lag_s": (0.25, 0.6, True)},
     "heading_bias": {"deg": (6.0, 12.0, True)},
-    "w_gain": {"gain": (1.12, 1.3, False)},
+    # w over-read (flow distortion accelerating the vertical component) or under-read
+    "w_gain": {"gain": (0.12, 0.3, True)},
     "sonic_noise": {"sigma_ms": (0.2, 0.4, False)},
     "mast_w_attenuation": {"gain": (0.78, 0.88, False)},
     "attitude_lag": {"lag_s": (0.2, 0.4, False)},
@@ -42,6 +67,23 @@ HIDDEN_RANGES: dict[str, dict[str, tuple[float, float, bool]]] = {
     # the forward model for a biased altitude.)
     "clock_drift": {"ppm": (250.0, 450.0, True)},
 }
+
+#: Value about which a hidden parameter is drawn (its "off" value when not 0).
+HIDDEN_CENTRES: dict[tuple[str, str], float] = {("w_gain", "gain"): 1.0}
+
+#: Model errors: name -> ``simulation.payload`` setting -> ranges (one drawn at random, then
+#: a value uniformly in it). The forward model keeps the defaults (18 m, 0.03).
+MODEL_ERRORS: dict[str, dict[str, tuple[tuple[float, float], ...]]] = {
+    # pendulum frequency sqrt(g/l)/2pi: 0.14-0.17 Hz (9-12 m) or 0.083-0.094 Hz (28-36 m)
+    # instead of 0.117 Hz
+    "pendulum_length": {"pendulum_length_m": ((9.0, 12.0), (28.0, 36.0))},
+    "pendulum_damping": {"min_damping_ratio": ((0.15, 0.3),)},
+}
+
+#: Environment variable that overrides the seed of the CI draws.
+DRAW_SEED_ENV = "DRONEWIND_DRAW_SEED"
+#: Seed of the CI draws outside a git checkout.
+FALLBACK_DRAW_SEED = 2026
 
 #: Allowed estimation error per parameter (absolute, or relative when the key ends in '%').
 TOLERANCES: dict[str, dict[str, float]] = {
@@ -64,11 +106,106 @@ AMBIGUOUS_WITH: dict[str, set[str]] = {
 
 @dataclass(frozen=True)
 class Draw:
-    """One hidden effect."""
+    """One hidden effect.
+
+    Attributes
+    ----------
+    mechanism : str
+        Catalog mechanism hidden, or ``none`` (also for a model error).
+    parameters : dict
+        Its parameters.
+    seed : int
+        Campaign seed.
+    model_error : dict
+        ``simulation.payload`` settings the forward model does not know (empty: none).
+    model_error_name : str
+        Key of :data:`MODEL_ERRORS` ("" when no model error).
+    """
 
     mechanism: str
     parameters: dict[str, float]
     seed: int
+    model_error: dict[str, float] = field(default_factory=dict)
+    model_error_name: str = ""
+
+    @property
+    def case(self) -> str:
+        """``null``, ``model_error`` or ``mechanism``."""
+        if self.model_error:
+            return "model_error"
+        return "null" if self.mechanism == "none" else "mechanism"
+
+    @property
+    def label(self) -> str:
+        """Short name for test ids and tables: ``none``, ``model_error:<name>`` or ``<mechanism><sign>``."""
+        if self.model_error:
+            return f"model_error:{self.model_error_name}"
+        if self.mechanism == "none":
+            return "none"
+        return self.mechanism + "".join(_side(self.mechanism, p, v) for p, v in self.parameters.items()
+                                        if HIDDEN_RANGES.get(self.mechanism, {}).get(p, (0, 0, False))[2])
+
+
+def _side(mechanism: str, parameter: str, value: float) -> str:
+    return "+" if value >= HIDDEN_CENTRES.get((mechanism, parameter), 0.0) else "-"
+
+
+def _hidden_value(rng: np.random.Generator, mechanism: str, parameter: str, sign: int | None = None) -> float:
+    """A parameter value from :data:`HIDDEN_RANGES` (``sign`` +1/-1 forces the side of a signed one)."""
+    lo, hi, signed = HIDDEN_RANGES[mechanism][parameter]
+    size = float(rng.uniform(lo, hi))
+    if signed:
+        side = sign if sign is not None else (-1 if rng.random() < 0.5 else 1)
+        size *= side
+    return round(HIDDEN_CENTRES.get((mechanism, parameter), 0.0) + size, 4)
+
+
+def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion :math:`k/n` (95 % by default).
+
+    .. math:: \\frac{\\hat p + z^2/2n \\pm z\\sqrt{\\hat p(1-\\hat p)/n + z^2/4n^2}}{1 + z^2/n}
+
+    Wilson, E. B. (1927): Probable inference, the law of succession, and statistical
+    inference. J. Am. Stat. Assoc. 22, 209-212. Keeps its coverage near 95 % for the small
+    counts and rates near 0 or 1 of a rate benchmark, where the normal interval collapses.
+    NaN for ``n`` = 0.
+    """
+    if n == 0:
+        return (float("nan"), float("nan"))
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * float(np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)))
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def draw_seed(repo: str | Path) -> tuple[int, str]:
+    """Seed of the CI draws: from the environment, else the checked-out commit, else fixed.
+
+    Parameters
+    ----------
+    repo : str or Path
+        Repository folder.
+
+    Returns
+    -------
+    seed : int
+        ``$DRONEWIND_DRAW_SEED`` when set; else the first 8 hex digits of ``git rev-parse
+        HEAD`` as an integer (every commit meets new draws); else :data:`FALLBACK_DRAW_SEED`.
+    source : str
+        Where the seed came from (printed in the pytest header).
+    """
+    env = os.environ.get(DRAW_SEED_ENV, "").strip()
+    if env:
+        return int(env), f"${DRAW_SEED_ENV}"
+    try:
+        proc = subprocess.run(["git", "rev-parse", "HEAD"], cwd=repo, capture_output=True, text=True,
+                              timeout=30, check=False)
+    except (OSError, subprocess.SubprocessError) as exc:
+        return FALLBACK_DRAW_SEED, f"fixed (git unavailable: {exc})"
+    sha = proc.stdout.strip()
+    if proc.returncode != 0 or len(sha) < 8:
+        return FALLBACK_DRAW_SEED, "fixed (not a git checkout)"
+    return int(sha[:8], 16), f"commit {sha[:12]}"
 
 
 def draw(rng: np.random.Generator, mechanisms: list[str] | None = None, p_none: float = 0.25) -> Draw:
@@ -93,13 +230,55 @@ def draw(rng: np.random.Generator, mechanisms: list[str] | None = None, p_none: 
     if rng.random() < p_none:
         return Draw("none", {}, seed)
     mech = str(rng.choice(names))
-    params = {}
-    for name, (lo, hi, signed) in HIDDEN_RANGES[mech].items():
-        value = float(rng.uniform(lo, hi))
-        if signed and rng.random() < 0.5:
-            value = -value
-        params[name] = round(value, 4)
-    return Draw(mech, params, seed)
+    return Draw(mech, {name: _hidden_value(rng, mech, name) for name in HIDDEN_RANGES[mech]}, seed)
+
+
+def _model_error_draw(rng: np.random.Generator, name: str) -> Draw:
+    seed = int(rng.integers(1, 2**31 - 1))
+    settings = {}
+    for key, ranges in MODEL_ERRORS[name].items():
+        lo, hi = ranges[int(rng.integers(len(ranges)))]
+        settings[key] = round(float(rng.uniform(lo, hi)), 3)
+    return Draw("none", {}, seed, settings, name)
+
+
+def stratified_draws(n: int, seed: int, null_share: float = 0.2, model_error_share: float = 0.15) -> list[Draw]:
+    """``n`` draws in fixed shares: null, model errors, every hidden mechanism on each side.
+
+    Parameters
+    ----------
+    n : int
+        Number of draws.
+    seed : int
+        Draw ``k`` uses ``numpy.random.default_rng([seed, k])``.
+    null_share, model_error_share : float
+        Shares of null and model-error draws (rounded); the rest cycles through the cells
+        (mechanism, side) of :data:`HIDDEN_RANGES` (one cell per one-sided mechanism), then
+        through :data:`MODEL_ERRORS` for the model errors.
+
+    Returns
+    -------
+    list of Draw
+        Null draws first, then model errors, then mechanisms.
+    """
+    n_null = int(round(null_share * n))
+    n_model = int(round(model_error_share * n))
+    cells: list[tuple[str, int | None]] = []
+    for mech in sorted(HIDDEN_RANGES):
+        signed = any(s for _, _, s in HIDDEN_RANGES[mech].values())
+        cells += [(mech, 1), (mech, -1)] if signed else [(mech, None)]
+    out: list[Draw] = []
+    for k in range(n):
+        rng = np.random.default_rng([seed, k])
+        if k < n_null:
+            out.append(Draw("none", {}, int(rng.integers(1, 2**31 - 1))))
+        elif k < n_null + n_model:
+            out.append(_model_error_draw(rng, sorted(MODEL_ERRORS)[(k - n_null) % len(MODEL_ERRORS)]))
+        else:
+            mech, sign = cells[(k - n_null - n_model) % len(cells)]
+            draw_seed_k = int(rng.integers(1, 2**31 - 1))
+            out.append(Draw(mech, {p: _hidden_value(rng, mech, p, sign) for p in HIDDEN_RANGES[mech]}, draw_seed_k))
+    return out
 
 
 def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hover_min: float = 12.0,
@@ -128,7 +307,8 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
                    "sonics": [{"id": "mast30", "height_m": 30, "model": "CSAT3", "azimuth_deg": 218.0,
                                "files": ["mast/mast30_*.dat"]}]}],
         "payload_flights": flights,
-        "simulation": {"seed": truth.seed, "payload_flights": conditions, "mechanisms": mechanisms},
+        "simulation": {"seed": truth.seed, "payload_flights": conditions, "mechanisms": mechanisms,
+                       **({"payload": dict(truth.model_error)} if truth.model_error else {})},
     }
 
 
@@ -138,36 +318,48 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
     Returns
     -------
     dict
+        ``case`` and ``label`` of the truth (:attr:`Draw.case`, :attr:`Draw.label`);
         ``detected`` (the hidden mechanism is named, or is in an ambiguity set with a named
-        one), ``false_alarm`` (something named although nothing was hidden),
-        ``estimate_ok`` (every parameter within :data:`TOLERANCES`), ``named`` and the
-        estimate.
+        one; for null and model-error truths: nothing named), ``false_alarm`` (something
+        named although no catalog mechanism was hidden: a false attribution for a model
+        error), ``wrong_cause`` (a mechanism draw where a named cause is neither the truth
+        nor ambiguous with it), ``estimate_ok`` (every parameter within :data:`TOLERANCES`),
+        ``estimate_error`` (the largest |estimate - truth| / tolerance over the parameters;
+        NaN without an estimate), ``named`` and the estimate.
     """
     named = list(diagnosis.get("named_causes") or [])
-    out: dict[str, Any] = {"mechanism": truth.mechanism, "truth": truth.parameters, "named": named}
+    out: dict[str, Any] = {"mechanism": truth.mechanism, "case": truth.case, "label": truth.label,
+                           "truth": truth.parameters, "model_error": truth.model_error, "named": named}
     if truth.mechanism == "none":
-        out.update(detected=not named, false_alarm=bool(named), estimate_ok=True)
+        out.update(detected=not named, false_alarm=bool(named), wrong_cause=False, estimate_ok=True,
+                   estimate_error=float("nan"))
         return out
     groups = [set(g) for g in diagnosis.get("ambiguity_sets") or []]
     equivalents = {truth.mechanism} | AMBIGUOUS_WITH.get(truth.mechanism, set())
     in_group = any(truth.mechanism in g and g & set(named) for g in groups)
     detected = truth.mechanism in named or in_group or bool(equivalents & set(named[:1]))
+    explained = equivalents | set().union(*(g for g in groups if truth.mechanism in g)) if groups else equivalents
     out["detected"] = bool(detected)
     out["false_alarm"] = False
+    out["wrong_cause"] = bool(set(named) - explained)
     est = (diagnosis.get("named_estimates") or {}).get(truth.mechanism, {}).get("estimate")
     if est is None:
         est = next((c["estimate"] for c in diagnosis.get("candidates", []) if c["mechanism"] == truth.mechanism), {})
     out["estimate"] = est
     ok = True
+    worst = 0.0
     for key, tol in TOLERANCES.get(truth.mechanism, {}).items():
         name = key.rstrip("%")
         if name not in est:
             ok = False
+            worst = float("nan")
             continue
         err = abs(float(est[name]) - truth.parameters[name])
         limit = tol * abs(truth.parameters[name]) if key.endswith("%") else tol
         ok &= err <= limit
+        worst = max(worst, err / limit)
     out["estimate_ok"] = bool(ok) if truth.mechanism in named else bool(ok and detected)
+    out["estimate_error"] = float(worst)
     return out
 
 

@@ -21,10 +21,15 @@ from sampling noise. This module is the statistics on top of those tables:
 * :func:`ambiguity_sets` groups significant candidates whose held-out predictions the
   data cannot tell apart.
 
-Misfit: :math:`\chi^2 = \sum_i \sum_f ((y_{if} - \hat y_{if}) / s_{if})^2` with
-:math:`s_{if}` the sampling standard error of feature :math:`f` of flight :math:`i`
-(seed 000, Eqs 10-13 for variance-type features; the spread of baseline simulations with
-different seeds otherwise; see :mod:`dronewind.diagnose.features`).
+Misfit: :math:`\chi^2 = \sum_i z_i^\top R^{-1} z_i` with
+:math:`z_{if} = (y_{if} - \hat y_{if}) / s_{if}`, :math:`s_{if}` the residual standard
+error of feature :math:`f` of flight :math:`i` (seed 000, Eqs 10-13 for variance-type
+features, calibrated by the baseline seeds; see :mod:`dronewind.diagnose.campaign`) and
+:math:`R` the feature correlation matrix (:mod:`dronewind.diagnose.covariance`; the
+identity when ``corr`` is None, which is the sum of squared z-scores). Every function that
+takes ``corr`` whitens with it: the least squares fit (residuals :math:`L^{-1} z_i`, so the
+parameter errors from the Jacobian account for the correlation), the likelihood-ratio
+statistic, the held-out misfits and gain, and the distinguishability of candidates.
 """
 
 from __future__ import annotations
@@ -36,12 +41,15 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
+from dronewind.diagnose.covariance import Whitener
+
 __all__ = [
     "ParameterResponse",
     "ResponseModel",
     "FitResult",
     "CandidateScore",
     "chi2",
+    "standardised_residuals",
     "bounded_least_squares",
     "fit_parameters",
     "score_candidate",
@@ -158,22 +166,42 @@ class ResponseModel:
         return np.array([p.baseline_level for p in self.parameters], dtype=float)
 
 
-def chi2(y: np.ndarray, prediction: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """Per-flight misfit :math:`\\sum_f ((y - \\hat y)/s)^2`, ignoring missing features.
+def standardised_residuals(y: np.ndarray, prediction: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """:math:`z = (y - \\hat y)/s` over the measured features, NaN where a feature is not used.
+
+    A feature is used where ``y`` and ``sigma`` are finite and ``sigma`` > 0; where the
+    forward model cannot produce a used feature (NaN prediction) its residual is 0: no misfit.
+    """
+    use = np.isfinite(y) & np.isfinite(sigma) & (sigma > 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = (y - prediction) / np.where(use, sigma, 1.0)
+    return np.where(use, np.where(np.isfinite(z), z, 0.0), np.nan)
+
+
+def chi2(y: np.ndarray, prediction: np.ndarray, sigma: np.ndarray,
+         corr: np.ndarray | Whitener | None = None) -> np.ndarray:
+    """Per-flight misfit :math:`z_i^\\top R^{-1} z_i`, ignoring missing features.
 
     Parameters
     ----------
     y, prediction, sigma : numpy.ndarray
         Shape ``(n_flights, n_features)``; NaN in ``y`` or ``sigma`` marks a feature
         that could not be measured for that flight.
+    corr : numpy.ndarray or Whitener, optional
+        Feature correlation matrix (or its :class:`~dronewind.diagnose.covariance.Whitener`);
+        None: independent errors, :math:`\\sum_f z_f^2`.
 
     Returns
     -------
     numpy.ndarray
         Shape ``(n_flights,)``.
     """
-    z = (y - prediction) / sigma
-    return np.nansum(np.where(np.isfinite(z), z * z, np.nan), axis=1)
+    e = _whitener(corr)(standardised_residuals(y, prediction, sigma))
+    return np.nansum(e * e, axis=1)
+
+
+def _whitener(corr: np.ndarray | Whitener | None) -> Whitener:
+    return corr if isinstance(corr, Whitener) else Whitener(corr)
 
 
 @dataclass(frozen=True)
@@ -241,7 +269,8 @@ def bounded_least_squares(
     return best.x, std, value, bool(best.success), str(best.message)
 
 
-def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, flights: np.ndarray) -> FitResult:
+def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, flights: np.ndarray,
+                   corr: np.ndarray | Whitener | None = None) -> FitResult:
     """Bounded weighted least-squares estimate of a mechanism's parameters.
 
     Parameters
@@ -254,6 +283,8 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
         Their standard errors, same shape.
     flights : numpy.ndarray
         Indices of the flights to fit.
+    corr : numpy.ndarray or Whitener, optional
+        Feature correlation matrix: the residuals are whitened with it (module docstring).
 
     Returns
     -------
@@ -261,16 +292,20 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
         Parameters, their standard errors (from the Jacobian at the optimum, scaled by
         the reduced misfit when it exceeds 1), the misfit and the baseline misfit.
     """
+    white = _whitener(corr)
     base_theta = model.baseline_theta()
-    base_chi2 = float(chi2(y[flights], model.predict(base_theta, flights), sigma[flights]).sum())
+    base_chi2 = float(chi2(y[flights], model.predict(base_theta, flights), sigma[flights], white).sum())
     if model.n_parameters == 0:
         return FitResult(base_theta, base_theta, base_chi2, base_chi2, True, "no parameters")
-    mask = np.isfinite(y[flights]) & np.isfinite(sigma[flights]) & (sigma[flights] > 0)
+    yf, sf = y[flights], sigma[flights]
+    mask = np.isfinite(yf) & np.isfinite(sf) & (sf > 0)
+    factors = [white.factor(m) if white.corr is not None and m.any() else None for m in mask]
 
     def residuals(theta: np.ndarray) -> np.ndarray:
-        r = (y[flights] - model.predict(theta, flights)) / np.where(mask, sigma[flights], 1.0)
         # a feature the forward model cannot produce at this flight counts as no misfit
-        return np.where(np.isfinite(r), r, 0.0)[mask]
+        z = standardised_residuals(yf, model.predict(theta, flights), sf)
+        return np.concatenate([z[i, m] if f is None else f @ z[i, m]
+                               for i, (m, f) in enumerate(zip(mask, factors, strict=True))])
 
     theta, theta_std, value, success, message = bounded_least_squares(residuals, model.parameters)
     return FitResult(theta, theta_std, value, base_chi2, success, message)
@@ -306,6 +341,7 @@ def score_candidate(
     sigma: np.ndarray,
     alpha: float = 0.01,
     n_candidates: int = 1,
+    corr: np.ndarray | Whitener | None = None,
 ) -> CandidateScore:
     """Fit a mechanism on all flights and cross-validate it leaving one flight out.
 
@@ -320,6 +356,8 @@ def score_candidate(
     n_candidates : int
         Number of candidates tried (Bonferroni correction: each is tested at
         ``alpha / n_candidates``).
+    corr : numpy.ndarray or Whitener, optional
+        Feature correlation matrix used in every misfit (module docstring).
 
     Returns
     -------
@@ -334,18 +372,19 @@ def score_candidate(
     """
     n = y.shape[0]
     flights = np.arange(n)
-    fit = fit_parameters(model, y, sigma, flights)
+    white = _whitener(corr)
+    fit = fit_parameters(model, y, sigma, flights, white)
     held = np.empty(n)
     held_base = np.empty(n)
     prediction = np.empty_like(y, dtype=float)
     base_theta = model.baseline_theta()
     for i in range(n):
         train = flights[flights != i] if n > 1 else flights
-        theta = fit_parameters(model, y, sigma, train).theta if model.n_parameters else base_theta
+        theta = fit_parameters(model, y, sigma, train, white).theta if model.n_parameters else base_theta
         one = np.array([i])
         prediction[i] = model.predict(theta, one)[0]
-        held[i] = chi2(y[one], prediction[i:i + 1], sigma[one])[0]
-        held_base[i] = chi2(y[one], model.predict(base_theta, one), sigma[one])[0]
+        held[i] = chi2(y[one], prediction[i:i + 1], sigma[one], white)[0]
+        held_base[i] = chi2(y[one], model.predict(base_theta, one), sigma[one], white)[0]
     total_base = float(held_base.sum())
     gain = 1.0 - float(held.sum()) / total_base if total_base > 0 else 0.0
     lr = max(fit.chi2_baseline - fit.chi2, 0.0)
@@ -371,6 +410,7 @@ def ambiguity_sets(
     y: np.ndarray,
     sigma: np.ndarray,
     threshold_chi2: float = 4.0,
+    corr: np.ndarray | Whitener | None = None,
 ) -> list[list[str]]:
     """Group significant candidates the data cannot tell apart.
 
@@ -387,6 +427,8 @@ def ambiguity_sets(
         Measured features and their standard errors (to mask missing features).
     threshold_chi2 : float
         Distinguishability threshold.
+    corr : numpy.ndarray or Whitener, optional
+        Feature correlation matrix: the prediction difference is whitened with it.
 
     Returns
     -------
@@ -396,7 +438,7 @@ def ambiguity_sets(
     sig = sorted((s for s in scores if s.significant), key=lambda s: -s.gain)
     groups: list[list[str]] = []
     used: set[str] = set()
-    ok = np.isfinite(y) & np.isfinite(sigma) & (sigma > 0)
+    white = _whitener(corr)
     for i, a in enumerate(sig):
         if a.mechanism in used:
             continue
@@ -404,8 +446,10 @@ def ambiguity_sets(
         for b in sig[i + 1:]:
             if b.mechanism in used:
                 continue
-            d = np.where(ok, (a.heldout_prediction - b.heldout_prediction) / np.where(ok, sigma, 1.0), 0.0)
-            close_predictions = float(np.sum(d * d)) < threshold_chi2
+            # the prediction difference as a "residual": used where y is measured
+            diff = a.heldout_prediction - b.heldout_prediction
+            d = chi2(np.where(np.isfinite(y), diff, np.nan), np.zeros_like(diff), sigma, white)
+            close_predictions = float(np.sum(d)) < threshold_chi2
             close_misfit = abs(float(a.heldout_chi2.sum() - b.heldout_chi2.sum())) < threshold_chi2
             if close_predictions or close_misfit:
                 group.append(b.mechanism)

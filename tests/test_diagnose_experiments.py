@@ -1,0 +1,85 @@
+"""Hidden-effect draws: commit-derived seed, stratified cells, model-error truths, judging, intervals."""
+
+from __future__ import annotations
+
+import subprocess
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from dronewind.diagnose import experiments as ex
+from dronewind.mechanisms import get_mechanism
+
+
+def test_hidden_ranges_are_inside_the_catalog_ranges_and_signed_ones_cover_both_sides():
+    rng = np.random.default_rng(0)
+    for mech, params in ex.HIDDEN_RANGES.items():
+        for name, (lo, hi, signed) in params.items():
+            spec = next(p for p in get_mechanism(mech).parameters if p.name == name)
+            centre = ex.HIDDEN_CENTRES.get((mech, name), 0.0)
+            ends = [centre + lo, centre + hi] + ([centre - lo, centre - hi] if signed else [])
+            assert spec.lower <= min(ends) and max(ends) <= spec.upper, (mech, name)
+            if signed:
+                values = [ex._hidden_value(rng, mech, name, side) for side in (1, -1)]
+                assert values[0] > centre > values[1]
+
+
+def test_stratified_draws_have_the_stated_shares_and_every_cell():
+    draws = ex.stratified_draws(60, seed=1)
+    cases = Counter(d.case for d in draws)
+    assert cases == {"null": 12, "model_error": 9, "mechanism": 39}
+    labels = {d.label for d in draws}
+    for mech, params in ex.HIDDEN_RANGES.items():
+        if any(s for _, _, s in params.values()):
+            assert {mech + "+", mech + "-"} <= labels
+        else:
+            assert mech in labels
+    assert {f"model_error:{m}" for m in ex.MODEL_ERRORS} <= labels
+    assert ex.stratified_draws(60, seed=1) == draws  # reproducible
+    assert ex.stratified_draws(60, seed=2) != draws
+
+
+def test_model_error_truth_reaches_the_simulation_but_not_the_catalog():
+    d = next(d for d in ex.stratified_draws(20, seed=3) if d.case == "model_error")
+    manifest = ex.campaign_manifest(d)
+    assert manifest["simulation"]["mechanisms"] == []
+    assert manifest["simulation"]["payload"] == d.model_error
+    verdict = ex.judge(d, {"named_causes": ["attitude_lag"]})
+    assert verdict["false_alarm"] and not verdict["detected"]
+    assert ex.judge(d, {"named_causes": []})["detected"]
+
+
+def test_judge_flags_a_wrong_cause_and_measures_the_estimate_error():
+    truth = ex.Draw("w_gain", {"gain": 0.8}, 1)
+    diag = {"named_causes": ["w_gain", "sonic_noise"], "ambiguity_sets": [],
+            "named_estimates": {"w_gain": {"estimate": {"gain": 0.83}}}}
+    v = ex.judge(truth, diag)
+    assert v["detected"] and v["wrong_cause"] and v["estimate_ok"]
+    assert v["estimate_error"] == pytest.approx(0.03 / 0.05)
+    assert not ex.judge(truth, {**diag, "named_causes": ["w_gain"]})["wrong_cause"]
+
+
+def test_draw_seed_from_the_environment_the_commit_or_fixed(tmp_path, monkeypatch):
+    monkeypatch.setenv(ex.DRAW_SEED_ENV, "123")
+    assert ex.draw_seed(tmp_path) == (123, f"${ex.DRAW_SEED_ENV}")
+    monkeypatch.delenv(ex.DRAW_SEED_ENV)
+    seed, source = ex.draw_seed(tmp_path)
+    assert seed == ex.FALLBACK_DRAW_SEED and "not a git checkout" in source
+    env = {"GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
+    subprocess.run(["git", "init", "-q"], cwd=tmp_path, check=True)
+    subprocess.run(["git", "commit", "-q", "--allow-empty", "-m", "x"], cwd=tmp_path, check=True, env=env)
+    sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=tmp_path, capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert ex.draw_seed(tmp_path) == (int(sha[:8], 16), f"commit {sha[:12]}")
+
+
+@pytest.mark.parametrize(("k", "n", "lo", "hi"), [
+    (0, 10, 0.0, 0.2775),  # closed form of Wilson (1927) evaluated by hand
+    (5, 10, 0.2366, 0.7634),
+    (10, 10, 0.7225, 1.0),
+    (1, 60, 0.00295, 0.0886),
+])
+def test_wilson_interval_known_values(k, n, lo, hi):
+    got = ex.wilson_interval(k, n)
+    assert got == pytest.approx((lo, hi), abs=5e-4)
