@@ -1,4 +1,4 @@
-"""The catalog of discrepancy mechanisms (DESIGN.md, "Mechanisms").
+r"""The catalog of discrepancy mechanisms (DESIGN.md, "Mechanisms").
 
 A *mechanism* is a named physical or instrumental cause that makes a measured (or
 simulated) record differ from the truth. The simulator switches mechanisms on in its
@@ -7,34 +7,41 @@ fits them to processed data and names the significant ones. This module only
 *describes* them: names, parameters with units and physical ranges, and which platform
 each one acts on. It contains no processing code.
 
-Platforms: ``payload`` (SAMURAI-S sling-load sonic + INS), ``mast`` (mast sonics),
-``quadrotor`` (SWUF-3D drag-balance quadrotors, incl. their wind-tunnel calibration) and
-``any`` (``none``).
+Platforms: ``payload`` (SAMURAI-S sling-load sonic + INS), ``rigid_mount`` (a sonic bolted to
+a multicopter, platform state from the vehicle's log), ``mast`` (mast sonics), ``quadrotor``
+(SWUF-3D drag-balance quadrotors, incl. their wind-tunnel calibration) and ``any``
+(``none``).
 
 Where each payload/mast mechanism acts in the simulator (``dronewind.simulate``):
 
-==================== =====================================================================
-sonic_ins_lag        sonic rows are stamped ``rpi(t) - lag_s``: ``lag_s`` is the time that
-                     must be ADDED to the sonic clock to align it with the INS (same sign
-                     as ``lag_sonic_ins_s``); a sonic processing delay d gives lag_s = -d
-clock_drift          the sonic's stamps run ``ppm`` 1e-6 fast: stamp = rpi(t) + ppm 1e-6
-                     (t - t_log_start)
-mount_misalignment   true sensor-to-body rotation = M_mount . R(roll, pitch, yaw) (App. A)
-heading_bias         logged INS yaw = true yaw + deg
-attitude_lag         logged INS attitude at t = true attitude at t - lag_s
-lever_arm            logged INS velocity/position refer to sonic + R . (x, y, z)_body
-w_gain               sensor-frame z component of the payload sonic multiplied by gain
-                     (flow distortion around the head)
-sonic_noise          white Gaussian noise (sigma_ms, each sensor component) on the
-                     payload sonic, before quantisation
-height_offset        the payload hovers dz_m lower (positive = lower) than the settings'
-                     hover height; it then samples the field (mean shear, sigma's,
-                     spectra) at that height
-downwash             the air at the payload sonic gets a downdraft
-                     w_dw = -w0_ms . exp(-U_h / u_scale_ms), U_h the instantaneous
-                     horizontal wind speed at the payload
-mast_w_attenuation   mast CSAT3 Uz = gain . true vertical wind
-==================== =====================================================================
+============================ =====================================================================
+sonic_ins_lag                sonic rows are stamped ``rpi(t) - lag_s``: ``lag_s`` is the time that
+                             must be ADDED to the sonic clock to align it with the INS (same sign
+                             as ``lag_sonic_ins_s``); a sonic processing delay d gives lag_s = -d
+clock_drift                  the sonic's stamps run ``ppm`` 1e-6 fast: stamp = rpi(t) + ppm 1e-6
+                             (t - t_log_start)
+mount_misalignment           true sensor-to-body rotation = M_mount . R(roll, pitch, yaw) (App. A)
+heading_bias                 logged INS yaw = true yaw + deg
+attitude_lag                 logged INS attitude at t = true attitude at t - lag_s
+lever_arm                    logged INS velocity/position refer to sonic + R . (x, y, z)_body
+w_gain                       sensor-frame z component of the payload sonic multiplied by gain
+                             (flow distortion around the head)
+sonic_noise                  white Gaussian noise (sigma_ms, each sensor component) on the
+                             payload sonic, before quantisation
+height_offset                the payload hovers dz_m lower (positive = lower) than the settings'
+                             hover height; it then samples the field (mean shear, sigma's,
+                             spectra) at that height
+downwash                     the air at the payload sonic gets a downdraft
+                             w_dw = -w0_ms . exp(-U_h / u_scale_ms), U_h the instantaneous
+                             horizontal wind speed at the payload
+mast_w_attenuation           mast CSAT3 Uz = gain . true vertical wind
+platform_velocity_response   rigid mount (:mod:`dronewind.simulate.rigid`): the sonic measures
+                             :math:`V_{sensor} = (R M)^{-1} (V_{wind} - G V_{platform})` with
+                             :math:`G = \mathrm{diag}(g_h, g_h, g_v)` in east/north/up (``gain_h``,
+                             ``gain_v``); ``G = I`` is the present model. The motion-corrected wind
+                             :math:`R M V_{sensor} + V_{platform}` then keeps
+                             :math:`(I - G) V_{platform}`
+============================ =====================================================================
 """
 
 from __future__ import annotations
@@ -59,7 +66,7 @@ __all__ = [
 ]
 
 #: Platforms a mechanism can act on.
-PLATFORMS: tuple[str, ...] = ("payload", "mast", "quadrotor", "any")
+PLATFORMS: tuple[str, ...] = ("payload", "rigid_mount", "mast", "quadrotor", "any")
 
 #: A validated parameter value: a number (``float`` parameters), an identifier (``str``) or a
 #: table of YAML mappings (``table``).
@@ -212,6 +219,18 @@ _ENTRIES: tuple[Mechanism, ...] = (
         "mast sonic w attenuated by tower or sensor-head distortion",
     ),
     Mechanism(
+        "platform_velocity_response",
+        (
+            _p("gain_h", "1", 0.0, 1.5,
+               "fraction of the platform's horizontal (east, north) velocity the sonic sees; 1: none lost"),
+            _p("gain_v", "1", 0.0, 1.5,
+               "fraction of the platform's vertical velocity the sonic sees; 1: none lost"),
+        ),
+        ("rigid_mount",),
+        "the sonic sees the platform's own velocity scaled by gain_h (horizontal) and gain_v (vertical) "
+        "instead of 1 (airframe and rotor flow distortion)",
+    ),
+    Mechanism(
         "pitch_offset",
         (
             _p("uav", "1", 0.0, 0.0, "UAV id", kind="str"),
@@ -279,7 +298,7 @@ def mechanisms_for(platform: str) -> list[Mechanism]:
 
     Parameters
     ----------
-    platform : {"payload", "mast", "quadrotor"}
+    platform : {"payload", "rigid_mount", "mast", "quadrotor"}
 
     Returns
     -------
