@@ -6,7 +6,9 @@ sonics), :mod:`~dronewind.simulate.mast` (CSAT3 measurement model),
 :mod:`~dronewind.simulate.writers` (L0 formats), :mod:`~dronewind.simulate.settings`
 (validation of the ``simulation:`` section), :mod:`~dronewind.simulate.quadrotor` and
 :mod:`~dronewind.simulate.tunnel` (SWUF-3D fleet and wind tunnel), with their own forward
-drag physics in :mod:`~dronewind.simulate.airframe` (independent of the chain's inversion)
+drag physics in :mod:`~dronewind.simulate.airframe` (independent of the chain's inversion),
+:mod:`~dronewind.simulate.rigid` (a sonic on a rigid mount of a hovering multicopter, with the
+``platform_velocity_response`` mechanism)
 and shared noise and lag processes in :mod:`~dronewind.simulate.common`. The simulator
 imports no processing chain: its campaigns reach the chain only as files.
 
