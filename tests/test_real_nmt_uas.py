@@ -34,9 +34,11 @@ pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"real record {DATA} 
 def results(tmp_path_factory):
     out = tmp_path_factory.mktemp("nmt")
     target = out / "real_nmt_uas" / "tables" / "flight_stats.csv"
+    targets = [str(target), str(out / "real_nmt_uas" / "diagnosis.json"),
+               str(out / "real_nmt_uas" / "report" / "summary.html")]
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     run = subprocess.run([str(Path(sys.executable).with_name("snakemake")), "--cores", "2", "--config",
-                          f"campaign={CAMPAIGN}", f"results_dir={out}", "--", str(target)],
+                          f"campaign={CAMPAIGN}", f"results_dir={out}", "--", *targets],
                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stderr[-3000:]
     return out / "real_nmt_uas"
@@ -66,3 +68,24 @@ def test_correction_removes_part_of_the_platform_motion(results):
         assert abs(after) < abs(before) - 0.2, (k, after, before)
     # known finding: only part is removed, the east component still follows the platform
     assert np.corrcoef(wind["u_east_ms"], plat["u_east_ms"])[0, 1] < -0.3
+
+
+def test_platform_response_verdict(results):
+    """The platform-motion response is fitted, tested and reported (the verdict, not a fixed number)."""
+    import json
+
+    flight = json.loads((results / "diagnosis" / "platform" / "nmt20230419.json").read_text())
+    for p in ("gain_h", "gain_v"):
+        assert 0.0 < flight["uncertainty"][p] < 1.0
+        assert np.isfinite(flight["estimate"][p])
+    assert flight["significant"] == (flight["test"]["p_value"] < flight["test"]["alpha"])
+    assert flight["settings"]["n_segments"] >= 8
+    for group in ("horizontal", "vertical"):
+        before, after = flight["gain"][group]["before"], flight["gain"][group]["after"]
+        assert after["coherence"] <= before["coherence"] + 1e-12
+    diag = json.loads((results / "diagnosis.json").read_text())
+    cand = [c for c in diag["candidates"] if c["mechanism"] == "platform_velocity_response"]
+    assert len(cand) == 1 and cand[0]["flights"][0]["flight"] == "nmt20230419"
+    assert ("platform_velocity_response" in diag["named_causes"]) == cand[0]["significant"]
+    summary = (results / "report" / "summary.html").read_text()
+    assert "platform_velocity_response" in summary and flight["verdict"].split(":")[0] in summary

@@ -188,6 +188,7 @@ def all_outputs():
         ]
     if RIGID_FLIGHTS and not PAYLOAD_FLIGHTS:
         out.append(str(RESULTS / "tables" / "flight_stats.csv"))
+        out.append(str(RESULTS / "diagnosis.json"))
     if BLOCK_SONICS:
         out.append(str(RESULTS / "tables" / "block_stats.csv"))
         out.append(str(RESULTS / "figures" / f"{BLOCK_FIGURE}.png"))

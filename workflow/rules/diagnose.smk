@@ -103,6 +103,9 @@ rule diagnose:
         forward=expand(
             RESULTS / "diagnosis" / "forward" / "{flight}.json", flight=PAYLOAD_FLIGHTS
         ),
+        platform=expand(
+            RESULTS / "diagnosis" / "platform" / "{flight}.json", flight=RIGID_FLIGHTS
+        ),
     output:
         json=RESULTS / "diagnosis.json",
         manifest=RESULTS / "diagnosis" / "extended_campaign.yaml",
@@ -118,6 +121,54 @@ rule diagnose:
         min_gain=DIAGNOSIS["min_gain"],
     script:
         "../../scripts/diagnose.py"
+
+
+# Rigid-mount flights: the platform-motion response (platform_velocity_response) of each
+# flight from its own L2, without a mast (dronewind.diagnose.platform).
+
+
+rule diagnose_platform:
+    input:
+        drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
+    output:
+        RESULTS / "diagnosis" / "platform" / "{flight}.json",
+    log:
+        log_path("diagnose_platform", "flight"),
+    benchmark:
+        bench_path("diagnose_platform", "flight")
+    wildcard_constraints:
+        flight=_alternatives(RIGID_FLIGHTS),
+    conda:
+        ENV
+    params:
+        flight_id="{flight}",
+        alpha=DIAGNOSIS["alpha"],
+    script:
+        "../../scripts/diagnose_platform.py"
+
+
+if RIGID_FLIGHTS and not PAYLOAD_FLIGHTS:
+
+    # a campaign without sling-load flights: diagnosis.json holds the rigid flights' results
+    rule diagnose_rigid:
+        input:
+            manifest=str(CAMPAIGN.path),
+            platform=expand(
+                RESULTS / "diagnosis" / "platform" / "{flight}.json",
+                flight=RIGID_FLIGHTS,
+            ),
+        output:
+            json=RESULTS / "diagnosis.json",
+        log:
+            log_path("diagnose_rigid"),
+        benchmark:
+            bench_path("diagnose_rigid")
+        conda:
+            ENV
+        script:
+            "../../scripts/rigid_diagnosis.py"
+
+    ruleorder: diagnose_rigid > diagnose
 
 
 rule diagnose_extended:

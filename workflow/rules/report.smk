@@ -82,6 +82,7 @@ REPORT_INPUTS = list(
             if PAYLOAD_FLIGHTS
             else []
         )
+        + ([str(RESULTS / "diagnosis.json")] if RIGID_FLIGHTS else [])
         + (
             [
                 str(RESULTS / "published" / "diagnosis.json"),

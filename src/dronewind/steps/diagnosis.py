@@ -196,11 +196,14 @@ def extended_manifest(campaign_data: Mapping[str, Any], conditions: Mapping[str,
 
 def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path],
                       forward_files: Sequence[str | Path], output_json: str | Path,
-                      output_manifest: str | Path, *, alpha: float, max_causes: int, min_gain: float) -> Path:
+                      output_manifest: str | Path, *, alpha: float, max_causes: int, min_gain: float,
+                      platform_files: Sequence[str | Path] = ()) -> Path:
     """Fit and score every candidate, name causes; write diagnosis.json and the extended manifest.
 
     ``alpha``, ``max_causes`` and ``min_gain`` are the ``diagnosis`` settings (see
-    :func:`dronewind.diagnose.campaign.diagnose`).
+    :func:`dronewind.diagnose.campaign.diagnose`). ``platform_files``: the rigid-mount
+    flights' platform-response results (:func:`platform_diagnosis`), added to the
+    candidates, named causes and a ``rigid_mount`` section (:func:`platform_entries`).
     """
 
     campaign = load_campaign(manifest)
@@ -209,7 +212,7 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
         result_json = {"campaign": campaign.name, "baseline": {"metrics": {}}, "candidates": [],
                        "named_causes": [], "ambiguity_sets": [],
                        "note": f"{len(ev.flights)} usable flight(s): held-out scoring needs at least 2"}
-        write_json(output_json, result_json)
+        write_json(output_json, _with_platform(result_json, platform_files))
         conditions = {f: c for f, c in zip(ev.flights, ev.conditions, strict=True)}
         atomic_write_text(output_manifest, yaml.safe_dump(extended_manifest(campaign.data, conditions, []),
                                                           sort_keys=False))
@@ -229,7 +232,20 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
                       "# data, plus the mechanisms the diagnosis named, at their fitted values.\n"
                       + yaml.safe_dump(extended_manifest(campaign.data, conditions, dc.named_mechanisms(result)),
                                        sort_keys=False))
-    return write_json(output_json, out)
+    return write_json(output_json, _with_platform(out, platform_files))
+
+
+def _with_platform(out: dict[str, Any], platform_files: Sequence[str | Path]) -> dict[str, Any]:
+    """diagnosis.json with the rigid-mount flights' entries appended (unchanged without any)."""
+    if not platform_files:
+        return out
+    entries = platform_entries(platform_files)
+    out["candidates"] = list(out.get("candidates") or []) + entries["candidates"]
+    out["named_causes"] = list(out.get("named_causes") or []) + entries["named_causes"]
+    if "named_estimates" in entries:
+        out["named_estimates"] = {**(out.get("named_estimates") or {}), **entries["named_estimates"]}
+    out["rigid_mount"] = entries["rigid_mount"]
+    return out
 
 
 def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flight_id: str,
@@ -307,3 +323,154 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
                                               labels=report.FEATURE_LABELS)
     figs += diagnosis_figures.spectra_figure(ev, measured_spectra, model_spectra, diag, Path(figures_dir))
     return [Path(output_md), Path(output_csv), *figs]
+
+
+# ----------------------------------------------------------------------------- rigid-mount flights
+
+
+def _platform_verdict(d: Mapping[str, Any]) -> str:
+    """One flight's platform-response result in words."""
+    est, unc, test = d["estimate"], d["uncertainty"], d["test"]
+    pm, gain = d["present_model"], d["gain"]
+    fit = (f"gain_h = {est['gain_h']:.2f} ± {unc['gain_h']:.2f}, gain_v = {est['gain_v']:.2f} ± {unc['gain_v']:.2f} "
+           f"(p = {test['p_value']:.2g} against the present model g = 1, false-alarm rate {test['alpha']:g})")
+    coh = "; ".join(f"{g} coherence {gain[g]['before']['coherence']:.2f} → {gain[g]['after']['coherence']:.3f}, "
+                    f"coherent power {gain[g]['before']['coherent_power_m2s2']:.3g} → "
+                    f"{gain[g]['after']['coherent_power_m2s2']:.2g} m2 s-2 "
+                    f"({pm[g]['band_hz'][0]:.2f}-{pm[g]['band_hz'][1]:.2f} Hz)" for g in ("horizontal", "vertical"))
+    if d["significant"]:
+        return (f"flight {d['flight']}: platform_velocity_response named: the motion correction assumes the sonic sees "
+                f"the platform's whole velocity; it sees {fit}. Extended correction "
+                f"V_wind = R M V_sensor + G V_platform: {coh}. Without a mast this response is not separated from a "
+                "platform whose velocity follows the wind at these frequencies (a vehicle carried by gusts), which "
+                "gives the same transfer function; a gain far below 1 is the signature of that alternative.")
+    return f"flight {d['flight']}: no platform-motion response beyond sampling error: {fit}; {coh}."
+
+
+def platform_diagnosis(drone_l2: str | Path, output: str | Path, *, flight_id: str, alpha: float,
+                       segment_s: float = 60.0, band_factor: float = 10.0) -> Path:
+    """``platform_velocity_response`` of one rigid-mount flight from its L2, as JSON.
+
+    Parameters
+    ----------
+    drone_l2 : str or Path
+        The flight's L2 (:func:`dronewind.payload.rigid.rigid_l2`: corrected wind and
+        ``platform_vel_*_ms`` on the steady segment's time axis).
+    output : str or Path
+        JSON file (``results/<name>/diagnosis/platform/<flight>.json``).
+    flight_id : str
+        Flight id.
+    alpha : float
+        False-alarm rate of the test against the present model (``diagnosis.alpha``) [1].
+    segment_s, band_factor : float
+        :func:`dronewind.diagnose.platform.diagnose_platform` settings [s], [1].
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    from dronewind.diagnose.platform import diagnose_platform
+
+    l2 = strip_cf(open_product(drone_l2))
+    if l2.attrs.get("platform") != "rigid_mount":
+        raise ValueError(f"{drone_l2}: platform {l2.attrs.get('platform')!r}; expected a rigid_mount L2")
+    wind = np.stack([l2[k].values for k in ("u_east_ms", "v_north_ms", "w_up_ms")], axis=-1)
+    vel = np.stack([l2[k].values for k in ("platform_vel_e_ms", "platform_vel_n_ms", "platform_vel_u_ms")], axis=-1)
+    d = diagnose_platform(wind, vel, float(l2.attrs["sampling_rate_hz"]), segment_s=segment_s,
+                          band_factor=band_factor, alpha=alpha)
+    d["flight"] = flight_id
+    d["usable"] = int(l2.attrs.get("usable", 1))
+    d["steady_segment_s"] = float(l2.attrs.get("steady_segment_used_s", float("nan")))
+    d["assumption"] = ("the wind at the platform-motion frequencies is uncorrelated with the platform velocity; a "
+                       "position-holding vehicle pushed by gusts breaks it (its velocity follows the wind: H biased "
+                       "up, g down); without a reference mast the two are not separated")
+    d["verdict"] = _platform_verdict(d)
+    LOG.info("%s", d["verdict"])
+    return write_json(output, d)
+
+
+def platform_entries(platform_files: Sequence[str | Path]) -> dict[str, Any]:
+    """The rigid-mount flights' platform-response results as diagnosis.json entries.
+
+    Parameters
+    ----------
+    platform_files : sequence of str or Path
+        Outputs of :func:`platform_diagnosis`.
+
+    Returns
+    -------
+    dict
+        ``candidates`` (one ``platform_velocity_response`` entry: pooled estimate and
+        uncertainty of the usable flights, the smallest p-value after a Bonferroni
+        correction over flights, ``significant``, ``gain`` = relative reduction of the
+        wind power coherent with the platform velocity in the band, on flights left out of
+        the pooled fit when there are two or more, else in-sample and labelled so, and
+        ``flights`` with each flight's estimate, uncertainty, p-value and before/after),
+        ``named_causes`` and ``rigid_mount`` (``flights``: every flight's full result,
+        ``verdict``: sentences).
+    """
+    from dronewind.diagnose.platform import BandSums, band_power_after, pooled_estimate
+
+    flights = [json.loads(Path(p).read_text()) for p in platform_files]
+    usable = [f for f in flights if f.get("usable", 1)]
+    out: dict[str, Any] = {"candidates": [], "named_causes": [],
+                           "rigid_mount": {"flights": {f["flight"]: f for f in flights},
+                                           "verdict": [f["verdict"] for f in flights]}}
+    if not usable:
+        return out
+    alpha = float(usable[0]["test"]["alpha"])
+    p_min = min(1.0, min(f["test"]["p_value"] for f in usable) * len(usable))
+    pooled = pooled_estimate(usable)
+    before = after = 0.0
+    for f in usable:
+        fit = pooled_estimate(usable, leave_out=f["flight"]) if len(usable) > 1 else pooled
+        for group, p in (("horizontal", "gain_h"), ("vertical", "gain_v")):
+            s = BandSums(**f["band_sums"][group])
+            before += band_power_after(s, 1.0)["coherent_power_m2s2"]
+            after += band_power_after(s, fit["estimate"][p])["coherent_power_m2s2"]
+    significant = p_min < alpha
+    out["candidates"].append({
+        "mechanism": "platform_velocity_response", "platform": "rigid_mount",
+        "estimate": pooled["estimate"], "uncertainty": pooled["uncertainty"],
+        "gain": 1.0 - after / before if before > 0 else float("nan"),
+        "gain_kind": ("held out: each flight scored with the gains pooled over the other flights"
+                      if len(usable) > 1 else "in-sample: one rigid flight, nothing to hold out"),
+        "gain_measure": "relative reduction of the wind power coherent with the platform velocity in the "
+                        "platform-motion band, horizontal and vertical summed",
+        "p_value": p_min, "significant": bool(significant),
+        "flights": [{"flight": f["flight"], "estimate": f["estimate"], "uncertainty": f["uncertainty"],
+                     "p_value": f["test"]["p_value"], "significant": f["significant"],
+                     "before_after": f["gain"]} for f in usable],
+    })
+    if significant:
+        out["named_causes"].append("platform_velocity_response")
+        out["named_estimates"] = {"platform_velocity_response": {
+            "estimate": pooled["estimate"], "uncertainty": pooled["uncertainty"],
+            "gain": out["candidates"][0]["gain"]}}
+    return out
+
+
+def rigid_diagnosis(manifest: str | Path, platform_files: Sequence[str | Path], output_json: str | Path) -> Path:
+    """diagnosis.json of a campaign with rigid-mount flights only (no sling-load flight to model).
+
+    Parameters
+    ----------
+    manifest : str or Path
+        The campaign manifest.
+    platform_files : sequence of str or Path
+        Outputs of :func:`platform_diagnosis`, one per rigid flight.
+    output_json : str or Path
+        ``results/<name>/diagnosis.json``.
+
+    Returns
+    -------
+    Path
+    """
+    campaign = load_campaign(manifest)
+    entries = platform_entries(platform_files)
+    out = {"campaign": campaign.name, "baseline": {"metrics": {}}, "ambiguity_sets": [],
+           "note": "rigid-mount flights only: no sling-load forward model; the platform-motion response is "
+                   "identified from each flight's own record (no mast)", **entries}
+    LOG.info("rigid-mount diagnosis: named causes %s", out["named_causes"] or "none")
+    return write_json(output_json, out)

@@ -215,6 +215,45 @@ def _diagnosis_section(diag: Mapping[str, Any]) -> str:
                f"<tbody>{metrics}</tbody></table>" if metrics else ""))
 
 
+def _platform_section(diag: Mapping[str, Any]) -> str:
+    """Rigid-mount flights: the platform-motion response (``rigid_mount`` of diagnosis.json)."""
+    rigid = diag.get("rigid_mount") or {}
+    rows = []
+    for name, d in (rigid.get("flights") or {}).items():
+        est, unc, pm, gain = d["estimate"], d["uncertainty"], d["present_model"], d["gain"]
+        td = d.get("time_domain") or {}
+        cells = [name, f"{td.get('slope', [float('nan')] * 3)[0]:+.2f} / {td.get('slope', [float('nan')] * 3)[2]:+.2f}",
+                 f"{pm['horizontal']['coherence']:.2f} / {pm['vertical']['coherence']:.2f}",
+                 f"{est['gain_h']:.2f} ± {unc['gain_h']:.2f}", f"{est['gain_v']:.2f} ± {unc['gain_v']:.2f}",
+                 f"{d['test']['p_value']:.2g}", "yes" if d["significant"] else "no"]
+        for g in ("horizontal", "vertical"):
+            b, a = gain[g]["before"], gain[g]["after"]
+            cells.append(f"{b['coherence']:.2f} → {a['coherence']:.3f}; {b['power_m2s2']:.3g} → {a['power_m2s2']:.3g}")
+        rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
+    cand: Mapping[str, Any] = next((c for c in diag.get("candidates") or []
+                                    if c.get("mechanism") == "platform_velocity_response"), {})
+    extra = (f" Gain of the extended correction: {cand['gain']:.2f} ({html.escape(str(cand.get('gain_kind', '')))}"
+             f"; {html.escape(str(cand.get('gain_measure', '')))})."
+             if isinstance(cand.get("gain"), int | float) else "")
+    first: Mapping[str, Any] = next(iter((rigid.get("flights") or {}).values()), {})
+    return ("<h2>Rigid-mount flights: the sonic's response to the platform's own velocity</h2>"
+            "<p>The motion correction V<sub>wind</sub> = R M V<sub>sensor</sub> + V<sub>platform</sub> assumes the "
+            "sonic sees the platform's whole velocity. At the platform-motion frequencies the corrected wind's "
+            "response to the platform velocity is 1 − g (catalog mechanism <code>platform_velocity_response</code>, "
+            "gains g<sub>h</sub>, g<sub>v</sub>; present model g = 1); the extended correction is "
+            "V<sub>wind</sub> = R M V<sub>sensor</sub> + G V<sub>platform</sub>, "
+            "G = diag(g<sub>h</sub>, g<sub>h</sub>, g<sub>v</sub>).</p>"
+            + "".join(f"<p class='dw-verdict'><strong>Verdict.</strong> {html.escape(v)}</p>"
+                      for v in rigid.get("verdict") or [])
+            + "<table><thead><tr><th>flight</th><th>slope of corrected wind on platform velocity, east / up</th>"
+            "<th>band coherence h / v (present model)</th><th>gain_h</th><th>gain_v</th><th>p (g = 1)</th>"
+            "<th>named</th><th>horizontal: coherence; power [m² s⁻²] before → after</th>"
+            "<th>vertical: coherence; power [m² s⁻²] before → after</th></tr></thead>"
+            f"<tbody>{''.join(rows)}</tbody></table>"
+            f"<p>Uncertainties: delete-one-segment jackknife of the band transfer function.{extra} Assumption: "
+            f"{html.escape(str(first.get('assumption', '')))}.</p>")
+
+
 def _published_section(diag: Mapping[str, Any]) -> str:
     base = (diag.get("baseline") or {}).get("chi2")
     fit = (diag.get("named_fit") or {}).get("chi2")
@@ -265,7 +304,10 @@ def _summary(results: Path, campaign: str, figures: Mapping[str, str], captions:
                  f"{html.escape(str(record.get('dronewind_version', '')))}, configuration "
                  f"{html.escape(str(record.get('config_sha256', ''))[:12])}.</p>")
     if (diag := _read_json(results / "diagnosis.json")) is not None:
-        parts.append(_diagnosis_section(diag))
+        if diag.get("flights") or not diag.get("rigid_mount"):
+            parts.append(_diagnosis_section(diag))
+        if diag.get("rigid_mount"):
+            parts.append(_platform_section(diag))
     if (pub := _read_json(results / "published" / "diagnosis.json")) is not None:
         parts.append(_published_section(pub))
     if (results / "tables" / "quadrotor_calibration.csv").exists():
@@ -323,7 +365,7 @@ def report_pages(results_dir: str | Path, out_dir: str | Path, figures: Mapping[
     captions: dict[str, str] = {}
     if (results / "netcdf" / "L4").is_dir():
         captions.update(campaign_captions(results))
-    if (results / "diagnosis.json").exists():
+    if (results / "diagnosis.json").exists() and (results / "diagnosis" / "report.md").exists():
         captions.update(diagnosis_captions(results / "diagnosis.json"))
     if (results / "published" / "before_after.json").exists():
         captions["published_before_after"] = published_caption(results / "published" / "before_after.json",
