@@ -103,3 +103,29 @@ def test_errors_name_what_was_expected():
     bad[3, 1] = np.nan
     with pytest.raises(InputError, match="non-finite"):
         diagnose_platform(bad, x, 5.0, segment_s=4.0)
+
+
+def test_band_constancy_flags_a_frequency_dependent_response():
+    """A response that changes across the band (here: 1 - g rising with frequency) is model error:
+    the present model is rejected, but the constant-gain mechanism is not named."""
+    rng = np.random.default_rng(7)
+    fs, n = 5.0, 5 * 1200
+    t = np.arange(n) / fs
+    x = np.zeros((n, 3))
+    for k in range(3):  # platform velocity with power over 0.02-0.2 Hz
+        for f0 in (0.03, 0.05, 0.08, 0.12, 0.17):
+            x[:, k] += np.sin(2 * np.pi * f0 * t + rng.uniform(0, 2 * np.pi)) * rng.uniform(0.5, 1.0)
+    # the corrected wind responds with H(f) = 0 at low and 1 at high frequencies: a first-order high-pass
+    from scipy.signal import butter, sosfiltfilt
+
+    y = 0.3 * rng.standard_normal((n, 3)) + sosfiltfilt(butter(2, 0.07, "highpass", fs=fs, output="sos"), x, axis=0)
+    d = diagnose_platform(y, x, fs, segment_s=100.0, band_factor=100.0)
+    assert d["significant"]
+    assert not d["adequate"] and not d["named"]
+    assert min(c["p_value"] for c in d["band_constancy"].values()) < 0.01
+
+
+def test_constant_gain_passes_band_constancy(tmp_path):
+    y, x, fs = _l2_arrays(tmp_path, (0.5, 0.6), 404)
+    d = diagnose_platform(y, x, fs)
+    assert d["significant"] and d["adequate"] and d["named"]

@@ -46,6 +46,11 @@ Estimation (all pure functions of arrays)
   :math:`p < \alpha` (``alpha``, the false-alarm rate per flight, default 0.01). Measured
   on 60 simulated null records (700 s at 5 Hz, 60-s segments): 4 alarms at 0.05, z spread
   1.22 and 1.30 (Student t with 10 degrees of freedom: 1.12); the tests check 20 of them.
+* Adequacy (:func:`band_constancy`): the mechanism is a constant gain. When the present model
+  is rejected but the per-bin transfer functions of a rejected group differ from the band's
+  beyond their errors, the response depends on frequency: no catalog mechanism describes it,
+  and the result is reported as model error (``named`` false, ``adequate`` false), never as
+  ``platform_velocity_response``.
 * Extended correction: :math:`V_{wind} = R M V_{sensor} + G V_{platform} = \tilde V - (I - \hat G) V_{platform}`;
   its gain is measured in the band as the coherence :math:`\gamma^2_{band} = |\sum S_{yx}|^2 /
   (\sum S_{xx} \sum S_{yy})` and the wind power :math:`\sum S_{yy}\, \Delta f` [m2 s-2] and its
@@ -76,7 +81,7 @@ import scipy.stats
 from dronewind.errors import InputError
 
 __all__ = ["HANN_ENBW_BINS", "BandSums", "ComponentFit", "spectra", "motion_band", "band_sums", "fit_component",
-           "band_power_after", "diagnose_platform", "pooled_estimate"]
+           "band_power_after", "band_constancy", "diagnose_platform", "pooled_estimate"]
 
 #: Equivalent noise bandwidth of the Hann window [bins].
 HANN_ENBW_BINS = 1.5
@@ -298,6 +303,63 @@ def band_power_after(s: BandSums, gain: float) -> dict[str, float]:
             "coherence": float(coh)}
 
 
+def band_constancy(f: np.ndarray, sxx: np.ndarray, syx: np.ndarray, band: np.ndarray, transfer: float
+                   ) -> dict[str, Any]:
+    r"""Does one gain describe the whole band? Per-bin transfer functions against the band's.
+
+    The mechanism's response is a constant :math:`H = 1 - g` over the platform-motion band.
+    Per band bin, :math:`\hat H_f = \sum_c \overline{\mathrm{Re}\, S_{yx}} / \sum_c
+    \overline{S_{xx}}` with its delete-one-segment jackknife variance :math:`\sigma_f^2`
+    (as :func:`fit_component`), and
+
+    .. math:: t_f = \frac{\hat H_f - \hat H}{\sigma_f}, \quad
+              \chi^2 = \frac{1}{b}\sum_f z_f^2, \quad z_f = \Phi^{-1}\left(1 - F_{t, n_d - 1}(|t_f|)\right),
+              \qquad \nu = (n_{bins} - 1)/b,
+
+    with :math:`b` = :data:`HANN_ENBW_BINS` (adjacent bins of a Hann window share about 1.5
+    bins of information, so the sum counts each independent piece about 1.5 times). A
+    p-value below the false-alarm rate says the platform's imprint on the corrected wind
+    changes with frequency: then no constant gain (no catalog mechanism) describes it, and
+    the result is model error, not a named cause.
+
+    Parameters
+    ----------
+    f : numpy.ndarray
+        Frequencies [Hz].
+    sxx, syx : numpy.ndarray
+        (n_d, m, k) per-segment periodograms of the group's components (:func:`spectra`).
+    band : numpy.ndarray
+        Boolean band mask (m,).
+    transfer : float
+        The band's :math:`\hat H` [1].
+
+    Returns
+    -------
+    dict
+        ``frequencies_hz``, ``transfer`` and ``sigma`` per bin, ``chi2``, ``dof`` and
+        ``p_value`` (NaN with fewer than two bins).
+    """
+    a = syx[:, band].real.sum(axis=2)  # (n_d, n_bins)
+    b = sxx[:, band].sum(axis=2)
+    n_d = a.shape[0]
+    h_f = a.sum(axis=0) / b.sum(axis=0)
+    h_j = (a.sum(axis=0)[None, :] - a) / (b.sum(axis=0)[None, :] - b)
+    var_f = (n_d - 1) / n_d * np.sum((h_j - h_j.mean(axis=0)) ** 2, axis=0)
+    n_bins = int(band.sum())
+    out: dict[str, Any] = {"frequencies_hz": [float(v) for v in f[band]], "transfer": [float(v) for v in h_f],
+                           "sigma": [float(v) for v in np.sqrt(var_f)]}
+    if n_bins < 2 or not np.all(var_f > 0):
+        return {**out, "chi2": float("nan"), "dof": 0.0, "p_value": float("nan")}
+    # each bin's deviation over its jackknife error is Student t with n_d - 1 degrees of
+    # freedom (a few segments make the error itself noisy): mapped to the normal deviate of
+    # the same tail probability before squaring, so a noisy error does not fake a rejection
+    t_f = (h_f - transfer) / np.sqrt(var_f)
+    z_f = scipy.stats.norm.isf(scipy.stats.t.sf(np.abs(t_f), n_d - 1))
+    chi2 = float(np.sum(z_f ** 2)) / HANN_ENBW_BINS
+    dof = (n_bins - 1) / HANN_ENBW_BINS
+    return {**out, "chi2": chi2, "dof": float(dof), "p_value": float(scipy.stats.chi2.sf(chi2, dof))}
+
+
 def _time_domain(y: np.ndarray, x: np.ndarray) -> dict[str, list[float]]:
     """Correlation and regression slope of each corrected-wind component on its platform velocity."""
     corr, slope = [], []
@@ -331,7 +393,10 @@ def diagnose_platform(wind_enu: np.ndarray, vel_enu: np.ndarray, fs_hz: float, *
     -------
     dict
         ``estimate`` / ``uncertainty`` (``gain_h``, ``gain_v``), ``test`` (``chi2``, ``dof``,
-        ``p_value``, ``alpha``, ``z``), ``significant``, ``present_model`` (per group:
+        ``p_value``, ``alpha``, ``z``), ``significant`` (the present model rejected),
+        ``band_constancy`` and ``adequate`` (:func:`band_constancy`: a group whose imprint is
+        significant must have one gain across its band), ``named`` (significant and
+        adequate: only then is the catalog mechanism the cause), ``present_model`` (per group:
         transfer function, band coherence, band; time-domain correlation and slope per
         component), ``gain`` (per group: coherence, power and coherent power in the band,
         before and after the extended correction), ``band_sums`` (per group) and the
@@ -354,6 +419,7 @@ def diagnose_platform(wind_enu: np.ndarray, vel_enu: np.ndarray, fs_hz: float, *
     f, sxx, syy, syx = spectra(y, x, fs_hz, segment_s)
     n_d = sxx.shape[0]
     fits: dict[str, ComponentFit] = {}
+    constancy: dict[str, dict[str, Any]] = {}
     for group, comps in _GROUPS.items():
         c = list(comps)
         total = sxx.mean(axis=0)[:, c].sum(axis=1)
@@ -363,6 +429,7 @@ def diagnose_platform(wind_enu: np.ndarray, vel_enu: np.ndarray, fs_hz: float, *
         band = motion_band(f, total, band_factor)
         sums = band_sums(f, sxx[..., c], syy[..., c], syx[..., c], band)
         fits[group] = fit_component(sums, (float(f[band].min()), float(f[band].max())))
+        constancy[group] = band_constancy(f, sxx[..., c], syx[..., c], band, fits[group].transfer)
     z = {g: (fit.gain - 1.0) / fit.sigma for g, fit in fits.items()}
     t2 = float(sum(v * v for v in z.values()))
     # each z is t-distributed with n_d - 1 degrees of freedom (jackknife); the pair as an F statistic
@@ -379,6 +446,11 @@ def diagnose_platform(wind_enu: np.ndarray, vel_enu: np.ndarray, fs_hz: float, *
                  "alpha": float(alpha), "z": {_PARAM[g]: v for g, v in z.items()},
                  "p_value_each": {_PARAM[g]: float(2 * scipy.stats.t.sf(abs(v), n_d - 1)) for g, v in z.items()}},
         "significant": bool(p < alpha),
+        # the present model is rejected, but is the mechanism's constant gain adequate? A group
+        # whose imprint is significant and changes across the band is model error, not the cause
+        "band_constancy": constancy,
+        "adequate": bool(all(not (abs(z[g]) > scipy.stats.t.isf(alpha / 2, n_d - 1)
+                                  and constancy[g]["p_value"] < alpha) for g in fits)),
         "present_model": {
             g: {"transfer": fit.transfer, "coherence": fit.coherence, "band_hz": list(fit.band_hz),
                 "n_bins": fit.sums.n_bins} for g, fit in fits.items()},
@@ -392,6 +464,7 @@ def diagnose_platform(wind_enu: np.ndarray, vel_enu: np.ndarray, fs_hz: float, *
         "extended_correction": "V_wind = R M V_sensor + G V_platform, G = diag(gain_h, gain_h, gain_v) "
                                "(east, north, up)",
     }
+    out["named"] = bool(out["significant"] and out["adequate"])
     return out
 
 

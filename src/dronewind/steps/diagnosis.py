@@ -245,6 +245,8 @@ def _with_platform(out: dict[str, Any], platform_files: Sequence[str | Path]) ->
     if "named_estimates" in entries:
         out["named_estimates"] = {**(out.get("named_estimates") or {}), **entries["named_estimates"]}
     out["rigid_mount"] = entries["rigid_mount"]
+    if entries.get("unexplained"):
+        out["unexplained"] = list(out.get("unexplained") or []) + entries["unexplained"]
     return out
 
 
@@ -338,6 +340,11 @@ def _platform_verdict(d: Mapping[str, Any]) -> str:
                     f"coherent power {gain[g]['before']['coherent_power_m2s2']:.3g} → "
                     f"{gain[g]['after']['coherent_power_m2s2']:.2g} m2 s-2 "
                     f"({pm[g]['band_hz'][0]:.2f}-{pm[g]['band_hz'][1]:.2f} Hz)" for g in ("horizontal", "vertical"))
+    if d["significant"] and not d.get("adequate", True):
+        worst = min(d["band_constancy"].values(), key=lambda c: c["p_value"])
+        return (f"flight {d['flight']}: model error: the corrected wind still follows the platform velocity, but "
+                f"not with one gain across the platform-motion band (band constancy p = {worst['p_value']:.2g}): "
+                f"a frequency-dependent response that no catalog mechanism describes; {fit}; {coh}.")
     if d["significant"]:
         return (f"flight {d['flight']}: platform_velocity_response named: the motion correction assumes the sonic sees "
                 f"the platform's whole velocity; it sees {fit}. Extended correction "
@@ -430,6 +437,14 @@ def platform_entries(platform_files: Sequence[str | Path]) -> dict[str, Any]:
             before += band_power_after(s, 1.0)["coherent_power_m2s2"]
             after += band_power_after(s, fit["estimate"][p])["coherent_power_m2s2"]
     significant = p_min < alpha
+    # a constant gain that does not describe a flight's band is model error, never the cause
+    inadequate = [f["flight"] for f in usable if f["significant"] and not f.get("adequate", True)]
+    if inadequate:
+        out["unexplained"] = [{"feature": "platform-motion transfer function", "flights": inadequate,
+                               "what": "the corrected wind follows the platform velocity with a response that changes "
+                                       "across the platform-motion band; no catalog mechanism describes it",
+                               "band_constancy": {f["flight"]: f["band_constancy"] for f in usable
+                                                  if f["flight"] in inadequate}}]
     out["candidates"].append({
         "mechanism": "platform_velocity_response", "platform": "rigid_mount",
         "estimate": pooled["estimate"], "uncertainty": pooled["uncertainty"],
@@ -441,9 +456,10 @@ def platform_entries(platform_files: Sequence[str | Path]) -> dict[str, Any]:
         "p_value": p_min, "significant": bool(significant),
         "flights": [{"flight": f["flight"], "estimate": f["estimate"], "uncertainty": f["uncertainty"],
                      "p_value": f["test"]["p_value"], "significant": f["significant"],
+                     "adequate": f.get("adequate", True),
                      "before_after": f["gain"]} for f in usable],
     })
-    if significant:
+    if significant and not inadequate:
         out["named_causes"].append("platform_velocity_response")
         out["named_estimates"] = {"platform_velocity_response": {
             "estimate": pooled["estimate"], "uncertainty": pooled["uncertainty"],
