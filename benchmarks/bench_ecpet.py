@@ -72,6 +72,7 @@ FLUXPART_DIR = ROOT.parent / "shared" / "data" / "fluxpart_csat3_toa5"
 #: The two records: shipped campaign, extra config files, block length and sampling rate.
 RECORDS: dict[str, dict[str, Any]] = {
     "gold": {
+        "lat_lon": "38.4067 -120.9507",
         "campaign": "config/campaigns/real_ameriflux_gold.yaml",
         "configfiles": [],
         "block_s": 1800,
