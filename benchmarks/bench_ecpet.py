@@ -227,6 +227,8 @@ def prepare_gold(run_dir: Path) -> list[dict[str, Any]]:
         out.append(
             {
                 "name": seg,
+                "first": str(min(ts)),
+                "last": str(max(ts)),
                 "raw_dir": str(run_dir / seg / "raw"),
                 "columns": {"U": "Ux:m/s", "V": "Uy:m/s", "W": "Uz:m/s", "Tsonic": "Ts:C"},
             }
@@ -252,6 +254,8 @@ def prepare_fluxpart(run_dir: Path) -> list[dict[str, Any]]:
     return [
         {
             "name": "all",
+            "first": str(fast.index[0]),
+            "last": str(fast.index[-1]),
             "raw_dir": str(d),
             "columns": {
                 "U": "Ux:m/s",
@@ -272,6 +276,10 @@ def ecpet_config(name: str, seg: dict[str, Any], seg_dir: Path) -> dict[str, str
     rec = RECORDS[name]
     conf = {
         "RawDir": seg["raw_dir"],
+        # whole blocks from the first to the last sample (EC-PeT's own choice, the minutes of
+        # the first and last stamps, would drop a last block that ends short of its end)
+        "DateBegin": pd.Timestamp(seg["first"]).floor(f"{rec['block_s']}s").strftime("%Y-%m-%d %H:%M"),
+        "DateEnd": pd.Timestamp(seg["last"]).ceil(f"{rec['block_s']}s").strftime("%Y-%m-%d %H:%M"),
         "RawFormat": "toa5",
         "RawFastData": "*.ts*",
         "RawSlowData": "*.rpv*",
