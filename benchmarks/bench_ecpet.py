@@ -278,8 +278,9 @@ def ecpet_config(name: str, seg: dict[str, Any], seg_dir: Path) -> dict[str, str
         "RawDir": seg["raw_dir"],
         # whole blocks from the first to the last sample (EC-PeT's own choice, the minutes of
         # the first and last stamps, would drop a last block that ends short of its end)
-        "DateBegin": pd.Timestamp(seg["first"]).floor(f"{rec['block_s']}s").strftime("%Y-%m-%d %H:%M"),
-        "DateEnd": pd.Timestamp(seg["last"]).ceil(f"{rec['block_s']}s").strftime("%Y-%m-%d %H:%M"),
+        # (quoted: EC-PeT splits an unquoted value at blanks)
+        "DateBegin": pd.Timestamp(seg["first"]).floor(f"{rec['block_s']}s").strftime('"%Y-%m-%d %H:%M"'),
+        "DateEnd": pd.Timestamp(seg["last"]).ceil(f"{rec['block_s']}s").strftime('"%Y-%m-%d %H:%M"'),
         "RawFormat": "toa5",
         "RawFastData": "*.ts*",
         "RawSlowData": "*.rpv*",
