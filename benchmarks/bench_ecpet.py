@@ -14,9 +14,11 @@ A benchmark, not a timed test. For each record (``gold``: the AmeriFlux open-pat
 3. per block, U, sigma_w, u* and w'T' of the two tools: the median (and maximum) relative
    difference |EC-PeT - dronewind| / |dronewind| over the blocks both report.
 
-Each run is measured as wall seconds, CPU seconds (user + system of the child and all its
-descendants, from ``os.wait4``) and peak RSS (``ru_maxrss`` from the same call: the largest
-single process among them, not a sum). The two tools run one after the other on the same
+Both tools run with one BLAS/OpenMP thread (``--blas-threads``, default 1): on a loaded
+machine idle BLAS threads spin and count as CPU time. Each run is measured as wall seconds,
+CPU seconds (user + system of the child and all its descendants, from ``os.wait4``) and
+peak RSS (``ru_maxrss`` from the same call: the largest single process among them, not a
+sum). The two tools run one after the other on the same
 machine; the load average before and after each run is recorded.
 
 EC-PeT reads Campbell TOA5 only. The fluxpart files are TOA5 and go in as they are
@@ -94,6 +96,9 @@ SONIC_CODE = {"CSATSonic": 1, "GillSolent": 11}
 
 #: Quantities compared: dronewind's block_stats.csv column -> EC-PeT interval column.
 QUANTITIES = {"U_ms": "vectwind", "sigma_w_ms": "std_uz", "ustar_ms": "ustar", "wT_Kms": "cov_uz_ts"}
+
+#: Thread-count variables set for both tools (``--blas-threads``).
+BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 GOLD_NAME = re.compile(r"G(\d{3})(\d{2})(\d{2})\.RAW\.gz$")
 GOLD_YEAR = 2000
@@ -468,6 +473,9 @@ def main(argv: list[str] | None = None) -> int:
         default=sys.executable,
         help="Python with EC-PeT installed (default: this one; see envs/ecpet-requirements.txt)",
     )
+    ap.add_argument(
+        "--blas-threads", type=int, default=1, help="BLAS/OpenMP threads of both tools (default 1; 0: leave as is)"
+    )
     ap.add_argument("--keep", type=Path, help="work in this (new) folder and keep it (default: a temporary one)")
     ap.add_argument("--ecpet-child", metavar="SPEC", help=argparse.SUPPRESS)
     ap.add_argument("--ecpet-dump", nargs=2, metavar=("SPEC", "CSV"), help=argparse.SUPPRESS)
@@ -488,6 +496,11 @@ def main(argv: list[str] | None = None) -> int:
         text=True,
     )
     ecpet_env = probe.stdout.split() if probe.returncode == 0 else [probe.stderr.strip().splitlines()[-1]]
+    if args.blas_threads > 0:
+        # inherited by both tools' processes: on a loaded machine idle BLAS threads spin and
+        # count as CPU time (EC-PeT on fluxpart: 21 s CPU with one thread, 41-290 s with two)
+        for var in BLAS_THREAD_VARS:
+            os.environ[var] = str(args.blas_threads)
     base = args.keep if args.keep else Path(tempfile.mkdtemp(prefix="bench_ecpet_"))
     base.mkdir(parents=True, exist_ok=True)
     result: dict[str, Any] = {
@@ -497,6 +510,7 @@ def main(argv: list[str] | None = None) -> int:
             "cpus": os.cpu_count(),
             "nice": os.nice(0),
         },
+        "blas_threads": {v: os.environ.get(v) for v in BLAS_THREAD_VARS},
         "ecpet_python": args.ecpet_python,
         "ecpet_environment": ecpet_env,
         "snakemake": str(Path(sys.executable).with_name("snakemake")),
