@@ -618,31 +618,12 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
             reasons.append(r.reason)
     time_out = (t_ns[idx][keep] + int(round(lag * _NS))).astype("datetime64[ns]")
     dims = ("time",)
-    ds = xr.Dataset(
-        {
-            "u_east_ms": variable(dims, u_e, "m s-1", "eastward_wind"),
-            "v_north_ms": variable(dims, v_n, "m s-1", "northward_wind"),
-            "w_up_ms": variable(dims, w_u, "m s-1", "upward_air_velocity"),
-            "t_sonic_k": variable(dims, filled["t_sonic_k"][keep], "K", "virtual_temperature",
-                                  comment="sonic temperature, approximately the virtual temperature"),
-            "roll_deg": variable(dims, p["roll_deg"], "degree", "platform_roll"),
-            "pitch_deg": variable(dims, p["pitch_deg"], "degree", "platform_pitch"),
-            "yaw_deg": variable(dims, np.mod(p["yaw_deg"], 360.0), "degree", "platform_yaw",
-                                comment="clockwise from true north, wrapped to [0, 360)"),
-            "lat_deg": variable(dims, p["lat_deg"], "degrees_north", "latitude"),
-            "lon_deg": variable(dims, p["lon_deg"], "degrees_east", "longitude"),
-            "alt_m": variable(dims, p["alt_m"], "m", "altitude", comment="above mean sea level", positive="up"),
-            "platform_vel_e_ms": variable(dims, p["vel_e_ms"], "m s-1", long_name="platform velocity east"),
-            "platform_vel_n_ms": variable(dims, p["vel_n_ms"], "m s-1", long_name="platform velocity north"),
-            "platform_vel_u_ms": variable(dims, -p["vel_d_ms"], "m s-1", long_name="platform velocity up"),
-            "lag_s": variable(("lag",), lag_grid, "s", long_name="sonic-platform lag added to the sonic clock"),
-            "tke_m2s2": variable(("lag",), tke, "m2 s-2", "specific_turbulent_kinetic_energy_of_air",
-                                 long_name="mean TKE of the motion-corrected wind versus sonic-platform lag"),
-        },
-        coords={"time": ("time", time_out), "lag": ("lag", lag_grid)},
-    )
-    ds["time"].attrs.update({"standard_name": "time", "long_name": "time (UTC) on the platform clock"})
-    ds["lag"].attrs.update({"units": "s", "long_name": "sonic-platform lag added to the sonic clock"})
+    ds = sync.l2_variables(time_out, (u_e, v_n, w_u), filled["t_sonic_k"][keep],
+                           {**p, "yaw_deg": np.mod(p["yaw_deg"], 360.0)}, lag_grid, tke, clock="platform")
+    for name, values, direction in (("platform_vel_e_ms", p["vel_e_ms"], "east"),
+                                    ("platform_vel_n_ms", p["vel_n_ms"], "north"),
+                                    ("platform_vel_u_ms", -p["vel_d_ms"], "up")):
+        ds[name] = variable(dims, values, "m s-1", long_name=f"platform velocity {direction}")
     qc_out = np.where(nan_any, qc | QC_GAP_FILLED, qc)[keep]
     attrs = qc_flag_attrs("sonic quality flags", dtype=np.int32, with_values=False)
     del attrs["units"]

@@ -38,7 +38,7 @@ resolution).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -783,11 +783,31 @@ def _plausibility(sonic_l1: xr.Dataset, seg: _SonicSegment, hover_s: tuple[float
             tr.reasons.append(result.reason)
 
 
-def _l2_dataset(seg: _SonicSegment, sel: np.ndarray, ins_s: dict[str, np.ndarray],
-                wind: tuple[np.ndarray, np.ndarray, np.ndarray], time_out: np.ndarray, lag_grid: np.ndarray,
-                tke: np.ndarray) -> xr.Dataset:
-    """The L2 variables and coordinates (see :func:`payload_l2`, Returns)."""
-    data = seg.filled if seg.filled_ok else seg.raw
+def l2_variables(time_out: np.ndarray, wind: tuple[np.ndarray, np.ndarray, np.ndarray], t_sonic_k: np.ndarray,
+                 platform: Mapping[str, np.ndarray], lag_grid: np.ndarray, tke: np.ndarray,
+                 clock: str = "INS") -> xr.Dataset:
+    """The variables and coordinates every drone L2 shares (sling load and rigid mount).
+
+    Parameters
+    ----------
+    time_out : numpy.ndarray
+        Sample times (UTC on the platform's clock), datetime64[ns].
+    wind : tuple of numpy.ndarray
+        Motion-corrected wind east, north, up [m s-1].
+    t_sonic_k : numpy.ndarray
+        Sonic temperature [K].
+    platform : mapping
+        ``roll_deg``, ``pitch_deg``, ``yaw_deg`` (wrapped to [0, 360)) [degree], ``lat_deg``,
+        ``lon_deg`` [degree] and ``alt_m`` [m] at the samples.
+    lag_grid, tke : numpy.ndarray
+        The lag search's lags [s] and mean TKE [m2 s-2].
+    clock : str
+        Name of the clock the sonic is aligned to (``INS``, ``platform``), for the long names.
+
+    Returns
+    -------
+    xarray.Dataset
+    """
     u_e, v_n, w_u = wind
     dims = ("time",)
     ds = xr.Dataset(
@@ -795,24 +815,33 @@ def _l2_dataset(seg: _SonicSegment, sel: np.ndarray, ins_s: dict[str, np.ndarray
             "u_east_ms": variable(dims, u_e, "m s-1", "eastward_wind"),
             "v_north_ms": variable(dims, v_n, "m s-1", "northward_wind"),
             "w_up_ms": variable(dims, w_u, "m s-1", "upward_air_velocity"),
-            "t_sonic_k": variable(dims, data["t_sonic_k"][sel], "K", "virtual_temperature",
+            "t_sonic_k": variable(dims, t_sonic_k, "K", "virtual_temperature",
                                   comment="sonic temperature, approximately the virtual temperature"),
-            "roll_deg": variable(dims, ins_s["roll_deg"], "degree", "platform_roll"),
-            "pitch_deg": variable(dims, ins_s["pitch_deg"], "degree", "platform_pitch"),
-            "yaw_deg": variable(dims, ins_s["yaw_deg"], "degree", "platform_yaw",
+            "roll_deg": variable(dims, platform["roll_deg"], "degree", "platform_roll"),
+            "pitch_deg": variable(dims, platform["pitch_deg"], "degree", "platform_pitch"),
+            "yaw_deg": variable(dims, platform["yaw_deg"], "degree", "platform_yaw",
                                 comment="clockwise from true north, wrapped to [0, 360)"),
-            "lat_deg": variable(dims, ins_s["lat_deg"], "degrees_north", "latitude"),
-            "lon_deg": variable(dims, ins_s["lon_deg"], "degrees_east", "longitude"),
-            "alt_m": variable(dims, ins_s["alt_m"], "m", "altitude", comment="above mean sea level", positive="up"),
-            "lag_s": variable(("lag",), lag_grid, "s", long_name="sonic-INS lag added to the sonic clock"),
+            "lat_deg": variable(dims, platform["lat_deg"], "degrees_north", "latitude"),
+            "lon_deg": variable(dims, platform["lon_deg"], "degrees_east", "longitude"),
+            "alt_m": variable(dims, platform["alt_m"], "m", "altitude", comment="above mean sea level",
+                              positive="up"),
+            "lag_s": variable(("lag",), lag_grid, "s", long_name=f"sonic-{clock} lag added to the sonic clock"),
             "tke_m2s2": variable(("lag",), tke, "m2 s-2", "specific_turbulent_kinetic_energy_of_air",
-                                 long_name="mean TKE of the motion-corrected wind versus sonic-INS lag"),
+                                 long_name=f"mean TKE of the motion-corrected wind versus sonic-{clock} lag"),
         },
         coords={"time": ("time", time_out), "lag": ("lag", lag_grid)},
     )
-    ds["time"].attrs.update({"standard_name": "time", "long_name": "time (UTC) on the INS clock"})
-    ds["lag"].attrs.update({"units": "s", "long_name": "sonic-INS lag added to the sonic clock"})
+    ds["time"].attrs.update({"standard_name": "time", "long_name": f"time (UTC) on the {clock} clock"})
+    ds["lag"].attrs.update({"units": "s", "long_name": f"sonic-{clock} lag added to the sonic clock"})
     return ds
+
+
+def _l2_dataset(seg: _SonicSegment, sel: np.ndarray, ins_s: dict[str, np.ndarray],
+                wind: tuple[np.ndarray, np.ndarray, np.ndarray], time_out: np.ndarray, lag_grid: np.ndarray,
+                tke: np.ndarray) -> xr.Dataset:
+    """The L2 variables and coordinates (see :func:`payload_l2`, Returns)."""
+    data = seg.filled if seg.filled_ok else seg.raw
+    return l2_variables(time_out, wind, data["t_sonic_k"][sel], ins_s, lag_grid, tke, clock="INS")
 
 
 def _add_qc_sonic(ds: xr.Dataset, sonic_l1: xr.Dataset, seg: _SonicSegment, sel: np.ndarray, n_filled: int) -> None:
