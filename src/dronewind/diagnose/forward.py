@@ -417,7 +417,11 @@ class ForwardCache:
 
 
 def record_digest(*records: RawRecord | str | Path) -> str:
-    """Digest of records' contents (:attr:`dronewind.core.raw.RawRecord.digest`) or of file paths [hex]."""
+    """Digest of records' contents (:attr:`dronewind.core.raw.RawRecord.digest`) [hex].
+
+    File paths only name the products of one run (:func:`process_forward_flight` gives files a
+    fresh, empty cache), so their contents are not read.
+    """
     h = hashlib.blake2b(digest_size=16)
     for rec in records:
         h.update(rec.digest.encode() if isinstance(rec, RawRecord) else f"file:{rec}".encode())
@@ -451,7 +455,8 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
     products : dict
         ``{"l2": ..., "l3": ..., "l1": {"sonic", "ins", "mast"}}`` datasets.
     """
-    cache = cache if cache is not None else ForwardCache()
+    if cache is None or not all(isinstance(src, RawRecord) for src in sources):
+        cache = ForwardCache()  # files are not keyed by content: a file rewritten in place is never reused
     flight = next(f for f in manifest["payload_flights"] if f["id"] == flight_id)
     sonic_info = next(s for m in manifest["masts"] for s in m["sonics"] if s["id"] == flight["reference"])
     sonic_src, ins_src = sources[0], sources[1]
