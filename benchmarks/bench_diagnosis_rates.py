@@ -2,7 +2,8 @@
 
 Each draw hides, in a 4-flight virtual campaign of 12-minute hovers, either nothing (null),
 a model error (dronewind.diagnose.experiments.MODEL_ERRORS: another pendulum length or
-damping than the forward model's), or one mechanism of experiments.HIDDEN_RANGES on each
+damping than the forward model's, another turbulence spectrum or isotropy, a trending mean
+wind, a mast flow distortion), or one mechanism of experiments.HIDDEN_RANGES on each
 side of its "off" value (random size); it is then simulated, processed and diagnosed
 in-process (the same library functions as the workflow's rules, default configuration) and
 judged against the truth (experiments.judge). Shares: 20 % null, 15 % model error, the rest
@@ -25,6 +26,15 @@ Rates (per label, mechanism, case and overall), each with a 95 % Wilson score in
   share of p-values below 0.01 and 0.05 (nominal 0.01 and 0.05 if the whitened misfit is
   chi-square), the mean LR statistic per fitted parameter (nominal 1) and the share of null
   draws where some candidate passes the Bonferroni-corrected test before the gain filter.
+
+``--only`` keeps the draws whose label starts with one of the given prefixes (e.g.
+``--only model_error:mean_wind_trend,model_error:mast_flow_distortion``), after drawing,
+so the kept draws are those of the full stratified set:
+
+    PYTHONPATH=src nice -n 5 .venv/bin/python benchmarks/bench_diagnosis_rates.py \\
+        --draws 12 --seed 1 --null-share 0 --model-error-share 1 \\
+        --only model_error:turbulence,model_error:mean_wind,model_error:mast \\
+        --out benchmarks/results/diagnosis_model_errors.json
 
 Draws run in a fixed random order (so that a partial progress log mixes the cases). A
 progress log (one JSON line per draw) goes to the output path with ``.log``; the results
@@ -165,6 +175,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--null-share", type=float, default=0.2)
     parser.add_argument("--model-error-share", type=float, default=0.15)
+    parser.add_argument("--only", default="",
+                        help="comma-separated label prefixes: keep only these draws (e.g. model_error:mast)")
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks/results/diagnosis_rates.json")
     args = parser.parse_args()
     config = yaml.safe_load((REPO / "config/config.yaml").read_text())
@@ -172,13 +184,16 @@ def main() -> None:
 
     diag = with_defaults(config)["diagnosis"]
     draws = stratified_draws(args.draws, args.seed, args.null_share, args.model_error_share)
+    prefixes = [p for p in args.only.split(",") if p]
+    if prefixes:
+        draws = [d for d in draws if any(d.label.startswith(p) for p in prefixes)]
     log_path = args.out.with_suffix(".log")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     commit = _commit()  # the code that runs, whatever is committed while it does
     verdicts = []
     with log_path.open("w") as log:
-        log.write(json.dumps({"command": " ".join(sys.argv), "commit": commit, "draws": args.draws,
+        log.write(json.dumps({"command": " ".join(sys.argv), "commit": commit, "draws": len(draws),
                               "seed": args.seed}) + "\n")
         log.flush()
         # a fixed permutation, so that a partial log mixes the cases
@@ -189,16 +204,18 @@ def main() -> None:
             line = json.dumps(verdict, default=str)
             log.write(line + "\n")
             log.flush()
-            print(f"[{len(verdicts)}/{args.draws}] {verdict['label']}: named {verdict['named']} "
+            print(f"[{len(verdicts)}/{len(draws)}] {verdict['label']}: named {verdict['named']} "
                   f"detected={verdict['detected']} ({verdict['seconds']:.0f} s)", flush=True)
     verdicts.sort(key=lambda v: v["index"])
     summary = summarise(verdicts, float(diag["alpha"]))
     result = {
         "command": "PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/bench_diagnosis_rates.py "
                    f"--draws {args.draws} --seed {args.seed} --workers {args.workers} "
-                   f"--null-share {args.null_share} --model-error-share {args.model_error_share}",
+                   f"--null-share {args.null_share} --model-error-share {args.model_error_share}"
+                   + (f" --only {args.only}" if prefixes else ""),
         "commit": commit,
-        "settings": {"draws": args.draws, "seed": args.seed, "null_share": args.null_share,
+        "settings": {"draws": args.draws, "kept_draws": len(draws), "only": prefixes, "seed": args.seed,
+                     "null_share": args.null_share,
                      "model_error_share": args.model_error_share, "diagnosis": diag,
                      "campaign": "4 flights, 12-min hovers, 3.5-9.5 m/s (experiments.campaign_manifest)"},
         "wall_seconds": time.perf_counter() - start,

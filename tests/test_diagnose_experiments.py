@@ -10,6 +10,13 @@ import pytest
 
 from dronewind.diagnose import experiments as ex
 from dronewind.mechanisms import get_mechanism
+from dronewind.simulate.settings import (
+    MAST_DEFAULTS,
+    PAYLOAD_DEFAULTS,
+    SPECTRA,
+    TURBULENCE_DEFAULTS,
+    validate_simulation,
+)
 
 
 def test_hidden_ranges_are_inside_the_catalog_ranges_and_signed_ones_cover_both_sides():
@@ -40,14 +47,40 @@ def test_stratified_draws_have_the_stated_shares_and_every_cell():
     assert ex.stratified_draws(60, seed=2) != draws
 
 
-def test_model_error_truth_reaches_the_simulation_but_not_the_catalog():
-    d = next(d for d in ex.stratified_draws(20, seed=3) if d.case == "model_error")
+@pytest.mark.parametrize("name", sorted(ex.MODEL_ERRORS))
+def test_model_error_truth_reaches_the_simulation_but_not_the_catalog(name):
+    d = next(d for d in ex.stratified_draws(24, seed=3, null_share=0.0, model_error_share=1.0)
+             if d.model_error_name == name)
     manifest = ex.campaign_manifest(d)
     assert manifest["simulation"]["mechanisms"] == []
-    assert manifest["simulation"]["payload"] == d.model_error
+    for section, settings in ex.MODEL_ERRORS[name].items():
+        assert set(manifest["simulation"][section]) == set(settings)
+        assert manifest["simulation"][section] == d.model_error[section]
+    validate_simulation(manifest)  # every drawn size inside the simulator's physical ranges
     verdict = ex.judge(d, {"named_causes": ["attitude_lag"]})
-    assert verdict["false_alarm"] and not verdict["detected"]
+    assert verdict["false_alarm"] and not verdict["detected"] and verdict["case"] == "model_error"
     assert ex.judge(d, {"named_causes": []})["detected"]
+
+
+def test_model_error_ranges_lie_inside_the_settings_ranges():
+    tables = {"payload": PAYLOAD_DEFAULTS, "mast": MAST_DEFAULTS, "atmosphere": TURBULENCE_DEFAULTS}
+    for name, sections in ex.MODEL_ERRORS.items():
+        for section, keys in sections.items():
+            for key, choices in keys.items():
+                if key == "spectrum":
+                    assert set(choices) <= set(SPECTRA) - {SPECTRA[0]}, name
+                    continue
+                default, lo, hi, _ = tables[section][key]
+                for low, high in choices:
+                    assert lo <= low < high <= hi, (name, key)
+                    assert not low <= default <= high, (name, key)  # the forward model's value is excluded
+
+
+def test_a_flat_model_error_of_earlier_draws_is_read_as_payload_settings():
+    old = ex.Draw("none", {}, 5, {"pendulum_length_m": 30.1}, "pendulum_length")
+    assert old.model_error_sections == {"payload": {"pendulum_length_m": 30.1}}
+    assert ex.campaign_manifest(old)["simulation"]["payload"] == {"pendulum_length_m": 30.1}
+    assert ex.Draw("none", {}, 5).model_error_sections == {}
 
 
 def test_judge_flags_a_wrong_cause_and_measures_the_estimate_error():

@@ -18,12 +18,17 @@ Three kinds of truth:
 * a catalog mechanism (:data:`HIDDEN_RANGES`): it must be named and estimated within
   :data:`TOLERANCES`;
 * a *model error* (:data:`MODEL_ERRORS`): physics the forward model does not have and no
-  catalog mechanism describes. The forward model runs the payload with the simulator's
-  default pendulum (18 m sling, damping ratio at least 0.03,
-  :func:`dronewind.diagnose.forward.forward_manifest` drops the campaign's
-  ``simulation:`` section); the truth hangs the payload on another sling or damps it
-  more. The correct verdict names no catalog cause (the misfit, if any, belongs in
-  ``unexplained``); naming one is a false attribution.
+  catalog mechanism describes. The forward model runs the simulator with its defaults
+  (:func:`dronewind.diagnose.forward.forward_manifest` drops the campaign's
+  ``simulation:`` section): an 18 m sling with damping ratio at least 0.03, Kaimal
+  spectra with similarity sigmas, a stationary mean wind and an undisturbed mast sonic.
+  The truth changes one of these through the ``simulation:`` section (format in
+  :mod:`dronewind.simulate`): another sling length or more damping (``payload``),
+  von Karman spectra with stretched length scales or other sigma ratios, a mean wind
+  changing in speed and direction (``atmosphere``, seen by drone and mast alike), or a
+  mast sonic in the flow distorted by its tower and boom (``mast``). The correct verdict
+  names no catalog cause (the misfit, if any, belongs in ``unexplained``); naming one is a
+  false attribution.
 
 CI draws change with every commit: :func:`draw_seed` derives the seed from ``git
 rev-parse HEAD`` (overridable by the ``DRONEWIND_DRAW_SEED`` environment variable).
@@ -71,13 +76,33 @@ HIDDEN_RANGES: dict[str, dict[str, tuple[float, float, bool]]] = {
 #: Value about which a hidden parameter is drawn (its "off" value when not 0).
 HIDDEN_CENTRES: dict[tuple[str, str], float] = {("w_gain", "gain"): 1.0}
 
-#: Model errors: name -> ``simulation.payload`` setting -> ranges (one drawn at random, then
-#: a value uniformly in it). The forward model keeps the defaults (18 m, 0.03).
-MODEL_ERRORS: dict[str, dict[str, tuple[tuple[float, float], ...]]] = {
+#: Model errors: name -> ``simulation`` section -> setting -> choices. A choice is a tuple
+#: of ranges ``(low, high)`` (one drawn at random, then a value uniformly in it) or of
+#: fixed values (one drawn). The forward model keeps the simulator's defaults. Sizes:
+#: several sampling errors of the 4-flight, 12-min campaign, inside the settings' physical
+#: ranges (dronewind.simulate.settings).
+MODEL_ERRORS: dict[str, dict[str, dict[str, tuple[Any, ...]]]] = {
     # pendulum frequency sqrt(g/l)/2pi: 0.14-0.17 Hz (9-12 m) or 0.083-0.094 Hz (28-36 m)
     # instead of 0.117 Hz
-    "pendulum_length": {"pendulum_length_m": ((9.0, 12.0), (28.0, 36.0))},
-    "pendulum_damping": {"min_damping_ratio": ((0.15, 0.3),)},
+    "pendulum_length": {"payload": {"pendulum_length_m": ((9.0, 12.0), (28.0, 36.0))}},
+    "pendulum_damping": {"payload": {"min_damping_ratio": ((0.15, 0.3),)}},
+    # von Karman shapes (same variance and dissipation) with the u, v, w spectral peaks
+    # moved by a factor 1.6-2 down or up: the payload's pendulum band (0.08-0.15 Hz) and
+    # the mast-drone coherence see other energy
+    "turbulence_spectrum": {"atmosphere": {"spectrum": ("von_karman",),
+                                           "length_scale_factor": ((0.5, 0.62), (1.6, 2.0))}},
+    # sigma_w/u* 0.8-1.0 or 1.6-1.9 and sigma_v/u* 1.4-1.6 or 2.3-2.6 instead of 1.25 and
+    # 1.92 (observed ranges, Panofsky and Dutton 1984, Ch. 7)
+    "turbulence_isotropy": {"atmosphere": {"sigma_w_factor": ((0.65, 0.8), (1.3, 1.5)),
+                                           "sigma_v_factor": ((0.75, 0.85), (1.2, 1.35))}},
+    # 1.5-3 m/s and 20-40 degree per hour (morning/evening transitions, fronts): over a
+    # 12-min hover 0.3-0.6 m/s and 4-8 degree
+    "mean_wind_trend": {"atmosphere": {"speed_trend_ms_per_h": ((-3.0, -1.5), (1.5, 3.0)),
+                                       "direction_trend_deg_per_h": ((-40.0, -20.0), (20.0, 40.0))}},
+    # a sonic on a short boom: 4-8 % upstream blockage (IEC 61400-12-1 Annex G gives about
+    # 1 % at 3 tower widths, more closer) and a 2-5 degree streamline tilt (Wyngaard 1981)
+    "mast_flow_distortion": {"mast": {"boom_blockage_deficit": ((0.04, 0.08),),
+                                      "streamline_tilt_deg": ((-5.0, -2.0), (2.0, 5.0))}},
 }
 
 #: Environment variable that overrides the seed of the CI draws.
@@ -117,7 +142,9 @@ class Draw:
     seed : int
         Campaign seed.
     model_error : dict
-        ``simulation.payload`` settings the forward model does not know (empty: none).
+        Settings the forward model does not know, by ``simulation`` section:
+        ``{"atmosphere": {"spectrum": "von_karman", ...}}`` (empty: none). A flat mapping
+        of numbers (the form of earlier draws) holds ``simulation.payload`` settings.
     model_error_name : str
         Key of :data:`MODEL_ERRORS` ("" when no model error).
     """
@@ -125,8 +152,17 @@ class Draw:
     mechanism: str
     parameters: dict[str, float]
     seed: int
-    model_error: dict[str, float] = field(default_factory=dict)
+    model_error: dict[str, Any] = field(default_factory=dict)
     model_error_name: str = ""
+
+    @property
+    def model_error_sections(self) -> dict[str, dict[str, Any]]:
+        """:attr:`model_error` by ``simulation`` section (a flat, earlier form read as ``payload``)."""
+        if not self.model_error:
+            return {}
+        if all(isinstance(v, Mapping) for v in self.model_error.values()):
+            return {section: dict(values) for section, values in self.model_error.items()}
+        return {"payload": dict(self.model_error)}
 
     @property
     def case(self) -> str:
@@ -234,12 +270,20 @@ def draw(rng: np.random.Generator, mechanisms: list[str] | None = None, p_none: 
 
 
 def _model_error_draw(rng: np.random.Generator, name: str) -> Draw:
+    """A model-error truth of kind ``name``: per setting one choice of :data:`MODEL_ERRORS`, then a value in it."""
     seed = int(rng.integers(1, 2**31 - 1))
-    settings = {}
-    for key, ranges in MODEL_ERRORS[name].items():
-        lo, hi = ranges[int(rng.integers(len(ranges)))]
-        settings[key] = round(float(rng.uniform(lo, hi)), 3)
-    return Draw("none", {}, seed, settings, name)
+    sections: dict[str, dict[str, Any]] = {}
+    for section, keys in MODEL_ERRORS[name].items():
+        settings: dict[str, Any] = {}
+        for key, choices in keys.items():
+            choice = choices[int(rng.integers(len(choices)))]
+            if isinstance(choice, tuple):
+                lo, hi = choice
+                settings[key] = round(float(rng.uniform(lo, hi)), 3)
+            else:
+                settings[key] = choice
+        sections[section] = settings
+    return Draw("none", {}, seed, sections, name)
 
 
 def stratified_draws(n: int, seed: int, null_share: float = 0.2, model_error_share: float = 0.15) -> list[Draw]:
@@ -308,7 +352,7 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
                                "files": ["mast/mast30_*.dat"]}]}],
         "payload_flights": flights,
         "simulation": {"seed": truth.seed, "payload_flights": conditions, "mechanisms": mechanisms,
-                       **({"payload": dict(truth.model_error)} if truth.model_error else {})},
+                       **truth.model_error_sections},
     }
 
 
@@ -320,7 +364,9 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
     dict
         ``case`` and ``label`` of the truth (:attr:`Draw.case`, :attr:`Draw.label`);
         ``detected`` (the hidden mechanism is named, or is in an ambiguity set with a named
-        one; for null and model-error truths: nothing named), ``false_alarm`` (something
+        one; for null and model-error truths, whose mechanism is ``none``: nothing named;
+        for a model error the misfit belongs in the diagnosis' ``unexplained``),
+        ``false_alarm`` (something
         named although no catalog mechanism was hidden: a false attribution for a model
         error), ``wrong_cause`` (a mechanism draw where a named cause is neither the truth
         nor ambiguous with it), ``estimate_ok`` (every parameter within :data:`TOLERANCES`),

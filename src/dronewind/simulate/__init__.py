@@ -18,7 +18,7 @@ The ``simulation:`` section of a campaign manifest (payload flights and masts)
 Units are in the key names; every key except ``payload_flights.<id>.mean_speed_ms``,
 ``wind_from_deg`` and one of ``z_over_L`` / ``obukhov_length_m`` is optional. Defaults
 and [ranges] below are those of ``settings.PAYLOAD_DEFAULTS``, ``DEFECT_DEFAULTS``,
-``MAST_DEFAULTS`` and ``ATMOSPHERE_DEFAULTS`` (the authoritative tables); rates must be
+``MAST_DEFAULTS``, ``ATMOSPHERE_DEFAULTS`` and ``TURBULENCE_DEFAULTS`` (the authoritative tables); rates must be
 whole numbers of Hz::
 
     simulation:
@@ -27,6 +27,17 @@ whole numbers of Hz::
         roughness_length_m: 0.1       # (0, 3]
         boundary_layer_height_m: 1000 # [50, 5000], only used when L < 0
         theta_mean_k: 288.15          # [220, 330], sonic temperature at z_ref_m
+        # turbulence model, campaign-wide (drone and masts alike; not per flight):
+        spectrum: kaimal              # kaimal | von_karman: u, v, w spectral shape (same
+                                      #   sigmas and dissipation rate; atmosphere.reshape_field)
+        sigma_u_factor: 1             # [0.5, 2] on the similarity sigma_u (also v, w:
+        sigma_v_factor: 1             #   another isotropy; the inertial level moves by
+        sigma_w_factor: 1             #   factor^2, the u-w coherency is kept)
+        length_scale_factor: 1        # [0.5, 2] on the u, v, w spectral length scales:
+                                      #   peak at f / factor, same variance
+        speed_trend_ms_per_h: 0       # [-10, 10] m s-1 h-1, mean speed at z_ref_m changing
+                                      #   linearly, 0 at the hover-window centre
+        direction_trend_deg_per_h: 0  # [-120, 120] degree h-1, veering (+) or backing (-)
       payload:
         pendulum_length_m: 18                 # (0, 100] m
         mass_kg: 4                            # (0, 25] kg
@@ -81,6 +92,12 @@ whole numbers of Hz::
         nan_rate: 0.0002                      # [0, 0.02] 1
         diag_rate: 0.0002                     # [0, 0.02] 1
         record_skip_rate: 1e-05               # [0, 0.01] 1
+        # flow distortion by tower and boom (mast.flow_distortion; every mast sonic):
+        boom_blockage_deficit: 0              # [0, 0.15] 1, horizontal-speed deficit for
+                                              #   wind along the boom (x cos of the angle)
+        tower_wake_deficit: 0                 # [0, 0.6] 1, deficit with the sonic in the
+        tower_wake_half_width_deg: 30         # [5, 90] degree, tower wake (cos^2 sector)
+        streamline_tilt_deg: 0                # [-10, 10] degree, upward turn of the flow
       payload_flights:                # one entry per manifest payload flight (required)
         s01:
           mean_speed_ms: 3.1          # (0, 40] at z_ref_m
@@ -102,6 +119,12 @@ whole numbers of Hz::
         - mechanism: attitude_lag     # a name of dronewind.mechanisms.CATALOG
           parameters: {lag_s: 0.08}   # exactly the catalog's parameters, in range
           flights: [s05, s07]         # optional; default every flight (payload or quadrotor)
+
+The turbulence-model and flow-distortion settings describe physics the diagnosis' forward
+model does not have (model-error truths of :mod:`dronewind.diagnose.experiments`); the
+mast flow distortion scales the horizontal wind by a direction-dependent factor, unlike
+the catalog's ``mast_w_attenuation`` (a gain on w). Their defaults leave the simulation
+bit-identical to a manifest without them.
 
 ``quadrotor_flights``, ``quadrotor`` and ``tunnel`` keys are reserved for the quadrotor
 and tunnel simulators and not checked here. Unknown keys, missing conditions, values

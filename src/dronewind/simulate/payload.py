@@ -40,7 +40,10 @@ Physics (seed 000, Sects 2-3):
 
 The turbulent field comes from :mod:`dronewind.simulate.atmosphere` at the mast sonics
 (generated first, so they do not depend on the payload's position) and at the hover
-point. During ascent and descent the payload sees the hover point's fluctuations with
+point, with the campaign's turbulence model (``simulation.atmosphere``: spectral shape
+and sigma factors, :func:`~dronewind.simulate.atmosphere.reshape_field`; mean-wind
+trends about the hover-window centre, :func:`~dronewind.simulate.atmosphere.mean_wind_trend`)
+seen alike by the payload and the masts. During ascent and descent the payload sees the hover point's fluctuations with
 the mean wind of its current height (an approximation: only hover data are analysed);
 the payload's own swing (about a metre) is not used to re-sample the field.
 
@@ -368,10 +371,28 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
     s_down = points[:, :2] @ e_u0
     pad = (s_down.max() - s_down.min()) / max(cond["mean_speed_ms"], 0.5)  # Taylor delays must not wrap
     period = math.ceil((clock.span_s + pad) / clock.period_unit_s) * clock.period_unit_s
-    return atm.field_coefficients(points, period, max(fs_sonic_hz, fs_mast_hz), cond["mean_speed_ms"],
+    spec = atm.field_coefficients(points, period, max(fs_sonic_hz, fs_mast_hz), cond["mean_speed_ms"],
                                   cond["wind_from_deg"], cond["z_ref_m"], cond["obukhov_length_m"],
                                   cond["roughness_length_m"], rng, cond["theta_mean_k"],
                                   cond["boundary_layer_height_m"])
+    return _turbulence_model(cond, field, spec)
+
+
+def _turbulence_model(cond: PayloadFlightConditions, field: _FieldPoints, spec: atm.FieldSpec) -> atm.FieldSpec:
+    """The campaign's spectral shape and sigma factors (``simulation.atmosphere``) on the field."""
+    tm = cond["turbulence"]
+    return atm.reshape_field(spec, field.points_enu_m[:, 2], tm["spectrum"],
+                             (tm["sigma_u_factor"], tm["sigma_v_factor"], tm["sigma_w_factor"]),
+                             tm["length_scale_factor"])
+
+
+def _with_trend(cond: PayloadFlightConditions, clock: _FlightClock, spec: atm.FieldSpec, series: np.ndarray,
+                points: list[int], t_field_s: np.ndarray) -> np.ndarray:
+    """Synthesised series of some points with the campaign's mean-wind trends, zero at the hover-window centre."""
+    tm = cond["turbulence"]
+    centre = clock.hover_start_field_s + 0.5 * cond["duration_s"]
+    return atm.mean_wind_trend(series, spec.mean_enu[points], t_field_s - centre, cond["mean_speed_ms"],
+                               tm["speed_trend_ms_per_h"], tm["direction_trend_deg_per_h"])
 
 
 @dataclass(frozen=True)
@@ -407,8 +428,9 @@ def _air_at_payload(cond: PayloadFlightConditions, clock: _FlightClock, field: _
     The true air, without the drone's rotor ``downwash`` (see :func:`_wind_up_at_sonic`).
     """
     i0 = int(round(clock.log_start_field_s * fs_hz))
-    air = atm.synthesize(spec, fs_hz, [len(field.mast_ids)], start_s=i0 / fs_hz,
-                         n_samples=clock.n_sonic)[0]
+    hover = [len(field.mast_ids)]
+    series = atm.synthesize(spec, fs_hz, hover, start_s=i0 / fs_hz, n_samples=clock.n_sonic)
+    air = _with_trend(cond, clock, spec, series, hover, (i0 + np.arange(clock.n_sonic)) / fs_hz)[0]
     t = clock.log_start_field_s - clock.hover_start_field_s + np.arange(clock.n_sonic) / fs_hz  # s from hover start
     ustar = spec.friction_velocity_ms
     z_hover = field.hover_z_m
@@ -813,8 +835,11 @@ def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadF
     spec = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"))
     air = _air_at_payload(cond, clock, field, spec, fs_s)
     motion = _payload_motion(p, air, field, spec, streams("motion"), fs_s)
-    return PayloadTruth(cond["flight_id"], int(cond["seed"]), _dz_m(cond), clock, field, air, motion,
-                        _mast_truth(settings, clock, field, spec))
+    mast = _mast_truth(settings, clock, field, spec)
+    masts = list(range(len(field.mast_ids)))
+    t_mast = (mast.times - clock.field_t0) / np.timedelta64(1, "us") * 1e-6
+    mast = dataclasses.replace(mast, series=_with_trend(cond, clock, spec, mast.series, masts, t_mast))
+    return PayloadTruth(cond["flight_id"], int(cond["seed"]), _dz_m(cond), clock, field, air, motion, mast)
 
 
 def payload_records(campaign: CampaignLike, flight_id: str,

@@ -29,6 +29,9 @@ __all__ = [
     "SimulationSettings",
     "PayloadFlightConditions",
     "ATMOSPHERE_DEFAULTS",
+    "TURBULENCE_DEFAULTS",
+    "SPECTRA",
+    "TurbulenceModel",
     "PAYLOAD_DEFAULTS",
     "MAST_DEFAULTS",
     "DEFECT_DEFAULTS",
@@ -50,6 +53,27 @@ ATMOSPHERE_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
     "boundary_layer_height_m": (1000.0, 50.0, 5000.0, "m"),
     "theta_mean_k": (288.15, 220.0, 330.0, "K"),
 }
+
+#: Turbulence model of the ``simulation.atmosphere`` block (campaign-wide, not overridable
+#: per flight; defaults = the similarity model of :mod:`dronewind.simulate.atmosphere`).
+#: Sigma factors multiply the similarity sigmas of u, v, w at every point (drone and mast
+#: alike); the trends change the mean wind linearly in time about the hover-window centre.
+#: Ranges: sigma_w/u* is observed between about 1.0 and 1.6 and sigma_v/u* between 1.5 and
+#: 3 in the surface layer (Panofsky and Dutton 1984, Ch. 7), against 1.25 and 1.92 of the
+#: model; wind speed changes of a few m/s and veering of some ten degrees per hour occur
+#: in morning and evening transitions and with passing fronts.
+TURBULENCE_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
+    "sigma_u_factor": (1.0, 0.5, 2.0, "1"),
+    "sigma_v_factor": (1.0, 0.5, 2.0, "1"),
+    "sigma_w_factor": (1.0, 0.5, 2.0, "1"),
+    # u, v, w spectral length scales (peak at f / factor; Hogstrom et al. 2002, BLM 103, 101)
+    "length_scale_factor": (1.0, 0.5, 2.0, "1"),
+    "speed_trend_ms_per_h": (0.0, -10.0, 10.0, "m s-1 h-1"),
+    "direction_trend_deg_per_h": (0.0, -120.0, 120.0, "degree h-1"),
+}
+
+#: Spectral shapes of ``simulation.atmosphere.spectrum`` (the first is the default).
+SPECTRA = ("kaimal", "von_karman")
 
 PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
     "pendulum_length_m": (18.0, 0.0, 100.0, "m"),          # seed 000, Sect. 2.2
@@ -100,6 +124,15 @@ MAST_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
     "nan_rate": (2e-4, 0.0, 0.02, "1"),
     "diag_rate": (2e-4, 0.0, 0.02, "1"),
     "record_skip_rate": (1e-5, 0.0, 0.01, "1"),
+    # flow distortion by the tower and boom (simulate.mast.flow_distortion; 0 = none):
+    # upstream blockage of a few per cent for booms of 1-3 tower widths (IEC 61400-12-1
+    # Ed. 1 2005, Annex G), tower wakes of 20-50 % over +-20-30 degree (McCaffrey et al.
+    # 2017, AMT 10, 393), streamline tilts of a few degrees (Wyngaard 1981, Annu. Rev.
+    # Fluid Mech. 13, 399)
+    "boom_blockage_deficit": (0.0, 0.0, 0.15, "1"),
+    "tower_wake_deficit": (0.0, 0.0, 0.6, "1"),
+    "tower_wake_half_width_deg": (30.0, 5.0, 90.0, "degree"),
+    "streamline_tilt_deg": (0.0, -10.0, 10.0, "degree"),
 }
 
 #: Row defects of the payload logs (fraction of rows); the paper's total stayed < 2 %.
@@ -140,11 +173,26 @@ class MechanismEntry(TypedDict):
     platforms: tuple[str, ...]
 
 
+class TurbulenceModel(TypedDict):
+    """The validated turbulence model of ``simulation.atmosphere`` (:data:`TURBULENCE_DEFAULTS`)."""
+
+    #: One of :data:`SPECTRA`.
+    spectrum: str
+    sigma_u_factor: float
+    sigma_v_factor: float
+    sigma_w_factor: float
+    length_scale_factor: float
+    speed_trend_ms_per_h: float
+    direction_trend_deg_per_h: float
+
+
 class SimulationSettings(TypedDict):
     """Output of :func:`validate_simulation` (every number with its default filled in)."""
 
     seed: int
     atmosphere: dict[str, float]
+    #: Spectrum, sigma factors and mean-wind trends (defaults: the similarity model).
+    turbulence: TurbulenceModel
     payload: dict[str, float]
     #: ``sonic`` and ``ins`` row-defect rates.
     defects: dict[str, dict[str, float]]
@@ -172,6 +220,8 @@ class PayloadFlightConditions(TypedDict):
     roughness_length_m: float
     boundary_layer_height_m: float
     theta_mean_k: float
+    #: Spectrum, sigma factors and mean-wind trends of the campaign.
+    turbulence: TurbulenceModel
     hover_height_m: float
     #: Hover-window start (naive UTC).
     start: np.datetime64
@@ -343,6 +393,29 @@ def _payload_settings(sim: Mapping[str, Any]) -> tuple[dict[str, float], dict[st
     return payload, defects
 
 
+def _atmosphere_settings(sim: Mapping[str, Any]) -> tuple[dict[str, float], TurbulenceModel]:
+    """``simulation.atmosphere``: the per-flight defaults and the campaign's turbulence model."""
+    where = "simulation.atmosphere"
+    raw = sim.get("atmosphere") or {}
+    if not isinstance(raw, Mapping):
+        raise InputError(where, "expected a mapping")
+    known = {*ATMOSPHERE_DEFAULTS, *TURBULENCE_DEFAULTS, "spectrum"}
+    unknown = sorted(set(raw) - known)
+    if unknown:
+        raise InputError(f"{where}.{unknown[0]}", f"unknown setting; expected one of {sorted(known)}")
+    atmosphere = _block({k: v for k, v in raw.items() if k in ATMOSPHERE_DEFAULTS}, ATMOSPHERE_DEFAULTS, where,
+                        exclusive=("roughness_length_m",))
+    factors = _block({k: v for k, v in raw.items() if k in TURBULENCE_DEFAULTS}, TURBULENCE_DEFAULTS, where)
+    spectrum = raw.get("spectrum", SPECTRA[0])
+    if spectrum not in SPECTRA:
+        raise InputError(f"{where}.spectrum", f"expected one of {list(SPECTRA)}, got {spectrum!r}")
+    return atmosphere, TurbulenceModel(
+        spectrum=str(spectrum), sigma_u_factor=factors["sigma_u_factor"], sigma_v_factor=factors["sigma_v_factor"],
+        sigma_w_factor=factors["sigma_w_factor"], length_scale_factor=factors["length_scale_factor"],
+        speed_trend_ms_per_h=factors["speed_trend_ms_per_h"],
+        direction_trend_deg_per_h=factors["direction_trend_deg_per_h"])
+
+
 def _check_whole_rates(payload: Mapping[str, float], mast: Mapping[str, float]) -> None:
     """Sonic, INS and mast rates must be whole numbers of Hz."""
     for where, block, key in (("simulation.payload", payload, "sonic_rate_hz"),
@@ -379,7 +452,8 @@ def validate_simulation(campaign: CampaignLike) -> SimulationSettings:
     Returns
     -------
     SimulationSettings
-        ``seed`` (int), ``atmosphere``, ``payload``, ``defects`` (``sonic``/``ins``),
+        ``seed`` (int), ``atmosphere``, ``turbulence`` (:class:`TurbulenceModel`), ``payload``,
+        ``defects`` (``sonic``/``ins``),
         ``mast`` (dicts of floats with defaults filled in), ``mechanisms`` (list of
         ``{mechanism, parameters, flights, platforms}``) and ``payload_flights``
         (raw per-flight mappings, checked by :func:`resolve_payload_flight`).
@@ -394,14 +468,14 @@ def validate_simulation(campaign: CampaignLike) -> SimulationSettings:
     payload, defects = _payload_settings(sim)
     mast = _block(sim.get("mast"), MAST_DEFAULTS, "simulation.mast")
     _check_whole_rates(payload, mast)
-    atmosphere = _block(sim.get("atmosphere"), ATMOSPHERE_DEFAULTS, "simulation.atmosphere",
-                        exclusive=("roughness_length_m",))
+    atmosphere, turbulence = _atmosphere_settings(sim)
     payload_ids = [str(f.get("id")) for f in data.get("payload_flights") or []]
     quad_ids = [str(f.get("id")) for f in data.get("quadrotor_flights") or []]
     flights_raw = _payload_flight_conditions(sim, payload_ids)
     mechanisms = _mechanisms(sim, set(payload_ids) | set(quad_ids))
-    out = SimulationSettings(seed=int(sim.get("seed", 0)), atmosphere=atmosphere, payload=payload, defects=defects,
-                             mast=mast, mechanisms=mechanisms, payload_flights=flights_raw)
+    out = SimulationSettings(seed=int(sim.get("seed", 0)), atmosphere=atmosphere, turbulence=turbulence,
+                             payload=payload, defects=defects, mast=mast, mechanisms=mechanisms,
+                             payload_flights=flights_raw)
     # check every flight now so that errors surface before any simulation runs
     for fid in payload_ids:
         resolve_payload_flight(data, fid, out)
@@ -588,6 +662,7 @@ def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
         obukhov_length_m, z_ref_m, hover_height_m, start`` (datetime64[us]),
         ``duration_s, flight_duration_s`` (None if not set), ``hover_offset_enu_m``
         (2 floats, relative to the reference sonic's mast), the atmosphere settings,
+        ``turbulence`` (the campaign's :class:`TurbulenceModel`),
         ``payload, defects, mast`` (dicts), ``mechanisms`` (dict name -> parameters of
         the payload/mast mechanisms active for this flight), ``reference`` (sonic id),
         ``mast_sonics`` (dict), ``site`` (dict), ``flight`` (manifest entry).
@@ -618,6 +693,7 @@ def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
         mean_speed_ms=wind["mean_speed_ms"], wind_from_deg=wind["wind_from_deg"], z_ref_m=wind["z_ref_m"],
         obukhov_length_m=wind["obukhov_length_m"], roughness_length_m=atmosphere["roughness_length_m"],
         boundary_layer_height_m=atmosphere["boundary_layer_height_m"], theta_mean_k=atmosphere["theta_mean_k"],
+        turbulence=settings["turbulence"],
         hover_height_m=hover_height, start=start, duration_s=duration, payload=payload,
         defects=settings["defects"], mast=settings["mast"], mechanisms=mechs,
         flight_duration_s=_flight_duration_s(cond, where, duration, hover_height, payload),
