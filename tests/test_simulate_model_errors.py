@@ -253,3 +253,12 @@ def test_a_trend_that_reverses_the_wind_is_refused():
     with pytest.raises(InputError) as err:
         payload_truth(data, "h01")
     assert err.value.where == "simulation.atmosphere.speed_trend_ms_per_h"
+
+
+def test_a_truth_of_another_turbulence_model_is_refused():
+    short = campaign_manifest(Draw("none", {}, 3), n_flights=1, hover_min=5.0)
+    _, truth = payload_records(short, "h01")
+    other = copy.deepcopy(short)
+    other["simulation"]["atmosphere"] = {"sigma_w_factor": 1.2}
+    with pytest.raises(ValueError, match="turbulence model"):
+        payload_records(other, "h01", truth)

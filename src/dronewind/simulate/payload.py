@@ -794,6 +794,8 @@ class PayloadTruth:
     #: records already measured from this truth, by instrument and the mechanisms acting on it
     #: (:func:`payload_records`): a probe that leaves an instrument alone gets the same record
     memo: dict[tuple[str, str], Any] = dataclasses.field(default_factory=dict, compare=False, repr=False)
+    #: the campaign's turbulence model the truth was made with (``simulation.atmosphere``)
+    turbulence: str = ""
 
 
 def _dz_m(cond: PayloadFlightConditions) -> float:
@@ -839,7 +841,8 @@ def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadF
     masts = list(range(len(field.mast_ids)))
     t_mast = (mast.times - clock.field_t0) / np.timedelta64(1, "us") * 1e-6
     mast = dataclasses.replace(mast, series=_with_trend(cond, clock, spec, mast.series, masts, t_mast))
-    return PayloadTruth(cond["flight_id"], int(cond["seed"]), _dz_m(cond), clock, field, air, motion, mast)
+    return PayloadTruth(cond["flight_id"], int(cond["seed"]), _dz_m(cond), clock, field, air, motion, mast,
+                        turbulence=repr(sorted(cond["turbulence"].items())))
 
 
 def payload_records(campaign: CampaignLike, flight_id: str,
@@ -870,7 +873,7 @@ def payload_records(campaign: CampaignLike, flight_id: str,
     InputError
         Invalid settings (named); GNSS time not stable before the hover.
     ValueError
-        A ``truth`` of another flight, seed or height offset.
+        A ``truth`` of another flight, seed, height offset or turbulence model.
     """
     data = campaign_dict(campaign)
     settings = validate_simulation(data)
@@ -880,6 +883,9 @@ def payload_records(campaign: CampaignLike, flight_id: str,
     elif (truth.flight_id, truth.seed, truth.hover_offset_dz_m) != (cond["flight_id"], int(cond["seed"]), _dz_m(cond)):
         raise ValueError(f"truth of flight {truth.flight_id} seed {truth.seed} dz {truth.hover_offset_dz_m} m does "
                          f"not belong to flight {flight_id} seed {cond['seed']} dz {_dz_m(cond)} m")
+    elif truth.turbulence != repr(sorted(cond["turbulence"].items())):
+        raise ValueError(f"truth made with turbulence model {truth.turbulence} does not belong to a campaign with "
+                         f"{sorted(cond['turbulence'].items())}")
     unknown = sorted(set(cond["mechanisms"]) - set().union(*INSTRUMENT_MECHANISMS.values(), {"height_offset"}))
     if unknown:  # a mechanism added to the simulator must be assigned to the instrument it acts on
         raise ValueError(f"mechanism(s) {unknown} act on no instrument of INSTRUMENT_MECHANISMS")
