@@ -1,0 +1,122 @@
+"""How far each model-error truth moves the diagnosis' measured features, in their own sampling errors.
+
+For every kind of dronewind.diagnose.experiments.MODEL_ERRORS, the first draws of that kind
+in the stratified set (``--draws``, ``--seed``, all model errors) are simulated as the
+4-flight hidden-effect campaign and processed to the measured residual features
+(forward.measured_features, the diagnosis' input), once with the model error and once
+without it at the same campaign seed (same turbulence latents, motion and noise draws).
+The shift of each feature is divided by the feature's own sampling error (``sigma`` of
+features.flight_features). No forward probes run: this measures what the truth does to
+the data, not what the diagnosis makes of it (bench_diagnosis_rates.py does that).
+
+    PYTHONPATH=src nice -n 5 .venv/bin/python benchmarks/bench_model_error_features.py \\
+        --draws 12 --seed 1 --out benchmarks/results/model_error_features.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from dronewind.compare.chain import compute_l3
+from dronewind.diagnose import experiments as ex
+from dronewind.manifest import with_defaults
+from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
+from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def measured(data: dict[str, Any], processing: dict[str, Any], work: Path) -> dict[str, dict[str, Any]]:
+    """Measured features of every flight of a hidden-effect campaign (as experiments._process_flight, no probes)."""
+    from dronewind.diagnose import forward
+    from dronewind.diagnose.features import features_to_dict
+    from dronewind.simulate.payload import simulate_payload_flight
+
+    out = {}
+    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    for flight in data["payload_flights"]:
+        fid = flight["id"]
+        paths = simulate_payload_flight(copy.deepcopy(data), work, fid, work)
+        s1, i1 = compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"],
+                                    processing["despike"])
+        l2 = compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), **lag)
+        m1 = compute_mast_l1([p for p in paths if p.suffix == ".dat"], data["masts"][0]["sonics"][0],
+                             processing["despike"])
+        m2 = compute_mast_l2(m1, l2, fid, processing["drone_mast"])
+        l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
+        out[fid] = features_to_dict(forward.measured_features(data, fid, s1, i1, l2, l3, **lag))
+    return out
+
+
+def shifts(with_error: dict[str, Any], without: dict[str, Any]) -> dict[str, Any]:
+    """Per flight and feature: (with - without) / sigma (sigma of the run without the model error)."""
+    z: dict[str, dict[str, float]] = {}
+    for fid, feats in with_error.items():
+        base = without[fid]
+        z[fid] = {}
+        for name, value in feats["values"].items():
+            b, s = base["values"].get(name), base["sigma"].get(name)
+            if value is None or b is None or not s:
+                continue
+            z[fid][name] = (value - b) / s
+    flat = [(abs(v), fid, name) for fid, d in z.items() for name, v in d.items()]
+    flat.sort(reverse=True)
+    per_feature: dict[str, list[float]] = {}
+    for d in z.values():
+        for name, v in d.items():
+            per_feature.setdefault(name, []).append(v)
+    return {
+        "rms_z": float(np.sqrt(np.mean([v[0] ** 2 for v in flat]))) if flat else float("nan"),
+        "n_features": len(flat),
+        "n_above_2": sum(v[0] > 2 for v in flat),
+        "largest": [{"flight": fid, "feature": name, "z": float(z[fid][name])} for _, fid, name in flat[:6]],
+        # combined over the 4 flights: mean shift / (1/sqrt(n)) (independent flights)
+        "campaign_z": {name: float(np.mean(v) * np.sqrt(len(v))) for name, v in sorted(per_feature.items())},
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--draws", type=int, default=12)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=REPO / "benchmarks/results/model_error_features.json")
+    args = parser.parse_args()
+    processing = with_defaults(yaml.safe_load((REPO / "config/config.yaml").read_text()))["processing"]
+    draws = ex.stratified_draws(args.draws, args.seed, null_share=0.0, model_error_share=1.0)
+    start, cpu0 = time.perf_counter(), time.process_time()
+    results = []
+    baselines: dict[int, dict[str, Any]] = {}
+    for truth in draws:
+        with tempfile.TemporaryDirectory() as work:
+            if truth.seed not in baselines:
+                baselines[truth.seed] = measured(ex.campaign_manifest(ex.Draw("none", {}, truth.seed)), processing,
+                                                 Path(work) / "base")
+            feats = measured(ex.campaign_manifest(truth), processing, Path(work) / "error")
+        entry = {"label": truth.label, "model_error": truth.model_error, "seed": truth.seed,
+                 **shifts(feats, baselines[truth.seed])}
+        results.append(entry)
+        top = entry["largest"][0] if entry["largest"] else {}
+        print(f"{truth.label} {truth.model_error}: rms z {entry['rms_z']:.2f}, {entry['n_above_2']}/"
+              f"{entry['n_features']} |z| > 2, largest {top}", flush=True)
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True,
+                            check=False).stdout.strip()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps({
+        "command": f"PYTHONPATH=src nice -n 5 .venv/bin/python benchmarks/bench_model_error_features.py "
+                   f"--draws {args.draws} --seed {args.seed}",
+        "commit": commit, "wall_seconds": time.perf_counter() - start, "cpu_seconds": time.process_time() - cpu0,
+        "draws": results}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
