@@ -11,6 +11,9 @@ the data, not what the diagnosis makes of it (bench_diagnosis_rates.py does that
 
     PYTHONPATH=src nice -n 5 .venv/bin/python benchmarks/bench_model_error_features.py \\
         --draws 12 --seed 1 --out benchmarks/results/model_error_features.json
+
+``--model-error '<json>'`` (repeatable) replaces the draws by given settings by section,
+e.g. ``'{"atmosphere": {"speed_trend_ms_per_h": 6}}'``, at campaign seed ``--seed``.
 """
 
 from __future__ import annotations
@@ -89,10 +92,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--draws", type=int, default=12)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--model-error", action="append", default=[],
+                        help="settings by simulation section as JSON (instead of the draws)")
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks/results/model_error_features.json")
     args = parser.parse_args()
     processing = with_defaults(yaml.safe_load((REPO / "config/config.yaml").read_text()))["processing"]
-    draws = ex.stratified_draws(args.draws, args.seed, null_share=0.0, model_error_share=1.0)
+    if args.model_error:
+        draws = [ex.Draw("none", {}, args.seed, json.loads(text), "given") for text in args.model_error]
+    else:
+        draws = ex.stratified_draws(args.draws, args.seed, null_share=0.0, model_error_share=1.0)
     start, cpu0 = time.perf_counter(), time.process_time()
     results = []
     baselines: dict[int, dict[str, Any]] = {}
@@ -113,7 +121,8 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({
         "command": f"PYTHONPATH=src nice -n 5 .venv/bin/python benchmarks/bench_model_error_features.py "
-                   f"--draws {args.draws} --seed {args.seed}",
+                   f"--draws {args.draws} --seed {args.seed}"
+                   + "".join(f" --model-error '{text}'" for text in args.model_error),
         "commit": commit, "wall_seconds": time.perf_counter() - start, "cpu_seconds": time.process_time() - cpu0,
         "draws": results}, indent=1))
 
