@@ -364,8 +364,12 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
-                    processing: Mapping[str, Any], seeds: tuple[int, ...]) -> tuple[dict[str, Any], dict[str, Any]]:
+                    processing: Mapping[str, Any], seeds: tuple[int, ...],
+                    atmosphere: str = "measured") -> tuple[dict[str, Any], dict[str, Any]]:
     """Simulate one flight of a hidden-effect campaign, process it, run its forward probes.
+
+    ``atmosphere`` is ``diagnosis.atmosphere``: with ``measured`` the forward runs take the
+    reference mast's L1 as their atmosphere, as the workflow's forward rules do.
 
     Returns
     -------
@@ -389,7 +393,8 @@ def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Pa
     l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
     measured = features_to_dict(forward.measured_features(data, fid, s1, i1, l2, l3, **lag))
     conditions = forward.forward_conditions(data, fid, l3, l2)
-    return measured, forward.probe_runs(data, fid, conditions, processing, seeds=seeds)
+    record = forward.atmosphere_record(m1, conditions) if atmosphere == "measured" else None
+    return measured, forward.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
 
 
 def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path, **manifest_kw: Any
@@ -425,7 +430,10 @@ def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path,
     measured, fwd = {}, {}
     for flight in data["payload_flights"]:
         measured[flight["id"]], fwd[flight["id"]] = _process_flight(data, flight, Path(work_dir), processing,
-                                                                    tuple(diagnosis["seeds"]))
+                                                                    tuple(diagnosis["seeds"]),
+                                                                    str(diagnosis["atmosphere"]))
     result = dc.diagnose(dc.assemble(measured, fwd), alpha=float(diagnosis["alpha"]),
                          max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]))
-    return dc.to_json(result, data["name"])
+    out = dc.to_json(result, data["name"])
+    out["atmosphere"] = str(diagnosis["atmosphere"])
+    return out
