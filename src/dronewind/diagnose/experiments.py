@@ -282,8 +282,15 @@ def stratified_draws(n: int, seed: int, null_share: float = 0.2, model_error_sha
 
 
 def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hover_min: float = 12.0,
-                      speeds_ms: tuple[float, ...] = (3.5, 5.5, 7.5, 9.5)) -> dict[str, Any]:
-    """A small virtual campaign (one mast sonic, ``n_flights`` payload flights) hiding ``truth``."""
+                      speeds_ms: tuple[float, ...] = (3.5, 5.5, 7.5, 9.5),
+                      z_over_l: tuple[float, ...] | None = None,
+                      atmosphere: Mapping[str, float] | None = None) -> dict[str, Any]:
+    """A small virtual campaign (one mast sonic, ``n_flights`` payload flights) hiding ``truth``.
+
+    ``z_over_l`` (cycled over the flights; by default -0.2 + 0.1 i for flight i) and
+    ``atmosphere`` (``simulation.atmosphere`` settings, e.g. a convective boundary-layer depth: turbulence that the forward model,
+    which keeps the defaults, does not know) describe the true atmosphere.
+    """
     flights, conditions = [], {}
     for i in range(n_flights):
         fid = f"h{i + 1:02d}"
@@ -296,7 +303,8 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
             "window": {"start": f"{start}Z", "end": f"{end}Z"},
         })
         conditions[fid] = {"mean_speed_ms": float(speeds_ms[i % len(speeds_ms)]),
-                           "wind_from_deg": float(200 + 25 * i), "z_over_L": float(-0.2 + 0.1 * i),
+                           "wind_from_deg": float(200 + 25 * i), "z_over_L": float(-0.2 + 0.1 * i if z_over_l is None
+                                                                              else z_over_l[i % len(z_over_l)]),
                            "hover_height_m": 28.0}
     mechanisms = [] if truth.mechanism == "none" else [{"mechanism": truth.mechanism,
                                                         "parameters": dict(truth.parameters)}]
@@ -308,7 +316,8 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
                                "files": ["mast/mast30_*.dat"]}]}],
         "payload_flights": flights,
         "simulation": {"seed": truth.seed, "payload_flights": conditions, "mechanisms": mechanisms,
-                       **({"payload": dict(truth.model_error)} if truth.model_error else {})},
+                       **({"payload": dict(truth.model_error)} if truth.model_error else {}),
+                       **({"atmosphere": dict(atmosphere)} if atmosphere else {})},
     }
 
 

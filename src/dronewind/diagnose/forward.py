@@ -20,6 +20,22 @@ of records a probe leaves unchanged are reused (:class:`ForwardCache`). Each sho
 bit for bit the result of the long way round (``tests/test_forward_memory.py``), and
 :func:`file_round_trip` checks one flight through the files.
 
+The atmosphere (``diagnosis.atmosphere``, :data:`ATMOSPHERES`): with ``measured`` (the
+default) the forward runs take the turbulence both sensors share from the reference mast as
+measured: its record over the flight (:func:`atmosphere_record`, the mast L1) constrains the
+simulated field at the mast sonic, so the simulated mast sees the measured realisation
+(trend and low frequencies included), and the record's smoothed spectra, carried to the
+hover height by the model's height dependence, set the spectral amplitudes at every point
+(:func:`dronewind.simulate.payload.measured_constraint`; Rinker 2018 for the constrained
+generation, Kaimal et al. 1972 for the height scaling). The hover point then gets the part of
+the record coherent at its separation plus an unconstrained remainder drawn by the seed, and
+the baseline seeds vary only that remainder (and the instruments), which is the sampling
+error of a feature given the mast. With ``model`` the turbulence is the similarity model's
+at the measured mean conditions (mean wind, direction, u*, L). A mechanism acting on the
+mast's record (:data:`RECORD_INVERSES`) is probed by undoing it on the record; with the
+atmosphere defined by the mast, a drone w gain g and a mast w attenuation 1/g then predict the
+same sensor differences (an ambiguity the diagnosis reports).
+
 Settings: the functions that run the chain take ``processing``, the ``processing`` section
 of the workflow configuration (at least the keys of :data:`CHAIN_SETTINGS`; defaults from
 :func:`dronewind.manifest.default_config`), the same as for the measured flight.
@@ -284,6 +300,7 @@ def forward_manifest(
     conditions: Mapping[str, Any],
     mechanisms: list[dict[str, Any]] | None = None,
     seed: int = 0,
+    measured_atmosphere: bool = False,
 ) -> dict[str, Any]:
     """A one-flight virtual campaign that reproduces a measured flight's conditions.
 
@@ -300,6 +317,10 @@ def forward_manifest(
         ``[{"mechanism": name, "parameters": {...}}]``; none for the baseline.
     seed : int
         Campaign seed of the forward run.
+    measured_atmosphere : bool
+        The run's atmosphere is the reference mast's measured record
+        (:func:`atmosphere_record`), which already holds the mast sonic's white noise: the
+        forward mast then adds none (``simulation.mast`` noise 0).
 
     Returns
     -------
@@ -316,6 +337,8 @@ def forward_manifest(
         "payload_flights": {flight_id: dict(conditions)},
         "mechanisms": [dict(m) for m in (mechanisms or [])],
     }
+    if measured_atmosphere:
+        data["simulation"]["mast"] = {"noise_ms": 0.0, "temperature_noise_k": 0.0}
     return data
 
 
@@ -701,19 +724,20 @@ def probe_runs(
     levels = [(probe, level) for probe in probes if probe.mechanism in parts for level in probe.levels]
     run_seeds = seeds if BASELINE_PART in parts else ()
     progress = Progress("probe", len(run_seeds) + len(levels), "run")
+    measured = atmosphere is not None
     truth = None  # the first seed's true state, reused by every measurement-stage probe
     cache = ForwardCache()  # and its products, reused where a probe leaves a record unchanged
     for seed in run_seeds:
         with progress.item(f"flight {flight_id} baseline seed {seed}"):
-            feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed),
+            feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed, measured),
                                           flight_id, processing, cache=cache, atmosphere=atmosphere)
         if truth is None:
             truth = products["truth"]
             cache.freeze()
         out["baseline"].append(features_to_dict(feats))
-    inverted = set(RECORD_INVERSES) if atmosphere is not None else set()
+    inverted = set(RECORD_INVERSES) if measured else set()
     if truth is None and any(probe.mechanism not in TRUTH_MECHANISMS | inverted for probe, _ in levels):
-        truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0]), flight_id,
+        truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0], measured), flight_id,
                               atmosphere)
     if truth is not None and atmosphere is not None:
         out["atmosphere_record"] = dict(truth.atmosphere_info)
@@ -722,10 +746,12 @@ def probe_runs(
         params = _probe_parameters(probe, level)
         mech = [{"mechanism": probe.mechanism, "parameters": params}]
         reuse = truth if probe.mechanism not in TRUTH_MECHANISMS | inverted else None
-        record = RECORD_INVERSES[probe.mechanism](atmosphere, params) if probe.mechanism in inverted else atmosphere
+        record = atmosphere
+        if atmosphere is not None and probe.mechanism in inverted:
+            record = RECORD_INVERSES[probe.mechanism](atmosphere, params)
         try:
             with progress.item(name):
-                feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0]),
+                feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0], measured),
                                        flight_id, processing, truth=reuse, cache=cache, atmosphere=record)
         except InputError as exc:
             # a level outside what this flight allows (e.g. a height offset deeper than
@@ -840,7 +866,10 @@ def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: st
     xarray.Dataset
         Those variables within :data:`ATMOSPHERE_MARGIN_S` of the hover window (a shorter
         record is cut again by the simulator, which mirrors it where the forward flight's
-        span reaches beyond it, :func:`dronewind.simulate.payload.measured_constraint`).
+        span reaches beyond it, :func:`dronewind.simulate.payload.measured_constraint`),
+        with attributes ``noise_ms`` and ``temperature_noise_k``: the white noise of the
+        forward model's CSAT3 (``simulation.mast`` defaults), which the record holds and
+        the forward mast does not add again (:func:`forward_manifest`).
 
     Raises
     ------
@@ -856,5 +885,9 @@ def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: st
     start = np.datetime64(str(conditions["start"]).rstrip("Z"), "us")
     margin = np.timedelta64(int(ATMOSPHERE_MARGIN_S * 1e6), "us")
     end = start + np.timedelta64(int(round(float(conditions["duration_s"]) * 1e6)), "us")
+    from dronewind.simulate.settings import MAST_DEFAULTS
+
     cut = mast[names].sel(time=slice(start - margin, end + margin))
-    return cut.drop_vars([c for c in cut.coords if c != "time"])
+    cut = cut.drop_vars([c for c in cut.coords if c != "time"])
+    cut.attrs = {"noise_ms": MAST_DEFAULTS["noise_ms"][0], "temperature_noise_k": MAST_DEFAULTS["temperature_noise_k"][0]}
+    return cut

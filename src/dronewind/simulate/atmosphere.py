@@ -34,6 +34,14 @@ below is the same (per-frequency Cholesky of the coherence matrix, constraints b
 solving for the constraint's unit phasors, Rinker 2018), vectorised over frequencies
 and extended with the component cross-spectra; here it takes a few tens of ms.
 
+Measured amplitudes (``amplitudes="constraint"``): the constraint record's periodogram,
+divided by the model spectrum at its point and averaged over log-frequency bins, replaces
+the model's spectral level at every point (times the model's height ratio
+S_model(z_point, f)/S_model(z_record, f), Kaimal et al. 1972), so another spectral shape or
+isotropy measured at the record's point carries to the others; the latents of the record
+are solved with those amplitudes (Rinker 2018, Eq. 6), so the record is still reproduced
+at its point.
+
 Frames: points and outputs are ENU (x east, y north, z up above ground). Internally the
 fluctuations live in the wind frame (u along the mean wind, v to its left, w up). The
 mean wind blows *from* ``wind_from_deg`` (clockwise from north), so its ENU direction
@@ -542,7 +550,8 @@ class ConstraintLatents(TypedDict):
     ``n_freq`` number of constrained frequencies (the zero frequency included);
     ``n_missing`` samples interpolated over gaps; ``offset`` (4,) the record's mean over the
     period minus its mean over the averaging window (east, north, up [m s-1], temperature
-    [K]; zeros when the window is the whole period), added to the mean of every point.
+    [K]; zeros when the window is the whole period), added to the mean of every point;
+    ``noise_power`` the record's white-noise power per coefficient (:func:`_measured_spectra`).
     The latents are solved from the coefficients by :func:`field_coefficients`, with the
     amplitudes it uses at the constraint point.
     """
@@ -552,6 +561,10 @@ class ConstraintLatents(TypedDict):
     n_freq: int
     n_missing: int
     offset: np.ndarray
+    #: (4,) expected |c|^2 per coefficient of the record's white measurement noise in u, v, w
+    #: [m2 s-2] and theta [K2] (variance / samples), removed from its spectra before they
+    #: become amplitudes (zeros: none)
+    noise_power: np.ndarray
 
 
 class FieldDiagnostics(TypedDict, total=False):
@@ -873,7 +886,7 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
         n_c = min(int(constraint["n_freq"]) - 1, fpos.size)
         coefficients = np.asarray(constraint["coefficients"])[:, :n_c]
         if amplitudes == "constraint":
-            spectra = _measured_spectra(spectra, coefficients, fpos, df)
+            spectra = _measured_spectra(spectra, coefficients, fpos, df, constraint.get("noise_power"))
         latents = _constraint_latents(coefficients, pts[0], fpos, adv, e_u, spectra.amplitude[0], spectra.rho_uw[0],
                                       spectra.rho_wt[0])
         offset = np.asarray(constraint.get("offset", offset), float)
@@ -1108,6 +1121,7 @@ def _log_binned_mean(values: np.ndarray, freq_hz: np.ndarray, bins_per_decade: i
 
 
 def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz: np.ndarray, df_hz: float,
+                      noise_power: np.ndarray | None = None,
                       bins_per_decade: int = MEASURED_BINS_PER_DECADE) -> _PointSpectra:
     """The points' spectra with the amplitudes of a measured record (the constraint, point 0).
 
@@ -1121,6 +1135,10 @@ def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz:
         Positive frequencies [Hz].
     df_hz : float
         Frequency step [Hz].
+    noise_power : numpy.ndarray, optional
+        (4,) expected |c|^2 of the record's white measurement noise per coefficient
+        (variance / samples), removed from the periodogram (at most 90 % of it); none by
+        default.
     bins_per_decade : int
         Log-frequency bins per decade of the smoothing.
 
@@ -1140,7 +1158,10 @@ def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz:
     other heights by the model's height dependence (Kaimal et al. 1972). Above the record's
     Nyquist frequency R holds its mean over the top bin (the measured inertial-subrange
     level). Without a temperature R_theta = 1. The lowest bins hold one coefficient each:
-    there the amplitudes are the record's own.
+    there the amplitudes are the record's own. The record's own white measurement noise is
+    not atmosphere: its expected power is subtracted from the periodogram first (in weak
+    turbulence it would otherwise be carried to the other points as high-frequency
+    turbulence), keeping at least 10 % of each coefficient's power.
 
     References
     ----------
@@ -1153,7 +1174,10 @@ def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz:
     for i in range(4):
         if not np.all(np.isfinite(coefficients[i])):
             continue
-        ratio = np.abs(coefficients[i]) ** 2 / np.maximum(spectra.amplitude[0, i, :n_c] ** 2, 1e-300)
+        power = np.abs(coefficients[i]) ** 2
+        if noise_power is not None:
+            power = np.maximum(power - float(noise_power[i]), 0.1 * power)
+        ratio = power / np.maximum(spectra.amplitude[0, i, :n_c] ** 2, 1e-300)
         r = np.full(fpos_hz.size, float(np.mean(ratio[top])))
         r[:n_c] = _log_binned_mean(ratio, f_c, bins_per_decade)
         amp[:, i] *= np.sqrt(r)[None, :]
@@ -1168,7 +1192,8 @@ def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz:
 
 
 def constraint_from_record(record: xr.Dataset, period_s: float, fs_hz: float, wind_from_deg: float,
-                           mean_window_s: tuple[float, float] | None = None) -> ConstraintLatents:
+                           mean_window_s: tuple[float, float] | None = None,
+                           noise_ms: float = 0.0, temperature_noise_k: float = 0.0) -> ConstraintLatents:
     """The internal constraint of a measured record (the first ``period_s`` of it).
 
     Parameters
@@ -1187,6 +1212,9 @@ def constraint_from_record(record: xr.Dataset, period_s: float, fs_hz: float, wi
         window, so that the field's mean there is the model mean); the whole period by
         default. The record's mean over the period relative to that window becomes the
         ``offset`` of every point's mean.
+    noise_ms, temperature_noise_k : float
+        Standard deviations of the record's white measurement noise per wind component
+        [m s-1] and in temperature [K] (removed from its spectra, :func:`_measured_spectra`).
 
     Returns
     -------
@@ -1199,8 +1227,9 @@ def constraint_from_record(record: xr.Dataset, period_s: float, fs_hz: float, wi
     point = np.array([float(record.attrs.get("x_m", 0.0)), float(record.attrs.get("y_m", 0.0)),
                       float(record.attrs["height_m"])])
     coefficients = _constraint_coefficients(series, n_grid, period_s, fs_hz)
+    noise = np.array([noise_ms**2, noise_ms**2, noise_ms**2, temperature_noise_k**2], float) / n_grid
     return ConstraintLatents(point=point, coefficients=coefficients, n_freq=coefficients.shape[1] + 1,
-                             n_missing=n_missing, offset=offset)
+                             n_missing=n_missing, offset=offset, noise_power=noise)
 
 
 def _padded_period_s(points_enu_m: np.ndarray, n_samples: int, fs_hz: float, mean_speed_ms: float,

@@ -57,8 +57,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import signal
 import xarray as xr
+from scipy import signal
 from scipy.interpolate import CubicSpline
 
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
@@ -379,7 +379,8 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
     pad = (s_down.max() - s_down.min()) / max(cond["mean_speed_ms"], 0.5)  # Taylor delays must not wrap
     period = math.ceil((clock.span_s + pad) / clock.period_unit_s) * clock.period_unit_s
     fs_max = max(fs_sonic_hz, fs_mast_hz)
-    con, info = None, {}
+    con: atm.ConstraintLatents | None = None
+    info: dict[str, Any] = {}
     if atmosphere is not None:
         ref = field.mast_ids.index(cond["reference"])
         con, info = measured_constraint(atmosphere, clock, points[ref], period, fs_max, cond["wind_from_deg"],
@@ -401,7 +402,9 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
     ----------
     record : xarray.Dataset
         The reference sonic's measured record: ``u_east_ms``, ``v_north_ms``, ``w_up_ms``
-        (and ``t_sonic_k``) on a datetime64 ``time`` axis (a mast L1 or L2).
+        (and ``t_sonic_k``) on a datetime64 ``time`` axis (a mast L1 or L2); optional
+        attributes ``noise_ms`` and ``temperature_noise_k``: its white measurement noise,
+        removed from its spectra (:func:`dronewind.simulate.atmosphere.constraint_from_record`).
     clock : _FlightClock
         The flight's time axes (field time 0 is ``clock.field_t0``).
     point_enu_m : numpy.ndarray
@@ -474,7 +477,9 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
     ds = xr.Dataset(data, coords={"time_s": ("time", grid)},
                     attrs={"height_m": float(point_enu_m[2]), "x_m": float(point_enu_m[0]),
                            "y_m": float(point_enu_m[1])})
-    con = atm.constraint_from_record(ds, period_s, fs_hz, wind_from_deg, mean_window_s=hover)
+    con = atm.constraint_from_record(ds, period_s, fs_hz, wind_from_deg, mean_window_s=hover,
+                                     noise_ms=float(record.attrs.get("noise_ms", 0.0)),
+                                     temperature_noise_k=float(record.attrs.get("temperature_noise_k", 0.0)))
     covered = max(0.0, min(hi, grid[-1]) - max(lo, 0.0))
     return con, {"record_covered_s": covered, "mirrored_s": float(n * dt - covered),
                  "interpolated_samples": n_interp, "record_rate_hz": 1.0 / dt}

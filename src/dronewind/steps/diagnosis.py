@@ -222,9 +222,10 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
 
     ``alpha``, ``max_causes`` and ``min_gain`` are the ``diagnosis`` settings (see
     :func:`dronewind.diagnose.campaign.diagnose`); ``atmosphere`` (``diagnosis.atmosphere``)
-    is recorded in diagnosis.json after checking that every forward file was run with it. ``platform_files``: the rigid-mount
-    flights' platform-response results (:func:`platform_diagnosis`), added to the
-    candidates, named causes and a ``rigid_mount`` section (:func:`platform_entries`).
+    is recorded in diagnosis.json after checking that every forward file was run with it.
+    ``platform_files``: the rigid-mount flights' platform-response results
+    (:func:`platform_diagnosis`), added to the candidates, named causes and a ``rigid_mount``
+    section (:func:`platform_entries`).
     """
 
     campaign = load_campaign(manifest)
