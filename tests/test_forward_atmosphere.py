@@ -208,3 +208,22 @@ def test_atmosphere_record_needs_the_hover_window(forward_flight):
                             atmosphere=forward.atmosphere_record(short, cond))
     with pytest.raises(InputError, match="missing variable"):
         forward.atmosphere_record(m1.drop_vars("w_up_ms"), cond)
+
+
+def test_forward_step_names_a_bad_setting(tmp_path):
+    from dronewind.steps.diagnosis import _check_atmosphere, forward_probes
+
+    measured = tmp_path / "measured.json"
+    measured.write_text('{"conditions": {}}')
+    with pytest.raises(InputError, match="expected one of"):
+        forward_probes(measured, tmp_path / "out.json", campaign={}, flight_id="f", processing={}, seeds=[1],
+                       atmosphere="textbook")
+    with pytest.raises(InputError, match="needs the reference mast's L1"):
+        forward_probes(measured, tmp_path / "out.json", campaign={}, flight_id="f", processing={}, seeds=[1],
+                       atmosphere="measured")
+    # forward files written with another atmosphere than the diagnosis is told are refused
+    old = tmp_path / "old.json"
+    old.write_text('{"flight": "f"}')  # written before the setting existed: the model atmosphere
+    _check_atmosphere([old], "model")
+    with pytest.raises(InputError, match="rerun the forward rules"):
+        _check_atmosphere([old], "measured")
