@@ -288,8 +288,9 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
     """A small virtual campaign (one mast sonic, ``n_flights`` payload flights) hiding ``truth``.
 
     ``z_over_l`` (cycled over the flights; by default -0.2 + 0.1 i for flight i) and
-    ``atmosphere`` (``simulation.atmosphere`` settings, e.g. a convective boundary-layer depth: turbulence that the forward model,
-    which keeps the defaults, does not know) describe the true atmosphere.
+    ``atmosphere`` (``simulation.atmosphere`` settings, e.g. a convective boundary-layer
+    depth: turbulence that the forward model, which keeps the defaults, does not know)
+    describe the true atmosphere.
     """
     flights, conditions = [], {}
     for i in range(n_flights):

@@ -737,8 +737,8 @@ def probe_runs(
         out["baseline"].append(features_to_dict(feats))
     inverted = set(RECORD_INVERSES) if measured else set()
     if truth is None and any(probe.mechanism not in TRUTH_MECHANISMS | inverted for probe, _ in levels):
-        truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0], measured), flight_id,
-                              atmosphere)
+        truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0], measured),
+                              flight_id, atmosphere)
     if truth is not None and atmosphere is not None:
         out["atmosphere_record"] = dict(truth.atmosphere_info)
     for probe, level in levels:
@@ -889,5 +889,6 @@ def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: st
 
     cut = mast[names].sel(time=slice(start - margin, end + margin))
     cut = cut.drop_vars([c for c in cut.coords if c != "time"])
-    cut.attrs = {"noise_ms": MAST_DEFAULTS["noise_ms"][0], "temperature_noise_k": MAST_DEFAULTS["temperature_noise_k"][0]}
+    cut.attrs = {"noise_ms": MAST_DEFAULTS["noise_ms"][0],
+                 "temperature_noise_k": MAST_DEFAULTS["temperature_noise_k"][0]}
     return cut
