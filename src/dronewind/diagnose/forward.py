@@ -320,17 +320,27 @@ def forward_manifest(
     measured_atmosphere : bool
         The run's atmosphere is the reference mast's measured record
         (:func:`atmosphere_record`), which already holds the mast sonic's white noise: the
-        forward mast then adds none (``simulation.mast`` noise 0).
+        forward mast then adds none (``simulation.mast`` noise 0). The forward flight is
+        then processed over the measured hover window (``start`` and ``duration_s`` of the
+        conditions) instead of the window the chain would find in the simulated hover (which
+        includes the simulator's hover margins): the features of the mast, whose record is
+        the measured one, then cover the same samples as the measured features.
 
     Returns
     -------
     dict
-        Manifest content with one payload flight (without its ``window``), its reference
+        Manifest content with one payload flight (without its ``window``, or with the
+        measured one for ``measured_atmosphere``), its reference
         mast sonic (:func:`dronewind.manifest.payload_flight_manifest`) and a
         ``simulation:`` section.
     """
     data = payload_flight_manifest(campaign_data, flight_id)
-    data["payload_flights"][0].pop("window", None)
+    flight = data["payload_flights"][0]
+    flight.pop("window", None)
+    if measured_atmosphere:
+        start = np.datetime64(str(conditions["start"]).rstrip("Z"), "us")
+        end = start + np.timedelta64(int(round(float(conditions["duration_s"]) * 1e6)), "us")
+        flight["window"] = {"start": str(conditions["start"]), "end": np.datetime_as_string(end, unit="us") + "Z"}
     data["name"] = f"{campaign_data['name']}_forward_{flight_id}"
     data["simulation"] = {
         "seed": int(seed),
