@@ -48,6 +48,7 @@ from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
            "stratified_draws", "campaign_manifest", "judge", "run_in_process", "AMBIGUOUS_WITH",
+           "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
            "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
@@ -101,6 +102,14 @@ TOLERANCES: dict[str, dict[str, float]] = {
 AMBIGUOUS_WITH: dict[str, set[str]] = {
     "heading_bias": {"mount_misalignment"},
     "mount_misalignment": {"heading_bias"},
+}
+#: Further ambiguities of the measured atmosphere (``diagnosis.atmosphere: measured``): the
+#: atmosphere is the mast's record, so a mast under-reading w by g looks exactly like a drone
+#: over-reading it by 1/g (:data:`dronewind.diagnose.forward.RECORD_INVERSES`); with the model
+#: atmosphere the mast's own isotropy (S_w/S_u against 4/3) separates them.
+AMBIGUOUS_WITH_MEASURED_ATMOSPHERE: dict[str, set[str]] = {
+    "w_gain": {"mast_w_attenuation"},
+    "mast_w_attenuation": {"w_gain"},
 }
 
 
@@ -346,6 +355,8 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
         return out
     groups = [set(g) for g in diagnosis.get("ambiguity_sets") or []]
     equivalents = {truth.mechanism} | AMBIGUOUS_WITH.get(truth.mechanism, set())
+    if diagnosis.get("atmosphere") == "measured":
+        equivalents |= AMBIGUOUS_WITH_MEASURED_ATMOSPHERE.get(truth.mechanism, set())
     in_group = any(truth.mechanism in g and g & set(named) for g in groups)
     detected = truth.mechanism in named or in_group or bool(equivalents & set(named[:1]))
     explained = equivalents | set().union(*(g for g in groups if truth.mechanism in g)) if groups else equivalents
