@@ -11,7 +11,7 @@ turbulence at the measured mean conditions):
 * a turbulence model error: nothing hidden, but the true atmosphere is more convective than the
   forward model's (convective boundary layer 5000 m instead of the model's 1000 m, z/L from
   -0.6 to -0.15: sigma_u, sigma_v 25-60 % above the model's at both sensors); the right verdict
-  names nothing.
+  names nothing; a stronger one with z/L from -2 to -0.5.
 
     PYTHONPATH=src nice -n 5 .venv/bin/python benchmarks/bench_forward_atmosphere.py \\
         --out benchmarks/results/forward_atmosphere.json
@@ -37,6 +37,9 @@ REPO = Path(__file__).resolve().parents[1]
 #: the true atmosphere of the turbulence model error (simulation.atmosphere and z/L per flight)
 TURBULENCE_ERROR: dict[str, Any] = {"atmosphere": {"boundary_layer_height_m": 5000.0},
                                     "z_over_l": (-0.6, -0.4, -0.25, -0.15)}
+#: a stronger one: z/L from -2 to -0.5 (sigma_u, sigma_v about twice the model's)
+STRONG_TURBULENCE_ERROR: dict[str, Any] = {"atmosphere": {"boundary_layer_height_m": 5000.0},
+                                           "z_over_l": (-2.0, -1.5, -1.0, -0.5)}
 
 #: (label, truth, campaign keywords, atmospheres to run)
 CASES: list[tuple[str, Draw, dict[str, Any], tuple[str, ...]]] = [
@@ -48,6 +51,7 @@ CASES: list[tuple[str, Draw, dict[str, Any], tuple[str, ...]]] = [
     ("clock_drift", Draw("clock_drift", {"ppm": 350.0}, 16), {}, ("measured",)),
     ("mast_w_attenuation", Draw("mast_w_attenuation", {"gain": 0.83}, 17), {}, ("measured", "model")),
     ("turbulence_model_error", Draw("none", {}, 18), TURBULENCE_ERROR, ("measured", "model")),
+    ("strong_turbulence_model_error", Draw("none", {}, 19), STRONG_TURBULENCE_ERROR, ("measured", "model")),
 ]
 
 
