@@ -93,6 +93,17 @@ def test_judge_flags_a_wrong_cause_and_measures_the_estimate_error():
     assert not ex.judge(truth, {**diag, "named_causes": ["w_gain"]})["wrong_cause"]
 
 
+def test_judge_mast_attenuation_named_as_drone_w_gain_only_with_the_measured_atmosphere():
+    # the measured atmosphere is the mast's record: a mast w attenuation g and a drone w gain
+    # 1/g predict the same sensor differences; the model atmosphere separates them
+    truth = ex.Draw("mast_w_attenuation", {"gain": 0.83}, 1)
+    diag = {"named_causes": ["w_gain"], "ambiguity_sets": [], "candidates": []}
+    measured = ex.judge(truth, {**diag, "atmosphere": "measured"})
+    assert measured["detected"] and not measured["wrong_cause"]
+    model = ex.judge(truth, {**diag, "atmosphere": "model"})
+    assert not model["detected"] and model["wrong_cause"]
+
+
 def test_draw_seed_from_the_environment_the_commit_or_fixed(tmp_path, monkeypatch):
     monkeypatch.setenv(ex.DRAW_SEED_ENV, "123")
     assert ex.draw_seed(tmp_path) == (123, f"${ex.DRAW_SEED_ENV}")

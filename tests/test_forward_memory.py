@@ -141,14 +141,33 @@ def test_a_record_with_other_columns_is_named():
         read_sonic_csv(bad)
 
 
-def test_parts_run_apart_merge_into_the_whole_flight():
-    """The workflow's per-mechanism probe jobs give, merged, the runs of one job per flight."""
+def _measured_mast(camp: dict, conditions: dict):
+    """The flight's reference mast L1 from a run of the campaign itself (as the measured record)."""
+    from dronewind.mast.chain import compute_mast_l1
+
+    records, _ = payload_records(camp, "f1")
+    sonic = next(s for m in camp["masts"] for s in m["sonics"] if s["id"] == camp["payload_flights"][0]["reference"])
+    mast = [r for r in records[2:] if sonic["id"] in r.source]
+    m1 = compute_mast_l1(mast, sonic, _processing()["despike"])
+    return forward.atmosphere_record(m1, conditions)
+
+
+@pytest.mark.parametrize("atmosphere", ["model", "measured"])
+def test_parts_run_apart_merge_into_the_whole_flight(atmosphere):
+    """The workflow's per-mechanism probe jobs give, merged, the runs of one job per flight.
+
+    With the measured atmosphere too, where the mast_w_attenuation probes simulate their own
+    true state (the record with the attenuation undone).
+    """
     camp = _campaign()
     conditions = camp["simulation"]["payload_flights"]["f1"]
+    record = _measured_mast(camp, conditions) if atmosphere == "measured" else None
     probes = tuple(p for p in forward.PROBES if p.mechanism in ("w_gain", "height_offset", "mast_w_attenuation"))
     proc = _processing()
-    whole = forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes)
-    parts = [forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, parts=[name])
+    whole = forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, atmosphere=record)
+    assert whole["atmosphere"] == atmosphere
+    parts = [forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, parts=[name],
+                                atmosphere=record)
              for name in reversed(forward.probe_parts(probes))]
     merged = forward.merge_probe_runs(parts, probes)
     for key in ("reused_products",):

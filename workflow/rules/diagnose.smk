@@ -1,5 +1,7 @@
 # What the simulation gets wrong: features per flight, forward-model probes per flight,
-# the campaign diagnosis, the extended model rerun per flight, and the report.
+# the campaign diagnosis, the extended model rerun per flight, and the report. The forward
+# runs read the reference mast's L1: with diagnosis.atmosphere: measured it is their
+# atmosphere (dronewind.diagnose.forward.atmosphere_record).
 
 
 rule diagnose_measured:
@@ -32,6 +34,7 @@ if DIAGNOSIS["probe_jobs"] == "mechanism":
     rule diagnose_probe:
         input:
             measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+            mast=reference_of,
         output:
             RESULTS / "diagnosis" / "forward" / "parts" / "{flight}" / "{part}.json",
         log:
@@ -45,6 +48,7 @@ if DIAGNOSIS["probe_jobs"] == "mechanism":
             flight_id="{flight}",
             processing=CHAIN,
             seeds=DIAGNOSIS["seeds"],
+            atmosphere=DIAGNOSIS["atmosphere"],
             part="{part}",
         script:
             "../../scripts/diagnose_forward.py"
@@ -76,6 +80,7 @@ else:
     rule diagnose_forward:
         input:
             measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+            mast=reference_of,
         output:
             RESULTS / "diagnosis" / "forward" / "{flight}.json",
         log:
@@ -89,6 +94,7 @@ else:
             flight_id="{flight}",
             processing=CHAIN,
             seeds=DIAGNOSIS["seeds"],
+            atmosphere=DIAGNOSIS["atmosphere"],
         script:
             "../../scripts/diagnose_forward.py"
 
@@ -119,6 +125,7 @@ rule diagnose:
         alpha=DIAGNOSIS["alpha"],
         max_causes=DIAGNOSIS["max_causes"],
         min_gain=DIAGNOSIS["min_gain"],
+        atmosphere=DIAGNOSIS["atmosphere"],
     script:
         "../../scripts/diagnose.py"
 

@@ -53,6 +53,7 @@ from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
            "stratified_draws", "campaign_manifest", "judge", "run_in_process", "AMBIGUOUS_WITH",
+           "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
            "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
@@ -130,6 +131,14 @@ TOLERANCES: dict[str, dict[str, float]] = {
 AMBIGUOUS_WITH: dict[str, set[str]] = {
     "heading_bias": {"mount_misalignment"},
     "mount_misalignment": {"heading_bias"},
+}
+#: Further ambiguities of the measured atmosphere (``diagnosis.atmosphere: measured``): the
+#: atmosphere is the mast's record, so a mast under-reading w by g looks exactly like a drone
+#: over-reading it by 1/g (:data:`dronewind.diagnose.forward.RECORD_INVERSES`); with the model
+#: atmosphere the mast's own isotropy (S_w/S_u against 4/3) separates them.
+AMBIGUOUS_WITH_MEASURED_ATMOSPHERE: dict[str, set[str]] = {
+    "w_gain": {"mast_w_attenuation"},
+    "mast_w_attenuation": {"w_gain"},
 }
 
 
@@ -330,8 +339,16 @@ def stratified_draws(n: int, seed: int, null_share: float = 0.2, model_error_sha
 
 
 def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hover_min: float = 12.0,
-                      speeds_ms: tuple[float, ...] = (3.5, 5.5, 7.5, 9.5)) -> dict[str, Any]:
-    """A small virtual campaign (one mast sonic, ``n_flights`` payload flights) hiding ``truth``."""
+                      speeds_ms: tuple[float, ...] = (3.5, 5.5, 7.5, 9.5),
+                      z_over_l: tuple[float, ...] | None = None,
+                      atmosphere: Mapping[str, float] | None = None) -> dict[str, Any]:
+    """A small virtual campaign (one mast sonic, ``n_flights`` payload flights) hiding ``truth``.
+
+    ``z_over_l`` (cycled over the flights; by default -0.2 + 0.1 i for flight i) and
+    ``atmosphere`` (``simulation.atmosphere`` settings, e.g. a convective boundary-layer
+    depth: turbulence that the forward model, which keeps the defaults, does not know)
+    describe the true atmosphere.
+    """
     flights, conditions = [], {}
     for i in range(n_flights):
         fid = f"h{i + 1:02d}"
@@ -344,10 +361,14 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
             "window": {"start": f"{start}Z", "end": f"{end}Z"},
         })
         conditions[fid] = {"mean_speed_ms": float(speeds_ms[i % len(speeds_ms)]),
-                           "wind_from_deg": float(200 + 25 * i), "z_over_L": float(-0.2 + 0.1 * i),
+                           "wind_from_deg": float(200 + 25 * i), "z_over_L": float(-0.2 + 0.1 * i if z_over_l is None
+                                                                              else z_over_l[i % len(z_over_l)]),
                            "hover_height_m": 28.0}
     mechanisms = [] if truth.mechanism == "none" else [{"mechanism": truth.mechanism,
                                                         "parameters": dict(truth.parameters)}]
+    sections = {k: dict(v) for k, v in truth.model_error_sections.items()}
+    if atmosphere:  # the campaign's own atmosphere settings, beside a model error's
+        sections["atmosphere"] = {**dict(atmosphere), **sections.get("atmosphere", {})}
     return {
         "name": name,
         "site": {"name": "virtual", "latitude": 43.1247, "longitude": 0.3628, "altitude_m": 603},
@@ -356,7 +377,7 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
                                "files": ["mast/mast30_*.dat"]}]}],
         "payload_flights": flights,
         "simulation": {"seed": truth.seed, "payload_flights": conditions, "mechanisms": mechanisms,
-                       **truth.model_error_sections},
+                       **sections},
     }
 
 
@@ -386,6 +407,8 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
         return out
     groups = [set(g) for g in diagnosis.get("ambiguity_sets") or []]
     equivalents = {truth.mechanism} | AMBIGUOUS_WITH.get(truth.mechanism, set())
+    if diagnosis.get("atmosphere") == "measured":
+        equivalents |= AMBIGUOUS_WITH_MEASURED_ATMOSPHERE.get(truth.mechanism, set())
     in_group = any(truth.mechanism in g and g & set(named) for g in groups)
     detected = truth.mechanism in named or in_group or bool(equivalents & set(named[:1]))
     explained = equivalents | set().union(*(g for g in groups if truth.mechanism in g)) if groups else equivalents
@@ -414,8 +437,12 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
-                    processing: Mapping[str, Any], seeds: tuple[int, ...]) -> tuple[dict[str, Any], dict[str, Any]]:
+                    processing: Mapping[str, Any], seeds: tuple[int, ...],
+                    atmosphere: str = "measured") -> tuple[dict[str, Any], dict[str, Any]]:
     """Simulate one flight of a hidden-effect campaign, process it, run its forward probes.
+
+    ``atmosphere`` is ``diagnosis.atmosphere``: with ``measured`` the forward runs take the
+    reference mast's L1 as their atmosphere, as the workflow's forward rules do.
 
     Returns
     -------
@@ -439,7 +466,8 @@ def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Pa
     l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
     measured = features_to_dict(forward.measured_features(data, fid, s1, i1, l2, l3, **lag))
     conditions = forward.forward_conditions(data, fid, l3, l2)
-    return measured, forward.probe_runs(data, fid, conditions, processing, seeds=seeds)
+    record = forward.atmosphere_record(m1, conditions) if atmosphere == "measured" else None
+    return measured, forward.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
 
 
 def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path, **manifest_kw: Any
@@ -475,7 +503,10 @@ def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path,
     measured, fwd = {}, {}
     for flight in data["payload_flights"]:
         measured[flight["id"]], fwd[flight["id"]] = _process_flight(data, flight, Path(work_dir), processing,
-                                                                    tuple(diagnosis["seeds"]))
+                                                                    tuple(diagnosis["seeds"]),
+                                                                    str(diagnosis["atmosphere"]))
     result = dc.diagnose(dc.assemble(measured, fwd), alpha=float(diagnosis["alpha"]),
                          max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]))
-    return dc.to_json(result, data["name"])
+    out = dc.to_json(result, data["name"])
+    out["atmosphere"] = str(diagnosis["atmosphere"])
+    return out

@@ -20,6 +20,22 @@ of records a probe leaves unchanged are reused (:class:`ForwardCache`). Each sho
 bit for bit the result of the long way round (``tests/test_forward_memory.py``), and
 :func:`file_round_trip` checks one flight through the files.
 
+The atmosphere (``diagnosis.atmosphere``, :data:`ATMOSPHERES`): with ``measured`` (the
+default) the forward runs take the turbulence both sensors share from the reference mast as
+measured: its record over the flight (:func:`atmosphere_record`, the mast L1) constrains the
+simulated field at the mast sonic, so the simulated mast sees the measured realisation
+(trend and low frequencies included), and the record's smoothed spectra, carried to the
+hover height by the model's height dependence, set the spectral amplitudes at every point
+(:func:`dronewind.simulate.payload.measured_constraint`; Rinker 2018 for the constrained
+generation, Kaimal et al. 1972 for the height scaling). The hover point then gets the part of
+the record coherent at its separation plus an unconstrained remainder drawn by the seed, and
+the baseline seeds vary only that remainder (and the instruments), which is the sampling
+error of a feature given the mast. With ``model`` the turbulence is the similarity model's
+at the measured mean conditions (mean wind, direction, u*, L). A mechanism acting on the
+mast's record (:data:`RECORD_INVERSES`) is probed by undoing it on the record; with the
+atmosphere defined by the mast, a drone w gain g and a mast w attenuation 1/g then predict the
+same sensor differences (an ambiguity the diagnosis reports).
+
 Settings: the functions that run the chain take ``processing``, the ``processing`` section
 of the workflow configuration (at least the keys of :data:`CHAIN_SETTINGS`; defaults from
 :func:`dronewind.manifest.default_config`), the same as for the measured flight.
@@ -58,7 +74,7 @@ from dronewind.payload.chain import compute_ins_l1, compute_payload_l2, compute_
 __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS",
            "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
            "record_digest", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
-           "file_round_trip", "run_differences"]
+           "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "atmosphere_record"]
 
 if TYPE_CHECKING:
     from dronewind.simulate.payload import PayloadTruth
@@ -72,6 +88,11 @@ CHAIN_SETTINGS: tuple[str, ...] = ("despike", "max_missing_fraction", "hover", "
 #: its measurement: their probes simulate the flight anew; all others reuse the baseline's
 #: true state (:class:`dronewind.simulate.payload.PayloadTruth`).
 TRUTH_MECHANISMS: frozenset[str] = frozenset({"height_offset"})
+#: Settings of ``diagnosis.atmosphere``: the turbulence of the forward runs is the reference
+#: mast's measured record (``measured``: constrained generation with the record's spectra,
+#: :func:`dronewind.simulate.payload.measured_constraint`) or the similarity model's at the
+#: measured mean conditions (``model``).
+ATMOSPHERES: tuple[str, ...] = ("measured", "model")
 #: Keys of ``processing`` that the sonic-INS lag feature uses (:func:`measured_features`).
 LAG_SETTINGS: tuple[str, ...] = ("sonic_ins_lag", "hover", "max_missing_fraction")
 
@@ -279,6 +300,7 @@ def forward_manifest(
     conditions: Mapping[str, Any],
     mechanisms: list[dict[str, Any]] | None = None,
     seed: int = 0,
+    measured_atmosphere: bool = False,
 ) -> dict[str, Any]:
     """A one-flight virtual campaign that reproduces a measured flight's conditions.
 
@@ -295,22 +317,38 @@ def forward_manifest(
         ``[{"mechanism": name, "parameters": {...}}]``; none for the baseline.
     seed : int
         Campaign seed of the forward run.
+    measured_atmosphere : bool
+        The run's atmosphere is the reference mast's measured record
+        (:func:`atmosphere_record`), which already holds the mast sonic's white noise: the
+        forward mast then adds none (``simulation.mast`` noise 0). The forward flight is
+        then processed over the measured hover window (``start`` and ``duration_s`` of the
+        conditions) instead of the window the chain would find in the simulated hover (which
+        includes the simulator's hover margins): the features of the mast, whose record is
+        the measured one, then cover the same samples as the measured features.
 
     Returns
     -------
     dict
-        Manifest content with one payload flight (without its ``window``), its reference
+        Manifest content with one payload flight (without its ``window``, or with the
+        measured one for ``measured_atmosphere``), its reference
         mast sonic (:func:`dronewind.manifest.payload_flight_manifest`) and a
         ``simulation:`` section.
     """
     data = payload_flight_manifest(campaign_data, flight_id)
-    data["payload_flights"][0].pop("window", None)
+    flight = data["payload_flights"][0]
+    flight.pop("window", None)
+    if measured_atmosphere:
+        start = np.datetime64(str(conditions["start"]).rstrip("Z"), "us")
+        end = start + np.timedelta64(int(round(float(conditions["duration_s"]) * 1e6)), "us")
+        flight["window"] = {"start": str(conditions["start"]), "end": np.datetime_as_string(end, unit="us") + "Z"}
     data["name"] = f"{campaign_data['name']}_forward_{flight_id}"
     data["simulation"] = {
         "seed": int(seed),
         "payload_flights": {flight_id: dict(conditions)},
         "mechanisms": [dict(m) for m in (mechanisms or [])],
     }
+    if measured_atmosphere:
+        data["simulation"]["mast"] = {"noise_ms": 0.0, "temperature_noise_k": 0.0}
     return data
 
 
@@ -491,6 +529,7 @@ def run_forward(
     work_dir: str | Path | None = None,
     truth: PayloadTruth | None = None,
     cache: ForwardCache | None = None,
+    atmosphere: xr.Dataset | None = None,
 ) -> tuple[FlightFeatures, dict[str, Any]]:
     """Simulate one flight of a forward manifest, process it as measured data, return its features.
 
@@ -514,6 +553,10 @@ def run_forward(
         simulated again (:func:`dronewind.simulate.payload.payload_records`).
     cache : ForwardCache, optional
         Products of identical raw records from an earlier run (:class:`ForwardCache`).
+    atmosphere : xarray.Dataset, optional
+        The reference mast's measured record (:func:`atmosphere_record`): the field is
+        constrained by it and takes its spectra
+        (:func:`dronewind.simulate.payload.measured_constraint`); the model field by default.
 
     Returns
     -------
@@ -525,7 +568,7 @@ def run_forward(
     from dronewind.simulate.payload import payload_records
     from dronewind.simulate.writers import write_record
 
-    records, truth = payload_records(dict(manifest), flight_id, truth)
+    records, truth = payload_records(dict(manifest), flight_id, truth, atmosphere)
     sources: list[str | Path | RawRecord] = list(records)
     if work_dir is not None:
         folder = Path(str(work_dir))
@@ -626,6 +669,7 @@ def probe_runs(
     seeds: tuple[int, ...],
     probes: tuple[Probe, ...] = PROBES,
     parts: Sequence[str] | None = None,
+    atmosphere: xr.Dataset | None = None,
 ) -> dict[str, Any]:
     """Baseline and probe runs of the forward model for one flight.
 
@@ -648,6 +692,9 @@ def probe_runs(
     parts : sequence of str, optional
         Run only these parts (:func:`probe_parts`: ``"baseline"`` and mechanism names);
         all by default.
+    atmosphere : xarray.Dataset, optional
+        The reference mast's measured record of the flight (:func:`atmosphere_record`,
+        ``diagnosis.atmosphere: measured``); the similarity model's field without it.
 
     Returns
     -------
@@ -656,12 +703,23 @@ def probe_runs(
         parameter, level, fixed, features}]}`` with features as
         :func:`~dronewind.diagnose.features.features_to_dict` dictionaries; probe levels a
         flight cannot take are listed in ``skipped_probes``; ``parts`` names the parts
-        run and ``reused_products`` counts the products reused (:class:`ForwardCache`).
+        run and ``reused_products`` counts the products reused (:class:`ForwardCache`);
+        ``atmosphere`` says which atmosphere was used (``measured`` or ``model``) and
+        ``atmosphere_record`` what was used of the measured record.
 
     Notes
     -----
     Every part gives the same numbers alone as in a run of the whole flight: the probes'
     true state is the first seed's, simulated again when the baseline is not in the part.
+
+    With a measured atmosphere the baseline seeds differ only in the part of the field not
+    determined by the record (the hover point's incoherent part, the instruments' noise,
+    the payload's motion), so their scatter is the sampling error of the features given
+    the mast. A probe of a mechanism that acts on the reference mast's record
+    (:data:`RECORD_INVERSES`) reads the record through that mechanism: the atmosphere is the
+    record with the mechanism undone (the true wind the mast would have measured), and the
+    forward mast then measures it with the mechanism, i.e. the measured record again. Such
+    probes simulate their own true state.
     """
     from dronewind.diagnose.features import features_to_dict
     from dronewind.simulate.payload import payload_truth
@@ -671,30 +729,40 @@ def probe_runs(
     if unknown:
         raise InputError("parts", f"unknown forward-run part(s) {unknown}; expected some of {probe_parts(probes)}")
     out: dict[str, Any] = {"flight": flight_id, "conditions": dict(conditions), "seeds": list(seeds),
-                           "parts": list(parts), "baseline": [], "probes": []}
+                           "parts": list(parts), "baseline": [], "probes": [],
+                           "atmosphere": "model" if atmosphere is None else "measured"}
     levels = [(probe, level) for probe in probes if probe.mechanism in parts for level in probe.levels]
     run_seeds = seeds if BASELINE_PART in parts else ()
     progress = Progress("probe", len(run_seeds) + len(levels), "run")
+    measured = atmosphere is not None
     truth = None  # the first seed's true state, reused by every measurement-stage probe
     cache = ForwardCache()  # and its products, reused where a probe leaves a record unchanged
     for seed in run_seeds:
         with progress.item(f"flight {flight_id} baseline seed {seed}"):
-            feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed),
-                                          flight_id, processing, cache=cache)
+            feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed, measured),
+                                          flight_id, processing, cache=cache, atmosphere=atmosphere)
         if truth is None:
             truth = products["truth"]
             cache.freeze()
         out["baseline"].append(features_to_dict(feats))
-    if truth is None and any(probe.mechanism not in TRUTH_MECHANISMS for probe, _ in levels):
-        truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0]), flight_id)
+    inverted = set(RECORD_INVERSES) if measured else set()
+    if truth is None and any(probe.mechanism not in TRUTH_MECHANISMS | inverted for probe, _ in levels):
+        truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0], measured),
+                              flight_id, atmosphere)
+    if truth is not None and atmosphere is not None:
+        out["atmosphere_record"] = dict(truth.atmosphere_info)
     for probe, level in levels:
         name = f"flight {flight_id} {probe.candidate} {probe.parameter}={level:g}"
-        mech = [{"mechanism": probe.mechanism, "parameters": _probe_parameters(probe, level)}]
-        reuse = truth if probe.mechanism not in TRUTH_MECHANISMS else None
+        params = _probe_parameters(probe, level)
+        mech = [{"mechanism": probe.mechanism, "parameters": params}]
+        reuse = truth if probe.mechanism not in TRUTH_MECHANISMS | inverted else None
+        record = atmosphere
+        if atmosphere is not None and probe.mechanism in inverted:
+            record = RECORD_INVERSES[probe.mechanism](atmosphere, params)
         try:
             with progress.item(name):
-                feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0]),
-                                       flight_id, processing, truth=reuse, cache=cache)
+                feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0], measured),
+                                       flight_id, processing, truth=reuse, cache=cache, atmosphere=record)
         except InputError as exc:
             # a level outside what this flight allows (e.g. a height offset deeper than
             # the measured hover height): recorded and left out; the candidate's response
@@ -739,8 +807,8 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     first = parts[0]
     names: list[str] = []
     for part in parts:
-        for key in ("flight", "conditions", "seeds"):
-            if part[key] != first[key]:
+        for key in ("flight", "conditions", "seeds", "atmosphere"):
+            if part.get(key) != first.get(key):
                 raise InputError(f"parts: {key}", f"forward-run parts disagree on {key}: {part[key]!r} and "
                                  f"{first[key]!r}")
         names += list(part["parts"])
@@ -750,7 +818,7 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     order = {(p.candidate, p.parameter, float(level)): k for k, (p, level) in
              enumerate((p, level) for p in probes for level in p.levels)}
     out: dict[str, Any] = {"flight": first["flight"], "conditions": first["conditions"], "seeds": first["seeds"],
-                           "parts": list(probe_parts(probes)),
+                           "atmosphere": first.get("atmosphere"), "parts": list(probe_parts(probes)),
                            "baseline": next(p["baseline"] for p in parts if BASELINE_PART in p["parts"]),
                            "probes": sorted((r for p in parts for r in p["probes"]),
                                             key=lambda r: order[(r["candidate"], r["parameter"], float(r["level"]))])}
@@ -758,6 +826,9 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
                      key=lambda r: order[(r["candidate"], r["parameter"], float(r["level"]))])
     if skipped:
         out["skipped_probes"] = skipped
+    records = [p["atmosphere_record"] for p in parts if "atmosphere_record" in p]
+    if records:
+        out["atmosphere_record"] = records[0]
     out["reused_products"] = {k: sum(int(p.get("reused_products", {}).get(k, 0)) for p in parts)
                               for k in ("hits", "misses")}
     return out
@@ -767,3 +838,67 @@ def _other_parameters(mechanism: str, parameter: str) -> list[str]:
     from dronewind.mechanisms import get_mechanism
 
     return [p for p in get_mechanism(mechanism).parameter_names if p != parameter]
+
+
+def _undo_mast_w_attenuation(record: xr.Dataset, parameters: Mapping[str, float]) -> xr.Dataset:
+    """The measured mast record with ``mast_w_attenuation`` undone: w divided by the gain."""
+    out = record.copy()
+    out["w_up_ms"] = record["w_up_ms"] / float(parameters["gain"])
+    return out
+
+
+#: Mechanisms acting on the reference mast's record, and how each is undone on a measured
+#: record to give the true wind at the mast (:func:`probe_runs` with a measured atmosphere).
+RECORD_INVERSES: dict[str, Callable[[xr.Dataset, Mapping[str, float]], xr.Dataset]] = {
+    "mast_w_attenuation": _undo_mast_w_attenuation,
+}
+
+#: Margin kept around the hover window when the measured record is cut (:func:`atmosphere_record`) [s].
+ATMOSPHERE_MARGIN_S = 3600.0
+
+
+def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: str = "mast record") -> xr.Dataset:
+    """The reference mast's measured record of one flight, as the forward runs' atmosphere.
+
+    Parameters
+    ----------
+    mast : xarray.Dataset
+        The reference sonic's L1 (or L2): ``u_east_ms``, ``v_north_ms``, ``w_up_ms`` and
+        optionally ``t_sonic_k`` on a datetime64 ``time`` axis.
+    conditions : mapping
+        The flight's forward conditions (:func:`forward_conditions`: ``start``,
+        ``duration_s``).
+    where : str
+        Name of the record in errors (its file).
+
+    Returns
+    -------
+    xarray.Dataset
+        Those variables within :data:`ATMOSPHERE_MARGIN_S` of the hover window (a shorter
+        record is cut again by the simulator, which mirrors it where the forward flight's
+        span reaches beyond it, :func:`dronewind.simulate.payload.measured_constraint`),
+        with attributes ``noise_ms`` and ``temperature_noise_k``: the white noise of the
+        forward model's CSAT3 (``simulation.mast`` defaults), which the record holds and
+        the forward mast does not add again (:func:`forward_manifest`).
+
+    Raises
+    ------
+    InputError
+        Variables or the time axis missing.
+    """
+    names = [v for v in ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k") if v in mast]
+    missing = sorted({"u_east_ms", "v_north_ms", "w_up_ms"} - set(names))
+    if missing:
+        raise InputError(where, f"missing variable(s) {missing} (mast L1 names expected)")
+    if "time" not in mast.dims or not np.issubdtype(mast["time"].dtype, np.datetime64):
+        raise InputError(where, "needs a datetime64 'time' axis")
+    start = np.datetime64(str(conditions["start"]).rstrip("Z"), "us")
+    margin = np.timedelta64(int(ATMOSPHERE_MARGIN_S * 1e6), "us")
+    end = start + np.timedelta64(int(round(float(conditions["duration_s"]) * 1e6)), "us")
+    from dronewind.simulate.settings import MAST_DEFAULTS
+
+    cut = mast[names].sel(time=slice(start - margin, end + margin))
+    cut = cut.drop_vars([c for c in cut.coords if c != "time"])
+    cut.attrs = {"noise_ms": MAST_DEFAULTS["noise_ms"][0],
+                 "temperature_noise_k": MAST_DEFAULTS["temperature_noise_k"][0]}
+    return cut

@@ -34,6 +34,14 @@ below is the same (per-frequency Cholesky of the coherence matrix, constraints b
 solving for the constraint's unit phasors, Rinker 2018), vectorised over frequencies
 and extended with the component cross-spectra; here it takes a few tens of ms.
 
+Measured amplitudes (``amplitudes="constraint"``): the constraint record's periodogram,
+divided by the model spectrum at its point and averaged over log-frequency bins, replaces
+the model's spectral level at every point (times the model's height ratio
+S_model(z_point, f)/S_model(z_record, f), Kaimal et al. 1972), so another spectral shape or
+isotropy measured at the record's point carries to the others; the latents of the record
+are solved with those amplitudes (Rinker 2018, Eq. 6), so the record is still reproduced
+at its point.
+
 Frames: points and outputs are ENU (x east, y north, z up above ground). Internally the
 fluctuations live in the wind frame (u along the mean wind, v to its left, w up). The
 mean wind blows *from* ``wind_from_deg`` (clockwise from north), so its ENU direction
@@ -96,6 +104,8 @@ __all__ = [
     "von_karman_spectra",
     "reshape_field",
     "mean_wind_trend",
+    "constraint_from_record",
+    "ConstraintLatents",
 ]
 
 CP_DRY_JKGK = 1004.0
@@ -548,16 +558,27 @@ def wind_frame_unit_vectors(wind_from_deg: float) -> tuple[np.ndarray, np.ndarra
 class ConstraintLatents(TypedDict):
     """Internal form of a measured record constraining the field (see :func:`simulate_wind`).
 
-    Keys: ``point`` (3,) ENU position [m]; ``latents`` the wind-frame latent phasors of
-    the record in the order (w, u, theta, v), each (n_freq - 1,) (NaN for a missing
-    theta); ``n_freq`` number of constrained frequencies (the zero frequency included);
-    ``n_missing`` samples interpolated over gaps.
+    Keys: ``point`` (3,) ENU position [m]; ``coefficients`` (4, n_freq - 1) complex Fourier
+    coefficients of the record's wind-frame u, v, w, theta fluctuations at the positive
+    constrained frequencies (NaN for a missing theta), scaled as :attr:`FieldSpec.coeffs`;
+    ``n_freq`` number of constrained frequencies (the zero frequency included);
+    ``n_missing`` samples interpolated over gaps; ``offset`` (4,) the record's mean over the
+    period minus its mean over the averaging window (east, north, up [m s-1], temperature
+    [K]; zeros when the window is the whole period), added to the mean of every point;
+    ``noise_power`` the record's white-noise power per coefficient (:func:`_measured_spectra`).
+    The latents are solved from the coefficients by :func:`field_coefficients`, with the
+    amplitudes it uses at the constraint point.
     """
 
     point: np.ndarray
-    latents: list[np.ndarray]
+    coefficients: np.ndarray
     n_freq: int
     n_missing: int
+    offset: np.ndarray
+    #: (4,) expected |c|^2 per coefficient of the record's white measurement noise in u, v, w
+    #: [m2 s-2] and theta [K2] (variance / samples), removed from its spectra before they
+    #: become amplitudes (zeros: none)
+    noise_power: np.ndarray
 
 
 class FieldDiagnostics(TypedDict, total=False):
@@ -664,6 +685,8 @@ class _PointSpectra:
     rho_uw: np.ndarray
     rho_wt: np.ndarray
     diagnostics: FieldDiagnostics
+    #: unscaled u-w (and w-theta) cospectral shape per point (n_p, nf)
+    co_shape: np.ndarray
 
 
 def _point_spectra(z_m: np.ndarray, speed_ms: np.ndarray, fpos_hz: np.ndarray, df_hz: float,
@@ -692,6 +715,7 @@ def _point_spectra(z_m: np.ndarray, speed_ms: np.ndarray, fpos_hz: np.ndarray, d
     amp = np.zeros((n_p, 4, n_f))
     rho_uw = np.zeros((n_p, n_f))
     rho_wt = np.zeros((n_p, n_f))
+    co_shape = np.zeros((n_p, n_f))
     sigmas, params, zetas = [], [], []
     for p in range(n_p):
         zeta = z_m[p] / obukhov_length_m
@@ -704,11 +728,12 @@ def _point_spectra(z_m: np.ndarray, speed_ms: np.ndarray, fpos_hz: np.ndarray, d
         rho_uw[p] = _scaled_coherency(spec["co_shape"], spec["S_u"], spec["S_w"], df_hz, sig["uw_m2s2"])
         rho_wt[p] = _scaled_coherency(spec["co_shape"], spec["S_w"], spec["S_theta"], df_hz,
                                       sig["wtheta_kms"])
+        co_shape[p] = spec["co_shape"]
         sigmas.append(sig)
         params.append(par)
         zetas.append(float(zeta))
     return _PointSpectra(amp, rho_uw, rho_wt,
-                         FieldDiagnostics(sigmas=sigmas, spectral_parameters=params, zeta=zetas))
+                         FieldDiagnostics(sigmas=sigmas, spectral_parameters=params, zeta=zetas), co_shape)
 
 
 def _separations(points_enu_m: np.ndarray, e_u: np.ndarray,
@@ -745,7 +770,7 @@ def _separations(points_enu_m: np.ndarray, e_u: np.ndarray,
 
 def _latent_fields(rng: np.random.Generator, fpos_hz: np.ndarray, d_eff_m: np.ndarray,
                    advection_speed_ms: float, z_pair_m: np.ndarray,
-                   constraint: ConstraintLatents | None) -> np.ndarray:
+                   constraint_latents: list[np.ndarray] | None) -> np.ndarray:
     """Spatially coherent complex latents xi of (w, u, theta, v), shape (4, n_p, nf).
 
     Per latent component (in that order, the generator's draw order), complex standard
@@ -756,7 +781,7 @@ def _latent_fields(rng: np.random.Generator, fpos_hz: np.ndarray, d_eff_m: np.nd
     n_f, n_p = fpos_hz.size, d_eff_m.shape[0]
     latents = ("w", "u", "theta", "v")
     xi = np.empty((4, n_p, n_f), dtype=complex)
-    n_con = 0 if constraint is None else int(constraint["n_freq"]) - 1  # positive freqs constrained
+    n_con = 0 if constraint_latents is None else constraint_latents[0].size  # positive freqs constrained
     for j, comp in enumerate(latents):
         eta = (rng.standard_normal((n_f, n_p)) + 1j * rng.standard_normal((n_f, n_p))) / np.sqrt(2)
         if n_p == 1:
@@ -765,8 +790,8 @@ def _latent_fields(rng: np.random.Generator, fpos_hz: np.ndarray, d_eff_m: np.nd
             coh = coherence(fpos_hz, d_eff_m, advection_speed_ms, z_pair_m, comp)  # (nf, n_p, n_p)
             coh += 1e-12 * np.eye(n_p)[None]
             chol = np.linalg.cholesky(coh)
-        if constraint is not None and n_con > 0:
-            obs = constraint["latents"][j]  # (n_c,) latent of the constraint point or NaN
+        if constraint_latents is not None and n_con > 0:
+            obs = constraint_latents[j]  # (n_c,) latent of the constraint point or NaN
             if np.all(np.isfinite(obs[:n_con])):
                 eta[:n_con, 0] = obs[:n_con] / chol[:n_con, 0, 0]
         xi[j] = np.einsum("fpq,fq->pf", chol, eta)
@@ -798,7 +823,8 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
                        obukhov_length_m: float, roughness_length_m: float = 0.05,
                        rng: np.random.Generator | None = None, theta_mean_k: float = 293.15,
                        boundary_layer_height_m: float = 1000.0,
-                       constraint: ConstraintLatents | None = None) -> FieldSpec:
+                       constraint: ConstraintLatents | None = None,
+                       amplitudes: str = "model") -> FieldSpec:
     """Fourier coefficients of u, v, w, theta at the points (the core generator).
 
     Parameters
@@ -821,6 +847,11 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
         Internal form prepared by :func:`simulate_wind`: ``point`` (3,), ``latents``
         (the record's wind-frame latents, NaN for a missing theta), ``n_freq`` number
         of constrained frequencies.
+    amplitudes : {"model", "constraint"}
+        Spectral amplitudes of the points: the similarity model's (default), or the
+        constraint record's smoothed spectra carried to each point's height by the model's
+        height ratio (:func:`_measured_spectra`; needs a constraint). The u-w and w-theta
+        coherencies are then rescaled so that the fluxes stay -u*^2 and w'theta'.
 
     Returns
     -------
@@ -861,16 +892,30 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
     adv = max(float(mean_speed_profile(z_ref_m, ustar, roughness_length_m, obukhov_length_m)), 0.5)
     e_u, e_v = wind_frame_unit_vectors(wind_from_deg)
     spectra = _point_spectra(z, speed, fpos, df, ustar, obukhov_length_m, boundary_layer_height_m, theta_mean_k)
+    if amplitudes not in ("model", "constraint"):
+        raise InputError("field_coefficients.amplitudes", f"{amplitudes!r}; expected 'model' or 'constraint'")
+    latents = None
+    offset = np.zeros(4)
+    if constraint is not None:
+        n_c = min(int(constraint["n_freq"]) - 1, fpos.size)
+        coefficients = np.asarray(constraint["coefficients"])[:, :n_c]
+        if amplitudes == "constraint":
+            spectra = _measured_spectra(spectra, coefficients, fpos, df, constraint.get("noise_power"))
+        latents = _constraint_latents(coefficients, pts[0], fpos, adv, e_u, spectra.amplitude[0], spectra.rho_uw[0],
+                                      spectra.rho_wt[0])
+        offset = np.asarray(constraint.get("offset", offset), float)
+    elif amplitudes == "constraint":
+        raise InputError("field_coefficients.amplitudes", "'constraint' needs a constraint record")
     s_down, d_eff, z_pair = _separations(pts, e_u, e_v)
-    xi = _latent_fields(rng, fpos, d_eff, adv, z_pair, constraint)
+    xi = _latent_fields(rng, fpos, d_eff, adv, z_pair, latents)
     coeffs = _component_coefficients(spectra, xi, fpos, s_down / adv)
     user = slice(1, None) if constraint is not None else slice(None)  # the constraint point is not output
     targets = spectra.diagnostics
     diag = FieldDiagnostics(sigmas=targets["sigmas"][user], spectral_parameters=targets["spectral_parameters"][user],
                             zeta=targets["zeta"][user], advection_speed_ms=adv)
-    return FieldSpec(coeffs=coeffs[user], period_s=float(period_s), mean_enu=_mean_wind_enu(speed[user], e_u),
-                     theta_mean_k=np.asarray(theta_profile(z[user], z_ref_m, theta_mean_k, ustar, obukhov_length_m),
-                                             float),
+    mean_enu = _mean_wind_enu(speed[user], e_u) + offset[None, :3]
+    theta_mean = np.asarray(theta_profile(z[user], z_ref_m, theta_mean_k, ustar, obukhov_length_m), float) + offset[3]
+    return FieldSpec(coeffs=coeffs[user], period_s=float(period_s), mean_enu=mean_enu, theta_mean_k=theta_mean,
                      e_u=e_u, e_v=e_v, friction_velocity_ms=ustar, diagnostics=diag)
 
 
@@ -950,8 +995,9 @@ def _constraint_times_s(constraint: xr.Dataset) -> np.ndarray:
     raise InputError(where, "needs a datetime64 'time' or a 'time_s' coordinate")
 
 
-def _constraint_series(constraint: xr.Dataset, t_s: np.ndarray, period_s: float,
-                       wind_from_deg: float) -> tuple[list[np.ndarray | None], int, int]:
+def _constraint_series(constraint: xr.Dataset, t_s: np.ndarray, period_s: float, wind_from_deg: float,
+                       mean_window_s: tuple[float, float] | None = None
+                       ) -> tuple[list[np.ndarray | None], int, int, np.ndarray]:
     """Fluctuations of a record over one period on a regular grid, in the wind frame.
 
     Parameters
@@ -964,16 +1010,22 @@ def _constraint_series(constraint: xr.Dataset, t_s: np.ndarray, period_s: float,
         Length to use [s].
     wind_from_deg : float
         Mean wind direction of the field [degree].
+    mean_window_s : (float, float), optional
+        Times [s] (as ``t_s``) between which the means are taken; the whole period by default.
 
     Returns
     -------
     series : list
         u, v (wind frame), w [m s-1] and theta [K] (None without a temperature) minus
-        their means, gaps interpolated.
+        their means over ``mean_window_s``, gaps interpolated.
     n_grid : int
         Samples in the period.
     n_missing : int
         Samples interpolated.
+    offset : numpy.ndarray
+        (4,) mean over the period of the ENU wind and temperature fluctuations (east,
+        north, up [m s-1], temperature [K]; 0 without a temperature): zero for the default
+        window.
     """
     where = "simulate_wind.constraint"
     dt = np.median(np.diff(t_s))
@@ -983,6 +1035,9 @@ def _constraint_series(constraint: xr.Dataset, t_s: np.ndarray, period_s: float,
         raise InputError(where, f"record of {t_s[-1] - t_s[0] + dt:.1f} s is shorter than the "
                                 f"{period_s:.1f} s to simulate")
     grid = t_s[0] + np.arange(n_c) * dt
+    window = np.ones(n_c, bool) if mean_window_s is None else (grid >= mean_window_s[0]) & (grid <= mean_window_s[1])
+    if not window.any():
+        raise InputError(where, f"averaging window {mean_window_s} s holds no sample of the record")
     e_u, e_v = wind_frame_unit_vectors(wind_from_deg)
     temperature = "t_sonic_k" if "t_sonic_k" in constraint else ("theta_v_k" if "theta_v_k" in constraint else None)
     chans: list[np.ndarray | None] = []
@@ -996,80 +1051,199 @@ def _constraint_series(constraint: xr.Dataset, t_s: np.ndarray, period_s: float,
         n_bad += int((~good).sum())
         if good.sum() < 0.98 * x.size:
             raise InputError(f"{where}.{var}", f"{(~good).sum()} of {x.size} samples missing (> 2 %)")
-        chans.append(np.interp(grid, t_s[good], x[good]))
+        series_c = np.interp(grid, t_s[good], x[good])
+        chans.append(series_c - series_c[window].mean())
     ue, vn, wu, th = chans
     assert ue is not None and vn is not None and wu is not None
-    ue, vn = ue - ue.mean(), vn - vn.mean()
-    series = [ue * e_u[0] + vn * e_u[1], ue * e_v[0] + vn * e_v[1], wu - wu.mean(),
-              None if th is None else th - th.mean()]
-    return series, n_c, n_bad
+    offset = np.array([ue.mean(), vn.mean(), wu.mean(), 0.0 if th is None else th.mean()])
+    series = [ue * e_u[0] + vn * e_u[1], ue * e_v[0] + vn * e_v[1], wu, th]
+    return series, n_c, n_bad, offset
 
 
-def _constraint_latents(series: list[np.ndarray | None], n_grid: int, point_enu_m: np.ndarray,
-                        period_s: float, fs_hz: float, wind_from_deg: float, mean_speed_ms: float,
-                        z_ref_m: float, obukhov_length_m: float, roughness_length_m: float,
-                        theta_mean_k: float, boundary_layer_height_m: float) -> tuple[list[np.ndarray], int]:
-    """Latents (w, u, theta, v) of a record from its Fourier coefficients and the model spectra.
+def _constraint_coefficients(series: list[np.ndarray | None], n_grid: int, period_s: float,
+                             fs_hz: float) -> np.ndarray:
+    """Fourier coefficients (4, n_freq - 1) of a record's series at the positive constrained frequencies.
 
-    The observed coefficients, freed of the record point's Taylor delay, are divided by the
-    model amplitudes at that point and the u-w and w-theta coherencies are removed
-    (Rinker 2018, Eq. 6), so that :func:`field_coefficients` reproduces the record.
-
-    Returns
-    -------
-    latents : list of numpy.ndarray
-        (w, u, theta, v), each of the positive constrained frequencies (NaN for a
-        missing temperature).
-    n_freq : int
-        Constrained frequencies (zero included).
+    Scaled as :attr:`FieldSpec.coeffs` (x = sum 2 Re(c e^{iwt})); the constrained frequencies
+    are those below both the record's and the field's Nyquist frequency; NaN for a missing
+    temperature.
     """
-    n_c = n_grid
-    n_freq_c = min((n_c + 1) // 2, int(np.ceil(period_s * fs_hz / 2.0)))
+    n_freq_c = min((n_grid + 1) // 2, int(np.ceil(period_s * fs_hz / 2.0)))
     obs = np.full((4, n_freq_c), np.nan + 0j)
     for i, x in enumerate(series):
         if x is not None:
-            obs[i] = np.fft.rfft(x)[:n_freq_c] / n_c
-    point = point_enu_m
-    # model amplitudes and coherencies at the constraint point -> latents
-    ustar = friction_velocity(mean_speed_ms, z_ref_m, roughness_length_m, obukhov_length_m)
-    sig = turbulence_sigmas(ustar, point[2], obukhov_length_m, boundary_layer_height_m, theta_mean_k)
-    par = spectral_parameters(sig, ustar, point[2] / obukhov_length_m)
-    df = 1.0 / period_s
-    nf_full = int(np.ceil(period_s * fs_hz / 2.0))
-    fpos = np.arange(1, nf_full) * df
-    speed = float(mean_speed_profile(point[2], ustar, roughness_length_m, obukhov_length_m))
-    spec = component_spectra(fpos, point[2], max(speed, 0.5), sig, par)
-    amp = {}
-    for comp in _COMPONENTS:
-        amp[comp] = np.sqrt(spec[f"S_{comp}"] * df / 2.0)[: n_freq_c - 1]
-    r_uw = _scaled_coherency(spec["co_shape"], spec["S_u"], spec["S_w"], df, sig["uw_m2s2"])[: n_freq_c - 1]
-    r_wt = _scaled_coherency(spec["co_shape"], spec["S_w"], spec["S_theta"], df, sig["wtheta_kms"])[: n_freq_c - 1]
-    o = obs[:, 1:]
-    # remove the Taylor delay of the constraint point (it is re-applied to all points)
-    e_u, _ = wind_frame_unit_vectors(wind_from_deg)
-    adv = max(float(mean_speed_profile(z_ref_m, ustar, roughness_length_m, obukhov_length_m)), 0.5)
-    delay = float(point[:2] @ e_u) / adv
-    o = o * np.exp(2j * np.pi * fpos[: n_freq_c - 1] * delay)[None, :]
-    x_w = o[2] / amp["w"]
-    x_u = (o[0] / amp["u"] - r_uw * x_w) / np.sqrt(1 - r_uw**2)
-    x_t = (o[3] / amp["theta"] - r_wt * x_w) / np.sqrt(1 - r_wt**2)
-    x_v = o[1] / amp["v"]
-    return [x_w, x_u, x_t, x_v], n_freq_c
+            obs[i] = np.fft.rfft(x)[:n_freq_c] / n_grid
+    return obs[:, 1:]
 
 
-def _prepare_constraint(constraint: xr.Dataset, period_s: float, fs_hz: float, wind_from_deg: float,
-                        mean_speed_ms: float, z_ref_m: float, obukhov_length_m: float,
-                        roughness_length_m: float, theta_mean_k: float,
-                        boundary_layer_height_m: float) -> ConstraintLatents:
-    """Wind-frame latent phasors of a measured record (see :func:`simulate_wind`)."""
-    t_s = _constraint_times_s(constraint)
-    series, n_grid, n_missing = _constraint_series(constraint, t_s, period_s, wind_from_deg)
-    point = np.array([float(constraint.attrs.get("x_m", 0.0)), float(constraint.attrs.get("y_m", 0.0)),
-                      float(constraint.attrs["height_m"])])
-    latents, n_freq = _constraint_latents(series, n_grid, point, period_s, fs_hz, wind_from_deg, mean_speed_ms,
-                                          z_ref_m, obukhov_length_m, roughness_length_m, theta_mean_k,
-                                          boundary_layer_height_m)
-    return ConstraintLatents(point=point, latents=latents, n_freq=n_freq, n_missing=n_missing)
+def _constraint_latents(coefficients: np.ndarray, point_enu_m: np.ndarray, fpos_hz: np.ndarray,
+                        advection_speed_ms: float, e_u: np.ndarray, amplitude: np.ndarray,
+                        rho_uw: np.ndarray, rho_wt: np.ndarray) -> list[np.ndarray]:
+    """Latents (w, u, theta, v) of a record from its Fourier coefficients and the amplitudes at its point.
+
+    The observed coefficients, freed of the record point's Taylor delay, are divided by the
+    amplitudes the field uses at that point (model or measured, :func:`field_coefficients`)
+    and the u-w and w-theta coherencies are removed (Rinker 2018, Eq. 6), so that
+    :func:`field_coefficients` reproduces the record.
+
+    Parameters
+    ----------
+    coefficients : numpy.ndarray
+        (4, n_c) from :func:`_constraint_coefficients`.
+    point_enu_m : numpy.ndarray
+        (3,) the record's position [m].
+    fpos_hz : numpy.ndarray
+        The field's positive frequencies [Hz] (at least n_c).
+    advection_speed_ms : float
+        Taylor advection speed [m s-1].
+    e_u : numpy.ndarray
+        Streamwise unit vector (east, north).
+    amplitude : numpy.ndarray
+        (4, nf) amplitudes of u, v, w, theta at the record's point.
+    rho_uw, rho_wt : numpy.ndarray
+        (nf,) coherencies at the record's point.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        (w, u, theta, v), each (n_c,) (NaN for a missing temperature).
+    """
+    n_c = coefficients.shape[1]
+    f = fpos_hz[:n_c]
+    delay = float(point_enu_m[:2] @ e_u) / advection_speed_ms
+    o = coefficients * np.exp(2j * np.pi * f * delay)[None, :]  # the delay is re-applied to all points
+    a_u, a_v, a_w, a_t = (amplitude[i, :n_c] for i in range(4))
+    r_uw, r_wt = rho_uw[:n_c], rho_wt[:n_c]
+    x_w = o[2] / a_w
+    x_u = (o[0] / a_u - r_uw * x_w) / np.sqrt(1 - r_uw**2)
+    x_t = (o[3] / a_t - r_wt * x_w) / np.sqrt(1 - r_wt**2)
+    x_v = o[1] / a_v
+    return [x_w, x_u, x_t, x_v]
+
+
+#: Log-frequency bins per decade of the measured spectra (:func:`_measured_spectra`).
+MEASURED_BINS_PER_DECADE = 10
+
+
+def _log_binned_mean(values: np.ndarray, freq_hz: np.ndarray, bins_per_decade: int) -> np.ndarray:
+    """Mean of ``values`` over log-frequency bins, given to every frequency of its bin."""
+    idx = np.floor(np.log10(freq_hz) * bins_per_decade).astype(np.int64)
+    _, inverse = np.unique(idx, return_inverse=True)
+    sums = np.bincount(inverse, weights=values)
+    counts = np.bincount(inverse)
+    return (sums / counts)[inverse]
+
+
+def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz: np.ndarray, df_hz: float,
+                      noise_power: np.ndarray | None = None,
+                      bins_per_decade: int = MEASURED_BINS_PER_DECADE) -> _PointSpectra:
+    """The points' spectra with the amplitudes of a measured record (the constraint, point 0).
+
+    Parameters
+    ----------
+    spectra : _PointSpectra
+        Model spectra of the points (point 0 at the record's position).
+    coefficients : numpy.ndarray
+        (4, n_c) Fourier coefficients of the record (u, v, w, theta; NaN theta when missing).
+    fpos_hz : numpy.ndarray
+        Positive frequencies [Hz].
+    df_hz : float
+        Frequency step [Hz].
+    noise_power : numpy.ndarray, optional
+        (4,) expected |c|^2 of the record's white measurement noise per coefficient
+        (variance / samples), removed from the periodogram (at most 90 % of it); none by
+        default.
+    bins_per_decade : int
+        Log-frequency bins per decade of the smoothing.
+
+    Returns
+    -------
+    _PointSpectra
+        Amplitudes :math:`A_i(z_p, f) = A_i^{model}(z_p, f)\\sqrt{R_i(f)}`, coherencies
+        rescaled to the same fluxes with these spectra.
+
+    Notes
+    -----
+    The record's periodogram is divided by the model spectrum at its point (prewhitened)
+    and averaged over log-frequency bins:
+    :math:`R_i(f) = \\langle |c_i(f_k)|^2 / A_i^{model}(z_c, f_k)^2\\rangle_{bin}`, so that
+    :math:`S_i(z_p, f) = \\hat S_i^{meas}(z_c, f)\\, S_i^{model}(z_p, f) / S_i^{model}(z_c, f)`:
+    the measured spectral level, shape and isotropy at the record's height, carried to the
+    other heights by the model's height dependence (Kaimal et al. 1972). Above the record's
+    Nyquist frequency R holds its mean over the top bin (the measured inertial-subrange
+    level). Without a temperature R_theta = 1. The lowest bins hold one coefficient each:
+    there the amplitudes are the record's own. The record's own white measurement noise is
+    not atmosphere: its expected power is subtracted from the periodogram first (in weak
+    turbulence it would otherwise be carried to the other points as high-frequency
+    turbulence), keeping at least 10 % of each coefficient's power.
+
+    References
+    ----------
+    Kaimal et al. (1972); Rinker (2018).
+    """
+    n_c = coefficients.shape[1]
+    f_c = fpos_hz[:n_c]
+    top = f_c >= f_c[-1] * 10 ** (-1.0 / bins_per_decade)
+    amp = spectra.amplitude.copy()
+    for i in range(4):
+        if not np.all(np.isfinite(coefficients[i])):
+            continue
+        power = np.abs(coefficients[i]) ** 2
+        if noise_power is not None:
+            power = np.maximum(power - float(noise_power[i]), 0.1 * power)
+        ratio = power / np.maximum(spectra.amplitude[0, i, :n_c] ** 2, 1e-300)
+        r = np.full(fpos_hz.size, float(np.mean(ratio[top])))
+        r[:n_c] = _log_binned_mean(ratio, f_c, bins_per_decade)
+        amp[:, i] *= np.sqrt(r)[None, :]
+    rho_uw = np.empty_like(spectra.rho_uw)
+    rho_wt = np.empty_like(spectra.rho_wt)
+    for p in range(amp.shape[0]):
+        s_u, s_w, s_t = (2 * amp[p, i] ** 2 / df_hz for i in (0, 2, 3))
+        sig = spectra.diagnostics["sigmas"][p]
+        rho_uw[p] = _scaled_coherency(spectra.co_shape[p], s_u, s_w, df_hz, sig["uw_m2s2"])
+        rho_wt[p] = _scaled_coherency(spectra.co_shape[p], s_w, s_t, df_hz, sig["wtheta_kms"])
+    return _PointSpectra(amp, rho_uw, rho_wt, spectra.diagnostics, spectra.co_shape)
+
+
+def constraint_from_record(record: xr.Dataset, period_s: float, fs_hz: float, wind_from_deg: float,
+                           mean_window_s: tuple[float, float] | None = None,
+                           noise_ms: float = 0.0, temperature_noise_k: float = 0.0) -> ConstraintLatents:
+    """The internal constraint of a measured record (the first ``period_s`` of it).
+
+    Parameters
+    ----------
+    record : xarray.Dataset
+        As ``constraint`` of :func:`simulate_wind` (L1 mast names, ``height_m``, optional
+        ``x_m, y_m``).
+    period_s : float
+        Period of the field [s].
+    fs_hz : float
+        Highest sampling rate of the field [Hz].
+    wind_from_deg : float
+        Mean wind direction of the field [degree].
+    mean_window_s : (float, float), optional
+        Seconds from the record's start between which its means are taken (e.g. the hover
+        window, so that the field's mean there is the model mean); the whole period by
+        default. The record's mean over the period relative to that window becomes the
+        ``offset`` of every point's mean.
+    noise_ms, temperature_noise_k : float
+        Standard deviations of the record's white measurement noise per wind component
+        [m s-1] and in temperature [K] (removed from its spectra, :func:`_measured_spectra`).
+
+    Returns
+    -------
+    ConstraintLatents
+    """
+    t_s = _constraint_times_s(record)
+    series, n_grid, n_missing, offset = _constraint_series(record, t_s, period_s, wind_from_deg,
+                                                           None if mean_window_s is None else
+                                                           (t_s[0] + mean_window_s[0], t_s[0] + mean_window_s[1]))
+    point = np.array([float(record.attrs.get("x_m", 0.0)), float(record.attrs.get("y_m", 0.0)),
+                      float(record.attrs["height_m"])])
+    coefficients = _constraint_coefficients(series, n_grid, period_s, fs_hz)
+    noise = np.array([noise_ms**2, noise_ms**2, noise_ms**2, temperature_noise_k**2], float) / n_grid
+    return ConstraintLatents(point=point, coefficients=coefficients, n_freq=coefficients.shape[1] + 1,
+                             n_missing=n_missing, offset=offset, noise_power=noise)
 
 
 def _padded_period_s(points_enu_m: np.ndarray, n_samples: int, fs_hz: float, mean_speed_ms: float,
@@ -1130,7 +1304,7 @@ def simulate_wind(points_enu_m: np.ndarray, duration_s: float, fs_hz: float, mea
                   wind_from_deg: float, z_ref_m: float, obukhov_length_m: float,
                   roughness_length_m: float = 0.05, seed: int = 0, theta_mean_k: float = 293.15,
                   constraint: xr.Dataset | None = None,
-                  boundary_layer_height_m: float = 1000.0) -> xr.Dataset:
+                  boundary_layer_height_m: float = 1000.0, amplitudes: str = "model") -> xr.Dataset:
     """Turbulent wind and sonic temperature at points (binding interface, interfaces.md).
 
     Parameters
@@ -1169,6 +1343,9 @@ def simulate_wind(points_enu_m: np.ndarray, duration_s: float, fs_hz: float, mea
         ``duration_s``.
     boundary_layer_height_m : float
         Convective boundary-layer depth z_i [m] (unstable sigma_u, sigma_v).
+    amplitudes : {"model", "constraint"}
+        Spectral amplitudes at the points: the similarity model's, or the constraint's
+        smoothed spectra scaled to each point's height (see :func:`field_coefficients`).
 
     Returns
     -------
@@ -1195,12 +1372,10 @@ def simulate_wind(points_enu_m: np.ndarray, duration_s: float, fs_hz: float, mea
     rng = np.random.default_rng(np.random.SeedSequence(int(seed)))
     period = n_samples / fs_hz if constraint is not None else _padded_period_s(
         pts, n_samples, fs_hz, mean_speed_ms, wind_from_deg, z_ref_m, obukhov_length_m, roughness_length_m)
-    con = None if constraint is None else _prepare_constraint(
-        constraint, period, fs_hz, wind_from_deg, mean_speed_ms, z_ref_m, obukhov_length_m, roughness_length_m,
-        theta_mean_k, boundary_layer_height_m)
+    con = None if constraint is None else constraint_from_record(constraint, period, fs_hz, wind_from_deg)
     spec = field_coefficients(pts, period, fs_hz, mean_speed_ms, wind_from_deg, z_ref_m,
                               obukhov_length_m, roughness_length_m, rng, theta_mean_k,
-                              boundary_layer_height_m, con)
+                              boundary_layer_height_m, con, amplitudes)
     data = synthesize(spec, fs_hz, n_samples=n_samples)
     return _wind_dataset(data, pts, spec, fs_hz, obukhov_length_m, roughness_length_m, wind_from_deg, seed, con)
 

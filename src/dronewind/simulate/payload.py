@@ -60,6 +60,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import xarray as xr
 from scipy import signal
 from scipy.interpolate import CubicSpline
 
@@ -88,6 +89,8 @@ __all__ = [
     "payload_records",
     "payload_truth",
     "PayloadTruth",
+    "measured_constraint",
+    "atmosphere_digest",
 ]
 
 AIR_DENSITY_KGM3 = 1.2
@@ -364,18 +367,127 @@ def _field_points(cond: PayloadFlightConditions) -> _FieldPoints:
 
 
 def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _FieldPoints, fs_sonic_hz: float,
-                fs_mast_hz: float, rng: np.random.Generator) -> atm.FieldSpec:
-    """Fourier coefficients of the field at all points over the flight and mast span (Taylor delays padded)."""
+                fs_mast_hz: float, rng: np.random.Generator,
+                atmosphere: xr.Dataset | None = None) -> tuple[atm.FieldSpec, dict[str, Any]]:
+    """Fourier coefficients of the field at all points over the flight and mast span (Taylor delays padded).
+
+    With ``atmosphere`` (the reference mast sonic's measured record, L1 names) the field is
+    constrained by that record at the reference sonic's position and takes its spectral
+    amplitudes (:func:`measured_constraint`); the second return value describes the record
+    used (empty without one).
+    """
     points = field.points_enu_m
     e_u0, _ = atm.wind_frame_unit_vectors(cond["wind_from_deg"])
     s_down = points[:, :2] @ e_u0
     pad = (s_down.max() - s_down.min()) / max(cond["mean_speed_ms"], 0.5)  # Taylor delays must not wrap
     period = math.ceil((clock.span_s + pad) / clock.period_unit_s) * clock.period_unit_s
-    spec = atm.field_coefficients(points, period, max(fs_sonic_hz, fs_mast_hz), cond["mean_speed_ms"],
+    fs_max = max(fs_sonic_hz, fs_mast_hz)
+    con: atm.ConstraintLatents | None = None
+    info: dict[str, Any] = {}
+    if atmosphere is not None:
+        ref = field.mast_ids.index(cond["reference"])
+        con, info = measured_constraint(atmosphere, clock, points[ref], period, fs_max, cond["wind_from_deg"],
+                                        cond["duration_s"])
+    spec = atm.field_coefficients(points, period, fs_max, cond["mean_speed_ms"],
                                   cond["wind_from_deg"], cond["z_ref_m"], cond["obukhov_length_m"],
                                   cond["roughness_length_m"], rng, cond["theta_mean_k"],
-                                  cond["boundary_layer_height_m"])
-    return _turbulence_model(cond, field, spec)
+                                  cond["boundary_layer_height_m"], con,
+                                  "model" if con is None else "constraint")
+    # the campaign's turbulence model (simulation.atmosphere) shapes a model field only: a field
+    # constrained by a measured record takes that record's spectra
+    return (_turbulence_model(cond, field, spec) if con is None else spec), info
+
+
+def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np.ndarray, period_s: float,
+                        fs_hz: float, wind_from_deg: float, hover_duration_s: float
+                        ) -> tuple[atm.ConstraintLatents, dict[str, Any]]:
+    """The reference mast's measured record as the constraint of a flight's field.
+
+    Parameters
+    ----------
+    record : xarray.Dataset
+        The reference sonic's measured record: ``u_east_ms``, ``v_north_ms``, ``w_up_ms``
+        (and ``t_sonic_k``) on a datetime64 ``time`` axis (a mast L1 or L2); optional
+        attributes ``noise_ms`` and ``temperature_noise_k``: its white measurement noise,
+        removed from its spectra (:func:`dronewind.simulate.atmosphere.constraint_from_record`).
+    clock : _FlightClock
+        The flight's time axes (field time 0 is ``clock.field_t0``).
+    point_enu_m : numpy.ndarray
+        (3,) the reference sonic's position [m].
+    period_s : float
+        Period of the field [s].
+    fs_hz : float
+        Highest sampling rate of the field [Hz].
+    wind_from_deg : float
+        Mean wind direction of the field [degree].
+    hover_duration_s : float
+        Length of the hover window [s]: the record's means are taken over it
+        (:func:`dronewind.simulate.atmosphere.constraint_from_record`).
+
+    Returns
+    -------
+    constraint : ConstraintLatents
+    info : dict
+        ``record_covered_s`` (field time the record covers), ``mirrored_s`` (field time
+        outside the record, filled by mirroring the record at its ends),
+        ``interpolated_samples`` (missing samples inside it, interpolated linearly).
+
+    Raises
+    ------
+    InputError
+        A record without the variables, shorter than half the field period or not covering
+        the hover window.
+
+    Notes
+    -----
+    The record is put on the field's grid at its own rate from ``field_t0``; where the field
+    period reaches beyond the record (the forward flight's log span plus mast margin may be
+    wider than what was recorded around the measured flight), it is mirrored at the record's
+    ends, which keeps its spectrum and continuity. Only the hover window enters the
+    features; that part must be measured.
+    """
+    where = "atmosphere record"
+    for var in ("u_east_ms", "v_north_ms", "w_up_ms"):
+        if var not in record:
+            raise InputError(where, f"missing variable {var!r} (mast L1 names expected)")
+    if "time" not in record.dims or not np.issubdtype(record["time"].dtype, np.datetime64):
+        raise InputError(where, "needs a datetime64 'time' axis")
+    us = np.timedelta64(1, "us")
+    t_rec = np.asarray((record["time"].values - clock.field_t0) / us, float) * 1e-6  # field time [s]
+    finite = np.isfinite(record["u_east_ms"].values) & np.isfinite(record["v_north_ms"].values) \
+        & np.isfinite(record["w_up_ms"].values)
+    if finite.sum() < 2:
+        raise InputError(where, "fewer than 2 valid samples")
+    dt = float(np.median(np.diff(t_rec)))
+    n = int(round(period_s / dt))
+    grid = np.arange(n) * dt
+    lo, hi = float(t_rec[finite][0]), float(t_rec[finite][-1])
+    hover = (clock.hover_start_field_s, clock.hover_start_field_s + hover_duration_s)
+    if lo > hover[0] + dt or hi < hover[1] - dt:
+        raise InputError(where, f"the record covers field time {lo:.1f}..{hi:.1f} s, not the hover window "
+                                f"{hover[0]:.1f}..{hover[1]:.1f} s")
+    if 2 * (hi - lo) < period_s:
+        raise InputError(where, f"the record covers {hi - lo:.1f} s, less than half the field period {period_s:.1f} s")
+    # mirror at the ends: t < lo -> 2 lo - t, t > hi -> 2 hi - t
+    mirrored = np.where(grid < lo, 2 * lo - grid, np.where(grid > hi, 2 * hi - grid, grid))
+    inside = (t_rec >= lo) & (t_rec <= hi)
+    data = {}
+    n_interp = 0
+    names = [v for v in ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k") if v in record]
+    for var in names:
+        x = np.asarray(record[var].values, float)
+        good = np.isfinite(x)
+        n_interp += int((~good & inside).sum())
+        data[var] = (("time",), np.interp(mirrored, t_rec[good], x[good]))
+    ds = xr.Dataset(data, coords={"time_s": ("time", grid)},
+                    attrs={"height_m": float(point_enu_m[2]), "x_m": float(point_enu_m[0]),
+                           "y_m": float(point_enu_m[1])})
+    con = atm.constraint_from_record(ds, period_s, fs_hz, wind_from_deg, mean_window_s=hover,
+                                     noise_ms=float(record.attrs.get("noise_ms", 0.0)),
+                                     temperature_noise_k=float(record.attrs.get("temperature_noise_k", 0.0)))
+    covered = max(0.0, min(hi, grid[-1]) - max(lo, 0.0))
+    return con, {"record_covered_s": covered, "mirrored_s": float(n * dt - covered),
+                 "interpolated_samples": n_interp, "record_rate_hz": 1.0 / dt}
 
 
 def _turbulence_model(cond: PayloadFlightConditions, field: _FieldPoints, spec: atm.FieldSpec) -> atm.FieldSpec:
@@ -781,6 +893,11 @@ class PayloadTruth:
         The flight's seed (:func:`dronewind.simulate.settings.flight_seed`).
     hover_offset_dz_m : float
         ``height_offset.dz_m`` the truth was made with [m].
+    atmosphere_digest : str
+        Digest of the measured record that constrained the field (:func:`atmosphere_digest`;
+        empty for the model atmosphere).
+    atmosphere_info : dict
+        What was used of that record (:func:`measured_constraint`).
     """
 
     flight_id: str
@@ -791,6 +908,10 @@ class PayloadTruth:
     air: _AirAtPayload
     motion: _Motion
     mast: _MastTruth
+    #: the measured record the field was constrained by (:func:`measured_constraint`): its
+    #: digest ("" without one) and what was used of it
+    atmosphere_digest: str = ""
+    atmosphere_info: dict[str, Any] = dataclasses.field(default_factory=dict, compare=False)
     #: records already measured from this truth, by instrument and the mechanisms acting on it
     #: (:func:`payload_records`): a probe that leaves an instrument alone gets the same record
     memo: dict[tuple[str, str], Any] = dataclasses.field(default_factory=dict, compare=False, repr=False)
@@ -802,7 +923,21 @@ def _dz_m(cond: PayloadFlightConditions) -> float:
     return float(cond["mechanisms"].get("height_offset", {}).get("dz_m", 0.0))
 
 
-def payload_truth(campaign: CampaignLike, flight_id: str) -> PayloadTruth:
+def atmosphere_digest(record: xr.Dataset | None) -> str:
+    """Digest of a measured atmosphere record's wind, temperature and time values ("" for none)."""
+    if record is None:
+        return ""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    for var in ("time", "u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k"):
+        if var in record.variables:
+            h.update(var.encode())
+            h.update(np.ascontiguousarray(record[var].values).tobytes())
+    return h.hexdigest()
+
+
+def payload_truth(campaign: CampaignLike, flight_id: str, atmosphere: xr.Dataset | None = None) -> PayloadTruth:
     """Turbulence at the hover point and the masts, and the payload's true motion, of one flight.
 
     Parameters
@@ -811,12 +946,16 @@ def payload_truth(campaign: CampaignLike, flight_id: str) -> PayloadTruth:
         Manifest content with a ``simulation:`` section (format in :mod:`dronewind.simulate`).
     flight_id : str
         Payload flight id.
+    atmosphere : xarray.Dataset, optional
+        The reference mast sonic's measured record (mast L1 names, datetime64 ``time``):
+        the field is constrained by it and takes its spectra (:func:`measured_constraint`);
+        by default the similarity model's field.
 
     Returns
     -------
     PayloadTruth
-        Depends on the flight's conditions, the payload settings, the seed and the
-        ``height_offset`` mechanism only.
+        Depends on the flight's conditions, the payload settings, the seed, the
+        ``height_offset`` mechanism and the atmosphere record only.
 
     Raises
     ------
@@ -826,15 +965,16 @@ def payload_truth(campaign: CampaignLike, flight_id: str) -> PayloadTruth:
     data = campaign_dict(campaign)
     settings = validate_simulation(data)
     cond = resolve_payload_flight(data, flight_id, settings)
-    return _truth(data, settings, cond)
+    return _truth(data, settings, cond, atmosphere)
 
 
-def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadFlightConditions) -> PayloadTruth:
+def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadFlightConditions,
+           atmosphere: xr.Dataset | None = None) -> PayloadTruth:
     p, streams = cond["payload"], _Streams(cond["seed"])
     fs_s, fs_m = p["sonic_rate_hz"], settings["mast"]["rate_hz"]
     clock = _flight_clock(data, settings, cond, fs_s, fs_m)
     field = _field_points(cond)  # turbulence at the mast sonics (first) and the hover point
-    spec = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"))
+    spec, info = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"), atmosphere)
     air = _air_at_payload(cond, clock, field, spec, fs_s)
     motion = _payload_motion(p, air, field, spec, streams("motion"), fs_s)
     mast = _mast_truth(settings, clock, field, spec)
@@ -842,11 +982,11 @@ def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadF
     t_mast = (mast.times - clock.field_t0) / np.timedelta64(1, "us") * 1e-6
     mast = dataclasses.replace(mast, series=_with_trend(cond, clock, spec, mast.series, masts, t_mast))
     return PayloadTruth(cond["flight_id"], int(cond["seed"]), _dz_m(cond), clock, field, air, motion, mast,
-                        turbulence=repr(sorted(cond["turbulence"].items())))
+                        atmosphere_digest(atmosphere), info, turbulence=repr(sorted(cond["turbulence"].items())))
 
 
-def payload_records(campaign: CampaignLike, flight_id: str,
-                    truth: PayloadTruth | None = None) -> tuple[list[RawRecord], PayloadTruth]:
+def payload_records(campaign: CampaignLike, flight_id: str, truth: PayloadTruth | None = None,
+                    atmosphere: xr.Dataset | None = None) -> tuple[list[RawRecord], PayloadTruth]:
     """The raw records of one virtual payload flight and of every mast sonic, in memory.
 
     Parameters
@@ -858,6 +998,8 @@ def payload_records(campaign: CampaignLike, flight_id: str,
     truth : PayloadTruth, optional
         The flight's true state from an earlier call (same conditions and seed, same
         ``height_offset``); computed when not given.
+    atmosphere : xarray.Dataset, optional
+        The reference mast's measured record (see :func:`payload_truth`).
 
     Returns
     -------
@@ -873,16 +1015,18 @@ def payload_records(campaign: CampaignLike, flight_id: str,
     InputError
         Invalid settings (named); GNSS time not stable before the hover.
     ValueError
-        A ``truth`` of another flight, seed, height offset or turbulence model.
+        A ``truth`` of another flight, seed, height offset, turbulence model or atmosphere record.
     """
     data = campaign_dict(campaign)
     settings = validate_simulation(data)
     cond = resolve_payload_flight(data, flight_id, settings)
     if truth is None:
-        truth = _truth(data, settings, cond)
-    elif (truth.flight_id, truth.seed, truth.hover_offset_dz_m) != (cond["flight_id"], int(cond["seed"]), _dz_m(cond)):
-        raise ValueError(f"truth of flight {truth.flight_id} seed {truth.seed} dz {truth.hover_offset_dz_m} m does "
-                         f"not belong to flight {flight_id} seed {cond['seed']} dz {_dz_m(cond)} m")
+        truth = _truth(data, settings, cond, atmosphere)
+    elif (truth.flight_id, truth.seed, truth.hover_offset_dz_m, truth.atmosphere_digest) != (
+            cond["flight_id"], int(cond["seed"]), _dz_m(cond), atmosphere_digest(atmosphere)):
+        raise ValueError(f"truth of flight {truth.flight_id} seed {truth.seed} dz {truth.hover_offset_dz_m} m "
+                         f"atmosphere {truth.atmosphere_digest or 'model'} does not belong to flight {flight_id} seed "
+                         f"{cond['seed']} dz {_dz_m(cond)} m atmosphere {atmosphere_digest(atmosphere) or 'model'}")
     elif truth.turbulence != repr(sorted(cond["turbulence"].items())):
         raise ValueError(f"truth made with turbulence model {truth.turbulence} does not belong to a campaign with "
                          f"{sorted(cond['turbulence'].items())}")

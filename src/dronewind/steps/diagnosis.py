@@ -101,7 +101,8 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
 
 
 def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: Mapping[str, Any], flight_id: str,
-                   processing: Mapping[str, Any], seeds: Sequence[int], part: str | None = None) -> Path:
+                   processing: Mapping[str, Any], seeds: Sequence[int], part: str | None = None,
+                   mast_l1: str | Path | None = None, atmosphere: str = "model") -> Path:
     """Forward-model runs (baseline seeds and every probe, or one part of them) of one flight, as JSON.
 
     Parameters
@@ -121,17 +122,36 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
     part : str, optional
         Only this part (``"baseline"`` or a mechanism,
         :func:`dronewind.diagnose.forward.probe_parts`); all by default.
+    mast_l1 : str or Path, optional
+        L1 of the flight's reference mast sonic (needed for ``atmosphere="measured"``).
+    atmosphere : {"model", "measured"}
+        ``diagnosis.atmosphere``: the forward runs' turbulence is the similarity model's, or
+        the reference mast's measured record
+        (:func:`dronewind.diagnose.forward.atmosphere_record`).
 
     Returns
     -------
     Path
         The written file.
+
+    Raises
+    ------
+    InputError
+        An unknown ``atmosphere``, or ``measured`` without ``mast_l1``.
     """
     from dronewind.diagnose import forward
+    from dronewind.errors import InputError
 
+    if atmosphere not in forward.ATMOSPHERES:
+        raise InputError("diagnosis.atmosphere", f"{atmosphere!r}; expected one of {forward.ATMOSPHERES}")
     measured = json.loads(Path(measured_json).read_text())
+    record = None
+    if atmosphere == "measured":
+        if mast_l1 is None:
+            raise InputError("diagnosis.atmosphere", "'measured' needs the reference mast's L1 (mast_l1)")
+        record = forward.atmosphere_record(strip_cf(open_product(mast_l1)), measured["conditions"], str(mast_l1))
     runs = forward.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds),
-                              parts=None if part is None else [part])
+                              parts=None if part is None else [part], atmosphere=record)
     return write_json(output, runs)
 
 
@@ -197,19 +217,23 @@ def extended_manifest(campaign_data: Mapping[str, Any], conditions: Mapping[str,
 def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path],
                       forward_files: Sequence[str | Path], output_json: str | Path,
                       output_manifest: str | Path, *, alpha: float, max_causes: int, min_gain: float,
-                      platform_files: Sequence[str | Path] = ()) -> Path:
+                      platform_files: Sequence[str | Path] = (), atmosphere: str = "model") -> Path:
     """Fit and score every candidate, name causes; write diagnosis.json and the extended manifest.
 
     ``alpha``, ``max_causes`` and ``min_gain`` are the ``diagnosis`` settings (see
-    :func:`dronewind.diagnose.campaign.diagnose`). ``platform_files``: the rigid-mount
-    flights' platform-response results (:func:`platform_diagnosis`), added to the
-    candidates, named causes and a ``rigid_mount`` section (:func:`platform_entries`).
+    :func:`dronewind.diagnose.campaign.diagnose`); ``atmosphere`` (``diagnosis.atmosphere``)
+    is recorded in diagnosis.json after checking that every forward file was run with it.
+    ``platform_files``: the rigid-mount flights' platform-response results
+    (:func:`platform_diagnosis`), added to the candidates, named causes and a ``rigid_mount``
+    section (:func:`platform_entries`).
     """
 
     campaign = load_campaign(manifest)
+    _check_atmosphere(forward_files, atmosphere)
     ev = _evidence(measured_files, forward_files)
     if len(ev.flights) < 2:
-        result_json = {"campaign": campaign.name, "baseline": {"metrics": {}}, "candidates": [],
+        result_json = {"campaign": campaign.name, "atmosphere": atmosphere, "baseline": {"metrics": {}},
+                       "candidates": [],
                        "named_causes": [], "ambiguity_sets": [],
                        "note": f"{len(ev.flights)} usable flight(s): held-out scoring needs at least 2"}
         write_json(output_json, _with_platform(result_json, platform_files))
@@ -219,6 +243,7 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
         return Path(output_json)
     result = dc.diagnose(ev, alpha=float(alpha), max_causes=int(max_causes), min_gain=float(min_gain))
     out = dc.to_json(result, campaign.name)
+    out["atmosphere"] = atmosphere
     out["baseline"]["residuals"] = dc.residual_table(ev)
     out["baseline"]["wind_speed_slopes"] = dc.wind_speed_slopes(ev)
     out["extended"] = {"prediction_metrics": dc.baseline_metrics(ev, dc.combined_prediction(result)),
@@ -233,6 +258,17 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
                       + yaml.safe_dump(extended_manifest(campaign.data, conditions, dc.named_mechanisms(result)),
                                        sort_keys=False))
     return write_json(output_json, _with_platform(out, platform_files))
+
+
+def _check_atmosphere(forward_files: Sequence[str | Path], atmosphere: str) -> None:
+    """Every forward file was run with ``atmosphere`` (files without the key: the model atmosphere)."""
+    from dronewind.errors import InputError
+
+    for path in forward_files:
+        used = json.loads(Path(path).read_text()).get("atmosphere", "model")
+        if used != atmosphere:
+            raise InputError(str(path), f"forward runs with the {used!r} atmosphere; diagnosis.atmosphere is "
+                             f"{atmosphere!r} (rerun the forward rules)")
 
 
 def _with_platform(out: dict[str, Any], platform_files: Sequence[str | Path]) -> dict[str, Any]:
