@@ -100,9 +100,14 @@ def test_xarray_still_sees_dask_arrays_and_pint_quantities():
 # ------------------------------------------------------------------ step modules
 
 
-@pytest.mark.parametrize("module", ["dronewind.steps.quadrotor", "dronewind.steps.common",
-                                    "dronewind.simulate.quadrotor", "dronewind.manifest"])
+@pytest.mark.parametrize("module", ["dronewind.steps.quadrotor", "dronewind.steps.common", "dronewind.steps.payload",
+                                    "dronewind.simulate.quadrotor", "dronewind.manifest", "dronewind.payload.chain"])
 def test_step_modules_import_no_heavy_library(module):
     mods = _modules_after(f"import {module}")
     heavy = {"scipy.signal", "scipy.stats", "matplotlib", "dask.array", "pint", "jsonschema"} & mods
     assert not heavy, f"{module} imports {sorted(heavy)}"
+
+
+def test_report_step_imports_no_matplotlib():
+    mods = _modules_after("import dronewind.steps.report")
+    assert "matplotlib" not in mods

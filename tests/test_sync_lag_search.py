@@ -83,9 +83,11 @@ def test_same_lag_and_wind_as_fftconvolve_on_a_simulated_flight(monkeypatch):
     sonic_l1 = chain.compute_sonic_l1(records[0], records[1], table, proc["despike"])
     flight = {k: v for k, v in camp["payload_flights"][0].items() if k != "window"}  # hover found in the data
 
+    hover = dict(proc["hover"], min_duration_s=300.0)
+
     def l2():
         return chain.compute_payload_l2(sonic_l1, ins_l1, flight, camp["site"]["altitude_m"],
-                                        sonic_ins_lag=proc["sonic_ins_lag"], hover=dict(proc["hover"], min_duration_s=300.0),
+                                        sonic_ins_lag=proc["sonic_ins_lag"], hover=hover,
                                         max_missing_fraction=proc["max_missing_fraction"])
 
     new = l2()
