@@ -18,6 +18,7 @@ cache is not there (another xarray), nothing is changed and xarray imports as be
 
 from __future__ import annotations
 
+import builtins
 import sys
 from types import ModuleType
 from typing import Any
@@ -52,7 +53,7 @@ class ImportedDuckArrayModule:
         return sys.modules.get(self.array_module.split(".")[0])
 
     @property
-    def type(self) -> tuple[type, ...]:
+    def type(self) -> tuple[builtins.type, ...]:
         """The array class once its module is imported, else the empty tuple (no instance can exist)."""
         cls = self._array_class()
         return () if cls is None else (cls,)
@@ -70,10 +71,10 @@ class ImportedDuckArrayModule:
         mod = self.module
         return Version(getattr(mod, "__version__", "0.0.0") if mod is not None else "0.0.0")
 
-    def _array_class(self) -> type | None:
+    def _array_class(self) -> builtins.type | None:
         mod = sys.modules.get(self.array_module)
         cls = getattr(mod, self.class_name, None) if mod is not None else None
-        return cls if isinstance(cls, type) else None
+        return cls if isinstance(cls, builtins.type) else None
 
 
 def defer_duck_array_imports() -> bool:
