@@ -40,9 +40,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import jsonschema
 import numpy as np
-import yaml
 
 from dronewind.errors import ManifestError
 
@@ -65,6 +63,8 @@ def config_schema() -> dict[str, Any]:
     dict
         ``workflow/schemas/config.schema.yaml`` (draft 2020-12), parsed.
     """
+    import yaml  # here, not at the top: a job that only resolves paths does not pay for it
+
     text = resources.files("dronewind").joinpath("schemas/config.schema.yaml").read_text("utf-8")
     return yaml.safe_load(text)
 
@@ -518,6 +518,10 @@ def load_campaign(path: str | Path, *, check_files: bool | None = None) -> Campa
         Naming the manifest, the key path of the first problem and what was expected;
         the message lists every problem found.
     """
+    # here, not at the top (0.1 CPU-s): most workflow jobs import this module for its paths only
+    import jsonschema
+    import yaml
+
     path = Path(path).resolve()
     if not path.is_file():
         raise ManifestError(path, "(file)", "manifest file does not exist")

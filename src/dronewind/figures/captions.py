@@ -24,7 +24,7 @@ import pandas as pd
 
 from dronewind.core.products import L4Products, drone_usable, load_l4_products, stored_scalar
 from dronewind.core.qc import STATUS_FLAG_MEANINGS
-from dronewind.figures.style import HEIGHT_MARKERS, PAPERS, PathLike
+from dronewind.figures.labels import HEIGHT_MARKERS, PAPERS, PathLike
 from dronewind.tables import default_detail_flights
 
 __all__ = ["campaign_captions", "diagnosis_captions", "flight_list", "published_caption", "quadrotor_captions",

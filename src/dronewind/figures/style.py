@@ -27,6 +27,7 @@ from matplotlib.text import Text
 from matplotlib.transforms import Bbox
 
 from dronewind.core.qc import STATUS_FLAG_MEANINGS
+from dronewind.figures.labels import HEIGHT_MARKERS, PAPERS, REFERENCES, PathLike
 from dronewind.tables import default_detail_flights
 
 __all__ = [
@@ -36,8 +37,6 @@ __all__ = [
     "minutes", "new_figure", "no_data", "place_labels", "save_figure", "start_label", "status_text",
 ]
 
-PathLike = str | Path
-
 #: Resolution of the PNG files [dots per inch]; the pixel size is figsize x DPI.
 DPI = 120
 DRONE_COLOUR = "tab:blue"
@@ -45,32 +44,11 @@ MAST_COLOUR = "tab:orange"
 UNUSABLE_COLOUR = "0.6"
 #: Sensors in drawing order with their colours (drone first, so the mast is drawn on top).
 SENSOR_COLOURS: tuple[tuple[str, str], ...] = (("drone", DRONE_COLOUR), ("mast", MAST_COLOUR))
-#: Markers of the reference heights, lowest first (seed 000: circles 30 m, triangles 60 m).
-HEIGHT_MARKERS = ("o", "^", "s", "D", "v", "P")
 
 #: Units in axis labels and titles (matplotlib mathtext), one spelling for every figure.
 UNIT_MS = "m s$^{-1}$"
 UNIT_M2S2 = "m$^2$ s$^{-2}$"
 UNIT_KMS = "K m s$^{-1}$"
-
-#: The three papers the project follows (``../shared/papers/000_*``, ``001_*``, ``002_*``), cited by
-#: authors and year in captions and reports.
-PAPERS = {
-    "000": "Ghirardelli et al. (2025)",
-    "001": "Wetz et al. (2021)",
-    "002": "Kistner et al. (2024)",
-}
-#: Full references of :data:`PAPERS`, for the report.
-REFERENCES = {
-    "000": "Ghirardelli, M., Kral, S. T., Cheynet, E., and Reuder, J.: SAMURAI-S: Sonic Anemometer on a "
-           "Multi-Rotor drone for Atmospheric turbulence Investigation in a Sling load configuration, "
-           "Atmos. Meas. Tech., 2025.",
-    "001": "Wetz, T., Wildmann, N., and Beyrich, F.: Distributed wind measurements with multiple quadrotor "
-           "unmanned aerial vehicles in the atmospheric boundary layer, Atmos. Meas. Tech., 14, 3795-3814, 2021.",
-    "002": "Kistner, J., Neuhaus, L., and Wildmann, N.: High resolution wind speed measurements with quadcopter "
-           "UAS: calibration and verification in a wind tunnel with active grid, Atmos. Meas. Tech., 2024.",
-}
-
 
 # ----------------------------------------------------------------------------- canvas and output
 

@@ -25,7 +25,6 @@ from typing import Any
 
 import xarray as xr
 
-from dronewind.compare.chain import compute_drone_l3, compute_l3, compute_l4
 from dronewind.core.cf import (
     atomic_write_text,
     data_source,
@@ -503,6 +502,8 @@ def l3(drone_l2_file: str | Path, mast_l2_file: str | Path, output: str | Path, 
     """
     drone = track_from_cf(strip_cf(open_product(drone_l2_file)))
     mast = strip_cf(open_product(mast_l2_file))
+    from dronewind.compare.chain import compute_l3  # scipy.signal and scipy.stats: only the L3 and L4 jobs
+
     ds = compute_l3(drone, mast, flight, drone_mast, rotation)
     LOG.info("flight %s L3: lag_drone_mast_s = %.3f, %d samples at %g Hz", flight_id, ds.attrs["lag_drone_mast_s"],
              ds.sizes["time"], ds.attrs["sampling_rate_hz"])
@@ -541,6 +542,8 @@ def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str
     Path
         The written file.
     """
+    from dronewind.compare.chain import compute_l4
+
     ds = compute_l4(strip_cf(open_product(l3_file)), sensor, spectra, quadrant, detrending)
     LOG.info("flight %s %s L4: U = %.2f m/s, sigma_w = %.3f m/s", flight_id, sensor,
              float(ds["U_ms"]), float(ds["sigma_w_ms"]))
@@ -665,6 +668,8 @@ def drone_l3(drone_l2_file: str | Path, output: str | Path, *, campaign: str, fl
     Path
         The written file.
     """
+    from dronewind.compare.chain import compute_drone_l3
+
     ds = compute_drone_l3(track_from_cf(strip_cf(open_product(drone_l2_file))), flight, rotation)
     LOG.info("flight %s drone-only L3: %d samples at %g Hz", flight_id, ds.sizes["time"], ds.attrs["sampling_rate_hz"])
     where = Position(site["latitude"], site["longitude"], float(ds["height_m"].values[0]))

@@ -40,7 +40,7 @@ from dronewind.figures.captions import (
     quadrotor_captions,
     verdict_sentence,
 )
-from dronewind.figures.style import PAPERS, REFERENCES
+from dronewind.figures.labels import PAPERS, REFERENCES
 from dronewind.steps.common import LOG
 
 __all__ = ["REPORT_TABLES", "csv_html", "markdown_html", "report_pages", "table_page"]
