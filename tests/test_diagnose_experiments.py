@@ -127,3 +127,35 @@ def test_draw_seed_from_the_environment_the_commit_or_fixed(tmp_path, monkeypatc
 def test_wilson_interval_known_values(k, n, lo, hi):
     got = ex.wilson_interval(k, n)
     assert got == pytest.approx((lo, hi), abs=5e-4)
+
+
+def test_hidden_mount_and_downwash_draws_carry_every_parameter_and_validate():
+    draws = [d for d in ex.stratified_draws(60, seed=5) if d.mechanism in ("mount_misalignment", "downwash")]
+    assert {d.label for d in draws} >= {"mount_misalignment+", "mount_misalignment-", "downwash"}
+    for d in draws:
+        validate_simulation(ex.campaign_manifest(d))  # all parameters present and inside the catalog
+        if d.mechanism == "mount_misalignment":
+            assert d.parameters["roll_deg"] == d.parameters["yaw_deg"] == 0.0
+            assert 3.0 <= abs(d.parameters["pitch_deg"]) <= 8.0
+
+
+def test_downwash_is_judged_on_its_downdraft_at_the_reference_speed():
+    truth = ex.Draw("downwash", {"w0_ms": 1.0, "u_scale_ms": 5.0}, 1)
+    # another (w0, u_scale) pair with nearly the same downdraft at 6.5 m/s: 0.320 vs 0.273 m/s
+    close = {"named_causes": ["downwash"], "named_estimates": {"downwash": {"estimate": {"w0_ms": 0.72,
+                                                                                        "u_scale_ms": 8.0}}}}
+    far = {"named_causes": ["downwash"], "named_estimates": {"downwash": {"estimate": {"w0_ms": 0.3,
+                                                                                      "u_scale_ms": 3.0}}}}
+    assert ex.judge(truth, close)["estimate_ok"]
+    verdict = ex.judge(truth, far)  # 0.034 m/s: 88 % low
+    assert verdict["detected"] and not verdict["estimate_ok"]
+    assert verdict["estimate_error"] == pytest.approx(abs(0.3 * np.exp(-6.5 / 3) - np.exp(-1.3)) / (0.4 * np.exp(-1.3)))
+
+
+def test_named_causes_with_known_uncatalogued_aliases_carry_a_caveat():
+    from dronewind.diagnose.campaign import caveats
+
+    out = caveats(["w_gain", "mount_misalignment"])
+    assert [c["mechanism"] for c in out] == ["mount_misalignment"]
+    assert "mast" in out[0]["alias"]
+    assert caveats([]) == []

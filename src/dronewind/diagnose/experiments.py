@@ -54,7 +54,7 @@ from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
            "stratified_draws", "campaign_manifest", "judge", "run_in_process", "AMBIGUOUS_WITH",
            "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
-           "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval"]
+           "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
 #: as a distance from the parameter's centre (:data:`HIDDEN_CENTRES`, else 0), on a random
@@ -72,10 +72,30 @@ HIDDEN_RANGES: dict[str, dict[str, tuple[float, float, bool]]] = {
     # part of the baseline prediction and "none" is the right answer. (Its probes stay in
     # the forward model for a biased altitude.)
     "clock_drift": {"ppm": (250.0, 450.0, True)},
+    # the sonic pitched on its mount (roll and yaw held at 0, HIDDEN_FIXED): measured, 4 degree
+    # found at 3.5 +- 0.6 (benchmarks/results/hidden_identifiability.json)
+    "mount_misalignment": {"pitch_deg": (3.0, 8.0, True)},
+    # rotor downdraft decaying with wind speed: between and beside the forward model's two
+    # variants (u_scale_ms 3 and 8), judged on the downdraft it gives at DOWNWASH_REFERENCE_MS
+    "downwash": {"w0_ms": (0.8, 1.5, False), "u_scale_ms": (3.0, 8.0, False)},
+    # Not hidden, because not identifiable at physical sizes from what a campaign measures
+    # (benchmarks/results/hidden_identifiability.json, one draw each): a mount roll of -4
+    # degree (nothing named; roll estimated 1.2 +- 3.4 degree: the payload faces the wind, so
+    # a roll tilts the sonic across the flow, where no feature is sensitive), a lever arm of
+    # -1.5 m along z (nothing named) and one of 1 m along x, which was named sonic_ins_lag
+    # (0.105 s): the missing omega x r term of a forward offset shifts the lag search's
+    # minimum (see UNCATALOGUED_ALIASES in dronewind.diagnose.campaign).
 }
+
+#: Parameters of a hidden mechanism held at a fixed value (not drawn, not judged).
+HIDDEN_FIXED: dict[str, dict[str, float]] = {"mount_misalignment": {"roll_deg": 0.0, "yaw_deg": 0.0}}
 
 #: Value about which a hidden parameter is drawn (its "off" value when not 0).
 HIDDEN_CENTRES: dict[tuple[str, str], float] = {("w_gain", "gain"): 1.0}
+
+#: Horizontal wind speed at which a hidden downwash is judged [m s-1]: the median of the
+#: hidden-effect campaign's flight speeds (:func:`campaign_manifest`).
+DOWNWASH_REFERENCE_MS = 6.5
 
 #: Model errors: name -> ``simulation`` section -> setting -> choices. A choice is a tuple
 #: of ranges ``(low, high)`` (one drawn at random, then a value uniformly in it) or of
@@ -125,6 +145,10 @@ TOLERANCES: dict[str, dict[str, float]] = {
     "attitude_lag": {"lag_s%": 0.4},
     "height_offset": {"dz_m%": 0.5},
     "clock_drift": {"ppm%": 0.35},
+    "mount_misalignment": {"pitch_deg": 1.5},
+    # the downdraft w0 exp(-U / u_scale) at DOWNWASH_REFERENCE_MS (the fit holds u_scale at
+    # one of two variants, so w0 alone is not comparable)
+    "downwash": {"downdraft_ms%": 0.4},
 }
 
 #: Mechanisms that predict the same features (reported as an ambiguity set, not guessed).
@@ -279,7 +303,13 @@ def draw(rng: np.random.Generator, mechanisms: list[str] | None = None, p_none: 
     if rng.random() < p_none:
         return Draw("none", {}, seed)
     mech = str(rng.choice(names))
-    return Draw(mech, {name: _hidden_value(rng, mech, name) for name in HIDDEN_RANGES[mech]}, seed)
+    return Draw(mech, _hidden_parameters(rng, mech), seed)
+
+
+def _hidden_parameters(rng: np.random.Generator, mechanism: str, sign: int | None = None) -> dict[str, float]:
+    """Every parameter of a hidden mechanism: drawn (:data:`HIDDEN_RANGES`) or fixed (:data:`HIDDEN_FIXED`)."""
+    drawn = {name: _hidden_value(rng, mechanism, name, sign) for name in HIDDEN_RANGES[mechanism]}
+    return {**HIDDEN_FIXED.get(mechanism, {}), **drawn}
 
 
 def _model_error_draw(rng: np.random.Generator, name: str) -> Draw:
@@ -334,7 +364,7 @@ def stratified_draws(n: int, seed: int, null_share: float = 0.2, model_error_sha
         else:
             mech, sign = cells[(k - n_null - n_model) % len(cells)]
             draw_seed_k = int(rng.integers(1, 2**31 - 1))
-            out.append(Draw(mech, {p: _hidden_value(rng, mech, p, sign) for p in HIDDEN_RANGES[mech]}, draw_seed_k))
+            out.append(Draw(mech, _hidden_parameters(rng, mech, sign), draw_seed_k))
     return out
 
 
@@ -421,18 +451,28 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
     out["estimate"] = est
     ok = True
     worst = 0.0
+    true_values, est_values = _judged(truth.mechanism, truth.parameters), _judged(truth.mechanism, est)
     for key, tol in TOLERANCES.get(truth.mechanism, {}).items():
         name = key.rstrip("%")
-        if name not in est:
+        if name not in est_values:
             ok = False
             worst = float("nan")
             continue
-        err = abs(float(est[name]) - truth.parameters[name])
-        limit = tol * abs(truth.parameters[name]) if key.endswith("%") else tol
+        err = abs(float(est_values[name]) - true_values[name])
+        limit = tol * abs(true_values[name]) if key.endswith("%") else tol
         ok &= err <= limit
         worst = max(worst, err / limit)
     out["estimate_ok"] = bool(ok) if truth.mechanism in named else bool(ok and detected)
     out["estimate_error"] = float(worst)
+    return out
+
+
+def _judged(mechanism: str, parameters: Mapping[str, Any]) -> dict[str, float]:
+    """The values of a mechanism that :data:`TOLERANCES` judges: its parameters, and for
+    ``downwash`` the downdraft :math:`w_0 \\exp(-U/u_{scale})` at :data:`DOWNWASH_REFERENCE_MS`."""
+    out = {k: float(v) for k, v in parameters.items() if isinstance(v, (int, float))}
+    if mechanism == "downwash" and {"w0_ms", "u_scale_ms"} <= set(out):
+        out["downdraft_ms"] = out["w0_ms"] * float(np.exp(-DOWNWASH_REFERENCE_MS / out["u_scale_ms"]))
     return out
 
 

@@ -88,6 +88,9 @@ def _candidate_lines(diag: Mapping[str, Any]) -> list[str]:
                      f"| {'yes' if c['significant'] else 'no'} |")
     amb = diag.get("ambiguity_sets") or []
     lines += ["", "## Ambiguity", ""]
+    for c in diag.get("caveats") or []:
+        lines += [f"**Caveat on `{c['mechanism']}`:** {c['alias']} (an effect outside the catalog; the data "
+                  "alone cannot tell them apart).", ""]
     lines.append("Mechanisms the data cannot tell apart (their fitted predictions differ by less than 2σ): "
                  + "; ".join("{" + ", ".join(f"`{m}`" for m in g) + "}" for g in amb) if amb else
                  "No two significant candidates predict the same features within their errors.")
