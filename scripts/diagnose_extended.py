@@ -5,4 +5,4 @@ from dronewind.steps.diagnosis import extended_run
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    extended_run(sm.input.manifest, sm.output[0], **sm.params)
+    extended_run(sm.input.manifest, sm.output[0], mast_l1=sm.input.mast, **sm.params)

@@ -181,6 +181,7 @@ if RIGID_FLIGHTS and not PAYLOAD_FLIGHTS:
 rule diagnose_extended:
     input:
         manifest=RESULTS / "diagnosis" / "extended_campaign.yaml",
+        mast=reference_of,
     output:
         RESULTS / "diagnosis" / "extended" / "{flight}.json",
     log:
@@ -192,6 +193,7 @@ rule diagnose_extended:
     params:
         flight_id="{flight}",
         processing=CHAIN,
+        atmosphere=DIAGNOSIS["atmosphere"],
     script:
         "../../scripts/diagnose_extended.py"
 

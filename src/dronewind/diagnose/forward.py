@@ -74,7 +74,8 @@ from dronewind.payload.chain import compute_ins_l1, compute_payload_l2, compute_
 __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS",
            "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
            "record_digest", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
-           "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "atmosphere_record"]
+           "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "atmosphere_record",
+           "record_through"]
 
 if TYPE_CHECKING:
     from dronewind.simulate.payload import PayloadTruth
@@ -852,6 +853,29 @@ def _undo_mast_w_attenuation(record: xr.Dataset, parameters: Mapping[str, float]
 RECORD_INVERSES: dict[str, Callable[[xr.Dataset, Mapping[str, float]], xr.Dataset]] = {
     "mast_w_attenuation": _undo_mast_w_attenuation,
 }
+
+
+def record_through(record: xr.Dataset, mechanisms: Sequence[Mapping[str, Any]]) -> xr.Dataset:
+    """The measured atmosphere record read through the mechanisms that act on it.
+
+    Parameters
+    ----------
+    record : xarray.Dataset
+        :func:`atmosphere_record` output.
+    mechanisms : sequence of mapping
+        ``[{"mechanism": name, "parameters": {...}}]`` (e.g. the named causes of an extended
+        model).
+
+    Returns
+    -------
+    xarray.Dataset
+        The record with each mechanism of :data:`RECORD_INVERSES` undone (the true wind the
+        mast would have measured without it); the record itself when none acts on it.
+    """
+    for m in mechanisms:
+        if m["mechanism"] in RECORD_INVERSES:
+            record = RECORD_INVERSES[m["mechanism"]](record, m["parameters"])
+    return record
 
 #: Margin kept around the hover window when the measured record is cut (:func:`atmosphere_record`) [s].
 ATMOSPHERE_MARGIN_S = 3600.0

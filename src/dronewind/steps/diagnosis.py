@@ -287,13 +287,19 @@ def _with_platform(out: dict[str, Any], platform_files: Sequence[str | Path]) ->
 
 
 def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flight_id: str,
-                 processing: Mapping[str, Any], seeds: Sequence[int] = (303, 404)) -> Path:
+                 processing: Mapping[str, Any], seeds: Sequence[int] = (303, 404),
+                 mast_l1: str | Path | None = None, atmosphere: str = "model") -> Path:
     """Rerun one flight of the extended campaign (fresh seeds) and store its features.
 
     ``processing`` holds the chain settings (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+    ``mast_l1`` and ``atmosphere`` as for :func:`forward_probes`: with the measured
+    atmosphere the rerun takes the same record as the baseline runs, read through the named
+    mechanisms that act on it (:func:`dronewind.diagnose.forward.record_through`), so that
+    the before/after comparison changes only the named causes.
     """
     from dronewind.diagnose import forward
     from dronewind.diagnose.features import features_to_dict
+    from dronewind.errors import InputError
 
     data = yaml.safe_load(Path(extended_manifest_file).read_text())
     conditions = data["simulation"]["payload_flights"].get(flight_id)
@@ -304,16 +310,28 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     from dronewind.diagnose.features import binned_spectra
 
     mechanisms = data["simulation"].get("mechanisms") or []
+    if atmosphere not in forward.ATMOSPHERES:
+        raise InputError("diagnosis.atmosphere", f"{atmosphere!r}; expected one of {forward.ATMOSPHERES}")
+    measured = atmosphere == "measured"
+    base_record = record = None
+    if measured:
+        if mast_l1 is None:
+            raise InputError("diagnosis.atmosphere", "'measured' needs the reference mast's L1 (mast_l1)")
+        base_record = forward.atmosphere_record(strip_cf(open_product(mast_l1)), conditions, str(mast_l1))
+        record = forward.record_through(base_record, mechanisms)
+    out["atmosphere"] = atmosphere
     for k, seed in enumerate(seeds):
-        feats, products = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, mechanisms, seed),
-                                              flight_id, processing)
+        feats, products = forward.run_forward(
+            forward.forward_manifest(data, flight_id, conditions, mechanisms, seed, measured), flight_id, processing,
+            atmosphere=record)
         out["runs"].append(features_to_dict(feats))
         if k == 0:
             # spectra before/after with common random numbers: the same seed without the mechanisms
             out["spectra"] = {"extended": binned_spectra(products["l3"])}
             if mechanisms:
-                _, base = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, [], seed),
-                                              flight_id, processing)
+                _, base = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, [], seed,
+                                                                       measured), flight_id, processing,
+                                              atmosphere=base_record)
                 out["spectra"]["baseline"] = binned_spectra(base["l3"])
             else:
                 out["spectra"]["baseline"] = out["spectra"]["extended"]
