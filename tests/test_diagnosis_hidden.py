@@ -13,26 +13,21 @@ Snakemake workflow up to diagnosis.json, and requires:
 The draws change with every commit: their seed is derived from ``git rev-parse HEAD``
 (experiments.draw_seed; ``DRONEWIND_DRAW_SEED=<int>`` replays a failure), printed in the
 pytest header and in the test ids. Three workflow runs (the null case and two distinct
-mechanisms), as before. The rates over many draws, with intervals, are measured by
+mechanisms), as before; the session starts them in the background when it collects this
+module and runs its tests last (tests/conftest.py). The rates over many draws, with intervals, are measured by
 benchmarks/bench_diagnosis_rates.py (benchmarks/results/diagnosis_rates.json).
 """
 
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
 from dronewind.diagnose.experiments import campaign_manifest, draw, draw_seed, judge
-
-REPO = Path(__file__).resolve().parents[1]
-BIN = Path(sys.executable).parent
+from tests.conftest import REPO, WorkflowRun
 
 pytestmark = pytest.mark.slow
 
@@ -59,19 +54,38 @@ def test_draws_cover_the_null_case_and_distinct_mechanisms():
     assert DRAWS[0].mechanism == "none" and len({d.mechanism for d in DRAWS}) == len(DRAWS)
 
 
+def hidden_runs(config: pytest.Config) -> dict[int, WorkflowRun]:
+    """The workflow run of each draw (by its position in :data:`DRAWS`) up to diagnosis.json, made once per session.
+
+    tests/conftest.py starts them one after another in the background when it has
+    collected this module (whose tests then run last); a run nobody started runs when its
+    test asks for it.
+    """
+    runs = config.stash.get(_RUNS, None)
+    if runs is None:
+        folder = config._tmp_path_factory.mktemp("hidden")  # the folder of tmp_path_factory
+        runs = {}
+        for k, truth in enumerate(DRAWS):
+            manifest = folder / f"draw{k}" / "hidden.yaml"
+            manifest.parent.mkdir()
+            manifest.write_text(yaml.safe_dump(campaign_manifest(truth), sort_keys=False))
+            results = manifest.parent / "results"
+            runs[k] = WorkflowRun(["--cores", "2", "--config", f"campaign={manifest}", f"results_dir={results}",
+                                   "--", str(results / "hidden" / "diagnosis.json")],
+                                  log=manifest.parent / "snakemake.log")
+        config.stash[_RUNS] = runs
+    return runs
+
+
+_RUNS: pytest.StashKey[dict[int, WorkflowRun]] = pytest.StashKey()
+
+
 @pytest.mark.parametrize("truth", DRAWS, ids=[f"{d.label}-seed{DRAW_SEED}" for d in DRAWS])
-def test_hidden_effect_is_found(truth, tmp_path):
-    manifest = tmp_path / "hidden.yaml"
-    manifest.write_text(yaml.safe_dump(campaign_manifest(truth), sort_keys=False))
-    results = tmp_path / "results"
-    target = results / "hidden" / "diagnosis.json"
-    proc = subprocess.run(
-        [str(BIN / "snakemake"), "--cores", "2", "--config", f"campaign={manifest}", f"results_dir={results}",
-         "--", str(target)],
-        cwd=REPO, capture_output=True, text=True, timeout=1500, check=False,
-        env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"},
-    )
+def test_hidden_effect_is_found(truth, request):
+    run = hidden_runs(request.config)[DRAWS.index(truth)]
+    proc = run.wait()
     assert proc.returncode == 0, proc.stderr[-4000:]
+    target = run.log.parent / "results" / "hidden" / "diagnosis.json"
     diagnosis = json.loads(target.read_text())
     verdict = judge(truth, diagnosis)
     summary = json.dumps({"verdict": verdict, "candidates": diagnosis["candidates"][:4]}, indent=1, default=str)

@@ -2,15 +2,13 @@
 
 Checks what every run must keep true: every NetCDF passes the IOOS compliance checker
 (CF-1.11 and ACDD-1.3, normal criteria, exit code 0), flight_stats.csv has the contract's
-columns, and a rerun with the same inputs and config gives bit-identical data.
+columns, and a rerun with the same inputs and config gives bit-identical data. The runs
+are the session's (tests/conftest.py): the whole workflow once, and the same campaign
+again up to every NetCDF and flight_stats.csv (the data compared here), shared with
+tests/test_faults.py, which compares the two runs' files byte for byte.
 """
 
 from __future__ import annotations
-
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -19,18 +17,7 @@ import pytest
 from dronewind.core.cf import check_compliance
 from dronewind.steps import FLIGHT_STATS_COLUMNS, open_product
 
-REPO = Path(__file__).resolve().parents[1]
-BIN = Path(sys.executable).parent
-
 pytestmark = pytest.mark.slow
-
-def run_workflow(manifest: Path, results: Path, extra_config: Path) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [str(BIN / "snakemake"), "--cores", "2", "--configfile", "config/config.yaml", str(extra_config),
-         "--config", f"campaign={manifest}", f"results_dir={results}"],
-        cwd=REPO, capture_output=True, text=True, timeout=1200, check=False,
-        env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"},
-    )
 
 
 @pytest.fixture(scope="module")
@@ -71,12 +58,13 @@ def test_processing_log_and_provenance(campaign_run):
     assert any(k.startswith("n_") for k in l1.attrs), "counts of removed/filled samples are stored"
 
 
-def test_rerun_is_bit_identical(campaign_run):
-    folder, manifest, extra, results_a = campaign_run
-    proc = run_workflow(manifest, folder / "results_b", extra)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    results_b = folder / "results_b" / "smallcamp"
-    for path in sorted(results_a.rglob("*.nc")):
+def test_rerun_is_bit_identical(campaign_run, small_campaign_rerun):
+    """Every NetCDF of the whole run, its flight_stats.csv and L0 files, again from the second run."""
+    *_, results_a = campaign_run
+    results_b = small_campaign_rerun
+    files = sorted(results_a.rglob("*.nc"))
+    assert len(files) >= 8, files  # L1 (sonic, ins, mast), L2 (drone, mast), L3, L4 (drone, mast)
+    for path in files:
         other = results_b / path.relative_to(results_a)
         a, b = open_product(path), open_product(other)
         for name in a.variables:
@@ -92,17 +80,9 @@ def test_rerun_is_bit_identical(campaign_run):
         assert raw.read_bytes() == (results_b / raw.relative_to(results_a)).read_bytes(), raw
 
 
-def test_html_report_with_captions(campaign_run):
+def test_html_report_with_captions(small_campaign_report):
     """`snakemake --report` builds the HTML report of the finished run, figure captions included."""
-    folder, manifest, extra, results = campaign_run
-    html = folder / "report.html"
-    proc = subprocess.run(
-        [str(BIN / "snakemake"), "--configfile", "config/config.yaml", str(extra),
-         "--config", f"campaign={manifest}", f"results_dir={folder / 'results_a'}", "--report", str(html)],
-        cwd=REPO, capture_output=True, text=True, timeout=600, check=False,
-        env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"},
-    )
-    assert proc.returncode == 0, proc.stderr[-4000:]
+    html = small_campaign_report
     text = html.read_text(errors="replace")
     assert html.stat().st_size > 100_000
     assert "fig04_tke_lag" in text and "Diagnosis" in text

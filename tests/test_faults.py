@@ -869,31 +869,34 @@ def snakemake(folder: Path, results: Path, *args: str, env: dict[str, str] | Non
 
 
 @pytest.fixture(scope="module")
-def two_runs(tmp_path_factory):
-    """One virtual flight processed to flight_stats twice, in two results folders."""
-    folder = tmp_path_factory.mktemp("twice")
-    write_small_campaign(folder, n_flights=1)
-    (folder / "short.yaml").write_text(SHORT_HOVER)
-    for name in ("resA", "resB"):
-        proc = snakemake(folder, folder / name, target=("tables/flight_stats.csv", "campaign.json"))
-        assert proc.returncode == 0, proc.stderr[-4000:]
+def two_runs(small_campaign_run, small_campaign_rerun):
+    """One virtual flight processed twice in two results folders of one folder (tests/conftest.py).
+
+    ``results_b``: up to flight_stats.csv and campaign.json; ``results_a``: the whole
+    workflow, a superset of those files. Both with the ``date_created`` of
+    ``SOURCE_DATE_EPOCH=1700000000``, as :func:`snakemake` here.
+    """
+    folder, *_ = small_campaign_run
+    assert (folder / "smallcamp.yaml").is_file() and (folder / "short.yaml").is_file()
     return folder
 
 
 @pytest.mark.slow
 def test_identical_runs_in_two_folders_give_identical_files(two_runs):
-    a, b = two_runs / "resA" / "smallcamp", two_runs / "resB" / "smallcamp"
+    """Every file of the second run (up to flight_stats and the campaign record) is byte for byte the first run's."""
+    a, b = two_runs / "results_b" / "smallcamp", two_runs / "results_a" / "smallcamp"
     files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file() and p.parts[len(a.parts)] not in
                    ("logs", "benchmarks"))
     assert any(p.suffix == ".nc" for p in files) and Path("campaign.json") in files
+    assert Path("tables/flight_stats.csv") in files and any(p.parts[0] == "L0" for p in files)
     differ = [str(p) for p in files if (a / p).read_bytes() != (b / p).read_bytes()]
     assert differ == []
-    assert not (a / LOCK_NAME).exists()  # released at the end of the run
+    assert not (a / LOCK_NAME).exists() and not (b / LOCK_NAME).exists()  # released at the end of each run
 
 
 @pytest.mark.slow
 def test_second_run_on_a_locked_folder_stops_and_dry_run_does_not(two_runs, tmp_path):
-    results = two_runs / "resA"
+    results = two_runs / "results_b"
     (results / "smallcamp" / "campaign.json").unlink()
     holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])
     try:
@@ -935,7 +938,7 @@ def test_killed_run_resumes_with_the_same_command(two_runs):
     assert proc.returncode == 0, proc.stderr[-4000:]
     assert "took over the lock of a run that no longer runs" in proc.stderr
     for rel in ("netcdf/L4/s01_drone.nc", "tables/flight_stats.csv"):
-        assert (results / "smallcamp" / rel).read_bytes() == (two_runs / "resA" / "smallcamp" / rel).read_bytes()
+        assert (results / "smallcamp" / rel).read_bytes() == (two_runs / "results_a" / "smallcamp" / rel).read_bytes()
     again = subprocess.run([*cmd[:-2], "--dry-run", "--", cmd[-1]], cwd=REPO, env=env, capture_output=True,
                            text=True, timeout=300, check=False)
     assert "Nothing to be done" in again.stdout + again.stderr

@@ -21,6 +21,7 @@ import pytest
 
 from dronewind.diagnose.forward import probe_parts
 from dronewind.manifest import default_config
+from tests.conftest import SLURM_RUN
 from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]
@@ -56,30 +57,118 @@ class _QueueWatch(threading.Thread):
             time.sleep(0.3)
 
 
-def test_small_campaign_runs_through_sbatch(slurm, tmp_path):
-    manifest = write_small_campaign(tmp_path)
-    results = tmp_path / "results"
-    extra = tmp_path / "short.yaml"
-    extra.write_text(SHORT_HOVER)
-    watch = _QueueWatch("diagnose_probe")
-    watch.start()
-    proc = subprocess.run(
-        [str(BIN / "snakemake"), "--workflow-profile", "profiles/slurm",
-         "--slurm-init-seconds-before-status-checks", "2", "--seconds-between-status-checks", "2",
-         "--slurm-no-account", "--configfile", "config/config.yaml", str(extra),
-         "--config", f"campaign={manifest}", f"results_dir={results}", "diagnosis={probe_jobs: mechanism}",
-         # the payload chain up to the contract table and one flight's forward model, its
-         # probes spread over one job per mechanism (the rest of the diagnosis DAG: test_e2e)
-         "--", str(results / "smallcamp" / "tables" / "flight_stats.csv"),
-         str(results / "smallcamp" / "campaign.json"),
-         str(results / "smallcamp" / "diagnosis" / "forward" / "s01.json")],
-        cwd=REPO, capture_output=True, text=True, timeout=1500, check=False,
-        env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"},
-    )
-    watch.done.set()
-    watch.join()
-    out = proc.stdout + proc.stderr
-    assert proc.returncode == 0, out[-4000:]
+class SlurmRun:
+    """The run of this module's test: SLURM set up, then the small campaign's targets through sbatch.
+
+    Most of its wall time is waiting (for the status checks of the SLURM executor, whose
+    interval grows by 10 s with every check that finds no job finished), not computing:
+    so the session starts it in the background when it collects this module
+    (tests/conftest.py, ``pytest_collection_finish``) and the test waits for its end.
+    """
+
+    def __init__(self, folder: Path) -> None:
+        self.folder, self.results = folder, folder / "results"
+        self.skip: str | None = None
+        self.error: str | None = None
+        self.returncode: int | None = None
+        self.out = ""
+        self.watch = _QueueWatch("diagnose_probe")
+        self.done = threading.Event()
+        self._proc: subprocess.Popen | None = None
+        self._stopped = False
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def start(self) -> SlurmRun:
+        self._thread.start()
+        return self
+
+    def wait(self, timeout: float = 2400) -> None:
+        assert self.done.wait(timeout), f"the SLURM run did not end within {timeout} s"
+
+    def stop(self) -> None:
+        """Ends the run if it is still going (Snakemake cancels its SLURM jobs on SIGTERM)."""
+        self._stopped = True
+        if self._proc is not None and self._proc.poll() is None:
+            self._proc.terminate()
+            try:
+                self._proc.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                self._proc.kill()
+
+    def _run(self) -> None:
+        try:
+            self._setup_and_run()
+        except Exception as exc:  # reported by the test
+            self.error = f"{type(exc).__name__}: {exc}"
+        finally:
+            self.watch.done.set()
+            self.done.set()
+
+    def _setup_and_run(self) -> None:
+        if os.geteuid() != 0:
+            self.skip = "SLURM test needs root to install slurm-wlm/munge and start the daemons"
+            return
+        proc = subprocess.run(["bash", str(REPO / "scripts/setup_slurm.sh")], capture_output=True, text=True,
+                              timeout=900, check=False)
+        if proc.returncode != 0 and shutil.which("slurmctld") is None:
+            self.skip = f"SLURM could not be installed on this machine: {proc.stderr[-500:]}"
+            return
+        if proc.returncode != 0:
+            self.error = f"SLURM installed but did not start:\n{proc.stdout}\n{proc.stderr}"
+            return
+        manifest = write_small_campaign(self.folder)
+        extra = self.folder / "short.yaml"
+        extra.write_text(SHORT_HOVER)
+        results = self.results
+        log = self.folder / "snakemake.log"
+        self.watch.start()
+        with log.open("w") as out:
+            if self._stopped:
+                return
+            self._proc = subprocess.Popen(
+                [str(BIN / "snakemake"), "--workflow-profile", "profiles/slurm",
+                 "--slurm-init-seconds-before-status-checks", "2", "--seconds-between-status-checks", "2",
+                 "--slurm-no-account", "--configfile", "config/config.yaml", str(extra),
+                 "--config", f"campaign={manifest}", f"results_dir={results}", "diagnosis={probe_jobs: mechanism}",
+                 # the payload chain up to the contract table and one flight's forward model, its
+                 # probes spread over one job per mechanism (the rest of the diagnosis DAG: test_e2e)
+                 "--", str(results / "smallcamp" / "tables" / "flight_stats.csv"),
+                 str(results / "smallcamp" / "campaign.json"),
+                 str(results / "smallcamp" / "diagnosis" / "forward" / "s01.json")],
+                cwd=REPO, stdout=out, stderr=subprocess.STDOUT, text=True,
+                env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"},
+            )
+            try:
+                self.returncode = self._proc.wait(timeout=1500)
+            except subprocess.TimeoutExpired:
+                self.stop()
+                self.error = "the SLURM run did not end within 1500 s"
+        self.watch.done.set()
+        self.watch.join()
+        self.out = log.read_text(errors="replace")
+
+
+def start_in_background(config: pytest.Config) -> SlurmRun:
+    """The session's SLURM run, started now in a folder of the session's temporary directory."""
+    run = SlurmRun(config._tmp_path_factory.mktemp("slurm")).start()  # the folder of tmp_path_factory
+    config.stash[SLURM_RUN] = run
+    return run
+
+
+@pytest.fixture(scope="module")
+def slurm_run(request) -> SlurmRun:
+    """The SLURM run started with the session, or started now if the session did not."""
+    run = request.config.stash.get(SLURM_RUN, None) or start_in_background(request.config)
+    run.wait()
+    if run.skip:
+        pytest.skip(run.skip)
+    assert run.error is None, f"{run.error}\n{run.out[-3000:]}"
+    return run
+
+
+def test_small_campaign_runs_through_sbatch(slurm_run):
+    out, results = slurm_run.out, slurm_run.results
+    assert slurm_run.returncode == 0, out[-4000:]
     job_ids = re.findall(r"submitted with SLURM jobid (\d+)", out)
     n_jobs = int(re.search(r"(\d+) of (\d+) steps \(100%\) done", out).group(2))
     # every job went through sbatch (no rule runs locally)
@@ -87,7 +176,7 @@ def test_small_campaign_runs_through_sbatch(slurm, tmp_path):
     assert (results / "smallcamp" / "campaign.json").is_file()
     assert (results / "smallcamp" / "tables" / "flight_stats.csv").is_file()
     # the flight's probes were in the queue side by side, then joined into its forward runs
-    assert watch.most >= 3, f"at most {watch.most} diagnose_probe jobs were queued at once"
+    assert slurm_run.watch.most >= 3, f"at most {slurm_run.watch.most} diagnose_probe jobs were queued at once"
     runs = json.loads((results / "smallcamp" / "diagnosis" / "forward" / "s01.json").read_text())
     assert runs["parts"] == list(probe_parts()) and len(runs["baseline"]) == len(default_config()["diagnosis"]["seeds"])
     assert runs["probes"]
