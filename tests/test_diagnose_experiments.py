@@ -159,3 +159,18 @@ def test_named_causes_with_known_uncatalogued_aliases_carry_a_caveat():
     assert [c["mechanism"] for c in out] == ["mount_misalignment"]
     assert "mast" in out[0]["alias"]
     assert caveats([]) == []
+
+
+def test_a_model_error_named_as_its_caveated_alias_is_flagged_not_excused():
+    d = ex.model_error_draw(np.random.default_rng(0), "mast_flow_distortion")
+    flagged = {"named_causes": ["mount_misalignment"],
+               "caveats": [{"mechanism": "mount_misalignment", "alias": "mast tilt"}]}
+    verdict = ex.judge(d, flagged)
+    assert verdict["false_alarm"] and verdict["caveated"]
+    # without the diagnosis' caveat, or with another cause, it is a plain false attribution
+    assert not ex.judge(d, {"named_causes": ["mount_misalignment"]})["caveated"]
+    assert not ex.judge(d, {**flagged, "named_causes": ["mount_misalignment", "w_gain"]})["caveated"]
+    other = ex.model_error_draw(np.random.default_rng(0), "turbulence_isotropy")
+    assert not ex.judge(other, flagged)["caveated"]
+    clean = ex.judge(other, {"named_causes": []})
+    assert clean["detected"] and not clean["false_alarm"] and not clean["caveated"]

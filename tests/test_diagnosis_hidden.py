@@ -12,9 +12,12 @@ Snakemake workflow up to diagnosis.json, and requires:
 
 The draws change with every commit: their seed is derived from ``git rev-parse HEAD``
 (experiments.draw_seed; ``DRONEWIND_DRAW_SEED=<int>`` replays a failure), printed in the
-pytest header and in the test ids. Three workflow runs (the null case and two distinct
-mechanisms), as before; the session starts them in the background when it collects this
-module and runs its tests last (tests/conftest.py). The rates over many draws, with intervals, are measured by
+pytest header and in the test ids. Four workflow runs: the null case, two distinct
+mechanisms, and a model error (experiments.MODEL_ERRORS: physics the forward model does not
+have, of a kind drawn at random), which must name no catalog cause, or only one the diagnosis
+flags as sharing the model error's signature (experiments.CAVEATED_MODEL_ERRORS). The session
+starts them in the background when it collects this module and runs its tests last
+(tests/conftest.py). The rates over many draws, with intervals, are measured by
 benchmarks/bench_diagnosis_rates.py (benchmarks/results/diagnosis_rates.json).
 """
 
@@ -26,7 +29,7 @@ import numpy as np
 import pytest
 import yaml
 
-from dronewind.diagnose.experiments import campaign_manifest, draw, draw_seed, judge
+from dronewind.diagnose.experiments import campaign_manifest, draw, draw_seed, judge, model_error_draw
 from tests.conftest import REPO, WorkflowRun
 
 pytestmark = pytest.mark.slow
@@ -36,22 +39,26 @@ DRAW_SEED, DRAW_SEED_SOURCE = draw_seed(REPO)
 
 
 def _draws(seed: int, n_mechanisms: int = 2) -> list:
-    """The null case, then the first ``n_mechanisms`` draws of distinct mechanisms from one seeded stream."""
+    """The null case, ``n_mechanisms`` draws of distinct mechanisms, then a model error, from one seeded stream."""
     rng = np.random.default_rng(seed)
     out = [draw(rng, p_none=1.0)]
     while len(out) < n_mechanisms + 1:
         d = draw(rng, p_none=0.0)
         if d.mechanism not in {o.mechanism for o in out}:
             out.append(d)
-    return out
+    return [*out, model_error_draw(rng)]
 
 
-#: Draws of this test: the null case first, then mechanisms drawn at random.
+#: Draws of this test: the null case first, then mechanisms drawn at random, then a model error
+#: (physics the forward model does not have, of a kind drawn at random).
 DRAWS = _draws(DRAW_SEED)
 
 
-def test_draws_cover_the_null_case_and_distinct_mechanisms():
-    assert DRAWS[0].mechanism == "none" and len({d.mechanism for d in DRAWS}) == len(DRAWS)
+def test_draws_cover_the_null_case_distinct_mechanisms_and_a_model_error():
+    assert DRAWS[0].mechanism == "none" and DRAWS[0].case == "null"
+    mechanisms = [d.mechanism for d in DRAWS if d.case == "mechanism"]
+    assert len(mechanisms) == 2 and len(set(mechanisms)) == 2
+    assert DRAWS[-1].case == "model_error" and DRAWS[-1].model_error
 
 
 def hidden_runs(config: pytest.Config) -> dict[int, WorkflowRun]:
@@ -89,7 +96,11 @@ def test_hidden_effect_is_found(truth, request):
     diagnosis = json.loads(target.read_text())
     verdict = judge(truth, diagnosis)
     summary = json.dumps({"verdict": verdict, "candidates": diagnosis["candidates"][:4]}, indent=1, default=str)
-    if truth.mechanism == "none":
+    if truth.case == "model_error":
+        # no catalog cause for physics the forward model lacks; what it misses is reported instead
+        assert not verdict["false_alarm"] or verdict["caveated"], f"false attribution: {summary}"
+        assert {"goodness_of_fit", "unexplained"} <= set(diagnosis)
+    elif truth.mechanism == "none":
         assert not verdict["false_alarm"], f"false alarm: {summary}"
     else:
         assert verdict["detected"], f"hidden {truth} not found: {summary}"

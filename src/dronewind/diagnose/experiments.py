@@ -54,7 +54,8 @@ from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
            "stratified_draws", "campaign_manifest", "judge", "run_in_process", "AMBIGUOUS_WITH",
            "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
-           "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS"]
+           "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS",
+           "CAVEATED_MODEL_ERRORS", "model_error_draw"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
 #: as a distance from the parameter's centre (:data:`HIDDEN_CENTRES`, else 0), on a random
@@ -150,6 +151,13 @@ TOLERANCES: dict[str, dict[str, float]] = {
     # one of two variants, so w0 alone is not comparable)
     "downwash": {"downdraft_ms%": 0.4},
 }
+
+#: Model errors whose signature a catalog mechanism shares in every feature that sees them
+#: (:data:`dronewind.diagnose.campaign.UNCATALOGUED_ALIASES`): naming that mechanism is a
+#: false attribution, but one the diagnosis flags with a caveat (``caveated`` in :func:`judge`).
+#: A streamline tilt of the mast's flow and a pitch of the drone's sonic both move only the
+#: drone-minus-mast tilt.
+CAVEATED_MODEL_ERRORS: dict[str, set[str]] = {"mast_flow_distortion": {"mount_misalignment"}}
 
 #: Mechanisms that predict the same features (reported as an ambiguity set, not guessed).
 AMBIGUOUS_WITH: dict[str, set[str]] = {
@@ -312,6 +320,12 @@ def _hidden_parameters(rng: np.random.Generator, mechanism: str, sign: int | Non
     return {**HIDDEN_FIXED.get(mechanism, {}), **drawn}
 
 
+def model_error_draw(rng: np.random.Generator, name: str | None = None) -> Draw:
+    """A model-error truth: of kind ``name``, or of a kind of :data:`MODEL_ERRORS` drawn at random."""
+    kinds = sorted(MODEL_ERRORS)
+    return _model_error_draw(rng, name if name is not None else kinds[int(rng.integers(len(kinds)))])
+
+
 def _model_error_draw(rng: np.random.Generator, name: str) -> Draw:
     """A model-error truth of kind ``name``: per setting one choice of :data:`MODEL_ERRORS`, then a value in it."""
     seed = int(rng.integers(1, 2**31 - 1))
@@ -434,6 +448,10 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any]) -> dict[str, Any]:
     if truth.mechanism == "none":
         out.update(detected=not named, false_alarm=bool(named), wrong_cause=False, estimate_ok=True,
                    estimate_error=float("nan"))
+        # a model error whose signature a named cause shares, with the diagnosis' caveat saying so
+        caveated = {c.get("mechanism") for c in diagnosis.get("caveats") or []}
+        aliases = CAVEATED_MODEL_ERRORS.get(truth.model_error_name, set())
+        out["caveated"] = bool(named) and set(named) <= (aliases & caveated)
         return out
     groups = [set(g) for g in diagnosis.get("ambiguity_sets") or []]
     equivalents = {truth.mechanism} | AMBIGUOUS_WITH.get(truth.mechanism, set())
