@@ -150,6 +150,8 @@ rule diagnose_platform:
     params:
         flight_id="{flight}",
         alpha=DIAGNOSIS["alpha"],
+        segment_s=DIAGNOSIS["platform"]["segment_s"],
+        band_factor=DIAGNOSIS["platform"]["band_factor"],
     script:
         "../../scripts/diagnose_platform.py"
 
