@@ -174,3 +174,14 @@ def test_a_model_error_named_as_its_caveated_alias_is_flagged_not_excused():
     assert not ex.judge(other, flagged)["caveated"]
     clean = ex.judge(other, {"named_causes": []})
     assert clean["detected"] and not clean["false_alarm"] and not clean["caveated"]
+
+
+def test_extended_reruns_get_seeds_the_baseline_never_ran():
+    from dronewind.diagnose.forward import fresh_seeds
+    from dronewind.manifest import default_config
+
+    baseline = default_config()["diagnosis"]["seeds"]
+    rerun = fresh_seeds(baseline)
+    assert len(set(rerun)) == 2 and not set(rerun) & set(baseline)
+    assert fresh_seeds([101, 202]) == (303, 404)  # the historical rerun seeds where free
+    assert not set(fresh_seeds([404, 7, 1000], n=3)) & {404, 7, 1000}

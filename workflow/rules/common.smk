@@ -11,7 +11,7 @@ from pathlib import Path
 from snakemake.utils import min_version, validate
 
 from dronewind.config import check_config
-from dronewind.diagnose.forward import CHAIN_SETTINGS, probe_parts
+from dronewind.diagnose.forward import CHAIN_SETTINGS, fresh_seeds, probe_parts
 from dronewind.figures.blocks import BLOCK_FIGURE
 from dronewind.figures.campaign import figure_captions
 from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES

@@ -195,6 +195,7 @@ rule diagnose_extended:
     params:
         flight_id="{flight}",
         processing=CHAIN,
+        seeds=fresh_seeds(DIAGNOSIS["seeds"]),
         atmosphere=DIAGNOSIS["atmosphere"],
     script:
         "../../scripts/diagnose_extended.py"

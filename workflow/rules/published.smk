@@ -108,6 +108,7 @@ rule published_rerun:
         campaign=published_manifest,
         flight_id="{flight}",
         processing=CHAIN,
+        seeds=fresh_seeds(DIAGNOSIS["seeds"]),
     script:
         "../../scripts/published_rerun.py"
 

@@ -74,7 +74,7 @@ from dronewind.payload.chain import compute_ins_l1, compute_payload_l2, compute_
 __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS",
            "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
            "record_digest", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
-           "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "atmosphere_record",
+           "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "atmosphere_record", "fresh_seeds",
            "record_through"]
 
 if TYPE_CHECKING:
@@ -153,6 +153,41 @@ PROBES: tuple[Probe, ...] = (
     Probe("downwash@u_scale_ms=8", "downwash", "w0_ms", (1.0,), (("u_scale_ms", 8.0),)),
     Probe("mast_w_attenuation", "mast_w_attenuation", "gain", (0.85, 1.1)),
 )
+
+
+def fresh_seeds(used: Sequence[int], n: int = 2) -> tuple[int, ...]:
+    """``n`` campaign seeds for a rerun that none of the ``used`` (baseline) seeds equals.
+
+    The extended-model reruns check the fit on realisations it was not made with; with
+    seeds the baseline also ran, the check would reuse the same turbulence. Returns 303 and
+    404 (the reruns' historical seeds) where free, else the next multiples of 101 above the
+    largest used seed.
+
+    Parameters
+    ----------
+    used : sequence of int
+        ``diagnosis.seeds``.
+    n : int
+        Number of seeds.
+
+    Returns
+    -------
+    tuple of int
+        ``n`` distinct seeds, none in ``used``.
+
+    Examples
+    --------
+    >>> fresh_seeds([101, 202])
+    (303, 404)
+    >>> fresh_seeds([101, 202, 303, 404, 505])
+    (606, 707)
+    """
+    taken = {int(s) for s in used}
+    historic = (303, 404)[:n]
+    if len(historic) == n and not taken & set(historic):
+        return historic
+    start = (max(taken, default=0) // 101 + 1) * 101
+    return tuple(start + 101 * k for k in range(n))
 
 
 def baseline_level(mechanism: str, parameter: str) -> float:

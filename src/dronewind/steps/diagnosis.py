@@ -287,7 +287,7 @@ def _with_platform(out: dict[str, Any], platform_files: Sequence[str | Path]) ->
 
 
 def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flight_id: str,
-                 processing: Mapping[str, Any], seeds: Sequence[int] = (303, 404),
+                 processing: Mapping[str, Any], seeds: Sequence[int] = (606, 707),
                  mast_l1: str | Path | None = None, atmosphere: str = "model") -> Path:
     """Rerun one flight of the extended campaign (fresh seeds) and store its features.
 

@@ -86,7 +86,7 @@ def published_diagnosis(published_file: str | Path, forward_files: Sequence[str 
 
 def published_rerun(published_file: str | Path, diagnosis_json: str | Path, output: str | Path, *,
                     campaign: Mapping[str, Any], flight_id: str, processing: Mapping[str, Any],
-                    seeds: Sequence[int] = (303, 404)) -> Path:
+                    seeds: Sequence[int] = (606, 707)) -> Path:
     """Baseline and extended model of one sample at Table 4 conditions (common random numbers per seed).
 
     ``campaign`` is the one-flight view of the manifest, ``processing`` the chain settings
