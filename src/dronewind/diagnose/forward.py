@@ -792,9 +792,7 @@ def probe_runs(
         params = _probe_parameters(probe, level)
         mech = [{"mechanism": probe.mechanism, "parameters": params}]
         reuse = truth if probe.mechanism not in TRUTH_MECHANISMS | inverted else None
-        record = atmosphere
-        if atmosphere is not None and probe.mechanism in inverted:
-            record = RECORD_INVERSES[probe.mechanism](atmosphere, params)
+        record = None if atmosphere is None else record_through(atmosphere, mech)
         try:
             with progress.item(name):
                 feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0], measured),

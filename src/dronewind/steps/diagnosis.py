@@ -140,19 +140,34 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
         An unknown ``atmosphere``, or ``measured`` without ``mast_l1``.
     """
     from dronewind.diagnose import forward
+
+    measured = json.loads(Path(measured_json).read_text())
+    record = _atmosphere(mast_l1, atmosphere, measured["conditions"])
+    runs = forward.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds),
+                              parts=None if part is None else [part], atmosphere=record)
+    return write_json(output, runs)
+
+
+def _atmosphere(mast_l1: str | Path | None, atmosphere: str, conditions: Mapping[str, Any]) -> Any:
+    """The forward runs' atmosphere record (``diagnosis.atmosphere``): None for ``model``,
+    the reference mast's L1 around the flight for ``measured``
+    (:func:`dronewind.diagnose.forward.atmosphere_record`).
+
+    Raises
+    ------
+    InputError
+        An unknown ``atmosphere``, or ``measured`` without ``mast_l1``.
+    """
+    from dronewind.diagnose import forward
     from dronewind.errors import InputError
 
     if atmosphere not in forward.ATMOSPHERES:
         raise InputError("diagnosis.atmosphere", f"{atmosphere!r}; expected one of {forward.ATMOSPHERES}")
-    measured = json.loads(Path(measured_json).read_text())
-    record = None
-    if atmosphere == "measured":
-        if mast_l1 is None:
-            raise InputError("diagnosis.atmosphere", "'measured' needs the reference mast's L1 (mast_l1)")
-        record = forward.atmosphere_record(strip_cf(open_product(mast_l1)), measured["conditions"], str(mast_l1))
-    runs = forward.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds),
-                              parts=None if part is None else [part], atmosphere=record)
-    return write_json(output, runs)
+    if atmosphere == "model":
+        return None
+    if mast_l1 is None:
+        raise InputError("diagnosis.atmosphere", "'measured' needs the reference mast's L1 (mast_l1)")
+    return forward.atmosphere_record(strip_cf(open_product(mast_l1)), conditions, str(mast_l1))
 
 
 def merge_forward_parts(part_files: Sequence[str | Path], output: str | Path) -> Path:
@@ -299,7 +314,6 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     """
     from dronewind.diagnose import forward
     from dronewind.diagnose.features import features_to_dict
-    from dronewind.errors import InputError
 
     data = yaml.safe_load(Path(extended_manifest_file).read_text())
     conditions = data["simulation"]["payload_flights"].get(flight_id)
@@ -310,15 +324,9 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     from dronewind.diagnose.features import binned_spectra
 
     mechanisms = data["simulation"].get("mechanisms") or []
-    if atmosphere not in forward.ATMOSPHERES:
-        raise InputError("diagnosis.atmosphere", f"{atmosphere!r}; expected one of {forward.ATMOSPHERES}")
-    measured = atmosphere == "measured"
-    base_record = record = None
-    if measured:
-        if mast_l1 is None:
-            raise InputError("diagnosis.atmosphere", "'measured' needs the reference mast's L1 (mast_l1)")
-        base_record = forward.atmosphere_record(strip_cf(open_product(mast_l1)), conditions, str(mast_l1))
-        record = forward.record_through(base_record, mechanisms)
+    base_record = _atmosphere(mast_l1, atmosphere, conditions)
+    measured = base_record is not None
+    record = None if base_record is None else forward.record_through(base_record, mechanisms)
     out["atmosphere"] = atmosphere
     for k, seed in enumerate(seeds):
         feats, products = forward.run_forward(
