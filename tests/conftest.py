@@ -15,7 +15,17 @@ from pathlib import Path
 
 import pytest
 
-from tests.small_campaign import SHORT_HOVER, write_small_campaign
+#: HDF5 locks a file it writes (flock, exclusive). This process forks while it writes NetCDF
+#: files: the background threads below start Snakemake runs and poll SLURM's queue. A child
+#: holds a copy of the open file, and so the lock, until it closes its inherited descriptors
+#: before exec; a read of the just-written file in that window fails with "NetCDF: HDF error"
+#: (seen once in CI on a file the products fixture had just written). Locking is off in this
+#: process only (HDF5 reads the variable when the library starts, hence before anything imports
+#: netCDF4); the workflow runs it starts keep HDF5's default (workflow_env).
+_HDF5_LOCKING = os.environ.get("HDF5_USE_FILE_LOCKING")
+os.environ["HDF5_USE_FILE_LOCKING"] = "FALSE"
+
+from tests.small_campaign import SHORT_HOVER, write_small_campaign  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -36,7 +46,11 @@ SOURCE_DATE_EPOCH = "1700000000"
 
 def workflow_env() -> dict[str, str]:
     """The environment of a Snakemake subprocess: this one (PYTHONPATH included), the venv first on PATH."""
-    return {**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"}
+    env = {**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"}
+    env.pop("HDF5_USE_FILE_LOCKING")  # the workflow's jobs lock their files as HDF5 does by default
+    if _HDF5_LOCKING is not None:
+        env["HDF5_USE_FILE_LOCKING"] = _HDF5_LOCKING
+    return env
 
 
 def run_workflow(manifest: Path, results: Path, extra_config: Path, *args: str,

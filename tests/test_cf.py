@@ -142,3 +142,22 @@ def test_source_states_measured_or_virtual_and_later_levels_inherit_it(tmp_path)
         assert b.source.startswith("virtual campaign")
         assert c.source == a.source
         assert d.source == DATA_SOURCES["unknown"]
+
+
+def test_open_product_names_a_file_hdf5_cannot_read(tmp_path):
+    """Not NetCDF, a truncated HDF5 file, a missing file: each named, with what the file holds."""
+    from dronewind.core.products import open_product
+    from dronewind.errors import InputError
+
+    text = tmp_path / "text.nc"
+    text.write_bytes(b"previous version")
+    with pytest.raises(InputError, match=r"text\.nc: not readable as a NetCDF-4 file .*16 bytes without the HDF5 sig"):
+        open_product(text)
+    whole = tmp_path / "whole.nc"
+    xr.Dataset({"w": ("time", np.arange(1000.0))}).to_netcdf(whole, engine="netcdf4")
+    cut = tmp_path / "cut.nc"
+    cut.write_bytes(whole.read_bytes()[:2000])
+    with pytest.raises(InputError, match=r"cut\.nc: .*an HDF5 file of 2000 bytes: truncated or damaged"):
+        open_product(cut)
+    with pytest.raises(FileNotFoundError):
+        open_product(tmp_path / "missing.nc")

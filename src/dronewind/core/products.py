@@ -43,9 +43,20 @@ def open_product(path: str | Path) -> xr.Dataset:
     -------
     xarray.Dataset
         Loaded into memory.
+
+    Raises
+    ------
+    InputError
+        The file exists but HDF5 cannot open it: what it holds (its size and whether it
+        starts with the HDF5 signature) and the likely causes are named.
     """
-    with xr.open_dataset(path, engine="netcdf4") as root:
-        ds = root.load()
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as root:
+            ds = root.load()
+    except OSError as exc:
+        if not Path(path).is_file():
+            raise
+        raise InputError(path, f"not readable as a NetCDF-4 file ({exc}); {_file_condition(Path(path))}") from exc
     names = [g.strip() for g in str(ds.attrs.get("groups", "")).split(",") if g.strip()]
     parts = [ds]
     for name in names:
@@ -60,6 +71,17 @@ def open_product(path: str | Path) -> xr.Dataset:
         if dim and dim in merged.dims and merged[var].dims == (dim,):
             merged = merged.assign_coords({dim: merged[var].values.astype(str)}).drop_vars(var)
     return merged
+
+
+def _file_condition(path: Path) -> str:
+    """What a file that HDF5 refused holds, and the usual causes, for the error message."""
+    with path.open("rb") as fh:
+        head = fh.read(8)
+    size = path.stat().st_size
+    if head == b"\x89HDF\r\n\x1a\n":
+        return (f"it is an HDF5 file of {size} bytes: truncated or damaged, or locked by a process still "
+                "writing it (HDF5 file locking; HDF5_USE_FILE_LOCKING=FALSE turns it off)")
+    return f"{size} bytes without the HDF5 signature (expected a file written by dronewind.core.cf.write_netcdf)"
 
 
 def open_by_flight(files: Iterable[PathLike]) -> dict[str, xr.Dataset]:
