@@ -13,6 +13,7 @@ rule l3:
         bench_path("l3", "flight")
     wildcard_constraints:
         flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:
@@ -88,6 +89,7 @@ rule l4:
         bench_path("l4", "flight", "sensor")
     wildcard_constraints:
         flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:

@@ -137,6 +137,13 @@ def _published():
 
 PUBLISHED, PUBLISHED_FLIGHTS = _published()
 
+# Job priorities (Snakemake picks among ready jobs by priority). The forward-model runs are the
+# longest jobs, so the chain that feeds them (simulation, L1-L3, measured features) and the
+# short steps that unlock the next ones (diagnosis, reruns, calibration) go first; the many
+# small per-flight quadrotor jobs fill the cores meanwhile instead of delaying the forward runs.
+PRIORITY_CHAIN = 20
+PRIORITY_FORWARD = 10
+
 
 def _alternatives(ids):
     """Wildcard constraint matching exactly these ids (never an empty alternation)."""

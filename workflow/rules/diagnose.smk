@@ -16,6 +16,7 @@ rule diagnose_measured:
         log_path("diagnose_measured", "flight"),
     benchmark:
         bench_path("diagnose_measured", "flight")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:
@@ -41,6 +42,7 @@ if DIAGNOSIS["probe_jobs"] == "mechanism":
             log_path("diagnose_probe", "flight", "part"),
         benchmark:
             bench_path("diagnose_probe", "flight", "part")
+        priority: PRIORITY_FORWARD
         conda:
             ENV
         params:
@@ -70,6 +72,7 @@ if DIAGNOSIS["probe_jobs"] == "mechanism":
             log_path("diagnose_forward", "flight"),
         benchmark:
             bench_path("diagnose_forward", "flight")
+        priority: PRIORITY_FORWARD
         conda:
             ENV
         script:
@@ -87,6 +90,7 @@ else:
             log_path("diagnose_forward", "flight"),
         benchmark:
             bench_path("diagnose_forward", "flight")
+        priority: PRIORITY_FORWARD
         conda:
             ENV
         params:
@@ -119,6 +123,7 @@ rule diagnose:
         log_path("diagnose"),
     benchmark:
         bench_path("diagnose")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:
@@ -190,6 +195,7 @@ rule diagnose_extended:
         log_path("diagnose_extended", "flight"),
     benchmark:
         bench_path("diagnose_extended", "flight")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:

@@ -12,6 +12,7 @@ rule payload_l1:
         log_path("payload_l1", "flight"),
     benchmark:
         bench_path("payload_l1", "flight")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:
@@ -35,6 +36,7 @@ rule mast_l1:
         log_path("mast_l1", "sonic"),
     benchmark:
         bench_path("mast_l1", "sonic")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:

@@ -11,6 +11,7 @@ rule mast_l2:
         log_path("mast_l2", "flight"),
     benchmark:
         bench_path("mast_l2", "flight")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:

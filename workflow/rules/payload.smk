@@ -13,6 +13,7 @@ rule payload_l2:
         bench_path("payload_l2", "flight")
     wildcard_constraints:
         flight=_alternatives(PAYLOAD_FLIGHTS),
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:

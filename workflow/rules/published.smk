@@ -15,6 +15,7 @@ if DIAGNOSIS["probe_jobs"] == "mechanism":
             log_path("published_probe", "flight", "part"),
         benchmark:
             bench_path("published_probe", "flight", "part")
+        priority: PRIORITY_FORWARD
         conda:
             ENV
         params:
@@ -43,6 +44,7 @@ if DIAGNOSIS["probe_jobs"] == "mechanism":
             log_path("published_forward", "flight"),
         benchmark:
             bench_path("published_forward", "flight")
+        priority: PRIORITY_FORWARD
         conda:
             ENV
         script:
@@ -59,6 +61,7 @@ else:
             log_path("published_forward", "flight"),
         benchmark:
             bench_path("published_forward", "flight")
+        priority: PRIORITY_FORWARD
         conda:
             ENV
         params:
@@ -83,6 +86,7 @@ rule published_diagnosis:
         log_path("published_diagnosis"),
     benchmark:
         bench_path("published_diagnosis")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:
@@ -102,6 +106,7 @@ rule published_rerun:
         log_path("published_rerun", "flight"),
     benchmark:
         bench_path("published_rerun", "flight")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:

@@ -104,6 +104,7 @@ rule quadrotor_calibration:
         log_path("quadrotor_calibration"),
     benchmark:
         bench_path("quadrotor_calibration")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     params:

@@ -14,6 +14,7 @@ if CAMPAIGN.simulated:
                 str(RESULTS / "logs" / "simulate_payload" / f"{_flight}.log"),
             benchmark:
                 str(RESULTS / "benchmarks" / "simulate_payload" / f"{_flight}.tsv")
+            priority: PRIORITY_CHAIN
             conda:
                 ENV
             params:

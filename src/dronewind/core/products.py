@@ -106,13 +106,15 @@ def open_by_flight(files: Iterable[PathLike]) -> dict[str, xr.Dataset]:
     return {k: out[k] for k in sorted(out)}
 
 
-def load_l4_products(l4_files: Iterable[PathLike]) -> L4Products:
+def load_l4_products(l4_files: Iterable[PathLike] | L4Products) -> L4Products:
     """Open L4 files and index them by flight and sensor.
 
     Parameters
     ----------
-    l4_files : iterable of path
-        L4 files (``<flight>_<sensor>.nc``) written by :func:`dronewind.steps.l4`.
+    l4_files : iterable of path, or L4Products
+        L4 files (``<flight>_<sensor>.nc``) written by :func:`dronewind.steps.l4`; products
+        already loaded by this function are returned as they are (a caller drawing several
+        figures opens the files once).
 
     Returns
     -------
@@ -126,6 +128,8 @@ def load_l4_products(l4_files: Iterable[PathLike]) -> L4Products:
         A file without the global attributes ``flight`` and ``sensor``, or two files for
         the same flight and sensor.
     """
+    if isinstance(l4_files, Mapping):
+        return {flight: dict(sensors) for flight, sensors in l4_files.items()}
     out: L4Products = {}
     for path in l4_files:
         ds = open_product(path)
