@@ -12,6 +12,7 @@ Examples
 --------
     .venv/bin/python benchmarks/compare_results.py /work/before/results/mosai2023 results/mosai2023
     .venv/bin/python benchmarks/compare_results.py A B --json comparison.json
+    .venv/bin/python benchmarks/compare_results.py A B --summary --json summary.json
 """
 
 from __future__ import annotations
@@ -127,19 +128,42 @@ def compare(a: Path, b: Path) -> dict[str, Any]:
     return {"a": str(a), "b": str(b), "counts": counts, "n_differences": len(diffs), "differences": diffs}
 
 
+def summarise(differences: list[str]) -> dict[str, Any]:
+    """The differences grouped over flights and UAVs (ids replaced by ``*``): how many, and the
+    largest ``max |diff|`` where values differ; path-only attributes (``source_file``) counted apart."""
+    import re
+
+    groups: dict[str, dict[str, Any]] = {}
+    for line in differences:
+        key = re.sub(r"(?<![A-Za-z0-9])[sfqm]\d\d(?![0-9])", "*", line.split(": ", 1)[0])
+        if "'source_file'" in line:
+            key = "source_file attributes (the results folder's path)"
+        entry = groups.setdefault(key, {"n": 0, "max_abs_diff": None})
+        entry["n"] += 1
+        found = re.search(r"max \|diff\| ([-+0-9.eE]+|nan|inf)", line)
+        if found:
+            value = float(found.group(1))
+            entry["max_abs_diff"] = value if entry["max_abs_diff"] is None else max(entry["max_abs_diff"], value)
+    return dict(sorted(groups.items()))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("a", type=Path, help="first results folder (results/<campaign>)")
     parser.add_argument("b", type=Path, help="second results folder")
     parser.add_argument("--json", type=Path, help="write the comparison as JSON here")
+    parser.add_argument("--summary", action="store_true",
+                        help="in the JSON, the differences grouped over flights (summarise) instead of each line")
     args = parser.parse_args(argv)
     result = compare(args.a, args.b)
+    if args.summary:
+        result["differences"] = summarise(result["differences"])
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(result, indent=1) + "\n")
     print(json.dumps(result["counts"]), f"{result['n_differences']} differences")
-    for line in result["differences"][:200]:
-        print("  " + line)
+    for line in list(result["differences"])[:200]:
+        print("  " + (f"{line}: {result['differences'][line]}" if args.summary else line))
     return 0 if result["n_differences"] == 0 else 1
 
 
