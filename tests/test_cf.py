@@ -161,3 +161,23 @@ def test_open_product_names_a_file_hdf5_cannot_read(tmp_path):
         open_product(cut)
     with pytest.raises(FileNotFoundError):
         open_product(tmp_path / "missing.nc")
+
+
+def test_open_product_reads_a_window_of_some_variables(tmp_path):
+    """variables and time: the same values as the whole file read and then cut."""
+    from dronewind.core.products import open_product
+
+    n = 600
+    time = np.datetime64("2023-08-21T14:00", "ns") + (np.arange(n) * 100_000_000).astype("timedelta64[ns]")
+    rng = np.random.default_rng(3)
+    attrs = {"u_east_ms": {"units": "m s-1", "standard_name": "eastward_wind"},
+             "w_up_ms": {"units": "m s-1", "standard_name": "upward_air_velocity"}}
+    ds = xr.Dataset({k: ("time", rng.normal(size=n), a) for k, a in attrs.items()}, coords={"time": time})
+    path = write_netcdf(ds, tmp_path / "rec.nc", title="t", summary="s", processing_level="L1", history="h",
+                        station_id="x")
+    window = slice(time[100], time[199])
+    whole = open_product(path)
+    cut = open_product(path, ["w_up_ms", "absent_ms"], window)
+    assert list(cut.data_vars) == ["w_up_ms"] and cut.sizes["time"] == 100
+    assert cut["w_up_ms"].identical(whole["w_up_ms"].sel(time=window))
+    assert cut.attrs == whole.attrs

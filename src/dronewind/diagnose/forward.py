@@ -67,7 +67,7 @@ from dronewind.core.progress import Progress
 from dronewind.core.raw import RawRecord
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.errors import InputError
-from dronewind.manifest import payload_flight_manifest
+from dronewind.manifest import parse_utc, payload_flight_manifest
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.payload.chain import compute_ins_l1, compute_payload_l2, compute_sonic_l1
 
@@ -75,7 +75,7 @@ __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETT
            "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
            "record_digest", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
            "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "atmosphere_record", "fresh_seeds",
-           "record_through"]
+           "record_through", "hover_span", "atmosphere_window", "ATMOSPHERE_VARIABLES"]
 
 if TYPE_CHECKING:
     from dronewind.simulate.payload import PayloadTruth
@@ -374,8 +374,7 @@ def forward_manifest(
     flight = data["payload_flights"][0]
     flight.pop("window", None)
     if measured_atmosphere:
-        start = np.datetime64(str(conditions["start"]).rstrip("Z"), "us")
-        end = start + np.timedelta64(int(round(float(conditions["duration_s"]) * 1e6)), "us")
+        _, end = hover_span(conditions)
         flight["window"] = {"start": str(conditions["start"]), "end": np.datetime_as_string(end, unit="us") + "Z"}
     data["name"] = f"{campaign_data['name']}_forward_{flight_id}"
     data["simulation"] = {
@@ -910,8 +909,32 @@ def record_through(record: xr.Dataset, mechanisms: Sequence[Mapping[str, Any]]) 
             record = RECORD_INVERSES[m["mechanism"]](record, m["parameters"])
     return record
 
+
+#: Variables of the reference mast's record that the forward runs' atmosphere takes (the
+#: temperature optional).
+ATMOSPHERE_VARIABLES: tuple[str, ...] = ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k")
 #: Margin kept around the hover window when the measured record is cut (:func:`atmosphere_record`) [s].
 ATMOSPHERE_MARGIN_S = 3600.0
+
+
+def hover_span(conditions: Mapping[str, Any]) -> tuple[np.datetime64, np.datetime64]:
+    """Start and end of a flight's measured hover window (``start``, ``duration_s`` of :func:`forward_conditions`).
+
+    Returns
+    -------
+    tuple of numpy.datetime64
+        UTC, microsecond resolution.
+    """
+    start = parse_utc(str(conditions["start"]), "conditions.start")
+    return start, start + np.timedelta64(int(round(float(conditions["duration_s"]) * 1e6)), "us")
+
+
+def atmosphere_window(conditions: Mapping[str, Any]) -> slice:
+    """The times of the reference mast's record that :func:`atmosphere_record` keeps: the hover
+    window and :data:`ATMOSPHERE_MARGIN_S` on either side (a ``slice`` of datetime64)."""
+    start, end = hover_span(conditions)
+    margin = np.timedelta64(int(ATMOSPHERE_MARGIN_S * 1e6), "us")
+    return slice(start - margin, end + margin)
 
 
 def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: str = "mast record") -> xr.Dataset:
@@ -943,18 +966,15 @@ def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: st
     InputError
         Variables or the time axis missing.
     """
-    names = [v for v in ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k") if v in mast]
+    names = [v for v in ATMOSPHERE_VARIABLES if v in mast]
     missing = sorted({"u_east_ms", "v_north_ms", "w_up_ms"} - set(names))
     if missing:
         raise InputError(where, f"missing variable(s) {missing} (mast L1 names expected)")
     if "time" not in mast.dims or not np.issubdtype(mast["time"].dtype, np.datetime64):
         raise InputError(where, "needs a datetime64 'time' axis")
-    start = np.datetime64(str(conditions["start"]).rstrip("Z"), "us")
-    margin = np.timedelta64(int(ATMOSPHERE_MARGIN_S * 1e6), "us")
-    end = start + np.timedelta64(int(round(float(conditions["duration_s"]) * 1e6)), "us")
     from dronewind.simulate.settings import MAST_DEFAULTS
 
-    cut = mast[names].sel(time=slice(start - margin, end + margin))
+    cut = mast[names].sel(time=atmosphere_window(conditions))
     cut = cut.drop_vars([c for c in cut.coords if c != "time"])
     cut.attrs = {"noise_ms": MAST_DEFAULTS["noise_ms"][0],
                  "temperature_noise_k": MAST_DEFAULTS["temperature_noise_k"][0]}

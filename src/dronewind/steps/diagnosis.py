@@ -167,7 +167,9 @@ def _atmosphere(mast_l1: str | Path | None, atmosphere: str, conditions: Mapping
         return None
     if mast_l1 is None:
         raise InputError("diagnosis.atmosphere", "'measured' needs the reference mast's L1 (mast_l1)")
-    return forward.atmosphere_record(strip_cf(open_product(mast_l1)), conditions, str(mast_l1))
+    # only the record's wind and temperature around the flight are read, not the whole L1
+    record = open_product(mast_l1, forward.ATMOSPHERE_VARIABLES, forward.atmosphere_window(conditions))
+    return forward.atmosphere_record(strip_cf(record), conditions, str(mast_l1))
 
 
 def merge_forward_parts(part_files: Sequence[str | Path], output: str | Path) -> Path:
