@@ -76,13 +76,6 @@ def test_model_error_ranges_lie_inside_the_settings_ranges():
                     assert not low <= default <= high, (name, key)  # the forward model's value is excluded
 
 
-def test_a_flat_model_error_of_earlier_draws_is_read_as_payload_settings():
-    old = ex.Draw("none", {}, 5, {"pendulum_length_m": 30.1}, "pendulum_length")
-    assert old.model_error_sections == {"payload": {"pendulum_length_m": 30.1}}
-    assert ex.campaign_manifest(old)["simulation"]["payload"] == {"pendulum_length_m": 30.1}
-    assert ex.Draw("none", {}, 5).model_error_sections == {}
-
-
 def test_judge_flags_a_wrong_cause_and_measures_the_estimate_error():
     truth = ex.Draw("w_gain", {"gain": 0.8}, 1)
     diag = {"named_causes": ["w_gain", "sonic_noise"], "ambiguity_sets": [],

@@ -188,8 +188,7 @@ class Draw:
         Campaign seed.
     model_error : dict
         Settings the forward model does not know, by ``simulation`` section:
-        ``{"atmosphere": {"spectrum": "von_karman", ...}}`` (empty: none). A flat mapping
-        of numbers (the form of earlier draws) holds ``simulation.payload`` settings.
+        ``{"atmosphere": {"spectrum": "von_karman", ...}}`` (empty: none).
     model_error_name : str
         Key of :data:`MODEL_ERRORS` ("" when no model error).
     """
@@ -197,17 +196,8 @@ class Draw:
     mechanism: str
     parameters: dict[str, float]
     seed: int
-    model_error: dict[str, Any] = field(default_factory=dict)
+    model_error: dict[str, dict[str, Any]] = field(default_factory=dict)
     model_error_name: str = ""
-
-    @property
-    def model_error_sections(self) -> dict[str, dict[str, Any]]:
-        """:attr:`model_error` by ``simulation`` section (a flat, earlier form read as ``payload``)."""
-        if not self.model_error:
-            return {}
-        if all(isinstance(v, Mapping) for v in self.model_error.values()):
-            return {section: dict(values) for section, values in self.model_error.items()}
-        return {"payload": dict(self.model_error)}
 
     @property
     def case(self) -> str:
@@ -410,7 +400,7 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
                            "hover_height_m": 28.0}
     mechanisms = [] if truth.mechanism == "none" else [{"mechanism": truth.mechanism,
                                                         "parameters": dict(truth.parameters)}]
-    sections = {k: dict(v) for k, v in truth.model_error_sections.items()}
+    sections = {k: dict(v) for k, v in truth.model_error.items()}
     if atmosphere:  # the campaign's own atmosphere settings, beside a model error's
         sections["atmosphere"] = {**dict(atmosphere), **sections.get("atmosphere", {})}
     return {
