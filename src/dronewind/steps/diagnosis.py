@@ -304,11 +304,12 @@ def _with_platform(out: dict[str, Any], platform_files: Sequence[str | Path]) ->
 
 
 def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flight_id: str,
-                 processing: Mapping[str, Any], seeds: Sequence[int] = (606, 707),
+                 processing: Mapping[str, Any], seeds: Sequence[int],
                  mast_l1: str | Path | None = None, atmosphere: str = "model") -> Path:
     """Rerun one flight of the extended campaign (fresh seeds) and store its features.
 
-    ``processing`` holds the chain settings (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+    ``processing`` holds the chain settings (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`);
+    ``seeds`` are fresh seeds, none of ``diagnosis.seeds`` (:func:`dronewind.diagnose.forward.fresh_seeds`).
     ``mast_l1`` and ``atmosphere`` as for :func:`forward_probes`: with the measured
     atmosphere the rerun takes the same record as the baseline runs, read through the named
     mechanisms that act on it (:func:`dronewind.diagnose.forward.record_through`), so that

@@ -86,11 +86,12 @@ def published_diagnosis(published_file: str | Path, forward_files: Sequence[str 
 
 def published_rerun(published_file: str | Path, diagnosis_json: str | Path, output: str | Path, *,
                     campaign: Mapping[str, Any], flight_id: str, processing: Mapping[str, Any],
-                    seeds: Sequence[int] = (606, 707)) -> Path:
+                    seeds: Sequence[int]) -> Path:
     """Baseline and extended model of one sample at Table 4 conditions (common random numbers per seed).
 
     ``campaign`` is the one-flight view of the manifest, ``processing`` the chain settings
-    (as for :func:`published_forward`); ``seeds`` are fresh seeds, not ``diagnosis.seeds``.
+    (as for :func:`published_forward`); ``seeds`` are fresh seeds, not ``diagnosis.seeds``
+    (:func:`dronewind.diagnose.forward.fresh_seeds`, as the workflow passes them).
     """
     from dronewind.diagnose import forward
     from dronewind.diagnose import published as dp
