@@ -67,6 +67,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from json_output import print_and_write
+
 ROOT = Path(__file__).resolve().parents[1]
 GOLD_DIR = ROOT.parent / "shared" / "data" / "ameriflux_gold_openpath"
 FLUXPART_DIR = ROOT.parent / "shared" / "data" / "fluxpart_csat3_toa5"
@@ -544,11 +546,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if not args.keep:
             shutil.rmtree(base, ignore_errors=True)
-    text = json.dumps(result, indent=1)
-    if args.out:
-        args.out.write_text(text + "\n")
-    else:
-        print(text)
+    print_and_write(result, args.out)
     return 0
 
 

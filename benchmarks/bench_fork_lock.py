@@ -16,11 +16,12 @@ Example::
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
 from pathlib import Path
+
+from json_output import print_and_write
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -78,10 +79,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
     result = {"runs": [run_mode(locking, args.n, args.busy) for locking in (True, False)]}
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.out:
-        args.out.write_text(text + "\n")
+    print_and_write(result, args.out)
 
 
 if __name__ == "__main__":

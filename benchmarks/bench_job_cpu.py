@@ -29,6 +29,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from json_output import print_and_write
+
 REPO = Path(__file__).resolve().parents[1]
 PREAMBLE = "import pickle\nfrom snakemake.logging import logger\nfrom snakemake.iocontainers import Snakemake\n"
 
@@ -124,10 +126,7 @@ def main() -> None:
         result["jobs"][name] = job_cpu(tree, args.results.resolve(), args.repeat)
         result["imports"][name] = script_imports(tree, args.repeat)
         print(name, json.dumps(result["jobs"][name]), flush=True)
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.out:
-        args.out.write_text(text + "\n")
+    print_and_write(result, args.out)
 
 
 if __name__ == "__main__":

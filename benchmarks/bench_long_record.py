@@ -32,6 +32,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from json_output import print_and_write
+
 FS_HZ = 20.0
 SONIC = {"id": "csat3_30m", "height_m": 30.0, "azimuth_deg": 218.0}
 T0_ISO = "2023-08-01T00:00:00"
@@ -165,11 +167,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps([str(f) for f in write_days(Path(args.out_dir), args.generate)]))
         return 0
     report = run(sorted(args.days), args.workers, args.tmp, args.toa5_dir)
-    text = json.dumps(report, indent=2)
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text + "\n")
-    print(text)
+    print_and_write(report, args.out, indent=2)
     return 0
 
 

@@ -20,7 +20,6 @@ The CPU seconds per stage come from the rules' benchmark files
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import resource
 import subprocess
@@ -34,6 +33,7 @@ import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_workflow_rules import collect  # noqa: E402
+from json_output import print_and_write  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -118,10 +118,7 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, help="run into this new folder and keep it (default: a temporary one)")
     args = parser.parse_args()
     result = run(args.kind, args.cores, args.config, args.keep)
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.out:
-        args.out.write_text(text + "\n")
+    print_and_write(result, args.out)
 
 
 if __name__ == "__main__":
