@@ -966,13 +966,11 @@ def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: st
     InputError
         Variables or the time axis missing.
     """
-    names = [v for v in ATMOSPHERE_VARIABLES if v in mast]
-    missing = sorted({"u_east_ms", "v_north_ms", "w_up_ms"} - set(names))
-    if missing:
-        raise InputError(where, f"missing variable(s) {missing} (mast L1 names expected)")
-    if "time" not in mast.dims or not np.issubdtype(mast["time"].dtype, np.datetime64):
-        raise InputError(where, "needs a datetime64 'time' axis")
+    from dronewind.simulate.payload import check_atmosphere_record
     from dronewind.simulate.settings import MAST_DEFAULTS
+
+    check_atmosphere_record(mast, where)
+    names = [v for v in ATMOSPHERE_VARIABLES if v in mast]
 
     cut = mast[names].sel(time=atmosphere_window(conditions))
     cut = cut.drop_vars([c for c in cut.coords if c != "time"])

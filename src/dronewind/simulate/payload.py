@@ -90,6 +90,7 @@ __all__ = [
     "payload_truth",
     "PayloadTruth",
     "measured_constraint",
+    "check_atmosphere_record",
     "atmosphere_digest",
 ]
 
@@ -447,11 +448,7 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
     features; that part must be measured.
     """
     where = "atmosphere record"
-    for var in ("u_east_ms", "v_north_ms", "w_up_ms"):
-        if var not in record:
-            raise InputError(where, f"missing variable {var!r} (mast L1 names expected)")
-    if "time" not in record.dims or not np.issubdtype(record["time"].dtype, np.datetime64):
-        raise InputError(where, "needs a datetime64 'time' axis")
+    check_atmosphere_record(record, where)
     us = np.timedelta64(1, "us")
     t_rec = np.asarray((record["time"].values - clock.field_t0) / us, float) * 1e-6  # field time [s]
     finite = np.isfinite(record["u_east_ms"].values) & np.isfinite(record["v_north_ms"].values) \
@@ -488,6 +485,29 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
     covered = max(0.0, min(hi, grid[-1]) - max(lo, 0.0))
     return con, {"record_covered_s": covered, "mirrored_s": float(n * dt - covered),
                  "interpolated_samples": n_interp, "record_rate_hz": 1.0 / dt}
+
+
+def check_atmosphere_record(record: xr.Dataset, where: str) -> None:
+    """Check that a measured record can be a field's atmosphere (:func:`measured_constraint`).
+
+    Parameters
+    ----------
+    record : xarray.Dataset
+        The record.
+    where : str
+        Name of the record in errors (its file).
+
+    Raises
+    ------
+    InputError
+        The wind variables (mast L1 names ``u_east_ms``, ``v_north_ms``, ``w_up_ms``) or the
+        datetime64 ``time`` axis missing.
+    """
+    missing = sorted({"u_east_ms", "v_north_ms", "w_up_ms"} - set(record.data_vars))
+    if missing:
+        raise InputError(where, f"missing variable(s) {missing} (mast L1 names expected)")
+    if "time" not in record.dims or not np.issubdtype(record["time"].dtype, np.datetime64):
+        raise InputError(where, "needs a datetime64 'time' axis")
 
 
 def _turbulence_model(cond: PayloadFlightConditions, field: _FieldPoints, spec: atm.FieldSpec) -> atm.FieldSpec:
