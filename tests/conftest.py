@@ -20,11 +20,19 @@ import pytest
 #: holds a copy of the open file, and so the lock, until it closes its inherited descriptors
 #: before exec; a read of the just-written file in that window fails with "NetCDF: HDF error"
 #: (seen once in CI on a file the products fixture had just written; reproduced by
-#: benchmarks/bench_fork_lock.py: 901 of 3000 reads failed with locking, none without). Locking is off in this
-#: process only (HDF5 reads the variable when the library starts, hence before anything imports
-#: netCDF4); the workflow runs it starts keep HDF5's default (workflow_env).
+#: benchmarks/bench_fork_lock.py: 901 of 3000 reads failed with locking, none without).
+#: Locking is off in this process only: HDF5 reads HDF5_USE_FILE_LOCKING once, when the
+#: library starts, so it is set, the library started, and the environment restored; every
+#: process this one starts (Snakemake runs, sbatch jobs) keeps HDF5's default.
 _HDF5_LOCKING = os.environ.get("HDF5_USE_FILE_LOCKING")
 os.environ["HDF5_USE_FILE_LOCKING"] = "FALSE"
+import netCDF4  # noqa: E402
+
+netCDF4.Dataset("hdf5_start.nc", "w", diskless=True, persist=False).close()
+if _HDF5_LOCKING is None:
+    del os.environ["HDF5_USE_FILE_LOCKING"]
+else:
+    os.environ["HDF5_USE_FILE_LOCKING"] = _HDF5_LOCKING
 
 from tests.small_campaign import SHORT_HOVER, write_small_campaign  # noqa: E402
 
@@ -47,11 +55,7 @@ SOURCE_DATE_EPOCH = "1700000000"
 
 def workflow_env() -> dict[str, str]:
     """The environment of a Snakemake subprocess: this one (PYTHONPATH included), the venv first on PATH."""
-    env = {**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"}
-    env.pop("HDF5_USE_FILE_LOCKING")  # the workflow's jobs lock their files as HDF5 does by default
-    if _HDF5_LOCKING is not None:
-        env["HDF5_USE_FILE_LOCKING"] = _HDF5_LOCKING
-    return env
+    return {**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}"}
 
 
 def run_workflow(manifest: Path, results: Path, extra_config: Path, *args: str,
@@ -218,11 +222,7 @@ def small_campaign_report(small_campaign_run) -> Path:
     """``snakemake --report`` of the session's finished run (``results_a``): the HTML file, built once."""
     folder, manifest, extra, results = small_campaign_run
     page = folder / "report.html"
-    proc = subprocess.run(
-        [str(BIN / "snakemake"), "--configfile", "config/config.yaml", str(extra), "--config",
-         f"campaign={manifest}", f"results_dir={results.parent}", "--report", str(page)],
-        cwd=REPO, capture_output=True, text=True, timeout=600, check=False, env=workflow_env(),
-    )
+    proc = run_workflow(manifest, results.parent, extra, "--report", str(page))
     assert proc.returncode == 0, proc.stderr[-4000:]
     return page
 

@@ -181,3 +181,30 @@ def test_open_product_reads_a_window_of_some_variables(tmp_path):
     assert list(cut.data_vars) == ["w_up_ms"] and cut.sizes["time"] == 100
     assert cut["w_up_ms"].identical(whole["w_up_ms"].sel(time=window))
     assert cut.attrs == whole.attrs
+
+
+def test_the_session_reads_a_file_another_process_holds_locked(tmp_path):
+    """tests/conftest.py starts HDF5 with file locking off in this process only (a forked child's
+    copy of a written file's lock made reads fail in CI); the processes it starts keep the default."""
+    import os
+    import subprocess
+    import sys
+
+    from dronewind.core.products import open_product
+
+    path = write_netcdf(xr.Dataset({"w": ("time", np.arange(5.0), {"units": "m s-1"})}), tmp_path / "held.nc",
+                        title="t", summary="s", processing_level="L1", history="h", station_id="x",
+                        feature_type=None)
+    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, sys, time; f = open(sys.argv[1], 'rb'); "
+                               "fcntl.flock(f, fcntl.LOCK_EX); print('held', flush=True); time.sleep(60)", str(path)],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        assert open_product(path)["w"].values.tolist() == [0.0, 1.0, 2.0, 3.0, 4.0]
+        # a child process starts HDF5 with the default (locking on) and cannot read it
+        child = subprocess.run([sys.executable, "-c", "import netCDF4, sys; netCDF4.Dataset(sys.argv[1]).close()",
+                                str(path)], capture_output=True, text=True, env=dict(os.environ), check=False)
+        assert child.returncode != 0 and "HDF error" in child.stderr
+    finally:
+        holder.kill()
+        holder.wait()

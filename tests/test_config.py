@@ -109,7 +109,8 @@ def test_every_setting_round_trips_through_text():
      "processing.rotation = 'dubble' is not allowed: must be one of single, double, triple, planar_fit"),
     ({"processing": {"spectra": {"segments": "three"}}}, "processing.spectra.segments = 'three' is not an integer"),
     ({"diagnosis": {"seeds": []}}, "diagnosis.seeds = [] has 0 item(s): must have at least 1"),
-    ({"diagnosis": {"platform": {"segment_s": "5"}}}, "diagnosis.platform.segment_s = 5"),
+    ({"diagnosis": {"platform": {"segment_s": "5"}}},
+     "diagnosis.platform.segment_s = 5 is out of range: must be >= 10"),
 ])
 def test_bad_values_are_reported_with_key_path_and_bounds(setting, message):
     with pytest.raises(InputError) as err:

@@ -97,9 +97,12 @@ def test_hidden_effect_is_found(truth, request):
     verdict = judge(truth, diagnosis)
     summary = json.dumps({"verdict": verdict, "candidates": diagnosis["candidates"][:4]}, indent=1, default=str)
     if truth.case == "model_error":
-        # no catalog cause for physics the forward model lacks; what it misses is reported instead
+        # no catalog cause for physics the forward model lacks; the goodness of fit and what the
+        # model misses (features beyond their errors; none when the misfit is within them) are reported
         assert not verdict["false_alarm"] or verdict["caveated"], f"false attribution: {summary}"
-        assert {"goodness_of_fit", "unexplained"} <= set(diagnosis)
+        gof = diagnosis["goodness_of_fit"]
+        assert gof["dof"] > 0 and gof["chi2"] >= 0 and 0.0 <= gof["p_value"] <= 1.0, gof
+        assert isinstance(diagnosis["unexplained"], list) and all("feature" in u for u in diagnosis["unexplained"])
     elif truth.mechanism == "none":
         assert not verdict["false_alarm"], f"false alarm: {summary}"
     else:

@@ -48,6 +48,7 @@ from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 from dronewind.steps.lock import LOCK_NAME, ResultsLockedError, acquire_results_lock, lock_owner, release_results_lock
 from dronewind.steps.payload import simulate_payload, simulation_manifest
+from tests.conftest import SOURCE_DATE_EPOCH, run_workflow, workflow_env
 from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]
@@ -857,15 +858,11 @@ def test_lock_of_another_host_is_refused(tmp_path):
 
 def snakemake(folder: Path, results: Path, *args: str, env: dict[str, str] | None = None,
               target: tuple[str, ...] | str = ("tables/flight_stats.csv",)) -> subprocess.CompletedProcess:
+    """The workflow on ``folder``'s small campaign into ``results`` (dates fixed as the session's runs)."""
     targets = (target,) if isinstance(target, str) else target
-    return subprocess.run(
-        [str(BIN / "snakemake"), "--cores", "2", "--configfile", "config/config.yaml", str(folder / "short.yaml"),
-         "--config", f"campaign={folder / 'smallcamp.yaml'}", f"results_dir={results}", *args, "--",
-         *(str(results / "smallcamp" / t) for t in targets)],
-        cwd=REPO, capture_output=True, text=True, timeout=900, check=False,
-        env={**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}", "SOURCE_DATE_EPOCH": "1700000000",
-             **(env or {})},
-    )
+    return run_workflow(folder / "smallcamp.yaml", results, folder / "short.yaml", *args, "--",
+                        *(str(results / "smallcamp" / t) for t in targets),
+                        env={"SOURCE_DATE_EPOCH": SOURCE_DATE_EPOCH, **(env or {})})
 
 
 @pytest.fixture(scope="module")
@@ -874,7 +871,7 @@ def two_runs(small_campaign_run, small_campaign_rerun):
 
     ``results_b``: up to flight_stats.csv and campaign.json; ``results_a``: the whole
     workflow, a superset of those files. Both with the ``date_created`` of
-    ``SOURCE_DATE_EPOCH=1700000000``, as :func:`snakemake` here.
+    :data:`tests.conftest.SOURCE_DATE_EPOCH`, as :func:`snakemake` here.
     """
     folder, *_ = small_campaign_run
     assert (folder / "smallcamp.yaml").is_file() and (folder / "short.yaml").is_file()
@@ -924,7 +921,7 @@ def test_killed_run_resumes_with_the_same_command(two_runs):
     cmd = [str(BIN / "snakemake"), "--cores", "1", "--configfile", "config/config.yaml", str(two_runs / "short.yaml"),
            "--config", f"campaign={two_runs / 'smallcamp.yaml'}", f"results_dir={results}", "--",
            str(results / "smallcamp" / "tables" / "flight_stats.csv")]
-    env = {**os.environ, "PATH": f"{BIN}:{os.environ.get('PATH', '')}", "SOURCE_DATE_EPOCH": "1700000000"}
+    env = {**workflow_env(), "SOURCE_DATE_EPOCH": SOURCE_DATE_EPOCH}
     first = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                              start_new_session=True)
     l1 = results / "smallcamp" / "netcdf" / "L1"

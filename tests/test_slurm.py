@@ -30,18 +30,6 @@ BIN = Path(sys.executable).parent
 pytestmark = [pytest.mark.slurm, pytest.mark.slow]
 
 
-@pytest.fixture(scope="module")
-def slurm():
-    if os.geteuid() != 0:
-        pytest.skip("SLURM test needs root to install slurm-wlm/munge and start the daemons")
-    proc = subprocess.run(["bash", str(REPO / "scripts/setup_slurm.sh")], capture_output=True, text=True,
-                          timeout=900, check=False)
-    if proc.returncode != 0 and shutil.which("slurmctld") is None:
-        pytest.skip(f"SLURM could not be installed on this machine: {proc.stderr[-500:]}")
-    assert proc.returncode == 0, f"SLURM installed but did not start:\n{proc.stdout}\n{proc.stderr}"
-    return True
-
-
 class _QueueWatch(threading.Thread):
     """Polls squeue and keeps the largest number of queued or running jobs of one rule."""
 
