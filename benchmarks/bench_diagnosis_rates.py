@@ -46,7 +46,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -59,6 +58,7 @@ import numpy as np
 import scipy.stats
 import yaml
 
+from bench_common import git_commit
 from dronewind.diagnose.experiments import Draw, judge, run_in_process, stratified_draws, wilson_interval
 
 REPO = Path(__file__).resolve().parents[1]
@@ -163,11 +163,6 @@ def summarise(verdicts: list[dict[str, Any]], alpha: float) -> dict[str, Any]:
     }
 
 
-def _commit() -> str:
-    proc = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True, check=False)
-    return proc.stdout.strip() or "unknown"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--draws", type=int, default=60)
@@ -190,7 +185,7 @@ def main() -> None:
     log_path = args.out.with_suffix(".log")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    commit = _commit()  # the code that runs, whatever is committed while it does
+    commit = git_commit()  # the code that runs, whatever is committed while it does
     verdicts = []
     with log_path.open("w") as log:
         log.write(json.dumps({"command": " ".join(sys.argv), "commit": commit, "draws": len(draws),

@@ -21,7 +21,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from json_output import print_and_write
+from bench_common import print_and_write
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -17,11 +17,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import tempfile
 import time
 from pathlib import Path
 
+from bench_common import git_commit
 from dronewind.diagnose.experiments import Draw, judge, run_in_process
 
 #: name -> hidden truth (mechanism, every parameter, campaign seed)
@@ -52,7 +52,7 @@ def main() -> None:
     parser.add_argument("--case", action="append", choices=sorted(CASES), help="run only these cases (repeatable)")
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
     args = parser.parse_args()
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=False).stdout.strip()
+    commit = git_commit()
     results = []
     for name in args.case or sorted(CASES):
         print(f"case {name} ...", flush=True)

@@ -29,7 +29,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from json_output import print_and_write
+from bench_common import print_and_write
 
 REPO = Path(__file__).resolve().parents[1]
 PREAMBLE = "import pickle\nfrom snakemake.logging import logger\nfrom snakemake.iocontainers import Snakemake\n"

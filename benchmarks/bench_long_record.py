@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from json_output import print_and_write
+from bench_common import print_and_write
 
 FS_HZ = 20.0
 SONIC = {"id": "csat3_30m", "height_m": 30.0, "azimuth_deg": 218.0}

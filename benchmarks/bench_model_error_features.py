@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import copy
 import json
-import subprocess
 import tempfile
 import time
 from pathlib import Path
@@ -30,6 +29,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from bench_common import git_commit
 from dronewind.compare.chain import compute_l3
 from dronewind.diagnose import experiments as ex
 from dronewind.manifest import with_defaults
@@ -116,8 +116,7 @@ def main() -> None:
         top = entry["largest"][0] if entry["largest"] else {}
         print(f"{truth.label} {truth.model_error}: rms z {entry['rms_z']:.2f}, {entry['n_above_2']}/"
               f"{entry['n_features']} |z| > 2, largest {top}", flush=True)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True,
-                            check=False).stdout.strip()
+    commit = git_commit()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({
         "command": f"PYTHONPATH=src nice -n 5 .venv/bin/python benchmarks/bench_model_error_features.py "

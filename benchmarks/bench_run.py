@@ -32,8 +32,8 @@ import numpy as np
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_common import print_and_write  # noqa: E402
 from bench_workflow_rules import collect  # noqa: E402
-from json_output import print_and_write  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -131,8 +132,6 @@ def compare(a: Path, b: Path) -> dict[str, Any]:
 def summarise(differences: list[str]) -> dict[str, Any]:
     """The differences grouped over flights and UAVs (ids replaced by ``*``): how many, and the
     largest ``max |diff|`` where values differ; path-only attributes (``source_file``) counted apart."""
-    import re
-
     groups: dict[str, dict[str, Any]] = {}
     for line in differences:
         key = re.sub(r"(?<![A-Za-z0-9])[sfqm]\d\d(?![0-9])", "*", line.split(": ", 1)[0])
@@ -157,13 +156,14 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     result = compare(args.a, args.b)
     if args.summary:
-        result["differences"] = summarise(result["differences"])
+        result["summary"] = summarise(result.pop("differences"))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(result, indent=1) + "\n")
     print(json.dumps(result["counts"]), f"{result['n_differences']} differences")
-    for line in list(result["differences"])[:200]:
-        print("  " + (f"{line}: {result['differences'][line]}" if args.summary else line))
+    lines = [f"{k}: {v}" for k, v in result["summary"].items()] if args.summary else result["differences"]
+    for line in lines[:200]:
+        print("  " + line)
     return 0 if result["n_differences"] == 0 else 1
 
 

@@ -1,10 +1,19 @@
-"""The benchmarks' last step: the result printed as JSON and written to ``--out`` when given."""
+"""What several benchmarks share: the commit they ran, and their result printed as JSON and written to ``--out``."""
 
 from __future__ import annotations
 
 import json
+import subprocess
 from pathlib import Path
 from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def git_commit() -> str:
+    """The checkout's commit (``git rev-parse HEAD`` in the repository, from any folder), or "unknown"."""
+    proc = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True, check=False)
+    return proc.stdout.strip() or "unknown"
 
 
 def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
