@@ -205,9 +205,9 @@ RERUN_TARGETS = ("tables/flight_stats.csv", "campaign.json")
 def small_campaign_rerun(small_campaign_run):
     """The same campaign, manifest and config run again into ``results_b`` up to :data:`RERUN_TARGETS`.
 
-    Returns ``results_b/smallcamp``. Compared with ``results_a`` by tests/test_e2e.py
-    (the data) and tests/test_faults.py (every file, byte for byte); tests/test_faults.py
-    also deletes and rebuilds its ``campaign.json`` under a held lock.
+    Returns ``results_b/smallcamp``. Compared with ``results_a`` by tests/test_faults.py
+    (every file, byte for byte), which also deletes and rebuilds its ``campaign.json``
+    under a held lock.
     """
     folder, manifest, extra, _ = small_campaign_run
     results = folder / "results_b"

@@ -888,6 +888,10 @@ def test_identical_runs_in_two_folders_give_identical_files(two_runs):
     assert Path("tables/flight_stats.csv") in files and any(p.parts[0] == "L0" for p in files)
     differ = [str(p) for p in files if (a / p).read_bytes() != (b / p).read_bytes()]
     assert differ == []
+    # the whole first run made no NetCDF file (L1-L4) that the second, up to flight_stats, did not
+    netcdf = sorted(p for p in files if p.suffix == ".nc")
+    assert sorted(p.relative_to(b) for p in b.rglob("*.nc")) == netcdf
+    assert len(netcdf) >= 8, netcdf  # L1 (sonic, ins, mast), L2 (drone, mast), L3, L4 (drone, mast)
     assert not (a / LOCK_NAME).exists() and not (b / LOCK_NAME).exists()  # released at the end of each run
 
 
