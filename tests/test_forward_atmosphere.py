@@ -10,6 +10,7 @@ measured mast record within the mast's instrument noise.
 from __future__ import annotations
 
 import copy
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -27,8 +28,11 @@ RATIO_V, RATIO_W = 1.2, 0.6  # the constraint's sigma_v/sigma_u, sigma_w/sigma_u
 TREND_MS = 1.5  # rise of the constraint's east wind over the record [m s-1]
 
 
+@functools.cache
 def _constraint(seed: int = 1) -> xr.Dataset:
-    """A 10 m record (wind from the west) with spectra (1 + (f/0.02 Hz)^2)^(SLOPE/2), random phases."""
+    """A 10 m record (wind from the west) with spectra (1 + (f/0.02 Hz)^2)^(SLOPE/2), random phases.
+
+    Made once per seed; the tests do not modify it."""
     n = int(FS_HZ * DURATION_S)
     f = np.fft.rfftfreq(n, 1 / FS_HZ)
     rng = np.random.default_rng(seed)
@@ -77,15 +81,19 @@ def measured_amplitudes() -> dict[str, list[float]]:
     return _runs("constraint")
 
 
-def test_spectral_shape_carries_to_other_points(measured_amplitudes):
+@pytest.fixture(scope="module")
+def model_amplitudes() -> dict[str, list[float]]:
+    return _runs("model", range(2))
+
+
+def test_spectral_shape_carries_to_other_points(measured_amplitudes, model_amplitudes):
     # Welch slopes over 0.3-4 Hz of 15-segment averages scatter by about 0.03 (measured:
     # -2.32..-2.37 over 4 seeds and 2 points); 0.15 is 5 times that and far from -5/3.
     assert np.all(np.abs(np.array(measured_amplitudes["slope"]) - SLOPE) < 0.15)
-    model = _runs("model", range(1))
-    assert np.all(np.abs(np.array(model["slope"]) + 5.0 / 3.0) < 0.15)  # the model's own shape otherwise
+    assert np.all(np.abs(np.array(model_amplitudes["slope"]) + 5.0 / 3.0) < 0.15)  # the model's own shape otherwise
 
 
-def test_isotropy_carries_to_other_points(measured_amplitudes):
+def test_isotropy_carries_to_other_points(measured_amplitudes, model_amplitudes):
     # at the record's height (the even entries: point 0 of each seed), band 0.05-4 Hz, mean of
     # 4 seeds: the low frequencies hold few independent estimates and single values scatter by
     # about 0.05-0.07 (measured means 1.13 and 0.63); 10 % holds them, and the model's ratios in
@@ -93,8 +101,7 @@ def test_isotropy_carries_to_other_points(measured_amplitudes):
     # model's height ratio of S_w, whose energy-containing range moves with z.)
     assert np.mean(measured_amplitudes["v_u"][::2]) == pytest.approx(RATIO_V, rel=0.10)
     assert np.mean(measured_amplitudes["w_u"][::2]) == pytest.approx(RATIO_W, rel=0.10)
-    model = _runs("model", range(2))
-    assert np.mean(model["w_u"][::2]) > 1.25 * RATIO_W
+    assert np.mean(model_amplitudes["w_u"][::2]) > 1.25 * RATIO_W
 
 
 def test_trend_appears_at_the_hover_point(measured_amplitudes):
