@@ -19,7 +19,6 @@ e.g. ``'{"atmosphere": {"speed_trend_ms_per_h": 6}}'``, at campaign seed ``--see
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import tempfile
 import time
@@ -30,34 +29,23 @@ import numpy as np
 import yaml
 
 from bench_common import git_commit
-from dronewind.compare.chain import compute_l3
 from dronewind.diagnose import experiments as ex
 from dronewind.manifest import with_defaults
-from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
-from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 def measured(data: dict[str, Any], processing: dict[str, Any], work: Path) -> dict[str, dict[str, Any]]:
-    """Measured features of every flight of a hidden-effect campaign (as experiments._process_flight, no probes)."""
+    """Measured features of every flight of a hidden-effect campaign (experiments.process_virtual_flight, no probes)."""
     from dronewind.diagnose import forward
     from dronewind.diagnose.features import features_to_dict
-    from dronewind.simulate.payload import simulate_payload_flight
 
     out = {}
     lag = {key: processing[key] for key in forward.LAG_SETTINGS}
     for flight in data["payload_flights"]:
         fid = flight["id"]
-        paths = simulate_payload_flight(copy.deepcopy(data), work, fid, work)
-        s1, i1 = compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"],
-                                    processing["despike"])
-        l2 = compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), **lag)
-        m1 = compute_mast_l1([p for p in paths if p.suffix == ".dat"], data["masts"][0]["sonics"][0],
-                             processing["despike"])
-        m2 = compute_mast_l2(m1, l2, fid, processing["drone_mast"])
-        l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
-        out[fid] = features_to_dict(forward.measured_features(data, fid, s1, i1, l2, l3, **lag))
+        v = ex.process_virtual_flight(data, flight, work, processing)
+        out[fid] = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
     return out
 
 

@@ -9,7 +9,6 @@ measured mast record within the mast's instrument noise.
 
 from __future__ import annotations
 
-import copy
 import functools
 from pathlib import Path
 
@@ -133,28 +132,17 @@ def test_constraint_amplitudes_need_a_constraint():
 @pytest.fixture(scope="module")
 def forward_flight(tmp_path_factory):
     """One simulated flight processed to L3, its forward conditions and the mast L1."""
-    from dronewind.compare.chain import compute_l3
     from dronewind.diagnose import experiments as ex
     from dronewind.diagnose import forward
     from dronewind.manifest import with_defaults
-    from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
-    from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
-    from dronewind.simulate.payload import simulate_payload_flight
 
     work = Path(tmp_path_factory.mktemp("atmosphere"))
     proc = with_defaults({})["processing"]
     data = ex.campaign_manifest(ex.Draw("none", {}, 7), n_flights=2, hover_min=6.0)
     flight = data["payload_flights"][1]
-    fid = flight["id"]
-    lag = {k: proc[k] for k in forward.LAG_SETTINGS}
-    paths = simulate_payload_flight(copy.deepcopy(data), work, fid, work)
-    s1, i1 = compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"], proc["despike"])
-    l2 = compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), **lag)
-    m1 = compute_mast_l1([p for p in paths if p.suffix == ".dat"], data["masts"][0]["sonics"][0], proc["despike"])
-    m2 = compute_mast_l2(m1, l2, fid, proc["drone_mast"])
-    l3 = compute_l3(l2, m2, flight, proc["drone_mast"], proc["rotation"])
-    cond = forward.forward_conditions(data, fid, l3, l2)
-    return data, fid, proc, cond, m1, l2
+    v = ex.process_virtual_flight(data, flight, work, proc)
+    cond = forward.forward_conditions(data, flight["id"], v.l3, v.l2)
+    return data, flight["id"], proc, cond, v.mast_l1, v.l2
 
 
 def _hover_differences(measured: xr.Dataset, simulated: xr.Dataset, l2: xr.Dataset) -> dict[str, np.ndarray]:

@@ -42,9 +42,10 @@ import subprocess
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+import xarray as xr
 
 from dronewind.compare.chain import compute_l3
 from dronewind.manifest import with_defaults
@@ -55,7 +56,7 @@ __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Dra
            "stratified_draws", "campaign_manifest", "judge", "run_in_process", "AMBIGUOUS_WITH",
            "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
            "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS",
-           "CAVEATED_MODEL_ERRORS", "model_error_draw"]
+           "CAVEATED_MODEL_ERRORS", "model_error_draw", "VirtualFlight", "process_virtual_flight"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
 #: as a distance from the parameter's centre (:data:`HIDDEN_CENTRES`, else 0), on a random
@@ -484,6 +485,53 @@ def _judged(mechanism: str, parameters: Mapping[str, Any]) -> dict[str, float]:
     return out
 
 
+class VirtualFlight(NamedTuple):
+    """One simulated flight processed as measured data (:func:`process_virtual_flight`)."""
+
+    sonic_l1: xr.Dataset
+    ins_l1: xr.Dataset
+    l2: xr.Dataset
+    mast_l1: xr.Dataset
+    l3: xr.Dataset
+
+
+def process_virtual_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
+                           processing: Mapping[str, Any]) -> VirtualFlight:
+    """Simulate one flight of a virtual campaign into ``work`` and process it to L3, in this process.
+
+    The workflow's chain in the rules' order (payload L1, L2, mast L1, L2, L3) on the files the
+    simulator writes; the campaign's first mast sonic is the reference.
+
+    Parameters
+    ----------
+    data : mapping
+        Manifest content with a ``simulation:`` section (e.g. :func:`campaign_manifest`).
+    flight : mapping
+        The payload flight's manifest entry.
+    work : Path
+        Folder for the raw files.
+    processing : mapping
+        ``processing`` settings (at least :data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+
+    Returns
+    -------
+    VirtualFlight
+    """
+    from dronewind.diagnose import forward
+    from dronewind.simulate.payload import simulate_payload_flight
+
+    fid = flight["id"]
+    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    paths = simulate_payload_flight(copy.deepcopy(dict(data)), work, fid, work)
+    s1, i1 = compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"], processing["despike"])
+    l2 = compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), **lag)
+    m1 = compute_mast_l1([p for p in paths if p.suffix == ".dat"], data["masts"][0]["sonics"][0],
+                         processing["despike"])
+    m2 = compute_mast_l2(m1, l2, fid, processing["drone_mast"])
+    l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
+    return VirtualFlight(s1, i1, l2, m1, l3)
+
+
 def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
                     processing: Mapping[str, Any], seeds: tuple[int, ...],
                     atmosphere: str = "measured") -> tuple[dict[str, Any], dict[str, Any]]:
@@ -501,20 +549,13 @@ def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Pa
     """
     from dronewind.diagnose import forward
     from dronewind.diagnose.features import features_to_dict
-    from dronewind.simulate.payload import simulate_payload_flight
 
     fid = flight["id"]
     lag = {key: processing[key] for key in forward.LAG_SETTINGS}
-    paths = simulate_payload_flight(copy.deepcopy(dict(data)), work, fid, work)
-    s1, i1 = compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"], processing["despike"])
-    l2 = compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), **lag)
-    m1 = compute_mast_l1([p for p in paths if p.suffix == ".dat"], data["masts"][0]["sonics"][0],
-                         processing["despike"])
-    m2 = compute_mast_l2(m1, l2, fid, processing["drone_mast"])
-    l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
-    measured = features_to_dict(forward.measured_features(data, fid, s1, i1, l2, l3, **lag))
-    conditions = forward.forward_conditions(data, fid, l3, l2)
-    record = forward.atmosphere_record(m1, conditions) if atmosphere == "measured" else None
+    v = process_virtual_flight(data, flight, work, processing)
+    measured = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
+    conditions = forward.forward_conditions(data, fid, v.l3, v.l2)
+    record = forward.atmosphere_record(v.mast_l1, conditions) if atmosphere == "measured" else None
     return measured, forward.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
 
 
