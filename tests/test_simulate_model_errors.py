@@ -21,9 +21,9 @@ from scipy import signal
 from dronewind.diagnose.experiments import Draw, campaign_manifest
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
-from dronewind.simulate.mast import flow_distortion
+from dronewind.simulate.mast import DISTORTION_KEYS, flow_distortion
 from dronewind.simulate.payload import payload_records, payload_truth
-from dronewind.simulate.settings import validate_simulation
+from dronewind.simulate.settings import MAST_DEFAULTS, SPECTRA, TURBULENCE_DEFAULTS, validate_simulation
 
 HOVER_S = 1800.0
 SPEED_MS, FROM_DEG, Z_REF_M, Z_HOVER_M, ZETA = 6.0, 200.0, 30.0, 28.0, -0.2
@@ -65,17 +65,19 @@ def _mast(truth) -> np.ndarray:
     return truth.mast.series[0, :3, h].T
 
 
+OBUKHOV_M = Z_REF_M / ZETA
+USTAR_MS = atm.friction_velocity(SPEED_MS, Z_REF_M, 0.1, OBUKHOV_M)
+
+
 def _similarity_sigmas() -> dict[str, float]:
-    obukhov = Z_REF_M / ZETA
-    ustar = atm.friction_velocity(SPEED_MS, Z_REF_M, 0.1, obukhov)
-    return atm.turbulence_sigmas(ustar, Z_HOVER_M, obukhov, 1000.0, 288.15)
+    return atm.turbulence_sigmas(USTAR_MS, Z_HOVER_M, OBUKHOV_M, 1000.0, 288.15)
 
 
 def test_defaults_spelled_out_give_bit_identical_records():
-    defaults = {"spectrum": "kaimal", "sigma_u_factor": 1, "sigma_v_factor": 1, "sigma_w_factor": 1,
-                "length_scale_factor": 1, "speed_trend_ms_per_h": 0, "direction_trend_deg_per_h": 0}
-    mast = {"boom_blockage_deficit": 0, "tower_wake_deficit": 0, "tower_wake_half_width_deg": 30,
-            "streamline_tilt_deg": 0}
+    # every turbulence-model and flow-distortion setting, at its documented default
+    defaults = {"spectrum": SPECTRA[0], **{k: v[0] for k, v in TURBULENCE_DEFAULTS.items()}}
+    mast = {k: MAST_DEFAULTS[k][0] for k in (*DISTORTION_KEYS, "tower_wake_half_width_deg")}
+    assert defaults["spectrum"] == "kaimal" and len(defaults) >= 7 and len(mast) >= 4  # the tables are read
     short = campaign_manifest(Draw("none", {}, 3), n_flights=1, hover_min=5.0)
     spelled = copy.deepcopy(short)
     spelled["simulation"].update(atmosphere=defaults, mast=mast)
@@ -113,9 +115,7 @@ def test_sigma_u_and_v_factors_scale_their_components_only(base):
 
 def test_von_karman_shape_has_the_variance_and_inertial_level_of_kaimal_and_another_peak():
     sig = _similarity_sigmas()
-    obukhov = Z_REF_M / ZETA
-    ustar = atm.friction_velocity(SPEED_MS, Z_REF_M, 0.1, obukhov)
-    zeta = Z_HOVER_M / obukhov
+    ustar, zeta = USTAR_MS, Z_HOVER_M / OBUKHOV_M
     f = np.logspace(-6, 3, 200_000)
     kaimal = atm.component_spectra(f, Z_HOVER_M, SPEED_MS, sig, atm.spectral_parameters(sig, ustar, zeta))
     vk = atm.von_karman_spectra(f, SPEED_MS, sig, atm.von_karman_length_scales(sig, ustar, zeta, Z_HOVER_M))
