@@ -1,5 +1,9 @@
 """Snakemake script: the block-series figure from tables/block_stats.csv."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from pathlib import Path
 
 from dronewind.figures.blocks import block_series

@@ -1,5 +1,9 @@
 """Snakemake script: the block L4 of every mast sonic -> tables/block_stats.csv."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.blocks import block_stats
 

@@ -1,5 +1,9 @@
 """Snakemake script: write results/<name>/campaign.json (the validated manifest and provenance)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import campaign_record, logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)

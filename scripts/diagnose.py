@@ -1,5 +1,9 @@
 """Snakemake script: campaign diagnosis (diagnosis.json and the extended campaign manifest)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.diagnosis import diagnose_campaign
 

@@ -1,5 +1,9 @@
 """Snakemake script: rerun one flight with the extended model (named causes at their fits)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.diagnosis import extended_run
 

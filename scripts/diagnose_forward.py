@@ -1,5 +1,9 @@
 """Snakemake script: forward-model runs (baseline and probes) of one flight."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.diagnosis import forward_probes
 

@@ -1,5 +1,9 @@
 """Snakemake script: residual features of one processed flight."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.diagnosis import measured_features
 

@@ -1,5 +1,9 @@
 """Snakemake script: platform-motion response of one rigid-mount flight (diagnosis/platform/<flight>.json)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.diagnosis import platform_diagnosis
 

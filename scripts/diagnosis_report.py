@@ -1,5 +1,9 @@
 """Snakemake script: diagnosis report (before/after numbers, Markdown, figures)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from pathlib import Path
 
 from dronewind.steps import logged

@@ -1,5 +1,9 @@
 """Snakemake script: drone L2 -> drone-only L3 (a flight without a reference mast)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.payload import drone_l3
 

@@ -1,5 +1,9 @@
 """Snakemake script: the campaign figures (PNG and PDF), drawn from stored products only."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from pathlib import Path
 
 from dronewind.figures.campaign import draw_all

@@ -1,5 +1,9 @@
 """Snakemake script: one mast sonic's L1 in blocks -> block L4 (blocks along time)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.blocks import mast_blocks
 

@@ -1,5 +1,9 @@
 """Snakemake script: reference mast sonic L1 -> L2 over one flight's hover window."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged, mast_l2
 
 sm = snakemake  # noqa: F821 (snakemake is injected)

@@ -1,5 +1,9 @@
 """Snakemake script: join the per-part forward-model runs of one flight (diagnosis.probe_jobs: mechanism)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.diagnosis import merge_forward_parts
 

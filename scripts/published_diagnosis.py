@@ -1,5 +1,9 @@
 """Snakemake script: fit every mechanism to the paper's published numbers."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.published import published_diagnosis
 

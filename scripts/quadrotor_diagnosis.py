@@ -1,5 +1,9 @@
 """Snakemake script: diagnosis of the single-law quadrotor model (quadrotor_diagnosis.json)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.quadrotor import quadrotor_diagnosis
 

@@ -1,5 +1,9 @@
 """Snakemake script: quadrotor figures (seed 001 Figs 3-9) from stored tables and L2 files."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.figures.quadrotor import quadrotor_figures
 from dronewind.steps import logged
 

@@ -1,5 +1,9 @@
 """Snakemake script: every UAV of one quadrotor flight, L1 -> calibrated 1 Hz wind (L2; one job per flight)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.quadrotor import quadrotor_l2_flight
 

@@ -1,5 +1,9 @@
 """Snakemake script: one quadrotor flight, the 10-min and 2-min averaging windows of its UAVs."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.quadrotor import quadrotor_windows
 

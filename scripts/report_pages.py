@@ -1,5 +1,9 @@
 """Snakemake script: the HTML report's front page, table pages and figure captions."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.report import report_pages
 

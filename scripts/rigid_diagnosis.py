@@ -1,5 +1,9 @@
 """Snakemake script: diagnosis.json of a campaign with rigid-mount flights only."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.diagnosis import rigid_diagnosis
 

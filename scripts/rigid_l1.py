@@ -1,5 +1,9 @@
 """Snakemake script: rigid-mount record L0 -> L1 (sonic and platform on one time axis, QC)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.payload import rigid_l1
 

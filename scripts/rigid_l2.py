@@ -1,5 +1,9 @@
 """Snakemake script: rigid-mount L1 -> L2 (steady segment, lag, motion-corrected east/north/up)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.payload import rigid_l2
 

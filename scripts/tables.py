@@ -1,5 +1,9 @@
 """Snakemake script: Table 4 and Table 5 equivalents (CSV, Markdown, LaTeX) from the L4 files."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from pathlib import Path
 
 from dronewind.steps import logged

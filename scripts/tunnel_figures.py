@@ -1,5 +1,9 @@
 """Snakemake script: wind-tunnel figures (seed 002 Figs 4-7, 9) from the stored tables."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.figures.quadrotor import tunnel_figures
 from dronewind.steps import logged
 

@@ -1,5 +1,9 @@
 """Snakemake script: simulate the wind-tunnel programme (seed 002)."""
 
+from dronewind.steps.preload import delegate
+
+delegate()  # a local run's preloaded process takes the job from here (dronewind.steps.preload)
+
 from dronewind.steps import logged
 from dronewind.steps.quadrotor import simulate_tunnel
 

@@ -113,7 +113,8 @@ rule campaign_record:
     conda:
         ENV
     params:
-        config=canonical(config),
+        # how the jobs are run (preload) changes no output: not part of the record
+        config=canonical({k: v for k, v in config.items() if k != "preload"}),
     script:
         "../../scripts/campaign_record.py"
 

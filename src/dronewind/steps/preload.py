@@ -1,0 +1,383 @@
+"""Jobs of a local run forked from one process that has the libraries imported.
+
+Snakemake's local executor starts a fresh Python for every job. Importing numpy, pandas,
+xarray, netCDF4 and scipy costs a job 0.5 to 1.2 CPU-s, more than the work of most jobs:
+about a third of the default campaign's CPU time went into the imports of its 267 jobs. For a
+local run the workflow therefore starts :func:`serve` (``onstart``, config ``preload``): a
+process that imports the libraries once and then forks one child per job. Every script
+first calls :func:`delegate`, which hands its job to the server: the script file, its
+arguments, environment, working directory and standard streams (as descriptors). The child
+runs the script exactly as the job's own process would (``runpy``, ``__main__``) and
+reports its exit status, which the job's process then exits with. Nothing is shared between
+jobs: each child is forked from the server's state right after the imports.
+
+Without a server (a cluster run, a dry run, ``preload: false``, a job started by hand, a
+server not up yet or gone, another Python interpreter) :func:`delegate` returns at once and
+the job runs in its own process as before; the outputs are the same bit for bit (tested).
+
+Written here because the standard library's ``multiprocessing.forkserver`` serves only the
+``multiprocessing`` processes of its own parent, not the unrelated processes Snakemake starts.
+
+Notes
+-----
+* A job's process and the child it hands its work to are tied both ways: SIGINT, SIGTERM
+  and SIGHUP sent to the job's process (Snakemake stopping a job) are passed on to the child;
+  the child ends when the job's process is gone (its socket closes); the job's process exits
+  with status 1 and a message if the child ends without a status.
+* Snakemake measures a rule's ``benchmark:`` on the job's own processes, which no longer do
+  the work. The children write their CPU time, peak memory and wall time, per rule and
+  wildcards, to the server's job table (:data:`JOB_TABLE_COLUMNS`), which the benchmark
+  scripts add up.
+* The server runs the linear-algebra libraries on one thread (``OMP_NUM_THREADS=1`` and
+  the like), as Snakemake runs a one-thread job: every rule of this workflow is one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import json
+import os
+import resource
+import runpy
+import select
+import signal
+import socket
+import struct
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+#: Environment variable naming the server's socket; set by the workflow for its jobs.
+SOCKET_ENV = "DRONEWIND_PRELOAD_SOCKET"
+#: Libraries imported by the server before it serves (all the scripts import some of them).
+PRELOAD_MODULES: tuple[str, ...] = (
+    "numpy", "pandas", "xarray", "netCDF4", "yaml", "scipy.signal", "scipy.stats", "scipy.optimize",
+    "scipy.interpolate", "scipy.linalg", "scipy.special", "matplotlib",
+    "dronewind.steps.common", "dronewind.steps.payload", "dronewind.steps.diagnosis", "dronewind.steps.published",
+    "dronewind.steps.quadrotor", "dronewind.steps.blocks", "dronewind.steps.report",
+)
+#: Imported too where installed: what the preamble of a Snakemake script imports (the library
+#: itself never imports Snakemake).
+OPTIONAL_MODULES: tuple[str, ...] = ("snakemake.script",)
+#: Environment of the server's linear-algebra libraries (read once, when they are imported).
+ONE_THREAD_ENV: dict[str, str] = {key: "1" for key in ("OMP_NUM_THREADS", "GOTO_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+                                                        "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
+                                                        "NUMEXPR_NUM_THREADS")}
+#: Columns of the job table (tab separated, one line per job).
+JOB_TABLE_COLUMNS: tuple[str, ...] = ("rule", "wildcards", "cpu_s", "wall_s", "max_rss_mb", "exit_status", "script")
+#: How long a job waits for the server to take it before it runs on its own [s].
+ACCEPT_TIMEOUT_S = 20.0
+
+_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+_LEN = struct.Struct("!I")
+_STATUS = struct.Struct("!i")
+
+
+# --------------------------------------------------------------------------- the job side
+
+
+def delegate() -> None:
+    """Hand the running job to the workflow's preloaded server, if one serves it; else return.
+
+    Call it first in a script, before its imports. When a server takes the job, this
+    function does not return: the job's process exits with the status of the child that
+    ran the script. It returns (and the script goes on in its own process) when no server
+    is named in the environment, the server cannot be reached or refuses the job (another
+    interpreter), or it does not take the job within :data:`ACCEPT_TIMEOUT_S`.
+    """
+    path = os.environ.get(SOCKET_ENV)
+    if not path:
+        return
+    try:
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        sock.settimeout(ACCEPT_TIMEOUT_S)
+        sock.connect(path)
+        request = json.dumps({"executable": sys.executable, "argv": sys.argv, "cwd": os.getcwd(),
+                              "env": dict(os.environ)}).encode()
+        socket.send_fds(sock, [_LEN.pack(len(request))], [0, 1, 2])
+        sock.sendall(request)
+        reply = _recv_exact(sock, 1)
+        if reply != b"S":  # refused (another interpreter) or gone
+            sock.close()
+            return
+        _recv_exact(sock, 8)  # the child's process id (for the log)
+        sock.sendall(b"G")  # committed: from here on the child runs the job
+    except Exception:  # noqa: BLE001 (nothing has run yet: the job runs in its own process)
+        return
+    sock.settimeout(None)
+    code = _wait_for_child(sock)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+def _wait_for_child(sock: socket.socket) -> int:
+    """Pass signals on to the child until it reports its exit status; return the status."""
+
+    def forward(signum: int, _frame: Any) -> None:
+        with contextlib.suppress(OSError):
+            sock.sendall(bytes([signum]))
+
+    for signum in _SIGNALS:
+        signal.signal(signum, forward)
+    try:
+        return _STATUS.unpack(_recv_exact(sock, _STATUS.size))[0]
+    except (OSError, EOFError):
+        print("dronewind.steps.preload: the job's process in the preloaded server ended without an exit status "
+              "(killed?)", file=sys.stderr)
+        return 1
+
+
+def _recv_exact(sock: socket.socket, n: int) -> bytes:
+    """Exactly ``n`` bytes from ``sock``; EOFError when it closes first."""
+    data = b""
+    while len(data) < n:
+        chunk = sock.recv(n - len(data))
+        if not chunk:
+            raise EOFError("socket closed")
+        data += chunk
+    return data
+
+
+# ------------------------------------------------------------------------ the server side
+
+
+def serve(socket_path: str | Path, job_table: str | Path | None = None,
+          modules: Sequence[str] = PRELOAD_MODULES) -> None:
+    """Import ``modules``, then fork a child for every job that connects to ``socket_path``.
+
+    Runs until SIGTERM or SIGINT, or until its parent process (Snakemake) is gone; then
+    waits for the children still running. Must be started with :data:`ONE_THREAD_ENV`.
+
+    Parameters
+    ----------
+    socket_path : str or Path
+        Unix socket to listen on (created; its folder must exist and be private).
+    job_table : str or Path, optional
+        Tab-separated table to which every child appends its rule, wildcards, CPU time,
+        wall time, peak memory and exit status (:data:`JOB_TABLE_COLUMNS`).
+    modules : sequence of str
+        Modules to import before serving.
+    """
+    parent = os.getppid()
+    for name in modules:
+        importlib.import_module(name)
+    for name in OPTIONAL_MODULES if modules else ():
+        with contextlib.suppress(ImportError):
+            importlib.import_module(name)
+    if threading.active_count() != 1:  # a fork copies only the calling thread
+        raise RuntimeError(f"preload: {threading.active_count()} threads after the imports; fork needs one")
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(str(socket_path))
+    listener.listen(64)
+    stop = threading.Event()  # set by the signal handlers (no threads run in the server)
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(signum, lambda *_: stop.set())
+    children: set[int] = set()
+    try:
+        while not stop.is_set() and os.getppid() == parent:
+            _reap(children)
+            try:
+                ready, _, _ = select.select([listener], [], [], 0.2)
+            except InterruptedError:
+                continue
+            if ready:
+                conn, _ = listener.accept()
+                pid = _start_job(conn, listener, job_table)
+                if pid:
+                    children.add(pid)
+    finally:
+        listener.close()
+        with contextlib.suppress(OSError):
+            os.unlink(str(socket_path))
+        for pid in list(children):  # wait (their CPU time is then counted for the server's parent)
+            with contextlib.suppress(ChildProcessError):
+                os.waitpid(pid, 0)
+
+
+def _reap(children: set[int]) -> None:
+    """Wait for the children that have ended (no zombies; their CPU time is counted)."""
+    for pid in list(children):
+        try:
+            done, _ = os.waitpid(pid, os.WNOHANG)
+        except ChildProcessError:
+            done = pid
+        if done:
+            children.discard(pid)
+
+
+def _start_job(conn: socket.socket, listener: socket.socket, job_table: str | Path | None) -> int:
+    """Receive one job's request and fork its child; return the child's pid (0 if none)."""
+    fds: list[int] = []
+    try:
+        conn.settimeout(10.0)
+        head, fds, _, _ = socket.recv_fds(conn, _LEN.size, 3)
+        if len(head) < _LEN.size:
+            head += _recv_exact(conn, _LEN.size - len(head))
+        request = json.loads(_recv_exact(conn, _LEN.unpack(head)[0]))
+        if request.get("executable") != sys.executable or len(fds) != 3:
+            conn.sendall(b"R")  # another interpreter (e.g. a conda environment): the job runs itself
+            raise EOFError("refused")
+    except (OSError, EOFError, ValueError):
+        for fd in fds:
+            os.close(fd)
+        conn.close()
+        return 0
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        code = 1
+        try:
+            listener.close()
+            code = _run_job(conn, fds, request, job_table)
+        finally:
+            os._exit(code)
+    for fd in fds:
+        os.close(fd)
+    conn.close()
+    return pid
+
+
+def _run_job(conn: socket.socket, fds: list[int], request: dict[str, Any], job_table: str | Path | None) -> int:
+    """In the forked child: become the job's process, run its script, report; return the status."""
+    for signum in (*_SIGNALS, signal.SIGCHLD):
+        signal.signal(signum, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    conn.settimeout(None)
+    conn.sendall(b"S" + struct.pack("!q", os.getpid()))
+    if _recv_exact(conn, 1) != b"G":
+        return 1
+    for target, fd in enumerate(fds):
+        os.dup2(fd, target)
+        os.close(fd)
+    os.chdir(request["cwd"])
+    os.environ.clear()
+    os.environ.update({k: v for k, v in request["env"].items() if k != SOCKET_ENV})
+    sys.argv = list(request["argv"])
+    sys.path[0] = str(Path(sys.argv[0]).resolve().parent)
+    threading.Thread(target=_watch_job_process, args=(conn,), daemon=True).start()
+    start = time.perf_counter()
+    job: dict[str, Any] = {}
+    try:
+        job = runpy.run_path(sys.argv[0], run_name="__main__")
+        code = 0
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+        if exc.code is not None and not isinstance(exc.code, int):
+            print(exc.code, file=sys.stderr)
+    except BaseException:  # noqa: BLE001 (reported as the job's own process would: traceback, status 1)
+        import traceback
+
+        traceback.print_exc()
+        code = 1
+    with contextlib.suppress(Exception):
+        sys.stdout.flush()
+        sys.stderr.flush()
+    if job_table is not None:
+        _record(job_table, job.get("snakemake"), sys.argv[0], time.perf_counter() - start, code)
+    with contextlib.suppress(OSError):
+        conn.sendall(_STATUS.pack(code))
+    return code
+
+
+def _watch_job_process(conn: socket.socket) -> None:
+    """In the child: take the signals the job's process passes on; end when it is gone."""
+    while True:
+        try:
+            data = conn.recv(1)
+        except OSError:
+            data = b""
+        if not data:
+            os.kill(os.getpid(), signal.SIGTERM)
+            return
+        os.kill(os.getpid(), data[0])
+
+
+def _record(job_table: str | Path, sm: Any, script: str, wall_s: float, code: int) -> None:
+    """Append the child's rule, wildcards, CPU, wall time, peak memory and status to the job table."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu_s = own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+    rule = getattr(sm, "rule", "") or ""
+    wildcards = dict(getattr(sm, "wildcards", {}) or {})
+    line = "\t".join([str(rule), json.dumps(wildcards, sort_keys=True), f"{cpu_s:.3f}", f"{wall_s:.3f}",
+                      f"{max(own.ru_maxrss, kids.ru_maxrss) / 1024:.1f}", str(code), Path(script).name]) + "\n"
+    # one write in append mode: the lines of concurrent children do not interleave
+    fd = os.open(str(job_table), os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(fd, line.encode())
+    finally:
+        os.close(fd)
+
+
+# ----------------------------------------------------------------------- the workflow side
+
+
+class PreloadServer:
+    """A :func:`serve` process started for one workflow run (Snakefile ``onstart``).
+
+    Parameters
+    ----------
+    job_table : str or Path
+        Job table of the run (:func:`serve`); a header is written when it is new.
+    log_file : str or Path
+        Where the server's own output goes.
+
+    Examples
+    --------
+    >>> server = PreloadServer("res/x/benchmarks/jobs.tsv", "res/x/logs/preload.log")  # doctest: +SKIP
+    >>> os.environ[SOCKET_ENV] = server.socket_path  # jobs started from now on use it  # doctest: +SKIP
+    >>> server.stop()  # doctest: +SKIP
+    """
+
+    def __init__(self, job_table: str | Path, log_file: str | Path) -> None:
+        import subprocess
+        import tempfile
+
+        table = Path(job_table)
+        table.parent.mkdir(parents=True, exist_ok=True)
+        if not table.exists():
+            table.write_text("\t".join(JOB_TABLE_COLUMNS) + "\n")
+        Path(log_file).parent.mkdir(parents=True, exist_ok=True)
+        self._folder = tempfile.mkdtemp(prefix="dronewind_preload_")  # private (mode 0700)
+        self.socket_path = str(Path(self._folder) / "jobs.sock")
+        env = {k: v for k, v in os.environ.items() if k != SOCKET_ENV}
+        with open(log_file, "ab") as log:
+            self._proc = subprocess.Popen(
+                [sys.executable, "-m", "dronewind.steps.preload", "--socket", self.socket_path, "--job-table",
+                 str(table)], stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+                env={**env, **ONE_THREAD_ENV})
+
+    def stop(self, timeout_s: float = 60.0) -> None:
+        """End the server after the jobs it runs (SIGTERM, then wait) and remove its folder."""
+        import shutil
+        import subprocess
+
+        if self._proc.poll() is None:
+            self._proc.terminate()
+        try:
+            self._proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            self._proc.wait()
+        shutil.rmtree(self._folder, ignore_errors=True)
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Command line: ``python -m dronewind.steps.preload --socket PATH [--job-table FILE]``."""
+    parser = argparse.ArgumentParser(
+        prog="python -m dronewind.steps.preload", description=__doc__.split("\n\n")[0],
+        epilog="Example: python -m dronewind.steps.preload --socket /tmp/x/jobs.sock --job-table jobs.tsv "
+               "(the workflow starts it itself for a local run; see config key 'preload')")
+    parser.add_argument("--socket", required=True, help="Unix socket to listen on")
+    parser.add_argument("--job-table", help="tab-separated table of the jobs run (CPU, memory, status)")
+    args = parser.parse_args(argv)
+    serve(args.socket, args.job_table)
+
+
+if __name__ == "__main__":
+    main()

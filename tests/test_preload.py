@@ -1,0 +1,152 @@
+"""The preloaded process that runs a local run's jobs (dronewind.steps.preload).
+
+A job's script calls ``delegate()`` first; with a server named in the environment, the
+script runs in a child forked from the server, with the job's arguments, environment,
+working directory and standard streams, and the job's process exits with its status.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from dronewind.steps.preload import JOB_TABLE_COLUMNS, SOCKET_ENV, PreloadServer
+
+REPO = Path(__file__).resolve().parents[1]
+
+#: A job script: hands itself over, then prints where and how it runs and exits as asked.
+JOB = '''
+from dronewind.steps.preload import delegate
+
+delegate()
+
+import os, sys, time
+
+print("pid", os.getpid(), "cwd", os.getcwd(), "x", os.environ.get("JOB_X"), "argv", " ".join(sys.argv[1:]),
+      "socket" , os.environ.get("{socket_env}", "-"), flush=True)
+print("to stderr", file=sys.stderr, flush=True)
+mode = sys.argv[1]
+if mode == "raise":
+    raise ValueError("the job failed")
+if mode == "sleep":
+    time.sleep(60)
+sys.exit(int(mode))
+'''.replace("{socket_env}", SOCKET_ENV)
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("preload")
+    srv = PreloadServer(folder / "jobs.tsv", folder / "preload.log")
+    deadline = time.time() + 120
+    while not Path(srv.socket_path).exists():  # the libraries are being imported
+        assert time.time() < deadline, (folder / "preload.log").read_text()
+        time.sleep(0.1)
+    yield srv, folder
+    srv.stop()
+
+
+def _job(tmp_path: Path, server_socket: str | None, *args: str, python: str = sys.executable,
+         **kwargs) -> subprocess.Popen:
+    script = tmp_path / "job.py"
+    script.write_text(JOB)
+    env = {**os.environ, "PYTHONPATH": str(REPO / "src"), "JOB_X": "42"}
+    env.pop(SOCKET_ENV, None)
+    if server_socket:
+        env[SOCKET_ENV] = server_socket
+    return subprocess.Popen([python, str(script), *args], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kwargs)
+
+
+def _fields(out: str) -> dict[str, str]:
+    words = out.split()
+    return dict(zip(words[::2], words[1::2], strict=False))
+
+
+def test_the_job_runs_in_a_child_of_the_server_as_it_would_run_itself(server, tmp_path):
+    srv, folder = server
+    proc = _job(tmp_path, srv.socket_path, "3")
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 3, err
+    f = _fields(out)
+    assert int(f["pid"]) != proc.pid  # not the job's own process
+    assert f["cwd"] == str(tmp_path) and f["x"] == "42" and f["argv"] == "3"
+    assert f["socket"] == "-"  # the child does not hand itself over again
+    assert "to stderr" in err
+    lines = (folder / "jobs.tsv").read_text().splitlines()
+    assert lines[0].split("\t") == list(JOB_TABLE_COLUMNS)
+    last = dict(zip(JOB_TABLE_COLUMNS, lines[-1].split("\t"), strict=True))
+    assert last["exit_status"] == "3" and last["script"] == "job.py" and float(last["cpu_s"]) >= 0
+
+
+def test_status_zero_and_an_exception_with_its_traceback(server, tmp_path):
+    srv, _ = server
+    ok = _job(tmp_path, srv.socket_path, "0")
+    assert ok.communicate(timeout=60) and ok.returncode == 0
+    bad = _job(tmp_path, srv.socket_path, "raise")
+    _, err = bad.communicate(timeout=60)
+    assert bad.returncode == 1
+    assert "Traceback" in err and "ValueError: the job failed" in err
+
+
+def test_without_a_server_or_with_another_interpreter_the_job_runs_itself(server, tmp_path):
+    srv, _ = server
+    alone = _job(tmp_path, None, "0")
+    out, _ = alone.communicate(timeout=60)
+    assert alone.returncode == 0 and int(_fields(out)["pid"]) == alone.pid
+    gone = _job(tmp_path, str(tmp_path / "no_such.sock"), "5")
+    out, _ = gone.communicate(timeout=60)
+    assert gone.returncode == 5 and int(_fields(out)["pid"]) == gone.pid
+    other = "/usr/bin/python3"  # the server serves only jobs of its own interpreter (by path)
+    if not Path(other).exists():
+        pytest.skip(f"no {other} on this machine")
+    refused = _job(tmp_path, srv.socket_path, "0", python=other)
+    out, err = refused.communicate(timeout=60)
+    assert refused.returncode == 0, err
+    assert int(_fields(out)["pid"]) == refused.pid  # refused: ran in its own process
+
+
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGKILL"])
+def test_stopping_the_job_stops_its_child(server, tmp_path, how):
+    """Snakemake stopping a job (SIGTERM) or the job's process killed: the child ends too."""
+    srv, _ = server
+    proc = _job(tmp_path, srv.socket_path, "sleep")
+    assert proc.stdout is not None
+    child = int(_fields(proc.stdout.readline())["pid"])
+    os.kill(proc.pid, getattr(signal, how))
+    proc.wait(timeout=30)
+    assert proc.returncode != 0
+    deadline = time.time() + 10
+    while time.time() < deadline and Path(f"/proc/{child}").exists() and \
+            Path(f"/proc/{child}/stat").read_text().split()[2] != "Z":
+        time.sleep(0.05)
+    alive = Path(f"/proc/{child}").exists() and Path(f"/proc/{child}/stat").read_text().split()[2] != "Z"
+    assert not alive, f"child {child} still runs after the job's process got {how}"
+
+
+def test_the_server_ends_with_its_parent(tmp_path):
+    """A server whose parent (Snakemake) is gone stops serving and removes its socket."""
+    sock = tmp_path / "s.sock"
+    serve = f"from dronewind.steps.preload import serve; serve({str(sock)!r}, modules=())"
+    (tmp_path / "parent.py").write_text(
+        f"import subprocess, sys, time\nsubprocess.Popen([sys.executable, '-c', {serve!r}])\ntime.sleep(300)\n")
+    parent = subprocess.Popen([sys.executable, str(tmp_path / "parent.py")],
+                              env={**os.environ, "PYTHONPATH": str(REPO / "src")})
+    try:
+        deadline = time.time() + 60
+        while not sock.exists():
+            assert time.time() < deadline
+            time.sleep(0.05)
+    finally:
+        parent.kill()
+        parent.wait()
+    deadline = time.time() + 10
+    while sock.exists() and time.time() < deadline:
+        time.sleep(0.05)
+    assert not sock.exists()
