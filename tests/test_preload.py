@@ -133,7 +133,7 @@ def test_stopping_the_job_stops_its_child(server, tmp_path, how):
 def test_the_server_ends_with_its_parent(tmp_path):
     """A server whose parent (Snakemake) is gone stops serving and removes its socket."""
     sock = tmp_path / "s.sock"
-    serve = f"from dronewind.steps.preload import serve; serve({str(sock)!r}, modules=())"
+    serve = f"from dronewind.steps.preload import serve; serve({str(sock)!r}, modules=(), library=False)"
     (tmp_path / "parent.py").write_text(
         f"import subprocess, sys, time\nsubprocess.Popen([sys.executable, '-c', {serve!r}])\ntime.sleep(300)\n")
     parent = subprocess.Popen([sys.executable, str(tmp_path / "parent.py")],
@@ -150,3 +150,17 @@ def test_the_server_ends_with_its_parent(tmp_path):
     while sock.exists() and time.time() < deadline:
         time.sleep(0.05)
     assert not sock.exists()
+
+
+def test_the_server_imports_the_library_but_not_dask():
+    """Jobs see the modules a process of their own would have, plus the library: never dask (duck arrays)."""
+    code = ("import sys, importlib\n"
+            "from dronewind.steps.preload import PRELOAD_MODULES, library_modules, LIBRARY_SKIP\n"
+            "names = library_modules()\n"
+            "assert 'dronewind.steps.payload' in names and not LIBRARY_SKIP & set(names)\n"
+            "[importlib.import_module(m) for m in (*PRELOAD_MODULES, *names)]\n"
+            "print(sorted(m for m in ('dask', 'pint', 'matplotlib.pyplot') if m in sys.modules))\n")
+    proc = subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(REPO / "src")},
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip() == "[]"

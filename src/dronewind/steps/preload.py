@@ -54,13 +54,16 @@ from typing import Any
 
 #: Environment variable naming the server's socket; set by the workflow for its jobs.
 SOCKET_ENV = "DRONEWIND_PRELOAD_SOCKET"
-#: Libraries imported by the server before it serves (all the scripts import some of them).
+#: Libraries imported by the server before it serves (all the scripts import some of them);
+#: then every module of dronewind but :data:`LIBRARY_SKIP` (:func:`library_modules`).
 PRELOAD_MODULES: tuple[str, ...] = (
     "numpy", "pandas", "xarray", "netCDF4", "yaml", "scipy.signal", "scipy.stats", "scipy.optimize",
     "scipy.interpolate", "scipy.linalg", "scipy.special", "matplotlib",
-    "dronewind.steps.common", "dronewind.steps.payload", "dronewind.steps.diagnosis", "dronewind.steps.published",
-    "dronewind.steps.quadrotor", "dronewind.steps.blocks", "dronewind.steps.report",
 )
+#: Modules of dronewind the server does not import: they import dask, which would change how
+#: xarray treats every job's arrays (:mod:`dronewind.core.duckarrays`); the jobs that need
+#: them import them.
+LIBRARY_SKIP: frozenset[str] = frozenset({"dronewind.cli", "dronewind.compare.long_record"})
 #: Imported too where installed: what the preamble of a Snakemake script imports (the library
 #: itself never imports Snakemake).
 OPTIONAL_MODULES: tuple[str, ...] = ("snakemake.script",)
@@ -147,9 +150,19 @@ def _recv_exact(sock: socket.socket, n: int) -> bytes:
 # ------------------------------------------------------------------------ the server side
 
 
+def library_modules() -> list[str]:
+    """Every module of the dronewind package but :data:`LIBRARY_SKIP`, sorted."""
+    import pkgutil
+
+    import dronewind
+
+    return sorted(m.name for m in pkgutil.walk_packages(dronewind.__path__, "dronewind.")
+                  if m.name not in LIBRARY_SKIP)
+
+
 def serve(socket_path: str | Path, job_table: str | Path | None = None,
-          modules: Sequence[str] = PRELOAD_MODULES) -> None:
-    """Import ``modules``, then fork a child for every job that connects to ``socket_path``.
+          modules: Sequence[str] = PRELOAD_MODULES, library: bool = True) -> None:
+    """Import ``modules`` (and the library), then fork a child for every job that connects to ``socket_path``.
 
     Runs until SIGTERM or SIGINT, or until its parent process (Snakemake) is gone; then
     waits for the children still running. Must be started with :data:`ONE_THREAD_ENV`.
@@ -163,11 +176,16 @@ def serve(socket_path: str | Path, job_table: str | Path | None = None,
         wall time, peak memory and exit status (:data:`JOB_TABLE_COLUMNS`).
     modules : sequence of str
         Modules to import before serving.
+    library : bool
+        Import every module of dronewind too (:func:`library_modules`) and what the
+        preamble of a Snakemake script imports (:data:`OPTIONAL_MODULES`, where installed).
     """
     parent = os.getppid()
     for name in modules:
         importlib.import_module(name)
-    for name in OPTIONAL_MODULES if modules else ():
+    for name in library_modules() if library else ():
+        importlib.import_module(name)
+    for name in OPTIONAL_MODULES if library else ():
         with contextlib.suppress(ImportError):
             importlib.import_module(name)
     if threading.active_count() != 1:  # a fork copies only the calling thread
