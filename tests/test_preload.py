@@ -152,14 +152,15 @@ def test_the_server_ends_with_its_parent(tmp_path):
     assert not sock.exists()
 
 
-def test_the_server_imports_the_library_but_not_dask():
-    """Jobs see the modules a process of their own would have, plus the library: never dask (duck arrays)."""
+def test_the_server_imports_the_library_but_not_dask_array():
+    """Jobs see the modules a process of their own would have, plus the library: never dask.array (duck arrays)."""
     code = ("import sys, importlib\n"
-            "from dronewind.steps.preload import PRELOAD_MODULES, library_modules, LIBRARY_SKIP\n"
+            "from dronewind.steps.preload import PRELOAD_MODULES, library_modules, LIBRARY_SKIP, _warm_up\n"
             "names = library_modules()\n"
             "assert 'dronewind.steps.payload' in names and not LIBRARY_SKIP & set(names)\n"
             "[importlib.import_module(m) for m in (*PRELOAD_MODULES, *names)]\n"
-            "print(sorted(m for m in ('dask', 'pint', 'matplotlib.pyplot') if m in sys.modules))\n")
+            "_warm_up()\n"
+            "print(sorted(m for m in ('dask.array', 'pint', 'matplotlib.pyplot') if m in sys.modules))\n")
     proc = subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(REPO / "src")},
                           capture_output=True, text=True, timeout=120, check=False)
     assert proc.returncode == 0, proc.stderr[-2000:]

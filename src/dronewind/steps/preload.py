@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import importlib
 import json
 import os
@@ -59,9 +60,12 @@ SOCKET_ENV = "DRONEWIND_PRELOAD_SOCKET"
 PRELOAD_MODULES: tuple[str, ...] = (
     "numpy", "pandas", "xarray", "netCDF4", "yaml", "scipy.signal", "scipy.stats", "scipy.optimize",
     "scipy.interpolate", "scipy.linalg", "scipy.special", "matplotlib",
+    # xarray imports dask's base package (not dask.array, see LIBRARY_SKIP) on a process's
+    # first NetCDF write: every job that writes one has it
+    "dask",
 )
-#: Modules of dronewind the server does not import: they import dask, which would change how
-#: xarray treats every job's arrays (:mod:`dronewind.core.duckarrays`); the jobs that need
+#: Modules of dronewind the server does not import: they import dask.array, which would change
+#: how xarray treats every job's arrays (:mod:`dronewind.core.duckarrays`); the jobs that need
 #: them import them.
 LIBRARY_SKIP: frozenset[str] = frozenset({"dronewind.cli", "dronewind.compare.long_record"})
 #: Imported too where installed: what the preamble of a Snakemake script imports (the library
@@ -188,6 +192,12 @@ def serve(socket_path: str | Path, job_table: str | Path | None = None,
     for name in OPTIONAL_MODULES if library else ():
         with contextlib.suppress(ImportError):
             importlib.import_module(name)
+    if library:
+        _warm_up()
+    # the imported objects go to the collector's permanent generation: a child's collections
+    # then do not touch (and copy) the pages it shares with the server
+    gc.collect()
+    gc.freeze()
     if threading.active_count() != 1:  # a fork copies only the calling thread
         raise RuntimeError(f"preload: {threading.active_count()} threads after the imports; fork needs one")
     listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -216,6 +226,17 @@ def serve(socket_path: str | Path, job_table: str | Path | None = None,
         for pid in list(children):  # wait (their CPU time is then counted for the server's parent)
             with contextlib.suppress(ChildProcessError):
                 os.waitpid(pid, 0)
+
+
+def _warm_up() -> None:
+    """What xarray imports and sets up on its first dataset with a time index (in memory: no
+    file is opened, so none is inherited by the children)."""
+    import numpy as np
+    import pandas as pd
+    import xarray as xr
+
+    ds = xr.Dataset({"a": ("time", np.arange(3.0))}, coords={"time": pd.date_range("2020-01-01", periods=3, freq="s")})
+    ds.sel(time=slice(ds["time"].values[0], None)).mean()
 
 
 def _reap(children: set[int]) -> None:
