@@ -28,6 +28,7 @@ from dronewind.steps.lock import acquire_results_lock, release_results_lock
 from dronewind.steps.payload import simulation_manifest
 from dronewind.steps.preload import SOCKET_ENV as PRELOAD_SOCKET_ENV
 from dronewind.steps.preload import PreloadServer
+from dronewind.steps.preload import supported as preload_supported
 
 min_version("9.0")
 
@@ -64,7 +65,8 @@ ENV = "../../envs/dronewind.yaml"
 #
 # A local run forks its jobs from one process that has the libraries imported
 # (dronewind.steps.preload; config preload: true), which saves each job 0.5-1.2 CPU-s of
-# imports; a cluster run (jobs on other nodes) does not use it.
+# imports; a cluster run (jobs on other nodes) does not use it, nor does a machine that is not
+# Linux (forking without exec is unsafe on macOS).
 _PRELOAD = []
 
 
@@ -73,7 +75,7 @@ onstart:
         _note = acquire_results_lock(RESULTS, workflow.basedir)
         if _note:
             print(_note, file=sys.stderr)
-        if config["preload"] and workflow.local_exec:
+        if config["preload"] and workflow.local_exec and preload_supported():
             _PRELOAD.append(
                 PreloadServer(
                     RESULTS / "benchmarks" / "preloaded_jobs.tsv",

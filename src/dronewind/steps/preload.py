@@ -356,6 +356,16 @@ def _record(job_table: str | Path, sm: Any, script: str, wall_s: float, code: in
 # ----------------------------------------------------------------------- the workflow side
 
 
+def supported() -> bool:
+    """Whether jobs can be forked from a preloaded process here: Linux only.
+
+    On macOS a process that has loaded the system's frameworks (Accelerate under numpy, for
+    one) is not safe to fork without exec, which is why Python's multiprocessing starts
+    fresh interpreters there; jobs then import in their own processes as before.
+    """
+    return sys.platform.startswith("linux") and hasattr(os, "fork") and hasattr(socket, "send_fds")
+
+
 class PreloadServer:
     """A :func:`serve` process started for one workflow run (Snakefile ``onstart``).
 
