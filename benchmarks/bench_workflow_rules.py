@@ -68,7 +68,8 @@ def preloaded_cpu(table: Path, folders: set[str]) -> dict[tuple[str, str], tuple
 
     A rule made per flight (``quadrotor_l1_f01``) has its benchmark files in the folder of its
     stem (``quadrotor_l1/f01.tsv``); a rule with wildcards names its file by their values
-    joined with ``_`` (``all`` without wildcards).
+    joined with ``_`` (``all`` without wildcards). The table keeps the jobs of every run into
+    the folder; a job's last line is its last run, which its benchmark file also holds.
     """
     if not table.is_file():
         return {}
@@ -81,8 +82,7 @@ def preloaded_cpu(table: Path, folders: set[str]) -> dict[tuple[str, str], tuple
         else:
             folder = max((f for f in folders if rule.startswith(f + "_")), key=len, default=rule)
             job = rule[len(folder) + 1:]
-        cpu0, rss0 = out.get((folder, job), (0.0, 0.0))
-        out[(folder, job)] = (cpu0 + float(cpu), max(rss0, float(rss)))
+        out[(folder, job)] = (float(cpu), float(rss))  # a job run again (a later run): its last run, as its file
     return out
 
 
