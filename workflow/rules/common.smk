@@ -76,13 +76,20 @@ onstart:
         if _note:
             print(_note, file=sys.stderr)
         if config["preload"] and workflow.local_exec and preload_supported():
-            _PRELOAD.append(
-                PreloadServer(
-                    RESULTS / "benchmarks" / "preloaded_jobs.tsv",
-                    RESULTS / "logs" / "preload.log",
+            try:
+                _PRELOAD.append(
+                    PreloadServer(
+                        RESULTS / "benchmarks" / "preloaded_jobs.tsv",
+                        RESULTS / "logs" / "preload.log",
+                    )
                 )
-            )
-            os.environ[PRELOAD_SOCKET_ENV] = _PRELOAD[0].socket_path
+            except OSError as _exc:
+                print(
+                    f"preload: not started ({_exc}); every job imports in its own process",
+                    file=sys.stderr,
+                )
+            else:
+                os.environ[PRELOAD_SOCKET_ENV] = _PRELOAD[0].socket_path
 
 
 def _end_run():
