@@ -69,11 +69,12 @@ def preloaded_cpu(table: Path, folders: set[str]) -> dict[tuple[str, str], tuple
     A rule made per flight (``quadrotor_l1_f01``) has its benchmark files in the folder of its
     stem (``quadrotor_l1/f01.tsv``); a rule with wildcards names its file by their values
     joined with ``_`` (``all`` without wildcards). The table keeps the jobs of every run into
-    the folder; a job's last line is its last run, which its benchmark file also holds.
+    the folder; a job's last successful line is its last run, which its benchmark file holds.
     """
     if not table.is_file():
         return {}
-    df = pd.read_csv(table, sep="\t", dtype={"rule": str, "wildcards": str})
+    df = pd.read_csv(table, sep="\t", dtype={"rule": str, "wildcards": str}, keep_default_na=False)
+    df = df[df["exit_status"] == 0]  # a failed attempt (its rule may be unknown) has no benchmark file of its own
     out: dict[tuple[str, str], tuple[float, float]] = {}
     for rule, wildcards, cpu, rss in zip(df["rule"], df["wildcards"], df["cpu_s"], df["max_rss_mb"], strict=True):
         values = list(json.loads(wildcards).values())

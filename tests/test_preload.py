@@ -133,7 +133,7 @@ def test_stopping_the_job_stops_its_child(server, tmp_path, how):
 def test_the_server_ends_with_its_parent(tmp_path):
     """A server whose parent (Snakemake) is gone stops serving and removes its socket."""
     sock = tmp_path / "s.sock"
-    serve = f"from dronewind.steps.preload import serve; serve({str(sock)!r}, modules=(), library=False)"
+    serve = f"from dronewind.steps.preload import serve; serve({str(sock)!r}, preload=False)"
     (tmp_path / "parent.py").write_text(
         f"import subprocess, sys, time\nsubprocess.Popen([sys.executable, '-c', {serve!r}])\ntime.sleep(300)\n")
     parent = subprocess.Popen([sys.executable, str(tmp_path / "parent.py")],
@@ -154,12 +154,12 @@ def test_the_server_ends_with_its_parent(tmp_path):
 
 def test_the_server_imports_the_library_but_not_dask_array():
     """Jobs see the modules a process of their own would have, plus the library: never dask.array (duck arrays)."""
-    code = ("import sys, importlib\n"
-            "from dronewind.steps.preload import PRELOAD_MODULES, library_modules, LIBRARY_SKIP, _warm_up\n"
-            "names = library_modules()\n"
-            "assert 'dronewind.steps.payload' in names and not LIBRARY_SKIP & set(names)\n"
-            "[importlib.import_module(m) for m in (*PRELOAD_MODULES, *names)]\n"
-            "_warm_up()\n"
+    code = ("import sys\n"
+            "from dronewind.steps.preload import library_modules, preload_libraries\n"
+            "assert {'dronewind.steps.payload', 'dronewind.compare.long_record', 'dronewind.cli'} <= "
+            "set(library_modules())\n"
+            "preload_libraries()\n"
+            "assert {'dronewind.steps.payload', 'dronewind.cli', 'xarray', 'scipy.signal'} <= set(sys.modules)\n"
             "print(sorted(m for m in ('dask.array', 'pint', 'matplotlib.pyplot') if m in sys.modules))\n")
     proc = subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(REPO / "src")},
                           capture_output=True, text=True, timeout=120, check=False)

@@ -56,18 +56,16 @@ from typing import Any
 #: Environment variable naming the server's socket; set by the workflow for its jobs.
 SOCKET_ENV = "DRONEWIND_PRELOAD_SOCKET"
 #: Libraries imported by the server before it serves (all the scripts import some of them);
-#: then every module of dronewind but :data:`LIBRARY_SKIP` (:func:`library_modules`).
+#: then every module of dronewind (:func:`library_modules`). None of them imports dask.array,
+#: pint or pyplot, which would change what a job's process holds (xarray's duck-array checks,
+#: :mod:`dronewind.core.duckarrays`; tested).
 PRELOAD_MODULES: tuple[str, ...] = (
     "numpy", "pandas", "xarray", "netCDF4", "yaml", "scipy.signal", "scipy.stats", "scipy.optimize",
     "scipy.interpolate", "scipy.linalg", "scipy.special", "matplotlib",
-    # xarray imports dask's base package (not dask.array, see LIBRARY_SKIP) on a process's
-    # first NetCDF write: every job that writes one has it
+    # xarray imports dask's base package (not dask.array) on a process's first NetCDF write:
+    # every job that writes one has it
     "dask",
 )
-#: Modules of dronewind the server does not import: they import dask.array, which would change
-#: how xarray treats every job's arrays (:mod:`dronewind.core.duckarrays`); the jobs that need
-#: them import them.
-LIBRARY_SKIP: frozenset[str] = frozenset({"dronewind.cli", "dronewind.compare.long_record"})
 #: Imported too where installed: what the preamble of a Snakemake script imports (the library
 #: itself never imports Snakemake).
 OPTIONAL_MODULES: tuple[str, ...] = ("snakemake.script",)
@@ -100,21 +98,19 @@ def delegate() -> None:
     path = os.environ.get(SOCKET_ENV)
     if not path:
         return
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
-        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         sock.settimeout(ACCEPT_TIMEOUT_S)
         sock.connect(path)
         request = json.dumps({"executable": sys.executable, "argv": sys.argv, "cwd": os.getcwd(),
                               "env": dict(os.environ)}).encode()
         socket.send_fds(sock, [_LEN.pack(len(request))], [0, 1, 2])
         sock.sendall(request)
-        reply = _recv_exact(sock, 1)
-        if reply != b"S":  # refused (another interpreter) or gone
-            sock.close()
-            return
-        _recv_exact(sock, 8)  # the child's process id (for the log)
+        if _recv_exact(sock, 1) != b"S":  # refused (another interpreter)
+            raise EOFError("refused")
         sock.sendall(b"G")  # committed: from here on the child runs the job
     except Exception:  # noqa: BLE001 (nothing has run yet: the job runs in its own process)
+        sock.close()
         return
     sock.settimeout(None)
     code = _wait_for_child(sock)
@@ -155,18 +151,26 @@ def _recv_exact(sock: socket.socket, n: int) -> bytes:
 
 
 def library_modules() -> list[str]:
-    """Every module of the dronewind package but :data:`LIBRARY_SKIP`, sorted."""
+    """Every module of the dronewind package, sorted."""
     import pkgutil
 
     import dronewind
 
-    return sorted(m.name for m in pkgutil.walk_packages(dronewind.__path__, "dronewind.")
-                  if m.name not in LIBRARY_SKIP)
+    return sorted(m.name for m in pkgutil.walk_packages(dronewind.__path__, "dronewind."))
 
 
-def serve(socket_path: str | Path, job_table: str | Path | None = None,
-          modules: Sequence[str] = PRELOAD_MODULES, library: bool = True) -> None:
-    """Import ``modules`` (and the library), then fork a child for every job that connects to ``socket_path``.
+def preload_libraries() -> None:
+    """Import :data:`PRELOAD_MODULES`, the library and :data:`OPTIONAL_MODULES`, then warm xarray up."""
+    for name in (*PRELOAD_MODULES, *library_modules()):
+        importlib.import_module(name)
+    for name in OPTIONAL_MODULES:
+        with contextlib.suppress(ImportError):
+            importlib.import_module(name)
+    _warm_up()
+
+
+def serve(socket_path: str | Path, job_table: str | Path | None = None, preload: bool = True) -> None:
+    """Import the libraries and the library, then fork a child for every job that connects to ``socket_path``.
 
     Runs until SIGTERM or SIGINT, or until its parent process (Snakemake) is gone; then
     waits for the children still running. Must be started with :data:`ONE_THREAD_ENV`.
@@ -178,22 +182,12 @@ def serve(socket_path: str | Path, job_table: str | Path | None = None,
     job_table : str or Path, optional
         Tab-separated table to which every child appends its rule, wildcards, CPU time,
         wall time, peak memory and exit status (:data:`JOB_TABLE_COLUMNS`).
-    modules : sequence of str
-        Modules to import before serving.
-    library : bool
-        Import every module of dronewind too (:func:`library_modules`) and what the
-        preamble of a Snakemake script imports (:data:`OPTIONAL_MODULES`, where installed).
+    preload : bool
+        Import the libraries first (:func:`preload_libraries`); False serves at once (tests).
     """
     parent = os.getppid()
-    for name in modules:
-        importlib.import_module(name)
-    for name in library_modules() if library else ():
-        importlib.import_module(name)
-    for name in OPTIONAL_MODULES if library else ():
-        with contextlib.suppress(ImportError):
-            importlib.import_module(name)
-    if library:
-        _warm_up()
+    if preload:
+        preload_libraries()
     # the imported objects go to the collector's permanent generation: a child's collections
     # then do not touch (and copy) the pages it shares with the server
     gc.collect()
@@ -287,7 +281,7 @@ def _run_job(conn: socket.socket, fds: list[int], request: dict[str, Any], job_t
         signal.signal(signum, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
     conn.settimeout(None)
-    conn.sendall(b"S" + struct.pack("!q", os.getpid()))
+    conn.sendall(b"S")
     if _recv_exact(conn, 1) != b"G":
         return 1
     for target, fd in enumerate(fds):
