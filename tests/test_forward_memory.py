@@ -175,3 +175,26 @@ def test_parts_run_apart_merge_into_the_whole_flight(atmosphere):
     assert merged == whole
     with pytest.raises(InputError, match="expected each of"):
         forward.merge_probe_runs(parts[1:], probes)
+
+
+def test_runs_without_the_lag_drift_differ_only_in_that_feature():
+    """``lag_drift=False`` (the published numbers, which hold no lag) leaves out the halves'
+    lag searches: lag_drift_s is missing and every other feature is bit-identical; parts run
+    with and without it are not merged."""
+    proc = _processing()
+    camp = _campaign([{"mechanism": "w_gain", "parameters": {"gain": 1.15}}])
+    with_drift, _ = forward.run_forward(camp, "f1", proc)
+    without, _ = forward.run_forward(camp, "f1", proc, lag_drift=False)
+    assert np.isfinite(with_drift.values["lag_drift_s"]) and np.isnan(without.values["lag_drift_s"])
+    assert without.reasons["lag_drift_s"]
+    for key, value in with_drift.values.items():
+        if key != "lag_drift_s":
+            assert without.values[key] == pytest.approx(value, nan_ok=True, rel=0, abs=0), key
+    conditions = camp["simulation"]["payload_flights"]["f1"]
+    probes = tuple(p for p in forward.PROBES if p.mechanism == "w_gain")
+    parts = [forward.probe_runs(_campaign(), "f1", conditions, proc, seeds=(0,), probes=probes, parts=[name],
+                                lag_drift=name == "w_gain")
+             for name in forward.probe_parts(probes)]
+    assert [p["lag_drift"] for p in parts] == [False, True]
+    with pytest.raises(InputError, match="disagree on lag_drift"):
+        forward.merge_probe_runs(parts, probes)

@@ -502,8 +502,8 @@ def record_digest(*records: RawRecord | str | Path) -> str:
 
 
 def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources: Sequence[str | Path | RawRecord],
-                           processing: Mapping[str, Any],
-                           cache: ForwardCache | None = None) -> tuple[FlightFeatures, dict[str, Any]]:
+                           processing: Mapping[str, Any], cache: ForwardCache | None = None,
+                           lag_drift: bool = True) -> tuple[FlightFeatures, dict[str, Any]]:
     """Process the raw records of a simulated forward flight like measured data, up to its features.
 
     Parameters
@@ -521,6 +521,10 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
         ``processing`` settings (keys of :data:`CHAIN_SETTINGS`).
     cache : ForwardCache, optional
         Products of identical records from an earlier run of the same flight and settings.
+    lag_drift : bool
+        Find the lags of the hover's two halves for the ``lag_drift_s`` feature (two more
+        lag searches, about a fifth of a measurement-stage probe run); without, that feature
+        is missing (NaN). For observations that hold no lag, e.g. published statistics.
 
     Returns
     -------
@@ -544,11 +548,11 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
                          lambda: compute_sonic_l1(sonic_src, ins_src, ins_table, processing["despike"]))
     site_altitude_m = float(manifest["site"]["altitude_m"])
 
-    def payload_l2() -> tuple[xr.Dataset, tuple[float, float]]:
+    def payload_l2() -> tuple[xr.Dataset, tuple[float, float] | None]:
         l2 = compute_payload_l2(sonic_l1, ins_l1, flight, site_altitude_m, **lag)
-        return l2, lag_halves(sonic_l1, ins_l1, l2, flight, site_altitude_m, **lag)
+        return l2, lag_halves(sonic_l1, ins_l1, l2, flight, site_altitude_m, **lag) if lag_drift else None
 
-    l2, halves = cache.get("l2", k_payload, payload_l2)
+    l2, halves = cache.get("l2" if lag_drift else "l2 without halves", k_payload, payload_l2)
     mast_l1 = cache.get("mast_l1", record_digest(*mast_srcs),
                         lambda: compute_mast_l1(mast_srcs, sonic_info, processing["despike"]))
     mast_l2 = compute_mast_l2(mast_l1, l2, flight_id, processing["drone_mast"], source="forward mast")
@@ -565,6 +569,7 @@ def run_forward(
     truth: PayloadTruth | None = None,
     cache: ForwardCache | None = None,
     atmosphere: xr.Dataset | None = None,
+    lag_drift: bool = True,
 ) -> tuple[FlightFeatures, dict[str, Any]]:
     """Simulate one flight of a forward manifest, process it as measured data, return its features.
 
@@ -592,6 +597,8 @@ def run_forward(
         The reference mast's measured record (:func:`atmosphere_record`): the field is
         constrained by it and takes its spectra
         (:func:`dronewind.simulate.payload.measured_constraint`); the model field by default.
+    lag_drift : bool
+        Compute the ``lag_drift_s`` feature (:func:`process_forward_flight`).
 
     Returns
     -------
@@ -608,7 +615,7 @@ def run_forward(
     if work_dir is not None:
         folder = Path(str(work_dir))
         sources = [write_record(folder / rec.source, rec) for rec in records]
-    features, products = process_forward_flight(manifest, flight_id, sources, processing, cache)
+    features, products = process_forward_flight(manifest, flight_id, sources, processing, cache, lag_drift)
     products["truth"] = truth
     return features, products
 
@@ -705,6 +712,7 @@ def probe_runs(
     probes: tuple[Probe, ...] = PROBES,
     parts: Sequence[str] | None = None,
     atmosphere: xr.Dataset | None = None,
+    lag_drift: bool = True,
 ) -> dict[str, Any]:
     """Baseline and probe runs of the forward model for one flight.
 
@@ -730,6 +738,9 @@ def probe_runs(
     atmosphere : xarray.Dataset, optional
         The reference mast's measured record of the flight (:func:`atmosphere_record`,
         ``diagnosis.atmosphere: measured``); the similarity model's field without it.
+    lag_drift : bool
+        Compute the ``lag_drift_s`` feature (:func:`process_forward_flight`); when false it
+        is NaN in every run and ``lag_drift`` is false in the result.
 
     Returns
     -------
@@ -765,7 +776,7 @@ def probe_runs(
         raise InputError("parts", f"unknown forward-run part(s) {unknown}; expected some of {probe_parts(probes)}")
     out: dict[str, Any] = {"flight": flight_id, "conditions": dict(conditions), "seeds": list(seeds),
                            "parts": list(parts), "baseline": [], "probes": [],
-                           "atmosphere": "model" if atmosphere is None else "measured"}
+                           "atmosphere": "model" if atmosphere is None else "measured", "lag_drift": bool(lag_drift)}
     levels = [(probe, level) for probe in probes if probe.mechanism in parts for level in probe.levels]
     run_seeds = seeds if BASELINE_PART in parts else ()
     progress = Progress("probe", len(run_seeds) + len(levels), "run")
@@ -775,7 +786,8 @@ def probe_runs(
     for seed in run_seeds:
         with progress.item(f"flight {flight_id} baseline seed {seed}"):
             feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed, measured),
-                                          flight_id, processing, cache=cache, atmosphere=atmosphere)
+                                          flight_id, processing, cache=cache, atmosphere=atmosphere,
+                                          lag_drift=lag_drift)
         if truth is None:
             truth = products["truth"]
             cache.freeze()
@@ -795,7 +807,8 @@ def probe_runs(
         try:
             with progress.item(name):
                 feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0], measured),
-                                       flight_id, processing, truth=reuse, cache=cache, atmosphere=record)
+                                       flight_id, processing, truth=reuse, cache=cache, atmosphere=record,
+                                       lag_drift=lag_drift)
         except InputError as exc:
             # a level outside what this flight allows (e.g. a height offset deeper than
             # the measured hover height): recorded and left out; the candidate's response
@@ -840,10 +853,10 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     first = parts[0]
     names: list[str] = []
     for part in parts:
-        for key in ("flight", "conditions", "seeds", "atmosphere"):
+        for key in ("flight", "conditions", "seeds", "atmosphere", "lag_drift"):
             if part.get(key) != first.get(key):
-                raise InputError(f"parts: {key}", f"forward-run parts disagree on {key}: {part[key]!r} and "
-                                 f"{first[key]!r}")
+                raise InputError(f"parts: {key}", f"forward-run parts disagree on {key}: {part.get(key)!r} and "
+                                 f"{first.get(key)!r}")
         names += list(part["parts"])
     if sorted(names) != sorted(probe_parts(probes)):
         raise InputError("parts", f"forward-run parts {sorted(names)}; expected each of {list(probe_parts(probes))} "
@@ -851,7 +864,8 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     order = {(p.candidate, p.parameter, float(level)): k for k, (p, level) in
              enumerate((p, level) for p in probes for level in p.levels)}
     out: dict[str, Any] = {"flight": first["flight"], "conditions": first["conditions"], "seeds": first["seeds"],
-                           "atmosphere": first.get("atmosphere"), "parts": list(probe_parts(probes)),
+                           "atmosphere": first.get("atmosphere"), "lag_drift": first.get("lag_drift", True),
+                           "parts": list(probe_parts(probes)),
                            "baseline": next(p["baseline"] for p in parts if BASELINE_PART in p["parts"]),
                            "probes": sorted((r for p in parts for r in p["probes"]),
                                             key=lambda r: order[(r["candidate"], r["parameter"], float(r["level"]))])}
