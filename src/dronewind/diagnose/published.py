@@ -55,6 +55,7 @@ import xarray as xr
 import yaml
 
 from dronewind.diagnose.campaign import CampaignEvidence, assemble
+from dronewind.diagnose.campaign import n_tests as campaign_n_tests
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.fitting import ParameterResponse, bounded_least_squares
 from dronewind.errors import InputError
@@ -434,9 +435,32 @@ def _group_table(pe: PublishedEvidence, combo: Sequence[str], theta: np.ndarray)
     return rows
 
 
-def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], alpha: float, n_tests: int,
-                 max_causes: int) -> tuple[tuple[str, ...], PublishedScore | None, list[PublishedScore]]:
+def _simplest(ev: CampaignEvidence, best: PublishedScore, ok: Sequence[PublishedScore], alpha: float
+              ) -> PublishedScore:
+    """``best`` or a nested variant of its added candidate that fits as well.
+
+    As :func:`dronewind.diagnose.campaign.simplest_variant`: extra parameters are kept only
+    when they lower the chi-square significantly (nested likelihood-ratio test at ``alpha``).
+    """
+    def params(score: PublishedScore) -> set[str]:
+        return {p.name for p in ev.models[score.combo[-1]].parameters}
+
+    mech = ev.mechanism_of[best.combo[-1]]
+    nested = [s for s in ok if s.combo[:-1] == best.combo[:-1] and ev.mechanism_of[s.combo[-1]] == mech
+              and params(s) < params(best)]
+    for score in sorted(nested, key=lambda s: (len(params(s)), -s.gain)):
+        extra = len(params(best)) - len(params(score))
+        if float(scipy.stats.chi2.sf(max(score.chi2 - best.chi2, 0.0), extra)) >= alpha:
+            return score
+    return best
+
+
+def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], alpha: float,
+                 tests: Mapping[str, int], max_causes: int
+                 ) -> tuple[tuple[str, ...], PublishedScore | None, list[PublishedScore]]:
     """Greedy naming: the best significant single candidate, then additions significant against it.
+
+    ``tests`` holds each candidate's Bonferroni divisor (:func:`dronewind.diagnose.campaign.n_tests`).
 
     Returns
     -------
@@ -455,12 +479,12 @@ def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], a
         used = {ev.mechanism_of[c] for c in named}
         options = [c for c in sorted(ev.models) if ev.mechanism_of[c] not in used]
         tries = [singles[c] for c in options] if not named else \
-            [score_combo(pe, (*named, c), named, alpha, n_tests) for c in options]
+            [score_combo(pe, (*named, c), named, alpha, tests[c]) for c in options]
         ok = [s for s in tries if s.significant and (current is None or s.gain > 0)]
         if not ok:
             rejected = sorted(tries, key=lambda s: s.p_value)
             break
-        best = max(ok, key=lambda s: (s.gain, -s.chi2))
+        best = _simplest(ev, max(ok, key=lambda s: (s.gain, -s.chi2)), ok, alpha)
         named, current = best.combo, best
     return named, current, rejected
 
@@ -506,14 +530,14 @@ def _candidate_rows(ev: CampaignEvidence, ranked: Sequence[PublishedScore]) -> l
 
 
 def _not_named_rows(ev: CampaignEvidence, rejected: Sequence[PublishedScore], alpha: float,
-                    n_tests: int) -> list[dict[str, Any]]:
+                    tests: Mapping[str, int]) -> list[dict[str, Any]]:
     """What was tried and not named in the last round (best three by p-value).
 
     Evidence that is suggestive but does not pass the corrected test is reported, not named.
     """
     return [{"combo": list(s.combo), "added": ev.mechanism_of[s.combo[-1]],
              "estimate": s.estimate(), "chi2": s.chi2, "chi2_reference": s.chi2_reference,
-             "p_value": s.p_value, "gain": s.gain, "threshold": alpha / max(n_tests, 1)}
+             "p_value": s.p_value, "gain": s.gain, "threshold": alpha / max(tests[s.combo[-1]], 1)}
             for s in rejected[:3]]
 
 
@@ -542,9 +566,10 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
     pe = build_evidence(published, forward)
     ev = pe.ev
     n_tests = len(sorted({ev.mechanism_of[c] for c in ev.models}))
-    singles = {c: score_combo(pe, (c,), (), alpha, n_tests) for c in sorted(ev.models)}
+    tests = campaign_n_tests(ev)  # a mechanism's share of alpha split among its variants
+    singles = {c: score_combo(pe, (c,), (), alpha, tests[c]) for c in sorted(ev.models)}
     ranked = sorted(singles.values(), key=lambda s: -s.gain)
-    named, current, rejected = _name_causes(pe, singles, alpha, n_tests, max_causes)
+    named, current, rejected = _name_causes(pe, singles, alpha, tests, max_causes)
     base_chi2 = sum(_chi2_groups(pe, (), np.zeros(0)).values())
     ambiguity = _ambiguity_set(pe, singles, named, alpha)
     estimates, extended = _named_estimates(ev, named, current)
@@ -561,7 +586,7 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
         "named_fit": ({"chi2": current.chi2, "gain": current.gain, "p_value": current.p_value,
                        "quantities": _group_table(pe, named, after_theta)} if current is not None else None),
         "ambiguity_set": ambiguity,
-        "not_named": _not_named_rows(ev, rejected, alpha, n_tests),
+        "not_named": _not_named_rows(ev, rejected, alpha, tests),
         "extended_mechanisms": extended,
         "alpha": alpha,
         "n_tests": n_tests,
