@@ -39,11 +39,24 @@ so the kept draws are those of the full stratified set:
 Draws run in a fixed random order (so that a partial progress log mixes the cases). A
 progress log (one JSON line per draw) goes to the output path with ``.log``; the results
 file is written atomically at the end.
+
+``--evidence DIR`` keeps each draw's diagnosis input (measured features and forward runs,
+:func:`dronewind.diagnose.experiments.campaign_evidence`) as ``DIR/draw<index>.json.gz``,
+and a draw whose file is already there is only diagnosed again: a change to the diagnosis
+itself (not to the simulator or the chain) is then measured on the very same draws in
+about a second per draw, before against after (an older source tree on ``PYTHONPATH`` rescores
+kept evidence with its own diagnosis)::
+
+    PYTHONPATH=src .venv/bin/python benchmarks/bench_diagnosis_rates.py --draws 60 --seed 1 \\
+        --workers 2 --evidence /tmp/rates_evidence --out /tmp/rates_after.json
+    PYTHONPATH=/tmp/base/src .venv/bin/python benchmarks/bench_diagnosis_rates.py --draws 60 --seed 1 \\
+        --evidence /tmp/rates_evidence --out /tmp/rates_before.json
 """
 
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import os
 import sys
@@ -59,7 +72,20 @@ import scipy.stats
 import yaml
 
 from bench_common import git_commit
-from dronewind.diagnose.experiments import Draw, judge, run_in_process, stratified_draws, wilson_interval
+from dronewind.diagnose.experiments import Draw, judge, stratified_draws, wilson_interval
+from dronewind.manifest import with_defaults
+
+try:
+    from dronewind.diagnose.experiments import diagnose_evidence
+except ImportError:  # an older source tree (PYTHONPATH): rescore kept evidence with its diagnosis
+    def diagnose_evidence(evidence: dict[str, Any], config: dict[str, Any]) -> dict[str, Any]:
+        """``diagnosis.json`` of kept evidence, with the diagnosis of the source tree in use."""
+        from dronewind.diagnose import campaign as dc
+
+        diag = with_defaults(config)["diagnosis"]
+        result = dc.diagnose(dc.assemble(evidence["measured"], evidence["forward"]), alpha=float(diag["alpha"]),
+                             max_causes=int(diag["max_causes"]), min_gain=float(diag["min_gain"]))
+        return {**dc.to_json(result, evidence["name"]), "atmosphere": str(diag["atmosphere"])}
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -84,14 +110,37 @@ def median_ci(values: list[float]) -> dict[str, Any]:
     return {"n": int(n), "median": float(np.median(x)), "ci95": [lo, hi]}
 
 
-def one(args: tuple[int, Draw]) -> dict[str, Any]:
-    """Simulate, process, diagnose and judge one draw."""
-    index, truth = args
+def _evidence(truth: Draw, config: dict[str, Any], path: Path | None) -> dict[str, Any]:
+    """The draw's diagnosis input: read from ``path`` if there (checked against the draw), else made (and kept)."""
+    key = {"label": truth.label, "seed": truth.seed, "mechanism": truth.mechanism, "parameters": truth.parameters,
+           "model_error": truth.model_error}
+    if path is not None and path.is_file():
+        with gzip.open(path, "rt") as fh:
+            kept = json.load(fh)
+        if kept["draw"] != json.loads(json.dumps(key)):
+            raise ValueError(f"{path}: kept evidence of draw {kept['draw']}, not of {key}")
+        return kept["evidence"]
+    from dronewind.diagnose.experiments import campaign_evidence
+
+    with tempfile.TemporaryDirectory() as work:
+        evidence = campaign_evidence(truth, config, work)
+    if path is not None:
+        tmp = path.with_suffix(".tmp")
+        with gzip.open(tmp, "wt") as fh:
+            json.dump({"draw": key, "evidence": evidence}, fh)
+        os.replace(tmp, path)
+    return evidence
+
+
+def one(args: tuple[int, Draw, Path | None]) -> dict[str, Any]:
+    """Simulate, process, diagnose and judge one draw (the simulation read back from ``--evidence`` if kept)."""
+    index, truth, evidence_dir = args
     config = yaml.safe_load((REPO / "config/config.yaml").read_text())
     start = time.perf_counter()
     try:
-        with tempfile.TemporaryDirectory() as work:
-            diagnosis = run_in_process(truth, config, work)
+        path = None if evidence_dir is None else evidence_dir / f"draw{index}.json.gz"
+        reused = path is not None and path.is_file()
+        diagnosis = diagnose_evidence(_evidence(truth, config, path), config)
     except Exception as exc:  # a draw the chain cannot process is a failure, reported, not a crash
         verdict = judge(truth, {"named_causes": []})
         verdict.update(index=index, seed=truth.seed, detected=False, estimate_ok=False,
@@ -100,7 +149,7 @@ def one(args: tuple[int, Draw]) -> dict[str, Any]:
     verdict = judge(truth, diagnosis)
     em = diagnosis.get("error_model", {})
     verdict.update(
-        index=index, seed=truth.seed, seconds=time.perf_counter() - start,
+        index=index, seed=truth.seed, seconds=time.perf_counter() - start, evidence_reused=reused,
         candidates=[{"mechanism": c["mechanism"], "gain": c["gain"], "lr": c["lr_statistic"], "p": c["p_value"],
                      "k": c["n_parameters"], "significant": c["significant"]} for c in diagnosis["candidates"]],
         error_model={k: em.get(k) for k in ("n_seeds", "dof", "shrinkage_intensity")},
@@ -173,10 +222,12 @@ def main() -> None:
     parser.add_argument("--only", default="",
                         help="comma-separated label prefixes: keep only these draws (e.g. model_error:mast)")
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks/results/diagnosis_rates.json")
+    parser.add_argument("--evidence", type=Path,
+                        help="folder that keeps each draw's diagnosis input; kept draws are only diagnosed again")
     args = parser.parse_args()
+    if args.evidence is not None:
+        args.evidence.mkdir(parents=True, exist_ok=True)
     config = yaml.safe_load((REPO / "config/config.yaml").read_text())
-    from dronewind.manifest import with_defaults
-
     diag = with_defaults(config)["diagnosis"]
     draws = stratified_draws(args.draws, args.seed, args.null_share, args.model_error_share)
     prefixes = [p for p in args.only.split(",") if p]
@@ -192,7 +243,7 @@ def main() -> None:
                               "seed": args.seed}) + "\n")
         log.flush()
         # a fixed permutation, so that a partial log mixes the cases
-        jobs = [(int(k), draws[k]) for k in np.random.default_rng(args.seed).permutation(len(draws))]
+        jobs = [(int(k), draws[k], args.evidence) for k in np.random.default_rng(args.seed).permutation(len(draws))]
         results = Pool(args.workers).imap_unordered(one, jobs) if args.workers > 1 else map(one, jobs)
         for verdict in results:
             verdicts.append(verdict)
@@ -207,7 +258,8 @@ def main() -> None:
         "command": "PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/bench_diagnosis_rates.py "
                    f"--draws {args.draws} --seed {args.seed} --workers {args.workers} "
                    f"--null-share {args.null_share} --model-error-share {args.model_error_share}"
-                   + (f" --only {args.only}" if prefixes else ""),
+                   + (f" --only {args.only}" if prefixes else "")
+                   + (f" --evidence {args.evidence}" if args.evidence is not None else ""),
         "commit": commit,
         "settings": {"draws": args.draws, "kept_draws": len(draws), "only": prefixes, "seed": args.seed,
                      "null_share": args.null_share,

@@ -53,7 +53,8 @@ from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
-           "stratified_draws", "campaign_manifest", "judge", "run_in_process", "AMBIGUOUS_WITH",
+           "stratified_draws", "campaign_manifest", "judge", "run_in_process", "campaign_evidence",
+           "diagnose_evidence", "AMBIGUOUS_WITH",
            "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
            "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS",
            "CAVEATED_MODEL_ERRORS", "model_error_draw", "VirtualFlight", "process_virtual_flight"]
@@ -565,7 +566,7 @@ def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path,
 
     Uses the same library functions as the workflow's rules, in the same order; meant for
     the rate benchmark, where hundreds of Snakemake jobs per draw would cost more than the
-    science.
+    science. :func:`campaign_evidence` then :func:`diagnose_evidence`.
 
     Parameters
     ----------
@@ -584,8 +585,27 @@ def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path,
     dict
         The diagnosis, as ``diagnosis.json``.
     """
-    from dronewind.diagnose import campaign as dc
+    return diagnose_evidence(campaign_evidence(truth, config, work_dir, **manifest_kw), config)
 
+
+def campaign_evidence(truth: Draw, config: Mapping[str, Any], work_dir: str | Path, **manifest_kw: Any
+                      ) -> dict[str, Any]:
+    """The diagnosis' input for a hidden-effect campaign: every flight simulated, processed and forward-run.
+
+    Parameters
+    ----------
+    truth, config, work_dir, **manifest_kw
+        As :func:`run_in_process`.
+
+    Returns
+    -------
+    dict
+        ``name`` (the campaign's), ``measured`` (flight -> measured features, as
+        ``diagnosis/measured/<flight>.json`` holds them) and ``forward`` (flight -> forward
+        runs, as ``diagnosis/forward/<flight>.json``): JSON-serialisable, so that a
+        benchmark can keep it and diagnose it again with other settings
+        (:func:`diagnose_evidence`).
+    """
     settings = with_defaults(config)
     processing, diagnosis = settings["processing"], settings["diagnosis"]
     data = campaign_manifest(truth, **manifest_kw)
@@ -594,8 +614,29 @@ def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path,
         measured[flight["id"]], fwd[flight["id"]] = _process_flight(data, flight, Path(work_dir), processing,
                                                                     tuple(diagnosis["seeds"]),
                                                                     str(diagnosis["atmosphere"]))
-    result = dc.diagnose(dc.assemble(measured, fwd), alpha=float(diagnosis["alpha"]),
+    return {"name": data["name"], "measured": measured, "forward": fwd}
+
+
+def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any]) -> dict[str, Any]:
+    """The campaign diagnosis of :func:`campaign_evidence`'s output, as ``diagnosis.json``.
+
+    Parameters
+    ----------
+    evidence : mapping
+        Output of :func:`campaign_evidence` (or the same read back from JSON).
+    config : mapping
+        Workflow configuration (its ``diagnosis`` settings; defaults where missing).
+
+    Returns
+    -------
+    dict
+        The diagnosis, as ``diagnosis.json``.
+    """
+    from dronewind.diagnose import campaign as dc
+
+    diagnosis = with_defaults(config)["diagnosis"]
+    result = dc.diagnose(dc.assemble(evidence["measured"], evidence["forward"]), alpha=float(diagnosis["alpha"]),
                          max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]))
-    out = dc.to_json(result, data["name"])
+    out = dc.to_json(result, evidence["name"])
     out["atmosphere"] = str(diagnosis["atmosphere"])
     return out
