@@ -72,6 +72,7 @@ import scipy.stats
 import yaml
 
 from bench_common import git_commit
+from dronewind.diagnose import experiments as experiments_module
 from dronewind.diagnose.experiments import Draw, judge, stratified_draws, wilson_interval
 from dronewind.manifest import with_defaults
 
@@ -236,7 +237,8 @@ def main() -> None:
     log_path = args.out.with_suffix(".log")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    commit = git_commit()  # the code that runs, whatever is committed while it does
+    # the source tree that runs (an older worktree on PYTHONPATH when rescoring kept evidence)
+    commit = git_commit(Path(experiments_module.__file__).parent)
     verdicts = []
     with log_path.open("w") as log:
         log.write(json.dumps({"command": " ".join(sys.argv), "commit": commit, "draws": len(draws),

@@ -22,9 +22,12 @@ flight also differs from its prediction by the error of the conditions estimated
 (u*, L, roughness length from one mast record). On null campaigns a floor of 0.5 left the
 mean z² of several features at 2-3 and gave false alarms, so the seed scatter may widen
 the analytic error but never shrink it. Finally, an empirical overdispersion factor (the
-variance over flights of the z-scores about their mean, when above 1 and with at least four
-flights) widens a feature's errors: on a null campaign it keeps each feature's mean z² near 1,
-while a mechanism's common offset, being removed with the mean, still shows.
+variance over flights of the residuals' z-scores about the residuals' inverse-variance
+weighted mean, when above 1 and with at least four flights) widens a feature's errors: on a
+null campaign it keeps each feature's mean z² near 1, while a mechanism's common offset in the
+feature's units (an angle, a lag, a log gain), being removed with the mean, still shows. An
+effect that changes with the wind speed (a downdraft decaying with it) does widen the errors
+of the features it moves.
 
 Correlated errors: the same seed deviations, divided by the analytic errors, give the
 pooled feature correlation matrix, shrunk toward the identity with the Schäfer-Strimmer
@@ -209,15 +212,22 @@ def _calibrated_errors(y: np.ndarray, measured_sigma: np.ndarray, runs: np.ndarr
     scale = np.where(np.isfinite(scale), np.maximum(scale, K_MIN), 1.0)
     sigma = np.sqrt(1.0 + 1.0 / max(n_seeds, 1)) * scale[None, :] * analytic
     # Empirical overdispersion (quasi-likelihood dispersion): where the measured-minus-
-    # predicted z-scores scatter more *about their mean over flights* than 1, the errors are
-    # widened by that factor. A mechanism's common offset does not enter (the scatter is
-    # taken about the mean), so the floor guards against false alarms without hiding a
-    # systematic effect; it needs at least MIN_FLIGHTS_DISPERSION flights.
-    z = (y - baseline) / sigma
-    finite = np.isfinite(z)
+    # predicted residuals scatter more about their common offset than their errors allow,
+    # the errors are widened by that factor; it needs at least MIN_FLIGHTS_DISPERSION
+    # flights. The offset is the inverse-variance weighted mean residual *in the feature's
+    # units*: a mechanism's common offset (a sonic pitch adds its angle to the tilt
+    # difference at every wind speed) then does not enter. Taken as the mean of the
+    # z-scores instead, the same offset divided by errors that differ threefold between
+    # flights scattered widely: hidden pitches of 3-8 degree widened the tilt errors 3-6
+    # times, which hid small pitches and biased the estimates of large ones low (6.3 found
+    # as 5.0, benchmarks/results/README.md).
+    resid = y - baseline
+    finite = np.isfinite(resid) & np.isfinite(sigma)
     n_f = finite.sum(axis=0)
-    zc = np.where(finite, z - np.nanmean(np.where(finite, z, np.nan), axis=0, keepdims=True)
-                  if finite.any() else 0.0, 0.0)
+    weight = np.where(finite, 1.0 / np.where(finite, sigma, 1.0) ** 2, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        offset = (np.where(finite, resid, 0.0) * weight).sum(axis=0) / weight.sum(axis=0)
+    zc = np.where(finite, (resid - offset[None, :]) / np.where(finite, sigma, 1.0), 0.0)
     dispersion = np.where(n_f >= MIN_FLIGHTS_DISPERSION, (zc**2).sum(axis=0) / np.maximum(n_f - 1, 1), 1.0)
     dispersion = np.maximum(dispersion, 1.0)
     return sigma * np.sqrt(dispersion)[None, :], analytic, scale * np.sqrt(dispersion)
