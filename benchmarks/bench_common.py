@@ -10,9 +10,12 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 
 
-def git_commit() -> str:
-    """The checkout's commit (``git rev-parse HEAD`` in the repository, from any folder), or "unknown"."""
-    proc = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True, check=False)
+def git_commit(folder: Path = REPO) -> str:
+    """The commit of the checkout that holds ``folder`` (this repository by default), or "unknown".
+
+    Pass the folder of the imported package (``Path(dronewind.__file__).parent``) to record the
+    source tree a benchmark ran when ``PYTHONPATH`` points at another worktree."""
+    proc = subprocess.run(["git", "rev-parse", "HEAD"], cwd=folder, capture_output=True, text=True, check=False)
     return proc.stdout.strip() or "unknown"
 
 

@@ -55,7 +55,7 @@ def main() -> None:
     t0 = time.process_time()
     published_diagnosis(PUBLISHED, files, args.work / "diagnosis.json", alpha=config["diagnosis"]["alpha"],
                         max_causes=config["diagnosis"]["max_causes"])
-    result = {"commit": git_commit(), "samples": samples, "seeds": list(seeds),
+    result = {"commit": git_commit(Path(forward.__file__).parent), "samples": samples, "seeds": list(seeds),
               "forward_cpu_s": cpu, "forward_cpu_s_total": round(sum(cpu.values()), 2),
               "diagnosis_cpu_s": round(time.process_time() - t0, 3)}
     print_and_write(result, args.out)
