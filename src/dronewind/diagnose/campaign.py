@@ -399,8 +399,7 @@ def n_tests(ev: CampaignEvidence) -> dict[str, int]:
     return {c: len(variants) * variants[ev.mechanism_of[c]] for c in ev.models}
 
 
-def simplest_variant(best: str, candidates: Sequence[str], scores: Mapping[str, CandidateScore],
-                     ev: CampaignEvidence, alpha: float) -> str:
+def simplest_variant(best: str, chi2_increase: Mapping[str, float], ev: CampaignEvidence, alpha: float) -> str:
     """The variant of ``best``'s mechanism with the fewest parameters that fits as well as ``best``.
 
     A variant that fits a subset of ``best``'s parameters (:data:`PARAMETER_SUBSETS`) is nested
@@ -408,33 +407,34 @@ def simplest_variant(best: str, candidates: Sequence[str], scores: Mapping[str, 
     (likelihood-ratio test of the nested pair at ``alpha`` on as many degrees of freedom as
     extra parameters). Without this, a parameter that moves no feature (a mount roll) is
     "estimated" anywhere in its bounds and named with a gain equal to the variant's to
-    rounding.
+    rounding. Used by the campaign diagnosis and by the published numbers'
+    (:mod:`dronewind.diagnose.published`).
 
     Parameters
     ----------
     best : str
         The candidate chosen by gain.
-    candidates : sequence of str
-        The significant candidates of the round.
-    scores : mapping
-        Candidate -> :class:`~dronewind.diagnose.fitting.CandidateScore` of the round.
+    chi2_increase : mapping
+        The significant candidates of the round -> increase of the fit's chi-square from
+        ``best`` to that candidate.
     ev : CampaignEvidence
-        Output of :func:`assemble`.
+        Output of :func:`assemble` (the candidates' parameters and mechanisms).
     alpha : float
         Level of the nested test.
 
     Returns
     -------
     str
-        ``best`` or one of its nested variants.
+        ``best`` or one of its nested variants (the smallest that passes; among equally
+        small ones the best fitting).
     """
-    names = set(scores[best].parameter_names)
-    nested = [c for c in candidates if ev.mechanism_of[c] == ev.mechanism_of[best]
-              and set(scores[c].parameter_names) < names]
-    for cand in sorted(nested, key=lambda c: (len(scores[c].parameter_names), -scores[c].gain)):
-        extra = len(names) - len(scores[cand].parameter_names)
-        gain_chi2 = max(scores[best].lr_statistic - scores[cand].lr_statistic, 0.0)
-        if float(scipy.stats.chi2.sf(gain_chi2, extra)) >= alpha:
+    def params(cand: str) -> set[str]:
+        return {p.name for p in ev.models[cand].parameters}
+
+    nested = [c for c in chi2_increase if ev.mechanism_of[c] == ev.mechanism_of[best] and params(c) < params(best)]
+    for cand in sorted(nested, key=lambda c: (len(params(c)), chi2_increase[c])):
+        extra = len(params(best)) - len(params(cand))
+        if float(scipy.stats.chi2.sf(max(chi2_increase[cand], 0.0), extra)) >= alpha:
             return cand
     return best
 
@@ -487,7 +487,8 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
                and ev.mechanism_of[c] not in blocked]
         if not sig:
             break
-        best = simplest_variant(max(sig, key=lambda c: scores[c].gain), sig, scores, ev, alpha)
+        top = max(sig, key=lambda c: scores[c].gain)
+        best = simplest_variant(top, {c: scores[top].lr_statistic - scores[c].lr_statistic for c in sig}, ev, alpha)
         named.append((best, scores[best]))
         model = ev.models[best]
         effect = model.predict(scores[best].fit.theta, idx) - model.baseline

@@ -54,7 +54,7 @@ import scipy.stats
 import xarray as xr
 import yaml
 
-from dronewind.diagnose.campaign import CampaignEvidence, assemble
+from dronewind.diagnose.campaign import CampaignEvidence, assemble, simplest_variant
 from dronewind.diagnose.campaign import n_tests as campaign_n_tests
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.fitting import ParameterResponse, bounded_least_squares
@@ -435,26 +435,6 @@ def _group_table(pe: PublishedEvidence, combo: Sequence[str], theta: np.ndarray)
     return rows
 
 
-def _simplest(ev: CampaignEvidence, best: PublishedScore, ok: Sequence[PublishedScore], alpha: float
-              ) -> PublishedScore:
-    """``best`` or a nested variant of its added candidate that fits as well.
-
-    As :func:`dronewind.diagnose.campaign.simplest_variant`: extra parameters are kept only
-    when they lower the chi-square significantly (nested likelihood-ratio test at ``alpha``).
-    """
-    def params(score: PublishedScore) -> set[str]:
-        return {p.name for p in ev.models[score.combo[-1]].parameters}
-
-    mech = ev.mechanism_of[best.combo[-1]]
-    nested = [s for s in ok if s.combo[:-1] == best.combo[:-1] and ev.mechanism_of[s.combo[-1]] == mech
-              and params(s) < params(best)]
-    for score in sorted(nested, key=lambda s: (len(params(s)), -s.gain)):
-        extra = len(params(best)) - len(params(score))
-        if float(scipy.stats.chi2.sf(max(score.chi2 - best.chi2, 0.0), extra)) >= alpha:
-            return score
-    return best
-
-
 def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], alpha: float,
                  tests: Mapping[str, int], max_causes: int
                  ) -> tuple[tuple[str, ...], PublishedScore | None, list[PublishedScore]]:
@@ -484,7 +464,10 @@ def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], a
         if not ok:
             rejected = sorted(tries, key=lambda s: s.p_value)
             break
-        best = _simplest(ev, max(ok, key=lambda s: (s.gain, -s.chi2)), ok, alpha)
+        top = max(ok, key=lambda s: (s.gain, -s.chi2))
+        # the simplest nested variant of the added candidate that fits as well (campaign rule)
+        added = {s.combo[-1]: s for s in ok if s.combo[:-1] == top.combo[:-1]}
+        best = added[simplest_variant(top.combo[-1], {c: s.chi2 - top.chi2 for c, s in added.items()}, ev, alpha)]
         named, current = best.combo, best
     return named, current, rejected
 
