@@ -60,3 +60,16 @@ def test_fewer_flights_than_the_minimum_are_not_used():
     wild = np.array([5.0, -5.0, 3.0])  # scattered far beyond the errors, but only 3 flights
     assert _errors(wild, sigma_i, np.random.default_rng(6))[0] == _errors(np.zeros(3), sigma_i,
                                                                           np.random.default_rng(6))[0]
+
+
+def test_an_effect_constant_in_error_units_does_not_widen_the_errors():
+    """A downdraft decays with wind speed as the tilt errors do: its effect is a constant
+    number of errors at every flight, the second shape of the fitted common effect (the
+    weighted mean in units alone left a scale of 5.8 on a hidden downdraft)."""
+    rng = np.random.default_rng(12)
+    sigma_i = np.array([0.8, 0.6, 0.45, 0.3, 0.8, 0.6, 0.45, 0.3])
+    total = sigma_i * np.sqrt(1.0 + 1.0 / N_SEEDS)
+    noise = rng.normal(0.0, 1.0, len(sigma_i)) * total
+    scales = [_errors(k * total + 1.5 + noise, sigma_i, np.random.default_rng(13))[0] for k in (0.0, 4.0, -10.0)]
+    np.testing.assert_allclose(scales, scales[0], rtol=1e-9)
+    assert 1.0 <= scales[0] < 1.6, scales
