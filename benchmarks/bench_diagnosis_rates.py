@@ -17,7 +17,12 @@ Rates (per label, mechanism, case and overall), each with a 95 % Wilson score in
 * detection: mechanism draws where the hidden mechanism is named (or in an ambiguity set
   with a named one);
 * false alarm: null draws with any named cause; false attribution: model-error draws with
-  a named catalog cause (the right verdict is none, the misfit belongs in ``unexplained``);
+  a named catalog cause (the right verdict is none, the misfit belongs in ``unexplained``),
+  and those of them whose named causes the diagnosis does not flag with a caveat of the
+  model error's kind (experiments.CAVEATED_MODEL_ERRORS);
+* withheld: draws where a significant candidate was not named because its evidence rests on
+  one feature that an effect outside the catalog moves alike
+  (dronewind.diagnose.campaign.FEATURE_ALIASES);
 * wrong cause: mechanism draws with a named cause that is neither the truth nor ambiguous
   with it;
 * estimate within tolerance, and the median of |estimate - truth| / tolerance over detected
@@ -156,6 +161,9 @@ def one(args: tuple[int, Draw, Path | None]) -> dict[str, Any]:
         error_model={k: em.get(k) for k in ("n_seeds", "dof", "shrinkage_intensity")},
         goodness_of_fit=diagnosis.get("goodness_of_fit"),
         unexplained=[u["feature"] for u in diagnosis.get("unexplained", [])],
+        caveats=[c["mechanism"] for c in diagnosis.get("caveats", [])],
+        withheld=[{k: w[k] for k in ("mechanism", "feature", "share", "p_value")}
+                  for w in diagnosis.get("withheld", [])],
     )
     return verdict
 
@@ -172,10 +180,15 @@ def summarise(verdicts: list[dict[str, Any]], alpha: float) -> dict[str, Any]:
             out["wrong_cause"] = rate([v["wrong_cause"] for v in mech])
             out["estimate_within_tolerance"] = rate([v["estimate_ok"] for v in mech])
             out["estimate_error_over_tolerance"] = median_ci([v["estimate_error"] for v in mech if v["detected"]])
+            # a significant candidate not named: it rests on one feature an effect outside the
+            # catalog moves alike
+            out["withheld"] = rate([bool(v.get("withheld")) for v in mech])
         if null:
             out["false_alarm"] = rate([v["false_alarm"] for v in null])
         if model:
             out["false_attribution"] = rate([v["false_alarm"] for v in model])
+            out["false_attribution_not_caveated"] = rate([v["false_alarm"] and not v.get("caveated") for v in model])
+            out["withheld"] = rate([bool(v.get("withheld")) for v in model])
         if null or model:
             out["any_named_without_catalog_truth"] = rate([v["false_alarm"] for v in null + model])
         return out

@@ -91,6 +91,11 @@ def _candidate_lines(diag: Mapping[str, Any]) -> list[str]:
     for c in diag.get("caveats") or []:
         lines += [f"**Caveat on `{c['mechanism']}`:** {c['alias']} (an effect outside the catalog; the data "
                   "alone cannot tell them apart).", ""]
+    for w in diag.get("withheld") or []:
+        est = ", ".join(f"{k} = {_fmt(v)}" for k, v in w["estimate"].items())
+        lines += [f"**Not named: `{w['mechanism']}`** ({est}, LR p-value {_fmt(w['p_value'], 2)}): "
+                  f"{100 * w['share']:.0f} % of the misfit it would remove is in `{w['feature']}`, and {w['alias']} "
+                  "(an effect outside the catalog); that misfit is left unexplained.", ""]
     lines.append("Mechanisms the data cannot tell apart (their fitted predictions differ by less than 2σ): "
                  + "; ".join("{" + ", ".join(f"`{m}`" for m in g) + "}" for g in amb) if amb else
                  "No two significant candidates predict the same features within their errors.")
