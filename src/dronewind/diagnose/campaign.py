@@ -376,14 +376,18 @@ class Withheld:
         Its score in the naming round where it was the best.
     shares : dict
         Feature -> share of the misfit it would remove (:func:`feature_shares`).
-    feature : str
-        The feature of :data:`FEATURE_ALIASES` its evidence rests on.
     """
 
     candidate: str
     score: CandidateScore
     shares: dict[str, float]
-    feature: str
+
+    @property
+    def feature(self) -> str:
+        """The feature of :data:`FEATURE_ALIASES` its evidence rests on."""
+        feature = single_feature_alias(self.shares)
+        assert feature is not None, "a withheld candidate rests on a feature alias"
+        return feature
 
 
 @dataclass
@@ -402,9 +406,13 @@ class DiagnosisResult:
     #: :data:`FEATURE_ALIASES`
     withheld: list[Withheld] = field(default_factory=list)
 
-    def estimate(self, candidate: str) -> dict[str, float]:
-        """Fitted parameters of a candidate, including fixed ones (catalog names)."""
-        score = self.scores[candidate]
+    def estimate(self, candidate: str, score: CandidateScore | None = None) -> dict[str, float]:
+        """Fitted parameters of a candidate, including fixed ones (catalog names).
+
+        ``score`` is the fit to use (a named cause's or a withheld candidate's, from the
+        round it was chosen in); the first round's by default.
+        """
+        score = self.scores[candidate] if score is None else score
         return {**self.evidence.fixed.get(candidate, {}), **score.estimate()}
 
 
@@ -530,11 +538,10 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
         effect = model.predict(scores[best].fit.theta, idx) - model.baseline
         after = y - np.where(np.isfinite(effect), effect, 0.0)
         share = feature_shares(y, after, ev.baseline, ev.sigma)
-        feature = single_feature_alias(share)
-        if feature is not None:
+        if single_feature_alias(share) is not None:
             # its evidence is one feature that an effect outside the catalog moves alike:
             # not a cause the data can name (the misfit stays, and is reported as unexplained)
-            withheld.append(Withheld(best, scores[best], share, feature))
+            withheld.append(Withheld(best, scores[best], share))
             continue
         named.append((best, scores[best]))
         shares.append(share)
@@ -668,7 +675,7 @@ def withheld_json(result: DiagnosisResult) -> list[dict[str, Any]]:
     ev = result.evidence
     return [{"mechanism": ev.mechanism_of[w.candidate], "variant": w.candidate if w.candidate != ev.mechanism_of[
                 w.candidate] else None,
-             "estimate": {**ev.fixed.get(w.candidate, {}), **w.score.estimate()}, "p_value": w.score.p_value,
+             "estimate": result.estimate(w.candidate, w.score), "p_value": w.score.p_value,
              "gain": w.score.gain, "feature": w.feature, "share": w.shares[w.feature],
              "alias": FEATURE_ALIASES[w.feature]} for w in result.withheld]
 
@@ -709,7 +716,7 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
             next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")}},
         "candidates": candidates,
         "named_causes": named,
-        "named_estimates": {ev.mechanism_of[c]: {"estimate": result.estimate(c), "uncertainty": s.uncertainty(),
+        "named_estimates": {ev.mechanism_of[c]: {"estimate": result.estimate(c, s), "uncertainty": s.uncertainty(),
                                                  "gain": s.gain,
                                                  "evidence_share": {f: v for f, v in share.items() if v >= 0.05}}
                             for (c, s), share in zip(result.named, result.shares, strict=True)},
@@ -860,9 +867,9 @@ def combined_prediction(result: DiagnosisResult) -> np.ndarray:
 def named_mechanisms(result: DiagnosisResult) -> list[dict[str, Any]]:
     """Named causes as ``simulation.mechanisms`` entries (catalog parameters, fitted values)."""
     out = []
-    for cand, _ in result.named:
+    for cand, score in result.named:
         mech = result.evidence.mechanism_of[cand]
-        params = {p: float(v) for p, v in result.estimate(cand).items()}
+        params = {p: float(v) for p, v in result.estimate(cand, score).items()}
         for p in get_mechanism(mech).parameter_names:
             params.setdefault(p, baseline_level(mech, p))
         out.append({"mechanism": mech, "parameters": params})
