@@ -36,3 +36,23 @@ def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(text + "\n")
+
+
+def default_forward_setup() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """The default campaign's manifest content, the default configuration and its forward-chain settings.
+
+    Returns
+    -------
+    data : dict
+        Manifest content of ``config/campaigns/mosai2023.yaml``.
+    config : dict
+        :func:`dronewind.manifest.default_config`.
+    processing : dict
+        Its ``processing`` settings of :data:`dronewind.diagnose.forward.CHAIN_SETTINGS`.
+    """
+    from dronewind.diagnose.forward import CHAIN_SETTINGS
+    from dronewind.manifest import default_config, load_campaign
+
+    config = default_config()
+    data = load_campaign(REPO / "config" / "campaigns" / "mosai2023.yaml").data
+    return data, config, {key: config["processing"][key] for key in CHAIN_SETTINGS}

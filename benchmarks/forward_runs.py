@@ -13,10 +13,9 @@ import argparse
 import json
 from pathlib import Path
 
+from bench_common import default_forward_setup
 from dronewind.diagnose import forward
-from dronewind.manifest import default_config, load_campaign, payload_flight_manifest
-
-REPO = Path(__file__).resolve().parents[1]
+from dronewind.manifest import payload_flight_manifest
 
 
 def main() -> None:
@@ -25,9 +24,7 @@ def main() -> None:
     parser.add_argument("measured", type=Path, help="diagnosis/measured/<flight>.json of a finished run")
     parser.add_argument("out", type=Path, help="JSON file to write")
     args = parser.parse_args()
-    data = load_campaign(REPO / "config" / "campaigns" / "mosai2023.yaml").data
-    config = default_config()
-    processing = {key: config["processing"][key] for key in forward.CHAIN_SETTINGS}
+    data, config, processing = default_forward_setup()
     conditions = json.loads(args.measured.read_text())["conditions"]
     runs = forward.probe_runs(payload_flight_manifest(data, args.flight), args.flight, conditions, processing,
                               seeds=tuple(config["diagnosis"]["seeds"]))

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_common import REPO, git_commit, print_and_write
+from bench_common import REPO, default_forward_setup, git_commit, print_and_write
 from dronewind.diagnose import forward
 from dronewind.diagnose.features import FEATURES, features_to_dict
-from dronewind.manifest import default_config, load_campaign, payload_flight_manifest
+from dronewind.manifest import payload_flight_manifest
 
 
 def _mechanism(text: str) -> list[dict]:
@@ -40,9 +40,7 @@ def main() -> None:
                         help="results folder of a finished default run")
     parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
-    data = load_campaign(REPO / "config" / "campaigns" / "mosai2023.yaml").data
-    config = default_config()
-    processing = {key: config["processing"][key] for key in forward.CHAIN_SETTINGS}
+    data, _, processing = default_forward_setup()
     measured = json.loads((args.results / "diagnosis" / "measured" / f"{args.flight}.json").read_text())
     view = payload_flight_manifest(data, args.flight)
     out: dict = {"commit": git_commit(Path(forward.__file__).parent), "flight": args.flight,

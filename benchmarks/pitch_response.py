@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_common import REPO, git_commit, print_and_write
+from bench_common import REPO, default_forward_setup, git_commit, print_and_write
 from dronewind.diagnose import forward
 from dronewind.diagnose.features import FEATURES
-from dronewind.manifest import default_config, load_campaign, payload_flight_manifest
+from dronewind.manifest import payload_flight_manifest
 
 LEVELS_DEG = (-8.0, -6.0, -4.0, -2.0, 2.0, 4.0, 6.0, 8.0)
 
@@ -31,9 +31,7 @@ def main() -> None:
                         help="results folder of a finished default run")
     parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
-    data = load_campaign(REPO / "config" / "campaigns" / "mosai2023.yaml").data
-    config = default_config()
-    processing = {key: config["processing"][key] for key in forward.CHAIN_SETTINGS}
+    data, config, processing = default_forward_setup()
     probe = forward.Probe("mount_misalignment", "mount_misalignment", "pitch_deg", LEVELS_DEG)
     out: dict = {"commit": git_commit(Path(forward.__file__).parent), "levels_deg": list(LEVELS_DEG), "flights": {}}
     for flight in args.flights:
