@@ -12,7 +12,10 @@ from sampling noise. This module is the statistics on top of those tables:
   parameter, effects of the parameters of one mechanism added (first-order
   superposition about the baseline);
 * :func:`fit_parameters` estimates a mechanism's parameters by bounded weighted least
-  squares (``scipy.optimize.least_squares``, ``method="trf"``) over a set of flights;
+  squares over a set of flights; the model is linear in the parameters between probe
+  levels, so the misfit is a quadratic on each cell of the levels' grid and
+  :func:`piecewise_linear_least_squares` takes the exact minimum of every cell (the global
+  minimum, not a local one);
 * :func:`score_candidate` refits with each flight left out in turn and predicts it: the
   *gain* is the relative reduction of the held-out misfit against the baseline;
 * significance combines a likelihood-ratio test on the fitted flights (the misfit drop
@@ -51,6 +54,7 @@ __all__ = [
     "chi2",
     "standardised_residuals",
     "bounded_least_squares",
+    "piecewise_linear_least_squares",
     "fit_parameters",
     "score_candidate",
     "ambiguity_sets",
@@ -116,6 +120,17 @@ class ParameterResponse:
         w = (value - levels[j]) / (levels[j + 1] - levels[j])
         at_value = table[:, j, :] * (1.0 - w) + table[:, j + 1, :] * w
         return at_value - table[:, base_index, :]
+
+    def slope(self, value: float, flights: np.ndarray) -> np.ndarray:
+        """Derivative of :meth:`effect` with respect to the parameter at ``value`` [feature unit per parameter unit].
+
+        The slope of the segment :meth:`effect` interpolates on at ``value`` (at a level, the
+        segment below it, as :meth:`effect` chooses). Shape ``(len(flights), n_features)``.
+        """
+        levels = np.asarray(self.levels, dtype=float)
+        table = self.features[flights]
+        j = int(np.clip(np.searchsorted(levels, value) - 1, 0, levels.size - 2))
+        return (table[:, j + 1, :] - table[:, j, :]) / (levels[j + 1] - levels[j])
 
 
 @dataclass
@@ -217,7 +232,8 @@ class FitResult:
 
 
 def bounded_least_squares(
-    residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse]
+    residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse],
+    jacobian: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float, bool, str]:
     """Multi-start bounded least squares over tabulated mechanism parameters.
 
@@ -231,6 +247,9 @@ def bounded_least_squares(
         Parameter vector -> weighted residuals (finite).
     parameters : sequence of ParameterResponse
         Levels, baseline level and physical bounds per parameter.
+    jacobian : callable, optional
+        Parameter vector -> derivative of the residuals, shape ``(n_residuals,
+        n_parameters)``; finite differences of ``residuals`` by default.
 
     Returns
     -------
@@ -255,7 +274,7 @@ def bounded_least_squares(
     best = None
     for start in starts:
         res = scipy.optimize.least_squares(residuals, np.clip(start, lower, upper), bounds=(lower, upper),
-                                           method="trf", x_scale="jac")
+                                           method="trf", x_scale="jac", jac="2-point" if jacobian is None else jacobian)
         if best is None or res.cost < best.cost:
             best = res
     assert best is not None
@@ -267,6 +286,115 @@ def bounded_least_squares(
     except np.linalg.LinAlgError:
         std = np.full(len(parameters), np.nan)
     return best.x, std, value, bool(best.success), str(best.message)
+
+
+def _cell_intervals(p: ParameterResponse) -> list[tuple[float, float]]:
+    """The parameter intervals on which ``p.effect`` is linear, within its bounds [its unit].
+
+    Segment ``j`` lies between levels ``j`` and ``j + 1``; the first and the last extend
+    to the bounds (:meth:`ParameterResponse.effect` extrapolates their lines).
+    """
+    levels = np.asarray(p.levels, dtype=float)
+    edges = [-np.inf, *levels[1:-1], np.inf]
+    out = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        lo, hi = max(a, p.lower), min(b, p.upper)
+        if lo <= hi:
+            out.append((float(lo), float(hi)))
+    return out
+
+
+def _probe_point(lo: float, hi: float, level_span: float) -> tuple[float, float]:
+    """A point inside ``[lo, hi]`` and a step that stays inside, for a linear cell."""
+    if np.isfinite(lo) and np.isfinite(hi):
+        return (lo + hi) / 2.0, (hi - lo) / 4.0
+    if np.isfinite(lo):
+        return lo + level_span, level_span / 2.0
+    if np.isfinite(hi):
+        return hi - level_span, level_span / 2.0
+    return 0.0, level_span / 2.0
+
+
+def piecewise_linear_least_squares(
+    residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse]
+) -> tuple[np.ndarray, np.ndarray, float, bool, str]:
+    """Exact bounded least squares for residuals linear in each parameter between its levels.
+
+    The tabulated model (:meth:`ResponseModel.predict`) is linear in every parameter on
+    each segment between two probe levels (the outer segments extended to the bounds), and
+    the parameters' effects add; residuals linear in the prediction (weighted, whitened)
+    are therefore linear on every cell of the grid of segments, and the misfit is a
+    quadratic there. Each cell is solved exactly (bounded linear least squares,
+    ``scipy.optimize.lsq_linear`` with the cell's bounds, or the clipped normal equation
+    for one parameter) and the least misfit over the cells is the global minimum. The
+    residuals are evaluated at a point inside each cell and one step along each
+    parameter, so the cell's linear form is read off the residual function itself.
+
+    A general local optimiser from a few starts (:func:`bounded_least_squares`) finds the
+    same minimum when it finds the right basin; this gives it with a fixed number of
+    residual evaluations (cells x (parameters + 1)) and no start dependence.
+
+    Parameters
+    ----------
+    residuals : callable
+        Parameter vector -> weighted residuals (finite), linear on each cell.
+    parameters : sequence of ParameterResponse
+        Levels, baseline level and physical bounds per parameter.
+
+    Returns
+    -------
+    theta, theta_std : numpy.ndarray
+        Estimate and standard errors (the cell's Jacobian, scaled by the reduced misfit
+        when it exceeds 1, as in :func:`bounded_least_squares`). A parameter that moves
+        no residual in the winning cell stays at the point of its interval nearest the
+        baseline level.
+    chi2 : float
+        Misfit at the optimum.
+    success : bool
+        Always true (the minimum is exact).
+    message : str
+    """
+    import itertools
+
+    cells = [_cell_intervals(p) for p in parameters]
+    spans = [float(np.ptp(np.asarray(p.levels, dtype=float))) or 1.0 for p in parameters]
+    base = np.array([p.baseline_level for p in parameters], dtype=float)
+    best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
+    for cell in itertools.product(*cells):
+        lo = np.array([c[0] for c in cell])
+        hi = np.array([c[1] for c in cell])
+        points = [_probe_point(a, b, s) for (a, b), s in zip(cell, spans, strict=True)]
+        centre = np.array([c for c, _ in points])
+        r0 = np.asarray(residuals(centre), dtype=float)
+        jac = np.empty((r0.size, len(parameters)))
+        for k, (_, h) in enumerate(points):
+            step = centre.copy()
+            step[k] += h
+            jac[:, k] = (np.asarray(residuals(step), dtype=float) - r0) / h
+        norms = np.sqrt(np.sum(jac * jac, axis=0))
+        moving = norms > 1e-12 * max(float(norms.max(initial=0.0)), 1e-300)
+        theta = np.clip(base, lo, hi)  # a parameter that moves nothing: nearest its baseline
+        if moving.any():
+            j, rhs = jac[:, moving], -(r0 + jac[:, ~moving] @ (theta[~moving] - centre[~moving]))
+            d_lo, d_hi = lo[moving] - centre[moving], hi[moving] - centre[moving]
+            if j.shape[1] == 1:
+                d = np.clip(float(j[:, 0] @ rhs) / float(j[:, 0] @ j[:, 0]), d_lo, d_hi)
+            else:
+                d = scipy.optimize.lsq_linear(j, rhs, bounds=(d_lo, d_hi), method="bvls").x
+            theta[moving] = np.clip(centre[moving] + d, lo[moving], hi[moving])
+        r = np.asarray(residuals(theta), dtype=float)
+        value = float(r @ r)
+        if best is None or value < best[0]:
+            best = (value, theta, jac, r)
+    assert best is not None
+    value, theta, jac, r = best
+    dof = max(r.size - len(parameters), 1)
+    try:
+        cov = np.linalg.pinv(jac.T @ jac)
+        std = np.sqrt(np.clip(np.diag(cov), 0, None) * max(1.0, value / dof))
+    except np.linalg.LinAlgError:
+        std = np.full(len(parameters), np.nan)
+    return theta, std, value, True, f"exact minimum over {int(np.prod([len(c) for c in cells]))} linear cells"
 
 
 def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, flights: np.ndarray,
@@ -307,7 +435,7 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
         return np.concatenate([z[i, m] if f is None else f @ z[i, m]
                                for i, (m, f) in enumerate(zip(mask, factors, strict=True))])
 
-    theta, theta_std, value, success, message = bounded_least_squares(residuals, model.parameters)
+    theta, theta_std, value, success, message = piecewise_linear_least_squares(residuals, model.parameters)
     return FitResult(theta, theta_std, value, base_chi2, success, message)
 
 
