@@ -392,12 +392,14 @@ def lag_halves(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, l2: xr.Dataset, flight:
                max_missing_fraction: float) -> tuple[float, float]:
     """Sonic-INS lags found on the first and the second half of the hover window [s].
 
-    Each half is processed to L2 as a window of its own, without the minimum hover duration.
+    The lag search of the flight's L2 on each half of its hover window (the same sonic
+    segment and INS, :func:`dronewind.payload.sync.payload_l2` with ``lag_halves``): read
+    from ``l2``'s attributes when it was made with them, else found by a lag-only pass.
 
     Parameters
     ----------
     sonic_l1, ins_l1, l2 : xarray.Dataset
-        The flight's payload sonic and INS L1, and its L2 (the hover window).
+        The flight's payload sonic and INS L1, and its L2.
     flight : mapping
         The flight's manifest entry.
     site_altitude_m : float
@@ -408,24 +410,17 @@ def lag_halves(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, l2: xr.Dataset, flight:
     Returns
     -------
     tuple of float
-        Lags of the two halves [s]; NaN for a half without a hover.
+        Lags of the two halves [s]; NaN for a half the search cannot use.
     """
-    times = l2["time"].values
-    mid = times[0] + (times[-1] - times[0]) / 2
-    half_hover = {**hover, "min_duration_s": 0.0}
-    out = []
-    for a, b in ((times[0], mid), (mid, times[-1])):
-        half = dict(flight)
-        half["window"] = {"start": np.datetime_as_string(a, unit="us") + "Z",
-                          "end": np.datetime_as_string(b, unit="us") + "Z"}
+    if "lag_first_half_s" not in l2.attrs:
         try:
-            ds = compute_payload_l2(sonic_l1, ins_l1, half, site_altitude_m, sonic_ins_lag=sonic_ins_lag,
-                                    hover=half_hover, max_missing_fraction=max_missing_fraction, lag_only=True)
-            out.append(float(ds.attrs["lag_sonic_ins_s"]))
-        except Exception as exc:  # a half without a hover: the feature is then missing
-            LOG.warning("lag of half window %s-%s failed: %s", a, b, exc)
-            out.append(float("nan"))
-    return out[0], out[1]
+            l2 = compute_payload_l2(sonic_l1, ins_l1, flight, site_altitude_m, sonic_ins_lag=sonic_ins_lag,
+                                    hover=hover, max_missing_fraction=max_missing_fraction, lag_only=True,
+                                    lag_halves=True)
+        except InputError as exc:  # no hover or no lag: the feature is then missing
+            LOG.warning("lags of the hover's halves failed: %s", exc)
+            return float("nan"), float("nan")
+    return float(l2.attrs["lag_first_half_s"]), float(l2.attrs["lag_second_half_s"])
 
 
 def measured_features(campaign_data: Mapping[str, Any], flight_id: str, sonic_l1: xr.Dataset, ins_l1: xr.Dataset,
@@ -523,8 +518,8 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
         Products of identical records from an earlier run of the same flight and settings.
     lag_drift : bool
         Find the lags of the hover's two halves for the ``lag_drift_s`` feature (two more
-        lag searches, about a fifth of a measurement-stage probe run); without, that feature
-        is missing (NaN). For observations that hold no lag, e.g. published statistics.
+        lag searches on the L2's segment); without, that feature is missing (NaN). For
+        observations that hold no lag, e.g. published statistics.
 
     Returns
     -------
@@ -549,7 +544,7 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
     site_altitude_m = float(manifest["site"]["altitude_m"])
 
     def payload_l2() -> tuple[xr.Dataset, tuple[float, float] | None]:
-        l2 = compute_payload_l2(sonic_l1, ins_l1, flight, site_altitude_m, **lag)
+        l2 = compute_payload_l2(sonic_l1, ins_l1, flight, site_altitude_m, lag_halves=lag_drift, **lag)
         return l2, lag_halves(sonic_l1, ins_l1, l2, flight, site_altitude_m, **lag) if lag_drift else None
 
     l2, halves = cache.get("l2" if lag_drift else "l2 without halves", k_payload, payload_l2)

@@ -128,6 +128,7 @@ def compute_payload_l2(
     hover: Mapping[str, Any],
     max_missing_fraction: float,
     lag_only: bool = False,
+    lag_halves: bool = False,
 ) -> xr.Dataset:
     """Payload L2: hover window, sonic-INS lag, motion correction (see :func:`dronewind.payload.sync.payload_l2`).
 
@@ -151,7 +152,10 @@ def compute_payload_l2(
     lag_only : bool
         Stop after the sonic-INS lag search: a dataset without variables whose attributes
         hold the lag (``lag_sonic_ins_s``, ``lag_tke_min_s``) and the reasons found so far
-        (for the lag of a part of the hover, :func:`dronewind.diagnose.forward.lag_halves`).
+        (for the lags of the hover's halves, :func:`dronewind.diagnose.forward.lag_halves`).
+    lag_halves : bool
+        Also find the lag on each half of the hover window (attrs ``lag_first_half_s``,
+        ``lag_second_half_s``; :func:`dronewind.payload.sync.payload_l2`).
 
     Returns
     -------
@@ -168,7 +172,7 @@ def compute_payload_l2(
         min_hover_s=float(hover["min_duration_s"]),
         hover_alt_tol_m=float(hover["alt_tol_m"]), hover_horiz_tol_m=float(hover["horiz_tol_m"]),
         site_altitude_m=float(site_altitude_m), target_height_m=_target_height(flight), flight_id=str(flight["id"]),
-        lag_only=lag_only,
+        lag_only=lag_only, lag_halves=lag_halves,
     )
     ds.attrs["target_height_m"] = float(flight.get("target_height_m", float("nan")))
     return ds

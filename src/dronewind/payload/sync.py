@@ -772,6 +772,33 @@ def _sonic_ins_lag(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndar
     return lag, lag_tke_min, lag_grid, tke
 
 
+def _lag_halves(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndarray, ins: dict[str, np.ndarray],
+                mount: str, lever_arm_m: tuple[float, float, float] | None, max_lag_s: float, lag_step_s: float,
+                misalignment_deg: tuple[float, float, float] | None, tr: _Trace) -> tuple[float, float]:
+    """Lags of minimum TKE on the first and the second half of the hover window [s].
+
+    The same search as :func:`_sonic_ins_lag` on the same gap-filled sonic segment and INS,
+    over each half of the hover window; a half the search cannot use gives NaN (logged).
+    """
+    h0, h1 = hover_s
+    mid = h0 + (h1 - h0) / 2.0
+    sonic_xyz = np.stack([seg.search[k] for k in _SONIC_VARS[:3]], axis=-1)
+    att = np.stack([ins["roll_deg"], ins["pitch_deg"], ins["yaw_deg"]], axis=-1)
+    vel = np.stack([ins["vel_n_ms"], ins["vel_e_ms"], ins["vel_d_ms"]], axis=-1)
+    out = []
+    for name, part in (("first", (seg.time_s >= h0) & (seg.time_s < mid)),
+                       ("second", (seg.time_s >= mid) & (seg.time_s <= h1))):
+        try:
+            lag_grid, tke, _ = tke_vs_lag(seg.time_s[part], sonic_xyz[part], ti, att, vel, mount, lever_arm_m,
+                                          max_lag_s, lag_step_s, misalignment_deg)
+            out.append(find_sonic_ins_lag(lag_grid, tke)[0])
+        except (InputError, ValueError) as exc:  # too short a half: the lag drift is then missing
+            tr.log.append(f"sync: no lag on the {name} half of the hover window: {exc}")
+            out.append(float("nan"))
+    tr.log.append(f"sync: lags of the hover window's halves {out[0]:+.5f} s and {out[1]:+.5f} s")
+    return out[0], out[1]
+
+
 def _correct_motion(seg: _SonicSegment, lag: float, hover_s: tuple[float, float], n_sonic: int, ti: np.ndarray,
                     ins: dict[str, np.ndarray], mount: str, lever_arm_m: tuple[float, float, float] | None,
                     misalignment_deg: tuple[float, float, float] | None, tr: _Trace,
@@ -955,7 +982,7 @@ def payload_l2(
     min_hover_s: float = 600.0, hover_alt_tol_m: float = 3.0, hover_horiz_tol_m: float = 4.0,
     max_missing_fraction: float = 0.02, fixed_lag_s: float | None = None, site_altitude_m: float | None = None,
     target_height_m: float | None = None, flight_id: str | None = None, plausibility: bool = True,
-    lag_only: bool = False,
+    lag_only: bool = False, lag_halves: bool = False,
 ) -> xr.Dataset:
     """Build the L2 payload dataset: synchronised, motion-corrected wind in east/north/up.
 
@@ -1007,6 +1034,11 @@ def payload_l2(
         Stop after step 4 (the lag): return a dataset without variables whose attributes
         are ``lag_sonic_ins_s``, ``lag_tke_min_s``, ``usable`` and ``unusable_reason`` (the
         reasons found up to the lag search).
+    lag_halves : bool
+        Also search the lag on each half of the hover window (the same sonic segment and
+        INS, split at the window's middle): attrs ``lag_first_half_s`` and
+        ``lag_second_half_s`` [s], NaN for a half the search cannot use. Their difference
+        shows a drift of the sonic clock against the INS.
 
     Returns
     -------
@@ -1033,9 +1065,14 @@ def payload_l2(
     seg = _sonic_segment(sonic_l1, ts, hover[0], hover[1], max_lag_s, max_missing_fraction, tr)
     lag, lag_tke_min, lag_grid, tke = _sonic_ins_lag(seg, hover, ti, ins, mount, lever_arm_m, max_lag_s,
                                                      lag_step_s, misalignment_deg, fixed_lag_s, tr)
+    halves = {}
+    if lag_halves:
+        first, second = _lag_halves(seg, hover, ti, ins, mount, lever_arm_m, max_lag_s, lag_step_s, misalignment_deg,
+                                    tr)
+        halves = {"lag_first_half_s": float(first), "lag_second_half_s": float(second)}
     if lag_only:
         return xr.Dataset(attrs={"lag_sonic_ins_s": float(lag), "lag_tke_min_s": float(lag_tke_min),
-                                 "usable": int(not tr.reasons), "unusable_reason": "; ".join(tr.reasons)})
+                                 "usable": int(not tr.reasons), "unusable_reason": "; ".join(tr.reasons), **halves})
     sel, ins_s, wind = _correct_motion(seg, lag, hover, ts.size, ti, ins, mount, lever_arm_m, misalignment_deg, tr)
     time_out = (ts_ns[seg.index][sel] + int(round(lag * _NS))).astype("datetime64[ns]")
     _used_duration(time_out, hover, min_hover_s, tr)
@@ -1046,4 +1083,5 @@ def payload_l2(
     _add_qc_sonic(ds, sonic_l1, seg, sel, tr.counts["n_sonic_filled"])
     ds.attrs.update(_l2_attrs(lag, lag_tke_min, mount, lever_arm_m, misalignment_deg, seg.fs_hz, max_lag_s,
                               lag_step_s, int(sel.sum()), ins_s["alt_m"], site_altitude_m, tr))
+    ds.attrs.update(halves)
     return ds
