@@ -162,6 +162,29 @@ def tke_vs_lag(
     ----------
     Seed 000 (Ghirardelli et al.), Sect. 3.3, Eq. 3 and Fig. 4.
     """
+    lags, tke, n, _ = _tke_curves(time_sonic_s, sonic_sensor_ms, time_ins_s, attitude_deg, vel_ned_ms, mount,
+                                  lever_arm_m, max_lag_s, lag_step_s, misalignment_deg)
+    return lags, tke, n
+
+
+def _tke_curves(
+    time_sonic_s: np.ndarray, sonic_sensor_ms: np.ndarray, time_ins_s: np.ndarray, attitude_deg: np.ndarray,
+    vel_ned_ms: np.ndarray, mount: str, lever_arm_m: Sequence[float] | None, max_lag_s: float, lag_step_s: float,
+    misalignment_deg: Sequence[float] | None, split_s: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, int, list[np.ndarray | None]]:
+    """:func:`tke_vs_lag`, and the same curve on the grid's parts before and after ``split_s``.
+
+    The parts share the grid, the sonic on it and the INS on the extended grid with the whole
+    (each part's lag j combines the same samples as the whole's), so they cost only their
+    correlations. A part shorter than the search allows (:func:`_lag_search_grid`) gives None.
+
+    Returns
+    -------
+    lag_s, tke_m2s2, n_samples
+        As :func:`tke_vs_lag`.
+    parts : list
+        With ``split_s``: the TKE curves of the grid samples before and at or after it [m2 s-2].
+    """
     ts = np.asarray(time_sonic_s, dtype=float)
     ti = np.asarray(time_ins_s, dtype=float)
     sonic, att, vel = (np.asarray(a, dtype=float) for a in (sonic_sensor_ms, attitude_deg, vel_ned_ms))
@@ -171,7 +194,14 @@ def tke_vs_lag(
     b = _sonic_body_on_grid(ts, sonic, t0 + dt * np.arange(n), mount, misalignment_deg)
     rot, v_sonic = _ins_on_extended_grid(ti, att, vel, t0 + dt * np.arange(-n_half, n + n_half), lever_arm_m)
     tke = _mean_tke_per_lag(rot, v_sonic, b, n, n_half)
-    return dt * np.arange(-n_half, n_half + 1), tke, n
+    parts: list[np.ndarray | None] = []
+    if split_s is not None:
+        k = int(np.clip(np.ceil((split_s - t0) / dt - 1e-9), 0, n))  # first grid sample at or after the split
+        for lo, hi in ((0, k), (k, n)):
+            ok = hi - lo >= 8 * n_half + 16
+            parts.append(_mean_tke_per_lag(rot[lo:hi + 2 * n_half], v_sonic[lo:hi + 2 * n_half], b[lo:hi], hi - lo,
+                                           n_half) if ok else None)
+    return dt * np.arange(-n_half, n_half + 1), tke, n, parts
 
 
 def _check_lag_search(ts: np.ndarray, ti: np.ndarray, sonic: np.ndarray, att: np.ndarray, vel: np.ndarray,
@@ -740,7 +770,7 @@ def _lag_search_input(raw: dict[str, np.ndarray], filled: dict[str, np.ndarray],
 def _sonic_ins_lag(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndarray, ins: dict[str, np.ndarray],
                    mount: str, lever_arm_m: tuple[float, float, float] | None, max_lag_s: float, lag_step_s: float,
                    misalignment_deg: tuple[float, float, float] | None, fixed_lag_s: float | None, tr: _Trace,
-                   ) -> tuple[float, float, np.ndarray, np.ndarray]:
+                   halves: bool = False) -> tuple[float, float, np.ndarray, np.ndarray, tuple[float, float] | None]:
     """Step 4: lag of minimum TKE over the hover window (seed 000, Sect. 3.3), or the fixed lag.
 
     Returns
@@ -751,14 +781,23 @@ def _sonic_ins_lag(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndar
         Lag of minimum TKE [s].
     lag_grid_s, tke_m2s2 : numpy.ndarray
         The TKE curve (:func:`tke_vs_lag`).
+    halves_s : tuple of float or None
+        With ``halves``: the lags of minimum TKE on the search grid's samples in the first
+        and the second half of the hover window (NaN for a half too short to search) [s].
     """
     h0, h1 = hover_s
     in_hover = (seg.time_s >= h0) & (seg.time_s <= h1)
     sonic_xyz = np.stack([seg.search[k] for k in _SONIC_VARS[:3]], axis=-1)
     att = np.stack([ins["roll_deg"], ins["pitch_deg"], ins["yaw_deg"]], axis=-1)
     vel = np.stack([ins["vel_n_ms"], ins["vel_e_ms"], ins["vel_d_ms"]], axis=-1)
-    lag_grid, tke, n_tke = tke_vs_lag(seg.time_s[in_hover], sonic_xyz[in_hover], ti, att, vel, mount,
-                                      lever_arm_m, max_lag_s, lag_step_s, misalignment_deg)
+    lag_grid, tke, n_tke, parts = _tke_curves(seg.time_s[in_hover], sonic_xyz[in_hover], ti, att, vel, mount,
+                                              lever_arm_m, max_lag_s, lag_step_s, misalignment_deg,
+                                              h0 + (h1 - h0) / 2.0 if halves else None)
+    halves_s = None
+    if halves:
+        first, second = (float("nan") if c is None else find_sonic_ins_lag(lag_grid, c)[0] for c in parts)
+        halves_s = (first, second)
+        tr.log.append(f"sync: lags of minimum TKE on the hover window's halves {first:+.5f} s and {second:+.5f} s")
     lag, at_edge = find_sonic_ins_lag(lag_grid, tke)
     lag_tke_min = lag
     tr.counts["n_lag_search_samples"] = n_tke
@@ -769,34 +808,7 @@ def _sonic_ins_lag(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndar
         tr.log.append(f"sync: fixed lag {lag:+.5f} s applied instead")
     if at_edge:
         tr.reasons.append(f"sonic-INS lag {lag:+.3f} s at the edge of the +/-{max_lag_s} s search range")
-    return lag, lag_tke_min, lag_grid, tke
-
-
-def _lag_halves(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndarray, ins: dict[str, np.ndarray],
-                mount: str, lever_arm_m: tuple[float, float, float] | None, max_lag_s: float, lag_step_s: float,
-                misalignment_deg: tuple[float, float, float] | None, tr: _Trace) -> tuple[float, float]:
-    """Lags of minimum TKE on the first and the second half of the hover window [s].
-
-    The same search as :func:`_sonic_ins_lag` on the same gap-filled sonic segment and INS,
-    over each half of the hover window; a half the search cannot use gives NaN (logged).
-    """
-    h0, h1 = hover_s
-    mid = h0 + (h1 - h0) / 2.0
-    sonic_xyz = np.stack([seg.search[k] for k in _SONIC_VARS[:3]], axis=-1)
-    att = np.stack([ins["roll_deg"], ins["pitch_deg"], ins["yaw_deg"]], axis=-1)
-    vel = np.stack([ins["vel_n_ms"], ins["vel_e_ms"], ins["vel_d_ms"]], axis=-1)
-    out = []
-    for name, part in (("first", (seg.time_s >= h0) & (seg.time_s < mid)),
-                       ("second", (seg.time_s >= mid) & (seg.time_s <= h1))):
-        try:
-            lag_grid, tke, _ = tke_vs_lag(seg.time_s[part], sonic_xyz[part], ti, att, vel, mount, lever_arm_m,
-                                          max_lag_s, lag_step_s, misalignment_deg)
-            out.append(find_sonic_ins_lag(lag_grid, tke)[0])
-        except (InputError, ValueError) as exc:  # too short a half: the lag drift is then missing
-            tr.log.append(f"sync: no lag on the {name} half of the hover window: {exc}")
-            out.append(float("nan"))
-    tr.log.append(f"sync: lags of the hover window's halves {out[0]:+.5f} s and {out[1]:+.5f} s")
-    return out[0], out[1]
+    return lag, lag_tke_min, lag_grid, tke, halves_s
 
 
 def _correct_motion(seg: _SonicSegment, lag: float, hover_s: tuple[float, float], n_sonic: int, ti: np.ndarray,
@@ -1035,10 +1047,10 @@ def payload_l2(
         are ``lag_sonic_ins_s``, ``lag_tke_min_s``, ``usable`` and ``unusable_reason`` (the
         reasons found up to the lag search).
     lag_halves : bool
-        Also search the lag on each half of the hover window (the same sonic segment and
-        INS, split at the window's middle): attrs ``lag_first_half_s`` and
-        ``lag_second_half_s`` [s], NaN for a half the search cannot use. Their difference
-        shows a drift of the sonic clock against the INS.
+        Also find the lag on each half of the hover window (the search grid's samples
+        before and after the window's middle, with the same sonic and INS): attrs
+        ``lag_first_half_s`` and ``lag_second_half_s`` [s], NaN for a half too short to
+        search. Their difference shows a drift of the sonic clock against the INS.
 
     Returns
     -------
@@ -1063,13 +1075,10 @@ def payload_l2(
     hover = _hover_window(ins, ti, ins_missing, hover_alt_tol_m, hover_horiz_tol_m, min_hover_s,
                           max_missing_fraction, tr)
     seg = _sonic_segment(sonic_l1, ts, hover[0], hover[1], max_lag_s, max_missing_fraction, tr)
-    lag, lag_tke_min, lag_grid, tke = _sonic_ins_lag(seg, hover, ti, ins, mount, lever_arm_m, max_lag_s,
-                                                     lag_step_s, misalignment_deg, fixed_lag_s, tr)
-    halves = {}
-    if lag_halves:
-        first, second = _lag_halves(seg, hover, ti, ins, mount, lever_arm_m, max_lag_s, lag_step_s, misalignment_deg,
-                                    tr)
-        halves = {"lag_first_half_s": float(first), "lag_second_half_s": float(second)}
+    lag, lag_tke_min, lag_grid, tke, halves_s = _sonic_ins_lag(seg, hover, ti, ins, mount, lever_arm_m, max_lag_s,
+                                                               lag_step_s, misalignment_deg, fixed_lag_s, tr,
+                                                               lag_halves)
+    halves = {} if halves_s is None else {"lag_first_half_s": halves_s[0], "lag_second_half_s": halves_s[1]}
     if lag_only:
         return xr.Dataset(attrs={"lag_sonic_ins_s": float(lag), "lag_tke_min_s": float(lag_tke_min),
                                  "usable": int(not tr.reasons), "unusable_reason": "; ".join(tr.reasons), **halves})
