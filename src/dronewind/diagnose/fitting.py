@@ -121,17 +121,6 @@ class ParameterResponse:
         at_value = table[:, j, :] * (1.0 - w) + table[:, j + 1, :] * w
         return at_value - table[:, base_index, :]
 
-    def slope(self, value: float, flights: np.ndarray) -> np.ndarray:
-        """Derivative of :meth:`effect` with respect to the parameter at ``value`` [feature unit per parameter unit].
-
-        The slope of the segment :meth:`effect` interpolates on at ``value`` (at a level, the
-        segment below it, as :meth:`effect` chooses). Shape ``(len(flights), n_features)``.
-        """
-        levels = np.asarray(self.levels, dtype=float)
-        table = self.features[flights]
-        j = int(np.clip(np.searchsorted(levels, value) - 1, 0, levels.size - 2))
-        return (table[:, j + 1, :] - table[:, j, :]) / (levels[j + 1] - levels[j])
-
 
 @dataclass
 class ResponseModel:
@@ -232,8 +221,7 @@ class FitResult:
 
 
 def bounded_least_squares(
-    residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse],
-    jacobian: Callable[[np.ndarray], np.ndarray] | None = None,
+    residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse]
 ) -> tuple[np.ndarray, np.ndarray, float, bool, str]:
     """Multi-start bounded least squares over tabulated mechanism parameters.
 
@@ -247,9 +235,6 @@ def bounded_least_squares(
         Parameter vector -> weighted residuals (finite).
     parameters : sequence of ParameterResponse
         Levels, baseline level and physical bounds per parameter.
-    jacobian : callable, optional
-        Parameter vector -> derivative of the residuals, shape ``(n_residuals,
-        n_parameters)``; finite differences of ``residuals`` by default.
 
     Returns
     -------
@@ -274,7 +259,7 @@ def bounded_least_squares(
     best = None
     for start in starts:
         res = scipy.optimize.least_squares(residuals, np.clip(start, lower, upper), bounds=(lower, upper),
-                                           method="trf", x_scale="jac", jac="2-point" if jacobian is None else jacobian)
+                                           method="trf", x_scale="jac")
         if best is None or res.cost < best.cost:
             best = res
     assert best is not None

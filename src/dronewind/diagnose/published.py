@@ -292,61 +292,16 @@ def _features(pe: PublishedEvidence, combo: Sequence[str], theta: np.ndarray) ->
     return out
 
 
-def _slopes(pe: PublishedEvidence, combo: Sequence[str], theta: np.ndarray) -> np.ndarray:
-    """Derivative of :func:`_features` with respect to ``theta``, shape ``(n_flights, n_features, n_parameters)``.
-
-    Each parameter's effect is piecewise linear (:meth:`ParameterResponse.slope`); where an
-    effect is missing (NaN, counted as no effect by :func:`_features`) its slope is 0.
-    """
-    ev = pe.ev
-    idx = np.arange(len(ev.flights))
-    columns = []
-    k = 0
-    for cand in combo:
-        for value, response in zip(theta[k:k + ev.models[cand].n_parameters], ev.models[cand].parameters,
-                                   strict=True):
-            effect = response.effect(float(value), idx)
-            slope = response.slope(float(value), idx)
-            columns.append(np.where(np.isfinite(effect) & np.isfinite(slope), slope, 0.0))
-        k += ev.models[cand].n_parameters
-    return np.stack(columns, axis=-1)
-
-
-def _extreme_draws(pe: PublishedEvidence, values: np.ndarray, sigma: np.ndarray, kind: str
-                   ) -> tuple[np.ndarray, np.ndarray] | None:
-    """The extreme of each fixed draw of the per-flight realisations, and the flight it is at.
-
-    Returns ``(extremes, flight index)`` per draw, or None when no flight has a finite
-    value and error.
-    """
-    ok = np.flatnonzero(np.isfinite(values) & np.isfinite(sigma))
-    if not ok.size:
-        return None
-    sample = values[ok][None, :] + sigma[ok][None, :] * pe.draws[:, ok]
-    winner = sample.argmax(axis=1) if kind == "max" else sample.argmin(axis=1)
-    return np.take_along_axis(sample, winner[:, None], axis=1)[:, 0], ok[winner]
-
-
-def _extreme_weights(pe: PublishedEvidence, values: np.ndarray, sigma: np.ndarray, kind: str) -> np.ndarray:
-    """Derivative of :func:`_extreme`'s expected extreme with respect to each flight's value.
-
-    The expected extreme over the fixed draws moves with a flight's value by the fraction
-    of draws in which that flight is the extreme (0 for a flight without a finite value).
-    """
-    draws = _extreme_draws(pe, values, sigma, kind)
-    if draws is None:
-        return np.zeros(values.size)
-    return np.bincount(draws[1], minlength=values.size) / draws[1].size
-
-
 def _extreme(pe: PublishedEvidence, values: np.ndarray, sigma: np.ndarray, kind: str,
              spread: bool = True) -> tuple[float, float]:
     """Expected extreme (and its spread over the draws, NaN unless ``spread``) of independent
     per-flight realisations."""
-    draws = _extreme_draws(pe, values, sigma, kind)
-    if draws is None:
+    ok = np.isfinite(values) & np.isfinite(sigma)
+    if not ok.any():
         return float("nan"), float("nan")
-    return float(draws[0].mean()), float(draws[0].std(ddof=1)) if spread else float("nan")
+    sample = values[ok][None, :] + sigma[ok][None, :] * pe.draws[:, ok]
+    ext = sample.max(axis=1) if kind == "max" else sample.min(axis=1)
+    return float(ext.mean()), float(ext.std(ddof=1)) if spread else float("nan")
 
 
 def _observations(pe: PublishedEvidence, feats: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -364,7 +319,7 @@ def _observations(pe: PublishedEvidence, feats: np.ndarray) -> dict[str, tuple[n
         feature = "sw_su_drone" if "drone" in claim else "sw_su_mast"
         k = FEATURES.index(feature)
         kind = "max" if claim.endswith("max") else "min"
-        pred, _ = _extreme(pe, feats[:, k], ev.sigma[:, k], kind, spread=False)
+        pred, _ = _extreme(pe, feats[:, k], ev.sigma[:, k], kind, spread=False)  # the fit needs no spread
         out[f"claim:{claim}"] = (np.array([value]), np.array([pred]), np.array([pe.claim_sigma[claim]]))
     return out
 
@@ -388,28 +343,7 @@ def _fit(pe: PublishedEvidence, combo: Sequence[str], groups: Sequence[str]) -> 
         r = np.concatenate([(obs[g][0] - obs[g][1]) / obs[g][2] for g in groups])
         return np.where(np.isfinite(r), r, 0.0)
 
-    def jacobian(theta: np.ndarray) -> np.ndarray:
-        # exact derivative of the residuals: the tabulated effects are piecewise linear and
-        # the expected extreme over fixed draws moves with the winning flights' values
-        # (finite differences cost a residual evaluation per parameter and iteration)
-        feats, slopes = _features(pe, combo, theta), _slopes(pe, combo, theta)
-        obs = _observations(pe, feats)
-        rows = []
-        for g in groups:
-            if g.startswith("table5:"):
-                i = pe.flight_index(g.split(":", 1)[1])
-                d_pred = slopes[i, [FEATURES.index(f) for f in TABLE5_FEATURES], :]
-            else:
-                claim = g.split(":", 1)[1]
-                k = FEATURES.index("sw_su_drone" if "drone" in claim else "sw_su_mast")
-                w = _extreme_weights(pe, feats[:, k], pe.ev.sigma[:, k], "max" if claim.endswith("max") else "min")
-                d_pred = (w @ slopes[:, k, :])[None, :]
-            y, p, s = obs[g]
-            r = (y - p) / s
-            rows.append(np.where(np.isfinite(r)[:, None], -d_pred / s[:, None], 0.0))
-        return np.concatenate(rows)
-
-    theta, std, value, _, _ = bounded_least_squares(residuals, params, jacobian)
+    theta, std, value, _, _ = bounded_least_squares(residuals, params)
     return theta, std, value
 
 
