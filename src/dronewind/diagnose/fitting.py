@@ -37,6 +37,7 @@ statistic, the held-out misfits and gain, and the distinguishability of candidat
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -339,8 +340,6 @@ def piecewise_linear_least_squares(
         Always true (the minimum is exact).
     message : str
     """
-    import itertools
-
     cells = [_cell_intervals(p) for p in parameters]
     spans = [float(np.ptp(np.asarray(p.levels, dtype=float))) or 1.0 for p in parameters]
     base = np.array([p.baseline_level for p in parameters], dtype=float)
