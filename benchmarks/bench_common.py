@@ -8,6 +8,8 @@ from pathlib import Path
 from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
+#: The embedded default campaign's manifest.
+DEFAULT_CAMPAIGN = REPO / "config" / "campaigns" / "mosai2023.yaml"
 
 
 def git_commit(folder: Path = REPO) -> str:
@@ -54,5 +56,5 @@ def default_forward_setup() -> tuple[dict[str, Any], dict[str, Any], dict[str, A
     from dronewind.manifest import default_config, load_campaign
 
     config = default_config()
-    data = load_campaign(REPO / "config" / "campaigns" / "mosai2023.yaml").data
+    data = load_campaign(DEFAULT_CAMPAIGN).data
     return data, config, {key: config["processing"][key] for key in CHAIN_SETTINGS}

@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench_common import REPO, default_forward_setup, git_commit, print_and_write
+from bench_common import DEFAULT_CAMPAIGN, default_forward_setup, git_commit, print_and_write
 from dronewind.manifest import payload_flight_manifest
 from dronewind.steps import diagnosis as steps
 
@@ -38,7 +38,6 @@ def main() -> None:
     args = parser.parse_args()
     data, config, processing = default_forward_setup()
     d = config["diagnosis"]
-    campaign = REPO / "config" / "campaigns" / "mosai2023.yaml"
     diag = args.results / "diagnosis"
     forward_cpu: dict[str, list[float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -54,7 +53,7 @@ def main() -> None:
                 forward_cpu.setdefault(flight, []).append(round(time.process_time() - t0, 3))
         t0 = time.process_time()
         out = Path(tmp) / "diagnosis.json"
-        steps.diagnose_campaign(campaign, sorted((diag / "measured").glob("*.json")),
+        steps.diagnose_campaign(DEFAULT_CAMPAIGN, sorted((diag / "measured").glob("*.json")),
                                 sorted((diag / "forward").glob("*.json")), out, Path(tmp) / "extended.yaml",
                                 alpha=d["alpha"], max_causes=d["max_causes"], min_gain=d["min_gain"],
                                 atmosphere=d["atmosphere"])

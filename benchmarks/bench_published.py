@@ -23,14 +23,13 @@ import argparse
 import time
 from pathlib import Path
 
-from bench_common import REPO, git_commit, print_and_write
+from bench_common import DEFAULT_CAMPAIGN, REPO, git_commit, print_and_write
 from dronewind.diagnose import forward
 from dronewind.diagnose.published import load_published
 from dronewind.manifest import default_config, load_campaign, payload_flight_manifest
 from dronewind.steps.published import published_diagnosis, published_forward
 
 PUBLISHED = REPO / "config" / "published" / "seed000_samurai_s.yaml"
-CAMPAIGN = REPO / "config" / "campaigns" / "mosai2023.yaml"
 
 
 def main() -> None:
@@ -41,7 +40,7 @@ def main() -> None:
     config = default_config()
     processing = {key: config["processing"][key] for key in forward.CHAIN_SETTINGS}
     seeds = config["diagnosis"]["seeds"]
-    data = load_campaign(CAMPAIGN).data
+    data = load_campaign(DEFAULT_CAMPAIGN).data
     samples = load_published(PUBLISHED)["stationary_flights"]
     (args.work / "forward").mkdir(parents=True, exist_ok=True)
     cpu: dict[str, float] = {}

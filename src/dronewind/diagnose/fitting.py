@@ -122,6 +122,21 @@ class ParameterResponse:
         at_value = table[:, j, :] * (1.0 - w) + table[:, j + 1, :] * w
         return at_value - table[:, base_index, :]
 
+    def linear_intervals(self) -> list[tuple[float, float]]:
+        """The parameter intervals on which :meth:`effect` is linear, within the bounds [its unit].
+
+        Segment ``j`` lies between levels ``j`` and ``j + 1``; the first and the last reach
+        the bounds, as :meth:`effect` extrapolates their lines.
+        """
+        levels = np.asarray(self.levels, dtype=float)
+        edges = [-np.inf, *levels[1:-1], np.inf]
+        out = []
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            lo, hi = max(a, self.lower), min(b, self.upper)
+            if lo <= hi:
+                out.append((float(lo), float(hi)))
+        return out
+
 
 @dataclass
 class ResponseModel:
@@ -274,22 +289,6 @@ def bounded_least_squares(
     return best.x, std, value, bool(best.success), str(best.message)
 
 
-def _cell_intervals(p: ParameterResponse) -> list[tuple[float, float]]:
-    """The parameter intervals on which ``p.effect`` is linear, within its bounds [its unit].
-
-    Segment ``j`` lies between levels ``j`` and ``j + 1``; the first and the last extend
-    to the bounds (:meth:`ParameterResponse.effect` extrapolates their lines).
-    """
-    levels = np.asarray(p.levels, dtype=float)
-    edges = [-np.inf, *levels[1:-1], np.inf]
-    out = []
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
-        lo, hi = max(a, p.lower), min(b, p.upper)
-        if lo <= hi:
-            out.append((float(lo), float(hi)))
-    return out
-
-
 def _probe_point(lo: float, hi: float, level_span: float) -> tuple[float, float]:
     """A point inside ``[lo, hi]`` and a step that stays inside, for a linear cell."""
     if np.isfinite(lo) and np.isfinite(hi):
@@ -340,7 +339,7 @@ def piecewise_linear_least_squares(
         Always true (the minimum is exact).
     message : str
     """
-    cells = [_cell_intervals(p) for p in parameters]
+    cells = [p.linear_intervals() for p in parameters]
     spans = [float(np.ptp(np.asarray(p.levels, dtype=float))) or 1.0 for p in parameters]
     base = np.array([p.baseline_level for p in parameters], dtype=float)
     best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
