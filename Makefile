@@ -6,6 +6,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 CORES ?= 2
+# pytest-xdist workers of `make test` (tests sharing a session or module fixture stay on one worker: tests/conftest.py)
+TEST_WORKERS ?= 2
 
 .PHONY: run test venv lint bench clean
 
@@ -23,7 +25,7 @@ run: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES)
 
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder
 
 lint: $(STAMP)
 	$(BIN)/lint-imports --no-cache

@@ -2,15 +2,25 @@
 
 Also the session's background workflow runs: the hidden-effect runs and the SLURM run start
 as soon as their tests are collected, and those tests run last (BACKGROUND_MODULES).
+
+``make test`` runs the suite on two pytest-xdist workers (``-n 2 --dist loadgroup``). Then
+the background runs belong to the controller, the one process that lives for the whole
+session: it starts them when the first worker reports its collection and each run writes its
+end to a file in the session's shared temporary folder (:func:`shared_tmp`), which the test
+reading it waits for on whichever worker runs it. Tests sharing a module- or session-scoped
+fixture of this suite run on one worker (:func:`pytest_collection_modifyitems`), so that
+every such fixture (the small campaign's run most of all) is made once.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -68,15 +78,49 @@ def run_workflow(manifest: Path, results: Path, extra_config: Path, *args: str,
     )
 
 
+def is_xdist_worker(config: pytest.Config) -> bool:
+    """Whether this process is a pytest-xdist worker (it runs tests the controller hands it)."""
+    return hasattr(config, "workerinput")
+
+
+def shared_tmp(config: pytest.Config) -> Path:
+    """The session's temporary folder, the same in the pytest-xdist controller and its workers.
+
+    xdist gives each worker the basetemp ``<controller's basetemp>/popen-gwN``; without xdist
+    it is the session's own basetemp.
+    """
+    base = config._tmp_path_factory.getbasetemp()  # the folder of tmp_path_factory
+    return base.parent if is_xdist_worker(config) else base
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` so that a reader in another process sees all of it or nothing."""
+    part = path.with_name(f"{path.name}.{os.getpid()}.part")
+    part.write_text(text)
+    part.replace(path)
+
+
+def wait_for_file(path: Path, what: str, timeout: float) -> None:
+    """Wait until ``path`` exists (written by another process of the session); fail after ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while not path.exists():
+        assert time.monotonic() < deadline, f"{what}: no {path.name} after {timeout:.0f} s"
+        time.sleep(1.0)
+
+
 class WorkflowRun:
     """A Snakemake run in a subprocess (the venv's ``snakemake`` with ``args``, cwd the checkout).
 
     Started by :class:`BackgroundRuns` (or by :meth:`wait` when nothing started it);
     :meth:`wait` returns its CompletedProcess (output in ``log``, stdout and stderr together).
+    Its end is also written to ``<log>.returncode``: with ``remote=True`` (an xdist worker,
+    whose controller runs it) :meth:`wait` waits for that file instead of running it.
     """
 
-    def __init__(self, args: list[str], log: Path, timeout: float = 1500, env: dict[str, str] | None = None) -> None:
-        self.args, self.log, self.timeout, self.env = args, log, timeout, env or {}
+    def __init__(self, args: list[str], log: Path, timeout: float = 1500, env: dict[str, str] | None = None,
+                 remote: bool = False) -> None:
+        self.args, self.log, self.timeout, self.env, self.remote = args, log, timeout, env or {}, remote
+        self.returncode_file = log.with_name(log.name + ".returncode")
         self.done = threading.Event()
         self.result: subprocess.CompletedProcess | None = None
         self._started = threading.Lock()
@@ -88,6 +132,7 @@ class WorkflowRun:
         if not self._started.acquire(blocking=False):
             self.done.wait()
             return
+        code = None
         try:
             if self._stopped:
                 return
@@ -103,9 +148,18 @@ class WorkflowRun:
             text = self.log.read_text(errors="replace")
             self.result = subprocess.CompletedProcess(self._proc.args, code, text, text)
         finally:
+            write_atomically(self.returncode_file, "stopped" if code is None else str(code))
             self.done.set()
 
     def wait(self) -> subprocess.CompletedProcess:
+        if self.remote:
+            # the controller runs the draws one after another: this one may wait for those before it
+            assert self.log.parent.is_dir(), f"the session did not start the run of {self.log.parent}"
+            wait_for_file(self.returncode_file, f"the run of {self.log.parent}", timeout=4 * 3600)
+            code = self.returncode_file.read_text()
+            assert code != "stopped", f"the run was stopped: {self.args}"
+            text = self.log.read_text(errors="replace")
+            return subprocess.CompletedProcess([str(BIN / "snakemake"), *self.args], int(code), text, text)
         self.run()
         assert self.result is not None, f"the run was stopped: {self.args}"
         return self.result
@@ -136,15 +190,121 @@ class BackgroundRuns(threading.Thread):
 HIDDEN_RUNS: pytest.StashKey = pytest.StashKey()
 #: Where the session keeps the SLURM run of tests/test_slurm.py (a ``SlurmRun``).
 SLURM_RUN: pytest.StashKey = pytest.StashKey()
+#: Set once the controller of an xdist session has started the background runs.
+_BACKGROUND_STARTED: pytest.StashKey[bool] = pytest.StashKey()
 
 
 #: Modules whose workflow runs the session starts in the background; their tests run last.
 BACKGROUND_MODULES = ("test_diagnosis_hidden.py", "test_slurm.py")
 
 
+def _fixture_groups(items: list) -> dict[int, str]:
+    """The xdist group of each item (by position) that uses a module- or session-scoped fixture of this suite.
+
+    Items linked by such fixtures form one group (union-find over modules and session
+    fixtures): every module whose tests use the small campaign's run joins one group, so that
+    run is made once, on one worker. Items using none are not grouped (any worker).
+    """
+    parent: dict[str, str] = {}
+
+    def find(unit: str) -> str:
+        while parent.setdefault(unit, unit) != unit:
+            unit = parent[unit]
+        return unit
+
+    units_of: dict[int, list[str]] = {}
+    for k, item in enumerate(items):
+        units = [f"mark:{mark.args[0] if mark.args else mark.kwargs.get('name', 'default')}"
+                 for mark in item.iter_markers("xdist_group")]
+        for name in item.fixturenames:
+            defs = item._fixtureinfo.name2fixturedefs.get(name)
+            if not defs or not getattr(defs[-1].func, "__module__", "").startswith("tests"):
+                continue
+            scope = defs[-1].scope
+            if scope == "session":
+                units.append(f"session:{name}")
+            elif scope in ("package", "module", "class"):
+                units.append(f"module:{item.path.name}")
+        if units:
+            units_of[k] = units
+            for unit in units[1:]:
+                root, other = find(units[0]), find(unit)
+                if other.startswith("session:"):  # a group held by a session fixture is named by it
+                    root, other = other, root
+                if root != other:
+                    parent[other] = root
+    return {k: find(units[0]) for k, units in units_of.items()}
+
+
 def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config, items: list) -> None:
-    """The tests of :data:`BACKGROUND_MODULES` last (in their order), so that their runs overlap the others."""
+    """The tests of :data:`BACKGROUND_MODULES` last (in their order), so that their runs overlap the others.
+
+    With ``--dist loadgroup`` (``make test``), an xdist worker also writes the group of every
+    test that shares a module- or session-scoped fixture (:func:`_fixture_groups`) to
+    :func:`xdist_groups_file`, for the controller's :class:`FixtureGroupScheduling`, and puts
+    the groups held together by a session fixture first: run with ``--no-loadscope-reorder``,
+    the longest work starts first and the short, ungrouped tests fill the gaps.
+    """
+    if getattr(config.option, "loadgroup", False) and is_xdist_worker(config):
+        groups = _fixture_groups(items)
+        write_atomically(xdist_groups_file(config), json.dumps({items[k].nodeid: g for k, g in groups.items()}))
+        rank = {id(item): 0 if groups.get(k, "").startswith("session:") else 1 if k in groups else 2
+                for k, item in enumerate(items)}
+        items.sort(key=lambda item: rank[id(item)])
     items.sort(key=lambda item: item.path.name in BACKGROUND_MODULES)
+
+
+def xdist_groups_file(config: pytest.Config) -> Path:
+    """Where the workers of an xdist session write the groups of their tests (in :func:`shared_tmp`)."""
+    return shared_tmp(config) / "xdist_groups.json"
+
+
+@pytest.hookimpl(optionalhook=True, tryfirst=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """``--dist loadgroup``: :class:`FixtureGroupScheduling` (xdist's own cannot group under pytest 9)."""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class FixtureGroupScheduling(LoadScopeScheduling):
+        """xdist's scope scheduling with the scopes the workers wrote to :func:`xdist_groups_file`.
+
+        pytest-xdist 3.8's ``loadgroup`` groups tests by a suffix it appends to the node id in
+        the worker (``item._nodeid``); pytest 9 keeps node ids elsewhere, so the suffix never
+        reaches the controller and every test is scheduled alone (verified with two tests
+        marked ``xdist_group("g1")``: they ran on different workers). Here a test of a group
+        is in the group's work unit, every other test in one of its own.
+        """
+
+        def __init__(self, config: pytest.Config, log=None) -> None:
+            super().__init__(config, log)
+            self._groups: dict[str, str] | None = None
+
+        def _split_scope(self, nodeid: str) -> str:
+            if self._groups is None:  # written by the workers before they report their collection
+                path = xdist_groups_file(self.config)
+                self._groups = json.loads(path.read_text()) if path.exists() else {}
+            return self._groups.get(nodeid, nodeid)
+
+    return FixtureGroupScheduling(config, log)
+
+
+def _start_background_runs(config: pytest.Config, nodeids: list[str]) -> None:
+    """Start the workflow runs of :data:`BACKGROUND_MODULES` whose tests (``nodeids``) are to run."""
+    names = {nodeid.split("@")[0].rsplit("::", 1)[-1] for nodeid in nodeids}
+    if any(nodeid.startswith("tests/test_diagnosis_hidden.py::") for nodeid in nodeids):
+        from tests.test_diagnosis_hidden import DRAW_IDS, hidden_runs
+
+        selected = [k for k, draw_id in enumerate(DRAW_IDS) if f"test_hidden_effect_is_found[{draw_id}]" in names]
+        if selected:  # the runs of the selected draws, in the tests' order
+            runs = hidden_runs(config)
+            queue = BackgroundRuns([runs[k] for k in selected])
+            config.stash[HIDDEN_RUNS] = queue
+            queue.start()
+    if any(nodeid.startswith("tests/test_slurm.py::") for nodeid in nodeids):
+        from tests.test_slurm import start_in_background
+
+        start_in_background(config)
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
@@ -152,23 +312,21 @@ def pytest_collection_finish(session: pytest.Session) -> None:
 
     The hidden-effect runs (tests/test_diagnosis_hidden.py) compute while the session runs
     the tests before them on the other core; the SLURM run (tests/test_slurm.py) mostly
-    waits for SLURM's status checks. Their tests wait for their ends. Not for ``--collect-only``.
+    waits for SLURM's status checks. Their tests wait for their ends. Not for ``--collect-only``,
+    nor on an xdist worker (its controller starts them: :func:`pytest_xdist_node_collection_finished`).
     """
-    if session.config.option.collectonly:
+    if session.config.option.collectonly or is_xdist_worker(session.config):
         return
-    hidden = [item for item in session.items if item.path.name == "test_diagnosis_hidden.py"
-              and getattr(item, "originalname", "") == "test_hidden_effect_is_found"]
-    if hidden:  # the runs of the selected draws, in the tests' order
-        from tests.test_diagnosis_hidden import DRAWS, hidden_runs
+    _start_background_runs(session.config, [item.nodeid for item in session.items])
 
-        runs = hidden_runs(session.config)
-        queue = BackgroundRuns([runs[DRAWS.index(item.callspec.params["truth"])] for item in hidden])
-        session.config.stash[HIDDEN_RUNS] = queue
-        queue.start()
-    if any(item.path.name == "test_slurm.py" for item in session.items):
-        from tests.test_slurm import start_in_background
 
-        start_in_background(session.config)
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_node_collection_finished(node, ids: list[str]) -> None:
+    """xdist controller: start the background runs of the tests the first worker collected (all collect the same)."""
+    config = node.config
+    if not config.stash.get(_BACKGROUND_STARTED, False):
+        config.stash[_BACKGROUND_STARTED] = True
+        _start_background_runs(config, list(ids))
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:

@@ -30,7 +30,7 @@ import pytest
 import yaml
 
 from dronewind.diagnose.experiments import campaign_manifest, draw, draw_seed, judge, model_error_draw
-from tests.conftest import REPO, WorkflowRun
+from tests.conftest import REPO, WorkflowRun, is_xdist_worker, shared_tmp
 
 pytestmark = pytest.mark.slow
 
@@ -66,28 +66,34 @@ def hidden_runs(config: pytest.Config) -> dict[int, WorkflowRun]:
 
     tests/conftest.py starts them one after another in the background when it has
     collected this module (whose tests then run last); a run nobody started runs when its
-    test asks for it.
+    test asks for it. On an xdist worker the runs are its controller's: the same folders of
+    the shared temporary folder, waited for (``WorkflowRun(remote=True)``).
     """
     runs = config.stash.get(_RUNS, None)
     if runs is None:
-        folder = config._tmp_path_factory.mktemp("hidden")  # the folder of tmp_path_factory
+        folder = shared_tmp(config) / "hidden"
+        remote = is_xdist_worker(config)
         runs = {}
         for k, truth in enumerate(DRAWS):
             manifest = folder / f"draw{k}" / "hidden.yaml"
-            manifest.parent.mkdir()
-            manifest.write_text(yaml.safe_dump(campaign_manifest(truth), sort_keys=False))
+            if not remote:
+                manifest.parent.mkdir(parents=True)
+                manifest.write_text(yaml.safe_dump(campaign_manifest(truth), sort_keys=False))
             results = manifest.parent / "results"
             runs[k] = WorkflowRun(["--cores", "2", "--config", f"campaign={manifest}", f"results_dir={results}",
                                    "--", str(results / "hidden" / "diagnosis.json")],
-                                  log=manifest.parent / "snakemake.log")
+                                  log=manifest.parent / "snakemake.log", remote=remote)
         config.stash[_RUNS] = runs
     return runs
 
 
 _RUNS: pytest.StashKey[dict[int, WorkflowRun]] = pytest.StashKey()
 
+#: The test ids of the draws (tests/conftest.py starts the runs of the selected ones by them).
+DRAW_IDS = [f"{d.label}-seed{DRAW_SEED}" for d in DRAWS]
 
-@pytest.mark.parametrize("truth", DRAWS, ids=[f"{d.label}-seed{DRAW_SEED}" for d in DRAWS])
+
+@pytest.mark.parametrize("truth", DRAWS, ids=DRAW_IDS)
 def test_hidden_effect_is_found(truth, request):
     run = hidden_runs(request.config)[DRAWS.index(truth)]
     proc = run.wait()

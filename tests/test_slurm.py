@@ -21,7 +21,7 @@ import pytest
 
 from dronewind.diagnose.forward import probe_parts
 from dronewind.manifest import default_config
-from tests.conftest import SLURM_RUN
+from tests.conftest import SLURM_RUN, is_xdist_worker, shared_tmp, wait_for_file, write_atomically
 from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]
@@ -52,10 +52,13 @@ class SlurmRun:
     interval grows by 10 s with every check that finds no job finished), not computing:
     so the session starts it in the background when it collects this module
     (tests/conftest.py, ``pytest_collection_finish``) and the test waits for its end.
+    Its end is written to ``state.json`` in ``folder``: with ``remote=True`` (an xdist worker,
+    whose controller runs it) :meth:`wait` reads that file instead.
     """
 
-    def __init__(self, folder: Path) -> None:
-        self.folder, self.results = folder, folder / "results"
+    def __init__(self, folder: Path, remote: bool = False) -> None:
+        self.folder, self.results, self.remote = folder, folder / "results", remote
+        self.state_file = folder / "state.json"
         self.skip: str | None = None
         self.error: str | None = None
         self.returncode: int | None = None
@@ -71,7 +74,16 @@ class SlurmRun:
         return self
 
     def wait(self, timeout: float = 2400) -> None:
-        assert self.done.wait(timeout), f"the SLURM run did not end within {timeout} s"
+        if not self.remote:
+            assert self.done.wait(timeout), f"the SLURM run did not end within {timeout} s"
+            return
+        assert self.folder.is_dir(), f"the session did not start the SLURM run in {self.folder}"
+        wait_for_file(self.state_file, "the SLURM run", timeout)
+        state = json.loads(self.state_file.read_text())
+        self.skip, self.error, self.returncode = state["skip"], state["error"], state["returncode"]
+        self.watch.most = state["most_queued"]
+        log = self.folder / "snakemake.log"
+        self.out = log.read_text(errors="replace") if log.exists() else ""
 
     def stop(self) -> None:
         """Ends the run if it is still going (Snakemake cancels its SLURM jobs on SIGTERM)."""
@@ -90,6 +102,9 @@ class SlurmRun:
             self.error = f"{type(exc).__name__}: {exc}"
         finally:
             self.watch.done.set()
+            write_atomically(self.state_file, json.dumps({"skip": self.skip, "error": self.error,
+                                                          "returncode": self.returncode,
+                                                          "most_queued": self.watch.most}))
             self.done.set()
 
     def _setup_and_run(self) -> None:
@@ -137,16 +152,22 @@ class SlurmRun:
 
 
 def start_in_background(config: pytest.Config) -> SlurmRun:
-    """The session's SLURM run, started now in a folder of the session's temporary directory."""
-    run = SlurmRun(config._tmp_path_factory.mktemp("slurm")).start()  # the folder of tmp_path_factory
+    """The session's SLURM run, started now in the folder ``slurm`` of the session's shared temporary folder."""
+    folder = shared_tmp(config) / "slurm"
+    folder.mkdir()
+    run = SlurmRun(folder).start()
     config.stash[SLURM_RUN] = run
     return run
 
 
 @pytest.fixture(scope="module")
 def slurm_run(request) -> SlurmRun:
-    """The SLURM run started with the session, or started now if the session did not."""
-    run = request.config.stash.get(SLURM_RUN, None) or start_in_background(request.config)
+    """The SLURM run started with the session, or started now if the session did not (on an xdist
+    worker: the controller's run, waited for)."""
+    if is_xdist_worker(request.config):
+        run = SlurmRun(shared_tmp(request.config) / "slurm", remote=True)
+    else:
+        run = request.config.stash.get(SLURM_RUN, None) or start_in_background(request.config)
     run.wait()
     if run.skip:
         pytest.skip(run.skip)
