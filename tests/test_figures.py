@@ -34,10 +34,31 @@ def products(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def drawn(products: Path, tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("figures")
-    campaign.draw_all(products, out)
-    return out
+def drawn_figures(products: Path, tmp_path_factory) -> tuple[Path, dict]:
+    """Every campaign figure of the products fixture (several flights, 30 and 60 m), drawn once.
+
+    Returns the folder of the files and the figure objects every ``save_figure`` received
+    (for the layout tests; the real save still runs, :class:`_Spy`).
+    """
+    from dronewind.figures import positions, quadrant, scatter, style
+
+    spy = _Spy()
+    mp = pytest.MonkeyPatch()
+    for module in (campaign, diagnosis, fluxes, positions, quadrant, scatter, spectra, statistics, synchronisation,
+                   timeseries):
+        if hasattr(module, "save_figure"):
+            mp.setattr(module, "save_figure", spy.wrap(style.save_figure))
+    try:
+        out = tmp_path_factory.mktemp("figures")
+        campaign.draw_all(products, out)
+    finally:
+        mp.undo()
+    return out, spy.figures
+
+
+@pytest.fixture(scope="module")
+def drawn(drawn_figures: tuple[Path, dict]) -> Path:
+    return drawn_figures[0]
 
 
 def _files(root: Path, level: str, pattern: str = "*.nc") -> list[Path]:
@@ -183,19 +204,15 @@ class _Spy:
 
 
 @pytest.fixture(scope="module")
-def saved_figures(products: Path, tmp_path_factory) -> dict:
-    """Every campaign figure of the products fixture (several flights, 30 and 60 m) and the diagnosis figures."""
-    from dronewind.figures import positions, quadrant, scatter, style
+def saved_figures(drawn_figures: tuple[Path, dict], tmp_path_factory) -> dict:
+    """Every campaign figure of the products fixture (:func:`drawn_figures`) and the diagnosis figures."""
+    from dronewind.figures import style
 
     spy = _Spy()
     mp = pytest.MonkeyPatch()
-    for module in (campaign, diagnosis, fluxes, positions, quadrant, scatter, spectra, statistics, synchronisation,
-                   timeseries):
-        if hasattr(module, "save_figure"):
-            mp.setattr(module, "save_figure", spy.wrap(style.save_figure))
+    mp.setattr(diagnosis, "save_figure", spy.wrap(style.save_figure))
     try:
         out = tmp_path_factory.mktemp("layout")
-        campaign.draw_all(products, out)
         ev = _evidence(4)
         diag = {"campaign": "demo", "named_causes": ["w_gain"]}
         diagnosis.residuals_figure(ev, ev.baseline + 0.1, diag, out, features=FEATURES, labels=FEATURE_LABELS)
@@ -203,7 +220,7 @@ def saved_figures(products: Path, tmp_path_factory) -> dict:
         diagnosis.spectra_figure(ev, {f: _binned(1.0) for f in ev.flights}, model, diag, out)
     finally:
         mp.undo()
-    return spy.figures
+    return {**drawn_figures[1], **spy.figures}
 
 
 def _data_points(ax) -> np.ndarray:
