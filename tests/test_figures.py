@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+import re
 import shutil
 from pathlib import Path
 from types import SimpleNamespace
@@ -34,11 +36,12 @@ def products(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def drawn_figures(products: Path, tmp_path_factory) -> tuple[Path, dict]:
+def drawn_figures(products: Path, tmp_path_factory) -> tuple[Path, dict, list[str]]:
     """Every campaign figure of the products fixture (several flights, 30 and 60 m), drawn once.
 
-    Returns the folder of the files and the figure objects every ``save_figure`` received
-    (for the layout tests; the real save still runs, :class:`_Spy`).
+    Returns the folder of the files, the figure objects every ``save_figure`` received (for
+    the layout tests; the real save still runs, :class:`_Spy`) and the INFO messages of the
+    ``dronewind`` logger while drawing.
     """
     from dronewind.figures import positions, quadrant, scatter, style
 
@@ -48,17 +51,35 @@ def drawn_figures(products: Path, tmp_path_factory) -> tuple[Path, dict]:
                    timeseries):
         if hasattr(module, "save_figure"):
             mp.setattr(module, "save_figure", spy.wrap(style.save_figure))
+    messages: list[str] = []
+    handler = logging.Handler(logging.INFO)
+    handler.emit = lambda record: messages.append(record.getMessage())  # type: ignore[method-assign]
+    logger = logging.getLogger("dronewind")
+    level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
     try:
         out = tmp_path_factory.mktemp("figures")
         campaign.draw_all(products, out)
     finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
         mp.undo()
-    return out, spy.figures
+    return out, spy.figures, messages
 
 
 @pytest.fixture(scope="module")
-def drawn(drawn_figures: tuple[Path, dict]) -> Path:
+def drawn(drawn_figures: tuple[Path, dict, list[str]]) -> Path:
     return drawn_figures[0]
+
+
+def test_campaign_figures_log_each_figure(drawn_figures: tuple[Path, dict, list[str]]) -> None:
+    """The campaign figures job (about 60 CPU-s on the default campaign) logs every figure it draws."""
+    names = list(campaign.figure_captions())
+    lines = [m for m in drawn_figures[2] if m.startswith("figure ")]
+    for k, name in enumerate(names, start=1):
+        assert any(re.fullmatch(rf"figure {k}/{len(names)} {name} drawn in \d+\.\d s", line) for line in lines), \
+            (name, lines)
 
 
 def _files(root: Path, level: str, pattern: str = "*.nc") -> list[Path]:
@@ -204,7 +225,7 @@ class _Spy:
 
 
 @pytest.fixture(scope="module")
-def saved_figures(drawn_figures: tuple[Path, dict], tmp_path_factory) -> dict:
+def saved_figures(drawn_figures: tuple[Path, dict, list[str]], tmp_path_factory) -> dict:
     """Every campaign figure of the products fixture (:func:`drawn_figures`) and the diagnosis figures."""
     from dronewind.figures import style
 

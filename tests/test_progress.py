@@ -31,19 +31,3 @@ def test_an_item_that_fails_is_not_counted(caplog):
     with pytest.raises(ValueError), progress.item("bad"):
         raise ValueError("boom")
     assert progress.done == 0 and not caplog.records
-
-
-@pytest.mark.slow
-def test_campaign_figures_log_each_figure(tmp_path, caplog):
-    """The campaign figures job (about 90 s on the default campaign) logs every figure it draws."""
-    from dronewind.figures.campaign import draw_all, figure_captions
-    from tests.products_fixture import write_products
-
-    products = write_products(tmp_path / "products")
-    caplog.set_level(logging.INFO, logger="dronewind")
-    draw_all(products, tmp_path / "figures")
-    names = list(figure_captions())
-    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("figure ")]
-    for k, name in enumerate(names, start=1):
-        assert any(re.fullmatch(rf"figure {k}/{len(names)} {name} drawn in \d+\.\d s", line) for line in lines), \
-            (name, lines)
