@@ -5,7 +5,8 @@ one process (``--workers 0``), and records:
 
 * the wall time and pytest's summary line;
 * the whole machine's CPU over the run (from ``/proc/stat``: the jobs SLURM starts and every
-  other process included), so the fraction of the cores the suite kept busy;
+  other process included), so the fraction of the cores the suite kept busy, and the CPU of
+  pytest and every process it waited for (``pytest_tree_cpu_s``: not SLURM's jobs);
 * per worker, the time its tests spanned and their CPU (own and waited-for children,
   :mod:`pytest_timeline`), and the CPU per test module, largest first.
 
@@ -22,6 +23,7 @@ import argparse
 import collections
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -83,16 +85,20 @@ def main(argv: list[str] | None = None) -> int:
                "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO / "benchmarks"), os.environ.get("PYTHONPATH")]))}
         print("running:", " ".join(cmd[1:]), file=sys.stderr, flush=True)
         busy0, idle0 = machine_cpu_s()
+        tree0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
         proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, check=False)
         wall_s = time.perf_counter() - start
         busy1, idle1 = machine_cpu_s()
+        tree1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        tree_cpu_s = (tree1.ru_utime + tree1.ru_stime) - (tree0.ru_utime + tree0.ru_stime)
         lines = proc.stdout.strip().splitlines()
         result = {
             "commit": git_commit(), "command": " ".join(cmd[1:]), "returncode": proc.returncode,
             "summary": lines[-1] if lines else proc.stderr[-500:], "wall_s": round(wall_s, 1),
             "cores": os.cpu_count(), "machine_busy_cpu_s": round(busy1 - busy0, 1),
             "machine_idle_cpu_s": round(idle1 - idle0, 1),
+            "pytest_tree_cpu_s": round(tree_cpu_s, 1),
             "cores_kept_busy": round((busy1 - busy0) / wall_s, 2),
             "load_average_at_end": list(os.getloadavg()),
             **summarise(Path(folder)),
