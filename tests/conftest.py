@@ -44,6 +44,7 @@ if _HDF5_LOCKING is None:
 else:
     os.environ["HDF5_USE_FILE_LOCKING"] = _HDF5_LOCKING
 
+from dronewind.core.cf import atomic_write_text  # noqa: E402
 from tests.small_campaign import SHORT_HOVER, write_small_campaign  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -91,13 +92,6 @@ def shared_tmp(config: pytest.Config) -> Path:
     """
     base = config._tmp_path_factory.getbasetemp()  # the folder of tmp_path_factory
     return base.parent if is_xdist_worker(config) else base
-
-
-def write_atomically(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` so that a reader in another process sees all of it or nothing."""
-    part = path.with_name(f"{path.name}.{os.getpid()}.part")
-    part.write_text(text)
-    part.replace(path)
 
 
 def wait_for_file(path: Path, what: str, timeout: float) -> None:
@@ -148,7 +142,7 @@ class WorkflowRun:
             text = self.log.read_text(errors="replace")
             self.result = subprocess.CompletedProcess(self._proc.args, code, text, text)
         finally:
-            write_atomically(self.returncode_file, "stopped" if code is None else str(code))
+            atomic_write_text(self.returncode_file, "stopped" if code is None else str(code))
             self.done.set()
 
     def wait(self) -> subprocess.CompletedProcess:
@@ -247,10 +241,9 @@ def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config
     """
     if getattr(config.option, "loadgroup", False) and is_xdist_worker(config):
         groups = _fixture_groups(items)
-        write_atomically(xdist_groups_file(config), json.dumps({items[k].nodeid: g for k, g in groups.items()}))
-        rank = {id(item): 0 if groups.get(k, "").startswith("session:") else 1 if k in groups else 2
-                for k, item in enumerate(items)}
-        items.sort(key=lambda item: rank[id(item)])
+        atomic_write_text(xdist_groups_file(config), json.dumps({items[k].nodeid: g for k, g in groups.items()}))
+        rank = [0 if groups.get(k, "").startswith("session:") else 1 if k in groups else 2 for k in range(len(items))]
+        items[:] = [items[k] for k in sorted(range(len(items)), key=rank.__getitem__)]
     items.sort(key=lambda item: item.path.name in BACKGROUND_MODULES)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import logging.handlers
 import re
 import shutil
 from pathlib import Path
@@ -51,9 +52,7 @@ def drawn_figures(products: Path, tmp_path_factory) -> tuple[Path, dict, list[st
                    timeseries):
         if hasattr(module, "save_figure"):
             mp.setattr(module, "save_figure", spy.wrap(style.save_figure))
-    messages: list[str] = []
-    handler = logging.Handler(logging.INFO)
-    handler.emit = lambda record: messages.append(record.getMessage())  # type: ignore[method-assign]
+    handler = logging.handlers.BufferingHandler(capacity=1_000_000)  # keeps every record (never fills)
     logger = logging.getLogger("dronewind")
     level = logger.level
     logger.addHandler(handler)
@@ -65,7 +64,7 @@ def drawn_figures(products: Path, tmp_path_factory) -> tuple[Path, dict, list[st
         logger.removeHandler(handler)
         logger.setLevel(level)
         mp.undo()
-    return out, spy.figures, messages
+    return out, spy.figures, [record.getMessage() for record in handler.buffer]
 
 
 @pytest.fixture(scope="module")

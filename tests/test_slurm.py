@@ -19,9 +19,10 @@ from pathlib import Path
 
 import pytest
 
+from dronewind.core.cf import atomic_write_text
 from dronewind.diagnose.forward import probe_parts
 from dronewind.manifest import default_config
-from tests.conftest import SLURM_RUN, is_xdist_worker, shared_tmp, wait_for_file, write_atomically
+from tests.conftest import SLURM_RUN, is_xdist_worker, shared_tmp, wait_for_file
 from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]
@@ -102,9 +103,9 @@ class SlurmRun:
             self.error = f"{type(exc).__name__}: {exc}"
         finally:
             self.watch.done.set()
-            write_atomically(self.state_file, json.dumps({"skip": self.skip, "error": self.error,
-                                                          "returncode": self.returncode,
-                                                          "most_queued": self.watch.most}))
+            atomic_write_text(self.state_file, json.dumps({"skip": self.skip, "error": self.error,
+                                                           "returncode": self.returncode,
+                                                           "most_queued": self.watch.most}))
             self.done.set()
 
     def _setup_and_run(self) -> None:
