@@ -111,3 +111,25 @@ def test_step_modules_import_no_heavy_library(module):
 def test_report_step_imports_no_matplotlib():
     mods = _modules_after("import dronewind.steps.report")
     assert "matplotlib" not in mods
+
+
+# ------------------------------------------------------------------ the Snakefile
+
+
+def test_snakefile_imports_no_scientific_library():
+    # Snakemake runs the Snakefile each time it starts (on a cluster once per job, dry runs
+    # included); what it imports from dronewind must be names, not the chain: scipy.signal,
+    # scipy.stats and matplotlib took about 2 s of each start before.
+    rules = sorted((Path(__file__).resolve().parents[1] / "workflow" / "rules").glob("*.smk"))
+    lines, block = [], ""
+    for path in rules:
+        for line in path.read_text().splitlines():
+            if block or line.lstrip().startswith("from dronewind") or line.lstrip().startswith("import dronewind"):
+                block += line.strip() + " "
+                if "(" not in block or ")" in block:
+                    lines.append(block.strip())
+                    block = ""
+    assert any("load_published" in line for line in lines) and len(lines) >= 15  # the parser found them
+    mods = _modules_after("\n".join(lines))
+    heavy = {"scipy", "matplotlib", "netCDF4", "dask", "pint"} & mods
+    assert not heavy, f"the Snakefile's imports load {sorted(heavy)}"

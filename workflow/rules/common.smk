@@ -11,10 +11,13 @@ from pathlib import Path
 from snakemake.utils import min_version, validate
 
 from dronewind.config import check_config
-from dronewind.diagnose.forward import CHAIN_SETTINGS, fresh_seeds, probe_parts
-from dronewind.figures.blocks import BLOCK_FIGURE
-from dronewind.figures.campaign import figure_captions
-from dronewind.figures.quadrotor import QUAD_FIGURES, TUNNEL_FIGURES
+from dronewind.diagnose.probes import CHAIN_SETTINGS, fresh_seeds, probe_parts
+from dronewind.figures.labels import (
+    BLOCK_FIGURE,
+    QUAD_FIGURES,
+    TUNNEL_FIGURES,
+    figure_captions,
+)
 from dronewind.formats import check_campaign_formats
 from dronewind.manifest import (
     confined_path,
@@ -155,7 +158,7 @@ def _published():
     path = config["diagnosis"]["published"]
     if not path:
         return None, []
-    from dronewind.diagnose.published import load_published
+    from dronewind.diagnose.published_file import load_published
 
     pub = load_published(path)
     if pub["source"].get("campaign") != CAMPAIGN.name:

@@ -3,7 +3,7 @@
 # single-law model, figures. Per-flight rules take what they read of the flight's manifest
 # entry as params (never the manifest file), so a change to one flight reruns only that
 # flight's jobs up to the windows (the L2 of every flight follows the campaign calibration).
-from dronewind.steps.quadrotor import QUAD_TABLES
+from dronewind.quadrotor import QUAD_TABLES
 
 # quadrotor figures in the report's "Validation" subcategory (the others: "Calibration")
 QUAD_VALIDATION = (

@@ -1,6 +1,6 @@
 # Wind-tunnel calibration and verification of the quadrotors (seed 002): simulate (virtual
 # campaigns with `simulation.tunnel`), analyse into tables, figures.
-from dronewind.tunnel.analysis import TUNNEL_TABLES
+from dronewind.tunnel import TUNNEL_TABLES
 
 if TUNNEL_RUNS is not None and TUNNEL_SIMULATED:
 

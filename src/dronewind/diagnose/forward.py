@@ -54,7 +54,6 @@ import math
 import shutil
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path, PurePath
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -66,6 +65,19 @@ from dronewind.core.constants import KARMAN
 from dronewind.core.progress import Progress
 from dronewind.core.raw import RawRecord
 from dronewind.diagnose.features import FlightFeatures, flight_features
+from dronewind.diagnose.probes import (
+    ATMOSPHERES,
+    BASELINE_PART,
+    CHAIN_SETTINGS,
+    LAG_SETTINGS,
+    MECHANISM_BASELINES,
+    PROBES,
+    TRUTH_MECHANISMS,
+    Probe,
+    baseline_level,
+    fresh_seeds,
+    probe_parts,
+)
 from dronewind.errors import InputError
 from dronewind.manifest import parse_utc, payload_flight_manifest
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
@@ -81,118 +93,6 @@ if TYPE_CHECKING:
     from dronewind.simulate.payload import PayloadTruth
 
 LOG = logging.getLogger("dronewind")
-
-#: Keys of ``processing`` that the chain up to L3 uses (what a forward run depends on).
-CHAIN_SETTINGS: tuple[str, ...] = ("despike", "max_missing_fraction", "hover", "sonic_ins_lag", "drone_mast",
-                                   "rotation")
-#: Mechanisms that change the true state of a flight (the hover point in the field), not only
-#: its measurement: their probes simulate the flight anew; all others reuse the baseline's
-#: true state (:class:`dronewind.simulate.payload.PayloadTruth`).
-TRUTH_MECHANISMS: frozenset[str] = frozenset({"height_offset"})
-#: Settings of ``diagnosis.atmosphere``: the turbulence of the forward runs is the reference
-#: mast's measured record (``measured``: constrained generation with the record's spectra,
-#: :func:`dronewind.simulate.payload.measured_constraint`) or the similarity model's at the
-#: measured mean conditions (``model``).
-ATMOSPHERES: tuple[str, ...] = ("measured", "model")
-#: Keys of ``processing`` that the sonic-INS lag feature uses (:func:`measured_features`).
-LAG_SETTINGS: tuple[str, ...] = ("sonic_ins_lag", "hover", "max_missing_fraction")
-
-
-@dataclass(frozen=True)
-class Probe:
-    """One parameter of one candidate and the levels at which its response is simulated.
-
-    Attributes
-    ----------
-    candidate : str
-        Candidate name (the catalog name, or ``name@setting`` for a variant with a fixed
-        second parameter, e.g. ``downwash@u_scale_ms=3``).
-    mechanism : str
-        Catalog name.
-    parameter : str
-        The fitted parameter.
-    levels : tuple of float
-        Probe levels (the baseline level is added automatically).
-    fixed : dict
-        Parameters held fixed for this candidate.
-    """
-
-    candidate: str
-    mechanism: str
-    parameter: str
-    levels: tuple[float, ...]
-    fixed: tuple[tuple[str, float], ...] = ()
-
-
-#: Level of each fitted parameter at which its mechanism is off.
-MECHANISM_BASELINES: dict[tuple[str, str], float] = {
-    ("w_gain", "gain"): 1.0,
-    ("mast_w_attenuation", "gain"): 1.0,
-}
-
-#: The probes of every payload/mast mechanism of the catalog (DESIGN.md). A parameter that can
-#: take either sign about its baseline (a lag, an angle, an offset, a gain about 1) is probed on
-#: both sides, so that the response of an even (e.g. quadratic) feature is never extrapolated
-#: from one side to the other; the fit bounds are the catalog's physical range
-#: (:mod:`dronewind.mechanisms`), not the probe span.
-PROBES: tuple[Probe, ...] = (
-    Probe("sonic_ins_lag", "sonic_ins_lag", "lag_s", (-0.3, 0.3)),
-    Probe("clock_drift", "clock_drift", "ppm", (-300.0, 300.0)),
-    Probe("mount_misalignment", "mount_misalignment", "roll_deg", (-4.0, 4.0)),
-    Probe("mount_misalignment", "mount_misalignment", "pitch_deg", (-4.0, 4.0)),
-    Probe("mount_misalignment", "mount_misalignment", "yaw_deg", (-6.0, 6.0)),
-    Probe("heading_bias", "heading_bias", "deg", (-8.0, 8.0)),
-    Probe("attitude_lag", "attitude_lag", "lag_s", (0.1, 0.3)),
-    Probe("lever_arm", "lever_arm", "x_m", (-0.6, 0.6)),
-    Probe("lever_arm", "lever_arm", "y_m", (-0.6, 0.6)),
-    Probe("lever_arm", "lever_arm", "z_m", (-0.6, 0.6)),
-    Probe("w_gain", "w_gain", "gain", (0.85, 1.2)),
-    Probe("sonic_noise", "sonic_noise", "sigma_ms", (0.15, 0.35)),
-    Probe("height_offset", "height_offset", "dz_m", (-6.0, 6.0, 15.0)),
-    Probe("downwash@u_scale_ms=3", "downwash", "w0_ms", (1.0,), (("u_scale_ms", 3.0),)),
-    Probe("downwash@u_scale_ms=8", "downwash", "w0_ms", (1.0,), (("u_scale_ms", 8.0),)),
-    Probe("mast_w_attenuation", "mast_w_attenuation", "gain", (0.85, 1.1)),
-)
-
-
-def fresh_seeds(used: Sequence[int], n: int = 2) -> tuple[int, ...]:
-    """``n`` campaign seeds for a rerun that none of the ``used`` (baseline) seeds equals.
-
-    The extended-model reruns check the fit on realisations it was not made with; with
-    seeds the baseline also ran, the check would reuse the same turbulence. Returns 303 and
-    404 (the reruns' historical seeds) where free, else the next multiples of 101 above the
-    largest used seed.
-
-    Parameters
-    ----------
-    used : sequence of int
-        ``diagnosis.seeds``.
-    n : int
-        Number of seeds.
-
-    Returns
-    -------
-    tuple of int
-        ``n`` distinct seeds, none in ``used``.
-
-    Examples
-    --------
-    >>> fresh_seeds([101, 202])
-    (303, 404)
-    >>> fresh_seeds([101, 202, 303, 404, 505])
-    (606, 707)
-    """
-    taken = {int(s) for s in used}
-    historic = (303, 404)[:n]
-    if len(historic) == n and not taken & set(historic):
-        return historic
-    start = (max(taken, default=0) // 101 + 1) * 101
-    return tuple(start + 101 * k for k in range(n))
-
-
-def baseline_level(mechanism: str, parameter: str) -> float:
-    """Parameter value at which a mechanism is off."""
-    return MECHANISM_BASELINES.get((mechanism, parameter), 0.0)
 
 
 def _psi_m(zeta: float) -> float:
@@ -683,19 +583,6 @@ def _probe_parameters(probe: Probe, level: float) -> dict[str, float]:
         params[name] = dict(probe.fixed).get(name, baseline_level(probe.mechanism, name))
     return params
 
-
-#: Name of the part of a flight's forward runs that holds the baseline seeds (:func:`probe_parts`).
-BASELINE_PART = "baseline"
-
-
-def probe_parts(probes: tuple[Probe, ...] = PROBES) -> tuple[str, ...]:
-    """The parts a flight's forward runs split into: the baseline seeds, then one per mechanism.
-
-    Each part is an independent job of the workflow (``diagnosis.probe_jobs: mechanism``),
-    so that a cluster runs a flight's probes in parallel; :func:`merge_probe_runs` joins
-    them into what :func:`probe_runs` returns for the whole flight.
-    """
-    return (BASELINE_PART, *dict.fromkeys(p.mechanism for p in probes))
 
 
 def probe_runs(

@@ -4,8 +4,9 @@ Seed 000 campaign figures, one module per topic: :mod:`~dronewind.figures.synchr
 (Fig. 4), :mod:`~dronewind.figures.positions` (Fig. 7), :mod:`~dronewind.figures.timeseries`
 (Figs 8, 10), :mod:`~dronewind.figures.spectra` (Figs 9, 11, B1, B2),
 :mod:`~dronewind.figures.statistics` (Figs 12, 14), :mod:`~dronewind.figures.fluxes`
-(Figs 13, 16), :mod:`~dronewind.figures.quadrant` (Fig. 15); their captions, registry and
-:func:`~dronewind.figures.campaign.draw_all` in :mod:`~dronewind.figures.campaign`; the
+(Figs 13, 16), :mod:`~dronewind.figures.quadrant` (Fig. 15); their registry and
+:func:`~dronewind.figures.campaign.draw_all` in :mod:`~dronewind.figures.campaign`, the names
+and captions of every figure the workflow makes in :mod:`~dronewind.figures.labels`; the
 shared look (canvas, colours, unit labels, notes, saving) in :mod:`~dronewind.figures.style`
 and the drone-vs-mast panels in :mod:`~dronewind.figures.scatter`.
 

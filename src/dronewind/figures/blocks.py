@@ -14,12 +14,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from dronewind.figures.labels import BLOCK_FIGURE
 from dronewind.figures.style import UNIT_KMS, UNIT_MS, PathLike, add_notes, new_figure, no_data, save_figure
 
 __all__ = ["BLOCK_FIGURE", "BLOCK_PANELS", "block_series"]
-
-#: Name of the figure (output stem and report key).
-BLOCK_FIGURE = "block_series"
 
 #: Panels: block_stats.csv column and axis label.
 BLOCK_PANELS: tuple[tuple[str, str], ...] = (

@@ -38,6 +38,7 @@ from pathlib import Path
 from dronewind.core.products import load_l4_products
 from dronewind.core.progress import Progress
 from dronewind.figures.fluxes import fig13_fluxes_obukhov, fig16_uncertainty
+from dronewind.figures.labels import figure_captions
 from dronewind.figures.positions import fig07_positions
 from dronewind.figures.quadrant import fig15_quadrant
 from dronewind.figures.spectra import (
@@ -47,69 +48,11 @@ from dronewind.figures.spectra import (
     figB2_normalised_temperature_spectra,
 )
 from dronewind.figures.statistics import fig12_mean_and_sigma, fig14_length_scales
-from dronewind.figures.style import PAPERS, PathLike
+from dronewind.figures.style import PathLike
 from dronewind.figures.synchronisation import fig04_tke_lag
 from dronewind.figures.timeseries import fig08_timeseries, fig10_temperature_series
 
 __all__ = ["FIGURE_FUNCTIONS", "draw_all", "figure_captions"]
-
-P000 = PAPERS["000"]
-
-
-def figure_captions() -> dict[str, str]:
-    """Captions of the campaign figures, keyed by figure name (= function name = output stem).
-
-    Returns
-    -------
-    dict of str to str
-        Name -> what the figure shows, independent of any campaign (plain text). The
-        report's captions say what a campaign's figure shows:
-        :func:`dronewind.figures.captions.campaign_captions`.
-    """
-    return {
-        "fig04_tke_lag": "Turbulent kinetic energy of the motion-corrected payload wind versus the lag added to "
-        "the sonic clock relative to the INS, one curve per flight, each normalised by its minimum (after "
-        f"{P000}, Fig. 4). Dashed and dash-dot vertical lines: smallest and largest lag of minimum TKE among "
-        "the usable flights. Unusable flights grey, dashed.",
-        "fig07_positions": "Left: payload height above ground (GNSS altitude minus site altitude) during the "
-        "hover windows, with the mast sonic heights dotted. Right: payload position east/north of the mast, "
-        "sonic head azimuths as black lines; coloured arrows from the median position point where the wind "
-        "measured by the reference mast sonic blows to, its mean speed and direction in the legend "
-        f"(after {P000}, Fig. 7).",
-        "fig08_timeseries": "Streamwise (u), cross-wind (v) and vertical (w) velocity in streamline coordinates "
-        "(L3, 8 Hz), drone (blue) and reference mast sonic (orange), for the detailed flights; titles give the "
-        f"heights and mean speeds from L4 (after {P000}, Fig. 8).",
-        "fig09_velocity_spectra": "Frequency-weighted spectra f S_u, f S_v, f S_w (log-log) and co-spectrum "
-        "f Re(S_uw) (linear y), drone (blue) and mast (orange), with the blunt/pointed model fitted to the drone "
-        f"(black, {P000} Eqs 4-7); standard deviations and u'w' in the panel titles (after {P000}, Fig. 9).",
-        "fig10_temperature_series": "Sonic temperature fluctuations (minus the stored mean of each sensor), "
-        f"drone (blue) and mast (orange), for the detailed flights; the means are in the legend (after {P000}, "
-        "Fig. 10).",
-        "fig11_temperature_spectra": "Frequency-weighted sonic-temperature spectrum f S_theta (log-log) and "
-        "co-spectra f Re(S_w theta) and f Re(S_u theta) (linear y), drone (blue) and mast (orange) (after seed "
-        "000, Fig. 11).",
-        "fig12_mean_and_sigma": "Drone versus mast mean wind speed and standard deviations of u, v, w, one colour "
-        "per flight, one marker per reference height (lowest first: circles, triangles, squares); dashed: "
-        f"1:1 (after {P000}, Fig. 12).",
-        "fig13_fluxes_obukhov": "Drone versus mast covariances u'w', v'w', w'theta_v' and Obukhov length L "
-        f"(symmetric-log axes); markers as in Fig. 12 (after {P000}, Fig. 13).",
-        "fig14_length_scales": "Drone versus mast integral length scales L_u, L_v, L_w (exponential fit of the "
-        "autocovariance and Taylor's hypothesis); flights where I_u >= 0.5 or U <= 1 m s⁻¹ are left out and listed "
-        f"(after {P000}, Fig. 14).",
-        "fig15_quadrant": "Quadrant analysis of the frequency-averaged spectral ratios <S_w/S_u> (left) and "
-        "<S_v/S_u> (right) over 2 < f z/U < 10, drone versus mast, coloured by the mast mean speed; lines at the "
-        f"isotropic 4/3; grey triangles: mean speed below the low-wind limit (after {P000}, Figs 6 and 15).",
-        "fig16_uncertainty": f"Normalised random-uncertainty metrics ({P000} Eqs 10-13) of the variances, "
-        "momentum fluxes and buoyancy flux, drone (y) versus mast (x); green: below 0.5, low statistical "
-        f"uncertainty (after {P000}, Fig. 16).",
-        "figB1_normalised_velocity_spectra": "Spectra of u, v, w normalised by their variances, and the u-w "
-        "co-spectrum normalised by u'w', drone (blue) and mast (orange), for the flights not shown in detail "
-        f"(after {P000}, Fig. B1).",
-        "figB2_normalised_temperature_spectra": "Sonic-temperature spectrum normalised by its variance and the "
-        "w-theta and u-theta co-spectra normalised by their covariances, drone (blue) and mast (orange), for the "
-        f"flights not shown in detail (after {P000}, Fig. B2).",
-    }
-
 
 #: Figure name -> function (all take the output stem as a keyword ``out_stem``).
 FIGURE_FUNCTIONS = {

@@ -30,31 +30,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dronewind.figures.labels import QUAD_FIGURES, TUNNEL_FIGURES
+
 __all__ = ["QUAD_FIGURES", "TUNNEL_FIGURES", "quadrotor_figures", "tunnel_figures"]
 
 DPI = 110
-
-#: Quadrotor figures: file stem -> caption.
-QUAD_FIGURES: dict[str, str] = {
-    "quadrotor_fig3_individual": "10-min wind speed, drone vs tower, individual calibration (seed 001 Fig. 3)",
-    "quadrotor_fig4_regression": "Tilt vs tower wind speed and the universal regression law (seed 001 Fig. 4)",
-    "quadrotor_fig5_validation": "Validation flights, drone vs tower with universal law and calibrated offsets "
-                                 "(seed 001 Fig. 5)",
-    "quadrotor_fig6_direction": "Wind direction, drone (corrected heading) vs tower (seed 001 Fig. 6)",
-    "quadrotor_fig7_timeseries": "1 Hz UAV wind speed and tower 1-min means of one flight (seed 001 Fig. 7)",
-    "quadrotor_fig8_profiles": "Wind-speed profiles, drones (with calibration RMSE) vs tower (seed 001 Fig. 8)",
-    "quadrotor_fig9_variance": "Variance of 1-min mean speeds in each window, drone vs tower (seed 001 Fig. 9 "
-                               "analogue: the tower reports 1-min means)",
-}
-#: Tunnel figures: file stem -> caption.
-TUNNEL_FIGURES: dict[str, str] = {
-    "tunnel_fig4_sideslip": "RMSE of the UAS speed over the CTA speed per angle of sideslip (seed 002 Fig. 4)",
-    "tunnel_fig5_portability": "Speed error of each UAS over the CTA speed (seed 002 Fig. 5)",
-    "tunnel_fig6_gusts": "Gust RMSE at V0 and at the peak Vp per preset (seed 002 Fig. 6)",
-    "tunnel_fig7_steps": "Velocity-step RMSEs per preset (seed 002 Fig. 7)",
-    "tunnel_fig9_variance": "Variance, UAS vs CTA at full and cut bandwidth (seed 002 Fig. 9)",
-}
-
 
 def _figure(width_in: float = 6.0, height_in: float = 4.5) -> tuple[Any, Any]:
     from matplotlib.figure import Figure

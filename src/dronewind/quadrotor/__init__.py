@@ -13,3 +13,21 @@ Modules, in the order the data flow through them:
   and the contract table;
 * :mod:`~dronewind.quadrotor.chain`: the chain, Dataset in, Dataset out (L1, windows, tables, L2).
 """
+
+__all__ = ["QUAD_TABLES"]
+
+#: Campaign tables of :func:`dronewind.quadrotor.chain.compute_quadrotor_tables` (file stem ->
+#: content); here, apart from the chain and its libraries, for the Snakefile that lists them as
+#: outputs.
+QUAD_TABLES: dict[str, str] = {
+    "quadrotor_calibration": "contract table: one row per UAV (uav, pitch_offset_deg, yaw_offset_deg, rmse_ms, "
+                             "bias_ms, ...)",
+    "quadrotor_table2": "seed 001 Table 2: individual vs universal calibration, 10-min windows",
+    "quadrotor_table3": "seed 001 Table 3: calibration scenarios a-d, 10-min windows",
+    "quadrotor_tableC1": "seed 001 Table C1: as Table 2 with 2-min windows",
+    "quadrotor_tableC2": "seed 001 Table C2: as Table 3 with 2-min windows",
+    "quadrotor_direction": "speed and direction accuracy with scenario-d pitch and yaw offsets (Sect. 5.4)",
+    "quadrotor_windows": "per 10-min window: reference, UAV speed per calibration, direction, tilt, variance",
+    "quadrotor_profiles": "per flight and height: mean UAV and tower speed (Fig. 8)",
+    "quadrotor_problems": "UAV logs left out and why",
+}

@@ -31,6 +31,7 @@ import pandas as pd
 import xarray as xr
 
 from dronewind.errors import InputError
+from dronewind.quadrotor import QUAD_TABLES
 from dronewind.quadrotor.drag import DragLaw, speed_from_tilt, tilt_from_attitude
 from dronewind.quadrotor.wind import uav_wind_dataset, wind_from_attitude
 from dronewind.quadrotor.windows import flight_windows
@@ -42,20 +43,6 @@ __all__ = [
 ]
 
 LOG = logging.getLogger(__name__)
-
-#: Campaign tables of :func:`compute_quadrotor_tables` (file stem -> content).
-QUAD_TABLES: dict[str, str] = {
-    "quadrotor_calibration": "contract table: one row per UAV (uav, pitch_offset_deg, yaw_offset_deg, rmse_ms, "
-                             "bias_ms, ...)",
-    "quadrotor_table2": "seed 001 Table 2: individual vs universal calibration, 10-min windows",
-    "quadrotor_table3": "seed 001 Table 3: calibration scenarios a-d, 10-min windows",
-    "quadrotor_tableC1": "seed 001 Table C1: as Table 2 with 2-min windows",
-    "quadrotor_tableC2": "seed 001 Table C2: as Table 3 with 2-min windows",
-    "quadrotor_direction": "speed and direction accuracy with scenario-d pitch and yaw offsets (Sect. 5.4)",
-    "quadrotor_windows": "per 10-min window: reference, UAV speed per calibration, direction, tilt, variance",
-    "quadrotor_profiles": "per flight and height: mean UAV and tower speed (Fig. 8)",
-    "quadrotor_problems": "UAV logs left out and why",
-}
 
 #: Averaging times of the windows [s]: 10 min (seed 001 Sect. 5) and 2 min (App. C).
 WINDOW_LENGTHS_S: tuple[float, ...] = (600.0, 120.0)

@@ -14,16 +14,11 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from dronewind.compare.blocks import (
-    BlockSettings,
-    block_stats_table,
-    record_blocks,
-    stack_blocks,
-    stacked_block_rows,
-)
-from dronewind.core.cf import atomic_write_text, strip_cf, write_netcdf
-from dronewind.core.products import open_product
 from dronewind.steps.common import LOG
+
+# The block analysis and the NetCDF writer are imported in the functions that run it: the
+# Snakefile imports block_settings each time Snakemake starts (on a cluster, once per job),
+# and importing them would load xarray, pandas and scipy for that alone.
 
 __all__ = ["BLOCK_SETTINGS", "block_settings", "mast_blocks", "block_stats"]
 
@@ -71,6 +66,10 @@ def mast_blocks(l1_file: str | Path, output: str | Path, *, campaign: str, sonic
     Path
         The written file.
     """
+    from dronewind.compare.blocks import BlockSettings, record_blocks, stack_blocks
+    from dronewind.core.cf import strip_cf, write_netcdf
+    from dronewind.core.products import open_product
+
     settings = BlockSettings.from_processing(processing)
     l1 = strip_cf(open_product(l1_file))
     blocks = record_blocks(l1, settings)
@@ -108,6 +107,10 @@ def block_stats(l4_files: Sequence[str | Path], output: str | Path) -> Path:
     Path
         The written file.
     """
+    from dronewind.compare.blocks import block_stats_table, stacked_block_rows
+    from dronewind.core.cf import atomic_write_text
+    from dronewind.core.products import open_product
+
     rows = []
     for path in l4_files:
         ds = open_product(path)

@@ -45,22 +45,13 @@ from dronewind.quadrotor import chain
 from dronewind.quadrotor.chain import QUAD_TABLES
 from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
 from dronewind.steps.common import LOG, open_product
+from dronewind.tunnel import TUNNEL_TABLES
 
 __all__ = [
     "QUAD_TABLES", "simulate_quadrotor", "simulate_tunnel", "tunnel_root",
     "quadrotor_l1", "quadrotor_l1_flight", "quadrotor_windows", "read_windows", "quadrotor_calibration",
     "quadrotor_l2", "quadrotor_l2_flight", "quadrotor_diagnosis", "tunnel_analysis",
 ]
-
-
-def __getattr__(name: str) -> Any:
-    """``TUNNEL_TABLES`` on first use: the tunnel analysis imports scipy.signal, which a
-    quadrotor job does not need (about 0.5 s of every job's start-up)."""
-    if name == "TUNNEL_TABLES":
-        from dronewind.tunnel.analysis import TUNNEL_TABLES
-
-        return TUNNEL_TABLES
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _csv(frame: pd.DataFrame, path: str | Path) -> Path:
@@ -530,7 +521,6 @@ def tunnel_analysis(campaign: str, runs_file: str | Path, tables_dir: str | Path
     if len(cal) and not bool(cal["converged"].astype(bool).any()):
         raise ProcessingError(f"{runs_file}: tunnel calibration did not converge in any speed range")
     written = []
-    from dronewind.tunnel.analysis import TUNNEL_TABLES
 
     for name in TUNNEL_TABLES:
         table = res.get(name, pd.DataFrame())

@@ -31,19 +31,13 @@ import numpy as np
 import pandas as pd
 
 from dronewind.quadrotor.drag import DragLaw
+from dronewind.tunnel import TUNNEL_TABLES
 from dronewind.tunnel.calibration import calibrate_tunnel, stepped_accuracy, uas_offsets, uas_speed
 from dronewind.tunnel.io import event_starts, read_tunnel_index, read_tunnel_run
 from dronewind.tunnel.metrics import gust_events, rmse, step_events, turbulence_metrics
 
 __all__ = ["TUNNEL_TABLES", "analyse_tunnel", "sideslip_table", "portability_table", "dynamic_runs",
            "gust_summary", "step_summary", "turbulence_summary"]
-
-#: Tables of :func:`analyse_tunnel`, in the order they are written.
-TUNNEL_TABLES: tuple[str, ...] = (
-    "offsets", "calibration", "steps_accuracy", "sideslip", "portability", "gusts", "gust_summary",
-    "steps", "step_summary", "turbulence", "turbulence_summary",
-)
-
 
 def _block_mean_at(t_src: np.ndarray, x: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
     """Mean of ``x`` over the interval each destination sample represents (down-sampling
