@@ -37,6 +37,7 @@ statistic, the held-out misfits and gain, and the distinguishability of candidat
 
 from __future__ import annotations
 
+import bisect
 import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -95,6 +96,9 @@ class ParameterResponse:
             raise ValueError(f"{self.name}: levels must include the baseline level {self.baseline_level}")
         if self.features.ndim != 3 or self.features.shape[1] != levels.size:
             raise ValueError(f"{self.name}: features must have shape (n_flights, {levels.size}, n_features)")
+        # what effect() needs at every call, worked out once: the fits call it tens of thousands of times
+        object.__setattr__(self, "_level_list", [float(x) for x in levels])
+        object.__setattr__(self, "_base_index", int(np.argmin(np.abs(levels - self.baseline_level))))
 
     def effect(self, value: float, flights: np.ndarray) -> np.ndarray:
         """Feature change against the baseline at ``value`` for the given flights.
@@ -114,13 +118,13 @@ class ParameterResponse:
         numpy.ndarray
             Shape ``(len(flights), n_features)``.
         """
-        levels = np.asarray(self.levels, dtype=float)
-        table = self.features[flights]  # (n, k, f)
-        base_index = int(np.argmin(np.abs(levels - self.baseline_level)))
-        j = int(np.clip(np.searchsorted(levels, value) - 1, 0, levels.size - 2))
+        levels: list[float] = self._level_list  # type: ignore[attr-defined]
+        # the segment: numpy's searchsorted (left side) - 1, clipped to the segments; NaN sorts last
+        k = bisect.bisect_left(levels, value) if value == value else len(levels)
+        j = min(max(k - 1, 0), len(levels) - 2)
         w = (value - levels[j]) / (levels[j + 1] - levels[j])
-        at_value = table[:, j, :] * (1.0 - w) + table[:, j + 1, :] * w
-        return at_value - table[:, base_index, :]
+        at_value = self.features[flights, j, :] * (1.0 - w) + self.features[flights, j + 1, :] * w
+        return at_value - self.features[flights, self._base_index, :]  # type: ignore[attr-defined]
 
     def linear_intervals(self) -> list[tuple[float, float]]:
         """The parameter intervals on which :meth:`effect` is linear, within the bounds [its unit].
