@@ -119,12 +119,13 @@ class ParameterResponse:
             Shape ``(len(flights), n_features)``.
         """
         levels: list[float] = self._level_list  # type: ignore[attr-defined]
+        base_index: int = self._base_index  # type: ignore[attr-defined]
         # the segment: numpy's searchsorted (left side) - 1, clipped to the segments; NaN sorts last
         k = bisect.bisect_left(levels, value) if value == value else len(levels)
         j = min(max(k - 1, 0), len(levels) - 2)
         w = (value - levels[j]) / (levels[j + 1] - levels[j])
         at_value = self.features[flights, j, :] * (1.0 - w) + self.features[flights, j + 1, :] * w
-        return at_value - self.features[flights, self._base_index, :]  # type: ignore[attr-defined]
+        return at_value - self.features[flights, base_index, :]
 
     def linear_intervals(self) -> list[tuple[float, float]]:
         """The parameter intervals on which :meth:`effect` is linear, within the bounds [its unit].
