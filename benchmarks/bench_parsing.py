@@ -1,4 +1,4 @@
-"""Throughput of the raw-text parsers: payload sonic CSV, INS CSV and Campbell TOA5.
+"""Throughput of the raw-text parsers: payload sonic CSV, INS CSV, Campbell TOA5 and the quadrotor CSV.
 
 Plain script; run from the repository root, for example::
 
@@ -10,14 +10,17 @@ Inputs:
   (sonic 32 Hz, INS 50 Hz with the first 20 s before GNSS time, i.e. empty ``utc``);
 * TOA5: the real fluxpart CSAT3 files (``../shared/data/fluxpart_csat3_toa5``), or a
   synthetic 30-min 20 Hz file written by :func:`dronewind.simulate.writers.write_toa5` when
-  they are absent.
+  they are absent;
+* quadrotor: a 30-min 10 Hz UAV log in the quadrotor simulator's format (values rounded as
+  a logger writes them, printed by ``pandas.DataFrame.to_csv``).
 
 Measured (best of ``--repeat`` runs, seconds and rows per second):
 
 * ``parse``: text to column arrays with the corrupt lines separated
   (``dronewind.payload.io._parse_csv``; for TOA5 ``read_toa5``, which is only that);
 * ``read``: the public readers ``read_sonic_csv`` / ``read_ins_csv`` (parse plus duplicate
-  removal and sorting by logger time).
+  removal and sorting by logger time) and ``read_quadrotor_csv`` (parse, sorting and
+  duplicate removal by time, the Dataset).
 """
 
 from __future__ import annotations
@@ -95,6 +98,26 @@ def entry(rows: int, seconds: float, files: list[Path]) -> dict[str, Any]:
             "bytes": int(sum(f.stat().st_size for f in files))}
 
 
+def write_quadrotor_log(folder: Path, duration_s: float = 1800.0) -> Path:
+    """A 10 Hz UAV log in the quadrotor simulator's format (:mod:`dronewind.simulate.quadrotor`)."""
+    import pandas as pd
+
+    rng = np.random.default_rng(3)
+    n = int(duration_s * 10)
+    t = np.datetime64("2020-07-24T10:00:00", "ms") + (np.arange(n) * 100).astype("timedelta64[ms]")
+    frame = pd.DataFrame({
+        "time_utc": np.char.add(np.datetime_as_string(t, unit="ms").astype(str), "Z"),
+        "roll_deg": np.round(rng.normal(0, 3, n), 4), "pitch_deg": np.round(rng.normal(-5, 2, n), 4),
+        "yaw_deg": np.round(rng.uniform(0, 360, n), 4), "vel_n_ms": np.round(rng.normal(0, .2, n), 4),
+        "vel_e_ms": np.round(rng.normal(0, .2, n), 4), "vel_d_ms": np.round(rng.normal(0, .1, n), 4),
+        "lat_deg": np.round(52.1 + rng.normal(0, 1e-5, n), 8), "lon_deg": np.round(14.1 + rng.normal(0, 1e-5, n), 8),
+        "alt_m": np.round(150 + rng.normal(0, .5, n), 3),
+    })
+    path = folder / "q01.csv"
+    path.write_text(frame.to_csv(index=False))
+    return path
+
+
 def run(repeat: int, toa5_files: list[Path] | None, tmp: Path) -> dict[str, Any]:
     """Time every parser; return the results dict."""
     from dronewind.mast.toa5 import read_toa5
@@ -122,6 +145,11 @@ def run(repeat: int, toa5_files: list[Path] | None, tmp: Path) -> dict[str, Any]
         "parse": entry(n_t, best_time(lambda: [read_toa5(f) for f in toa5_files], repeat), toa5_files),
         "files": [f.name for f in toa5_files],
     }
+    from dronewind.quadrotor.io import read_quadrotor_csv
+
+    quad = write_quadrotor_log(tmp)
+    out["quadrotor_csv"] = {"read": entry(n_data_lines(quad, 1), best_time(lambda: read_quadrotor_csv(quad), repeat),
+                                          [quad])}
     return out
 
 
@@ -156,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     doc = {"commit": git_commit(), "dronewind_src": str(Path(dronewind.__file__).resolve().parent),
            "python": platform.python_version(), "numpy": numpy.__version__, "pandas": pandas.__version__,
            "repeat": args.repeat, "results": res}
-    for fmt in ("sonic_csv", "ins_csv", "toa5"):
+    for fmt in ("sonic_csv", "ins_csv", "toa5", "quadrotor_csv"):
         for stage in ("parse", "read"):
             if stage in res[fmt]:
                 e = res[fmt][stage]

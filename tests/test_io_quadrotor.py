@@ -131,3 +131,80 @@ def test_reference_bad_values_named(tmp_path):
     p.write_text("time_utc,speed\n2020-07-24T10:19:00Z,1\n")
     with pytest.raises(InputError, match="neither long form"):
         read_tower_reference(p)
+
+
+# ----------------------------------------------------------------------------- fast path of the CSV reader
+
+
+def _plain_log(rng: np.random.Generator, n: int = 400) -> str:
+    """A log as the simulator writes it: shortest float reprs of rounded values, fractional stamps."""
+    t0 = np.datetime64("2020-07-24T10:19:30", "ns")
+    stamps = np.datetime_as_string(t0 + (np.arange(n) * 1e8).astype("timedelta64[ns]"), unit="ms")
+    cols = [np.round(rng.normal(0, 5, n), 4), np.round(rng.normal(-4, 2, n), 4), np.round(rng.uniform(0, 360, n), 4),
+            np.round(rng.normal(0, 0.3, n), 4), np.round(rng.normal(0, 0.3, n), 4), np.round(rng.normal(0, .1, n), 4),
+            np.round(52.1 + rng.normal(0, 1e-5, n), 8), np.round(14.1 + rng.normal(0, 1e-5, n), 8),
+            np.round(120 + rng.normal(0, 1, n), 3)]
+    cols[1][:5] = [0.0, -0.0, 12.0, 1e-4, -300.0]  # integers, signed zero, small and large values
+    lines = [",".join([f"{s}Z", *(repr(float(c[i])) for c in cols)]) for i, s in enumerate(stamps)]
+    return HEADER + "\n" + "\n".join(lines) + "\n"
+
+
+def _same(a, b) -> None:
+    ta, ca, na = a
+    tb, cb, nb = b
+    assert np.array_equal(ta, tb) and na == nb and list(ca) == list(cb)
+    for col in ca:  # bit for bit, NaN included
+        assert np.array_equal(ca[col].view(np.int64), cb[col].view(np.int64)), col
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_csv_fast_path_equals_the_careful_parse_bit_for_bit(tmp_path, seed):
+    from dronewind.quadrotor.io import _quadrotor_columns_careful, _quadrotor_columns_fast
+
+    p = tmp_path / "q.csv"
+    p.write_text(_plain_log(np.random.default_rng(seed)))
+    fast = _quadrotor_columns_fast(p)
+    assert fast is not None  # a plain file takes the fast path
+    _same(fast, _quadrotor_columns_careful(p))
+    p.write_bytes(p.read_bytes().replace(b"\n", b"\r\n"))  # CRLF: the same lines
+    _same(_quadrotor_columns_fast(p), _quadrotor_columns_careful(p))
+
+
+@pytest.mark.parametrize("edit", [
+    lambda t: t.replace(",0.0,", ", 0.0,", 1),               # a space: the careful parse strips it
+    lambda t: t.replace(",12.0,", ",nan,", 1),               # a NaN literal: counted as non-finite
+    lambda t: t.replace(",12.0,", ",1.2e1,", 1),             # an exponent
+    lambda t: t.replace(",12.0,", ",12.000000000000001,", 1),  # a long literal
+    lambda t: t.replace(",12.0,", ",abc,", 1),               # a corrupt field
+    lambda t: t.replace(",12.0,", ",,", 1),                  # an empty field
+    lambda t: t.replace(",12.0,", ',"12.0",', 1),            # quoted
+    lambda t: t.replace("\n", "\n\n", 3),                    # blank lines
+    lambda t: t.replace(HEADER, HEADER + ",extra", 1).replace("\n2020", ",1\n2020"),  # an extra column
+    lambda t: t.replace("T10:19:30.000Z", "T10:19:30Z", 1),  # a stamp without fraction
+])
+def test_csv_fast_path_gives_way_or_agrees(tmp_path, edit):
+    from dronewind.quadrotor.io import _quadrotor_columns_careful, _quadrotor_columns_fast
+
+    p = tmp_path / "q.csv"
+    p.write_text(edit(_plain_log(np.random.default_rng(5))))
+    fast = _quadrotor_columns_fast(p)
+    if fast is not None:
+        _same(fast, _quadrotor_columns_careful(p))
+    ds = read_quadrotor_csv(p)  # whichever path: the reader's result is the careful one's
+    careful = _quadrotor_columns_careful(p)
+    assert ds.attrs["n_nonfinite"] == careful[2]
+
+
+def test_csv_fast_path_leaves_bad_stamps_to_the_named_error(tmp_path):
+    from dronewind.quadrotor.io import _quadrotor_columns_fast
+
+    p = tmp_path / "q.csv"
+    text = _plain_log(np.random.default_rng(7))
+    p.write_text(text.replace("T10:19:30.100Z", "T10:19:30.100", 1))
+    assert _quadrotor_columns_fast(p) is None
+    with pytest.raises(InputError, match=r"q\.csv:3.*trailing 'Z'"):
+        read_quadrotor_csv(p)
+    p.write_text(text.replace("2020-07-24T10:19:30.100Z", "2020-02-30T10:19:30.100Z", 1))
+    assert _quadrotor_columns_fast(p) is None
+    with pytest.raises(InputError, match=r"q\.csv:3.*not a valid date"):
+        read_quadrotor_csv(p)

@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from dronewind.core import textscan
 from dronewind.core.geo import from_local_tangent_plane
 from dronewind.errors import InputError
 
@@ -188,23 +189,9 @@ def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
         sampling rate below 1 Hz.
     """
     path = Path(path)
-    df = _read_csv_text(path, "quadrotor log not found")
-    missing = [c for c in QUADROTOR_COLUMNS if c not in df.columns]
-    if missing:
-        raise InputError(path, f"missing column(s) {missing}; expected header "
-                               f"{','.join(QUADROTOR_COLUMNS)}")
-    if df.empty:
-        raise InputError(path, "no data rows")
-    log = [f"read: {len(df)} rows from {path.name}"]
-    time = parse_time_utc(df["time_utc"], path)
-    data = {}
-    n_nonfinite = 0
-    for col in QUADROTOR_COLUMNS[1:]:
-        values = pd.to_numeric(df[col].str.strip(), errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(values)
-        n_nonfinite += int(bad.sum())
-        data[col] = ("time", values)
-    ds = xr.Dataset(data, coords={"time": time})
+    time, columns, n_nonfinite = _quadrotor_columns_fast(path) or _quadrotor_columns_careful(path)
+    log = [f"read: {time.size} rows from {path.name}"]
+    ds = xr.Dataset({col: ("time", values) for col, values in columns.items()}, coords={"time": time})
     if n_nonfinite:
         log.append(f"parse: {n_nonfinite} non-numeric or missing values set to NaN")
     ds.attrs["n_nonfinite"] = n_nonfinite
@@ -214,6 +201,85 @@ def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
         raise InputError(path, f"median sampling rate {ds.attrs['sampling_rate_hz']:.3g} Hz; "
                                "expected 10 Hz or more (at least 1 Hz)")
     return ds
+
+
+def _quadrotor_columns_careful(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
+    """Time stamps, numeric columns and non-finite values of a quadrotor CSV, field by field (the reference).
+
+    Every cell is read as text and stripped; numbers are converted with ``pandas.to_numeric``
+    (non-numeric fields become NaN and are counted); errors name the file and line.
+    """
+    df = _read_csv_text(path, "quadrotor log not found")
+    missing = [c for c in QUADROTOR_COLUMNS if c not in df.columns]
+    if missing:
+        raise InputError(path, f"missing column(s) {missing}; expected header "
+                               f"{','.join(QUADROTOR_COLUMNS)}")
+    if df.empty:
+        raise InputError(path, "no data rows")
+    time = parse_time_utc(df["time_utc"], path)
+    columns = {}
+    n_nonfinite = 0
+    for col in QUADROTOR_COLUMNS[1:]:
+        values = pd.to_numeric(df[col].str.strip(), errors="coerce").to_numpy(dtype=float)
+        n_nonfinite += int((~np.isfinite(values)).sum())
+        columns[col] = values
+    return time, columns, n_nonfinite
+
+
+# Bytes of a line of the fast path: printable ASCII except the quote (read_csv unquotes) and
+# the space (the careful parse strips it).
+_PLAIN_CSV = bytes(b for b in range(0x21, 0x7F) if b != ord('"'))
+
+
+def _quadrotor_columns_fast(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray], int] | None:
+    """What :func:`_quadrotor_columns_careful` gives for a plain file, from a byte-level scan; None otherwise.
+
+    Hand-written rather than one ``pandas.read_csv`` call with numeric types because the result
+    must be the careful parse's exactly, and ``read_csv`` rounds long and exponent literals
+    differently from ``pandas.to_numeric`` (:mod:`dronewind.core.textscan`). The scan vouches
+    for a file whose header is exactly :data:`QUADROTOR_COLUMNS`, whose every line is plain
+    (printable ASCII without spaces or quotes, no blank line) with one field per column, whose
+    numbers are finite literals of at most :data:`~dronewind.core.textscan.FLOAT_FAST_MAX_CHARS`
+    characters without exponent, and whose time stamps have the fixed ISO 8601 form with a
+    trailing ``Z`` and a real date. Anything else (a NaN, a corrupt field, extra columns, a
+    bad time stamp) goes the careful way, which also gives the named errors.
+    """
+    scanned = textscan.line_safe_bytes(path)
+    if scanned is None:
+        return None
+    raw, unusual = scanned
+    head_end = raw.find(b"\n")
+    if head_end < 0 or raw[:head_end] != ",".join(QUADROTOR_COLUMNS).encode():
+        return None
+    raw = raw[head_end + 1:]
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    starts, ends = textscan.line_bounds(buf)
+    if starts.size == 0 or bool((ends == starts).any()) \
+            or textscan.lines_holding(raw, buf, starts, _PLAIN_CSV, unusual).any():  # fmt: skip
+        return None
+    ncol = len(QUADROTOR_COLUMNS)
+    every = np.ones(starts.size, dtype=bool)
+    commas = np.flatnonzero(buf == ord(","))
+    rows, cpos, first_comma = textscan.comma_grid(commas, starts, ends, every, ncol)
+    if rows.size != starts.size or textscan.exponent_fields(raw, buf, commas, starts, first_comma, every):
+        return None
+    time, ok = textscan.fixed_width_times(buf, starts, cpos[:, 0] - starts, sep=b"T", suffix=b"Z")
+    if not ok.all():
+        return None
+    numeric = list(QUADROTOR_COLUMNS[1:])
+    frame = textscan.read_numeric_columns(raw, list(QUADROTOR_COLUMNS), numeric, {}, quoting=False)
+    if len(frame) != starts.size:
+        return None
+    columns = {}
+    for j, col in enumerate(numeric, start=1):
+        field_chars = (cpos[:, j] if j < ncol - 1 else ends) - (cpos[:, j - 1] + 1)
+        if frame[col].dtype not in (np.float64, np.int64) or int(field_chars.max()) > textscan.FLOAT_FAST_MAX_CHARS:
+            return None
+        values = frame[col].to_numpy(dtype=float)
+        if not np.isfinite(values).all():
+            return None
+        columns[col] = values
+    return time, columns, 0
 
 
 def quaternion_to_euler_deg(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
