@@ -94,6 +94,9 @@ class FieldData:
     uavs: list[str]
     count: np.ndarray = field(init=False)
     uav_index: np.ndarray = field(init=False)
+    #: The attitude terms of :func:`_wind` that no fitted offset changes, made once: the fits
+    #: evaluate it thousands of times (:func:`_attitude_terms`).
+    _reused: dict[str, tuple[np.ndarray, ...]] = field(init=False, default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.count = np.bincount(self.win, minlength=self.ref_speed.size).astype(float)
@@ -250,21 +253,23 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
     """Window-mean (signed) speed and wind vector of a field model."""
     nu = len(data.uavs)
     nspeed = len(model.speed_names(data.uavs)) - (nu if model.pitch else 0)
-    p_off = x[nspeed:][data.uav_index[data.win]] if model.pitch else 0.0
-    y_off = yaw_deg[data.uav_index[data.win]] if (model.yaw and yaw_deg is not None) else 0.0
-    th = np.radians(data.pitch - p_off)
-    psi = np.radians(data.yaw - y_off)
-    tilt, lean_rel = tilt_from_attitude(np.radians(data.roll), th)
+    fitted_offsets = model.pitch or (model.yaw and yaw_deg is not None)
+    if fitted_offsets or "attitude" not in data._reused:
+        p_off = x[nspeed:][data.uav_index[data.win]] if model.pitch else 0.0
+        y_off = yaw_deg[data.uav_index[data.win]] if (model.yaw and yaw_deg is not None) else 0.0
+        terms = _attitude_terms(data, p_off, y_off)
+        if not fitted_offsets:
+            data._reused["attitude"] = terms
+    tilt, cos_lean, sin_lean, cos_psi, sin_psi = terms if fitted_offsets else data._reused["attitude"]
     if model.regime_edges is None:
         vrel = speed_from_tilt(tilt, x[0], x[1])
     else:
         nr = len(model.regime_edges) + 1
         vrel = regime_speed(GRAVITY_MS2 * np.sin(tilt), model.regime_edges, x[:nr], x[nr:2 * nr])
-    lean = psi + lean_rel
-    wn = -vrel * np.cos(lean) + data.vn
-    we = -vrel * np.sin(lean) + data.ve
+    wn = -vrel * cos_lean + data.vn
+    we = -vrel * sin_lean + data.ve
     sp = np.hypot(wn, we)
-    head = -(wn * np.cos(psi) + we * np.sin(psi))
+    head = -(wn * cos_psi + we * sin_psi)
     signed = np.where(head < 0, -sp, sp)
     m = data.ref_speed.size
 
@@ -272,6 +277,23 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
         return np.bincount(data.win, weights=v, minlength=m) / np.maximum(data.count, 1)
 
     return mean(sp), mean(signed), mean(wn), mean(we)
+
+
+def _attitude_terms(data: FieldData, p_off: np.ndarray | float, y_off: np.ndarray | float
+                    ) -> tuple[np.ndarray, ...]:
+    """Tilt [rad] and the cosines and sines of the lean and heading angles, with the offsets [degree] removed."""
+    if "roll_rad" not in data._reused:
+        data._reused["roll_rad"] = (np.radians(data.roll),)
+    roll_rad = data._reused["roll_rad"][0]
+    if isinstance(p_off, float):  # no pitch offset fitted: the tilt and its direction never change
+        if "tilt" not in data._reused:
+            data._reused["tilt"] = tilt_from_attitude(roll_rad, np.radians(data.pitch - p_off))
+        tilt, lean_rel = data._reused["tilt"]
+    else:
+        tilt, lean_rel = tilt_from_attitude(roll_rad, np.radians(data.pitch - p_off))
+    psi = np.radians(data.yaw - y_off)
+    lean = psi + lean_rel
+    return tilt, np.cos(lean), np.sin(lean), np.cos(psi), np.sin(psi)
 
 
 def predict_field(data: FieldData, fit: FieldFit) -> tuple[np.ndarray, np.ndarray]:
