@@ -40,7 +40,8 @@ from dronewind.quadrotor.drag import (
 )
 from dronewind.quadrotor.hover import hover_segment
 
-__all__ = ["corrected_attitude_rad", "relative_air_drag_balance", "relative_air_body_axis",
+__all__ = ["corrected_attitude_rad", "drag_balance_direction", "relative_air_from_direction",
+           "relative_air_drag_balance", "relative_air_body_axis",
            "wind_from_attitude", "block_average_log", "uav_wind_dataset"]
 
 
@@ -98,13 +99,53 @@ def relative_air_drag_balance(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_r
     where :math:`\hat{\mathbf{e}}(\psi_{lean})` is the horizontal unit vector towards
     which the vehicle leans (into the wind).
     """
+    return relative_air_from_direction(*drag_balance_direction(roll_rad, pitch_rad, yaw_rad, method), law)
+
+
+def drag_balance_direction(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_rad: np.ndarray, method: str = "tilt"
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The attitude part of :func:`relative_air_drag_balance`: the tilt and the lean direction.
+
+    Parameters
+    ----------
+    roll_rad, pitch_rad, yaw_rad : numpy.ndarray
+        True attitude [rad].
+    method : {"tilt", "pitch"}
+        As :func:`relative_air_drag_balance`.
+
+    Returns
+    -------
+    tilt_rad : numpy.ndarray
+        Tilt into the wind [rad] (``pitch``: minus the pitch).
+    cos_lean, sin_lean : numpy.ndarray
+        Cosine and sine of the direction the vehicle leans to, clockwise from north.
+    """
     if method == "tilt":
         tilt, lean_rel = tilt_from_attitude(roll_rad, pitch_rad)
         lean = yaw_rad + lean_rel
     else:
         tilt, lean = -pitch_rad, yaw_rad
-    vrel = speed_from_tilt(tilt, law.cd0a0_m2, law.cp_m2_per_rad, law.mass_kg, law.rho_kgm3)
-    return -vrel * np.cos(lean), -vrel * np.sin(lean), vrel
+    return tilt, np.cos(lean), np.sin(lean)
+
+
+def relative_air_from_direction(tilt_rad: np.ndarray, cos_lean: np.ndarray, sin_lean: np.ndarray, law: DragLaw
+                                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The drag-law part of :func:`relative_air_drag_balance` (seed 001, Eqs. 12-17).
+
+    Parameters
+    ----------
+    tilt_rad, cos_lean, sin_lean : numpy.ndarray
+        :func:`drag_balance_direction` output.
+    law : DragLaw
+        ``law="rayleigh"``.
+
+    Returns
+    -------
+    air_n_ms, air_e_ms, relative_speed_ms : numpy.ndarray
+        As :func:`relative_air_drag_balance` [m s-1].
+    """
+    vrel = speed_from_tilt(tilt_rad, law.cd0a0_m2, law.cp_m2_per_rad, law.mass_kg, law.rho_kgm3)
+    return -vrel * cos_lean, -vrel * sin_lean, vrel
 
 
 def relative_air_body_axis(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_rad: np.ndarray,

@@ -28,7 +28,12 @@ from dronewind.errors import InputError
 from dronewind.quadrotor.drag import DragLaw
 from dronewind.quadrotor.hover import hover_segment
 from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
-from dronewind.quadrotor.wind import wind_from_attitude
+from dronewind.quadrotor.wind import (
+    corrected_attitude_rad,
+    drag_balance_direction,
+    relative_air_from_direction,
+    wind_from_attitude,
+)
 
 __all__ = ["circular_mean_deg", "flight_windows", "campaign_windows", "WindowArrays", "select_windows"]
 
@@ -393,6 +398,9 @@ class WindowArrays:
         self.ref = windows["ref_speed_ms"].to_numpy(float)
         self.uav = windows["uav"].astype(str).to_numpy()
         self.block_uav = self.uav[self.win]
+        # the drag balance's direction of the last pitch offsets (the calibration's fits change
+        # the drag law far more often than the offsets): key -> (tilt, cos lean, sin lean)
+        self._direction: dict[tuple[str, bytes], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     def speed(self, law: DragLaw, pitch_offset_deg: np.ndarray | float, method: str,
               signed: bool = False) -> np.ndarray:
@@ -402,17 +410,39 @@ class WindowArrays:
         nose (negative head-wind component). Under weather-vane mode that only happens
         with a wrong pitch offset, so the calibration uses it to rule out the mirror
         solution (tilt reflected through zero gives the same unsigned speed).
+
+        The numbers are those of :func:`~dronewind.quadrotor.wind.wind_from_attitude`; for the
+        drag balance its attitude part (:func:`~dronewind.quadrotor.wind.drag_balance_direction`)
+        is kept for the last few pitch offsets.
         """
-        w = wind_from_attitude(self.roll, self.pitch, self.yaw, self.vn, self.ve, law=law,
-                               pitch_offset_deg=pitch_offset_deg, method=method)
-        sp = w["speed_ms"]
+        if method in ("tilt", "pitch") and law.law == "rayleigh":
+            air_n, air_e, _ = relative_air_from_direction(*self._balance_direction(pitch_offset_deg, method), law)
+            wn, we = air_n + self.vn, air_e + self.ve
+            sp = np.hypot(wn, we)
+        else:
+            w = wind_from_attitude(self.roll, self.pitch, self.yaw, self.vn, self.ve, law=law,
+                                   pitch_offset_deg=pitch_offset_deg, method=method)
+            sp, wn, we = w["speed_ms"], w["v_north_ms"], w["u_east_ms"]
         if signed:
             psi = np.radians(self.yaw)
-            head = -(w["v_north_ms"] * np.cos(psi) + w["u_east_ms"] * np.sin(psi))
+            head = -(wn * np.cos(psi) + we * np.sin(psi))
             sp = np.where(head < 0, -sp, sp)
         s = np.bincount(self.win, weights=sp, minlength=self.nwin)
         with np.errstate(invalid="ignore", divide="ignore"):
             return s / self.count
+
+
+    def _balance_direction(self, pitch_offset_deg: np.ndarray | float, method: str
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`~dronewind.quadrotor.wind.drag_balance_direction` of the blocks at these pitch offsets."""
+        offset = np.asarray(pitch_offset_deg, dtype=float)
+        key = (method, offset.dtype.str.encode() + str(offset.shape).encode() + offset.tobytes())
+        if key not in self._direction:
+            if len(self._direction) >= 8:  # bounded: the oldest goes
+                del self._direction[next(iter(self._direction))]
+            phi, th, psi = corrected_attitude_rad(self.roll, self.pitch, self.yaw, pitch_offset_deg=pitch_offset_deg)
+            self._direction[key] = drag_balance_direction(phi, th, psi, method)
+        return self._direction[key]
 
 
 def select_windows(blocks: pd.DataFrame, windows: pd.DataFrame, flights: Iterable[str] | None,
