@@ -28,6 +28,7 @@ from __future__ import annotations
 import io
 import itertools
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,8 @@ import pandas as pd
 __all__ = [
     "FLOAT_FAST_MAX_CHARS",
     "NAN_LITERALS",
+    "PLAIN_CSV",
+    "csv_body",
     "comma_grid",
     "exponent_fields",
     "field_strings",
@@ -93,6 +96,49 @@ def line_safe_bytes(path: str | os.PathLike[str]) -> tuple[bytes, bool] | None:
         raw = raw.translate(None, b"\r")  # every \r precedes a \n: the same as replacing \r\n by \n
         rest = rest.translate(None, b"\r")
     return raw, bool(rest)
+
+
+#: Bytes of a plain line of a comma-separated file: printable ASCII except the quote (read_csv
+#: would unquote, the careful split keeps it) and the space (the careful parses strip it,
+#: read_csv may not).
+PLAIN_CSV = bytes(b for b in range(0x21, 0x7F) if b != ord('"'))
+
+
+def csv_body(path: str | os.PathLike[str], header: Sequence[str]
+             ) -> tuple[bytes, np.ndarray, np.ndarray, np.ndarray, bool] | None:
+    """The data lines of a CSV file whose first line is exactly ``header`` joined by commas, or None.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file.
+    header : sequence of str
+        Expected column names.
+
+    Returns
+    -------
+    raw : bytes
+        The lines after the header (:func:`line_safe_bytes`).
+    buf : numpy.ndarray
+        uint8 view of `raw`.
+    starts, ends : numpy.ndarray
+        Line bounds (:func:`line_bounds`).
+    unusual : bool
+        As :func:`line_safe_bytes`.
+    None
+        When :func:`line_safe_bytes` gives None or the first line is another header.
+    """
+    scanned = line_safe_bytes(path)
+    if scanned is None:
+        return None
+    raw, unusual = scanned
+    head_end = raw.find(b"\n")
+    if head_end < 0 or raw[:head_end] != ",".join(header).encode():
+        return None
+    raw = raw[head_end + 1:]
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    starts, ends = line_bounds(buf)
+    return raw, buf, starts, ends, unusual
 
 
 def line_bounds(buf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -38,6 +38,7 @@ statistic, the held-out misfits and gain, and the distinguishability of candidat
 from __future__ import annotations
 
 import bisect
+import functools
 import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -96,9 +97,18 @@ class ParameterResponse:
             raise ValueError(f"{self.name}: levels must include the baseline level {self.baseline_level}")
         if self.features.ndim != 3 or self.features.shape[1] != levels.size:
             raise ValueError(f"{self.name}: features must have shape (n_flights, {levels.size}, n_features)")
-        # what effect() needs at every call, worked out once: the fits call it tens of thousands of times
-        object.__setattr__(self, "_level_list", [float(x) for x in levels])
-        object.__setattr__(self, "_base_index", int(np.argmin(np.abs(levels - self.baseline_level))))
+
+    # What effect() needs at every call, worked out once: the fits call it tens of thousands of times.
+
+    @functools.cached_property
+    def level_list(self) -> list[float]:
+        """:attr:`levels` as floats [its unit]."""
+        return [float(x) for x in np.asarray(self.levels, dtype=float)]
+
+    @functools.cached_property
+    def base_index(self) -> int:
+        """Index of the baseline level in :attr:`levels`."""
+        return int(np.argmin(np.abs(np.asarray(self.levels, dtype=float) - self.baseline_level)))
 
     def effect(self, value: float, flights: np.ndarray) -> np.ndarray:
         """Feature change against the baseline at ``value`` for the given flights.
@@ -118,8 +128,7 @@ class ParameterResponse:
         numpy.ndarray
             Shape ``(len(flights), n_features)``.
         """
-        levels: list[float] = self._level_list  # type: ignore[attr-defined]
-        base_index: int = self._base_index  # type: ignore[attr-defined]
+        levels, base_index = self.level_list, self.base_index
         # the segment: numpy's searchsorted (left side) - 1, clipped to the segments; NaN sorts last
         k = bisect.bisect_left(levels, value) if value == value else len(levels)
         j = min(max(k - 1, 0), len(levels) - 2)

@@ -43,6 +43,7 @@ Tables 4 and 5, Sect. 5.2 and 6.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -158,9 +159,9 @@ class PublishedEvidence:
     #: Error of each claim: spread of the extreme at the baseline (fixed, so the fit's
     #: weights do not move with the parameters) and the printing resolution.
     claim_sigma: dict[str, float]
-    #: What the fit's residuals reuse at every evaluation (:func:`_extreme`, :func:`_observations`):
-    #: the fit evaluates them some 18,000 times, and rebuilding these was half its time.
-    _reused: dict[Any, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
+    #: :meth:`scaled_draws` made so far (the fit evaluates the extremes some 18,000 times).
+    _draws_by_sigma: dict[tuple[bytes, bytes], np.ndarray] = field(default_factory=dict, init=False, repr=False,
+                                                                   compare=False)
 
     def flight_index(self, flight: str) -> int:
         """Index of a flight in the evidence arrays."""
@@ -172,10 +173,26 @@ class PublishedEvidence:
         Laid out one flight per row, so that the extreme over the flights is a reduction
         across rows (the same numbers as the reduction along the draws' rows, faster).
         """
-        key = ("draws", sigma.tobytes(), ok.tobytes())
-        if key not in self._reused:
-            self._reused[key] = np.ascontiguousarray((sigma[ok][None, :] * self.draws[:, ok]).T)
-        return self._reused[key]
+        key = (sigma.tobytes(), ok.tobytes())
+        if key not in self._draws_by_sigma:
+            self._draws_by_sigma[key] = np.ascontiguousarray((sigma[ok][None, :] * self.draws[:, ok]).T)
+        return self._draws_by_sigma[key]
+
+    @functools.cached_property
+    def table5_rows(self) -> list[tuple[str, int, np.ndarray, np.ndarray, np.ndarray]]:
+        """Per Table 5 flight: group name, flight index, feature indices, observed values and their errors.
+
+        Made once: the fit's residuals (:func:`_observations`) only take the predictions anew.
+        """
+        rows = []
+        for flight in sorted(self.table5):
+            names = list(TABLE5_FEATURES)
+            j = np.array([FEATURES.index(f) for f in names])
+            i = self.flight_index(flight)
+            obs = np.array([self.table5[flight][f][0] for f in names])
+            rnd = np.array([self.table5[flight][f][1] for f in names])
+            rows.append((f"table5:{flight}", i, j, obs, np.hypot(self.ev.sigma[i, j], rnd)))
+        return rows
 
 
 def build_evidence(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any]], seed: int = 0
@@ -251,17 +268,7 @@ def _extreme(pe: PublishedEvidence, values: np.ndarray, sigma: np.ndarray, kind:
 def _observations(pe: PublishedEvidence, feats: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per group: observed, predicted and standard error arrays."""
     ev = pe.ev
-    if "table5" not in pe._reused:  # the observed values, errors and feature indices do not change
-        rows = []
-        for flight in sorted(pe.table5):
-            names = list(TABLE5_FEATURES)
-            j = np.array([FEATURES.index(f) for f in names])
-            i = pe.flight_index(flight)
-            obs = np.array([pe.table5[flight][f][0] for f in names])
-            rnd = np.array([pe.table5[flight][f][1] for f in names])
-            rows.append((f"table5:{flight}", i, j, obs, np.hypot(ev.sigma[i, j], rnd)))
-        pe._reused["table5"] = rows
-    out = {g: (obs, feats[i, j], se) for g, i, j, obs, se in pe._reused["table5"]}
+    out = {g: (obs, feats[i, j], se) for g, i, j, obs, se in pe.table5_rows}
     for claim, (value, _) in pe.claims.items():
         feature = "sw_su_drone" if "drone" in claim else "sw_su_mast"
         k = FEATURES.index(feature)

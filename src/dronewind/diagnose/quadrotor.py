@@ -44,6 +44,7 @@ References
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -94,10 +95,6 @@ class FieldData:
     uavs: list[str]
     count: np.ndarray = field(init=False)
     uav_index: np.ndarray = field(init=False)
-    #: The attitude terms of :func:`_wind` that no fitted offset changes, made once: the fits
-    #: evaluate it thousands of times (:func:`_attitude_terms`).
-    _reused: dict[str, tuple[np.ndarray, ...]] = field(init=False, default_factory=dict, repr=False, compare=False)
-
     def __post_init__(self) -> None:
         self.count = np.bincount(self.win, minlength=self.ref_speed.size).astype(float)
         self.uav_index = np.searchsorted(self.uavs, self.uav)
@@ -105,6 +102,24 @@ class FieldData:
     @property
     def n(self) -> int:
         return int(self.ref_speed.size)
+
+    # What no fitted offset changes, made once: the fits evaluate the field model's wind
+    # (:func:`_wind`) thousands of times.
+
+    @functools.cached_property
+    def roll_rad(self) -> np.ndarray:
+        """Roll of every block [rad]."""
+        return np.radians(self.roll)
+
+    @functools.cached_property
+    def tilt_without_offset(self) -> tuple[np.ndarray, np.ndarray]:
+        """Tilt and lean direction relative to the nose [rad] of every block, without a pitch offset."""
+        return tilt_from_attitude(self.roll_rad, np.radians(self.pitch - 0.0))
+
+    @functools.cached_property
+    def attitude_without_offsets(self) -> tuple[np.ndarray, ...]:
+        """:func:`_attitude_terms` without pitch and yaw offsets."""
+        return _attitude_terms(self, 0.0, 0.0)
 
     def subset(self, mask: np.ndarray) -> FieldData:
         """Windows where ``mask`` is true (UAV list kept, so parameter vectors align)."""
@@ -253,14 +268,13 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
     """Window-mean (signed) speed and wind vector of a field model."""
     nu = len(data.uavs)
     nspeed = len(model.speed_names(data.uavs)) - (nu if model.pitch else 0)
-    fitted_offsets = model.pitch or (model.yaw and yaw_deg is not None)
-    if fitted_offsets or "attitude" not in data._reused:
+    if model.pitch or (model.yaw and yaw_deg is not None):
         p_off = x[nspeed:][data.uav_index[data.win]] if model.pitch else 0.0
         y_off = yaw_deg[data.uav_index[data.win]] if (model.yaw and yaw_deg is not None) else 0.0
         terms = _attitude_terms(data, p_off, y_off)
-        if not fitted_offsets:
-            data._reused["attitude"] = terms
-    tilt, cos_lean, sin_lean, cos_psi, sin_psi = terms if fitted_offsets else data._reused["attitude"]
+    else:
+        terms = data.attitude_without_offsets
+    tilt, cos_lean, sin_lean, cos_psi, sin_psi = terms
     if model.regime_edges is None:
         vrel = speed_from_tilt(tilt, x[0], x[1])
     else:
@@ -282,15 +296,10 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
 def _attitude_terms(data: FieldData, p_off: np.ndarray | float, y_off: np.ndarray | float
                     ) -> tuple[np.ndarray, ...]:
     """Tilt [rad] and the cosines and sines of the lean and heading angles, with the offsets [degree] removed."""
-    if "roll_rad" not in data._reused:
-        data._reused["roll_rad"] = (np.radians(data.roll),)
-    roll_rad = data._reused["roll_rad"][0]
-    if isinstance(p_off, float):  # no pitch offset fitted: the tilt and its direction never change
-        if "tilt" not in data._reused:
-            data._reused["tilt"] = tilt_from_attitude(roll_rad, np.radians(data.pitch - p_off))
-        tilt, lean_rel = data._reused["tilt"]
+    if isinstance(p_off, float):  # no pitch offset fitted (0): the tilt and its direction never change
+        tilt, lean_rel = data.tilt_without_offset
     else:
-        tilt, lean_rel = tilt_from_attitude(roll_rad, np.radians(data.pitch - p_off))
+        tilt, lean_rel = tilt_from_attitude(data.roll_rad, np.radians(data.pitch - p_off))
     psi = np.radians(data.yaw - y_off)
     lean = psi + lean_rel
     return tilt, np.cos(lean), np.sin(lean), np.cos(psi), np.sin(psi)

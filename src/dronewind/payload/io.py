@@ -259,11 +259,6 @@ def _rows_careful(path: str | os.PathLike[str], expected: tuple[str, ...], kinds
     return _Rows(line_numbers, n_blank, good_count, cols, bad, per_column)
 
 
-# Bytes of a plain line: printable ASCII except the quote (read_csv would unquote, the careful
-# split keeps it) and except spaces (the careful parse strips them, read_csv may not).
-_PLAIN_CSV = bytes(b for b in range(0x21, 0x7F) if b != ord('"'))
-
-
 def _rows_fast(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: dict[str, str]) -> _Rows | None:
     """The same as :func:`_rows_careful`, from a byte-level scan, or None when it cannot vouch for that.
 
@@ -278,18 +273,12 @@ def _rows_fast(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: d
     the right field count (spaces, quotes, non-ASCII bytes), an unusual line break or
     header, or an empty body makes the whole file go the careful way (returns None).
     """
-    scanned = textscan.line_safe_bytes(path)
-    if scanned is None:
+    body = textscan.csv_body(path, expected)
+    if body is None:
         return None
-    raw, unusual = scanned
-    head_end = raw.find(b"\n")
-    if head_end < 0 or raw[:head_end] != ",".join(expected).encode():
-        return None
-    raw = raw[head_end + 1:]
-    buf = np.frombuffer(raw, dtype=np.uint8)
-    starts, ends = textscan.line_bounds(buf)
+    raw, buf, starts, ends, unusual = body
     ncol = len(expected)
-    odd = textscan.lines_holding(raw, buf, starts, _PLAIN_CSV, unusual)
+    odd = textscan.lines_holding(raw, buf, starts, textscan.PLAIN_CSV, unusual)
     blank = ends == starts
     for i in np.flatnonzero(odd):
         line = raw[starts[i]:ends[i]].decode("utf-8", errors="replace")

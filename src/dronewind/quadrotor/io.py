@@ -226,11 +226,6 @@ def _quadrotor_columns_careful(path: Path) -> tuple[np.ndarray, dict[str, np.nda
     return time, columns, n_nonfinite
 
 
-# Bytes of a line of the fast path: printable ASCII except the quote (read_csv unquotes) and
-# the space (the careful parse strips it).
-_PLAIN_CSV = bytes(b for b in range(0x21, 0x7F) if b != ord('"'))
-
-
 def _quadrotor_columns_fast(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray], int] | None:
     """What :func:`_quadrotor_columns_careful` gives for a plain file, from a byte-level scan; None otherwise.
 
@@ -244,18 +239,12 @@ def _quadrotor_columns_fast(path: Path) -> tuple[np.ndarray, dict[str, np.ndarra
     trailing ``Z`` and a real date. Anything else (a NaN, a corrupt field, extra columns, a
     bad time stamp) goes the careful way, which also gives the named errors.
     """
-    scanned = textscan.line_safe_bytes(path)
-    if scanned is None:
+    body = textscan.csv_body(path, QUADROTOR_COLUMNS)
+    if body is None:
         return None
-    raw, unusual = scanned
-    head_end = raw.find(b"\n")
-    if head_end < 0 or raw[:head_end] != ",".join(QUADROTOR_COLUMNS).encode():
-        return None
-    raw = raw[head_end + 1:]
-    buf = np.frombuffer(raw, dtype=np.uint8)
-    starts, ends = textscan.line_bounds(buf)
+    raw, buf, starts, ends, unusual = body
     if starts.size == 0 or bool((ends == starts).any()) \
-            or textscan.lines_holding(raw, buf, starts, _PLAIN_CSV, unusual).any():  # fmt: skip
+            or textscan.lines_holding(raw, buf, starts, textscan.PLAIN_CSV, unusual).any():  # fmt: skip
         return None
     ncol = len(QUADROTOR_COLUMNS)
     every = np.ones(starts.size, dtype=bool)
