@@ -16,7 +16,7 @@ from typing import Any, Protocol
 import numpy as np
 from matplotlib.axes import Axes
 
-from dronewind.figures.style import UNIT_MS, new_figure, save_figure
+from dronewind.figures.style import UNIT_MS, log_axes, new_figure, save_figure
 
 __all__ = ["RESIDUAL_FEATURES", "Evidence", "residuals_figure", "spectra_figure", "spread_by_speed"]
 
@@ -130,8 +130,8 @@ def _spectra_panel(ax: Axes, measured: Mapping[str, Any], model: Mapping[str, An
     labelled so; otherwise the baseline (dashed) is drawn over the extended model.
     """
     f = np.asarray(measured["f_hz"])
-    ax.loglog(f, f * np.asarray(measured[f"drone_{comp}"]), color="k", lw=1.4, label="measured drone")
-    ax.loglog(f, f * np.asarray(measured[f"mast_{comp}"]), color="0.6", lw=1.0, label="measured mast")
+    ax.plot(f, f * np.asarray(measured[f"drone_{comp}"]), color="k", lw=1.4, label="measured drone")
+    ax.plot(f, f * np.asarray(measured[f"mast_{comp}"]), color="0.6", lw=1.0, label="measured mast")
     same = _same_model(model, comp)
     styles = {"extended": ("tab:blue", "-", 2, "extended model drone"),
               "baseline": ("tab:red", "--", 3, "baseline model drone")}
@@ -141,7 +141,8 @@ def _spectra_panel(ax: Axes, measured: Mapping[str, Any], model: Mapping[str, An
         s = model.get(key)
         if s:
             fm = np.asarray(s["f_hz"])
-            ax.loglog(fm, fm * np.asarray(s[f"drone_{comp}"]), color=colour, lw=1.0, ls=ls, zorder=z, label=label)
+            ax.plot(fm, fm * np.asarray(s[f"drone_{comp}"]), color=colour, lw=1.0, ls=ls, zorder=z, label=label)
+    log_axes(ax)
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("f (Hz)")
     ax.set_ylabel(f"$fS_{comp}$ (m$^2$ s$^{{-2}}$)")

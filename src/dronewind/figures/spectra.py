@@ -32,6 +32,7 @@ from dronewind.figures.style import (
     add_notes,
     chosen_flights,
     figure_legend,
+    log_axes,
     new_figure,
     no_data,
     save_figure,
@@ -128,10 +129,8 @@ def _spectrum(ds: xr.Dataset, name: str) -> tuple[np.ndarray, np.ndarray]:
 
 def _finish_spectral_axes(ax: Axes, log_y: bool, drawn: bool) -> None:
     """Log frequency axis; log y, or a zero line for co-spectra; a note when nothing was drawn."""
-    ax.set_xscale("log")
-    if log_y:
-        ax.set_yscale("log")
-    else:
+    log_axes(ax, log_y=log_y)
+    if not log_y:
         ax.axhline(0.0, color="0.5", lw=0.6)
     ax.grid(alpha=0.3, which="both")
     if not drawn:

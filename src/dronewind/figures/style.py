@@ -24,6 +24,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.layout_engine import ConstrainedLayoutEngine
 from matplotlib.text import Text
+from matplotlib.ticker import LogLocator
 from matplotlib.transforms import Bbox
 
 from dronewind.core.qc import STATUS_FLAG_MEANINGS
@@ -31,10 +32,10 @@ from dronewind.figures.labels import HEIGHT_MARKERS, PAPERS, REFERENCES, PathLik
 from dronewind.tables import default_detail_flights
 
 __all__ = [
-    "DPI", "DRONE_COLOUR", "HEIGHT_MARKERS", "MAST_COLOUR", "PAPERS", "REFERENCES", "SENSOR_COLOURS", "UNIT_KMS",
-    "UNIT_M2S2", "UNIT_MS", "UNUSABLE_COLOUR", "PathLike", "add_notes", "chosen_flights", "figure_legend",
-    "flight_colours", "legend",
-    "minutes", "new_figure", "no_data", "place_labels", "save_figure", "start_label", "status_text",
+    "DPI", "DRONE_COLOUR", "HEIGHT_MARKERS", "LOG_MINOR_SUBS", "MAST_COLOUR", "PAPERS", "REFERENCES",
+    "SENSOR_COLOURS", "UNIT_KMS", "UNIT_M2S2", "UNIT_MS", "UNUSABLE_COLOUR", "PathLike", "add_notes",
+    "chosen_flights", "figure_legend", "flight_colours", "legend", "log_axes", "minutes", "new_figure", "no_data",
+    "place_labels", "save_figure", "start_label", "status_text",
 ]
 
 #: Resolution of the PNG files [dots per inch]; the pixel size is figsize x DPI.
@@ -150,6 +151,21 @@ def save_figure(fig: Figure, out_stem: PathLike, notes: Sequence[str] = ()) -> l
 
 
 # ----------------------------------------------------------------------------- panels
+
+
+#: Minor ticks (and grid lines) of log axes: at 2 and 5 times each power of ten. The default
+#: (2, 3, ..., 9) makes four times as many tick artists; laying them out and drawing them was
+#: 45 % of the figures step's CPU (Figs 9, 11, B1 and B2 have 12-32 log-log panels).
+LOG_MINOR_SUBS: tuple[float, ...] = (2.0, 5.0)
+
+
+def log_axes(ax: Axes, log_y: bool = True) -> None:
+    """Log x (and y) scale with minor ticks at :data:`LOG_MINOR_SUBS` times each power of ten."""
+    ax.set_xscale("log")
+    ax.xaxis.set_minor_locator(LogLocator(subs=LOG_MINOR_SUBS))
+    if log_y:
+        ax.set_yscale("log")
+        ax.yaxis.set_minor_locator(LogLocator(subs=LOG_MINOR_SUBS))
 
 
 def legend(ax: Axes, **kwargs: Any) -> None:
