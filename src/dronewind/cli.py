@@ -120,10 +120,12 @@ def _read_config_file(path: Path) -> dict:
     """One config file (YAML mapping); errors name the file and the line."""
     import yaml
 
+    from dronewind.core.yamltext import load_yaml
+
     if not path.is_file():
         raise InputError(path, "no such file" if not path.exists() else "not a file")
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        data = load_yaml(path.read_text(encoding="utf-8"))
     except UnicodeDecodeError as exc:
         raise InputError(path, f"not a text (YAML) file: {exc.reason}") from exc
     except yaml.YAMLError as exc:

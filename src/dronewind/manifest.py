@@ -63,10 +63,10 @@ def config_schema() -> dict[str, Any]:
     dict
         ``workflow/schemas/config.schema.yaml`` (draft 2020-12), parsed.
     """
-    import yaml  # here, not at the top: a job that only resolves paths does not pay for it
+    from dronewind.core.yamltext import load_yaml  # here, not at the top: a job that only resolves paths
 
     text = resources.files("dronewind").joinpath("schemas/config.schema.yaml").read_text("utf-8")
-    return yaml.safe_load(text)
+    return load_yaml(text)
 
 
 def _fill_defaults(instance: dict[str, Any], schema: Mapping[str, Any]) -> None:
@@ -522,11 +522,13 @@ def load_campaign(path: str | Path, *, check_files: bool | None = None) -> Campa
     import jsonschema
     import yaml
 
+    from dronewind.core.yamltext import load_yaml
+
     path = Path(path).resolve()
     if not path.is_file():
         raise ManifestError(path, "(file)", "manifest file does not exist")
     try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+        raw = load_yaml(path.read_text(encoding="utf-8"))
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else "(file)"

@@ -13,5 +13,6 @@
 * :mod:`~dronewind.core.uncertainty`: sampling uncertainties;
 * :mod:`~dronewind.core.cf`: the CF variable builder and the CF/ACDD NetCDF product writer;
 * :mod:`~dronewind.core.products`: the reader of stored products (NetCDF, CSV) for figures
-  and tables.
+  and tables;
+* :mod:`~dronewind.core.yamltext`: YAML text to objects (libyaml's safe loader where built).
 """

@@ -11,8 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from dronewind.core.yamltext import load_yaml
 from dronewind.errors import InputError
 
 __all__ = ["TABLE5_FEATURES", "load_published"]
@@ -53,7 +52,7 @@ def load_published(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     if not path.is_file():
         raise InputError(str(path), "published-results file does not exist")
-    data = yaml.safe_load(path.read_text())
+    data = load_yaml(path.read_text())
     for key in ("source", "stationary_flights", "table4", "table5", "claims"):
         _require(data, key, "", path)
     _require(data["source"], "citation", "source", path)

@@ -27,6 +27,7 @@ import yaml
 
 from dronewind.core.cf import atomic_write_text, strip_cf, track_from_cf
 from dronewind.core.products import open_product
+from dronewind.core.yamltext import load_yaml
 from dronewind.diagnose import campaign as dc
 from dronewind.manifest import load_campaign
 from dronewind.steps.common import LOG
@@ -318,7 +319,7 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     from dronewind.diagnose import forward
     from dronewind.diagnose.features import features_to_dict
 
-    data = yaml.safe_load(Path(extended_manifest_file).read_text())
+    data = load_yaml(Path(extended_manifest_file).read_text())
     conditions = data["simulation"]["payload_flights"].get(flight_id)
     out: dict[str, Any] = {"flight": flight_id, "runs": []}
     if conditions is None:
