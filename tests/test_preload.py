@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from dronewind.steps.preload import JOB_TABLE_COLUMNS, SOCKET_ENV, PreloadServer
+from dronewind.steps.preload import FOLDER_PREFIX, JOB_TABLE_COLUMNS, SOCKET_ENV, PreloadServer
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -131,8 +131,9 @@ def test_stopping_the_job_stops_its_child(server, tmp_path, how):
 
 
 def test_the_server_ends_with_its_parent(tmp_path):
-    """A server whose parent (Snakemake) is gone stops serving and removes its socket."""
-    sock = tmp_path / "s.sock"
+    """A server whose parent (Snakemake) is gone stops serving and removes its socket and its folder."""
+    sock = tmp_path / f"{FOLDER_PREFIX}x" / "s.sock"
+    sock.parent.mkdir()
     serve = f"from dronewind.steps.preload import serve; serve({str(sock)!r}, preload=False)"
     (tmp_path / "parent.py").write_text(
         f"import subprocess, sys, time\nsubprocess.Popen([sys.executable, '-c', {serve!r}])\ntime.sleep(300)\n")
@@ -147,9 +148,9 @@ def test_the_server_ends_with_its_parent(tmp_path):
         parent.kill()
         parent.wait()
     deadline = time.time() + 10
-    while sock.exists() and time.time() < deadline:
+    while sock.parent.exists() and time.time() < deadline:
         time.sleep(0.05)
-    assert not sock.exists()
+    assert not sock.exists() and not sock.parent.exists()
 
 
 def test_the_server_imports_the_library_but_not_dask_array():

@@ -75,6 +75,9 @@ ONE_THREAD_ENV: dict[str, str] = {key: "1" for key in ("OMP_NUM_THREADS", "GOTO_
                                                         "NUMEXPR_NUM_THREADS")}
 #: Columns of the job table (tab separated, one line per job).
 JOB_TABLE_COLUMNS: tuple[str, ...] = ("rule", "wildcards", "cpu_s", "wall_s", "max_rss_mb", "exit_status", "script")
+#: Name prefix of the private folder that :class:`PreloadServer` makes for the socket; the
+#: server removes it when it ends, also when Snakemake was killed and ran no ``onerror``.
+FOLDER_PREFIX = "dronewind_preload_"
 #: How long a job waits for the server to take it before it runs on its own [s].
 ACCEPT_TIMEOUT_S = 20.0
 
@@ -217,6 +220,10 @@ def serve(socket_path: str | Path, job_table: str | Path | None = None, preload:
         listener.close()
         with contextlib.suppress(OSError):
             os.unlink(str(socket_path))
+        folder = Path(socket_path).parent
+        if folder.name.startswith(FOLDER_PREFIX):  # the private folder PreloadServer made for the socket:
+            with contextlib.suppress(OSError):  # removed here too: a killed Snakemake runs no onerror
+                folder.rmdir()  # (only if empty)
         for pid in list(children):  # wait (their CPU time is then counted for the server's parent)
             with contextlib.suppress(ChildProcessError):
                 os.waitpid(pid, 0)
@@ -386,7 +393,7 @@ class PreloadServer:
         if not table.exists():
             table.write_text("\t".join(JOB_TABLE_COLUMNS) + "\n")
         Path(log_file).parent.mkdir(parents=True, exist_ok=True)
-        self._folder = tempfile.mkdtemp(prefix="dronewind_preload_")  # private (mode 0700)
+        self._folder = tempfile.mkdtemp(prefix=FOLDER_PREFIX)  # private (mode 0700)
         self.socket_path = str(Path(self._folder) / "jobs.sock")
         env = {k: v for k, v in os.environ.items() if k != SOCKET_ENV}
         with open(log_file, "ab") as log:
