@@ -16,6 +16,7 @@ References
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -424,13 +425,19 @@ class WindowArrays:
                                    pitch_offset_deg=pitch_offset_deg, method=method)
             sp, wn, we = w["speed_ms"], w["v_north_ms"], w["u_east_ms"]
         if signed:
-            psi = np.radians(self.yaw)
-            head = -(wn * np.cos(psi) + we * np.sin(psi))
+            cos_yaw, sin_yaw = self._yaw_cos_sin
+            head = -(wn * cos_yaw + we * sin_yaw)
             sp = np.where(head < 0, -sp, sp)
         s = np.bincount(self.win, weights=sp, minlength=self.nwin)
         with np.errstate(invalid="ignore", divide="ignore"):
             return s / self.count
 
+
+    @functools.cached_property
+    def _yaw_cos_sin(self) -> tuple[np.ndarray, np.ndarray]:
+        """Cosine and sine of the logged yaw (the nose direction of :meth:`speed`'s sign), once."""
+        psi = np.radians(self.yaw)
+        return np.cos(psi), np.sin(psi)
 
     def _balance_direction(self, pitch_offset_deg: np.ndarray | float, method: str
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
