@@ -132,6 +132,20 @@ def test_reused_products_give_the_features_of_a_full_run():
             assert with_cache.values[key] == pytest.approx(value, nan_ok=True, rel=0, abs=0), (mech, key)
 
 
+def test_shares_truth_admits_measurement_mechanisms_only():
+    """Reruns take the baseline's true state only where no mechanism moves the hover point or,
+    with the measured atmosphere, is undone on the reference record."""
+    def mech(*names):
+        return [{"mechanism": n, "parameters": {}} for n in names]
+
+    assert forward.shares_truth([], measured=True)
+    assert forward.shares_truth(mech(*MEASUREMENT_STAGE), measured=False)
+    assert not forward.shares_truth(mech("w_gain", "height_offset"), measured=False)
+    for name in forward.RECORD_INVERSES:
+        assert forward.shares_truth(mech(name), measured=False)  # the model field has no record
+        assert not forward.shares_truth(mech("w_gain", name), measured=True)
+
+
 def test_a_record_with_other_columns_is_named():
     camp = _campaign()
     records, _ = payload_records(camp, "f1")

@@ -86,8 +86,8 @@ from dronewind.payload.chain import compute_ins_l1, compute_payload_l2, compute_
 __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS",
            "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
            "record_digest", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
-           "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "atmosphere_record", "fresh_seeds",
-           "record_through", "hover_span", "atmosphere_window", "ATMOSPHERE_VARIABLES"]
+           "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "shares_truth", "atmosphere_record",
+           "fresh_seeds", "record_through", "hover_span", "atmosphere_window", "ATMOSPHERE_VARIABLES"]
 
 if TYPE_CHECKING:
     from dronewind.simulate.payload import PayloadTruth
@@ -674,8 +674,7 @@ def probe_runs(
             truth = products["truth"]
             cache.freeze()
         out["baseline"].append(features_to_dict(feats))
-    inverted = set(RECORD_INVERSES) if measured else set()
-    if truth is None and any(probe.mechanism not in TRUTH_MECHANISMS | inverted for probe, _ in levels):
+    if truth is None and any(shares_truth([{"mechanism": probe.mechanism}], measured) for probe, _ in levels):
         truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0], measured),
                               flight_id, atmosphere)
     if truth is not None and atmosphere is not None:
@@ -684,7 +683,7 @@ def probe_runs(
         name = f"flight {flight_id} {probe.candidate} {probe.parameter}={level:g}"
         params = _probe_parameters(probe, level)
         mech = [{"mechanism": probe.mechanism, "parameters": params}]
-        reuse = truth if probe.mechanism not in TRUTH_MECHANISMS | inverted else None
+        reuse = truth if shares_truth(mech, measured) else None
         record = None if atmosphere is None else record_through(atmosphere, mech)
         try:
             with progress.item(name):
@@ -706,6 +705,31 @@ def probe_runs(
     progress.finished()
     out["reused_products"] = {"hits": cache.hits, "misses": cache.misses}
     return out
+
+
+def shares_truth(mechanisms: Sequence[Mapping[str, Any]], measured: bool) -> bool:
+    """Whether a run with these mechanisms has the true state of a run without them (same seed).
+
+    True when every mechanism acts on the measurement only: none moves the hover point
+    (:data:`TRUTH_MECHANISMS`) and, with a measured atmosphere, none is undone on the
+    reference record (:data:`RECORD_INVERSES`), which constrains the field. Such a run can
+    take the other run's :class:`~dronewind.simulate.payload.PayloadTruth` and its
+    :class:`ForwardCache` (common random numbers: the records and products it shares are
+    bit-identical to those it would make itself).
+
+    Parameters
+    ----------
+    mechanisms : sequence of mapping
+        ``[{"mechanism": name, "parameters": {...}}]``.
+    measured : bool
+        The runs take the measured atmosphere (``diagnosis.atmosphere: measured``).
+
+    Returns
+    -------
+    bool
+    """
+    names = {m["mechanism"] for m in mechanisms}
+    return not names & (TRUTH_MECHANISMS | (set(RECORD_INVERSES) if measured else set()))
 
 
 def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ...] = PROBES) -> dict[str, Any]:

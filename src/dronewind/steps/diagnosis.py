@@ -341,9 +341,11 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
             # spectra before/after with common random numbers: the same seed without the mechanisms
             out["spectra"] = {"extended": binned_spectra(products["l3"])}
             if mechanisms:
+                # the same true state where the mechanisms act on the measurement only
+                truth = products["truth"] if forward.shares_truth(mechanisms, measured) else None
                 _, base = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, [], seed,
                                                                        measured), flight_id, processing,
-                                              atmosphere=base_record)
+                                              truth=truth, atmosphere=base_record)
                 out["spectra"]["baseline"] = binned_spectra(base["l3"])
             else:
                 out["spectra"]["baseline"] = out["spectra"]["extended"]

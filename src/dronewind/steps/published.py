@@ -102,12 +102,20 @@ def published_rerun(published_file: str | Path, diagnosis_json: str | Path, outp
     conditions = dp.table4_conditions(pub, flight_id, campaign)
     out: dict[str, Any] = {"flight": flight_id, "seeds": list(seeds), "mechanisms": diag["extended_mechanisms"],
                            "baseline": [], "extended": []}
+    # the extended run of a seed takes the baseline run's true state and products where its
+    # mechanisms act on the measurement only (forward.shares_truth): the same numbers as its
+    # own, without simulating the field and the motion again
+    share = forward.shares_truth(diag["extended_mechanisms"], measured=False)
     for seed in seeds:
+        truth, cache = None, forward.ForwardCache()
         for model, mechanisms in (("baseline", []), ("extended", diag["extended_mechanisms"])):
             feats, products = forward.run_forward(
                 forward.forward_manifest(campaign, flight_id, conditions, mechanisms, seed), flight_id, processing,
-                lag_drift=False)
+                truth=truth, cache=cache if share else None, lag_drift=False)
             out[model].append(dp.flight_summary(products["l3"], feats.values))
+            if share:
+                truth = products["truth"]
+                cache.freeze()
         LOG.info("sample %s: seed %d rerun done", flight_id, seed)
     return write_json(output, out)
 
