@@ -3,13 +3,22 @@
 from __future__ import annotations
 
 import hashlib
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 import xarray as xr
 
-from dronewind.core.cf import check_compliance, config_hash, strip_cf, track_from_cf, track_to_cf, write_netcdf
+from dronewind.core.cf import (
+    check_compliance,
+    check_compliance_files,
+    config_hash,
+    strip_cf,
+    track_from_cf,
+    track_to_cf,
+    write_netcdf,
+)
 
 
 def sample_dataset(n: int = 200) -> xr.Dataset:
@@ -41,6 +50,29 @@ def test_timeseries_file_passes_compliance_checker(tmp_path):
     path = write(tmp_path / "mast.nc")
     ok, report = check_compliance(path)
     assert ok, report
+
+
+def test_checking_files_together_gives_each_file_the_command_line_verdict(tmp_path):
+    """One checker process for several files: each file's verdict is the exit status of
+    ``compliance-checker`` run on it alone (a product that passes, one without CF and ACDD
+    attributes that fails, in either order)."""
+    import subprocess
+    import sys
+
+    good = write(tmp_path / "mast.nc")
+    bad = tmp_path / "bare.nc"
+    xr.Dataset({"x": ("t", np.arange(3.0))}).to_netcdf(bad)
+    exe = Path(sys.executable).with_name("compliance-checker")
+    for files in ([good, bad], [bad, good]):
+        results = check_compliance_files(files)
+        assert list(results) == files
+        for path, (ok, report) in results.items():
+            cli = subprocess.run([str(exe), "--test=cf:1.11", "--test=acdd:1.3", "--criteria=normal", "--format=text",
+                                  str(path)], capture_output=True, text=True, check=False)
+            assert ok == (cli.returncode == 0) == (path == good), (path, report)
+            assert "cf:1.11" in report and "acdd:1.3" in report
+    assert "title not present" in check_compliance_files([bad])[bad][1]
+    assert check_compliance_files([]) == {}
 
 
 def test_groups_for_quantities_without_standard_name(tmp_path):

@@ -86,16 +86,18 @@ def _netcdf_problem(path: Path) -> str | None:
 
 
 def _check_cf(args: argparse.Namespace) -> int:
-    from dronewind.core.cf import check_compliance
+    from dronewind.core.cf import check_compliance_files
 
     status = 0
+    readable = []
     for path in args.files:
         problem = _netcdf_problem(path)
         if problem is not None:
             print(f"dronewind check-cf: error: {path}: {problem}", file=sys.stderr)
             status = 1
-            continue
-        ok, report = check_compliance(path)
+        else:
+            readable.append(path)
+    for path, (ok, report) in check_compliance_files(readable).items():  # one checker process for all
         print(f"{path}: {'passes' if ok else 'FAILS'} CF-1.11 and ACDD-1.3 (normal criteria)")
         if not ok:
             print(report)

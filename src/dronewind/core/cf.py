@@ -43,7 +43,7 @@ import hashlib
 import json
 import os
 import tempfile
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -605,8 +605,31 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return path
 
 
+#: The checker suites and criteria every product must pass.
+COMPLIANCE_TESTS: tuple[str, ...] = ("cf:1.11", "acdd:1.3")
+COMPLIANCE_CRITERIA = "normal"
+
+#: One process checks every file given (``python -c`` with the files as arguments): each file
+#: with the call the ``compliance-checker`` command makes for it, its text report captured; the
+#: results go to standard output as JSON ``{path: [passed, report]}``.
+_CHECK_FILES = r"""
+import contextlib, io, json, sys
+from compliance_checker.runner import CheckSuite, ComplianceChecker
+tests, criteria, paths = sys.argv[1].split(","), sys.argv[2], sys.argv[3:]
+CheckSuite().load_all_available_checkers()
+out = {}
+for path in paths:
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
+        passed, errors = ComplianceChecker.run_checker([path], tests, 0, criteria, output_filename="-",
+                                                       output_format=["text"])
+    out[path] = [bool(passed) and not errors, buf.getvalue()]
+json.dump(out, sys.__stdout__)
+"""
+
+
 def check_compliance(path: str | Path) -> tuple[bool, str]:
-    """Run the IOOS compliance checker (CF-1.11 and ACDD-1.3, normal criteria).
+    """Run the IOOS compliance checker (CF-1.11 and ACDD-1.3, normal criteria) on one file.
 
     Parameters
     ----------
@@ -616,18 +639,52 @@ def check_compliance(path: str | Path) -> tuple[bool, str]:
     Returns
     -------
     passed : bool
-        True when the checker's exit code is 0.
+        True when every check passes at the criteria and none raised (the
+        ``compliance-checker`` command's exit code 0).
     report : str
         The checker's text report.
     """
+    return check_compliance_files([path])[Path(path)]
+
+
+def check_compliance_files(paths: Sequence[str | Path]) -> dict[Path, tuple[bool, str]]:
+    """Run the IOOS compliance checker on several files in one process.
+
+    Each file is checked as ``compliance-checker --test=cf:1.11 --test=acdd:1.3
+    --criteria=normal`` checks it alone (one ``ComplianceChecker.run_checker`` call per file,
+    the checker's own API), so its verdict and report are its own. One process for all files
+    because starting the checker (its imports and its plugins) costs about 1.3 CPU-s and
+    checking one product about 0.3: four L1 files took 2.5 CPU-s in one process, 5.1 in four.
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        NetCDF files.
+
+    Returns
+    -------
+    dict
+        ``{path: (passed, report)}`` in the order given (as :func:`check_compliance`).
+
+    Raises
+    ------
+    RuntimeError
+        The checker's process failed before it reported (e.g. not installed).
+    """
+    import json
     import subprocess
     import sys
 
-    exe = Path(sys.executable).with_name("compliance-checker")
-    cmd = [str(exe) if exe.exists() else "compliance-checker", "--test=cf:1.11",
-           "--test=acdd:1.3", "--criteria=normal", "--format=text", str(path)]
+    files = [Path(p) for p in paths]
+    if not files:
+        return {}
+    cmd = [sys.executable, "-c", _CHECK_FILES, ",".join(COMPLIANCE_TESTS), COMPLIANCE_CRITERIA, *map(str, files)]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    return proc.returncode == 0, proc.stdout + proc.stderr
+    if proc.returncode != 0:
+        raise RuntimeError(f"compliance checker on {len(files)} file(s) failed (exit {proc.returncode}): "
+                           f"{proc.stderr[-3000:]}")
+    results = json.loads(proc.stdout)
+    return {p: (bool(results[str(p)][0]), str(results[str(p)][1])) for p in files}
 
 
 def split_standard(ds: xr.Dataset, group: str) -> tuple[xr.Dataset, dict[str, xr.Dataset]]:
