@@ -1,4 +1,4 @@
-"""Throughput of the raw-text parsers: payload sonic CSV, INS CSV, Campbell TOA5 and the quadrotor CSV.
+"""Throughput of the raw-text parsers: payload sonic CSV, INS CSV, Campbell TOA5, the quadrotor CSV, AmeriFlux gold.
 
 Plain script; run from the repository root, for example::
 
@@ -12,7 +12,9 @@ Inputs:
   synthetic 30-min 20 Hz file written by :func:`dronewind.simulate.writers.write_toa5` when
   they are absent;
 * quadrotor: a 30-min 10 Hz UAV log in the quadrotor simulator's format (values rounded as
-  a logger writes them, printed by ``pandas.DataFrame.to_csv``).
+  a logger writes them, printed by ``pandas.DataFrame.to_csv``);
+* AmeriFlux gold: the 96 real half-hour files (``../shared/data/ameriflux_gold_openpath``,
+  gzip, 10 Hz), when present.
 
 Measured (best of ``--repeat`` runs, seconds and rows per second):
 
@@ -20,7 +22,9 @@ Measured (best of ``--repeat`` runs, seconds and rows per second):
   (``dronewind.payload.io._parse_csv``; for TOA5 ``read_toa5``, which is only that);
 * ``read``: the public readers ``read_sonic_csv`` / ``read_ins_csv`` (parse plus duplicate
   removal and sorting by logger time) and ``read_quadrotor_csv`` (parse, sorting and
-  duplicate removal by time, the Dataset).
+  duplicate removal by time, the Dataset); for the gold files ``parse`` is the reader's
+  decompression and text-to-numbers step (``_read_gold_values``) of all 96 files, ``read``
+  is ``read_ameriflux_gold`` of all of them (plus the QC, despiking and the Dataset).
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_TOA5 = ROOT.parent / "shared" / "data" / "fluxpart_csat3_toa5"
+SHARED_GOLD = ROOT.parent / "shared" / "data" / "ameriflux_gold_openpath"
 
 
 def write_flight(folder: Path, duration_s: float = 1800.0) -> tuple[Path, Path]:
@@ -150,6 +155,16 @@ def run(repeat: int, toa5_files: list[Path] | None, tmp: Path) -> dict[str, Any]
     quad = write_quadrotor_log(tmp)
     out["quadrotor_csv"] = {"read": entry(n_data_lines(quad, 1), best_time(lambda: read_quadrotor_csv(quad), repeat),
                                           [quad])}
+    gold = sorted(SHARED_GOLD.glob("G*.RAW.gz"))
+    if gold:
+        from dronewind.mast import ameriflux
+
+        n_g = sum(ameriflux._read_gold_values(f, 0.05)[0].shape[0] for f in gold)
+        out["ameriflux_gold"] = {
+            "parse": entry(n_g, best_time(lambda: [ameriflux._read_gold_values(f, 0.05) for f in gold], repeat), gold),
+            "read": entry(n_g, best_time(lambda: [ameriflux.read_ameriflux_gold(f) for f in gold], repeat), gold),
+            "files": len(gold),
+        }
     return out
 
 
@@ -184,11 +199,11 @@ def main(argv: list[str] | None = None) -> int:
     doc = {"commit": git_commit(), "dronewind_src": str(Path(dronewind.__file__).resolve().parent),
            "python": platform.python_version(), "numpy": numpy.__version__, "pandas": pandas.__version__,
            "repeat": args.repeat, "results": res}
-    for fmt in ("sonic_csv", "ins_csv", "toa5", "quadrotor_csv"):
+    for fmt in ("sonic_csv", "ins_csv", "toa5", "quadrotor_csv", "ameriflux_gold"):
         for stage in ("parse", "read"):
-            if stage in res[fmt]:
+            if stage in res.get(fmt, {}):
                 e = res[fmt][stage]
-                print(f"{fmt:9s} {stage:5s} {e['rows']:7d} rows {e['seconds']:8.4f} s {e['rows_per_s']:12.0f} rows/s")
+                print(f"{fmt:14s} {stage:5s} {e['rows']:7d} rows {e['seconds']:8.4f} s {e['rows_per_s']:12.0f} rows/s")
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(doc, indent=2) + "\n")

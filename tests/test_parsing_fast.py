@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 
 from dronewind.core import textscan
-from dronewind.mast import toa5
+from dronewind.mast import ameriflux, toa5
 from dronewind.payload import io as pio
 from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
 
@@ -380,3 +380,98 @@ def test_fixed_width_times_rejects_what_it_cannot_vouch_for() -> None:
     assert times[0] == np.datetime64("2023-08-21T14:00:01.4", "ns")
     assert times[-1] == np.datetime64("2023-08-21T14:00:01.123456789", "ns")
     assert np.isnat(times[1:9]).all()
+
+
+# ----------------------------------------------------------------------------- AmeriFlux gold
+
+GOLD = Path(__file__).resolve().parents[2] / "shared" / "data" / "ameriflux_gold_openpath"
+
+
+def gold_both(monkeypatch: pytest.MonkeyPatch, path: Path, **kw: Any) -> tuple[Any, Any]:
+    """Outcome of ``_read_gold_values`` with and without the fast path."""
+    fast = outcome(lambda: ameriflux._read_gold_values(path, 0.05, **kw))
+    with monkeypatch.context() as m:
+        m.setattr(ameriflux, "_gold_values_fast", lambda raw, columns: None)
+        careful = outcome(lambda: ameriflux._read_gold_values(path, 0.05, **kw))
+    return fast, careful
+
+
+def assert_gold_same(monkeypatch: pytest.MonkeyPatch, path: Path, **kw: Any) -> str:
+    (kind_a, a), (kind_b, b) = gold_both(monkeypatch, path, **kw)
+    assert kind_a == kind_b, (a, b)
+    if kind_a == "ok":
+        assert a[0].dtype == b[0].dtype and a[0].tobytes() == b[0].tobytes()
+        assert a[1].tobytes() == b[1].tobytes()
+    else:
+        assert a == b
+    return kind_a
+
+
+def gold_file(tmp_path: Path, seed: int = 0, n: int = 600, crlf: bool = True) -> Path:
+    """A gold-format file: six signed decimals per line as the logger writes them, 15 empty fields."""
+    rng = np.random.default_rng(seed)
+    w, u, v = (rng.normal(0, 1.5, n) for _ in range(3))
+    t, h, c = rng.normal(20, 2, n), rng.uniform(2.9, 3.1, n), rng.uniform(2.2, 2.3, n)
+    end = "\r\n" if crlf else "\n"
+    lines = [f"{a:+.3f},{b:+.3f},{d:+.3f},{e:.2f},{f:.3f},{g:.3f}" + "," * 15 for a, b, d, e, f, g in
+             zip(w, u, v, t, h, c, strict=True)]
+    path = tmp_path / "G1040000.RAW"
+    path.write_bytes((end.join(lines) + end).encode())
+    return path
+
+
+@pytest.mark.skipif(len(list(GOLD.glob("G*.RAW.gz"))) != 96, reason="the 96 AmeriFlux gold files not present")
+def test_real_gold_files_take_the_fast_path_and_agree(monkeypatch: pytest.MonkeyPatch) -> None:
+    import gzip
+
+    for f in sorted(GOLD.glob("G*.RAW.gz")):
+        assert ameriflux._gold_values_fast(gzip.open(f, "rb").read(), ameriflux.AMERIFLUX_GOLD_COLUMNS) is not None
+        assert assert_gold_same(monkeypatch, f) == "ok"
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("crlf", [True, False])
+def test_plain_gold_files_take_the_fast_path_and_agree(seed: int, crlf: bool, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    path = gold_file(tmp_path, seed, crlf=crlf)
+    assert ameriflux._gold_values_fast(path.read_bytes(), ameriflux.AMERIFLUX_GOLD_COLUMNS) is not None
+    assert assert_gold_same(monkeypatch, path) == "ok"
+
+
+GOLD_DEFECTS: dict[str, dict[int, bytes]] = {
+    "letters": {5: b"+0.1x0,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "empty_number": {5: b",-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "nan_literal": {5: b"nan,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "space_padded": {5: b" +0.110,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "exponent": {5: b"1e-1,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "sixteen_chars": {5: b"+0.1100000000000,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "seventh_field": {5: b"+0.110,-0.930,+0.600,20.82,2.992,2.246,7" + b"," * 14},
+    "short_line": {5: b"+0.110,-0.930,+0.600"},
+    "long_line": {5: b"+0.110,-0.930,+0.600,20.82,2.992,2.246" + b"," * 16},
+    "blank_line": {5: b""},
+    "double_sign": {5: b"+-0.110,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "two_points": {5: b"+0.1.10,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "binary": {5: b"\xff\xfe,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "many_corrupt": {i: b"x,y" + b"," * 19 for i in range(0, 100)},
+}
+
+
+@pytest.mark.parametrize("name", sorted(GOLD_DEFECTS))
+def test_gold_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = gold_file(tmp_path, 7)
+    lines = path.read_bytes().split(b"\r\n")
+    for i, text in GOLD_DEFECTS[name].items():
+        lines[i] = text
+    path.write_bytes(b"\r\n".join(lines))
+    assert ameriflux._gold_values_fast(path.read_bytes(), ameriflux.AMERIFLUX_GOLD_COLUMNS) is None
+    assert_gold_same(monkeypatch, path)
+
+
+def test_gold_lone_cr_and_other_columns_take_the_careful_path(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = gold_file(tmp_path, 8)
+    columns = ("w", "u", "v", "t_sonic_c", "unused", "unused")
+    assert ameriflux._gold_values_fast(path.read_bytes(), columns) is None
+    assert assert_gold_same(monkeypatch, path, columns=columns) == "ok"
+    path.write_bytes(path.read_bytes().replace(b"\r\n", b"\r", 3))
+    assert ameriflux._gold_values_fast(path.read_bytes(), ameriflux.AMERIFLUX_GOLD_COLUMNS) is None
+    assert_gold_same(monkeypatch, path)

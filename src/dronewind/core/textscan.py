@@ -45,6 +45,7 @@ __all__ = [
     "fixed_width_times",
     "line_bounds",
     "line_safe_bytes",
+    "line_safe_content",
     "lines_holding",
     "read_numeric_columns",
 ]
@@ -81,7 +82,22 @@ def line_safe_bytes(path: str | os.PathLike[str]) -> tuple[bytes, bool] | None:
     p = Path(path)
     if not p.is_file():
         return None
-    raw = p.read_bytes()
+    return line_safe_content(p.read_bytes())
+
+
+def line_safe_content(raw: bytes) -> tuple[bytes, bool] | None:
+    """:func:`line_safe_bytes` of content already read (e.g. a decompressed file).
+
+    Parameters
+    ----------
+    raw : bytes
+        The file's content.
+
+    Returns
+    -------
+    (bytes, bool) or None
+        As :func:`line_safe_bytes`.
+    """
     while raw.startswith(_BOM):  # the careful reader strips every leading U+FEFF
         raw = raw[len(_BOM):]
     rest = raw.translate(None, _PRINTABLE)  # one C-speed pass; empty for the common file
