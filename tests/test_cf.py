@@ -73,6 +73,11 @@ def test_checking_files_together_gives_each_file_the_command_line_verdict(tmp_pa
             assert "cf:1.11" in report and "acdd:1.3" in report
     assert "title not present" in check_compliance_files([bad])[bad][1]
     assert check_compliance_files([]) == {}
+    broken = tmp_path / "broken.nc"
+    broken.write_bytes(b"CDF\x01 not a NetCDF file")
+    results = check_compliance_files([broken, good])
+    assert results[broken][0] is False and "compliance checker error" in results[broken][1]
+    assert results[good][0] is True
 
 
 def test_groups_for_quantities_without_standard_name(tmp_path):

@@ -610,8 +610,9 @@ COMPLIANCE_TESTS: tuple[str, ...] = ("cf:1.11", "acdd:1.3")
 COMPLIANCE_CRITERIA = "normal"
 
 #: One process checks every file given (``python -c`` with the files as arguments): each file
-#: with the call the ``compliance-checker`` command makes for it, its text report captured; the
-#: results go to standard output as JSON ``{path: [passed, report]}``.
+#: with the call the ``compliance-checker`` command makes for it, its text report captured (a
+#: file the checker cannot open fails with the error as its report); the results go to
+#: standard output as JSON ``{path: [passed, report]}``.
 _CHECK_FILES = r"""
 import contextlib, io, json, sys
 from compliance_checker.runner import CheckSuite, ComplianceChecker
@@ -620,10 +621,13 @@ CheckSuite().load_all_available_checkers()
 out = {}
 for path in paths:
     buf = io.StringIO()
-    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
-        passed, errors = ComplianceChecker.run_checker([path], tests, 0, criteria, output_filename="-",
-                                                       output_format=["text"])
-    out[path] = [bool(passed) and not errors, buf.getvalue()]
+    try:
+        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
+            passed, errors = ComplianceChecker.run_checker([path], tests, 0, criteria, output_filename="-",
+                                                           output_format=["text"])
+        out[path] = [bool(passed) and not errors, buf.getvalue()]
+    except Exception as exc:  # a file the checker cannot open fails, as the command exits non-zero on it
+        out[path] = [False, buf.getvalue() + f"compliance checker error: {type(exc).__name__}: {exc}"]
 json.dump(out, sys.__stdout__)
 """
 
