@@ -267,8 +267,11 @@ def test_no_legend_covers_data(saved_figures: dict) -> None:
     for name, fig in saved_figures.items():
         renderer = fig.canvas.get_renderer()
         legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+        suptitle = fig._suptitle if fig._suptitle is not None and fig._suptitle.get_text() else None
         for leg in legends:
             box = leg.get_window_extent(renderer)
+            if suptitle is not None:  # a figure legend above the panels and the figure's title both at the top
+                assert not box.overlaps(suptitle.get_window_extent(renderer)), (name, suptitle.get_text())
             for ax in fig.axes:
                 pts = _data_points(ax)
                 inside = (pts[:, 0] > box.x0) & (pts[:, 0] < box.x1) & (pts[:, 1] > box.y0) & (pts[:, 1] < box.y1)

@@ -1,4 +1,4 @@
-"""Byte-level helpers of the fast paths of the raw-text readers (payload CSV, INS CSV, TOA5).
+"""Byte-level helpers of the fast paths of the raw-text readers (payload, INS, quadrotor CSV, TOA5, AmeriFlux).
 
 The readers parse every line carefully (``str.splitlines``, ``str.split``, pandas string
 conversions per column), which names every corrupt line but costs most of a forward run.

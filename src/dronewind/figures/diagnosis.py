@@ -96,7 +96,7 @@ def residuals_figure(ev: Evidence, after: np.ndarray | None, diag: Mapping[str, 
         _residual_panel(ax, ev, after, speed, list(features).index(feat), labels[feat])
     if ev.flights:
         handles, names = axes[0, 0].get_legend_handles_labels()
-        fig.legend(handles, names, loc="outside upper center", ncol=len(names), fontsize=8, frameon=False)
+        fig.legend(handles, names, loc="outside lower center", ncol=len(names), fontsize=8, frameon=False)
     note = "" if ev.flights else " (no usable flight)"
     fig.suptitle(f"Diagnosis of {diag.get('campaign')}: residuals before and after ({_named(diag)}){note}")
     return save_figure(fig, out_dir / "diagnosis_residuals", [note.strip(" ()")] if note else ())
@@ -189,6 +189,6 @@ def spectra_figure(ev: Evidence, measured: Mapping[str, Mapping[str, Any]], mode
                            f"{flight}, mast $\\bar u$ = {speed[flight]:.1f} {UNIT_MS}: $fS_{comp}$")
     if flights:
         handles, names = axes[0, 0].get_legend_handles_labels()
-        fig.legend(handles, names, loc="outside upper center", ncol=len(names), fontsize=7.5, frameon=False)
+        fig.legend(handles, names, loc="outside lower center", ncol=len(names), fontsize=7.5, frameon=False)
     fig.suptitle(f"Diagnosis of {diag.get('campaign')}: spectra, measured vs model before/after ({_named(diag)})")
     return save_figure(fig, out_dir / "diagnosis_spectra", notes)
