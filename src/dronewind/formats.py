@@ -48,11 +48,11 @@ from dronewind.core.delimited import (
 )
 from dronewind.errors import InputError, ManifestError, describe_header
 from dronewind.manifest import Campaign, is_rigid, record_format
-from dronewind.mast.ameriflux import AMERIFLUX_GOLD_COLUMNS
-from dronewind.mast.toa5 import REQUIRED_TOA5_COLUMNS
-from dronewind.payload.io import INS_COLUMNS, SONIC_COLUMNS
-from dronewind.payload.rigid import rigid_layout
-from dronewind.quadrotor.io import QUADROTOR_COLUMNS
+
+# the column layouts, not the readers (which import xarray): this module runs at every Snakemake start
+from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS, REQUIRED_TOA5_COLUMNS
+from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS, rigid_layout
+from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
 
 __all__ = ["ULOG_MAGIC", "CONTRACT_HEADERS", "describe_content", "check_file_format", "format_problems",
            "check_campaign_formats"]

@@ -25,10 +25,9 @@ from dronewind.manifest import (
     load_campaign,
     payload_flight_manifest,
 )
-from dronewind.simulate.settings import validate_simulation
+from dronewind.simulate.settings import simulation_manifest, validate_simulation
 from dronewind.steps.blocks import block_settings
 from dronewind.steps.lock import acquire_results_lock, release_results_lock
-from dronewind.steps.payload import simulation_manifest
 from dronewind.steps.preload import SOCKET_ENV as PRELOAD_SOCKET_ENV
 from dronewind.steps.preload import PreloadServer
 from dronewind.steps.preload import supported as preload_supported

@@ -6,7 +6,7 @@
 # from the data it shows (report_caption() in common.smk); every report item has a category
 # and a subcategory, so no "Other" section appears.
 
-from dronewind.steps.report import REPORT_TABLES
+from dronewind.figures.labels import REPORT_TABLES
 
 #: Subcategory of each campaign figure in the report (category "Payload validation").
 FIGURE_SUBCATEGORIES = {

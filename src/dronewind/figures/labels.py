@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 __all__ = ["HEIGHT_MARKERS", "PAPERS", "REFERENCES", "PathLike", "figure_captions", "BLOCK_FIGURE",
-           "QUAD_FIGURES", "TUNNEL_FIGURES"]
+           "QUAD_FIGURES", "TUNNEL_FIGURES", "REPORT_TABLES"]
 
 PathLike = str | Path
 
@@ -116,4 +116,23 @@ TUNNEL_FIGURES: dict[str, str] = {
     "tunnel_fig6_gusts": "Gust RMSE at V0 and at the peak Vp per preset (seed 002 Fig. 6)",
     "tunnel_fig7_steps": "Velocity-step RMSEs per preset (seed 002 Fig. 7)",
     "tunnel_fig9_variance": "Variance, UAS vs CTA at full and cut bandwidth (seed 002 Fig. 9)",
+}
+
+
+#: Tables shown in the report: name -> (title, source file relative to ``results/<name>/``).
+REPORT_TABLES: dict[str, tuple[str, str]] = {
+    "table4_flights": ("Table 4: the payload flights", "tables/table4_flights.md"),
+    "table5_statistics": ("Table 5: mean and turbulent statistics, drone and mast", "tables/table5_statistics.md"),
+    "flight_stats": ("Flight statistics, drone and mast (flight_stats.csv)", "tables/flight_stats.csv"),
+    "diagnosis_evidence": ("Diagnosis: residuals, candidates, before and after", "diagnosis/report.md"),
+    "published_numbers": ("The paper's published numbers: diagnosis and before/after", "published/report.md"),
+    "quadrotor_calibration": ("Quadrotor calibration per UAV (quadrotor_calibration.csv)",
+                              "tables/quadrotor_calibration.csv"),
+    "quadrotor_table2": (f"Quadrotor validation, individual and universal calibration ({PAPERS['001']}, Table 2)",
+                         "tables/quadrotor_table2.csv"),
+    "quadrotor_table3": (f"Quadrotor calibration scenarios a-d ({PAPERS['001']}, Table 3)",
+                         "tables/quadrotor_table3.csv"),
+    "tunnel_calibration": (f"Wind-tunnel calibration per speed range ({PAPERS['002']}, Table 2)",
+                           "tables/tunnel_calibration.csv"),
+    "block_stats": ("Tower and mast records in blocks (block_stats.csv)", "tables/block_stats.csv"),
 }

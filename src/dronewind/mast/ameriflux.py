@@ -62,6 +62,7 @@ from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.errors import InputError
+from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS
 from dronewind.mast.toa5 import _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
 
 __all__ = [
@@ -72,8 +73,6 @@ __all__ = [
     "mast_l1_gill",
 ]
 
-#: Column order of the numeric fields (source notes, "Data columns").
-AMERIFLUX_GOLD_COLUMNS: tuple[str, ...] = ("w", "u", "v", "t_sonic_c", "h2o_v", "co2_v")
 
 _NAME_RE = re.compile(r"^G(\d{3})(\d{2})(\d{2})\.RAW(\.gz)?$", re.IGNORECASE)
 _FS_HZ = 10.0

@@ -43,12 +43,10 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_DIAG, QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
 from dronewind.errors import InputError
+from dronewind.mast.columns import REQUIRED_TOA5_COLUMNS
 
 __all__ = ["REQUIRED_TOA5_COLUMNS", "csat3_to_enu", "mast_l1", "read_toa5"]
 
-REQUIRED_TOA5_COLUMNS: tuple[str, ...] = (
-    "TIMESTAMP", "RECORD", "Ux", "Uy", "Uz", "Ts", "diag_csat",
-)  # fmt: skip
 
 _N_LOGGED = 5
 _TIMESTAMP_RE = re.compile(r"\d{4}-\d{2}-\d{2}[ T]\d{1,2}:\d{2}")

@@ -59,6 +59,7 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
 from dronewind.errors import InputError, describe_header
+from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
 
 __all__ = [
     "ClockFit",
@@ -74,11 +75,6 @@ __all__ = [
     "read_sonic_csv",
 ]
 
-SONIC_COLUMNS: tuple[str, ...] = ("rpi_time_us", "u_ms", "v_ms", "w_ms", "t_sonic_c")
-INS_COLUMNS: tuple[str, ...] = (
-    "rpi_time_us", "utc", "time_valid", "ekf_valid", "lat_deg", "lon_deg", "alt_m",
-    "vel_n_ms", "vel_e_ms", "vel_d_ms", "roll_deg", "pitch_deg", "yaw_deg",
-)  # fmt: skip
 
 _N_LOGGED_LINES = 5  # how many corrupt line numbers are quoted in the log
 _US = 1_000_000

@@ -50,23 +50,16 @@ import xarray as xr
 from dronewind.core import filtering
 from dronewind.core.cf import variable
 from dronewind.core.constants import ZERO_CELSIUS_K
-from dronewind.core.delimited import DelimitedLayout, delimited_layout, read_delimited
+from dronewind.core.delimited import read_delimited
 from dronewind.core.qc import QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, time_ns
 from dronewind.errors import InputError
 from dronewind.payload import checks, motion, sync
+from dronewind.payload.columns import RIGID_QUANTITIES, rigid_layout
 
 __all__ = ["RIGID_QUANTITIES", "BODY_DIRECTIONS", "RigidMount", "mount_matrix_of", "rigid_mount", "rigid_layout",
            "rigid_l1", "Segment", "SegmentSelection", "steady_segments", "lag_search_min_samples", "rigid_l2"]
 
-#: Variables of a rigid-mount record and the SI unit their declared unit must convert to.
-RIGID_QUANTITIES: dict[str, str] = {
-    "u": "m s-1", "v": "m s-1", "w": "m s-1", "t": "K", "diag": "1",
-    "vel_e": "m s-1", "vel_n": "m s-1", "vel_u": "m s-1", "vel_d": "m s-1",
-    "roll": "degree", "pitch": "degree", "yaw": "degree", "lat": "degree", "lon": "degree", "alt": "m",
-}
-_REQUIRED = ("u", "v", "w", "t", "roll", "pitch", "yaw", "lat", "lon", "alt")
-_VELOCITY_SETS = (("vel_e", "vel_n", "vel_u"), ("vel_n", "vel_e", "vel_d"))
 #: Body-frame unit vector of each direction name (body: x forward, y right, z down).
 BODY_DIRECTIONS: dict[str, tuple[float, float, float]] = {
     "forward": (1.0, 0.0, 0.0), "back": (-1.0, 0.0, 0.0), "right": (0.0, 1.0, 0.0), "left": (0.0, -1.0, 0.0),
@@ -177,42 +170,6 @@ def rigid_mount(sonic: Mapping[str, Any], where: str = "sonic") -> RigidMount:
 
 
 # ----------------------------------------------------------------------------- L1
-
-
-def rigid_layout(fmt: Mapping[str, Any], where: str = "record.format") -> DelimitedLayout:
-    """The delimited layout of a rigid-mount record, its variables checked.
-
-    Parameters
-    ----------
-    fmt : mapping
-        The record's ``format`` (``name: delimited``; ``variables`` with u, v, w, t, roll,
-        pitch, yaw, lat, lon, alt and either vel_e, vel_n, vel_u or vel_n, vel_e, vel_d).
-    where : str
-        Key path for messages.
-
-    Returns
-    -------
-    DelimitedLayout
-
-    Raises
-    ------
-    InputError
-        Another format name, a variable missing, an incomplete velocity set, or a unit of
-        the wrong quantity.
-    """
-    if fmt.get("name") != "delimited":
-        raise InputError(f"{where}.name", f"{fmt.get('name')!r}; a rigid-mount record is read by a delimited mapping")
-    layout = delimited_layout(fmt, where, RIGID_QUANTITIES)
-    have = set(layout.variables)
-    missing = [k for k in _REQUIRED if k not in have]
-    if missing:
-        raise InputError(f"{where}.variables", f"missing {', '.join(missing)}; a rigid-mount record needs "
-                         f"{', '.join(_REQUIRED)} and a platform velocity")
-    if not any(set(s) <= have for s in _VELOCITY_SETS):
-        found = sorted(have & {k for s in _VELOCITY_SETS for k in s})
-        raise InputError(f"{where}.variables", f"platform velocity incomplete (found {found}); "
-                         "expected vel_e, vel_n, vel_u (east, north, up) or vel_n, vel_e, vel_d (north, east, down)")
-    return layout
 
 
 def _grid(t: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray, float, float]:

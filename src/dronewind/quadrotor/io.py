@@ -46,6 +46,7 @@ import xarray as xr
 from dronewind.core import textscan
 from dronewind.core.geo import from_local_tangent_plane
 from dronewind.errors import InputError
+from dronewind.quadrotor.columns import QUADROTOR_COLUMNS, REFERENCE_COLUMNS
 
 __all__ = [
     "QUADROTOR_COLUMNS",
@@ -58,13 +59,6 @@ __all__ = [
     "read_tower_reference",
 ]
 
-#: Columns of the quadrotor CSV (data contract).
-QUADROTOR_COLUMNS: tuple[str, ...] = (
-    "time_utc", "roll_deg", "pitch_deg", "yaw_deg", "vel_n_ms", "vel_e_ms", "vel_d_ms",
-    "lat_deg", "lon_deg", "alt_m",
-)
-#: Columns of the long-form tower reference CSV (data contract).
-REFERENCE_COLUMNS: tuple[str, ...] = ("time_utc", "height_m", "wind_speed_ms", "wind_from_deg")
 
 
 _ISO_Z = re.compile(r"^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,9})?Z$")

@@ -24,6 +24,7 @@ from dronewind.errors import InputError
 from dronewind.mechanisms import ParameterValue, get_mechanism, validate_parameters
 
 __all__ = [
+    "simulation_manifest",
     "CampaignLike",
     "MechanismEntry",
     "SimulationSettings",
@@ -699,3 +700,44 @@ def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
         flight_duration_s=_flight_duration_s(cond, where, duration, hover_height, payload),
         hover_offset_enu_m=_hover_offset_enu_m(cond, where, wind["wind_from_deg"]),
         seed=flight_seed(settings["seed"], flight_id), sonic_mount=_sonic_mount(flight, flight_id))
+
+
+def simulation_manifest(campaign_data: Mapping[str, Any]) -> dict[str, Any]:
+    """What the payload simulator reads of a manifest: the manifest without the keys it does not use.
+
+    The simulator of a payload flight reads the site, every mast sonic (it writes a record
+    for each), the ``simulation:`` settings of payloads and masts and the conditions of every
+    payload flight (a mast record is clipped halfway to the neighbouring flights). It does
+    not read a flight's ``target_height_m`` when the flight's conditions give
+    ``hover_height_m``, nor its ``window`` when they give ``start`` and ``duration_s``, nor
+    the quadrotor and tunnel settings or the mechanisms of other platforms. Without those,
+    this view is the rerun trigger of the simulate jobs: editing a flight's processing
+    window or target height does not rewrite the raw files.
+
+    Parameters
+    ----------
+    campaign_data : mapping
+        Manifest content of a virtual campaign.
+
+    Returns
+    -------
+    dict
+        A manifest that simulates every payload flight exactly as ``campaign_data`` does.
+    """
+    sim = campaign_data["simulation"]
+    conditions = sim.get("payload_flights") or {}
+    flights = []
+    for flight in campaign_data.get("payload_flights") or []:
+        cond = conditions.get(flight["id"]) or {}
+        unused = {"target_height_m"} if "hover_height_m" in cond else set()
+        unused |= {"window"} if {"start", "duration_s"} <= set(cond) else set()
+        flights.append({k: v for k, v in flight.items() if k not in unused})
+    mechanisms = [m for m in sim.get("mechanisms") or []
+                  if {"payload", "mast"} & set(get_mechanism(m["mechanism"]).platforms)]
+    return {
+        "name": campaign_data["name"], "site": campaign_data["site"], "masts": campaign_data.get("masts") or [],
+        "payload_flights": flights,
+        "quadrotor_flights": [{"id": q["id"]} for q in campaign_data.get("quadrotor_flights") or []],
+        "simulation": {**{k: v for k, v in sim.items() if k in ("seed", "atmosphere", "payload", "mast")},
+                       "payload_flights": conditions, "mechanisms": mechanisms},
+    }

@@ -12,11 +12,23 @@ from pathlib import Path
 from typing import Any
 
 from dronewind import __version__
-from dronewind.core.cf import atomic_write_text, config_hash, sha256_file
-from dronewind.core.products import open_product as open_product  # re-exported: steps and scripts read products
 from dronewind.manifest import load_campaign
 
 LOG = logging.getLogger("dronewind")
+
+
+def __getattr__(name: str) -> Any:
+    """``open_product`` (:func:`dronewind.core.products.open_product`), imported when first asked for.
+
+    Steps and scripts read products through this module; the Snakefile imports it (through
+    the steps whose settings it reads) at every Snakemake start, where the product reader's
+    xarray would cost a few tenths of a CPU-second for nothing.
+    """
+    if name == "open_product":
+        from dronewind.core.products import open_product
+
+        return open_product
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @contextlib.contextmanager
@@ -78,6 +90,8 @@ def campaign_record(manifest: str | Path, output: str | Path, config: Mapping[st
     Path
         The written file.
     """
+    from dronewind.core.cf import atomic_write_text, config_hash, sha256_file
+
     campaign = load_campaign(manifest)
     record: dict[str, Any] = {
         "campaign": campaign.name,

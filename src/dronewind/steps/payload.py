@@ -36,9 +36,9 @@ from dronewind.core.cf import (
 from dronewind.core.products import open_product
 from dronewind.manifest import confined_path
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
-from dronewind.mechanisms import get_mechanism
 from dronewind.payload import rigid
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
+from dronewind.simulate.settings import simulation_manifest
 from dronewind.steps.common import LOG
 
 __all__ = ["ProductSpec", "PRODUCTS", "Position", "write_product", "source_name", "simulation_manifest",
@@ -221,47 +221,6 @@ def _at_sonic(sonic: Mapping[str, Any], height_m: float | None = None) -> Positi
 
 
 # ----------------------------------------------------------------------------- simulation
-
-
-def simulation_manifest(campaign_data: Mapping[str, Any]) -> dict[str, Any]:
-    """What the payload simulator reads of a manifest: the manifest without the keys it does not use.
-
-    The simulator of a payload flight reads the site, every mast sonic (it writes a record
-    for each), the ``simulation:`` settings of payloads and masts and the conditions of every
-    payload flight (a mast record is clipped halfway to the neighbouring flights). It does
-    not read a flight's ``target_height_m`` when the flight's conditions give
-    ``hover_height_m``, nor its ``window`` when they give ``start`` and ``duration_s``, nor
-    the quadrotor and tunnel settings or the mechanisms of other platforms. Without those,
-    this view is the rerun trigger of the simulate jobs: editing a flight's processing
-    window or target height does not rewrite the raw files.
-
-    Parameters
-    ----------
-    campaign_data : mapping
-        Manifest content of a virtual campaign.
-
-    Returns
-    -------
-    dict
-        A manifest that simulates every payload flight exactly as ``campaign_data`` does.
-    """
-    sim = campaign_data["simulation"]
-    conditions = sim.get("payload_flights") or {}
-    flights = []
-    for flight in campaign_data.get("payload_flights") or []:
-        cond = conditions.get(flight["id"]) or {}
-        unused = {"target_height_m"} if "hover_height_m" in cond else set()
-        unused |= {"window"} if {"start", "duration_s"} <= set(cond) else set()
-        flights.append({k: v for k, v in flight.items() if k not in unused})
-    mechanisms = [m for m in sim.get("mechanisms") or []
-                  if {"payload", "mast"} & set(get_mechanism(m["mechanism"]).platforms)]
-    return {
-        "name": campaign_data["name"], "site": campaign_data["site"], "masts": campaign_data.get("masts") or [],
-        "payload_flights": flights,
-        "quadrotor_flights": [{"id": q["id"]} for q in campaign_data.get("quadrotor_flights") or []],
-        "simulation": {**{k: v for k, v in sim.items() if k in ("seed", "atmosphere", "payload", "mast")},
-                       "payload_flights": conditions, "mechanisms": mechanisms},
-    }
 
 
 def _check_l0_paths(campaign: Mapping[str, Any], flight_id: str, out_dir: Path) -> None:

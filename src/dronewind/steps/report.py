@@ -40,28 +40,10 @@ from dronewind.figures.captions import (
     quadrotor_captions,
     verdict_sentence,
 )
-from dronewind.figures.labels import PAPERS, REFERENCES
+from dronewind.figures.labels import PAPERS, REFERENCES, REPORT_TABLES
 from dronewind.steps.common import LOG
 
 __all__ = ["REPORT_TABLES", "csv_html", "markdown_html", "report_pages", "table_page"]
-
-#: Tables shown in the report: name -> (title, source file relative to ``results/<name>/``).
-REPORT_TABLES: dict[str, tuple[str, str]] = {
-    "table4_flights": ("Table 4: the payload flights", "tables/table4_flights.md"),
-    "table5_statistics": ("Table 5: mean and turbulent statistics, drone and mast", "tables/table5_statistics.md"),
-    "flight_stats": ("Flight statistics, drone and mast (flight_stats.csv)", "tables/flight_stats.csv"),
-    "diagnosis_evidence": ("Diagnosis: residuals, candidates, before and after", "diagnosis/report.md"),
-    "published_numbers": ("The paper's published numbers: diagnosis and before/after", "published/report.md"),
-    "quadrotor_calibration": ("Quadrotor calibration per UAV (quadrotor_calibration.csv)",
-                              "tables/quadrotor_calibration.csv"),
-    "quadrotor_table2": (f"Quadrotor validation, individual and universal calibration ({PAPERS['001']}, Table 2)",
-                         "tables/quadrotor_table2.csv"),
-    "quadrotor_table3": (f"Quadrotor calibration scenarios a-d ({PAPERS['001']}, Table 3)",
-                         "tables/quadrotor_table3.csv"),
-    "tunnel_calibration": (f"Wind-tunnel calibration per speed range ({PAPERS['002']}, Table 2)",
-                           "tables/tunnel_calibration.csv"),
-    "block_stats": ("Tower and mast records in blocks (block_stats.csv)", "tables/block_stats.csv"),
-}
 
 _STYLE = """<style>
 .dw-report { font-family: system-ui, sans-serif; font-size: 14px; line-height: 1.45; color: #111; }
