@@ -199,10 +199,11 @@ def _gold_values_fast(raw: bytes, columns: Sequence[str]) -> tuple[np.ndarray, n
     A plain file has the default columns, lines of exactly 21 comma-separated fields
     (:data:`_GOLD_PLAIN` bytes only, ``\n`` or ``\r\n`` line ends, no blank line), the six
     numeric fields each 1 to 15 characters long (no exponent: see
-    :mod:`dronewind.core.textscan`) and the other fifteen empty. ``pandas.read_csv`` then reads
-    the six fields as float64 exactly as the careful parse (``pandas.to_numeric`` of the
-    stripped text) does, bit for bit, and no line is corrupt; a field the C parser does not
-    take as a number sends the file to the careful parse. Hand-written (with the helpers of
+    :mod:`dronewind.core.textscan`) and the other fifteen empty. ``pandas.read_csv``
+    (:func:`~dronewind.core.textscan.read_numeric_columns`) then reads the six fields exactly
+    as the careful parse (``pandas.to_numeric`` of the stripped text) does, bit for bit, and no
+    line is corrupt; a field the C parser does not take as a number sends the file to the
+    careful parse. Hand-written (with the helpers of
     :mod:`dronewind.core.textscan`) because the careful parse spent 80 % of its time
     converting 10 million short strings one by one.
     """
@@ -216,27 +217,23 @@ def _gold_values_fast(raw: bytes, columns: Sequence[str]) -> tuple[np.ndarray, n
         return None
     buf = np.frombuffer(body, dtype=np.uint8)
     starts, ends = textscan.line_bounds(buf)
-    n_commas = _N_FIELDS - 1
-    commas = np.flatnonzero(buf == ord(","))
-    if starts.size == 0 or bool((ends == starts).any()) or commas.size != starts.size * n_commas:
+    if starts.size == 0 or bool((ends == starts).any()):
         return None
-    cpos = commas.reshape(starts.size, n_commas)
-    if not (bool((cpos[:, 0] >= starts).all()) and bool((cpos[:, -1] == ends - 1).all())):
-        return None  # a line with another number of fields (or the last field not empty)
+    every = np.ones(starts.size, dtype=bool)
+    rows, cpos, _ = textscan.comma_grid(np.flatnonzero(buf == ord(",")), starts, ends, every, _N_FIELDS)
+    if rows.size != starts.size:
+        return None  # a line with another number of fields
+    length = np.column_stack([cpos, ends]) - np.column_stack([starts, cpos + 1])  # characters per field
     n_num = len(AMERIFLUX_GOLD_COLUMNS)
-    if not bool((np.diff(cpos[:, n_num - 1:], axis=1) == 1).all()):
-        return None  # a non-empty field beyond the sixth
-    field_start = np.column_stack([starts, cpos[:, :n_num - 1] + 1])
-    length = cpos[:, :n_num] - field_start
-    if not bool(((length >= 1) & (length <= textscan.FLOAT_FAST_MAX_CHARS)).all()):
-        return None
-    try:
-        frame = pd.read_csv(io.BytesIO(body), header=None, names=list(range(_N_FIELDS)), usecols=list(range(n_num)),
-                            dtype=np.float64, na_filter=False, engine="c")
-    except (ValueError, pd.errors.ParserError):
+    if bool((length[:, n_num:] != 0).any()) or not bool(
+            ((length[:, :n_num] >= 1) & (length[:, :n_num] <= textscan.FLOAT_FAST_MAX_CHARS)).all()):  # fmt: skip
+        return None  # a field beyond the sixth not empty, or a number empty or too long to vouch for
+    names = [str(k) for k in range(_N_FIELDS)]
+    frame = textscan.read_numeric_columns(body, names, names[:n_num], {}, quoting=False)
+    if len(frame) != starts.size or any(frame[c].dtype not in (np.float64, np.int64) for c in names[:n_num]):
         return None  # a field that is not a number: the careful parse counts the corrupt lines
-    vals = frame.to_numpy(dtype=float)
-    if vals.shape != (starts.size, n_num) or not bool(np.isfinite(vals).all()):
+    vals = frame[names[:n_num]].to_numpy(dtype=float)
+    if not bool(np.isfinite(vals).all()):
         return None
     return vals, np.zeros(starts.size, dtype=bool)
 
