@@ -1,8 +1,9 @@
-"""What several benchmarks share: the commit they ran, and their result printed as JSON and written to ``--out``."""
+"""What several benchmarks share: the commit they ran, CPU time, their result as JSON (printed and in ``--out``)."""
 
 from __future__ import annotations
 
 import json
+import resource
 import subprocess
 from pathlib import Path
 from typing import Any
@@ -58,3 +59,9 @@ def default_forward_setup() -> tuple[dict[str, Any], dict[str, Any], dict[str, A
     config = default_config()
     data = load_campaign(DEFAULT_CAMPAIGN).data
     return data, config, {key: config["processing"][key] for key in CHAIN_SETTINGS}
+
+
+def cpu_s_with_children() -> float:
+    """CPU time [s] (user + system) of this process and of the children it has waited for."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime

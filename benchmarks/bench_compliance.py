@@ -15,17 +15,11 @@ every file's verdict is recorded. A before/after pair runs the same script on th
 from __future__ import annotations
 
 import argparse
-import resource
 import time
 from pathlib import Path
 
-from bench_common import git_commit, print_and_write
+from bench_common import cpu_s_with_children, git_commit, print_and_write
 from dronewind.core import cf
-
-
-def _cpu_s() -> float:
-    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 def main() -> None:
@@ -36,12 +30,12 @@ def main() -> None:
     args = parser.parse_args()
     files = sorted((args.results / "netcdf").rglob("*.nc"))[:: args.every]
     batched = hasattr(cf, "check_compliance_files")
-    t0, w0 = _cpu_s(), time.perf_counter()
+    t0, w0 = cpu_s_with_children(), time.perf_counter()
     if batched:
         verdicts = {str(p): ok for p, (ok, _) in cf.check_compliance_files(files).items()}
     else:
         verdicts = {str(p): cf.check_compliance(p)[0] for p in files}
-    cpu_s, wall_s = _cpu_s() - t0, time.perf_counter() - w0
+    cpu_s, wall_s = cpu_s_with_children() - t0, time.perf_counter() - w0
     print_and_write({"commit": git_commit(Path(cf.__file__).parent), "results": str(args.results),
                      "mode": "one checker process" if batched else "one checker process per file",
                      "files": len(files), "cpu_s": round(cpu_s, 2), "wall_s": round(wall_s, 2),

@@ -11,25 +11,21 @@ from __future__ import annotations
 
 import json
 import os
-import resource
 import time
 from pathlib import Path
 
 import pytest
 
-
-def _cpu_s() -> float:
-    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+from bench_common import cpu_s_with_children
 
 
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
-    start_s, cpu0_s = time.time(), _cpu_s()
+    start_s, cpu0_s = time.time(), cpu_s_with_children()
     yield
     folder = os.environ.get("DRONEWIND_TIMELINE_DIR")
     if folder:
         worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
-        line = {"id": item.nodeid, "start_s": start_s, "end_s": time.time(), "cpu_s": _cpu_s() - cpu0_s}
+        line = {"id": item.nodeid, "start_s": start_s, "end_s": time.time(), "cpu_s": cpu_s_with_children() - cpu0_s}
         with (Path(folder) / f"timeline-{worker}.jsonl").open("a") as out:
             out.write(json.dumps(line) + "\n")
