@@ -95,6 +95,7 @@ class FieldData:
     uavs: list[str]
     count: np.ndarray = field(init=False)
     uav_index: np.ndarray = field(init=False)
+
     def __post_init__(self) -> None:
         self.count = np.bincount(self.win, minlength=self.ref_speed.size).astype(float)
         self.uav_index = np.searchsorted(self.uavs, self.uav)
@@ -114,6 +115,7 @@ class FieldData:
     @functools.cached_property
     def tilt_without_offset(self) -> tuple[np.ndarray, np.ndarray]:
         """Tilt and lean direction relative to the nose [rad] of every block, without a pitch offset."""
+        # minus 0.0 as in the fitted path (_attitude_terms): a logged -0.0 becomes 0.0 there too
         return tilt_from_attitude(self.roll_rad, np.radians(self.pitch - 0.0))
 
     @functools.cached_property

@@ -432,7 +432,6 @@ class WindowArrays:
         with np.errstate(invalid="ignore", divide="ignore"):
             return s / self.count
 
-
     @functools.cached_property
     def _yaw_cos_sin(self) -> tuple[np.ndarray, np.ndarray]:
         """Cosine and sine of the logged yaw (the nose direction of :meth:`speed`'s sign), once."""
