@@ -5,6 +5,8 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# the start-up hook of the preloaded jobs (src/dronewind/steps/handoff.py) in .venv's site-packages
+HOOK := $(VENV)/.preload_hook
 CORES ?= 2
 # pytest-xdist workers of `make test` (tests sharing a session or module fixture stay on one worker: tests/conftest.py)
 TEST_WORKERS ?= 2
@@ -19,12 +21,16 @@ $(STAMP): envs/requirements.txt envs/constraints.txt pyproject.toml
 	$(BIN)/python -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
 
-venv: $(STAMP)
+$(HOOK): $(STAMP) src/dronewind/steps/handoff.py
+	$(BIN)/python -m dronewind.steps.preload --install-hook
+	touch $(HOOK)
 
-run: $(STAMP)
+venv: $(HOOK)
+
+run: $(HOOK)
 	$(BIN)/snakemake --cores $(CORES)
 
-test: $(STAMP)
+test: $(HOOK)
 	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder
 
 lint: $(STAMP)

@@ -6,11 +6,23 @@ The library is organised one module per physical topic (see ../shared/DESIGN.md)
 ``mechanisms``, ``diagnose``, ``cf`` (the one NetCDF writer) and ``figures``.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("dronewind")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0+unknown"
-
 __all__ = ["__version__"]
+
+
+def __getattr__(name: str) -> str:
+    """``__version__``, looked up in the installed metadata when first asked for (PEP 562).
+
+    Importing :mod:`importlib.metadata` and finding the distribution costs a process about
+    0.07 CPU-s; every workflow job's process and every Snakemake start imports this package,
+    and most never ask for the version.
+    """
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            found = version("dronewind")
+        except PackageNotFoundError:  # running from a source tree without installation
+            found = "0+unknown"
+        globals()["__version__"] = found
+        return found
+    raise AttributeError(f"module 'dronewind' has no attribute {name!r}")

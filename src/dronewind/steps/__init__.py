@@ -14,8 +14,15 @@ Modules: :mod:`~dronewind.steps.common` (logging, campaign record, product reade
 :mod:`~dronewind.steps.quadrotor` (SWUF-3D fleet and wind tunnel).
 """
 
+from __future__ import annotations
+
 import importlib
-from typing import Any
+
+# not typing.TYPE_CHECKING: importing typing costs a job's process 5-15 ms before it hands its
+# job over (dronewind.steps.handoff); mypy takes any TYPE_CHECKING as true
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from typing import Any
 
 #: Public names re-exported lazily (PEP 562), so that a job importing one step module does not
 #: pay for importing every chain (scipy.signal alone takes about 1 s to import; a quadrotor

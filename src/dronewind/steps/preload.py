@@ -15,6 +15,11 @@ Without a server (a cluster run, a dry run, ``preload: false``, a job started by
 server not up yet or gone, another Python interpreter) :func:`delegate` returns at once and
 the job runs in its own process as before; the outputs are the same bit for bit (tested).
 
+Where the environment has the start-up hook (:func:`install_startup_hook`; ``make`` installs
+it into ``.venv``), a job's process hands its job over as the interpreter starts, before
+Snakemake's preamble imports Snakemake (:mod:`dronewind.steps.handoff`); the script's own
+:func:`delegate` call then finds no server and returns, in the child.
+
 Written here because the standard library's ``multiprocessing.forkserver`` serves only the
 ``multiprocessing`` processes of its own parent, not the unrelated processes Snakemake starts.
 
@@ -45,7 +50,6 @@ import runpy
 import select
 import signal
 import socket
-import struct
 import sys
 import threading
 import time
@@ -53,8 +57,19 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-#: Environment variable naming the server's socket; set by the workflow for its jobs.
-SOCKET_ENV = "DRONEWIND_PRELOAD_SOCKET"
+# the job side; ACCEPT_TIMEOUT_S and delegate are re-exported (every script calls preload.delegate() first)
+from dronewind.steps.handoff import (  # noqa: F401
+    ACCEPT_TIMEOUT_S,
+    LENGTH,
+    PTH_NAME,
+    SIGNALS,
+    SOCKET_ENV,
+    STATUS,
+    delegate,
+    pth_line,
+    recv_exact,
+)
+
 #: Libraries imported by the server before it serves (all the scripts import some of them);
 #: then every module of dronewind (:func:`library_modules`). None of them imports dask.array,
 #: pint or pyplot, which would change what a job's process holds (xarray's duck-array checks,
@@ -78,76 +93,6 @@ JOB_TABLE_COLUMNS: tuple[str, ...] = ("rule", "wildcards", "cpu_s", "wall_s", "m
 #: Name prefix of the private folder that :class:`PreloadServer` makes for the socket; the
 #: server removes it when it ends, also when Snakemake was killed and ran no ``onerror``.
 FOLDER_PREFIX = "dronewind_preload_"
-#: How long a job waits for the server to take it before it runs on its own [s].
-ACCEPT_TIMEOUT_S = 20.0
-
-_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-_LEN = struct.Struct("!I")
-_STATUS = struct.Struct("!i")
-
-
-# --------------------------------------------------------------------------- the job side
-
-
-def delegate() -> None:
-    """Hand the running job to the workflow's preloaded server, if one serves it; else return.
-
-    Call it first in a script, before its imports. When a server takes the job, this
-    function does not return: the job's process exits with the status of the child that
-    ran the script. It returns (and the script goes on in its own process) when no server
-    is named in the environment, the server cannot be reached or refuses the job (another
-    interpreter), or it does not take the job within :data:`ACCEPT_TIMEOUT_S`.
-    """
-    path = os.environ.get(SOCKET_ENV)
-    if not path:
-        return
-    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    try:
-        sock.settimeout(ACCEPT_TIMEOUT_S)
-        sock.connect(path)
-        request = json.dumps({"executable": sys.executable, "argv": sys.argv, "cwd": os.getcwd(),
-                              "env": dict(os.environ)}).encode()
-        socket.send_fds(sock, [_LEN.pack(len(request))], [0, 1, 2])
-        sock.sendall(request)
-        if _recv_exact(sock, 1) != b"S":  # refused (another interpreter)
-            raise EOFError("refused")
-        sock.sendall(b"G")  # committed: from here on the child runs the job
-    except Exception:  # noqa: BLE001 (nothing has run yet: the job runs in its own process)
-        sock.close()
-        return
-    sock.settimeout(None)
-    code = _wait_for_child(sock)
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
-
-
-def _wait_for_child(sock: socket.socket) -> int:
-    """Pass signals on to the child until it reports its exit status; return the status."""
-
-    def forward(signum: int, _frame: Any) -> None:
-        with contextlib.suppress(OSError):
-            sock.sendall(bytes([signum]))
-
-    for signum in _SIGNALS:
-        signal.signal(signum, forward)
-    try:
-        return _STATUS.unpack(_recv_exact(sock, _STATUS.size))[0]
-    except (OSError, EOFError):
-        print("dronewind.steps.preload: the job's process in the preloaded server ended without an exit status "
-              "(killed?)", file=sys.stderr)
-        return 1
-
-
-def _recv_exact(sock: socket.socket, n: int) -> bytes:
-    """Exactly ``n`` bytes from ``sock``; EOFError when it closes first."""
-    data = b""
-    while len(data) < n:
-        chunk = sock.recv(n - len(data))
-        if not chunk:
-            raise EOFError("socket closed")
-        data += chunk
-    return data
 
 
 # ------------------------------------------------------------------------ the server side
@@ -256,10 +201,10 @@ def _start_job(conn: socket.socket, listener: socket.socket, job_table: str | Pa
     fds: list[int] = []
     try:
         conn.settimeout(10.0)
-        head, fds, _, _ = socket.recv_fds(conn, _LEN.size, 3)
-        if len(head) < _LEN.size:
-            head += _recv_exact(conn, _LEN.size - len(head))
-        request = json.loads(_recv_exact(conn, _LEN.unpack(head)[0]))
+        head, fds, _, _ = socket.recv_fds(conn, LENGTH.size, 3)
+        if len(head) < LENGTH.size:
+            head += recv_exact(conn, LENGTH.size - len(head))
+        request = json.loads(recv_exact(conn, LENGTH.unpack(head)[0]))
         if request.get("executable") != sys.executable or len(fds) != 3:
             conn.sendall(b"R")  # another interpreter (e.g. a conda environment): the job runs itself
             raise EOFError("refused")
@@ -284,12 +229,12 @@ def _start_job(conn: socket.socket, listener: socket.socket, job_table: str | Pa
 
 def _run_job(conn: socket.socket, fds: list[int], request: dict[str, Any], job_table: str | Path | None) -> int:
     """In the forked child: become the job's process, run its script, report; return the status."""
-    for signum in (*_SIGNALS, signal.SIGCHLD):
+    for signum in (*SIGNALS, signal.SIGCHLD):
         signal.signal(signum, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
     conn.settimeout(None)
     conn.sendall(b"S")
-    if _recv_exact(conn, 1) != b"G":
+    if recv_exact(conn, 1) != b"G":
         return 1
     for target, fd in enumerate(fds):
         os.dup2(fd, target)
@@ -320,7 +265,7 @@ def _run_job(conn: socket.socket, fds: list[int], request: dict[str, Any], job_t
     if job_table is not None:
         _record(job_table, job.get("snakemake"), sys.argv[0], time.perf_counter() - start, code)
     with contextlib.suppress(OSError):
-        conn.sendall(_STATUS.pack(code))
+        conn.sendall(STATUS.pack(code))
     return code
 
 
@@ -355,6 +300,30 @@ def _record(job_table: str | Path, sm: Any, script: str, wall_s: float, code: in
 
 
 # ----------------------------------------------------------------------- the workflow side
+
+
+def install_startup_hook(site_packages: str | Path | None = None) -> Path:
+    """Write the start-up hook (:func:`dronewind.steps.handoff.pth_line`) into site-packages.
+
+    Parameters
+    ----------
+    site_packages : str or Path, optional
+        Folder to write it to; by default the running interpreter's ``purelib`` folder
+        (the virtual environment's site-packages).
+
+    Returns
+    -------
+    Path
+        The written file (replaced atomically if it was there).
+    """
+    import sysconfig
+
+    folder = Path(site_packages) if site_packages is not None else Path(sysconfig.get_paths()["purelib"])
+    target = folder / PTH_NAME
+    tmp = target.with_name(target.name + ".tmp")
+    tmp.write_text(pth_line())
+    os.replace(tmp, target)
+    return target
 
 
 def supported() -> bool:
@@ -421,11 +390,20 @@ def main(argv: Sequence[str] | None = None) -> None:
     """Command line: ``python -m dronewind.steps.preload --socket PATH [--job-table FILE]``."""
     parser = argparse.ArgumentParser(
         prog="python -m dronewind.steps.preload", description=__doc__.split("\n\n")[0],
-        epilog="Example: python -m dronewind.steps.preload --socket /tmp/x/jobs.sock --job-table jobs.tsv "
-               "(the workflow starts it itself for a local run; see config key 'preload')")
-    parser.add_argument("--socket", required=True, help="Unix socket to listen on")
+        epilog="Examples: python -m dronewind.steps.preload --socket /tmp/x/jobs.sock --job-table jobs.tsv "
+               "(the workflow starts it itself for a local run; see config key 'preload'); "
+               "python -m dronewind.steps.preload --install-hook (make does it when it sets up .venv)")
+    parser.add_argument("--socket", help="Unix socket to listen on (required to serve)")
     parser.add_argument("--job-table", help="tab-separated table of the jobs run (CPU, memory, status)")
+    parser.add_argument("--install-hook", action="store_true",
+                        help=f"write {PTH_NAME} into this interpreter's site-packages and exit "
+                             "(jobs then hand themselves over at start-up)")
     args = parser.parse_args(argv)
+    if args.install_hook:
+        print(f"wrote {install_startup_hook()}")
+        return
+    if not args.socket:
+        parser.error("--socket is required to serve")
     serve(args.socket, args.job_table)
 
 

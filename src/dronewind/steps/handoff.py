@@ -1,0 +1,133 @@
+"""The job side of the preloaded server (:mod:`dronewind.steps.preload`): hand a job's script to it.
+
+Kept apart from the server, with only light standard-library imports, because it runs in
+every job's own process before any work: from a script's first line (:func:`delegate`), or
+earlier still, at interpreter start-up (:func:`startup_hook`, from the ``.pth`` file that
+``python -m dronewind.steps.preload --install-hook`` puts into the environment's
+site-packages; ``make`` does so when it sets up ``.venv``).
+
+Why at start-up: Snakemake runs a ``script:`` job as ``python .snakemake/scripts/tmpXXXX.<name>.py``,
+whose preamble unpickles the job's ``snakemake`` object and so imports Snakemake itself, about
+0.14 CPU-s before the script's first line can hand the job over; the package imports of
+that first line cost another 0.04. With the hook the job's process spends about 0.03 CPU-s
+in all, and the server's child runs the whole file, preamble included, with Snakemake
+already imported. Both ways run the same file in the same child (the outputs are the same
+bit for bit; tested); without the ``.pth`` file, or outside a local workflow run, the hook
+does nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import struct
+import sys
+
+__all__ = ["SOCKET_ENV", "ACCEPT_TIMEOUT_S", "PTH_NAME", "delegate", "is_snakemake_script", "startup_hook",
+           "pth_line"]
+
+#: Environment variable naming the server's socket; set by the workflow for its jobs.
+SOCKET_ENV = "DRONEWIND_PRELOAD_SOCKET"
+#: How long a job waits for the server to take it before it runs on its own [s].
+ACCEPT_TIMEOUT_S = 20.0
+#: Name of the start-up file in site-packages (:func:`pth_line`).
+PTH_NAME = "dronewind_preload.pth"
+
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+#: Length prefix of a job's request, and the child's exit status (network byte order).
+LENGTH = struct.Struct("!I")
+STATUS = struct.Struct("!i")
+
+
+def delegate() -> None:
+    """Hand the running job to the workflow's preloaded server, if one serves it; else return.
+
+    Call it first in a script, before its imports. When a server takes the job, this
+    function does not return: the job's process exits with the status of the child that
+    ran the script. It returns (and the script goes on in its own process) when no server
+    is named in the environment, the server cannot be reached or refuses the job (another
+    interpreter), or it does not take the job within :data:`ACCEPT_TIMEOUT_S`.
+    """
+    path = os.environ.get(SOCKET_ENV)
+    if not path:
+        return
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        sock.settimeout(ACCEPT_TIMEOUT_S)
+        sock.connect(path)
+        request = json.dumps({"executable": sys.executable, "argv": sys.argv, "cwd": os.getcwd(),
+                              "env": dict(os.environ)}).encode()
+        socket.send_fds(sock, [LENGTH.pack(len(request))], [0, 1, 2])
+        sock.sendall(request)
+        if recv_exact(sock, 1) != b"S":  # refused (another interpreter)
+            raise EOFError("refused")
+        sock.sendall(b"G")  # committed: from here on the child runs the job
+    except Exception:  # noqa: BLE001 (nothing has run yet: the job runs in its own process)
+        sock.close()
+        return
+    sock.settimeout(None)
+    code = _wait_for_child(sock)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+def _wait_for_child(sock: socket.socket) -> int:
+    """Pass signals on to the child until it reports its exit status; return the status."""
+
+    def forward(signum: int, _frame: object) -> None:
+        try:
+            sock.sendall(bytes([signum]))
+        except OSError:
+            pass
+
+    for signum in SIGNALS:
+        signal.signal(signum, forward)
+    try:
+        return STATUS.unpack(recv_exact(sock, STATUS.size))[0]
+    except (OSError, EOFError):
+        print("dronewind.steps.preload: the job's process in the preloaded server ended without an exit status "
+              "(killed?)", file=sys.stderr)
+        return 1
+
+
+def recv_exact(sock: socket.socket, n: int) -> bytes:
+    """Exactly ``n`` bytes from ``sock``; EOFError when it closes first."""
+    data = b""
+    while len(data) < n:
+        chunk = sock.recv(n - len(data))
+        if not chunk:
+            raise EOFError("socket closed")
+        data += chunk
+    return data
+
+
+def is_snakemake_script(path: str) -> bool:
+    """Whether ``path`` is a script Snakemake wrote for a ``script:`` job (``.snakemake/scripts/*.py``)."""
+    folder = os.path.dirname(os.path.abspath(path))
+    return (path.endswith(".py") and os.path.basename(folder) == "scripts"
+            and os.path.basename(os.path.dirname(folder)) == ".snakemake")
+
+
+def startup_hook() -> None:
+    """At interpreter start-up: hand a Snakemake script job to the server before its preamble runs.
+
+    Acts only when :data:`SOCKET_ENV` is set (a local workflow run that started a server)
+    and the interpreter was started on a Snakemake script (:func:`is_snakemake_script`);
+    otherwise, or when the server does not take the job, start-up goes on as usual.
+    """
+    if os.environ.get(SOCKET_ENV) and len(sys.argv) > 0 and is_snakemake_script(sys.argv[0]):
+        delegate()
+
+
+def pth_line() -> str:
+    """The one line of :data:`PTH_NAME`: the hook, imported only when a workflow run named a server.
+
+    Lines of a ``.pth`` file that begin with ``import`` are run by :mod:`site` at every
+    start-up of the environment's interpreter; without :data:`SOCKET_ENV` this one costs a
+    dictionary lookup.
+    """
+    return (f"import os; os.environ.get({SOCKET_ENV!r}) and "
+            "__import__('dronewind.steps.handoff', fromlist=['startup_hook']).startup_hook()\n")
