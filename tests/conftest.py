@@ -336,13 +336,16 @@ def small_campaign_run(tmp_path_factory):
 
     Returns (folder, manifest, extra config, ``results_a/smallcamp``); tests may write
     further runs into other folders of ``folder`` but must not change ``results_a``.
-    ``date_created`` is fixed (:data:`SOURCE_DATE_EPOCH`).
+    ``date_created`` is fixed (:data:`SOURCE_DATE_EPOCH`). Run with ``--verbose``; Snakemake's
+    output is kept in ``folder/snakemake_a.log``.
     """
     folder = tmp_path_factory.mktemp("e2e")
     manifest = write_small_campaign(folder)
     extra = folder / "short.yaml"
     extra.write_text(SHORT_HOVER)
-    proc = run_workflow(manifest, folder / "results_a", extra, env={"SOURCE_DATE_EPOCH": SOURCE_DATE_EPOCH})
+    proc = run_workflow(manifest, folder / "results_a", extra, "--verbose",
+                        env={"SOURCE_DATE_EPOCH": SOURCE_DATE_EPOCH})
+    (folder / "snakemake_a.log").write_text(proc.stderr)
     assert proc.returncode == 0, proc.stderr[-4000:]
     return folder, manifest, extra, folder / "results_a" / "smallcamp"
 

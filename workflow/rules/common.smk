@@ -8,6 +8,7 @@ import os
 import sys
 from pathlib import Path
 
+from snakemake.logging import logger
 from snakemake.utils import min_version, validate
 
 from dronewind.config import check_config
@@ -72,8 +73,24 @@ ENV = "../../envs/dronewind.yaml"
 _PRELOAD = []
 
 
+# Snakemake's command line limits job starts to 100 per second by default
+# (--max-jobs-per-timespan 100/1s). With the limit on, every pass of the scheduler's loop
+# starts a one-second timer that starts the next pass, and every job start and end adds
+# such a chain: with the default campaign's 267 jobs the main process made about 27,000
+# passes, each looking at the size of every input of every waiting job (1.5 million stat
+# calls; reported upstream, snakemake/snakemake pull request 3744). A local run of this
+# workflow never comes near the limit, so it is lifted there (a cluster run keeps it: it
+# paces the submissions). The outputs do not depend on it.
+def _lift_job_rate_limit():
+    scheduler = getattr(workflow, "scheduler", None)
+    if workflow.local_exec and getattr(scheduler, "job_rate_limiter", None) is not None:
+        scheduler.job_rate_limiter = None
+        logger.debug("dronewind: local run, Snakemake's job rate limit lifted")
+
+
 onstart:
     if workflow.is_main_process:
+        _lift_job_rate_limit()
         _note = acquire_results_lock(RESULTS, workflow.basedir)
         if _note:
             print(_note, file=sys.stderr)
