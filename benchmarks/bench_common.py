@@ -1,7 +1,9 @@
-"""What several benchmarks share: the commit they ran, CPU time, their result as JSON (printed and in ``--out``)."""
+"""What several benchmarks share: the commit they ran, CPU time, their result as JSON (printed and in ``--out``),
+the command line of a benchmark on a finished run."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import resource
 import subprocess
@@ -65,3 +67,25 @@ def cpu_s_with_children() -> float:
     """CPU time [s] (user + system) of this process and of the children it has waited for."""
     own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def finished_run_parser(doc: str | None, results_help: str = "a finished run's results/<campaign> folder"
+                        ) -> argparse.ArgumentParser:
+    """Command line of a benchmark on a finished run: the results folder (positional) and ``--out``.
+
+    Parameters
+    ----------
+    doc : str
+        The benchmark's module docstring (its ``--help`` text, examples kept as written).
+    results_help : str
+        Help of the ``results`` argument.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        Add the benchmark's own options, then ``parse_args()``.
+    """
+    parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("results", type=Path, help=results_help)
+    parser.add_argument("--out", type=Path, help="JSON file to write")
+    return parser

@@ -14,19 +14,16 @@ every file's verdict is recorded. A before/after pair runs the same script on th
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
-from bench_common import cpu_s_with_children, git_commit, print_and_write
+from bench_common import cpu_s_with_children, finished_run_parser, git_commit, print_and_write
 from dronewind.core import cf
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("results", type=Path, help="a finished run's results/<campaign> folder")
+    parser = finished_run_parser(__doc__)
     parser.add_argument("--every", type=int, default=20, help="check every n-th NetCDF file (default 20)")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
     files = sorted((args.results / "netcdf").rglob("*.nc"))[:: args.every]
     batched = hasattr(cf, "check_compliance_files")

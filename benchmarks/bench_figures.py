@@ -12,20 +12,17 @@ and the figures written. A before/after pair runs the same script on the same ru
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import time
 from pathlib import Path
 
-from bench_common import git_commit, print_and_write
+from bench_common import finished_run_parser, git_commit, print_and_write
 from dronewind.figures.campaign import draw_all
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("results", type=Path, help="a finished run's results/<campaign> folder")
+    parser = finished_run_parser(__doc__)
     parser.add_argument("--repeat", type=int, default=2, help="runs (least CPU reported)")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
     cpu: list[float] = []
     names: list[str] = []

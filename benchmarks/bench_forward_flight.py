@@ -18,23 +18,20 @@ runs the same script on the same results::
 
 from __future__ import annotations
 
-import argparse
 import json
 import tempfile
 import time
 from pathlib import Path
 
-from bench_common import DEFAULT_CAMPAIGN, default_forward_setup, git_commit, print_and_write
+from bench_common import DEFAULT_CAMPAIGN, default_forward_setup, finished_run_parser, git_commit, print_and_write
 from dronewind.manifest import payload_flight_manifest
 from dronewind.steps import diagnosis as steps
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("results", type=Path, help="a finished default run's results/<campaign> folder")
+    parser = finished_run_parser(__doc__, "a finished default run's results/<campaign> folder")
     parser.add_argument("flights", nargs="+", help="payload flight ids")
     parser.add_argument("--repeat", type=int, default=3, help="repetitions per flight (least CPU reported)")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
     data, config, processing = default_forward_setup()
     d = config["diagnosis"]

@@ -16,7 +16,6 @@ file, so that a before/after pair shows the same outputs::
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import time
 from pathlib import Path
@@ -24,17 +23,15 @@ from pathlib import Path
 import scipy.signal  # noqa: F401 (imported as in a workflow job's preloaded process)
 
 import dronewind
-from bench_common import git_commit, print_and_write
+from bench_common import finished_run_parser, git_commit, print_and_write
 from dronewind.manifest import default_config
 from dronewind.steps.quadrotor import quadrotor_calibration, quadrotor_diagnosis
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("results", type=Path, help="a finished default run's results/<campaign> folder")
+    parser = finished_run_parser(__doc__, "a finished default run's results/<campaign> folder")
     parser.add_argument("--work", type=Path, required=True, help="folder for the outputs")
     parser.add_argument("--repeat", type=int, default=2, help="runs of each step (least CPU reported)")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
     config = default_config()
     quad, diag = config["quadrotor"], config["diagnosis"]

@@ -5,7 +5,8 @@
 * :mod:`dronewind.core.duckarrays` lets xarray wrap arrays without importing dask.array and
   pint, and xarray still recognises dask arrays and pint quantities once they exist;
 * the step modules of the quadrotor and payload jobs do not import scipy.signal, scipy.stats,
-  matplotlib, dask.array or pint before they need them.
+  matplotlib, dask.array or pint before they need them, and the job side of the hand-over to
+  the preloaded process imports only light standard-library modules.
 """
 
 from __future__ import annotations
@@ -111,6 +112,14 @@ def test_step_modules_import_no_heavy_library(module):
 def test_report_step_imports_no_matplotlib():
     mods = _modules_after("import dronewind.steps.report")
     assert "matplotlib" not in mods
+
+
+def test_the_job_side_of_the_hand_over_imports_little():
+    """A job's process imports only the hand-over's light modules before it hands its job over
+    (dronewind.steps.handoff, run by the start-up hook)."""
+    heavy = {"typing", "importlib.metadata", "snakemake", "numpy", "pathlib"} & _modules_after(
+        "import dronewind.steps.handoff")
+    assert not heavy, f"the hand-over imports {sorted(heavy)}"
 
 
 # ------------------------------------------------------------------ the Snakefile
