@@ -351,10 +351,28 @@ def _interp_finite(t_target: np.ndarray, t: np.ndarray, x: np.ndarray) -> tuple[
     y = np.interp(t_target, t[ok], x[ok])
     if ok.all():
         return y, 0
-    # targets that fall next to a missing source sample: count them (they were bridged)
-    idx = np.clip(np.searchsorted(t, t_target), 1, t.size - 1)
-    bridged = ~ok[idx] | ~ok[idx - 1]
-    return y, int(bridged.sum())
+    return y, _n_bridged(t_target, t, ok)
+
+
+def _n_bridged(t_target: np.ndarray, t: np.ndarray, ok: np.ndarray) -> int:
+    """Number of targets whose bracketing source interval has a missing end (they were bridged).
+
+    Target j lies in source interval k = ``searchsorted(t, t_target[j])`` (clipped to
+    1 ... n-1, the end intervals taking the targets outside), bridged if sample k or k-1 is
+    missing. For sorted targets only the intervals with a missing end are visited: the
+    targets in interval k are counted by two searches among the targets, so the cost
+    follows the missing samples, not the record (a forward run aligns several series with
+    a few gaps each).
+    """
+    if t_target.size > 1 and not bool(np.all(t_target[1:] >= t_target[:-1])):
+        idx = np.clip(np.searchsorted(t, t_target), 1, t.size - 1)
+        return int((~ok[idx] | ~ok[idx - 1]).sum())
+    k = np.flatnonzero(~ok[1:] | ~ok[:-1]) + 1  # intervals (t[k-1], t[k]] with a missing end
+    lo = np.searchsorted(t_target, t[k - 1], side="right")
+    hi = np.searchsorted(t_target, t[k], side="right")
+    lo[k == 1] = 0  # targets at or before t[0] belong to the first interval
+    hi[k == t.size - 1] = t_target.size  # targets after t[-1] to the last one
+    return int((hi - lo).sum())
 
 
 def _read_sensors(drone_l2: xr.Dataset, mast_l2: xr.Dataset, counts: dict[str, int]) -> _Sensors:

@@ -949,11 +949,11 @@ def atmosphere_digest(record: xr.Dataset | None) -> str:
         return ""
     import hashlib
 
-    h = hashlib.blake2b(digest_size=16)
+    h = hashlib.sha256()  # in place, as RawRecord.digest
     for var in ("time", "u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k"):
         if var in record.variables:
             h.update(var.encode())
-            h.update(np.ascontiguousarray(record[var].values).tobytes())
+            h.update(memoryview(np.ascontiguousarray(record[var].values).view(np.uint8)))
     return h.hexdigest()
 
 
