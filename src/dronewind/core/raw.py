@@ -83,7 +83,7 @@ class RawRecord:
         for name, col in self.columns.items():
             arr = np.ascontiguousarray(col)
             h.update(f"{name}:{arr.dtype.str}:{arr.shape}".encode())
-            h.update(memoryview(arr.view(np.uint8)) if arr.dtype.kind != "O" else repr(arr.tolist()).encode())
+            h.update(arr.view(np.uint8).data if arr.dtype.kind != "O" else repr(arr.tolist()).encode())
         return h.hexdigest()
 
     def line_numbers(self) -> np.ndarray:

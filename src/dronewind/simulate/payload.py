@@ -953,7 +953,7 @@ def atmosphere_digest(record: xr.Dataset | None) -> str:
     for var in ("time", "u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k"):
         if var in record.variables:
             h.update(var.encode())
-            h.update(memoryview(np.ascontiguousarray(record[var].values).view(np.uint8)))
+            h.update(np.ascontiguousarray(record[var].values).view(np.uint8).data)
     return h.hexdigest()
 
 
