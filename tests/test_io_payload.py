@@ -417,3 +417,24 @@ def test_fit_logger_clock_known_answer_with_outliers():
     assert fit.residual_std_s < 0.5e-6
     attrs = fit.attrs()
     assert attrs["n_clock_fit_outliers"] == 5 and attrs["clock_utc0"].endswith("Z")
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.float64])
+def test_repeated_stamps_marked_as_pandas_marks_them(dtype):
+    """Every row of a repeated stamp is marked, as ``Series.duplicated(keep=False)`` marks
+    it, for sorted, swapped and shuffled stamps (integers through the sorted comparison,
+    other dtypes through pandas)."""
+    import pandas as pd
+
+    from dronewind.payload.io import _repeated
+
+    rng = np.random.default_rng(11)
+    for _ in range(400):
+        n = int(rng.integers(0, 60))
+        t = np.sort(rng.integers(0, int(rng.integers(1, 80)), n)).astype(dtype)
+        if n > 1 and rng.random() < 0.5:
+            i = rng.integers(0, n - 1, 3)
+            t[i], t[i + 1] = t[i + 1].copy(), t[i].copy()
+        if rng.random() < 0.3:
+            rng.shuffle(t)
+        np.testing.assert_array_equal(_repeated(t), pd.Series(t).duplicated(keep=False).to_numpy())

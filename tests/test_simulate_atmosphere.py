@@ -232,3 +232,21 @@ def test_bad_inputs_named(kwargs, where):
     with pytest.raises(InputError) as err:
         simulate_wind(**args)
     assert where in err.value.where
+
+
+def test_coherence_factor_remembered_by_content():
+    """Equal points and wind in new arrays find the remembered Cholesky factor, which
+    equals a fresh factorisation; other points get their own."""
+    from dronewind.simulate.atmosphere import _coherence_factor, _CoherenceKey, coherence
+
+    f = np.linspace(0.001, 10.0, 500)
+    pts = np.array([[0.0, 0.0, 30.0], [5.0, 0.0, 30.0], [0.0, 3.0, 60.0]])
+    d = np.linalg.norm(pts[:, None] - pts[None], axis=-1)
+    z = 0.5 * (pts[:, 2][:, None] + pts[:, 2][None])
+    first = _coherence_factor(_CoherenceKey(f, d, 5.0, z, "u"))
+    again = _coherence_factor(_CoherenceKey(f.copy(), d.copy(), 5.0, z.copy(), "u"))
+    assert again is first and not first.flags.writeable
+    fresh = np.linalg.cholesky(coherence(f, d, 5.0, z, "u") + 1e-12 * np.eye(3)[None])
+    np.testing.assert_array_equal(first, fresh)
+    assert _coherence_factor(_CoherenceKey(f, 2 * d, 5.0, z, "u")) is not first
+    assert _coherence_factor(_CoherenceKey(f, d, 5.0, z, "w")) is not first

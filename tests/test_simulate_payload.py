@@ -450,3 +450,19 @@ def test_default_campaign_passes_the_manifest_schema():
     manifest = importlib.import_module("dronewind.manifest")
     camp = manifest.load_campaign(DEFAULT_CAMPAIGN)
     assert camp.simulated and len(camp.payload_flights) == 10
+
+
+def test_lowpass_noise_with_the_remembered_filter_equals_a_fresh_design():
+    """The noise filter is designed once per order, cut-off and rate: the noise equals that
+    of a filter designed anew for the call, again on a second call."""
+    from scipy import signal
+
+    from dronewind.simulate.payload import _lowpass_noise
+
+    n, fs_hz, time_s, sigma = 4000, 20.0, 3.0, 0.2
+    for _ in range(2):
+        got = _lowpass_noise(np.random.default_rng(5), n, fs_hz, time_s, sigma, order=2)
+        sos = signal.butter(2, 1.0 / (2 * np.pi * time_s), fs=fs_hz, output="sos")
+        pad = int(min(10 * time_s * fs_hz, 20 * fs_hz * 60))
+        x = signal.sosfilt(sos, np.random.default_rng(5).standard_normal(n + pad))[pad:]
+        np.testing.assert_array_equal(got, x * (sigma / np.std(x)))

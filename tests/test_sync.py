@@ -310,6 +310,18 @@ def test_fir_design_passband_and_stopband():
     assert 20 * np.log10(stopband.max()) <= -60.0  # measured -60.4 dB
 
 
+def test_fir_design_remembered_and_each_caller_gets_its_own_taps():
+    """The design is made once per setting; a caller that changes its taps changes neither
+    the remembered design nor what the next caller gets; a bad setting still raises."""
+    first = align.design_antialias_fir(32.0, 4)
+    first[:] = 0.0
+    again = align.design_antialias_fir(32.0, 4)
+    assert again.flags.writeable and again.sum() == pytest.approx(1.0)
+    assert not np.array_equal(align.design_antialias_fir(32.0, 2)[:again.size], again)  # another setting
+    with pytest.raises(InputError, match="decimate"):
+        align.design_antialias_fir(32.0, 0)
+
+
 def test_fir_decimate_zero_phase_and_alias_rejection():
     fs = 32.0
     t = np.arange(4096) / fs
