@@ -684,13 +684,37 @@ def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoi
     return _Motion(t, spl_e, spl_n, spl_z, roll, pitch, yaw, body_to_ned(roll, pitch, yaw))
 
 
+def _air_in_body(cond: PayloadFlightConditions, air: _AirAtPayload, motion: _Motion) -> np.ndarray:
+    """The air relative to the payload in its body frame, R^T (V_wind - V_ins) [m s-1], (n, 3), read-only.
+
+    Depends on the true state and ``downwash`` (the w the sonic sees) only, so a truth's
+    other sonic probes share it (:func:`_sonic_sensor_frame`).
+    """
+    t = motion.t_s
+    vel_e, vel_n, vel_up = motion.east_m(t, 1), motion.north_m(t, 1), motion.up_m(t, 1)
+    rel_ned = np.stack([air.wind_n_ms - vel_n, air.wind_e_ms - vel_e, -(_wind_up_at_sonic(cond, air) - vel_up)],
+                       axis=-1)
+    v_body = np.einsum("tji,tj->ti", motion.rotation, rel_ned)
+    v_body.setflags(write=False)
+    return v_body
+
+
+def _remembered(memo: dict[tuple[str, str], Any], key: tuple[str, str], make: Callable[[], Any]) -> Any:
+    """``memo[key]``, made by ``make()`` the first time."""
+    if key not in memo:
+        memo[key] = make()
+    return memo[key]
+
+
 def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, motion: _Motion,
-                        streams: _Streams) -> tuple[np.ndarray, np.ndarray]:
+                        streams: _Streams, memo: dict[tuple[str, str], Any] | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
     """What the payload sonic measures: relative air in the sensor frame and sonic temperature.
 
     The exact inverse of the correction V_wind = R V_body + V_ins, V_body = M V_sensor,
     with the ``mount_misalignment``, ``w_gain`` and ``sonic_noise`` mechanisms, white
-    noise and the sensor's resolution (seed 000, Table 2).
+    noise and the sensor's resolution (seed 000, Table 2). ``memo`` (a truth's) keeps the
+    body-frame air (:func:`_air_in_body`) for the truth's other probes.
 
     Returns
     -------
@@ -700,10 +724,8 @@ def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, motio
         Sonic temperature [degree C].
     """
     p, mech, t = cond["payload"], cond["mechanisms"], motion.t_s
-    vel_e, vel_n, vel_up = motion.east_m(t, 1), motion.north_m(t, 1), motion.up_m(t, 1)
-    rel_ned = np.stack([air.wind_n_ms - vel_n, air.wind_e_ms - vel_e, -(_wind_up_at_sonic(cond, air) - vel_up)],
-                       axis=-1)
-    v_body = np.einsum("tji,tj->ti", motion.rotation, rel_ned)          # R^T (V_wind - V_ins)
+    v_body = _air_in_body(cond, air, motion) if memo is None else _remembered(
+        memo, ("sonic air in body frame", repr(mech.get("downwash"))), lambda: _air_in_body(cond, air, motion))
     m_sb = _MOUNTS[cond["sonic_mount"]]
     if "mount_misalignment" in mech:
         mm = mech["mount_misalignment"]
@@ -759,22 +781,36 @@ class _InsRecord:
     yaw_deg: np.ndarray
 
 
-def _ins_truth(cond: PayloadFlightConditions, motion: _Motion, fs_hz: float) -> _InsRecord:
-    """What a perfect INS would log: attitude (``attitude_lag``), position and velocity (``lever_arm``).
+def _ins_track(motion: _Motion, fs_hz: float) -> tuple[np.ndarray, ...]:
+    """The INS clock's times and the payload's true position and velocity at them (read-only).
 
-    The yaw is not yet wrapped to (-180, 180].
+    Returns ``(ti, east, north, up, v_east, v_north, v_up)`` [s, m, m s-1]; no mechanism
+    changes them (``lever_arm`` adds to them in :func:`_ins_truth`), so a truth's INS
+    probes share one evaluation of the motion's splines (:func:`payload_records`).
     """
-    mech, t = cond["mechanisms"], motion.t_s
+    t = motion.t_s
     n_ins = int(math.floor((t[-1] - t[0]) * fs_hz)) + 1
     ti = t[0] + np.arange(n_ins) / fs_hz
     ti = ti[ti <= t[-1]]
+    track = (ti, motion.east_m(ti), motion.north_m(ti), motion.up_m(ti),
+             motion.east_m(ti, 1), motion.north_m(ti, 1), motion.up_m(ti, 1))
+    for arr in track:
+        arr.setflags(write=False)
+    return track
+
+
+def _ins_truth(cond: PayloadFlightConditions, motion: _Motion, track: tuple[np.ndarray, ...]) -> _InsRecord:
+    """What a perfect INS would log: attitude (``attitude_lag``), position and velocity (``lever_arm``).
+
+    ``track`` is :func:`_ins_track`'s. The yaw is not yet wrapped to (-180, 180].
+    """
+    mech, t = cond["mechanisms"], motion.t_s
+    ti, pe, pn, pz, ve, vn, vu = track
     att_t = ti - mech.get("attitude_lag", {}).get("lag_s", 0.0)
     att_t = np.clip(att_t, t[0], t[-1])
     roll_i = np.interp(att_t, t, motion.roll_deg)
     pitch_i = np.interp(att_t, t, motion.pitch_deg)
     yaw_unw = np.interp(att_t, t, motion.yaw_deg)
-    pe, pn, pz = motion.east_m(ti), motion.north_m(ti), motion.up_m(ti)
-    ve, vn, vu = motion.east_m(ti, 1), motion.north_m(ti, 1), motion.up_m(ti, 1)
     if "lever_arm" in mech:  # INS refers to sonic + R r_body: adds R r and d(R r)/dt
         la = mech["lever_arm"]
         r_ned = motion.rotation @ np.array([la["x_m"], la["y_m"], la["z_m"]])   # (n, 3) NED offset
@@ -1070,13 +1106,14 @@ def payload_records(campaign: CampaignLike, flight_id: str, truth: PayloadTruth 
     p, streams, motion, flight = cond["payload"], _Streams(cond["seed"]), truth.motion, cond["flight"]
 
     def sonic() -> RawRecord:
-        v_sensor, t_c = _sonic_sensor_frame(cond, truth.air, motion, streams)
+        v_sensor, t_c = _sonic_sensor_frame(cond, truth.air, motion, streams, truth.memo)
         stamps = _sonic_stamps_us(cond, motion.t_s)
         return _sonic_log(str(flight["sonic"]["file"]), cond, stamps, v_sensor, t_c, streams)
 
     def ins() -> RawRecord:
-        rec = _add_ins_errors(cond, _ins_truth(cond, motion, p["ins_rate_hz"]), streams("ins_noise"),
-                              p["ins_rate_hz"])
+        track = _remembered(truth.memo, ("ins track", repr(p["ins_rate_hz"])),
+                            lambda: _ins_track(motion, p["ins_rate_hz"]))
+        rec = _add_ins_errors(cond, _ins_truth(cond, motion, track), streams("ins_noise"), p["ins_rate_hz"])
         return _ins_log(str(flight["ins"]["file"]), cond, rec, _ins_validity(cond, rec.t_s), motion.t_s[0], streams)
 
     records = [_measured(truth, cond, settings, "sonic", sonic), _measured(truth, cond, settings, "ins", ins)]
@@ -1103,9 +1140,7 @@ def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: Simu
               if name in cond["mechanisms"]}
     key = (instrument, repr((active, cond["payload"], cond["defects"], settings["mast"], str(cond["start"]),
                              str(flight_timeline(cond)))))
-    if key not in truth.memo:
-        truth.memo[key] = measure()
-    return truth.memo[key]
+    return _remembered(truth.memo, key, measure)
 
 
 def simulate_payload_flight(campaign: CampaignLike, manifest_dir: Path, flight_id: str,
