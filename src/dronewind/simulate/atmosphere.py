@@ -75,7 +75,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import hashlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TypedDict
@@ -84,6 +83,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind.core.constants import GRAVITY_MS2, KARMAN
+from dronewind.core.raw import content_digest
 from dronewind.errors import InputError
 
 __all__ = [
@@ -779,12 +779,8 @@ class _CoherenceKey:
                  component: str) -> None:
         self.freq_hz, self.separation_m, self.height_m = freq_hz, separation_m, height_m
         self.speed_ms, self.component = speed_ms, component
-        h = hashlib.sha256(repr((speed_ms, component)).encode())
-        for arr in (freq_hz, separation_m, height_m):
-            a = np.ascontiguousarray(arr, dtype=float)
-            h.update(repr(a.shape).encode())
-            h.update(a.data)
-        self._digest = h.digest()
+        self._digest = content_digest({"freq_hz": freq_hz, "separation_m": separation_m, "height_m": height_m},
+                                      prefix=repr((speed_ms, component)))
 
     def __hash__(self) -> int:
         return hash(self._digest)
@@ -798,9 +794,10 @@ def _coherence_factor(key: _CoherenceKey) -> np.ndarray:
     """Cholesky factor (n_f, n_p, n_p) of the coherence matrices of one set of points (read-only).
 
     Remembered by content: the baseline seeds and the measurement probes of a forward flight
-    share the points and the wind, so their fields use the same factors (16 distinct of a
-    flight's 40; the factorisations cost about 4 % of its forward runs before). Equal
-    arguments give the same factor, so the draws do not change.
+    share the points and the wind, so their fields use the same factors. For flight s02 the
+    coherences and factorisations of its 40 fields took 2.7 % of the forward runs' profiled
+    time; 20 are now made, 20 reused (``benchmarks/results/profile_forward_s02_s26_*.json``).
+    Equal arguments give the same factor, so the draws do not change.
     """
     n_p = key.separation_m.shape[0]
     coh = coherence(key.freq_hz, key.separation_m, key.speed_ms, key.height_m, key.component)  # (nf, n_p, n_p)

@@ -67,7 +67,7 @@ from scipy.interpolate import CubicSpline
 
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
-from dronewind.core.raw import RawRecord
+from dronewind.core.raw import RawRecord, content_digest
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate.mast import mast_measurement
@@ -190,8 +190,9 @@ def _butter_sos(order: int, cutoff_hz: float, fs_hz: float) -> np.ndarray:
     """Butterworth low-pass sections (read-only), designed once per order, cut-off and rate.
 
     A flight's noise streams use a few filters again and again (every forward run draws
-    the INS errors anew): the design cost 0.47 of a flight's 11 forward CPU-s before it
-    was remembered. The same arguments give the same sections, so nothing else changes.
+    the INS errors anew): a flight's forward runs designed 3 filters 240 times, 2 % of
+    their profiled time (``benchmarks/results/profile_forward_s02_s26_before.json``). The
+    same arguments give the same sections, so nothing else changes.
     """
     sos = signal.butter(order, cutoff_hz, fs=fs_hz, output="sos")
     sos.setflags(write=False)
@@ -688,7 +689,7 @@ def _air_in_body(cond: PayloadFlightConditions, air: _AirAtPayload, motion: _Mot
     """The air relative to the payload in its body frame, R^T (V_wind - V_ins) [m s-1], (n, 3), read-only.
 
     Depends on the true state and ``downwash`` (the w the sonic sees) only, so a truth's
-    other sonic probes share it (:func:`_sonic_sensor_frame`).
+    other sonic probes share it (:func:`payload_records`).
     """
     t = motion.t_s
     vel_e, vel_n, vel_up = motion.east_m(t, 1), motion.north_m(t, 1), motion.up_m(t, 1)
@@ -706,15 +707,14 @@ def _remembered(memo: dict[tuple[str, str], Any], key: tuple[str, str], make: Ca
     return memo[key]
 
 
-def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, motion: _Motion,
-                        streams: _Streams, memo: dict[tuple[str, str], Any] | None = None
-                        ) -> tuple[np.ndarray, np.ndarray]:
+def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, v_body: np.ndarray,
+                        streams: _Streams) -> tuple[np.ndarray, np.ndarray]:
     """What the payload sonic measures: relative air in the sensor frame and sonic temperature.
 
     The exact inverse of the correction V_wind = R V_body + V_ins, V_body = M V_sensor,
     with the ``mount_misalignment``, ``w_gain`` and ``sonic_noise`` mechanisms, white
-    noise and the sensor's resolution (seed 000, Table 2). ``memo`` (a truth's) keeps the
-    body-frame air (:func:`_air_in_body`) for the truth's other probes.
+    noise and the sensor's resolution (seed 000, Table 2). ``v_body`` is the air in the
+    body frame (:func:`_air_in_body`).
 
     Returns
     -------
@@ -723,9 +723,7 @@ def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, motio
     t_sonic_c : numpy.ndarray
         Sonic temperature [degree C].
     """
-    p, mech, t = cond["payload"], cond["mechanisms"], motion.t_s
-    v_body = _air_in_body(cond, air, motion) if memo is None else _remembered(
-        memo, ("sonic air in body frame", repr(mech.get("downwash"))), lambda: _air_in_body(cond, air, motion))
+    p, mech = cond["payload"], cond["mechanisms"]
     m_sb = _MOUNTS[cond["sonic_mount"]]
     if "mount_misalignment" in mech:
         mm = mech["mount_misalignment"]
@@ -737,7 +735,7 @@ def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, motio
     if "sonic_noise" in mech:
         v_sensor += mech["sonic_noise"]["sigma_ms"] * streams("noise_mechanism").standard_normal(v_sensor.shape)
     t_c = air.theta_k - ZERO_CELSIUS_K + p["temperature_offset_k"] + p["temperature_noise_k"] * \
-        streams("sonic_noise", 10).standard_normal(t.size)
+        streams("sonic_noise", 10).standard_normal(v_body.shape[0])
     res = p["sonic_resolution_ms"]
     if res > 0:
         v_sensor = np.round(v_sensor / res) * res
@@ -997,14 +995,8 @@ def atmosphere_digest(record: xr.Dataset | None) -> str:
     """Digest of a measured atmosphere record's wind, temperature and time values ("" for none)."""
     if record is None:
         return ""
-    import hashlib
-
-    h = hashlib.sha256()  # in place, as RawRecord.digest
-    for var in ("time", "u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k"):
-        if var in record.variables:
-            h.update(var.encode())
-            h.update(np.ascontiguousarray(record[var].values).view(np.uint8).data)
-    return h.hexdigest()
+    return content_digest({var: record[var].values for var in ("time", "u_east_ms", "v_north_ms", "w_up_ms",
+                                                                 "t_sonic_k") if var in record.variables})
 
 
 def payload_truth(campaign: CampaignLike, flight_id: str, atmosphere: xr.Dataset | None = None) -> PayloadTruth:
@@ -1106,7 +1098,9 @@ def payload_records(campaign: CampaignLike, flight_id: str, truth: PayloadTruth 
     p, streams, motion, flight = cond["payload"], _Streams(cond["seed"]), truth.motion, cond["flight"]
 
     def sonic() -> RawRecord:
-        v_sensor, t_c = _sonic_sensor_frame(cond, truth.air, motion, streams, truth.memo)
+        v_body = _remembered(truth.memo, ("sonic air in body frame", repr(cond["mechanisms"].get("downwash"))),
+                             lambda: _air_in_body(cond, truth.air, motion))
+        v_sensor, t_c = _sonic_sensor_frame(cond, truth.air, v_body, streams)
         stamps = _sonic_stamps_us(cond, motion.t_s)
         return _sonic_log(str(flight["sonic"]["file"]), cond, stamps, v_sensor, t_c, streams)
 
