@@ -1,11 +1,18 @@
-"""Seconds per digest of a forward run's raw records: SHA-256 in place against BLAKE2b of a copy.
+"""Milliseconds of the per-record bookkeeping of a forward run, before and after session 26.
 
 A forward run keys the products it may reuse (:class:`dronewind.diagnose.forward.ForwardCache`)
-by the digest of each record the simulator makes (:attr:`dronewind.core.raw.RawRecord.digest`),
-so every run digests its records. This measures both hashes on the default campaign's first
-flight's in-memory records (sonic, INS, mast TOA5)::
+by the digest of each record the simulator makes (:func:`dronewind.core.raw.content_digest`),
+and its readers look for repeated time stamps in every INS and sonic record
+(``dronewind.payload.io._repeated``). On the default campaign's first flight's in-memory
+records this measures, per record:
 
-    PYTHONPATH=src .venv/bin/python benchmarks/bench_digest.py --out benchmarks/results/digest_s26.json
+- the digest: SHA-256 of the arrays in place against BLAKE2b of a copy (the earlier one);
+- the repeated-stamp check of the INS and sonic stamps: the sorted comparison against
+  pandas' ``Series.duplicated(keep=False)`` (the earlier one), and that both mark the same rows.
+
+::
+
+    PYTHONPATH=src .venv/bin/python benchmarks/bench_record_checks.py --out benchmarks/results/record_checks_s26.json
 """
 
 from __future__ import annotations
@@ -13,12 +20,16 @@ from __future__ import annotations
 import argparse
 import hashlib
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from bench_common import DEFAULT_CAMPAIGN, git_commit, print_and_write
+from dronewind.core.raw import content_digest
 from dronewind.manifest import load_campaign
+from dronewind.payload.io import _repeated
 from dronewind.simulate.payload import payload_records
 
 
@@ -32,19 +43,19 @@ def blake2b_copy(columns: dict[str, np.ndarray]) -> str:
     return h.hexdigest()
 
 
-def best_s(fn, repeat: int) -> float:
-    """Least wall seconds of ``repeat`` calls."""
+def best_ms(fn: Callable[[], object], repeat: int) -> float:
+    """Least wall milliseconds of ``repeat`` calls."""
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
         fn()
         times.append(time.perf_counter() - t0)
-    return min(times)
+    return round(1e3 * min(times), 2)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--repeat", type=int, default=20, help="calls per record and hash (least reported)")
+    parser.add_argument("--repeat", type=int, default=20, help="calls per record and method (least reported)")
     parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
     data = load_campaign(DEFAULT_CAMPAIGN).data
@@ -52,16 +63,19 @@ def main() -> None:
     records, _ = payload_records(data, flight)
     rows = {}
     for rec in records:
-        n_bytes = sum(np.asarray(c).nbytes for c in rec.columns.values())
-        sha = best_s(lambda rec=rec: rec.__class__.digest.func(rec), args.repeat)
-        blake = best_s(lambda rec=rec: blake2b_copy(dict(rec.columns)), args.repeat)
-        rows[rec.name] = {"mbytes": round(n_bytes / 1e6, 2), "sha256_in_place_ms": round(1e3 * sha, 2),
-                          "blake2b_copy_ms": round(1e3 * blake, 2), "speed_up": round(blake / sha, 2)}
-    total_sha = sum(r["sha256_in_place_ms"] for r in rows.values())
-    total_blake = sum(r["blake2b_copy_ms"] for r in rows.values())
-    print_and_write({"commit": git_commit(), "flight": flight, "repeat": args.repeat, "records": rows,
-                     "total_ms": {"sha256_in_place": round(total_sha, 2), "blake2b_copy": round(total_blake, 2)}},
-                    args.out)
+        columns = dict(rec.columns)
+        row = {"rows": rec.n_rows, "mbytes": round(sum(np.asarray(c).nbytes for c in columns.values()) / 1e6, 2),
+               "digest_sha256_in_place_ms": best_ms(lambda c=columns: content_digest(c), args.repeat),
+               "digest_blake2b_copy_ms": best_ms(lambda c=columns: blake2b_copy(c), args.repeat)}
+        if "rpi_time_us" in columns:
+            t = np.asarray(columns["rpi_time_us"])
+            same = bool(np.array_equal(_repeated(t), pd.Series(t).duplicated(keep=False).to_numpy()))
+            row.update({"repeated_stamps": int(_repeated(t).sum()), "same_rows_as_pandas": same,
+                        "repeat_check_sorted_ms": best_ms(lambda t=t: _repeated(t), args.repeat),
+                        "repeat_check_pandas_ms": best_ms(lambda t=t: pd.Series(t).duplicated(keep=False).to_numpy(),
+                                                          args.repeat)})
+        rows[rec.name] = row
+    print_and_write({"commit": git_commit(), "flight": flight, "repeat": args.repeat, "records": rows}, args.out)
 
 
 if __name__ == "__main__":
