@@ -88,6 +88,8 @@ def test_check_cf_reports_each_bad_file_and_checks_the_good_ones(bad_inputs, tmp
     proc = run_cli("check-cf", str(bad_inputs["missing"]), str(good))
     assert proc.returncode == 1 and "Traceback" not in proc.stderr
     assert f"{good}: passes" in proc.stdout and "missing.nc: no such file" in proc.stderr
+    plain = run_cli("check-cf", "--plain", str(good))  # the checker as installed: the same verdict
+    assert plain.returncode == 0 and f"{good}: passes" in plain.stdout
 
 
 def test_validate_campaign_bad_input(bad_inputs):

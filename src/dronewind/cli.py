@@ -67,6 +67,9 @@ def _validate_campaign(args: argparse.Namespace) -> int:
 
 def _check_cf_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("files", type=Path, nargs="+", help="NetCDF files")
+    parser.add_argument("--plain", action="store_true",
+                        help="run the checker as installed, without remembering its whole-file metadata scans for "
+                             "each file (the same reports at about 2.2 times the CPU; dronewind.core.compliance)")
 
 
 def _netcdf_problem(path: Path) -> str | None:
@@ -97,7 +100,7 @@ def _check_cf(args: argparse.Namespace) -> int:
             status = 1
         else:
             readable.append(path)
-    for path, (ok, report) in check_compliance_files(readable).items():  # one checker process for all
+    for path, (ok, report) in check_compliance_files(readable, remember=not args.plain).items():  # one process
         print(f"{path}: {'passes' if ok else 'FAILS'} CF-1.11 and ACDD-1.3 (normal criteria)")
         if not ok:
             print(report)
@@ -171,7 +174,8 @@ SUBCOMMANDS: list[Subcommand] = [
     Subcommand(
         "check-cf",
         "run the IOOS compliance checker (CF-1.11, ACDD-1.3) on NetCDF files",
-        "example:\n  dronewind check-cf results/mosai2023/netcdf/L1/*.nc",
+        "examples:\n  dronewind check-cf results/mosai2023/netcdf/L1/*.nc\n"
+        "  dronewind check-cf --plain results/mosai2023/netcdf/L4/s01_drone.nc",
         _check_cf_args,
         _check_cf,
     ),

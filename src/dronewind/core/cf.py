@@ -609,29 +609,6 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
 COMPLIANCE_TESTS: tuple[str, ...] = ("cf:1.11", "acdd:1.3")
 COMPLIANCE_CRITERIA = "normal"
 
-#: One process checks every file given (``python -c`` with the files as arguments): each file
-#: with the call the ``compliance-checker`` command makes for it, its text report captured (a
-#: file the checker cannot open fails with the error as its report); the results go to
-#: standard output as JSON ``{path: [passed, report]}``.
-_CHECK_FILES = r"""
-import contextlib, io, json, sys
-from compliance_checker.runner import CheckSuite, ComplianceChecker
-tests, criteria, paths = sys.argv[1].split(","), sys.argv[2], sys.argv[3:]
-CheckSuite().load_all_available_checkers()
-out = {}
-for path in paths:
-    buf = io.StringIO()
-    try:
-        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
-            passed, errors = ComplianceChecker.run_checker([path], tests, 0, criteria, output_filename="-",
-                                                           output_format=["text"])
-        out[path] = [bool(passed) and not errors, buf.getvalue()]
-    except Exception as exc:  # a file the checker cannot open fails, as the command exits non-zero on it
-        out[path] = [False, buf.getvalue() + f"compliance checker error: {type(exc).__name__}: {exc}"]
-json.dump(out, sys.__stdout__)
-"""
-
-
 def check_compliance(path: str | Path) -> tuple[bool, str]:
     """Run the IOOS compliance checker (CF-1.11 and ACDD-1.3, normal criteria) on one file.
 
@@ -651,19 +628,24 @@ def check_compliance(path: str | Path) -> tuple[bool, str]:
     return check_compliance_files([path])[Path(path)]
 
 
-def check_compliance_files(paths: Sequence[str | Path]) -> dict[Path, tuple[bool, str]]:
+def check_compliance_files(paths: Sequence[str | Path], remember: bool = True) -> dict[Path, tuple[bool, str]]:
     """Run the IOOS compliance checker on several files in one process.
 
     Each file is checked as ``compliance-checker --test=cf:1.11 --test=acdd:1.3
     --criteria=normal`` checks it alone (one ``ComplianceChecker.run_checker`` call per file,
-    the checker's own API), so its verdict and report are its own. One process for all files
-    because starting the checker (its imports and its plugins) costs about 1.3 CPU-s and
-    checking one product 0.3 to 0.7: four L1 files took 2.5 CPU-s in one process, 5.1 in four.
+    the checker's own API), so its verdict and report are its own
+    (:mod:`dronewind.core.compliance`). One process for all files because starting the
+    checker (its imports and its plugins) costs about 1.3 CPU-s and checking one product 0.3
+    to 0.7: four L1 files took 2.5 CPU-s in one process, 5.1 in four.
 
     Parameters
     ----------
     paths : sequence of str or Path
         NetCDF files.
+    remember : bool
+        Remember the checker's whole-file metadata scans for each file
+        (:func:`dronewind.core.compliance.remember_scans`; the same reports at about a third of
+        the CPU); False runs the checker as installed.
 
     Returns
     -------
@@ -682,7 +664,8 @@ def check_compliance_files(paths: Sequence[str | Path]) -> dict[Path, tuple[bool
     files = [Path(p) for p in paths]
     if not files:
         return {}
-    cmd = [sys.executable, "-c", _CHECK_FILES, ",".join(COMPLIANCE_TESTS), COMPLIANCE_CRITERIA, *map(str, files)]
+    cmd = [sys.executable, "-m", "dronewind.core.compliance", *([] if remember else ["--plain"]),
+           ",".join(COMPLIANCE_TESTS), COMPLIANCE_CRITERIA, *map(str, files)]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise RuntimeError(f"compliance checker on {len(files)} file(s) failed (exit {proc.returncode}): "
