@@ -666,7 +666,10 @@ def check_compliance_files(paths: Sequence[str | Path], remember: bool = True) -
         return {}
     cmd = [sys.executable, "-m", "dronewind.core.compliance", *([] if remember else ["--plain"]),
            ",".join(COMPLIANCE_TESTS), COMPLIANCE_CRITERIA, *map(str, files)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    # the checker orders some messages by iterating sets of names: a fixed hash seed makes its
+    # reports the same in every run (the verdicts do not depend on it)
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False,
+                          env={**os.environ, "PYTHONHASHSEED": "0"})
     if proc.returncode != 0:
         raise RuntimeError(f"compliance checker on {len(files)} file(s) failed (exit {proc.returncode}): "
                            f"{proc.stderr[-3000:]}")

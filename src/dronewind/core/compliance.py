@@ -22,7 +22,11 @@ still runs and reports as before: the reports of all 488 NetCDF files of a defau
 the same with and without the memo, apart from their time stamps
 (``benchmarks/bench_compliance.py --compare``).
 
-With ``--plain`` the checker runs without the memo.
+With ``--plain`` the checker runs without the memo. The checker orders some messages of a
+report by iterating sets of variable names, so the order changes with Python's string
+hashing from one process to the next; :func:`dronewind.core.cf.check_compliance_files`
+starts this process with ``PYTHONHASHSEED=0``, which makes the reports the same in every
+run (the verdicts never depended on it).
 """
 
 from __future__ import annotations
@@ -42,7 +46,10 @@ __all__ = ["REMEMBERED_SCANS", "ScanMemo", "remember_scans", "check_files", "rep
 
 #: The checker's CF utilities (``compliance_checker.cf.util``) that scan a whole file's
 #: metadata and are called many times per file with the same arguments: ``(nc)`` or
-#: ``(nc, variable_name)``.
+#: ``(nc, variable_name)``. Each answers with a list, a dict, a string or a bool, whose copy
+#: iterates as the original does (``get_time_variables``, which answers with a set, is left
+#: out: a copied set may iterate in another order, and the checker prints some messages in
+#: the order it iterates them).
 REMEMBERED_SCANS: tuple[str, ...] = (
     "get_auxiliary_coordinate_variables",
     "get_coordinate_variables",
@@ -52,7 +59,6 @@ REMEMBERED_SCANS: tuple[str, ...] = (
     "get_axis_variables",
     "get_latitude_variables",
     "get_longitude_variables",
-    "get_time_variables",
     "get_forecast_metadata_variables",
     "coordinate_dimension_matrix",
     "guess_feature_type",
