@@ -1,7 +1,12 @@
 # dronewind: two commands on a fresh machine.
 #   make run   -> set up .venv and run the workflow on the embedded default campaign
 #   make test  -> set up .venv and run the whole test suite
-PYTHON ?= python3.11
+# The interpreter .venv is made from: the distribution's /usr/bin/python3.11 where it can make a
+# venv, else the first python3.11 on PATH (`make PYTHON=/path/to/python3.11 ...` chooses).
+# Debian's executable has libpython linked in; a pyenv build (--enable-shared, no optimisation
+# flags) runs the same code slower: make test 540 s against 636 s, Snakemake's start 3.5
+# against 4.3 CPU-s, the same outputs (benchmarks/results/README.md, session 27).
+PYTHON ?= $(shell /usr/bin/python3.11 -c 'import ensurepip, venv' >/dev/null 2>&1 && echo /usr/bin/python3.11 || echo python3.11)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
