@@ -179,7 +179,8 @@ def report_sections(report: str) -> list[str]:
     """A text report's suite sections, sorted, without the time stamps.
 
     The checker prints its suites (``cf:1.11``, ``acdd:1.3``) in an order that varies between
-    processes and stamps each section with the time; two reports say the same when their
+    processes unless the hash seed is fixed (:func:`dronewind.core.cf.check_compliance_files`
+    fixes it) and stamps each section with the time; two reports say the same when their
     sections do.
 
     Parameters
@@ -196,30 +197,27 @@ def report_sections(report: str) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    """Command line: ``python -m dronewind.core.compliance [--plain] TESTS CRITERIA FILE...``.
+    """Command line: check NetCDF files, the JSON result ``{path: [passed, report]}`` on standard output.
 
-    ``TESTS`` is comma separated (``cf:1.11,acdd:1.3``). The JSON result goes to standard
-    output, whatever the checker prints goes into each file's report.
-
-    Examples
-    --------
-    ``python -m dronewind.core.compliance cf:1.11,acdd:1.3 normal results/mosai2023/netcdf/L4/*.nc``
+    Whatever the checker prints goes into each file's report.
     """
-    args = list(sys.argv[1:] if argv is None else argv)
-    if args and args[0] in ("-h", "--help"):
-        print(__doc__.split("\n\n")[0] + "\n\n" + (main.__doc__ or ""))
-        return
-    plain = bool(args) and args[0] == "--plain"
-    if plain:
-        args = args[1:]
-    if len(args) < 2:
-        raise SystemExit("usage: python -m dronewind.core.compliance [--plain] TESTS CRITERIA FILE...")
+    import argparse
+
+    parser = argparse.ArgumentParser(
+        prog="python -m dronewind.core.compliance", description=__doc__.split("\n\n")[0],
+        epilog="example:\n  python -m dronewind.core.compliance cf:1.11,acdd:1.3 normal "
+               "results/mosai2023/netcdf/L4/*.nc", formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--plain", action="store_true", help="run the checker as installed (no remembered scans)")
+    parser.add_argument("tests", help="checker suites, comma separated (cf:1.11,acdd:1.3)")
+    parser.add_argument("criteria", choices=["strict", "normal", "lenient"])
+    parser.add_argument("files", nargs="*", help="NetCDF files")
+    args = parser.parse_args(argv)
     import compliance_checker.cf.util as cfutil
     from compliance_checker.runner import CheckSuite
 
     CheckSuite().load_all_available_checkers()
-    memo = None if plain else remember_scans(cfutil)
-    results = check_files(args[0].split(","), args[1], args[2:], memo)
+    memo = None if args.plain else remember_scans(cfutil)
+    results = check_files(args.tests.split(","), args.criteria, args.files, memo)
     json.dump(results, sys.stdout)
 
 
