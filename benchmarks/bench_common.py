@@ -24,8 +24,36 @@ def git_commit(folder: Path = REPO) -> str:
     return proc.stdout.strip() or "unknown"
 
 
+def machine() -> dict[str, Any]:
+    """The processor model, its number of cores and the interpreter: where a benchmark ran.
+
+    Returns
+    -------
+    dict
+        ``cpu`` (``model name``, CPU family and model of ``/proc/cpuinfo``; the platform's
+        processor name elsewhere), ``cores`` (usable by this process) and ``python``.
+    """
+    import os
+    import platform
+
+    fields: dict[str, str] = {}
+    cpuinfo = Path("/proc/cpuinfo")
+    if cpuinfo.exists():
+        for line in cpuinfo.read_text().splitlines():
+            key, _, value = line.partition(":")
+            fields.setdefault(key.strip(), value.strip())
+    cpu = fields.get("model name") or platform.processor() or platform.machine()
+    if "cpu family" in fields:
+        cpu += f" (family {fields['cpu family']}, model {fields.get('model', '?')})"
+    return {"cpu": cpu, "cores": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
+            "python": platform.python_version()}
+
+
 def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
     """Print ``result`` as JSON and write the same text to ``out`` (its folder created) when given.
+
+    A dictionary result gets the machine it was measured on (:func:`machine`): CPU seconds
+    are only comparable on the same processor.
 
     Parameters
     ----------
@@ -36,6 +64,8 @@ def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
     indent : int
         JSON indentation.
     """
+    if isinstance(result, dict) and "machine" not in result:
+        result = {**result, "machine": machine()}
     text = json.dumps(result, indent=indent)
     print(text)
     if out is not None:

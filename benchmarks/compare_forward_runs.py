@@ -2,7 +2,7 @@
 
 Every baseline and probe feature value and error, every condition, probe level and skipped
 probe must be equal (NaN equal to NaN); the bookkeeping keys that only the newer runner
-writes (``parts``, ``reused_products``) are ignored. Example::
+writes (``parts``, ``reused_products``, ``reused_steps``) are ignored. Example::
 
     PYTHONPATH=/tmp/old/src .venv/bin/python benchmarks/forward_runs.py s01 \\
         results/mosai2023/diagnosis/measured/s01.json /tmp/old_s01.json
@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 #: Keys written only by the runner that splits a flight into parts and reuses products.
-BOOKKEEPING = ("parts", "reused_products")
+BOOKKEEPING = ("parts", "reused_products", "reused_steps")
 
 
 def differences(a: Any, b: Any, path: str = "") -> list[str]:

@@ -127,6 +127,8 @@ def test_reused_products_give_the_features_of_a_full_run():
         with_cache, _ = forward.run_forward(camp, "f1", proc, truth=products["truth"], cache=cache)
         alone, _ = forward.run_forward(camp, "f1", proc)
         assert cache.hits > hits, mech["mechanism"]
+        if mech["mechanism"] == "heading_bias":  # the sonic's channels are not despiked again
+            assert cache.steps is not None and cache.steps.hits > 0
         assert with_cache.values.keys() == alone.values.keys()
         for key, value in alone.values.items():
             assert with_cache.values[key] == pytest.approx(value, nan_ok=True, rel=0, abs=0), (mech, key)
@@ -184,7 +186,7 @@ def test_parts_run_apart_merge_into_the_whole_flight(atmosphere):
                                 atmosphere=record)
              for name in reversed(forward.probe_parts(probes))]
     merged = forward.merge_probe_runs(parts, probes)
-    for key in ("reused_products",):
+    for key in ("reused_products", "reused_steps"):
         whole.pop(key), merged.pop(key)
     assert merged == whole
     with pytest.raises(InputError, match="expected each of"):
@@ -212,3 +214,22 @@ def test_runs_without_the_lag_drift_differ_only_in_that_feature():
     assert [p["lag_drift"] for p in parts] == [False, True]
     with pytest.raises(InputError, match="disagree on lag_drift"):
         forward.merge_probe_runs(parts, probes)
+
+
+def test_ins_probes_share_the_baseline_ins_noise_and_give_fresh_records():
+    """The INS errors are drawn once per truth (``ins noise`` in its memo) and every INS
+    probe's record equals a fresh simulation's bit for bit."""
+    truth = payload_truth(_campaign(), "f1")
+    payload_records(_campaign(), "f1", truth)
+    noise_keys = [key for key in truth.memo if key[0] == "ins noise"]
+    assert len(noise_keys) == 1
+    noise = truth.memo[noise_keys[0]]
+    for mech in ({"mechanism": "heading_bias", "parameters": {"deg": 6.0}},
+                 {"mechanism": "attitude_lag", "parameters": {"lag_s": 0.2}},
+                 {"mechanism": "lever_arm", "parameters": {"x_m": -0.4, "y_m": 0.0, "z_m": 0.3}}):
+        camp = _campaign([mech])
+        reused, _ = payload_records(camp, "f1", truth)
+        assert truth.memo[noise_keys[0]] is noise and len([k for k in truth.memo if k[0] == "ins noise"]) == 1
+        fresh, _ = payload_records(camp, "f1")
+        _same_records(reused, fresh)
+        assert reused[1].digest != payload_records(_campaign(), "f1", truth)[0][1].digest, mech["mechanism"]

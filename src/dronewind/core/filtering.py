@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from dronewind.core.geo import local_tangent_plane_m
+from dronewind.core.reuse import reused
 
 __all__ = [
     "INSTRUMENT_LIMITS",
@@ -187,9 +188,17 @@ def despike_moving_mad(
         raise ValueError(f"despike_moving_mad: x must be 1-D, got shape {arr.shape}")
     if not (fs_hz > 0 and window_s > 0 and n_mad > 0):
         raise ValueError("despike_moving_mad: fs_hz, window_s and n_mad must be positive")
-    n = arr.size
-    if n == 0:
+    if arr.size == 0:
         return np.zeros(0, dtype=bool)
+    # inside a forward flight's runs, a channel a probe left unchanged is not despiked again
+    # (dronewind.core.reuse; the same flags, handed out as a copy)
+    flags = reused("despike_moving_mad", {"x": arr}, repr((float(fs_hz), float(window_s), float(n_mad))),
+                   lambda: _moving_mad_spikes(arr, fs_hz, window_s, n_mad))
+    return flags.copy()
+
+
+def _moving_mad_spikes(arr: np.ndarray, fs_hz: float, window_s: float, n_mad: float) -> np.ndarray:
+    """The spike flags of :func:`despike_moving_mad` for a non-empty, checked 1-D ``arr``."""
     half = max(1, int(round(window_s * fs_hz / 2.0)))
     min_count = half + 1
     med = _centred_move_median(arr, half, min_count)

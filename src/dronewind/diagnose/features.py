@@ -45,6 +45,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind.core import scales, spectra, stats
+from dronewind.core.reuse import reused
 
 __all__ = ["FEATURES", "PENDULUM_BAND_HZ", "HF_BAND_HZ", "FlightFeatures", "flight_features", "binned_spectra"]
 
@@ -100,6 +101,26 @@ class FlightFeatures:
 
 
 def _time_scale(x: np.ndarray, fs_hz: float) -> float:
+    """Integral time scale of a series for the sampling errors [s] (reused within a forward flight).
+
+    Inside a forward flight's runs (:mod:`dronewind.core.reuse`), a series a probe left
+    unchanged (most often the mast's) is not fitted again.
+    """
+    return float(reused("integral time scale", {"x": x}, repr(float(fs_hz)), lambda: _fitted_time_scale(x, fs_hz)))
+
+
+def _welch(x: np.ndarray, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`dronewind.core.spectra.welch_psd` of a series, read-only (reused within a forward flight)."""
+    def make() -> tuple[np.ndarray, np.ndarray]:
+        f_hz, psd = spectra.welch_psd(x, fs_hz)
+        f_hz.setflags(write=False)
+        psd.setflags(write=False)
+        return f_hz, psd
+
+    return reused("welch psd", {"x": x}, repr(float(fs_hz)), make)
+
+
+def _fitted_time_scale(x: np.ndarray, fs_hz: float) -> float:
     result = scales.integral_time_scale(x, fs_hz)
     value = float(result.time_scale_s)
     duration = x.size / fs_hz
@@ -227,7 +248,7 @@ def _spectral_features(s: _SensorSeries, fr_band: tuple[float, float], min_speed
     for x in s.series:
         psd[x] = {}
         for c in ("u", "w"):
-            f_hz, p = spectra.welch_psd(s.series[x][c][:s.n], s.fs_hz)
+            f_hz, p = _welch(s.series[x][c][:s.n], s.fs_hz)
             psd[x][c] = p
     dof = spectra.welch_dof(spectra.segment_length(s.n))
     for x in ("drone", "mast"):

@@ -64,6 +64,7 @@ from dronewind.compare.chain import compute_l3
 from dronewind.core.constants import KARMAN
 from dronewind.core.progress import Progress
 from dronewind.core.raw import RawRecord
+from dronewind.core.reuse import reusing
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.diagnose.probes import (
     ATMOSPHERES,
@@ -360,17 +361,29 @@ class ForwardCache:
     digest of the records' contents (BLAKE2b of every column's bytes) and computed only
     when absent. Entries are stored while the cache is open (the baseline run) and only read
     after :meth:`freeze`, so memory stays one run's products.
+
+    :attr:`steps` does the same for steps inside a product whose own input a probe left
+    unchanged (e.g. despiking a sonic channel; :mod:`dronewind.core.reuse`), looked up by a
+    digest of that input.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, parent: ForwardCache | None = None) -> None:
         self._store: dict[tuple[str, str], Any] = {}
-        self.frozen = False
+        self._parent = parent
+        self._frozen = False
         self.hits = 0
         self.misses = 0
+        #: results of steps inside the products (not for a store's own store)
+        self.steps: ForwardCache | None = ForwardCache(parent=self) if parent is None else None
+
+    @property
+    def frozen(self) -> bool:
+        """Whether entries are only read (the parent's state for :attr:`steps`)."""
+        return self._parent.frozen if self._parent is not None else self._frozen
 
     def freeze(self) -> None:
         """Stop storing: later runs only read the entries."""
-        self.frozen = True
+        self._frozen = True
 
     def get(self, kind: str, key: str, make: Callable[[], Any]) -> Any:
         """The product ``kind`` of the records with digest ``key``, made by ``make()`` if absent."""
@@ -429,6 +442,15 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
     """
     if cache is None or not all(isinstance(src, RawRecord) for src in sources):
         cache = ForwardCache()  # files are not keyed by content: a file rewritten in place is never reused
+    assert cache.steps is not None  # a top-level cache
+    with reusing(cache.steps):
+        return _process_forward_flight(manifest, flight_id, sources, processing, cache, lag_drift)
+
+
+def _process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources: Sequence[str | Path | RawRecord],
+                            processing: Mapping[str, Any], cache: ForwardCache,
+                            lag_drift: bool) -> tuple[FlightFeatures, dict[str, Any]]:
+    """:func:`process_forward_flight` with its cache, inside the cache's :func:`reusing` block."""
     flight = next(f for f in manifest["payload_flights"] if f["id"] == flight_id)
     sonic_info = next(s for m in manifest["masts"] for s in m["sonics"] if s["id"] == flight["reference"])
     sonic_src, ins_src = sources[0], sources[1]
@@ -631,7 +653,8 @@ def probe_runs(
         parameter, level, fixed, features}]}`` with features as
         :func:`~dronewind.diagnose.features.features_to_dict` dictionaries; probe levels a
         flight cannot take are listed in ``skipped_probes``; ``parts`` names the parts
-        run and ``reused_products`` counts the products reused (:class:`ForwardCache`);
+        run and ``reused_products`` counts the products reused (:class:`ForwardCache`),
+        ``reused_steps`` the steps inside them (:attr:`ForwardCache.steps`);
         ``atmosphere`` says which atmosphere was used (``measured`` or ``model``) and
         ``atmosphere_record`` what was used of the measured record.
 
@@ -704,6 +727,8 @@ def probe_runs(
                               "fixed": dict(probe.fixed), "features": features_to_dict(feats)})
     progress.finished()
     out["reused_products"] = {"hits": cache.hits, "misses": cache.misses}
+    if cache.steps is not None:
+        out["reused_steps"] = {"hits": cache.steps.hits, "misses": cache.steps.misses}
     return out
 
 
@@ -782,8 +807,8 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     records = [p["atmosphere_record"] for p in parts if "atmosphere_record" in p]
     if records:
         out["atmosphere_record"] = records[0]
-    out["reused_products"] = {k: sum(int(p.get("reused_products", {}).get(k, 0)) for p in parts)
-                              for k in ("hits", "misses")}
+    for key in ("reused_products", "reused_steps"):
+        out[key] = {k: sum(int(p.get(key, {}).get(k, 0)) for p in parts) for k in ("hits", "misses")}
     return out
 
 

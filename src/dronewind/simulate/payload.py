@@ -55,7 +55,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -818,15 +818,20 @@ def _ins_truth(cond: PayloadFlightConditions, motion: _Motion, track: tuple[np.n
     return _InsRecord(ti, pe, pn, pz, vn, ve, -vu, roll_i, pitch_i, yaw_unw)
 
 
-def _add_ins_errors(cond: PayloadFlightConditions, ins: _InsRecord, rng: np.random.Generator,
-                    fs_hz: float) -> _InsRecord:
-    """Gauss-Markov errors of the Table 3 accuracies (seed 000), ``heading_bias``, yaw wrapped to (-180, 180].
+#: Payload settings the INS errors depend on (:func:`_ins_noise`).
+_INS_NOISE_KEYS: tuple[str, ...] = ("ins_noise_time_s", "ins_velocity_noise_ms", "ins_roll_pitch_noise_deg",
+                                    "ins_heading_noise_deg", "ins_horizontal_position_noise_m",
+                                    "ins_vertical_position_noise_m")
+
+
+def _ins_noise(p: Mapping[str, Any], n: int, rng: np.random.Generator, fs_hz: float) -> tuple[np.ndarray, ...]:
+    """Gauss-Markov errors of the Table 3 accuracies (seed 000) for ``n`` INS rows.
 
     ``rng`` (the INS-noise stream) is drawn in the order vel N, E, D, roll, pitch, yaw,
-    position E, N, up.
+    position E, N, up; the arrays are returned in that order, read-only. They depend on the
+    stream, the payload's noise settings, ``n`` and ``fs_hz`` only, so every INS probe of a
+    truth shares them (:func:`payload_records`).
     """
-    p, mech = cond["payload"], cond["mechanisms"]
-    n = ins.t_s.size
     tau = p["ins_noise_time_s"]
 
     def gm(sigma: float) -> np.ndarray:
@@ -834,17 +839,30 @@ def _add_ins_errors(cond: PayloadFlightConditions, ins: _InsRecord, rng: np.rand
             return _lowpass_noise(rng, n, fs_hz, tau, sigma, order=1)
         return sigma * rng.standard_normal(n)
 
-    vn = ins.vel_n_ms + gm(p["ins_velocity_noise_ms"])
-    ve = ins.vel_e_ms + gm(p["ins_velocity_noise_ms"])
-    vd = ins.vel_d_ms + gm(p["ins_velocity_noise_ms"])
-    roll_i = ins.roll_deg + gm(p["ins_roll_pitch_noise_deg"])
-    pitch_i = ins.pitch_deg + gm(p["ins_roll_pitch_noise_deg"])
-    yaw_unw = ins.yaw_deg + gm(p["ins_heading_noise_deg"]) + mech.get("heading_bias", {}).get("deg", 0.0)
+    sigmas = (p["ins_velocity_noise_ms"],) * 3 + (p["ins_roll_pitch_noise_deg"],) * 2 + (
+        p["ins_heading_noise_deg"], p["ins_horizontal_position_noise_m"], p["ins_horizontal_position_noise_m"],
+        p["ins_vertical_position_noise_m"])
+    noise = tuple(gm(sigma) for sigma in sigmas)
+    for arr in noise:
+        arr.setflags(write=False)
+    return noise
+
+
+def _add_ins_errors(cond: PayloadFlightConditions, ins: _InsRecord, noise: Sequence[np.ndarray]) -> _InsRecord:
+    """The INS errors (:func:`_ins_noise`) and ``heading_bias`` added; yaw wrapped to (-180, 180]."""
+    mech = cond["mechanisms"]
+    n_vn, n_ve, n_vd, n_roll, n_pitch, n_yaw, n_e, n_n, n_up = noise
+    vn = ins.vel_n_ms + n_vn
+    ve = ins.vel_e_ms + n_ve
+    vd = ins.vel_d_ms + n_vd
+    roll_i = ins.roll_deg + n_roll
+    pitch_i = ins.pitch_deg + n_pitch
+    yaw_unw = ins.yaw_deg + n_yaw + mech.get("heading_bias", {}).get("deg", 0.0)
     yaw_i = (yaw_unw + 180.0) % 360.0 - 180.0
     yaw_i = np.where(yaw_i == -180.0, 180.0, yaw_i)
-    pe = ins.east_m + gm(p["ins_horizontal_position_noise_m"])
-    pn = ins.north_m + gm(p["ins_horizontal_position_noise_m"])
-    pz = ins.up_m + gm(p["ins_vertical_position_noise_m"])
+    pe = ins.east_m + n_e
+    pn = ins.north_m + n_n
+    pz = ins.up_m + n_up
     return _InsRecord(ins.t_s, pe, pn, pz, vn, ve, vd, roll_i, pitch_i, yaw_i)
 
 
@@ -1107,7 +1125,10 @@ def payload_records(campaign: CampaignLike, flight_id: str, truth: PayloadTruth 
     def ins() -> RawRecord:
         track = _remembered(truth.memo, ("ins track", repr(p["ins_rate_hz"])),
                             lambda: _ins_track(motion, p["ins_rate_hz"]))
-        rec = _add_ins_errors(cond, _ins_truth(cond, motion, track), streams("ins_noise"), p["ins_rate_hz"])
+        noise_settings = {k: p[k] for k in _INS_NOISE_KEYS}
+        noise = _remembered(truth.memo, ("ins noise", repr((noise_settings, p["ins_rate_hz"], track[0].size))),
+                            lambda: _ins_noise(noise_settings, track[0].size, streams("ins_noise"), p["ins_rate_hz"]))
+        rec = _add_ins_errors(cond, _ins_truth(cond, motion, track), noise)
         return _ins_log(str(flight["ins"]["file"]), cond, rec, _ins_validity(cond, rec.t_s), motion.t_s[0], streams)
 
     records = [_measured(truth, cond, settings, "sonic", sonic), _measured(truth, cond, settings, "ins", ins)]
