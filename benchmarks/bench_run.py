@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_common import print_and_write  # noqa: E402
+from bench_common import git_commit, print_and_write  # noqa: E402
 from bench_workflow_rules import collect  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -117,7 +117,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="write the result as JSON")
     parser.add_argument("--keep", type=Path, help="run into this new folder and keep it (default: a temporary one)")
     args = parser.parse_args()
-    result = run(args.kind, args.cores, args.config, args.keep)
+    result = {**run(args.kind, args.cores, args.config, args.keep), "commit": git_commit()}
     print_and_write(result, args.out)
 
 
