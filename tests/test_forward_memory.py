@@ -128,7 +128,7 @@ def test_reused_products_give_the_features_of_a_full_run():
         alone, _ = forward.run_forward(camp, "f1", proc)
         assert cache.hits > hits, mech["mechanism"]
         if mech["mechanism"] == "heading_bias":  # the sonic's channels are not despiked again
-            assert cache.steps is not None and cache.steps.hits > 0
+            assert cache.steps.hits > 0
         assert with_cache.values.keys() == alone.values.keys()
         for key, value in alone.values.items():
             assert with_cache.values[key] == pytest.approx(value, nan_ok=True, rel=0, abs=0), (mech, key)

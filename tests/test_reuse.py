@@ -1,9 +1,10 @@
 """Steps reused inside a forward flight's runs (dronewind.core.reuse): exact, scoped, and counted."""
 
 import numpy as np
+import pytest
 
 from dronewind.core.filtering import despike_moving_mad
-from dronewind.core.reuse import reused, reusing
+from dronewind.core.reuse import StepStore, reused, reusing, same_bits
 from dronewind.diagnose.forward import ForwardCache
 
 
@@ -27,7 +28,6 @@ def test_outside_a_block_every_call_computes():
 
 def test_inside_a_block_equal_inputs_are_looked_up_and_others_computed():
     cache = ForwardCache()
-    assert cache.steps is not None
     make, calls = _counting("r")
     x = np.arange(5.0)
     with reusing(cache.steps):
@@ -44,7 +44,6 @@ def test_inside_a_block_equal_inputs_are_looked_up_and_others_computed():
 
 def test_steps_are_stored_only_until_the_forward_cache_is_frozen():
     cache = ForwardCache()
-    assert cache.steps is not None and cache.steps.steps is None
     make, calls = _counting(1)
     with reusing(cache.steps):
         cache.freeze()
@@ -61,7 +60,6 @@ def test_despiking_gives_the_same_flags_with_and_without_reuse_and_copies():
     plain = despike_moving_mad(x, 20.0, 10.0, 7.0)
     assert set(np.flatnonzero(plain)) == {100, 900, 1500}
     cache = ForwardCache()
-    assert cache.steps is not None
     with reusing(cache.steps):
         first = despike_moving_mad(x, 20.0, 10.0, 7.0)
         first[:] = True  # a caller's change must not reach the stored flags
@@ -70,3 +68,29 @@ def test_despiking_gives_the_same_flags_with_and_without_reuse_and_copies():
     np.testing.assert_array_equal(second, plain)
     assert cache.steps.hits == 1 and cache.steps.misses == 2
     np.testing.assert_array_equal(other_window, despike_moving_mad(x, 20.0, 5.0, 7.0))
+
+
+def test_inputs_are_compared_bit_for_bit_and_kept_as_copies():
+    store = StepStore()
+    make, calls = _counting("r")
+    x = np.array([1.0, np.nan, -0.0])
+    with reusing(store):
+        reused("step", {"x": x}, "", make)
+        reused("step", {"x": np.array([1.0, np.nan, -0.0])}, "", make)  # NaN equals NaN bit for bit
+        reused("step", {"x": np.array([1.0, np.nan, 0.0])}, "", make)  # +0 is not -0
+        reused("step", {"x": x.astype(np.float32)}, "", make)  # another dtype
+        x[0] = 2.0  # the caller changes its array: the stored input does not change
+        reused("step", {"x": np.array([1.0, np.nan, -0.0])}, "", make)
+        reused("step", {"x": x, "y": x}, "", make)  # other names
+    assert len(calls) == 4 and (store.hits, store.misses) == (2, 4)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32, np.int8, np.bool_, np.complex128, np.int16])
+def test_same_bits_of_every_item_size(dtype):
+    a = (np.arange(12) % 3).astype(dtype).reshape(3, 4)
+    assert same_bits(a, a.copy()) and same_bits(a[:, ::2], a[:, ::2].copy())
+    b = a.copy()
+    b[0, 0] = 1  # a[0, 0] is 0 (False)
+    assert not same_bits(a, b) and not same_bits(a, a.reshape(4, 3))
+    with pytest.raises(TypeError, match="object"):
+        same_bits(np.array([None]), np.array([None]))

@@ -138,3 +138,32 @@ def test_lags_of_the_hover_halves_show_a_clock_drift(ppm):
     assert abs(b0 - a0) <= 3.0 / 32 + 1e-12
     expected = -ppm * 1e-6 * hover_s / 2.0
     assert abs((b - a) - (b0 - a0) - expected) <= 2.0 / 32 + 1e-12, (a, b, a0, b0, expected)
+
+
+@pytest.mark.parametrize(("lag_true", "lever", "split_fraction"), [(0.0, None, 0.5), (0.3125, (0.3, 0.2, -0.8), 0.37)])
+def test_whole_curve_from_the_halves_equals_its_own_correlation(lag_true, lever, split_fraction):
+    """With a split, the whole grid's TKE curve is the halves' sums added: the same curve (to float
+    rounding, 1e-12 of the curve's size) and the same lag as its own correlation; the halves are the
+    curves of their own samples (the earlier evaluation, fftconvolve, on the halves' slices)."""
+    fl = Flight(seed=5, duration_s=300.0)
+    sonic, ins = fl.l1(lag_true, "upside_down", lever)
+    ts, s, ti, att, vel = _arrays(sonic, ins)
+    sel = (ts > 40) & (ts < 260)
+    split = 40 + split_fraction * 220
+    lags, whole, n, _ = sync._tke_curves(ts[sel], s[sel], ti, att, vel, "upside_down", lever, 2.0, 1 / 32, None)
+    lags_s, whole_s, n_s, halves = sync._tke_curves(ts[sel], s[sel], ti, att, vel, "upside_down", lever, 2.0,
+                                                    1 / 32, None, split)
+    assert n_s == n and np.array_equal(lags_s, lags) and all(h is not None for h in halves)
+    np.testing.assert_allclose(whole_s, whole, rtol=0, atol=1e-12 * np.max(np.abs(whole)))
+    assert sync.find_sonic_ins_lag(lags_s, whole_s) == sync.find_sonic_ins_lag(lags, whole)
+    assert abs(sync.find_sonic_ins_lag(lags, whole)[0] - lag_true) <= 3.0 / 32 + 1e-12
+    # each half: its own samples' curve
+    n_half = 64
+    t_grid = ts[sel]
+    t0 = t_grid[np.flatnonzero(t_grid >= ti[0] + 2.0 - 1e-9)[0]]
+    k = int(np.ceil((split - t0) * 32 - 1e-9))
+    b = sync._sonic_body_on_grid(ts[sel], s[sel], t0 + np.arange(n) / 32, "upside_down", None)
+    rot, v = sync._ins_on_extended_grid(ti, att, vel, t0 + np.arange(-n_half, n + n_half) / 32, lever)
+    for (lo, hi), half in zip(((0, k), (k, n)), halves, strict=True):
+        ref = _tke_fftconvolve(rot[lo:hi + 2 * n_half], v[lo:hi + 2 * n_half], b[lo:hi], hi - lo, n_half)
+        np.testing.assert_allclose(half, ref, rtol=1e-10)

@@ -64,7 +64,7 @@ from dronewind.compare.chain import compute_l3
 from dronewind.core.constants import KARMAN
 from dronewind.core.progress import Progress
 from dronewind.core.raw import RawRecord
-from dronewind.core.reuse import reusing
+from dronewind.core.reuse import StepStore, reusing
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.diagnose.probes import (
     ATMOSPHERES,
@@ -91,6 +91,7 @@ __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETT
            "fresh_seeds", "record_through", "hover_span", "atmosphere_window", "ATMOSPHERE_VARIABLES"]
 
 if TYPE_CHECKING:
+    from dronewind.payload.io import InsTable
     from dronewind.simulate.payload import PayloadTruth
 
 LOG = logging.getLogger("dronewind")
@@ -363,27 +364,21 @@ class ForwardCache:
     after :meth:`freeze`, so memory stays one run's products.
 
     :attr:`steps` does the same for steps inside a product whose own input a probe left
-    unchanged (e.g. despiking a sonic channel; :mod:`dronewind.core.reuse`), looked up by a
-    digest of that input.
+    unchanged (e.g. despiking a sonic channel; :mod:`dronewind.core.reuse`), found by
+    comparing that input with the stored ones; it is frozen with the cache.
     """
 
-    def __init__(self, parent: ForwardCache | None = None) -> None:
+    def __init__(self) -> None:
         self._store: dict[tuple[str, str], Any] = {}
-        self._parent = parent
-        self._frozen = False
+        self.frozen = False
         self.hits = 0
         self.misses = 0
-        #: results of steps inside the products (not for a store's own store)
-        self.steps: ForwardCache | None = ForwardCache(parent=self) if parent is None else None
-
-    @property
-    def frozen(self) -> bool:
-        """Whether entries are only read (the parent's state for :attr:`steps`)."""
-        return self._parent.frozen if self._parent is not None else self._frozen
+        #: results of steps inside the products
+        self.steps = StepStore(frozen=lambda: self.frozen)
 
     def freeze(self) -> None:
         """Stop storing: later runs only read the entries."""
-        self._frozen = True
+        self.frozen = True
 
     def get(self, kind: str, key: str, make: Callable[[], Any]) -> Any:
         """The product ``kind`` of the records with digest ``key``, made by ``make()`` if absent."""
@@ -407,6 +402,17 @@ def record_digest(*records: RawRecord | str | Path) -> str:
     for rec in records:
         h.update(rec.digest.encode() if isinstance(rec, RawRecord) else f"file:{rec}".encode())
     return h.hexdigest()
+
+
+def _clock_digest(ins_table: InsTable, ins_src: str | Path | RawRecord) -> str:
+    """Digest of what the sonic L1 takes from the INS (:func:`dronewind.payload.io.payload_sonic_l1`) [hex].
+
+    The logger-clock fit, the stable-time row, the parsing's log and counts and the source
+    name: not the INS's values.
+    """
+    text = repr((ins_table.fit, ins_table.rpi_stable_us, list(ins_table.log), sorted(ins_table.counts.items()),
+                 str(ins_src)))
+    return hashlib.blake2b(text.encode(), digest_size=16).hexdigest()
 
 
 def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources: Sequence[str | Path | RawRecord],
@@ -442,7 +448,6 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
     """
     if cache is None or not all(isinstance(src, RawRecord) for src in sources):
         cache = ForwardCache()  # files are not keyed by content: a file rewritten in place is never reused
-    assert cache.steps is not None  # a top-level cache
     with reusing(cache.steps):
         return _process_forward_flight(manifest, flight_id, sources, processing, cache, lag_drift)
 
@@ -461,7 +466,9 @@ def _process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources
     k_ins = record_digest(ins_src)
     k_payload = record_digest(sonic_src) + k_ins
     ins_table, ins_l1 = cache.get("ins_l1", k_ins, lambda: compute_ins_l1(ins_src))
-    sonic_l1 = cache.get("sonic_l1", k_payload,
+    # the sonic L1 takes from the INS only its clock (fit, stable time, log): an INS probe that
+    # leaves the INS's times alone (heading bias, attitude lag, lever arm) reuses it
+    sonic_l1 = cache.get("sonic_l1", record_digest(sonic_src) + _clock_digest(ins_table, ins_src),
                          lambda: compute_sonic_l1(sonic_src, ins_src, ins_table, processing["despike"]))
     site_altitude_m = float(manifest["site"]["altitude_m"])
 
@@ -727,8 +734,7 @@ def probe_runs(
                               "fixed": dict(probe.fixed), "features": features_to_dict(feats)})
     progress.finished()
     out["reused_products"] = {"hits": cache.hits, "misses": cache.misses}
-    if cache.steps is not None:
-        out["reused_steps"] = {"hits": cache.steps.hits, "misses": cache.steps.misses}
+    out["reused_steps"] = {"hits": cache.steps.hits, "misses": cache.steps.misses}
     return out
 
 

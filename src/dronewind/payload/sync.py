@@ -40,7 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -48,6 +48,7 @@ import xarray as xr
 from dronewind.core import filtering
 from dronewind.core.cf import variable
 from dronewind.core.qc import QC_GAP_FILLED, QC_OUT_OF_RANGE, qc_flag_attrs
+from dronewind.core.reuse import reused
 from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, longest_true_run, require_variables, time_ns
 from dronewind.errors import InputError
 from dronewind.payload import checks, motion
@@ -192,16 +193,30 @@ def _tke_curves(
     dt = float(lag_step_s)
     t0, n = _lag_search_grid(ts, ti, n_half, dt, max_lag_s)
     b = _sonic_body_on_grid(ts, sonic, t0 + dt * np.arange(n), mount, misalignment_deg)
-    rot, v_sonic = _ins_on_extended_grid(ti, att, vel, t0 + dt * np.arange(-n_half, n + n_half), lever_arm_m)
-    tke = _mean_tke_per_lag(rot, v_sonic, b, n, n_half)
-    parts: list[np.ndarray | None] = []
-    if split_s is not None:
-        k = int(np.clip(np.ceil((split_s - t0) / dt - 1e-9), 0, n))  # first grid sample at or after the split
-        for lo, hi in ((0, k), (k, n)):
-            ok = hi - lo >= 8 * n_half + 16
-            parts.append(_mean_tke_per_lag(rot[lo:hi + 2 * n_half], v_sonic[lo:hi + 2 * n_half], b[lo:hi], hi - lo,
-                                           n_half) if ok else None)
-    return dt * np.arange(-n_half, n_half + 1), tke, n, parts
+    grid_ext = t0 + dt * np.arange(-n_half, n + n_half)
+    lever = None if lever_arm_m is None else tuple(float(x) for x in lever_arm_m)
+    # inside a forward flight's runs, a probe that leaves the INS and the sonic's times alone
+    # finds the INS on this grid made (dronewind.core.reuse; read-only, only read below)
+    rot, v_sonic = reused("INS on the lag-search grid", {"ti": ti, "att": att, "vel": vel, "grid": grid_ext},
+                          repr(lever), lambda: _read_only(*_ins_on_extended_grid(ti, att, vel, grid_ext, lever)))
+    lags = dt * np.arange(-n_half, n_half + 1)
+    if split_s is None:
+        return lags, _mean_tke_per_lag(rot, v_sonic, b, n, n_half), n, []
+    k = int(np.clip(np.ceil((split_s - t0) / dt - 1e-9), 0, n))  # first grid sample at or after the split
+    sums = [_lag_sums(rot[lo:hi + 2 * n_half], v_sonic[lo:hi + 2 * n_half], b[lo:hi], n_half)
+            if hi - lo >= 8 * n_half + 16 else None for lo, hi in ((0, k), (k, n))]
+    parts = [None if part is None else _tke_from_sums(part) for part in sums]
+    if sums[0] is not None and sums[1] is not None:
+        # the whole grid's sums are the halves' sums: its curve costs no correlation of its own
+        return lags, _tke_from_sums(_joined(sums[0], sums[1])), n, parts
+    return lags, _mean_tke_per_lag(rot, v_sonic, b, n, n_half), n, parts
+
+
+def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The arrays, marked read-only (results that may be handed out again)."""
+    for arr in arrays:
+        arr.setflags(write=False)
+    return arrays
 
 
 def _check_lag_search(ts: np.ndarray, ti: np.ndarray, sonic: np.ndarray, att: np.ndarray, vel: np.ndarray,
@@ -377,6 +392,47 @@ def lag_correlations(long_series: np.ndarray, short_series: np.ndarray, n_lags: 
     return np.fft.irfft(np.einsum("fgl,fl->fg", spec_x, spec_y), size, axis=0)[:n_lags]
 
 
+class _LagSums(NamedTuple):
+    """The lag-dependent sums of :func:`_mean_tke_per_lag` over n grid samples, for every lag j."""
+
+    #: sum over k of R(k+j) b(k), shape (2J+1, 3)
+    rb: np.ndarray
+    #: sum over k of (R^T V)(k+j) . b(k), shape (2J+1,)
+    cb: np.ndarray
+    #: sum over k of V(k+j), shape (2J+1, 3)
+    v: np.ndarray
+    #: sum over k of |V(k+j)|^2, shape (2J+1,)
+    v2: np.ndarray
+    #: sum over k of |b(k)|^2
+    b2: float
+    #: number of grid samples n
+    n: int
+
+
+def _joined(a: _LagSums, b: _LagSums) -> _LagSums:
+    """The sums over two disjoint sets of grid samples together."""
+    return _LagSums(a.rb + b.rb, a.cb + b.cb, a.v + b.v, a.v2 + b.v2, a.b2 + b.b2, a.n + b.n)
+
+
+def _lag_sums(rot: np.ndarray, v_sonic: np.ndarray, b: np.ndarray, n_half: int) -> _LagSums:
+    """The sums of :func:`_mean_tke_per_lag` over the grid samples of ``b`` (FFT correlations, cumulative sums)."""
+    n = b.shape[0]
+    c_body = np.einsum("nji,nj->ni", rot, v_sonic)  # R^T V
+    long_series = np.concatenate([rot, c_body[:, None, :]], axis=1)  # (N, 4, 3): rows of R, then R^T V
+    corr = lag_correlations(long_series, b, 2 * n_half + 1)  # (2J+1, 4)
+    cs_v = np.concatenate([np.zeros((1, 3)), np.cumsum(v_sonic, axis=0)])
+    cs_v2 = np.concatenate([[0.0], np.cumsum(np.sum(v_sonic ** 2, axis=1))])
+    j = np.arange(2 * n_half + 1)
+    return _LagSums(corr[:, :3], corr[:, 3], cs_v[j + n] - cs_v[j], cs_v2[j + n] - cs_v2[j], float(np.sum(b * b)), n)
+
+
+def _tke_from_sums(sums: _LagSums) -> np.ndarray:
+    """Mean TKE per lag from its sums (:func:`_mean_tke_per_lag`, Notes) [m2 s-2]."""
+    n = sums.n
+    mean_w = (sums.rb + sums.v) / n
+    return 0.5 * ((sums.b2 + sums.v2 + 2.0 * sums.cb) / n - np.sum(mean_w ** 2, axis=1))
+
+
 def _mean_tke_per_lag(rot: np.ndarray, v_sonic: np.ndarray, b: np.ndarray, n: int, n_half: int) -> np.ndarray:
     """Mean TKE of :math:`W_j(t) = R(t + j\\Delta) b(t) + V(t + j\\Delta)` for every lag j.
 
@@ -406,22 +462,14 @@ def _mean_tke_per_lag(rot: np.ndarray, v_sonic: np.ndarray, b: np.ndarray, n: in
             - \\left|\\overline{R_j b} + \\overline{V_j}\\right|^2 ,
 
     and every lag-dependent mean is a cross-correlation of the rows of R and of
-    :math:`R^T V` with b (:func:`lag_correlations`) or a sliding sum. All 2J+1 lags are evaluated at once,
-    O(n log n) instead of O(n J).
+    :math:`R^T V` with b (:func:`lag_correlations`) or a sliding sum (:func:`_lag_sums`). All
+    2J+1 lags are evaluated at once, O(n log n) instead of O(n J). The sums over disjoint
+    sets of grid samples add up, so the curve of a grid split in two parts is that of the
+    parts' sums added (:func:`_tke_curves`).
     """
-    c_body = np.einsum("nji,nj->ni", rot, v_sonic)  # R^T V
-    long_series = np.concatenate([rot, c_body[:, None, :]], axis=1)  # (N, 4, 3): rows of R, then R^T V
-    corr = lag_correlations(long_series, b, 2 * n_half + 1)  # (2J+1, 4)
-    sum_rb = corr[:, :3]  # sum_k R(k+j) b(k)
-    sum_cb = corr[:, 3]  # sum_k (R^T V)(k+j) . b(k)
-    cs_v = np.concatenate([np.zeros((1, 3)), np.cumsum(v_sonic, axis=0)])
-    cs_v2 = np.concatenate([[0.0], np.cumsum(np.sum(v_sonic ** 2, axis=1))])
-    j = np.arange(2 * n_half + 1)
-    sum_v = cs_v[j + n] - cs_v[j]
-    sum_v2 = cs_v2[j + n] - cs_v2[j]
-    sum_b2 = float(np.sum(b * b))
-    mean_w = (sum_rb + sum_v) / n
-    return 0.5 * ((sum_b2 + sum_v2 + 2.0 * sum_cb) / n - np.sum(mean_w ** 2, axis=1))
+    if b.shape[0] != n:
+        raise ValueError(f"expected {n} grid samples of b, got {b.shape[0]}")
+    return _tke_from_sums(_lag_sums(rot, v_sonic, b, n_half))
 
 
 def find_sonic_ins_lag(lag_s: np.ndarray, tke_m2s2: np.ndarray) -> tuple[float, bool]:
@@ -837,7 +885,11 @@ def _correct_motion(seg: _SonicSegment, lag: float, hover_s: tuple[float, float]
     ins_keys: dict[str, np.ndarray] = {k: ins[k] for k in _INS_VARS}
     if lever_arm_m is not None:
         ins_keys["rates"] = motion.body_rates_from_euler(ins["roll_deg"], ins["pitch_deg"], ins["yaw_deg"], ti)
-    ins_s = interpolate_ins(ti, ins_keys, t_out)
+    # inside a forward flight's runs, reused where the INS and the shifted sonic times are unchanged
+    # (dronewind.core.reuse); a fresh copy of each series, as the caller may change them
+    ins_s = {k: v.copy() for k, v in reused(
+        "INS at the sonic samples", {"ti": ti, "t_out": t_out, **ins_keys}, repr(sorted(ins_keys)),
+        lambda: interpolate_ins(ti, ins_keys, t_out)).items()}
     data = seg.filled if seg.filled_ok else seg.raw
     wind = motion.motion_correct(
         data["u_sensor_ms"][sel], data["v_sensor_ms"][sel], data["w_sensor_ms"][sel],
@@ -870,9 +922,12 @@ def _plausibility(sonic_l1: xr.Dataset, seg: _SonicSegment, hover_s: tuple[float
         height = float(np.median(alt_used_m) - float(site_altitude_m))
         results.append(checks.height_check(height, target_height_m))
     good = ~ins_missing
-    results.append(checks.velocity_position_check(
-        ti[good], ins["lat_deg"][good], ins["lon_deg"][good], ins["alt_m"][good], ins["vel_n_ms"][good],
-        ins["vel_e_ms"][good], ins["vel_d_ms"][good]))
+    inputs = {"t": ti[good], **{k: ins[k][good] for k in ("lat_deg", "lon_deg", "alt_m", "vel_n_ms", "vel_e_ms",
+                                                         "vel_d_ms")}}
+    # the INS's own check: reused inside a forward flight's runs where the INS is unchanged
+    results.append(reused("velocity-position check", inputs, "", lambda: checks.velocity_position_check(
+        inputs["t"], inputs["lat_deg"], inputs["lon_deg"], inputs["alt_m"], inputs["vel_n_ms"], inputs["vel_e_ms"],
+        inputs["vel_d_ms"])))
     if "qc_sonic" in sonic_l1.variables:
         h0, h1 = hover_s
         in_hover = (seg.time_s >= h0) & (seg.time_s <= h1)
