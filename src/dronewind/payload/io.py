@@ -58,6 +58,7 @@ from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
+from dronewind.core.reuse import reused
 from dronewind.errors import InputError, describe_header
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
 
@@ -888,7 +889,10 @@ def _load_ins(
                 f"(> {relation_jump_tol_s:g} s) near rpi_time_us={int(t[j])}: logger clock or "
                 "GNSS time jump; not corrected, fix or split the flight",
             )
-    fit = fit_logger_clock(t[fit_rows], cols["utc"][fit_rows])
+    # inside a forward flight's runs, an INS probe leaves the times alone: the fit is reused
+    # (dronewind.core.reuse; a frozen dataclass)
+    fit = reused("logger-clock fit", {"rpi_time_us": t[fit_rows], "utc": cols["utc"][fit_rows]}, "",
+                 lambda: fit_logger_clock(t[fit_rows], cols["utc"][fit_rows]))
     log.append(
         f"clock_fit: utc = a + b*rpi_time on {fit.n_used} rows ({fit.n_outliers} outliers): "
         f"drift {fit.drift_ppm:.3f} ppm, residual std {fit.residual_std_s * 1e6:.2f} us"

@@ -591,6 +591,49 @@ def _window_miss(w0: int, w1: int, ts_ns: np.ndarray, ti_ns: np.ndarray, n_s: in
             "time zone (UTC)")
 
 
+def _ins_steps(ins_l1: xr.Dataset, ti: np.ndarray, hover_settings: tuple[float, float, float, float], tr: _Trace,
+               ) -> tuple[dict[str, np.ndarray], np.ndarray, tuple[float, float]]:
+    """Steps 1 and 2, which read the INS only: :func:`_fill_ins_gaps`, then :func:`_hover_window`.
+
+    Inside a forward flight's runs (:mod:`dronewind.core.reuse`), a probe that leaves the INS
+    alone reuses them: the filled INS (read-only), the missing samples and the hover window,
+    with the counts, log lines and reasons they added to ``tr``.
+
+    Parameters
+    ----------
+    ins_l1 : xarray.Dataset
+        INS L1 (within the window).
+    ti : numpy.ndarray
+        Its times [s].
+    hover_settings : tuple of float
+        ``alt_tol_m``, ``horiz_tol_m``, ``min_hover_s``, ``max_missing_fraction`` of
+        :func:`_hover_window`.
+    tr : _Trace
+        Receives what the two steps report.
+
+    Returns
+    -------
+    ins, ins_missing, hover
+        As :func:`_fill_ins_gaps` and :func:`_hover_window`.
+    """
+    def make() -> tuple[dict[str, np.ndarray], np.ndarray, tuple[float, float], _Trace]:
+        own = _Trace(where=tr.where)
+        ins, ins_missing = _fill_ins_gaps(ins_l1, ti, own)
+        hover = _hover_window(ins, ti, ins_missing, *hover_settings, own)
+        for arr in (*ins.values(), ins_missing):
+            arr.setflags(write=False)
+        return ins, ins_missing, hover, own
+
+    arrays = {"ti": ti, **{k: ins_l1[k].values for k in _INS_VARS}}
+    if "ekf_valid" in ins_l1.variables:
+        arrays["ekf_valid"] = ins_l1["ekf_valid"].values
+    ins, ins_missing, hover, own = reused("INS gaps and hover window", arrays, repr((hover_settings, tr.where)), make)
+    tr.log.extend(own.log)
+    tr.counts.update(own.counts)
+    tr.reasons.extend(own.reasons)
+    return ins, ins_missing, hover
+
+
 def _fill_ins_gaps(ins_l1: xr.Dataset, ti: np.ndarray, tr: _Trace) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Step 1: INS gaps (NaN or ``ekf_valid == 0``) filled linearly in time.
 
@@ -1126,9 +1169,8 @@ def payload_l2(
     sonic_l1, ins_l1, ts_ns, ti_ns = _apply_window(sonic_l1, ins_l1, window, tr)
     t_ref = int(min(ts_ns[0], ti_ns[0]))
     ts, ti = (ts_ns - t_ref) / _NS, (ti_ns - t_ref) / _NS
-    ins, ins_missing = _fill_ins_gaps(ins_l1, ti, tr)
-    hover = _hover_window(ins, ti, ins_missing, hover_alt_tol_m, hover_horiz_tol_m, min_hover_s,
-                          max_missing_fraction, tr)
+    ins, ins_missing, hover = _ins_steps(ins_l1, ti, (hover_alt_tol_m, hover_horiz_tol_m, min_hover_s,
+                                                       max_missing_fraction), tr)
     seg = _sonic_segment(sonic_l1, ts, hover[0], hover[1], max_lag_s, max_missing_fraction, tr)
     lag, lag_tke_min, lag_grid, tke, halves_s = _sonic_ins_lag(seg, hover, ti, ins, mount, lever_arm_m, max_lag_s,
                                                                lag_step_s, misalignment_deg, fixed_lag_s, tr,
