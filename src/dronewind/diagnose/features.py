@@ -120,6 +120,13 @@ def _welch(x: np.ndarray, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
     return reused("welch psd", {"x": x}, repr(float(fs_hz)), make)
 
 
+def _read_only(series: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The series, marked read-only (a result that may be handed out again)."""
+    for arr in series.values():
+        arr.setflags(write=False)
+    return series
+
+
 def _fitted_time_scale(x: np.ndarray, fs_hz: float) -> float:
     result = scales.integral_time_scale(x, fs_hz)
     value = float(result.time_scale_s)
@@ -290,7 +297,11 @@ def _attitude_rate_features(l3: xr.Dataset, l2_drone: xr.Dataset, s: _SensorSeri
     """Correlations of the w residual (drone minus mast) with the payload's pitch and roll rates."""
     lag_dm = float(l3.attrs.get("lag_drone_mast_s", 0.0))
     times = l3["time"].values - np.timedelta64(int(round(lag_dm * 1e9)), "ns")
-    rates = _rates_deg_s(l2_drone, times, s.fs_hz)
+    arrays = {"time": l2_drone["time"].values, "pitch_deg": l2_drone["pitch_deg"].values,
+              "roll_deg": l2_drone["roll_deg"].values, "times": times}
+    # a sonic probe leaves the payload's attitude alone: reused inside a forward flight's runs
+    rates = reused("attitude rates", arrays, repr(float(s.fs_hz)), lambda: _read_only(
+        _rates_deg_s(l2_drone, times, s.fs_hz)))
     wres = l3["w_ms"].values[s.sensors.index("drone")] - l3["w_ms"].values[s.sensors.index("mast")]
     n_eff = max(s.tau_s / (2 * max(s.time_scale_s["drone"]["w"], 1.0 / s.fs_hz)), 3.0)
     for name, key in (("corr_wres_pitch_rate", "pitch_deg"), ("corr_wres_roll_rate", "roll_deg")):
