@@ -56,7 +56,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -302,12 +302,36 @@ def _mast_file(pattern_list: list[str], flight_id: str, sonic_id: str) -> str:
 # --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Streams:
-    """The flight's named random streams: ``streams(name, k)`` is a fresh generator of stream name + k."""
+    """The flight's named random streams: ``streams(name, k)`` is a fresh generator of stream name + k.
+
+    With a truth's ``memo``, :meth:`once` keeps what a stream gave, so that the probes of one
+    truth draw it once: a fresh generator gives the same numbers every time, so this changes
+    no record.
+    """
 
     seed: int
+    memo: dict[tuple[str, str], Any] | None = field(default=None, compare=False, repr=False)
 
     def __call__(self, name: str, k: int = 0) -> np.random.Generator:
         return np.random.default_rng([self.seed, _STREAM[name] + k])
+
+    def normal(self, name: str, shape: int | tuple[int, ...], k: int = 0) -> np.ndarray:
+        """``self(name, k).standard_normal(shape)`` (read-only; drawn once per truth with a memo)."""
+        return self.once(("normal", name, k, shape), lambda: self(name, k).standard_normal(shape))
+
+    def once(self, key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
+        """``make()``, made once per truth and key with a memo; its arrays read-only."""
+        if self.memo is None:
+            return make()
+        return _remembered(self.memo, ("stream draws", repr(key)), lambda: _read_only(make()))
+
+
+def _read_only(value: Any) -> Any:
+    """``value`` with its arrays (itself, or the items of a tuple) marked read-only."""
+    for arr in value if isinstance(value, tuple) else (value,):
+        if isinstance(arr, np.ndarray):
+            arr.setflags(write=False)
+    return value
 
 
 @dataclass(frozen=True)
@@ -731,11 +755,11 @@ def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, v_bod
     v_sensor = v_body @ m_sb                                   # (M^T v) row-wise
     if "w_gain" in mech:
         v_sensor[:, 2] *= mech["w_gain"]["gain"]
-    v_sensor += p["sonic_noise_ms"] * streams("sonic_noise").standard_normal(v_sensor.shape)
+    v_sensor += p["sonic_noise_ms"] * streams.normal("sonic_noise", v_sensor.shape)
     if "sonic_noise" in mech:
-        v_sensor += mech["sonic_noise"]["sigma_ms"] * streams("noise_mechanism").standard_normal(v_sensor.shape)
+        v_sensor += mech["sonic_noise"]["sigma_ms"] * streams.normal("noise_mechanism", v_sensor.shape)
     t_c = air.theta_k - ZERO_CELSIUS_K + p["temperature_offset_k"] + p["temperature_noise_k"] * \
-        streams("sonic_noise", 10).standard_normal(v_body.shape[0])
+        streams.normal("sonic_noise", v_body.shape[0], 10)
     res = p["sonic_resolution_ms"]
     if res > 0:
         v_sensor = np.round(v_sensor / res) * res
@@ -895,7 +919,9 @@ def _ins_validity(cond: PayloadFlightConditions, t_s: np.ndarray) -> tuple[np.nd
 def _sonic_log(source: str, cond: PayloadFlightConditions, stamps_us: np.ndarray, v_sensor_ms: np.ndarray,
                t_sonic_c: np.ndarray, streams: _Streams) -> RawRecord:
     """Sonic CSV with row defects (missing, duplicated, swapped rows; out-of-range values)."""
-    order, oor = _defects(streams("sonic_defects"), stamps_us.size, cond["defects"]["sonic"])
+    rates = cond["defects"]["sonic"]
+    order, oor = streams.once(("defects", "sonic_defects", stamps_us.size, sorted(rates.items())),
+                              lambda: _defects(streams("sonic_defects"), stamps_us.size, rates))
     r_def = streams("sonic_defects", 1)
     cols = np.column_stack([v_sensor_ms, t_sonic_c])
     bad_rows = np.flatnonzero(oor)
@@ -915,7 +941,9 @@ def _ins_log(source: str, cond: PayloadFlightConditions, ins: _InsRecord, valid:
     time_valid, ekf_valid = valid
     utc = cond["start"] + np.round(ins.t_s * 1e6).astype(np.int64) * us
     ins_rpi = _logger_clock_us(ins.t_s, log_t0_s, cond["start"], cond["payload"])
-    o, oor_i = _defects(streams("ins_defects"), ins.t_s.size, cond["defects"]["ins"])
+    rates = cond["defects"]["ins"]
+    o, oor_i = streams.once(("defects", "ins_defects", ins.t_s.size, sorted(rates.items())),
+                            lambda: _defects(streams("ins_defects"), ins.t_s.size, rates))
     ins_cols = np.column_stack([ins.vel_n_ms, ins.vel_e_ms, ins.vel_d_ms, ins.roll_deg, ins.pitch_deg])
     bad_rows = np.flatnonzero(oor_i)
     bad_cols = streams("ins_defects", 1).integers(0, 5, bad_rows.size)
@@ -1113,7 +1141,7 @@ def payload_records(campaign: CampaignLike, flight_id: str, truth: PayloadTruth 
     unknown = sorted(set(cond["mechanisms"]) - set().union(*INSTRUMENT_MECHANISMS.values(), {"height_offset"}))
     if unknown:  # a mechanism added to the simulator must be assigned to the instrument it acts on
         raise ValueError(f"mechanism(s) {unknown} act on no instrument of INSTRUMENT_MECHANISMS")
-    p, streams, motion, flight = cond["payload"], _Streams(cond["seed"]), truth.motion, cond["flight"]
+    p, streams, motion, flight = cond["payload"], _Streams(cond["seed"], truth.memo), truth.motion, cond["flight"]
 
     def sonic() -> RawRecord:
         v_body = _remembered(truth.memo, ("sonic air in body frame", repr(cond["mechanisms"].get("downwash"))),

@@ -332,10 +332,15 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     measured = base_record is not None
     record = None if base_record is None else forward.record_through(base_record, mechanisms)
     out["atmosphere"] = atmosphere
+    # the seeds' runs share what their records share (with the measured atmosphere, the
+    # forward mast's record is the measured one in every run): products and steps of the
+    # first run are reused where a later run's inputs are bit-identical
+    cache = forward.ForwardCache()
     for k, seed in enumerate(seeds):
         feats, products = forward.run_forward(
             forward.forward_manifest(data, flight_id, conditions, mechanisms, seed, measured), flight_id, processing,
-            atmosphere=record)
+            atmosphere=record, cache=cache)
+        cache.freeze()
         out["runs"].append(features_to_dict(feats))
         if k == 0:
             # spectra before/after with common random numbers: the same seed without the mechanisms
@@ -345,7 +350,7 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
                 truth = products["truth"] if forward.shares_truth(mechanisms, measured) else None
                 _, base = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, [], seed,
                                                                        measured), flight_id, processing,
-                                              truth=truth, atmosphere=base_record)
+                                              truth=truth, atmosphere=base_record, cache=cache)
                 out["spectra"]["baseline"] = binned_spectra(base["l3"])
             else:
                 out["spectra"]["baseline"] = out["spectra"]["extended"]
