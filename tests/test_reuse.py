@@ -94,3 +94,30 @@ def test_same_bits_of_every_item_size(dtype):
     assert not same_bits(a, b) and not same_bits(a, a.reshape(4, 3))
     with pytest.raises(TypeError, match="object"):
         same_bits(np.array([None]), np.array([None]))
+
+
+def test_products_are_found_by_equal_records_and_not_by_other_ones():
+    """ForwardCache finds a product by the same record objects or bit-identical columns; one
+    changed value, another source or another settings text is a miss; file paths match only
+    as the same object."""
+    from pathlib import Path
+
+    from dronewind.core.raw import RawRecord
+    from dronewind.diagnose.forward import same_records
+
+    cols = {"t": np.arange(5, dtype=np.int64), "x": np.array([0.0, np.nan, 1.0, 2.0, 3.0])}
+    rec = RawRecord("a.csv", cols)
+    twin = RawRecord("a.csv", {k: v.copy() for k, v in cols.items()})
+    changed = RawRecord("a.csv", {"t": cols["t"], "x": np.array([0.0, np.nan, 1.0, 2.0, 3.5])})
+    moved = RawRecord("b.csv", cols)
+    objects = RawRecord("a.csv", {**cols, "s": np.array(["p", "q", "r", "s", "t"], dtype=object)})
+    assert same_records([rec], [twin]) and not same_records([rec, Path("f.csv")], [twin, Path("f.csv")])
+    assert not same_records([rec], [changed]) and not same_records([rec], [moved])
+    assert same_records([objects], [RawRecord("a.csv", {**cols, "s": np.array(list("pqrst"), dtype=object)})])
+    cache = ForwardCache()
+    make, calls = _counting("L1")
+    path = Path("f.csv")
+    for records in ([rec], [twin], [changed], [path], [path]):
+        cache.get("l1", records, make)
+    cache.get("l1", [rec], make, settings="other")
+    assert len(calls) == 4 and (cache.hits, cache.misses) == (2, 4)

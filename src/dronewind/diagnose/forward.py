@@ -64,7 +64,7 @@ from dronewind.compare.chain import compute_l3
 from dronewind.core.constants import KARMAN
 from dronewind.core.progress import Progress
 from dronewind.core.raw import RawRecord
-from dronewind.core.reuse import StepStore, reusing
+from dronewind.core.reuse import StepStore, reusing, same_bits
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.diagnose.probes import (
     ATMOSPHERES,
@@ -86,7 +86,7 @@ from dronewind.payload.chain import compute_ins_l1, compute_payload_l2, compute_
 
 __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS",
            "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
-           "record_digest", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
+           "same_records", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
            "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "shares_truth", "atmosphere_record",
            "fresh_seeds", "record_through", "hover_span", "atmosphere_window", "ATMOSPHERE_VARIABLES"]
 
@@ -358,10 +358,11 @@ class ForwardCache:
     A probe of a measurement-stage mechanism changes one instrument's record and leaves the
     others bit-identical to the baseline's (same true state, same random streams): a sonic
     probe leaves the INS and the masts, an INS probe the masts, a mast probe the payload.
-    Each product is a pure function of its records and the settings, so it is looked up by a
-    digest of the records' contents (BLAKE2b of every column's bytes) and computed only
-    when absent. Entries are stored while the cache is open (the baseline run) and only read
-    after :meth:`freeze`, so memory stays one run's products.
+    Each product is a pure function of its records and the settings, so it is found by its
+    records: the same record objects, or records whose columns are bit for bit the same
+    (:func:`same_records`; comparing is about twenty times cheaper than hashing them, and the
+    cache holds few products of each kind). Entries are stored while the cache is open (the
+    baseline run) and only read after :meth:`freeze`, so memory stays one run's products.
 
     :attr:`steps` does the same for steps inside a product whose own input a probe left
     unchanged (e.g. despiking a sonic channel; :mod:`dronewind.core.reuse`), found by
@@ -369,7 +370,7 @@ class ForwardCache:
     """
 
     def __init__(self) -> None:
-        self._store: dict[tuple[str, str], Any] = {}
+        self._store: dict[tuple[str, str], list[tuple[tuple[RawRecord | str | Path, ...], Any]]] = {}
         self.frozen = False
         self.hits = 0
         self.misses = 0
@@ -380,28 +381,57 @@ class ForwardCache:
         """Stop storing: later runs only read the entries."""
         self.frozen = True
 
-    def get(self, kind: str, key: str, make: Callable[[], Any]) -> Any:
-        """The product ``kind`` of the records with digest ``key``, made by ``make()`` if absent."""
-        if (kind, key) in self._store:
-            self.hits += 1
-            return self._store[(kind, key)]
+    def get(self, kind: str, records: Sequence[RawRecord | str | Path], make: Callable[[], Any],
+            settings: str = "") -> Any:
+        """The product ``kind`` of these records (and ``settings``), made by ``make()`` if absent."""
+        key = tuple(records)
+        entries = self._store.setdefault((kind, settings), [])
+        for stored, value in entries:
+            if same_records(stored, key):
+                self.hits += 1
+                return value
         self.misses += 1
         value = make()
         if not self.frozen:
-            self._store[(kind, key)] = value
+            entries.append((key, value))
         return value
 
 
-def record_digest(*records: RawRecord | str | Path) -> str:
-    """Digest of records' contents (:attr:`dronewind.core.raw.RawRecord.digest`) [hex].
+def same_records(a: Sequence[RawRecord | str | Path], b: Sequence[RawRecord | str | Path]) -> bool:
+    """Whether two lists of records hold the same data: the same objects, or equal columns bit for bit.
 
-    File paths only name the products of one run (:func:`process_forward_flight` gives files a
-    fresh, empty cache), so their contents are not read.
+    File paths are equal only as the same object: a file rewritten in place is never taken for
+    the one read before (:func:`process_forward_flight` gives files a fresh cache).
+
+    Parameters
+    ----------
+    a, b : sequence of RawRecord, str or Path
+        Records (:class:`dronewind.core.raw.RawRecord`) or file paths.
+
+    Returns
+    -------
+    bool
     """
-    h = hashlib.blake2b(digest_size=16)
-    for rec in records:
-        h.update(rec.digest.encode() if isinstance(rec, RawRecord) else f"file:{rec}".encode())
-    return h.hexdigest()
+    if len(a) != len(b):
+        return False
+    for x, y in zip(a, b, strict=True):
+        if x is y:
+            continue
+        if not (isinstance(x, RawRecord) and isinstance(y, RawRecord)):
+            return False
+        if (x.source, x.first_line, dict(x.units), dict(x.meta), list(x.columns)) != (
+                y.source, y.first_line, dict(y.units), dict(y.meta), list(y.columns)):
+            return False
+        if not all(_same_column(np.asarray(x.columns[k]), np.asarray(y.columns[k])) for k in x.columns):
+            return False
+    return True
+
+
+def _same_column(a: np.ndarray, b: np.ndarray) -> bool:
+    """Bit-identical numeric columns, or equal object columns (by their values)."""
+    if a.dtype.kind == "O" or b.dtype.kind == "O":
+        return a.dtype == b.dtype and a.shape == b.shape and a.tolist() == b.tolist()
+    return same_bits(a, b)
 
 
 def _clock_digest(ins_table: InsTable, ins_src: str | Path | RawRecord) -> str:
@@ -463,22 +493,20 @@ def _process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources
     mast_srcs = [src for src in sources[2:] if any(PurePath(str(src)).match(str(pattern))
                                                    for pattern in sonic_info["files"])]
     lag = {key: processing[key] for key in LAG_SETTINGS}
-    k_ins = record_digest(ins_src)
-    k_payload = record_digest(sonic_src) + k_ins
-    ins_table, ins_l1 = cache.get("ins_l1", k_ins, lambda: compute_ins_l1(ins_src))
+    ins_table, ins_l1 = cache.get("ins_l1", [ins_src], lambda: compute_ins_l1(ins_src))
     # the sonic L1 takes from the INS only its clock (fit, stable time, log): an INS probe that
     # leaves the INS's times alone (heading bias, attitude lag, lever arm) reuses it
-    sonic_l1 = cache.get("sonic_l1", record_digest(sonic_src) + _clock_digest(ins_table, ins_src),
-                         lambda: compute_sonic_l1(sonic_src, ins_src, ins_table, processing["despike"]))
+    sonic_l1 = cache.get("sonic_l1", [sonic_src],
+                         lambda: compute_sonic_l1(sonic_src, ins_src, ins_table, processing["despike"]),
+                         settings=_clock_digest(ins_table, ins_src))
     site_altitude_m = float(manifest["site"]["altitude_m"])
 
     def payload_l2() -> tuple[xr.Dataset, tuple[float, float] | None]:
         l2 = compute_payload_l2(sonic_l1, ins_l1, flight, site_altitude_m, lag_halves=lag_drift, **lag)
         return l2, lag_halves(sonic_l1, ins_l1, l2, flight, site_altitude_m, **lag) if lag_drift else None
 
-    l2, halves = cache.get("l2" if lag_drift else "l2 without halves", k_payload, payload_l2)
-    mast_l1 = cache.get("mast_l1", record_digest(*mast_srcs),
-                        lambda: compute_mast_l1(mast_srcs, sonic_info, processing["despike"]))
+    l2, halves = cache.get("l2" if lag_drift else "l2 without halves", [sonic_src, ins_src], payload_l2)
+    mast_l1 = cache.get("mast_l1", mast_srcs, lambda: compute_mast_l1(mast_srcs, sonic_info, processing["despike"]))
     mast_l2 = compute_mast_l2(mast_l1, l2, flight_id, processing["drone_mast"], source="forward mast")
     l3 = compute_l3(l2, mast_l2, flight, processing["drone_mast"], processing["rotation"])
     features = flight_features(l3, l2, lag_halves_s=halves, lag_step_s=float(processing["sonic_ins_lag"]["step_s"]))
