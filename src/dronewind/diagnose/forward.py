@@ -48,6 +48,7 @@ piecewise-linearly between levels and the baseline, see
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
 import math
@@ -562,7 +563,10 @@ def run_forward(
     from dronewind.simulate.payload import payload_records
     from dronewind.simulate.writers import write_record
 
-    records, truth = payload_records(dict(manifest), flight_id, truth, atmosphere)
+    # inside the flight's cache, the simulator's steps that depend on neither seed nor probe
+    # (the measured record's constraint) are made once too
+    with reusing(cache.steps) if cache is not None else contextlib.nullcontext():
+        records, truth = payload_records(dict(manifest), flight_id, truth, atmosphere)
     sources: list[str | Path | RawRecord] = list(records)
     if work_dir is not None:
         folder = Path(str(work_dir))

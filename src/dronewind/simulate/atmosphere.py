@@ -73,6 +73,7 @@ scales and multiplies their sigmas;
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 from collections.abc import Sequence
@@ -84,6 +85,7 @@ import xarray as xr
 
 from dronewind.core.constants import GRAVITY_MS2, KARMAN
 from dronewind.core.raw import content_digest
+from dronewind.core.reuse import reused
 from dronewind.errors import InputError
 
 __all__ = [
@@ -691,6 +693,13 @@ class _PointSpectra:
     co_shape: np.ndarray
 
 
+def _read_only_spectra(spectra: _PointSpectra) -> _PointSpectra:
+    """``spectra`` with its arrays read-only (a result that may be handed out again)."""
+    for arr in (spectra.amplitude, spectra.rho_uw, spectra.rho_wt, spectra.co_shape):
+        arr.setflags(write=False)
+    return spectra
+
+
 def _point_spectra(z_m: np.ndarray, speed_ms: np.ndarray, fpos_hz: np.ndarray, df_hz: float,
                    friction_velocity_ms: float, obukhov_length_m: float, boundary_layer_height_m: float,
                    theta_mean_k: float) -> _PointSpectra:
@@ -928,7 +937,13 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
     speed = mean_speed_profile(z, ustar, roughness_length_m, obukhov_length_m)
     adv = max(float(mean_speed_profile(z_ref_m, ustar, roughness_length_m, obukhov_length_m)), 0.5)
     e_u, e_v = wind_frame_unit_vectors(wind_from_deg)
-    spectra = _point_spectra(z, speed, fpos, df, ustar, obukhov_length_m, boundary_layer_height_m, theta_mean_k)
+    # the same points and conditions for every seed of a forward flight: made once inside its
+    # runs (dronewind.core.reuse; arrays read-only, the diagnostics copied)
+    spectra = reused("point spectra", {"z": z, "speed": speed, "fpos": fpos},
+                     repr((df, ustar, obukhov_length_m, boundary_layer_height_m, theta_mean_k)),
+                     lambda: _read_only_spectra(_point_spectra(z, speed, fpos, df, ustar, obukhov_length_m,
+                                                               boundary_layer_height_m, theta_mean_k)))
+    spectra = dataclasses.replace(spectra, diagnostics=copy.deepcopy(spectra.diagnostics))
     if amplitudes not in ("model", "constraint"):
         raise InputError("field_coefficients.amplitudes", f"{amplitudes!r}; expected 'model' or 'constraint'")
     latents = None

@@ -68,6 +68,7 @@ from scipy.interpolate import CubicSpline
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 from dronewind.core.raw import RawRecord, content_digest
+from dronewind.core.reuse import reused
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate.mast import mast_measurement
@@ -426,8 +427,17 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
     info: dict[str, Any] = {}
     if atmosphere is not None:
         ref = field.mast_ids.index(cond["reference"])
-        con, info = measured_constraint(atmosphere, clock, points[ref], period, fs_max, cond["wind_from_deg"],
-                                        cond["duration_s"])
+        names = [v for v in ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k") if v in atmosphere]
+        # the same record, point and clock for every seed and height of a forward flight: the
+        # constraint is made once inside its runs (dronewind.core.reuse; read-only)
+        con, info = reused(
+            "measured constraint", {"time": atmosphere["time"].values, "point": points[ref],
+                                    **{v: atmosphere[v].values for v in names}},
+            repr((clock, period, fs_max, cond["wind_from_deg"], cond["duration_s"],
+                  float(atmosphere.attrs.get("noise_ms", 0.0)),
+                  float(atmosphere.attrs.get("temperature_noise_k", 0.0)))),
+            lambda: _read_only_constraint(measured_constraint(atmosphere, clock, points[ref], period, fs_max,
+                                                              cond["wind_from_deg"], cond["duration_s"])))
     spec = atm.field_coefficients(points, period, fs_max, cond["mean_speed_ms"],
                                   cond["wind_from_deg"], cond["z_ref_m"], cond["obukhov_length_m"],
                                   cond["roughness_length_m"], rng, cond["theta_mean_k"],
@@ -436,6 +446,15 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
     # the campaign's turbulence model (simulation.atmosphere) shapes a model field only: a field
     # constrained by a measured record takes that record's spectra
     return (_turbulence_model(cond, field, spec) if con is None else spec), info
+
+
+def _read_only_constraint(made: tuple[atm.ConstraintLatents, dict[str, Any]]
+                          ) -> tuple[atm.ConstraintLatents, dict[str, Any]]:
+    """A constraint and its description with the constraint's arrays read-only (handed out again)."""
+    for value in made[0].values():
+        if isinstance(value, np.ndarray):
+            value.setflags(write=False)
+    return made
 
 
 def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np.ndarray, period_s: float,
