@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import resource
 import shutil
 import subprocess
@@ -32,7 +31,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from bench_common import print_and_write
+from bench_common import machine, print_and_write
 
 FS_HZ = 20.0
 SONIC = {"id": "csat3_30m", "height_m": 30.0, "azimuth_deg": 218.0}
@@ -138,7 +137,7 @@ def run(days: list[int], n_workers: int, keep: Path | None, toa5_dir: Path | Non
         "what": "N days of 20 Hz CSAT3 TOA5 (one file per day) -> L1 NetCDF per day -> 30-min block L4 -> "
                 "block_stats.csv, dronewind.compare.long_record.process_long_record in a child process",
         "command": "benchmarks/bench_long_record.py --days " + " ".join(map(str, days)) + f" --workers {n_workers}",
-        "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "platform": platform.platform()},
+        "machine": machine(),
         "n_workers": n_workers, "generation_s": gen_s, "results": results,
         "wall_s_per_day": per_day,
         "linearity": {"wall_per_day_ratio_last_to_first": per_day[-1] / per_day[0],

@@ -121,3 +121,31 @@ def test_products_are_found_by_equal_records_and_not_by_other_ones():
         cache.get("l1", records, make)
     cache.get("l1", [rec], make, settings="other")
     assert len(calls) == 4 and (cache.hits, cache.misses) == (2, 4)
+
+
+def test_results_are_read_only_inside_a_block_and_out():
+    """A result that may be handed out again cannot be changed by whoever gets it: its arrays,
+    also inside tuples, dictionaries and dataclasses, are read-only with or without a store."""
+    from dataclasses import dataclass
+
+    @dataclass(frozen=True)
+    class Pair:
+        a: np.ndarray
+        notes: list
+
+    def make():
+        return (np.zeros(3), {"b": np.ones(2)}, Pair(np.arange(4.0), ["x"]), 1.5)
+
+    for store in (None, StepStore()):
+        with reusing(store) if store is not None else _nothing():
+            arr, mapping, pair, number = reused("step", {"x": np.zeros(1)}, "", make)
+        for a in (arr, mapping["b"], pair.a):
+            with pytest.raises(ValueError, match="read-only"):
+                a[0] = 1.0
+        assert number == 1.5 and pair.notes == ["x"]
+
+
+def _nothing():
+    import contextlib
+
+    return contextlib.nullcontext()

@@ -18,7 +18,6 @@ the file's data lines would be (``first_line`` for the first row).
 
 from __future__ import annotations
 
-import functools
 import hashlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -36,10 +35,11 @@ def content_digest(arrays: Mapping[str, object], prefix: str = "") -> str:
 
     Equal digests mean equal names and bit-identical arrays (object arrays by their
     ``repr``). The arrays' memory is hashed in place, without a copy; with the processors'
-    SHA instructions that is about twice as fast as BLAKE2b of a copy (a simulated flight's
-    four records: 9.6 against 21.0 ms, ``benchmarks/results/record_checks_s26.json``). A
-    forward run digests every record it makes (the keys of the products it reuses) and the
-    inputs of its simulated field.
+    SHA instructions that is about twice as fast as BLAKE2b of a copy
+    (``benchmarks/results/record_checks_s26.json``). It keys what is remembered across runs
+    and processes: the measured atmosphere of a true state and the simulated field's
+    coherence factors (within one forward flight, products and steps are found by comparing
+    their inputs instead: :mod:`dronewind.core.reuse`).
 
     Parameters
     ----------
@@ -99,14 +99,6 @@ class RawRecord:
 
     def __str__(self) -> str:
         return self.source
-
-    @functools.cached_property
-    def digest(self) -> str:
-        """Digest of the record's content (:func:`content_digest` of its columns) [hex].
-
-        Computed once per record: equal digests mean bit-identical columns.
-        """
-        return content_digest(self.columns)
 
     def line_numbers(self) -> np.ndarray:
         """File line number of every row [1]."""

@@ -24,12 +24,13 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import dataclasses
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, TypeVar
 
 import numpy as np
 
-__all__ = ["StepStore", "reusing", "reused", "same_bits"]
+__all__ = ["StepStore", "reusing", "reused", "read_only", "same_bits"]
 
 T = TypeVar("T")
 
@@ -57,6 +58,27 @@ def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     if uint is None or a.ndim == 0:
         a, b, uint = np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1), np.uint8
     return bool(np.array_equal(a.view(uint), b.view(uint)))
+
+
+def read_only(value: T) -> T:
+    """``value`` with every array in it marked read-only: itself, or inside tuples, lists,
+    dictionaries and dataclasses (nested). Returns ``value``.
+
+    A result that may be handed out again (:func:`reused`, a truth's remembered draws) must
+    not be changed by the one who gets it; a caller that needs to change it copies it.
+    """
+    if isinstance(value, np.ndarray):
+        value.setflags(write=False)
+    elif isinstance(value, (tuple, list)):
+        for item in value:
+            read_only(item)
+    elif isinstance(value, dict):
+        for item in value.values():
+            read_only(item)
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        for f in dataclasses.fields(value):
+            read_only(getattr(value, f.name))
+    return value
 
 
 class StepStore:
@@ -140,15 +162,15 @@ def reused(kind: str, arrays: Mapping[str, Any], settings: str, make: Callable[[
         Every other argument the result depends on, as text (``repr`` of the scalars: the
         shortest text that reads back as the same float).
     make : callable
-        Computes the result; it must depend on ``arrays`` and ``settings`` only. Results
-        should be read-only or copied by the caller (a reused result is handed out again).
+        Computes the result; it must depend on ``arrays`` and ``settings`` only.
 
     Returns
     -------
     object
-        The result of ``make()``.
+        The result of ``make()``, its arrays read-only (:func:`read_only`) inside a block or
+        not, as a reused result is handed out again: a caller that changes it copies it.
     """
     store = _STORE.get()
     if store is None:
-        return make()
-    return store.get(kind, settings, {k: np.asarray(v) for k, v in arrays.items()}, make)
+        return read_only(make())
+    return store.get(kind, settings, {k: np.asarray(v) for k, v in arrays.items()}, lambda: read_only(make()))

@@ -111,20 +111,7 @@ def _time_scale(x: np.ndarray, fs_hz: float) -> float:
 
 def _welch(x: np.ndarray, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """:func:`dronewind.core.spectra.welch_psd` of a series, read-only (reused within a forward flight)."""
-    def make() -> tuple[np.ndarray, np.ndarray]:
-        f_hz, psd = spectra.welch_psd(x, fs_hz)
-        f_hz.setflags(write=False)
-        psd.setflags(write=False)
-        return f_hz, psd
-
-    return reused("welch psd", {"x": x}, repr(float(fs_hz)), make)
-
-
-def _read_only(series: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The series, marked read-only (a result that may be handed out again)."""
-    for arr in series.values():
-        arr.setflags(write=False)
-    return series
+    return reused("welch psd", {"x": x}, repr(float(fs_hz)), lambda: spectra.welch_psd(x, fs_hz))
 
 
 def _fitted_time_scale(x: np.ndarray, fs_hz: float) -> float:
@@ -300,8 +287,7 @@ def _attitude_rate_features(l3: xr.Dataset, l2_drone: xr.Dataset, s: _SensorSeri
     arrays = {"time": l2_drone["time"].values, "pitch_deg": l2_drone["pitch_deg"].values,
               "roll_deg": l2_drone["roll_deg"].values, "times": times}
     # a sonic probe leaves the payload's attitude alone: reused inside a forward flight's runs
-    rates = reused("attitude rates", arrays, repr(float(s.fs_hz)), lambda: _read_only(
-        _rates_deg_s(l2_drone, times, s.fs_hz)))
+    rates = reused("attitude rates", arrays, repr(float(s.fs_hz)), lambda: _rates_deg_s(l2_drone, times, s.fs_hz))
     wres = l3["w_ms"].values[s.sensors.index("drone")] - l3["w_ms"].values[s.sensors.index("mast")]
     n_eff = max(s.tau_s / (2 * max(s.time_scale_s["drone"]["w"], 1.0 / s.fs_hz)), 3.0)
     for name, key in (("corr_wres_pitch_rate", "pitch_deg"), ("corr_wres_roll_rate", "roll_deg")):

@@ -49,7 +49,6 @@ piecewise-linearly between levels and the baseline, see
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import logging
 import math
 import shutil
@@ -435,15 +434,14 @@ def _same_column(a: np.ndarray, b: np.ndarray) -> bool:
     return same_bits(a, b)
 
 
-def _clock_digest(ins_table: InsTable, ins_src: str | Path | RawRecord) -> str:
-    """Digest of what the sonic L1 takes from the INS (:func:`dronewind.payload.io.payload_sonic_l1`) [hex].
+def _clock_settings(ins_table: InsTable, ins_src: str | Path | RawRecord) -> str:
+    """What the sonic L1 takes from the INS (:func:`dronewind.payload.io.payload_sonic_l1`), as text.
 
     The logger-clock fit, the stable-time row, the parsing's log and counts and the source
     name: not the INS's values.
     """
-    text = repr((ins_table.fit, ins_table.rpi_stable_us, list(ins_table.log), sorted(ins_table.counts.items()),
+    return repr((ins_table.fit, ins_table.rpi_stable_us, list(ins_table.log), sorted(ins_table.counts.items()),
                  str(ins_src)))
-    return hashlib.blake2b(text.encode(), digest_size=16).hexdigest()
 
 
 def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources: Sequence[str | Path | RawRecord],
@@ -499,7 +497,7 @@ def _process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources
     # leaves the INS's times alone (heading bias, attitude lag, lever arm) reuses it
     sonic_l1 = cache.get("sonic_l1", [sonic_src],
                          lambda: compute_sonic_l1(sonic_src, ins_src, ins_table, processing["despike"]),
-                         settings=_clock_digest(ins_table, ins_src))
+                         settings=_clock_settings(ins_table, ins_src))
     site_altitude_m = float(manifest["site"]["altitude_m"])
 
     def payload_l2() -> tuple[xr.Dataset, tuple[float, float] | None]:

@@ -891,8 +891,9 @@ def _load_ins(
             )
     # inside a forward flight's runs, an INS probe leaves the times alone: the fit is reused
     # (dronewind.core.reuse; a frozen dataclass)
-    fit = reused("logger-clock fit", {"rpi_time_us": t[fit_rows], "utc": cols["utc"][fit_rows]}, "",
-                 lambda: fit_logger_clock(t[fit_rows], cols["utc"][fit_rows]))
+    fit_t, fit_utc = t[fit_rows], cols["utc"][fit_rows]
+    fit = reused("logger-clock fit", {"rpi_time_us": fit_t, "utc": fit_utc}, "",
+                 lambda: fit_logger_clock(fit_t, fit_utc))
     log.append(
         f"clock_fit: utc = a + b*rpi_time on {fit.n_used} rows ({fit.n_outliers} outliers): "
         f"drift {fit.drift_ppm:.3f} ppm, residual std {fit.residual_std_s * 1e6:.2f} us"

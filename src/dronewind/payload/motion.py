@@ -345,19 +345,13 @@ def motion_correct(
     # inside a forward flight's runs, the attitude a sonic probe left unchanged is not turned into
     # matrices again (dronewind.core.reuse; read-only, only read here)
     rot = reused("body-to-NED rotation", {"roll": arrays[3], "pitch": arrays[4], "yaw": arrays[5]}, "",
-                 lambda: _read_only(rotation_matrix_body_to_ned(arrays[3], arrays[4], arrays[5])))
+                 lambda: rotation_matrix_body_to_ned(arrays[3], arrays[4], arrays[5]))
     v_ins = np.stack(arrays[6:9], axis=-1)
     wind_ned = np.einsum("nij,nj->ni", rot, v_body) + v_ins
     if lever_arm_m is not None:
         rates = _body_rates(arrays[3], arrays[4], arrays[5], body_rates_rad_s, time_s)
         wind_ned -= lever_arm_velocity_ned(rot, rates, lever_arm_m)
     return ned_to_enu(wind_ned)
-
-
-def _read_only(arr: np.ndarray) -> np.ndarray:
-    """``arr``, marked read-only (a result that may be handed out again)."""
-    arr.setflags(write=False)
-    return arr
 
 
 _SERIES = ("u_sensor_ms", "v_sensor_ms", "w_sensor_ms", "roll_deg", "pitch_deg", "yaw_deg",

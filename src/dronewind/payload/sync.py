@@ -198,25 +198,18 @@ def _tke_curves(
     # inside a forward flight's runs, a probe that leaves the INS and the sonic's times alone
     # finds the INS on this grid made (dronewind.core.reuse; read-only, only read below)
     rot, v_sonic = reused("INS on the lag-search grid", {"ti": ti, "att": att, "vel": vel, "grid": grid_ext},
-                          repr(lever), lambda: _read_only(*_ins_on_extended_grid(ti, att, vel, grid_ext, lever)))
+                          repr(lever), lambda: _ins_on_extended_grid(ti, att, vel, grid_ext, lever))
     lags = dt * np.arange(-n_half, n_half + 1)
-    if split_s is None:
-        return lags, _mean_tke_per_lag(rot, v_sonic, b, n, n_half), n, []
-    k = int(np.clip(np.ceil((split_s - t0) / dt - 1e-9), 0, n))  # first grid sample at or after the split
-    sums = [_lag_sums(rot[lo:hi + 2 * n_half], v_sonic[lo:hi + 2 * n_half], b[lo:hi], n_half)
-            if hi - lo >= 8 * n_half + 16 else None for lo, hi in ((0, k), (k, n))]
+    sums: list[_LagSums | None] = []
+    if split_s is not None:
+        k = int(np.clip(np.ceil((split_s - t0) / dt - 1e-9), 0, n))  # first grid sample at or after the split
+        sums = [_lag_sums(rot[lo:hi + 2 * n_half], v_sonic[lo:hi + 2 * n_half], b[lo:hi], n_half)
+                if hi - lo >= 8 * n_half + 16 else None for lo, hi in ((0, k), (k, n))]
     parts = [None if part is None else _tke_from_sums(part) for part in sums]
-    if sums[0] is not None and sums[1] is not None:
+    if len(sums) == 2 and sums[0] is not None and sums[1] is not None:
         # the whole grid's sums are the halves' sums: its curve costs no correlation of its own
         return lags, _tke_from_sums(_joined(sums[0], sums[1])), n, parts
     return lags, _mean_tke_per_lag(rot, v_sonic, b, n, n_half), n, parts
-
-
-def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The arrays, marked read-only (results that may be handed out again)."""
-    for arr in arrays:
-        arr.setflags(write=False)
-    return arrays
 
 
 def _check_lag_search(ts: np.ndarray, ti: np.ndarray, sonic: np.ndarray, att: np.ndarray, vel: np.ndarray,
@@ -599,29 +592,15 @@ def _ins_steps(ins_l1: xr.Dataset, ti: np.ndarray, hover_settings: tuple[float, 
     alone reuses them: the filled INS (read-only), the missing samples and the hover window,
     with the counts, log lines and reasons they added to ``tr``.
 
-    Parameters
-    ----------
-    ins_l1 : xarray.Dataset
-        INS L1 (within the window).
-    ti : numpy.ndarray
-        Its times [s].
-    hover_settings : tuple of float
-        ``alt_tol_m``, ``horiz_tol_m``, ``min_hover_s``, ``max_missing_fraction`` of
-        :func:`_hover_window`.
-    tr : _Trace
-        Receives what the two steps report.
-
-    Returns
-    -------
-    ins, ins_missing, hover
-        As :func:`_fill_ins_gaps` and :func:`_hover_window`.
+    ``ins_l1``, ``ti`` and ``tr`` are those of :func:`_fill_ins_gaps`; ``hover_settings``
+    are ``alt_tol_m``, ``horiz_tol_m``, ``min_hover_s`` and ``max_missing_fraction`` of
+    :func:`_hover_window`. Returns ``ins``, ``ins_missing`` (as :func:`_fill_ins_gaps`) and
+    the hover window (as :func:`_hover_window`).
     """
     def make() -> tuple[dict[str, np.ndarray], np.ndarray, tuple[float, float], _Trace]:
         own = _Trace(where=tr.where)
         ins, ins_missing = _fill_ins_gaps(ins_l1, ti, own)
         hover = _hover_window(ins, ti, ins_missing, *hover_settings, own)
-        for arr in (*ins.values(), ins_missing):
-            arr.setflags(write=False)
         return ins, ins_missing, hover, own
 
     arrays = {"ti": ti, **{k: ins_l1[k].values for k in _INS_VARS}}

@@ -693,13 +693,6 @@ class _PointSpectra:
     co_shape: np.ndarray
 
 
-def _read_only_spectra(spectra: _PointSpectra) -> _PointSpectra:
-    """``spectra`` with its arrays read-only (a result that may be handed out again)."""
-    for arr in (spectra.amplitude, spectra.rho_uw, spectra.rho_wt, spectra.co_shape):
-        arr.setflags(write=False)
-    return spectra
-
-
 def _point_spectra(z_m: np.ndarray, speed_ms: np.ndarray, fpos_hz: np.ndarray, df_hz: float,
                    friction_velocity_ms: float, obukhov_length_m: float, boundary_layer_height_m: float,
                    theta_mean_k: float) -> _PointSpectra:
@@ -941,8 +934,8 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
     # runs (dronewind.core.reuse; arrays read-only, the diagnostics copied)
     spectra = reused("point spectra", {"z": z, "speed": speed, "fpos": fpos},
                      repr((df, ustar, obukhov_length_m, boundary_layer_height_m, theta_mean_k)),
-                     lambda: _read_only_spectra(_point_spectra(z, speed, fpos, df, ustar, obukhov_length_m,
-                                                               boundary_layer_height_m, theta_mean_k)))
+                     lambda: _point_spectra(z, speed, fpos, df, ustar, obukhov_length_m, boundary_layer_height_m,
+                                            theta_mean_k))
     spectra = dataclasses.replace(spectra, diagnostics=copy.deepcopy(spectra.diagnostics))
     if amplitudes not in ("model", "constraint"):
         raise InputError("field_coefficients.amplitudes", f"{amplitudes!r}; expected 'model' or 'constraint'")

@@ -68,7 +68,7 @@ from scipy.interpolate import CubicSpline
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 from dronewind.core.raw import RawRecord, content_digest
-from dronewind.core.reuse import reused
+from dronewind.core.reuse import read_only, reused
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate.mast import mast_measurement
@@ -324,15 +324,7 @@ class _Streams:
         """``make()``, made once per truth and key with a memo; its arrays read-only."""
         if self.memo is None:
             return make()
-        return _remembered(self.memo, ("stream draws", repr(key)), lambda: _read_only(make()))
-
-
-def _read_only(value: Any) -> Any:
-    """``value`` with its arrays (itself, or the items of a tuple) marked read-only."""
-    for arr in value if isinstance(value, tuple) else (value,):
-        if isinstance(arr, np.ndarray):
-            arr.setflags(write=False)
-    return value
+        return _remembered(self.memo, ("stream draws", repr(key)), lambda: read_only(make()))
 
 
 @dataclass(frozen=True)
@@ -436,8 +428,9 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
             repr((clock, period, fs_max, cond["wind_from_deg"], cond["duration_s"],
                   float(atmosphere.attrs.get("noise_ms", 0.0)),
                   float(atmosphere.attrs.get("temperature_noise_k", 0.0)))),
-            lambda: _read_only_constraint(measured_constraint(atmosphere, clock, points[ref], period, fs_max,
-                                                              cond["wind_from_deg"], cond["duration_s"])))
+            lambda: measured_constraint(atmosphere, clock, points[ref], period, fs_max, cond["wind_from_deg"],
+                                        cond["duration_s"]))
+        info = dict(info)  # each truth its own description
     spec = atm.field_coefficients(points, period, fs_max, cond["mean_speed_ms"],
                                   cond["wind_from_deg"], cond["z_ref_m"], cond["obukhov_length_m"],
                                   cond["roughness_length_m"], rng, cond["theta_mean_k"],
@@ -446,15 +439,6 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
     # the campaign's turbulence model (simulation.atmosphere) shapes a model field only: a field
     # constrained by a measured record takes that record's spectra
     return (_turbulence_model(cond, field, spec) if con is None else spec), info
-
-
-def _read_only_constraint(made: tuple[atm.ConstraintLatents, dict[str, Any]]
-                          ) -> tuple[atm.ConstraintLatents, dict[str, Any]]:
-    """A constraint and its description with the constraint's arrays read-only (handed out again)."""
-    for value in made[0].values():
-        if isinstance(value, np.ndarray):
-            value.setflags(write=False)
-    return made
 
 
 def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np.ndarray, period_s: float,
