@@ -31,6 +31,7 @@ import scipy.signal
 import xarray as xr
 
 from dronewind.core import rotation as rot
+from dronewind.core import stats
 from dronewind.core.cf import variable
 from dronewind.core.timeseries import NS_PER_S, require_variables, time_ns
 from dronewind.errors import InputError, ProcessingError
@@ -285,7 +286,7 @@ def _horizontal_xcorr(arrays: list[np.ndarray], n_half: int) -> np.ndarray:
         The drone's central part (``n_half`` samples dropped at either end) is held fixed.
     """
     n = arrays[0].size
-    du, dv, mu, mv = (scipy.signal.detrend(a, type="linear") for a in arrays)
+    du, dv, mu, mv = (stats.detrend(a) for a in arrays)
     core = slice(n_half, n - n_half)
     d = np.stack([du[core], dv[core]], axis=-1)
     m = np.stack([mu, mv], axis=-1)

@@ -135,21 +135,33 @@ def _wrap180(deg: float) -> float:
     return float((deg + 180.0) % 360.0 - 180.0)
 
 
-def _rates_deg_s(l2: xr.Dataset, times: np.ndarray, fs_out_hz: float) -> dict[str, np.ndarray]:
-    """Pitch and roll rates of the payload, smoothed to the L3 rate, at ``times``."""
+def _smoothed_rates_deg_s(l2: xr.Dataset, fs_out_hz: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Pitch and roll rates of the payload smoothed to the L3 rate, on the L2's own times [s since its start]."""
     t_ns = l2["time"].values.astype("datetime64[ns]").astype(np.int64)
     t_s = (t_ns - t_ns[0]) / 1e9
     fs_in = 1.0 / float(np.median(np.diff(t_s)))
     width = max(int(round(fs_in / fs_out_hz)), 1)
     kernel = np.ones(width) / width
-    target = (times.astype("datetime64[ns]").astype(np.int64) - t_ns[0]) / 1e9
     out = {}
     for name in ("pitch_deg", "roll_deg"):
         angle = np.unwrap(np.deg2rad(l2[name].values.astype(float)))
         rate = np.rad2deg(np.gradient(angle, t_s))
-        smooth = np.convolve(rate, kernel, mode="same")
-        out[name] = np.interp(target, t_s, smooth, left=np.nan, right=np.nan)
-    return out
+        out[name] = np.convolve(rate, kernel, mode="same")
+    return t_s, out
+
+
+def _rates_deg_s(l2: xr.Dataset, times: np.ndarray, fs_out_hz: float) -> dict[str, np.ndarray]:
+    """Pitch and roll rates of the payload, smoothed to the L3 rate, at ``times``.
+
+    The smoothed rates depend on the L2's attitude only: inside a forward flight's runs
+    (:mod:`dronewind.core.reuse`) a sonic or mast probe finds them made and only
+    interpolates them at its own L3 times (which move with the drone-mast lag).
+    """
+    arrays = {"time": l2["time"].values, "pitch_deg": l2["pitch_deg"].values, "roll_deg": l2["roll_deg"].values}
+    t_s, smooth = reused("attitude rates", arrays, repr(float(fs_out_hz)), lambda: _smoothed_rates_deg_s(l2, fs_out_hz))
+    t0_ns = l2["time"].values[:1].astype("datetime64[ns]").astype(np.int64)[0]
+    target = (times.astype("datetime64[ns]").astype(np.int64) - t0_ns) / 1e9
+    return {name: np.interp(target, t_s, smooth[name], left=np.nan, right=np.nan) for name in ("pitch_deg", "roll_deg")}
 
 
 @dataclass(frozen=True)
@@ -284,10 +296,7 @@ def _attitude_rate_features(l3: xr.Dataset, l2_drone: xr.Dataset, s: _SensorSeri
     """Correlations of the w residual (drone minus mast) with the payload's pitch and roll rates."""
     lag_dm = float(l3.attrs.get("lag_drone_mast_s", 0.0))
     times = l3["time"].values - np.timedelta64(int(round(lag_dm * 1e9)), "ns")
-    arrays = {"time": l2_drone["time"].values, "pitch_deg": l2_drone["pitch_deg"].values,
-              "roll_deg": l2_drone["roll_deg"].values, "times": times}
-    # a sonic probe leaves the payload's attitude alone: reused inside a forward flight's runs
-    rates = reused("attitude rates", arrays, repr(float(s.fs_hz)), lambda: _rates_deg_s(l2_drone, times, s.fs_hz))
+    rates = _rates_deg_s(l2_drone, times, s.fs_hz)
     wres = l3["w_ms"].values[s.sensors.index("drone")] - l3["w_ms"].values[s.sensors.index("mast")]
     n_eff = max(s.tau_s / (2 * max(s.time_scale_s["drone"]["w"], 1.0 / s.fs_hz)), 3.0)
     for name, key in (("corr_wres_pitch_rate", "pitch_deg"), ("corr_wres_roll_rate", "roll_deg")):

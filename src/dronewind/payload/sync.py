@@ -380,9 +380,13 @@ def lag_correlations(long_series: np.ndarray, short_series: np.ndarray, n_lags: 
         raise ValueError(f"expected long_series of shape ({n + n_lags - 1}, G, {short_series.shape[1]}), "
                          f"got {long_series.shape}")
     size = fast_fft_length(n_long)
-    spec_x = np.fft.rfft(long_series, size, axis=0)  # (F, G, q)
+    return _correlate_spectra(np.fft.rfft(long_series, size, axis=0), size, short_series, n_lags)
+
+
+def _correlate_spectra(spectra: np.ndarray, size: int, short_series: np.ndarray, n_lags: int) -> np.ndarray:
+    """:func:`lag_correlations` from the long series' real FFTs ``spectra`` (F, G, q) of length ``size``."""
     spec_y = np.conj(np.fft.rfft(short_series, size, axis=0))  # (F, q)
-    return np.fft.irfft(np.einsum("fgl,fl->fg", spec_x, spec_y), size, axis=0)[:n_lags]
+    return np.fft.irfft(np.einsum("fgl,fl->fg", spectra, spec_y), size, axis=0)[:n_lags]
 
 
 class _LagSums(NamedTuple):
@@ -407,16 +411,46 @@ def _joined(a: _LagSums, b: _LagSums) -> _LagSums:
     return _LagSums(a.rb + b.rb, a.cb + b.cb, a.v + b.v, a.v2 + b.v2, a.b2 + b.b2, a.n + b.n)
 
 
-def _lag_sums(rot: np.ndarray, v_sonic: np.ndarray, b: np.ndarray, n_half: int) -> _LagSums:
-    """The sums of :func:`_mean_tke_per_lag` over the grid samples of ``b`` (FFT correlations, cumulative sums)."""
-    n = b.shape[0]
+class _InsLagTerms(NamedTuple):
+    """What :func:`_lag_sums` takes from the INS alone, for n grid samples and lags 0 ... 2J."""
+
+    #: real FFT (length ``size``) of the rows of R and of R^T V on the extended grid, (F, 4, 3)
+    spectra: np.ndarray
+    #: FFT length (:func:`fast_fft_length`)
+    size: int
+    #: sum over k of V(k+j), shape (2J+1, 3)
+    v: np.ndarray
+    #: sum over k of |V(k+j)|^2, shape (2J+1,)
+    v2: np.ndarray
+
+
+def _ins_lag_terms(rot: np.ndarray, v_sonic: np.ndarray, n: int, n_half: int) -> _InsLagTerms:
+    """The INS's part of :func:`_lag_sums`: spectra of R and R^T V, sliding sums of V and |V|^2."""
     c_body = np.einsum("nji,nj->ni", rot, v_sonic)  # R^T V
     long_series = np.concatenate([rot, c_body[:, None, :]], axis=1)  # (N, 4, 3): rows of R, then R^T V
-    corr = lag_correlations(long_series, b, 2 * n_half + 1)  # (2J+1, 4)
+    size = fast_fft_length(long_series.shape[0])
     cs_v = np.concatenate([np.zeros((1, 3)), np.cumsum(v_sonic, axis=0)])
     cs_v2 = np.concatenate([[0.0], np.cumsum(np.sum(v_sonic ** 2, axis=1))])
     j = np.arange(2 * n_half + 1)
-    return _LagSums(corr[:, :3], corr[:, 3], cs_v[j + n] - cs_v[j], cs_v2[j + n] - cs_v2[j], float(np.sum(b * b)), n)
+    return _InsLagTerms(np.fft.rfft(long_series, size, axis=0), size, cs_v[j + n] - cs_v[j], cs_v2[j + n] - cs_v2[j])
+
+
+def _lag_sums(rot: np.ndarray, v_sonic: np.ndarray, b: np.ndarray, n_half: int) -> _LagSums:
+    """The sums of :func:`_mean_tke_per_lag` over the grid samples of ``b`` (FFT correlations, cumulative sums).
+
+    The correlations are :func:`lag_correlations` of the rows of R and of R^T V with b, with
+    the INS's spectra and sliding sums (:func:`_ins_lag_terms`) made once per INS: inside a
+    forward flight's runs a sonic probe, which leaves the INS on the grid unchanged, finds
+    them (:mod:`dronewind.core.reuse`) and transforms only its own three series.
+    """
+    n = b.shape[0]
+    if rot.shape[0] != n + 2 * n_half or v_sonic.shape[0] != rot.shape[0]:
+        raise ValueError(f"expected R and V on {n + 2 * n_half} extended-grid samples, got {rot.shape[0]} and "
+                         f"{v_sonic.shape[0]}")
+    ins = reused("INS terms of the lag sums", {"rot": rot, "v_sonic": v_sonic}, repr((n, n_half)),
+                 lambda: _ins_lag_terms(rot, v_sonic, n, n_half))
+    corr = _correlate_spectra(ins.spectra, ins.size, b, 2 * n_half + 1)  # (2J+1, 4)
+    return _LagSums(corr[:, :3], corr[:, 3], ins.v, ins.v2, float(np.sum(b * b)), n)
 
 
 def _tke_from_sums(sums: _LagSums) -> np.ndarray:
