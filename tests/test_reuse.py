@@ -149,3 +149,28 @@ def _nothing():
     import contextlib
 
     return contextlib.nullcontext()
+
+
+def test_forward_products_are_read_only_and_windows_are_views_of_them():
+    """A product stored in a flight's ForwardCache (an L1 dataset) is read-only for every later
+    run: its variables' arrays, a data array's too, and views of them, such as the L2's window
+    of an L1 (dronewind.payload.sync._kept: a slice where the kept samples are one run)."""
+    import xarray as xr
+
+    from dronewind.payload.sync import _kept
+
+    ds = xr.Dataset({"u": ("time", np.arange(6.0)), "flag": ("time", np.zeros(6, dtype=np.int8))},
+                    coords={"time": np.arange(6)})
+    cache = ForwardCache()
+    stored = cache.get("l1", ["a"], lambda: ds)
+    window = stored.isel(time=_kept(np.array([False, True, True, True, False, False])))
+    assert isinstance(_kept(np.array([False, True, True, True, False, False])), slice)
+    assert list(_kept(np.array([True, False, True, False, False, False]))) == [0, 2]
+    for arr in (stored["u"].values, stored["flag"].values, window["u"].values):
+        with pytest.raises(ValueError, match="read-only"):
+            arr[0] = 1
+    da = xr.DataArray(np.ones(3), coords={"x": ("x", np.arange(3.0))}, dims="x")
+    from dronewind.core.reuse import read_only
+
+    with pytest.raises(ValueError, match="read-only"):
+        read_only(da).values[0] = 2.0

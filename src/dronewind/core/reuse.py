@@ -29,6 +29,7 @@ from collections.abc import Callable, Iterator, Mapping
 from typing import Any, TypeVar
 
 import numpy as np
+import xarray as xr
 
 __all__ = ["StepStore", "reusing", "reused", "read_only", "same_bits"]
 
@@ -65,10 +66,18 @@ def read_only(value: T) -> T:
     dictionaries and dataclasses (nested). Returns ``value``.
 
     A result that may be handed out again (:func:`reused`, a truth's remembered draws) must
-    not be changed by the one who gets it; a caller that needs to change it copies it.
+    not be changed by the one who gets it; a caller that needs to change it copies it. Of an
+    xarray dataset or data array, the NumPy arrays of its variables are marked (index
+    variables are pandas indexes, immutable already).
     """
     if isinstance(value, np.ndarray):
         value.setflags(write=False)
+    elif isinstance(value, (xr.Dataset, xr.DataArray)):
+        variables = value.variables if isinstance(value, xr.Dataset) else {None: value.variable,
+                                                                              **value.coords.variables}
+        for var in variables.values():
+            if isinstance(var.data, np.ndarray) and not isinstance(var, xr.IndexVariable):
+                var.data.setflags(write=False)
     elif isinstance(value, (tuple, list)):
         for item in value:
             read_only(item)

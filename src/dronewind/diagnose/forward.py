@@ -64,7 +64,7 @@ from dronewind.compare.chain import compute_l3
 from dronewind.core.constants import KARMAN
 from dronewind.core.progress import Progress
 from dronewind.core.raw import RawRecord
-from dronewind.core.reuse import StepStore, reusing, same_bits
+from dronewind.core.reuse import StepStore, read_only, reusing, same_bits
 from dronewind.diagnose.features import FlightFeatures, flight_features
 from dronewind.diagnose.probes import (
     ATMOSPHERES,
@@ -393,7 +393,9 @@ class ForwardCache:
         self.misses += 1
         value = make()
         if not self.frozen:
-            entries.append((key, value))
+            # handed out to every later run: read-only, so that no run can change another's inputs
+            # (the L2 takes views of the L1 where it windows it, dronewind.payload.sync)
+            entries.append((key, read_only(value)))
         return value
 
 

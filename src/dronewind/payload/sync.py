@@ -596,11 +596,25 @@ def _apply_window(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, window: tuple[Any, A
     if keep_s.sum() < 2 or keep_i.sum() < 2:
         raise InputError(f"{tr.where} [window]", _window_miss(int(w0), int(w1), ts_ns, ti_ns, int(keep_s.sum()),
                                                                int(keep_i.sum())))
-    sonic_l1 = sonic_l1.isel(time=np.flatnonzero(keep_s))
-    ins_l1 = ins_l1.isel(time=np.flatnonzero(keep_i))
+    sonic_l1 = sonic_l1.isel(time=_kept(keep_s))
+    ins_l1 = ins_l1.isel(time=_kept(keep_i))
     ts_ns, ti_ns = ts_ns[keep_s], ti_ns[keep_i]
     tr.log.append(f"window: kept {keep_s.sum()} sonic and {keep_i.sum()} INS samples in the flight window")
     return sonic_l1, ins_l1, ts_ns, ti_ns
+
+
+def _kept(keep: np.ndarray) -> slice | np.ndarray:
+    """The samples ``keep`` marks, as a slice where they are one run (the usual case: sorted times
+    in a window), else as indices.
+
+    A slice selects views of the L1's arrays instead of copies of every variable (a forward
+    run windows its L1 in every probe). The L2 never writes into its inputs; the L1 of a
+    forward flight's cache is read-only besides (:class:`dronewind.diagnose.forward.ForwardCache`).
+    """
+    index = np.flatnonzero(keep)
+    if index.size and index[-1] - index[0] + 1 == index.size:
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index
 
 
 def _window_miss(w0: int, w1: int, ts_ns: np.ndarray, ti_ns: np.ndarray, n_s: int, n_i: int) -> str:

@@ -66,6 +66,7 @@ from dronewind.steps.handoff import (  # noqa: F401
     SOCKET_ENV,
     STATUS,
     delegate,
+    keep_freed_memory,
     pth_line,
     recv_exact,
 )
@@ -140,6 +141,8 @@ def serve(socket_path: str | Path, job_table: str | Path | None = None, preload:
     # then do not touch (and copy) the pages it shares with the server
     gc.collect()
     gc.freeze()
+    # the children reuse the memory they free (they inherit the allocator's settings)
+    keep_freed_memory()
     if threading.active_count() != 1:  # a fork copies only the calling thread
         raise RuntimeError(f"preload: {threading.active_count()} threads after the imports; fork needs one")
     listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
