@@ -41,9 +41,10 @@ LENGTH = struct.Struct("!I")
 STATUS = struct.Struct("!i")
 
 
-#: Allocations from this size on get their own pages from the system (glibc's ``M_MMAP_THRESHOLD``;
-#: its default grows to this value at most) [bytes].
-MMAP_THRESHOLD_BYTES = 32 * 2**20
+#: Allocations from this size on get their own pages from the system (glibc's ``M_MMAP_THRESHOLD``)
+#: [bytes]: the series of a forward run (up to 1.5 MB per channel) are reused from the heap, a
+#: long record's day-long arrays are not kept in it.
+MMAP_THRESHOLD_BYTES = 4 * 2**20
 #: Free memory at the top of the heap kept for later allocations (glibc's ``M_TRIM_THRESHOLD``) [bytes].
 TRIM_THRESHOLD_BYTES = 2**30
 #: ``mallopt`` parameter numbers (glibc's malloc.h).
@@ -57,12 +58,14 @@ def keep_freed_memory() -> bool:
     spectra and rotation matrices). By default glibc returns the freed top of its heap to
     the system once more than twice the mmap threshold is free, so the next run's arrays
     land on fresh pages that the kernel must zero first: system time, not work. Measured
-    on the published-numbers job of sample s01 (36 forward runs, forked from the preloaded
-    server): 1.28 and 0.97 system CPU-s by default, 0.51 and 0.40 with this setting (user
-    time unchanged, 5.4-5.8 s); s05: 0.30-0.34 against 0.16-0.17. Both parameters are set:
-    setting either one turns glibc's dynamic mmap threshold off, and the trim threshold
-    alone would leave every array above 128 kB to its own mapping. A job's peak memory is
-    unchanged (what is kept is what it had); the job returns everything when it exits.
+    on the published-numbers job of sample s01 (36 forward runs, forked from a preloaded
+    process; ``benchmarks/bench_freed_memory.py``, ``results/freed_memory_s29.json``): 0.65
+    and 0.74 system CPU-s by default, 0.41 and 0.39 with these settings; s05: 0.32 against
+    0.17 and 0.18; user time unchanged (5.4-5.5 and 2.7 s). Both parameters are set: setting either one
+    turns glibc's dynamic mmap threshold off, and the trim threshold alone would leave every
+    array above 128 kB to its own mapping (10 times the system time). What is kept is what
+    the job had at its peak, returned when it exits; a long mast record (3 days of 20 Hz
+    through L1 to L4) peaked at 612-627 MB with these settings and 646 MB without.
 
     Returns
     -------
