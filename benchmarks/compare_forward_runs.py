@@ -2,7 +2,9 @@
 
 Every baseline and probe feature value and error, every condition, probe level and skipped
 probe must be equal (NaN equal to NaN); the bookkeeping keys that only the newer runner
-writes (``parts``, ``reused_products``, ``reused_steps``) are ignored. Example::
+writes (``parts``, ``reused_products``, ``reused_steps``) are ignored. Where numbers differ,
+the largest absolute and relative difference is reported too (a change of the arithmetic's
+rounding shows as relative differences of order 1e-12). Example::
 
     PYTHONPATH=/tmp/old/src .venv/bin/python benchmarks/forward_runs.py s01 \\
         results/mosai2023/diagnosis/measured/s01.json /tmp/old_s01.json
@@ -43,6 +45,28 @@ def differences(a: Any, b: Any, path: str = "") -> list[str]:
     return [] if a == b else [f"{path}: {a!r} != {b!r}"]
 
 
+def largest_difference(a: Any, b: Any) -> tuple[float, float, str]:
+    """Largest absolute difference of two documents' numbers at the same paths, the largest
+    relative one (to the larger magnitude) and the path of the latter ("" when all are equal)."""
+    best = (0.0, 0.0, "")
+
+    def walk(x: Any, y: Any, path: str) -> None:
+        nonlocal best
+        if isinstance(x, dict) and isinstance(y, dict):
+            for key in set(x) & set(y) - set(BOOKKEEPING):
+                walk(x[key], y[key], f"{path}/{key}")
+        elif isinstance(x, list) and isinstance(y, list) and len(x) == len(y):
+            for k, (u, v) in enumerate(zip(x, y, strict=True)):
+                walk(u, v, f"{path}[{k}]")
+        elif isinstance(x, float | int) and isinstance(y, float | int) and not isinstance(x, bool) and x != y:
+            d = abs(float(x) - float(y))
+            rel = d / max(abs(float(x)), abs(float(y)))
+            best = (max(best[0], d), rel, path) if rel > best[1] else (max(best[0], d), best[1], best[2])
+
+    walk(a, b, "")
+    return best
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("pairs", nargs="+", type=Path, help="A1 B1 [A2 B2 ...]: forward JSON files to compare")
@@ -56,11 +80,14 @@ def main() -> None:
         diffs = differences(da, db)
         n_values = sum(len(r["features"]["values"]) for r in da["probes"]) + sum(len(r["values"]) for r in
                                                                                    da["baseline"])
+        abs_diff, rel_diff, where = largest_difference(da, db)
         result.append({"a": str(a), "b": str(b), "flight": da["flight"], "baseline_runs": len(da["baseline"]),
                        "probe_runs": len(da["probes"]), "feature_values": n_values, "n_differences": len(diffs),
+                       "max_abs_difference": abs_diff, "max_rel_difference": rel_diff, "max_rel_at": where,
                        "differences": diffs[:50]})
         print(f"{da['flight']}: {len(da['baseline'])} baseline + {len(da['probes'])} probe runs, {n_values} "
-              f"feature values, {len(diffs)} differences")
+              f"feature values, {len(diffs)} differences (largest {abs_diff:.3g} absolute, {rel_diff:.3g} "
+              f"relative at {where or '-'})")
     if args.json:
         args.json.write_text(json.dumps(result, indent=1) + "\n")
 
