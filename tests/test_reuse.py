@@ -174,3 +174,20 @@ def test_forward_products_are_read_only_and_windows_are_views_of_them():
 
     with pytest.raises(ValueError, match="read-only"):
         read_only(da).values[0] = 2.0
+
+
+def test_read_only_leaves_a_lazily_loaded_dataset_unread(tmp_path):
+    """read_only marks the arrays a dataset holds; a variable still on disk is not read for it."""
+    import xarray as xr
+
+    from dronewind.core.reuse import read_only
+
+    path = tmp_path / "lazy.nc"
+    xr.Dataset({"u": ("time", np.arange(5.0))}).to_netcdf(path)
+    with xr.open_dataset(path) as ds:
+        read_only(ds)
+        assert not ds["u"].variable._in_memory
+        loaded = ds.load()
+        read_only(loaded)
+        with pytest.raises(ValueError, match="read-only"):
+            loaded["u"].values[0] = 1.0

@@ -76,8 +76,11 @@ def read_only(value: T) -> T:
         variables = value.variables if isinstance(value, xr.Dataset) else {None: value.variable,
                                                                               **value.coords.variables}
         for var in variables.values():
-            if isinstance(var.data, np.ndarray) and not isinstance(var, xr.IndexVariable):
-                var.data.setflags(write=False)
+            # the NumPy array the variable holds, if it holds one: asking a lazily loaded
+            # variable for its data would read it
+            data = getattr(var, "_data", None)
+            if isinstance(data, np.ndarray) and not isinstance(var, xr.IndexVariable):
+                data.setflags(write=False)
     elif isinstance(value, (tuple, list)):
         for item in value:
             read_only(item)

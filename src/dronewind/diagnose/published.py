@@ -53,6 +53,7 @@ import numpy as np
 import scipy.stats
 import xarray as xr
 
+from dronewind.core.reuse import read_only
 from dronewind.diagnose.campaign import CampaignEvidence, assemble, simplest_variant
 from dronewind.diagnose.campaign import n_tests as campaign_n_tests
 from dronewind.diagnose.features import FEATURES
@@ -167,6 +168,10 @@ class PublishedEvidence:
     #: asks for the same extreme at every evaluation (:func:`_extreme`).
     _extremes: dict[tuple[str, bytes, bytes], float] = field(default_factory=dict, init=False, repr=False,
                                                              compare=False)
+    #: Fits made so far (:func:`_fit`), by combination and groups: every pair is scored
+    #: against the named cause, whose own fits (all groups, and each left out) are the same.
+    _fits: dict[tuple[tuple[str, ...], tuple[str, ...]], tuple[np.ndarray, np.ndarray, float]] = field(
+        default_factory=dict, init=False, repr=False, compare=False)
 
     def flight_index(self, flight: str) -> int:
         """Index of a flight in the evidence arrays."""
@@ -310,6 +315,15 @@ def _chi2_groups(pe: PublishedEvidence, combo: Sequence[str], theta: np.ndarray)
 
 
 def _fit(pe: PublishedEvidence, combo: Sequence[str], groups: Sequence[str]) -> tuple[np.ndarray, np.ndarray, float]:
+    """Estimate, standard errors and misfit of ``combo`` fitted to ``groups`` (made once per both; read-only)."""
+    key = (tuple(combo), tuple(groups))
+    if key not in pe._fits:
+        pe._fits[key] = read_only(_fitted(pe, combo, groups))
+    return pe._fits[key]
+
+
+def _fitted(pe: PublishedEvidence, combo: Sequence[str], groups: Sequence[str]
+            ) -> tuple[np.ndarray, np.ndarray, float]:
     params = _combo_parameters(pe, combo)
     base = np.array([p.baseline_level for p in params], dtype=float)
     if not params:
