@@ -307,15 +307,27 @@ def _ins_on_extended_grid(ti: np.ndarray, att: np.ndarray, vel: np.ndarray, grid
     v_sonic : numpy.ndarray
         (N, 3) velocity of the sonic, V = INS velocity minus the lever-arm term [m s-1].
     """
-    ins_keys = {"roll_deg": att[:, 0], "pitch_deg": att[:, 1], "yaw_deg": att[:, 2], "vel": vel}
-    if lever_arm_m is not None:
-        ins_keys["rates"] = motion.body_rates_from_euler(att[:, 0], att[:, 1], att[:, 2], ti)
-    ins_g = interpolate_ins(ti, ins_keys, np.clip(grid_ext, ti[0], ti[-1]))
-    rot = motion.rotation_matrix_body_to_ned(ins_g["roll_deg"], ins_g["pitch_deg"], ins_g["yaw_deg"])
-    v_sonic = ins_g["vel"]
-    if lever_arm_m is not None:
-        v_sonic = v_sonic - motion.lever_arm_velocity_ned(rot, ins_g["rates"], lever_arm_m)
+    target = np.clip(grid_ext, ti[0], ti[-1])
+    # the attitude's part, which a probe of the INS's position and velocity (a lever arm) leaves
+    # unchanged, is found made inside a forward flight's runs (dronewind.core.reuse)
+    with_rates = lever_arm_m is not None
+    rot, rates = reused("INS attitude on the lag-search grid", {"ti": ti, "att": att, "grid": grid_ext},
+                        repr(with_rates), lambda: _attitude_on_grid(ti, att, target, with_rates))
+    v_sonic = interpolate_ins(ti, {"vel": vel}, target)["vel"]
+    if lever_arm_m is not None and rates is not None:
+        v_sonic = v_sonic - motion.lever_arm_velocity_ned(rot, rates, lever_arm_m)
     return rot, v_sonic
+
+
+def _attitude_on_grid(ti: np.ndarray, att: np.ndarray, target: np.ndarray, with_rates: bool
+                      ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Body-to-NED rotation (and, ``with_rates``, the body rates) of the INS attitude at ``target``."""
+    keys = {"roll_deg": att[:, 0], "pitch_deg": att[:, 1], "yaw_deg": att[:, 2]}
+    if with_rates:
+        keys["rates"] = motion.body_rates_from_euler(att[:, 0], att[:, 1], att[:, 2], ti)
+    ins_g = interpolate_ins(ti, keys, target)
+    rot = motion.rotation_matrix_body_to_ned(ins_g["roll_deg"], ins_g["pitch_deg"], ins_g["yaw_deg"])
+    return rot, ins_g.get("rates")
 
 
 def fast_fft_length(n: int) -> int:

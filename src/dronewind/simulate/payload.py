@@ -1044,8 +1044,11 @@ def atmosphere_digest(record: xr.Dataset | None) -> str:
     """Digest of a measured atmosphere record's wind, temperature and time values ("" for none)."""
     if record is None:
         return ""
-    return content_digest({var: record[var].values for var in ("time", "u_east_ms", "v_north_ms", "w_up_ms",
-                                                                 "t_sonic_k") if var in record.variables})
+    arrays = {var: record[var].values for var in ("time", "u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k")
+              if var in record.variables}
+    # every run of a forward flight checks its truth against the record: inside the flight's runs
+    # the same record is found by comparing it (dronewind.core.reuse), not hashed again
+    return str(reused("atmosphere digest", arrays, "", lambda: content_digest(arrays)))
 
 
 def payload_truth(campaign: CampaignLike, flight_id: str, atmosphere: xr.Dataset | None = None) -> PayloadTruth:
