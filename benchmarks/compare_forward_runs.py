@@ -24,8 +24,12 @@ from typing import Any
 BOOKKEEPING = ("parts", "reused_products", "reused_steps")
 
 
-def differences(a: Any, b: Any, path: str = "") -> list[str]:
-    """Paths at which two parsed JSON documents differ (NaN equals NaN)."""
+def differences(a: Any, b: Any, path: str = "", numeric: list[tuple[float, float, str]] | None = None) -> list[str]:
+    """Paths at which two parsed JSON documents differ (NaN equals NaN).
+
+    Each pair of differing numbers also goes to ``numeric`` as (absolute difference,
+    difference relative to the larger magnitude, path).
+    """
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for key in sorted(set(a) | set(b)):
@@ -34,37 +38,21 @@ def differences(a: Any, b: Any, path: str = "") -> list[str]:
             if key not in a or key not in b:
                 out.append(f"{path}/{key}: only in {'b' if key not in a else 'a'}")
                 continue
-            out += differences(a[key], b[key], f"{path}/{key}")
+            out += differences(a[key], b[key], f"{path}/{key}", numeric)
         return out
     if isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             return [f"{path}: {len(a)} != {len(b)} items"]
-        return [d for k, (x, y) in enumerate(zip(a, b, strict=True)) for d in differences(x, y, f"{path}[{k}]")]
+        return [d for k, (x, y) in enumerate(zip(a, b, strict=True))
+                for d in differences(x, y, f"{path}[{k}]", numeric)]
     if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
         return []
-    return [] if a == b else [f"{path}: {a!r} != {b!r}"]
-
-
-def largest_difference(a: Any, b: Any) -> tuple[float, float, str]:
-    """Largest absolute difference of two documents' numbers at the same paths, the largest
-    relative one (to the larger magnitude) and the path of the latter ("" when all are equal)."""
-    best = (0.0, 0.0, "")
-
-    def walk(x: Any, y: Any, path: str) -> None:
-        nonlocal best
-        if isinstance(x, dict) and isinstance(y, dict):
-            for key in set(x) & set(y) - set(BOOKKEEPING):
-                walk(x[key], y[key], f"{path}/{key}")
-        elif isinstance(x, list) and isinstance(y, list) and len(x) == len(y):
-            for k, (u, v) in enumerate(zip(x, y, strict=True)):
-                walk(u, v, f"{path}[{k}]")
-        elif isinstance(x, float | int) and isinstance(y, float | int) and not isinstance(x, bool) and x != y:
-            d = abs(float(x) - float(y))
-            rel = d / max(abs(float(x)), abs(float(y)))
-            best = (max(best[0], d), rel, path) if rel > best[1] else (max(best[0], d), best[1], best[2])
-
-    walk(a, b, "")
-    return best
+    if a == b:
+        return []
+    if numeric is not None and all(isinstance(x, float | int) and not isinstance(x, bool) for x in (a, b)):
+        d = abs(float(a) - float(b))
+        numeric.append((d, d / max(abs(float(a)), abs(float(b))), path))
+    return [f"{path}: {a!r} != {b!r}"]
 
 
 def main() -> None:
@@ -77,10 +65,12 @@ def main() -> None:
     result = []
     for a, b in zip(args.pairs[::2], args.pairs[1::2], strict=True):
         da, db = json.loads(a.read_text()), json.loads(b.read_text())
-        diffs = differences(da, db)
+        numeric: list[tuple[float, float, str]] = []
+        diffs = differences(da, db, numeric=numeric)
         n_values = sum(len(r["features"]["values"]) for r in da["probes"]) + sum(len(r["values"]) for r in
                                                                                    da["baseline"])
-        abs_diff, rel_diff, where = largest_difference(da, db)
+        abs_diff = max((d for d, _, _ in numeric), default=0.0)
+        _, rel_diff, where = max(numeric, key=lambda x: x[1], default=(0.0, 0.0, ""))
         result.append({"a": str(a), "b": str(b), "flight": da["flight"], "baseline_runs": len(da["baseline"]),
                        "probe_runs": len(da["probes"]), "feature_values": n_values, "n_differences": len(diffs),
                        "max_abs_difference": abs_diff, "max_rel_difference": rel_diff, "max_rel_at": where,

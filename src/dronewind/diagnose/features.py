@@ -135,8 +135,11 @@ def _wrap180(deg: float) -> float:
     return float((deg + 180.0) % 360.0 - 180.0)
 
 
-def _smoothed_rates_deg_s(l2: xr.Dataset, fs_out_hz: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Pitch and roll rates of the payload smoothed to the L3 rate, on the L2's own times [s since its start]."""
+def _smoothed_rates_deg_s(l2: xr.Dataset, fs_out_hz: float) -> tuple[int, np.ndarray, dict[str, np.ndarray]]:
+    """Pitch and roll rates of the payload smoothed to the L3 rate, on the L2's own times.
+
+    Returns the first time [ns since 1970], the times [s since it] and the rates [degree s-1].
+    """
     t_ns = l2["time"].values.astype("datetime64[ns]").astype(np.int64)
     t_s = (t_ns - t_ns[0]) / 1e9
     fs_in = 1.0 / float(np.median(np.diff(t_s)))
@@ -147,7 +150,7 @@ def _smoothed_rates_deg_s(l2: xr.Dataset, fs_out_hz: float) -> tuple[np.ndarray,
         angle = np.unwrap(np.deg2rad(l2[name].values.astype(float)))
         rate = np.rad2deg(np.gradient(angle, t_s))
         out[name] = np.convolve(rate, kernel, mode="same")
-    return t_s, out
+    return int(t_ns[0]), t_s, out
 
 
 def _rates_deg_s(l2: xr.Dataset, times: np.ndarray, fs_out_hz: float) -> dict[str, np.ndarray]:
@@ -158,8 +161,8 @@ def _rates_deg_s(l2: xr.Dataset, times: np.ndarray, fs_out_hz: float) -> dict[st
     interpolates them at its own L3 times (which move with the drone-mast lag).
     """
     arrays = {"time": l2["time"].values, "pitch_deg": l2["pitch_deg"].values, "roll_deg": l2["roll_deg"].values}
-    t_s, smooth = reused("attitude rates", arrays, repr(float(fs_out_hz)), lambda: _smoothed_rates_deg_s(l2, fs_out_hz))
-    t0_ns = l2["time"].values[:1].astype("datetime64[ns]").astype(np.int64)[0]
+    t0_ns, t_s, smooth = reused("attitude rates", arrays, repr(float(fs_out_hz)),
+                                lambda: _smoothed_rates_deg_s(l2, fs_out_hz))
     target = (times.astype("datetime64[ns]").astype(np.int64) - t0_ns) / 1e9
     return {name: np.interp(target, t_s, smooth[name], left=np.nan, right=np.nan) for name in ("pitch_deg", "roll_deg")}
 

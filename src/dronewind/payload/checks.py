@@ -22,7 +22,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from dronewind.core.geo import local_tangent_plane_m
-from dronewind.core.reuse import reused
 
 __all__ = ["CheckResult", "HEIGHT_TOL_M", "HEIGHT_TOL_FRACTION", "VELOCITY_GAIN_RANGE", "height_check",
            "velocity_position_check", "sonic_range_check"]
@@ -167,10 +166,7 @@ def velocity_position_check(t_s: np.ndarray, lat_deg: np.ndarray, lon_deg: np.nd
     lat, lon, alt, vn, ve, vd = (a[ok] for a in arrays)
     t = t[ok]
     east, north = local_tangent_plane_m(lat, lon, float(np.median(lat)), float(np.median(lon)))
-    # the intervals depend on the INS's times only: inside a forward flight's runs a probe of its
-    # positions and velocities (a lever arm) finds them made (dronewind.core.reuse)
-    i, j = reused("INS comparison intervals", {"t": t}, repr(float(interval_s)),
-                  lambda: _interval_pairs(t, interval_s))
+    i, j = _interval_pairs(t, interval_s)
     if i.size < 10:
         return CheckResult(None, "plausibility: velocity against GNSS position not checked (fewer than 10 intervals)")
     parts = []

@@ -195,10 +195,7 @@ def _tke_curves(
     b = _sonic_body_on_grid(ts, sonic, t0 + dt * np.arange(n), mount, misalignment_deg)
     grid_ext = t0 + dt * np.arange(-n_half, n + n_half)
     lever = None if lever_arm_m is None else tuple(float(x) for x in lever_arm_m)
-    # inside a forward flight's runs, a probe that leaves the INS and the sonic's times alone
-    # finds the INS on this grid made (dronewind.core.reuse; read-only, only read below)
-    rot, v_sonic = reused("INS on the lag-search grid", {"ti": ti, "att": att, "vel": vel, "grid": grid_ext},
-                          repr(lever), lambda: _ins_on_extended_grid(ti, att, vel, grid_ext, lever))
+    rot, v_sonic = _ins_on_extended_grid(ti, att, vel, grid_ext, lever)
     lags = dt * np.arange(-n_half, n_half + 1)
     sums: list[_LagSums | None] = []
     if split_s is not None:
@@ -308,8 +305,9 @@ def _ins_on_extended_grid(ti: np.ndarray, att: np.ndarray, vel: np.ndarray, grid
         (N, 3) velocity of the sonic, V = INS velocity minus the lever-arm term [m s-1].
     """
     target = np.clip(grid_ext, ti[0], ti[-1])
-    # the attitude's part, which a probe of the INS's position and velocity (a lever arm) leaves
-    # unchanged, is found made inside a forward flight's runs (dronewind.core.reuse)
+    # the attitude's part (rotations, body rates: most of the cost), which a sonic probe and a
+    # probe of the INS's position and velocity (a lever arm) leave unchanged, is found made
+    # inside a forward flight's runs (dronewind.core.reuse; read-only, only read)
     with_rates = lever_arm_m is not None
     rot, rates = reused("INS attitude on the lag-search grid", {"ti": ti, "att": att, "grid": grid_ext},
                         repr(with_rates), lambda: _attitude_on_grid(ti, att, target, with_rates))
