@@ -70,6 +70,7 @@ __all__ = [
     "build_evidence",
     "PublishedScore",
     "score_combo",
+    "with_heldout",
     "analyse",
     "flight_summary",
     "rerun_summary",
@@ -78,6 +79,8 @@ __all__ = [
 
 ISOTROPY = 4.0 / 3.0
 N_DRAWS = 4000
+#: Tries of the last naming round reported as not named (best p-values first).
+N_NOT_NAMED = 3
 
 
 def table4_conditions(published: Mapping[str, Any], flight_id: str, campaign_data: Mapping[str, Any]
@@ -355,6 +358,10 @@ class PublishedScore:
     extra_parameters: int
     p_value: float
     significant: bool
+    #: the nested model tested against (``()`` = baseline)
+    reference: tuple[str, ...] = ()
+    #: the likelihood-ratio test passes at the Bonferroni-corrected level
+    lr_passes: bool = False
 
     def estimate(self) -> dict[str, dict[str, float]]:
         """Fitted parameters per candidate."""
@@ -374,7 +381,7 @@ class PublishedScore:
 
 
 def score_combo(pe: PublishedEvidence, combo: Sequence[str], reference: Sequence[str] = (),
-                alpha: float = 0.01, n_tests: int = 1) -> PublishedScore:
+                alpha: float = 0.01, n_tests: int = 1, heldout: bool | None = True) -> PublishedScore:
     """Fit a combination of candidates, leave each observation group out in turn, test it.
 
     Parameters
@@ -388,6 +395,10 @@ def score_combo(pe: PublishedEvidence, combo: Sequence[str], reference: Sequence
         Family-wise false-alarm rate.
     n_tests : int
         Bonferroni divisor.
+    heldout : bool or None
+        Leave each group out (the held-out gain); with None only where the
+        likelihood-ratio test passes, the one case in which the gain decides significance
+        (elsewhere the gain is NaN until :func:`with_heldout` adds it).
 
     Returns
     -------
@@ -396,24 +407,39 @@ def score_combo(pe: PublishedEvidence, combo: Sequence[str], reference: Sequence
         :math:`G = 1 - \\sum_g \\chi^2_{g,held-out}(combo) / \\sum_g \\chi^2_{g,held-out}(reference)`
         and the likelihood-ratio test :math:`\\chi^2(ref) - \\chi^2(combo) \\sim \\chi^2_k`.
     """
-    groups = pe.groups
-    theta, std, value = _fit(pe, combo, groups)
-    ref_theta, _, ref_value = _fit(pe, reference, groups)
-    held, held_ref = {}, {}
-    for g in groups:
-        train = [h for h in groups if h != g]
-        t, _, _ = _fit(pe, combo, train)
-        held[g] = _chi2_groups(pe, combo, t)[g]
-        tr, _, _ = _fit(pe, reference, train) if reference else (ref_theta, None, None)
-        held_ref[g] = _chi2_groups(pe, reference, tr)[g]
-    total_ref = sum(held_ref.values())
-    gain = 1.0 - sum(held.values()) / total_ref if total_ref > 0 else 0.0
+    theta, std, value = _fit(pe, combo, pe.groups)
+    _, _, ref_value = _fit(pe, reference, pe.groups)
     k = len(_combo_parameters(pe, combo)) - len(_combo_parameters(pe, reference))
     lr = max(ref_value - value, 0.0)
     p = float(scipy.stats.chi2.sf(lr, k)) if k > 0 else 1.0
     names = tuple(f"{c}:{p.name}" for c in combo for p in pe.ev.models[c].parameters)
-    return PublishedScore(tuple(combo), names, theta, std, value, ref_value, _chi2_groups(pe, combo, theta),
-                          held, held_ref, gain, lr, k, p, bool(k > 0 and p < alpha / max(n_tests, 1) and gain > 0))
+    lr_passes = bool(k > 0 and p < alpha / max(n_tests, 1))
+    score = PublishedScore(tuple(combo), names, theta, std, value, ref_value, _chi2_groups(pe, combo, theta),
+                           {}, {}, float("nan"), lr, k, p, False, tuple(reference), lr_passes)
+    return with_heldout(pe, score) if heldout or (heldout is None and lr_passes) else score
+
+
+def with_heldout(pe: PublishedEvidence, score: PublishedScore) -> PublishedScore:
+    """``score`` with its held-out chi-square per group, its gain and its significance (once).
+
+    Each group is left out in turn: the combination and its reference are fitted to the
+    others and scored on it (the fits are remembered, :func:`_fit`). Significant: the
+    likelihood-ratio test passes and the gain is positive.
+    """
+    if score.heldout:
+        return score
+    groups, combo, reference = pe.groups, score.combo, score.reference
+    ref_all = _fit(pe, reference, groups)
+    for g in groups:
+        train = [h for h in groups if h != g]
+        t, _, _ = _fit(pe, combo, train)
+        score.heldout[g] = _chi2_groups(pe, combo, t)[g]
+        tr = _fit(pe, reference, train)[0] if reference else ref_all[0]
+        score.heldout_reference[g] = _chi2_groups(pe, reference, tr)[g]
+    total_ref = sum(score.heldout_reference.values())
+    score.gain = 1.0 - sum(score.heldout.values()) / total_ref if total_ref > 0 else 0.0
+    score.significant = bool(score.lr_passes and score.gain > 0)
+    return score
 
 
 def _group_table(pe: PublishedEvidence, combo: Sequence[str], theta: np.ndarray) -> list[dict[str, Any]]:
@@ -450,11 +476,14 @@ def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], a
     for _ in range(max_causes):
         used = {ev.mechanism_of[c] for c in named}
         options = [c for c in sorted(ev.models) if ev.mechanism_of[c] not in used]
+        # an addition's held-out gain is needed where its likelihood-ratio test passes (the gain
+        # then decides) and for the best three rejected tries (reported): not for the others
         tries = [singles[c] for c in options] if not named else \
-            [score_combo(pe, (*named, c), named, alpha, tests[c]) for c in options]
+            [score_combo(pe, (*named, c), named, alpha, tests[c], heldout=None) for c in options]
         ok = [s for s in tries if s.significant and (current is None or s.gain > 0)]
         if not ok:
             rejected = sorted(tries, key=lambda s: s.p_value)
+            rejected[:N_NOT_NAMED] = [with_heldout(pe, s) for s in rejected[:N_NOT_NAMED]]
             break
         top = max(ok, key=lambda s: (s.gain, -s.chi2))
         # the simplest nested variant of the added candidate that fits as well (campaign rule)
@@ -506,14 +535,14 @@ def _candidate_rows(ev: CampaignEvidence, ranked: Sequence[PublishedScore]) -> l
 
 def _not_named_rows(ev: CampaignEvidence, rejected: Sequence[PublishedScore], alpha: float,
                     tests: Mapping[str, int]) -> list[dict[str, Any]]:
-    """What was tried and not named in the last round (best three by p-value).
+    """What was tried and not named in the last round (the best :data:`N_NOT_NAMED` by p-value).
 
     Evidence that is suggestive but does not pass the corrected test is reported, not named.
     """
     return [{"combo": list(s.combo), "added": ev.mechanism_of[s.combo[-1]],
              "estimate": s.estimate(), "chi2": s.chi2, "chi2_reference": s.chi2_reference,
              "p_value": s.p_value, "gain": s.gain, "threshold": alpha / max(tests[s.combo[-1]], 1)}
-            for s in rejected[:3]]
+            for s in rejected[:N_NOT_NAMED]]
 
 
 def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any]], alpha: float = 0.01,
