@@ -52,3 +52,41 @@ def test_w_gain_shows_in_sigma_and_spectral_ratios():
     ratio = feats.values["sw_su_drone"] / base.values["sw_su_drone"]
     assert ratio == pytest.approx(gain**2, rel=1e-9)
     assert feats.values["sw_su_mast"] == base.values["sw_su_mast"]
+
+
+def test_feature_steps_give_every_feature_once():
+    from dronewind.diagnose.features import FEATURE_STEPS, FEATURES
+
+    named = [f for names in FEATURE_STEPS.values() for f in names]
+    assert sorted(named) == sorted(FEATURES)
+
+
+@pytest.mark.parametrize("subset", [("sw_su_drone",), ("ln_sigma_ratio_w", "sw_su_mast"), ("corr_wres_roll_rate",)])
+def test_requested_features_and_values_without_errors_are_those_of_the_full_call(subset):
+    """A subset gives the full call's values bit for bit; the others are NaN 'not requested'.
+    Without errors the values are the same and every error is NaN."""
+    l3, l2 = _flight(gain_w=1.1)
+    full = flight_features(l3, l2)
+    part = flight_features(l3, l2, features=subset)
+    bare = flight_features(l3, l2, errors=False)
+    for name in full.values:
+        assert bare.values[name] == full.values[name] or (np.isnan(bare.values[name]) and np.isnan(full.values[name]))
+        assert np.isnan(bare.sigma[name])
+        if name in subset:
+            assert part.values[name] == full.values[name]
+            assert part.sigma[name] == full.sigma[name]
+        else:
+            assert np.isnan(part.values[name]) or name in _same_step(subset, name)
+    assert part.conditions == full.conditions
+    assert any(r == "not requested" for r in part.reasons.values())
+
+
+def _same_step(subset, name):
+    from dronewind.diagnose.features import FEATURE_STEPS
+
+    return {f for names in FEATURE_STEPS.values() if name in names and set(names) & set(subset) for f in names}
+
+
+def test_unknown_feature_is_refused():
+    with pytest.raises(ValueError, match="unknown feature"):
+        flight_features(*_flight(), features=("sigma_w",))

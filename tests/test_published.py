@@ -223,3 +223,10 @@ def test_file_steps_write_diagnosis_rerun_report_and_figure(tmp_path):
     text = out[0].read_text()
     assert "## What the baseline gets wrong" in text and "`w_gain`" in text and "Before and after" in text
     assert (tmp_path / "fig.png").stat().st_size > 10_000 and (tmp_path / "fig.pdf").exists()
+
+
+def test_forward_runs_without_an_observed_feature_are_refused():
+    forward = {f: _forward(f) for f in SPEEDS}
+    forward["s05"]["features"] = ["ln_sigma_ratio_u", "sw_su_drone"]
+    with pytest.raises(InputError, match="s05.*lack"):
+        dp.analyse(_published(1.1, 1.0), forward, alpha=0.01)

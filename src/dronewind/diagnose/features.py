@@ -38,7 +38,7 @@ independent, which is conservative: the two sensors see partly the same eddies.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -47,7 +47,8 @@ import xarray as xr
 from dronewind.core import scales, spectra, stats
 from dronewind.core.reuse import reused
 
-__all__ = ["FEATURES", "PENDULUM_BAND_HZ", "HF_BAND_HZ", "FlightFeatures", "flight_features", "binned_spectra"]
+__all__ = ["FEATURES", "FEATURE_STEPS", "PENDULUM_BAND_HZ", "HF_BAND_HZ", "FlightFeatures", "flight_features",
+           "binned_spectra"]
 
 #: Feature names in the order of the feature vectors.
 FEATURES: tuple[str, ...] = (
@@ -199,8 +200,9 @@ class _Features:
         self.sigma[name] = sigma
 
 
-def _sensor_series(l3: xr.Dataset) -> _SensorSeries:
-    """Finite samples of drone and mast u, v, w; their sigmas, integral time scales and mean speeds."""
+def _sensor_series(l3: xr.Dataset, time_scales: bool = True) -> _SensorSeries:
+    """Finite samples of drone and mast u, v, w; their sigmas, integral time scales (NaN without
+    ``time_scales``: only the errors need them) and mean speeds."""
     fs = float(l3.attrs["sampling_rate_hz"])
     sensors = list(l3["sensor"].values)
     series = {}
@@ -212,7 +214,8 @@ def _sensor_series(l3: xr.Dataset) -> _SensorSeries:
     n = min(series["drone"]["u"].size, series["mast"]["u"].size)
     height = {s: float(l3["height_m"].values[sensors.index(s)]) for s in ("drone", "mast")}
     sig = {s: {c: float(stats.standard_deviation(series[s][c])) for c in ("u", "v", "w")} for s in series}
-    tscale = {s: {c: _time_scale(series[s][c], fs) for c in ("u", "v", "w")} for s in series}
+    tscale = {s: {c: _time_scale(series[s][c], fs) if time_scales else np.nan for c in ("u", "v", "w")}
+              for s in series}
     mean_u = {s: float(np.mean(series[s]["u"])) for s in series}
     return _SensorSeries(fs, sensors, series, n, n / fs, height, sig, tscale, mean_u)
 
@@ -325,6 +328,16 @@ def _flight_conditions(l3: xr.Dataset, s: _SensorSeries) -> dict[str, float]:
     }
 
 
+#: The features each step of :func:`flight_features` gives (the steps that ``features`` selects).
+FEATURE_STEPS: dict[str, tuple[str, ...]] = {
+    "moments": ("ln_sigma_ratio_u", "ln_sigma_ratio_v", "ln_sigma_ratio_w", "ln_speed_ratio"),
+    "directions": ("dir_diff_deg", "tilt_diff_deg"),
+    "spectra": ("sw_su_drone", "sw_su_mast", "ln_pendulum_w", "ln_hf_u", "ln_hf_w"),
+    "lags": ("lag_sonic_ins_s", "lag_drift_s"),
+    "attitude rates": ("corr_wres_pitch_rate", "corr_wres_roll_rate"),
+}
+
+
 def flight_features(
     l3: xr.Dataset,
     l2_drone: xr.Dataset,
@@ -332,6 +345,9 @@ def flight_features(
     lag_step_s: float = 1.0 / 32.0,
     fr_band: tuple[float, float] = (2.0, 10.0),
     min_speed_ms: float = 2.0,
+    *,
+    features: Collection[str] | None = None,
+    errors: bool = True,
 ) -> FlightFeatures:
     """Residual features of one flight (drone against its reference mast sonic).
 
@@ -353,24 +369,44 @@ def flight_features(
         Reduced-frequency band of the isotropy ratios (seed 000, Sect. 4.1).
     min_speed_ms : float
         Isotropy ratios only above this mean speed [m s-1].
+    features : collection of str, optional
+        Only the steps of :data:`FEATURE_STEPS` that give one of these features are run
+        (their other features come along); every other feature is NaN with the reason
+        ``"not requested"``. All by default.
+    errors : bool
+        Give the standard errors; without, every error is NaN and the integral time scales
+        (the fits they need, most of the cost) are not found. For forward runs whose
+        errors nobody reads: the probes (the diagnosis takes the errors from the baseline
+        seeds, :mod:`dronewind.diagnose.campaign`).
 
     Returns
     -------
     FlightFeatures
         Values, standard errors, conditions and reasons.
     """
-    s = _sensor_series(l3)
+    wanted = set(FEATURES if features is None else features)
+    unknown = sorted(wanted - set(FEATURES))
+    if unknown:
+        raise ValueError(f"flight_features: unknown feature(s) {unknown}; expected some of {list(FEATURES)}")
+    steps = {step for step, names in FEATURE_STEPS.items() if wanted & set(names)}
+    s = _sensor_series(l3, time_scales=errors)
     out = _Features()
-    _moment_features(s, out)
-    _direction_features(l3, s, out)
-    _spectral_features(s, fr_band, min_speed_ms, out)
-    _lag_features(l2_drone, lag_halves_s, lag_step_s, out)
-    _attitude_rate_features(l3, l2_drone, s, out)
+    if "moments" in steps:
+        _moment_features(s, out)
+    if "directions" in steps:
+        _direction_features(l3, s, out)
+    if "spectra" in steps:
+        _spectral_features(s, fr_band, min_speed_ms, out)
+    if "lags" in steps:
+        _lag_features(l2_drone, lag_halves_s, lag_step_s, out)
+    if "attitude rates" in steps:
+        _attitude_rate_features(l3, l2_drone, s, out)
     for f in FEATURES:
         if f not in out.values:
             out.set(f, np.nan, np.nan)
-            out.reasons.setdefault(f, "not measured")
-    return FlightFeatures(out.values, out.sigma, _flight_conditions(l3, s), out.reasons)
+            out.reasons.setdefault(f, "not measured" if f in wanted else "not requested")
+    sigma = out.sigma if errors else dict.fromkeys(out.sigma, np.nan)
+    return FlightFeatures(out.values, sigma, _flight_conditions(l3, s), out.reasons)
 
 
 def features_to_dict(features: FlightFeatures) -> dict[str, dict[str, float | None] | dict[str, str]]:

@@ -53,7 +53,7 @@ import logging
 import math
 import shutil
 import tempfile
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path, PurePath
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -65,7 +65,7 @@ from dronewind.core.constants import KARMAN
 from dronewind.core.progress import Progress
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import StepStore, read_only, reusing, same_bits
-from dronewind.diagnose.features import FlightFeatures, flight_features
+from dronewind.diagnose.features import FEATURES, FlightFeatures, flight_features
 from dronewind.diagnose.probes import (
     ATMOSPHERES,
     BASELINE_PART,
@@ -448,7 +448,8 @@ def _clock_settings(ins_table: InsTable, ins_src: str | Path | RawRecord) -> str
 
 def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources: Sequence[str | Path | RawRecord],
                            processing: Mapping[str, Any], cache: ForwardCache | None = None,
-                           lag_drift: bool = True) -> tuple[FlightFeatures, dict[str, Any]]:
+                           lag_drift: bool = True, features: Collection[str] | None = None,
+                           errors: bool = True) -> tuple[FlightFeatures, dict[str, Any]]:
     """Process the raw records of a simulated forward flight like measured data, up to its features.
 
     Parameters
@@ -470,6 +471,11 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
         Find the lags of the hover's two halves for the ``lag_drift_s`` feature (two more
         lag searches on the L2's segment); without, that feature is missing (NaN). For
         observations that hold no lag, e.g. published statistics.
+    features : collection of str, optional
+        Only these features (:func:`dronewind.diagnose.features.flight_features`); all by
+        default.
+    errors : bool
+        Give the features' standard errors (:func:`~dronewind.diagnose.features.flight_features`).
 
     Returns
     -------
@@ -480,12 +486,12 @@ def process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources:
     if cache is None or not all(isinstance(src, RawRecord) for src in sources):
         cache = ForwardCache()  # files are not keyed by content: a file rewritten in place is never reused
     with reusing(cache.steps):
-        return _process_forward_flight(manifest, flight_id, sources, processing, cache, lag_drift)
+        return _process_forward_flight(manifest, flight_id, sources, processing, cache, lag_drift, features, errors)
 
 
 def _process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources: Sequence[str | Path | RawRecord],
-                            processing: Mapping[str, Any], cache: ForwardCache,
-                            lag_drift: bool) -> tuple[FlightFeatures, dict[str, Any]]:
+                            processing: Mapping[str, Any], cache: ForwardCache, lag_drift: bool,
+                            features: Collection[str] | None, errors: bool) -> tuple[FlightFeatures, dict[str, Any]]:
     """:func:`process_forward_flight` with its cache, inside the cache's :func:`reusing` block."""
     flight = next(f for f in manifest["payload_flights"] if f["id"] == flight_id)
     sonic_info = next(s for m in manifest["masts"] for s in m["sonics"] if s["id"] == flight["reference"])
@@ -510,8 +516,9 @@ def _process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources
     mast_l1 = cache.get("mast_l1", mast_srcs, lambda: compute_mast_l1(mast_srcs, sonic_info, processing["despike"]))
     mast_l2 = compute_mast_l2(mast_l1, l2, flight_id, processing["drone_mast"], source="forward mast")
     l3 = compute_l3(l2, mast_l2, flight, processing["drone_mast"], processing["rotation"])
-    features = flight_features(l3, l2, lag_halves_s=halves, lag_step_s=float(processing["sonic_ins_lag"]["step_s"]))
-    return features, {"l2": l2, "l3": l3, "l1": {"sonic": sonic_l1, "ins": ins_l1, "mast": mast_l1}}
+    found = flight_features(l3, l2, lag_halves_s=halves, lag_step_s=float(processing["sonic_ins_lag"]["step_s"]),
+                            features=features, errors=errors)
+    return found, {"l2": l2, "l3": l3, "l1": {"sonic": sonic_l1, "ins": ins_l1, "mast": mast_l1}}
 
 
 def run_forward(
@@ -523,6 +530,8 @@ def run_forward(
     cache: ForwardCache | None = None,
     atmosphere: xr.Dataset | None = None,
     lag_drift: bool = True,
+    features: Collection[str] | None = None,
+    errors: bool = True,
 ) -> tuple[FlightFeatures, dict[str, Any]]:
     """Simulate one flight of a forward manifest, process it as measured data, return its features.
 
@@ -552,6 +561,10 @@ def run_forward(
         (:func:`dronewind.simulate.payload.measured_constraint`); the model field by default.
     lag_drift : bool
         Compute the ``lag_drift_s`` feature (:func:`process_forward_flight`).
+    features : collection of str, optional
+        Only these features; all by default (:func:`process_forward_flight`).
+    errors : bool
+        Give their standard errors (:func:`process_forward_flight`).
 
     Returns
     -------
@@ -571,9 +584,10 @@ def run_forward(
     if work_dir is not None:
         folder = Path(str(work_dir))
         sources = [write_record(folder / rec.source, rec) for rec in records]
-    features, products = process_forward_flight(manifest, flight_id, sources, processing, cache, lag_drift)
+    found, products = process_forward_flight(manifest, flight_id, sources, processing, cache, lag_drift, features,
+                                             errors)
     products["truth"] = truth
-    return features, products
+    return found, products
 
 
 def file_round_trip(manifest: Mapping[str, Any], flight_id: str, processing: Mapping[str, Any],
@@ -656,6 +670,7 @@ def probe_runs(
     parts: Sequence[str] | None = None,
     atmosphere: xr.Dataset | None = None,
     lag_drift: bool = True,
+    features: Collection[str] | None = None,
 ) -> dict[str, Any]:
     """Baseline and probe runs of the forward model for one flight.
 
@@ -684,6 +699,9 @@ def probe_runs(
     lag_drift : bool
         Compute the ``lag_drift_s`` feature (:func:`process_forward_flight`); when false it
         is NaN in every run and ``lag_drift`` is false in the result.
+    features : collection of str, optional
+        Only these features (e.g. those a set of published numbers holds); all by default.
+        They are listed in the result's ``features``.
 
     Returns
     -------
@@ -695,7 +713,9 @@ def probe_runs(
         run and ``reused_products`` counts the products reused (:class:`ForwardCache`),
         ``reused_steps`` the steps inside them (:attr:`ForwardCache.steps`);
         ``atmosphere`` says which atmosphere was used (``measured`` or ``model``) and
-        ``atmosphere_record`` what was used of the measured record.
+        ``atmosphere_record`` what was used of the measured record. The probes' features
+        are values only (their errors NaN, not computed): the diagnosis takes the errors
+        from the baseline seeds (:mod:`dronewind.diagnose.campaign`).
 
     Notes
     -----
@@ -720,7 +740,8 @@ def probe_runs(
         raise InputError("parts", f"unknown forward-run part(s) {unknown}; expected some of {probe_parts(probes)}")
     out: dict[str, Any] = {"flight": flight_id, "conditions": dict(conditions), "seeds": list(seeds),
                            "parts": list(parts), "baseline": [], "probes": [],
-                           "atmosphere": "model" if atmosphere is None else "measured", "lag_drift": bool(lag_drift)}
+                           "atmosphere": "model" if atmosphere is None else "measured", "lag_drift": bool(lag_drift),
+                           "features": list(FEATURES) if features is None else [f for f in FEATURES if f in features]}
     levels = [(probe, level) for probe in probes if probe.mechanism in parts for level in probe.levels]
     run_seeds = seeds if BASELINE_PART in parts else ()
     progress = Progress("probe", len(run_seeds) + len(levels), "run")
@@ -731,7 +752,7 @@ def probe_runs(
         with progress.item(f"flight {flight_id} baseline seed {seed}"):
             feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed, measured),
                                           flight_id, processing, cache=cache, atmosphere=atmosphere,
-                                          lag_drift=lag_drift)
+                                          lag_drift=lag_drift, features=features)
         if truth is None:
             truth = products["truth"]
             cache.freeze()
@@ -751,7 +772,7 @@ def probe_runs(
             with progress.item(name):
                 feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0], measured),
                                        flight_id, processing, truth=reuse, cache=cache, atmosphere=record,
-                                       lag_drift=lag_drift)
+                                       lag_drift=lag_drift, features=features, errors=False)
         except InputError as exc:
             # a level outside what this flight allows (e.g. a height offset deeper than
             # the measured hover height): recorded and left out; the candidate's response
@@ -822,7 +843,7 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     first = parts[0]
     names: list[str] = []
     for part in parts:
-        for key in ("flight", "conditions", "seeds", "atmosphere", "lag_drift"):
+        for key in ("flight", "conditions", "seeds", "atmosphere", "lag_drift", "features"):
             if part.get(key) != first.get(key):
                 raise InputError(f"parts: {key}", f"forward-run parts disagree on {key}: {part.get(key)!r} and "
                                  f"{first.get(key)!r}")
@@ -834,7 +855,7 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
              enumerate((p, level) for p in probes for level in p.levels)}
     out: dict[str, Any] = {"flight": first["flight"], "conditions": first["conditions"], "seeds": first["seeds"],
                            "atmosphere": first.get("atmosphere"), "lag_drift": first.get("lag_drift", True),
-                           "parts": list(probe_parts(probes)),
+                           "features": first.get("features", list(FEATURES)), "parts": list(probe_parts(probes)),
                            "baseline": next(p["baseline"] for p in parts if BASELINE_PART in p["parts"]),
                            "probes": sorted((r for p in parts for r in p["probes"]),
                                             key=lambda r: order[(r["candidate"], r["parameter"], float(r["level"]))])}

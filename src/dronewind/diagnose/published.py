@@ -63,6 +63,7 @@ from dronewind.errors import InputError
 
 __all__ = [
     "TABLE5_FEATURES",
+    "OBSERVED_FEATURES",
     "load_published",
     "table4_conditions",
     "table5_observations",
@@ -81,6 +82,9 @@ ISOTROPY = 4.0 / 3.0
 N_DRAWS = 4000
 #: Tries of the last naming round reported as not named (best p-values first).
 N_NOT_NAMED = 3
+#: The features the published numbers hold (Table 5's four, the two isotropy claims'): the
+#: only ones the forward runs at Table 4 conditions compute.
+OBSERVED_FEATURES: tuple[str, ...] = (*TABLE5_FEATURES, "sw_su_drone", "sw_su_mast")
 
 
 def table4_conditions(published: Mapping[str, Any], flight_id: str, campaign_data: Mapping[str, Any]
@@ -229,6 +233,11 @@ def build_evidence(published: Mapping[str, Any], forward: Mapping[str, Mapping[s
     missing = [f for f in published["stationary_flights"] if f not in forward]
     if missing:
         raise InputError("published forward runs", f"missing for flights {missing}")
+    for flight in published["stationary_flights"]:
+        lacking = [f for f in OBSERVED_FEATURES if f not in forward[flight].get("features", FEATURES)]
+        if lacking:
+            raise InputError(f"published forward runs of {flight}: features",
+                             f"the runs lack {lacking}, which the published numbers hold")
     # The measured side is empty here: assemble() then takes the analytic errors from the
     # forward model's own runs and calibrates them by its seed-to-seed scatter.
     empty = {"values": {f: None for f in FEATURES}, "sigma": {f: None for f in FEATURES}}
@@ -594,7 +603,7 @@ def analyse(published: Mapping[str, Any], forward: Mapping[str, Mapping[str, Any
         "extended_mechanisms": extended,
         "alpha": alpha,
         "n_tests": n_tests,
-        "model_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
+        "model_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True) if f in OBSERVED_FEATURES},
     }
 
 
