@@ -334,12 +334,13 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     out["atmosphere"] = atmosphere
     # the seeds' runs share what their records share (with the measured atmosphere, the
     # forward mast's record is the measured one in every run): products and steps of the
-    # first run are reused where a later run's inputs are bit-identical
+    # first run are reused where a later run's inputs are bit-identical. The report reads
+    # the runs' feature values only (diagnosis_report): their errors are not computed.
     cache = forward.ForwardCache()
     for k, seed in enumerate(seeds):
         feats, products = forward.run_forward(
             forward.forward_manifest(data, flight_id, conditions, mechanisms, seed, measured), flight_id, processing,
-            atmosphere=record, cache=cache)
+            atmosphere=record, cache=cache, errors=False)
         cache.freeze()
         out["runs"].append(features_to_dict(feats))
         if k == 0:
@@ -350,7 +351,8 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
                 truth = products["truth"] if forward.shares_truth(mechanisms, measured) else None
                 _, base = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, [], seed,
                                                                        measured), flight_id, processing,
-                                              truth=truth, atmosphere=base_record, cache=cache)
+                                              truth=truth, atmosphere=base_record, cache=cache,
+                                              features=(), errors=False)  # its spectra only
                 out["spectra"]["baseline"] = binned_spectra(base["l3"])
             else:
                 out["spectra"]["baseline"] = out["spectra"]["extended"]
