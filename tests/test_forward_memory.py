@@ -191,6 +191,10 @@ def test_parts_run_apart_merge_into_the_whole_flight(atmosphere):
     assert merged == whole
     with pytest.raises(InputError, match="expected each of"):
         forward.merge_probe_runs(parts[1:], probes)
+    # the diagnosis takes the errors from the baseline seeds: a probe carries values only
+    assert all(v is not None for b in whole["baseline"] for k, v in b["sigma"].items() if b["values"][k] is not None)
+    assert any(v is not None for r in whole["probes"] for v in r["features"]["values"].values())
+    assert all(v is None for r in whole["probes"] for v in r["features"]["sigma"].values())
 
 
 def test_runs_without_the_lag_drift_differ_only_in_that_feature():
@@ -213,6 +217,14 @@ def test_runs_without_the_lag_drift_differ_only_in_that_feature():
              for name in forward.probe_parts(probes)]
     assert [p["lag_drift"] for p in parts] == [False, True]
     with pytest.raises(InputError, match="disagree on lag_drift"):
+        forward.merge_probe_runs(parts, probes)
+    # nor parts of different feature sets (the published numbers' runs compute six)
+    parts = [forward.probe_runs(_campaign(), "f1", conditions, proc, seeds=(0,), probes=probes, parts=[name],
+                                features=("sw_su_drone",) if name == "w_gain" else None)
+             for name in forward.probe_parts(probes)]
+    assert parts[1]["features"] == ["sw_su_drone"]
+    assert parts[1]["probes"][0]["features"]["reasons"]["ln_sigma_ratio_w"] == "not requested"
+    with pytest.raises(InputError, match="disagree on features"):
         forward.merge_probe_runs(parts, probes)
 
 
