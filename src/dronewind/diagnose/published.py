@@ -64,6 +64,8 @@ from dronewind.errors import InputError
 __all__ = [
     "TABLE5_FEATURES",
     "OBSERVED_FEATURES",
+    "CLAIM_FEATURES",
+    "SUMMARY_FEATURES",
     "load_published",
     "table4_conditions",
     "table5_observations",
@@ -82,9 +84,15 @@ ISOTROPY = 4.0 / 3.0
 N_DRAWS = 4000
 #: Tries of the last naming round reported as not named (best p-values first).
 N_NOT_NAMED = 3
-#: The features the published numbers hold (Table 5's four, the two isotropy claims'): the
-#: only ones the forward runs at Table 4 conditions compute.
-OBSERVED_FEATURES: tuple[str, ...] = (*TABLE5_FEATURES, "sw_su_drone", "sw_su_mast")
+#: The isotropy claims (Sect. 6): the feature each is an extreme of, and which extreme.
+CLAIM_FEATURES: dict[str, tuple[str, str]] = {"sw_su_drone_max": ("sw_su_drone", "max"),
+                                              "sw_su_mast_min": ("sw_su_mast", "min")}
+#: The features of the reruns' Table 5-like summaries (:func:`flight_summary`: the isotropy
+#: ratios; its moments come from the L3).
+SUMMARY_FEATURES: tuple[str, ...] = tuple(feature for feature, _ in CLAIM_FEATURES.values())
+#: The features the published numbers hold (Table 5's four, the isotropy claims'): the only
+#: ones the forward runs at Table 4 conditions compute.
+OBSERVED_FEATURES: tuple[str, ...] = (*TABLE5_FEATURES, *SUMMARY_FEATURES)
 
 
 def table4_conditions(published: Mapping[str, Any], flight_id: str, campaign_data: Mapping[str, Any]
@@ -245,13 +253,14 @@ def build_evidence(published: Mapping[str, Any], forward: Mapping[str, Mapping[s
                   {f: forward[f] for f in published["stationary_flights"]})
     table5 = table5_observations(published)
     claims = {k: (float(published["claims"][k]["value"]), float(published["claims"][k]["resolution"]))
-              for k in ("sw_su_drone_max", "sw_su_mast_min")}
+              for k in CLAIM_FEATURES}
     draws = np.random.default_rng(seed).standard_normal((N_DRAWS, len(ev.flights)))
     groups = [f"table5:{f}" for f in sorted(table5)] + [f"claim:{k}" for k in claims]
     pe = PublishedEvidence(ev, table5, claims, draws, groups, {})
     for claim, (_, resolution) in claims.items():
-        j = FEATURES.index("sw_su_drone" if "drone" in claim else "sw_su_mast")
-        _, spread0 = _extreme(pe, ev.baseline[:, j], ev.sigma[:, j], "max" if claim.endswith("max") else "min")
+        feature, kind = CLAIM_FEATURES[claim]
+        j = FEATURES.index(feature)
+        _, spread0 = _extreme(pe, ev.baseline[:, j], ev.sigma[:, j], kind)
         pe.claim_sigma[claim] = math.hypot(spread0, resolution / math.sqrt(12.0))
     return pe
 
@@ -309,9 +318,8 @@ def _observations(pe: PublishedEvidence, feats: np.ndarray) -> dict[str, tuple[n
     ev = pe.ev
     out = {g: (obs, feats[i, j], se) for g, i, j, obs, se in pe.table5_rows}
     for claim, (value, _) in pe.claims.items():
-        feature = "sw_su_drone" if "drone" in claim else "sw_su_mast"
+        feature, kind = CLAIM_FEATURES[claim]
         k = FEATURES.index(feature)
-        kind = "max" if claim.endswith("max") else "min"
         pred, _ = _extreme(pe, feats[:, k], ev.sigma[:, k], kind, spread=False)  # the fit needs no spread
         out[f"claim:{claim}"] = (np.array([value]), np.array([pred]), np.array([pe.claim_sigma[claim]]))
     return out

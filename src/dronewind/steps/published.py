@@ -25,10 +25,6 @@ from dronewind.steps.diagnosis import write_json
 
 __all__ = ["published_forward", "published_diagnosis", "published_rerun", "published_report"]
 
-#: The features a rerun's summary takes (:func:`dronewind.diagnose.published.flight_summary`:
-#: the isotropy ratios; its moments come from the L3).
-RERUN_FEATURES: tuple[str, ...] = ("sw_su_drone", "sw_su_mast")
-
 
 def published_forward(published_file: str | Path, output: str | Path, *, campaign: Mapping[str, Any],
                       flight_id: str, processing: Mapping[str, Any], seeds: Sequence[int],
@@ -117,7 +113,8 @@ def published_rerun(published_file: str | Path, diagnosis_json: str | Path, outp
         for model, mechanisms in (("baseline", []), ("extended", diag["extended_mechanisms"])):
             feats, products = forward.run_forward(
                 forward.forward_manifest(campaign, flight_id, conditions, mechanisms, seed), flight_id, processing,
-                truth=truth, cache=cache if share else None, lag_drift=False, features=RERUN_FEATURES, errors=False)
+                truth=truth, cache=cache if share else None, lag_drift=False, features=dp.SUMMARY_FEATURES,
+                errors=False)
             out[model].append(dp.flight_summary(products["l3"], feats.values))
             if share:
                 truth = products["truth"]
