@@ -105,6 +105,28 @@ def test_reused_truth_gives_the_records_of_a_fresh_simulation(seed):
     _same_records(reused, fresh)
 
 
+def test_a_truth_keeps_only_the_records_without_a_mechanism():
+    """A probe's own record (a mechanism on its instrument) is measured for its run and not kept:
+    asked again it is measured again, bit for bit the same; the records of the instruments it
+    leaves alone are the baseline's objects, and the truth's memo does not grow with the probes."""
+    truth = payload_truth(_campaign(), "f1")
+    baseline, _ = payload_records(_campaign(), "f1", truth)
+    kept = len(truth.memo)
+    for mech in ({"mechanism": "w_gain", "parameters": {"gain": 1.1}},
+                 {"mechanism": "lever_arm", "parameters": {"x_m": 0.3, "y_m": 0.0, "z_m": 0.0}},
+                 {"mechanism": "mast_w_attenuation", "parameters": {"gain": 0.9}}):
+        first, _ = payload_records(_campaign([mech]), "f1", truth)
+        second, _ = payload_records(_campaign([mech]), "f1", truth)
+        changed = {"w_gain": {0}, "lever_arm": {1}, "mast_w_attenuation": set(range(2, len(first)))}[mech["mechanism"]]
+        for k, (a, b, base) in enumerate(zip(first, second, baseline, strict=True)):
+            if k in changed:
+                assert a is not b and a is not base, (mech["mechanism"], k)
+                _same_records([a], [b])
+            else:
+                assert a is base and b is base, (mech["mechanism"], k)
+    assert len(truth.memo) == kept
+
+
 def test_a_truth_of_another_hover_height_is_refused():
     truth = payload_truth(_campaign(), "f1")
     lowered = _campaign([{"mechanism": "height_offset", "parameters": {"dz_m": 5.0}}])

@@ -756,6 +756,9 @@ def probe_runs(
         if truth is None:
             truth = products["truth"]
             cache.freeze()
+        # a run's products are not read again: freed before the next run, so that two runs'
+        # datasets (and a height offset's own true state) are never held at once
+        del products
         out["baseline"].append(features_to_dict(feats))
     if truth is None and any(shares_truth([{"mechanism": probe.mechanism}], measured) for probe, _ in levels):
         truth = payload_truth(forward_manifest(campaign_data, flight_id, conditions, None, seeds[0], measured),
@@ -770,9 +773,9 @@ def probe_runs(
         record = None if atmosphere is None else record_through(atmosphere, mech)
         try:
             with progress.item(name):
-                feats, _ = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0], measured),
-                                       flight_id, processing, truth=reuse, cache=cache, atmosphere=record,
-                                       lag_drift=lag_drift, features=features, errors=False)
+                feats = run_forward(forward_manifest(campaign_data, flight_id, conditions, mech, seeds[0], measured),
+                                    flight_id, processing, truth=reuse, cache=cache, atmosphere=record,
+                                    lag_drift=lag_drift, features=features, errors=False)[0]
         except InputError as exc:
             # a level outside what this flight allows (e.g. a height offset deeper than
             # the measured hover height): recorded and left out; the candidate's response

@@ -1029,7 +1029,7 @@ class PayloadTruth:
     #: digest ("" without one) and what was used of it
     atmosphere_digest: str = ""
     atmosphere_info: dict[str, Any] = dataclasses.field(default_factory=dict, compare=False)
-    #: records already measured from this truth, by instrument and the mechanisms acting on it
+    #: records already measured from this truth without a mechanism on their instrument
     #: (:func:`payload_records`): a probe that leaves an instrument alone gets the same record
     memo: dict[tuple[str, str], Any] = dataclasses.field(default_factory=dict, compare=False, repr=False)
     #: the campaign's turbulence model the truth was made with (``simulation.atmosphere``)
@@ -1180,14 +1180,20 @@ INSTRUMENT_MECHANISMS: dict[str, frozenset[str]] = {
 
 def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: SimulationSettings, instrument: str,
               measure: Callable[[], Any]) -> Any:
-    """An instrument's record from a truth, measured once per setting of the mechanisms acting on it.
+    """An instrument's record from a truth: measured once where no mechanism acts on the instrument.
 
-    The key holds everything the record depends on besides the truth: the instrument's
-    mechanisms and their parameters, the payload, defect and mast settings and the times.
+    The record without a mechanism on the instrument is the one every probe of another
+    instrument reads again (a sonic probe reads the INS and mast records of the baseline), so
+    it is kept in the truth's memo. The key holds everything the record depends on besides the
+    truth: the payload, defect and mast settings and the times. A record with a mechanism on
+    the instrument (a probe level, an extended model) is read by one run only: it is measured
+    and not kept, which would hold every probe's records as long as the truth (72 of the 168
+    MB a published-numbers job of sample s05 held at its end, ``benchmarks/results/README.md``,
+    session 31).
     """
-    active = {name: dict(cond["mechanisms"][name]) for name in sorted(INSTRUMENT_MECHANISMS[instrument])
-              if name in cond["mechanisms"]}
-    key = (instrument, repr((active, cond["payload"], cond["defects"], settings["mast"], str(cond["start"]),
+    if any(name in cond["mechanisms"] for name in INSTRUMENT_MECHANISMS[instrument]):
+        return measure()
+    key = (instrument, repr((cond["payload"], cond["defects"], settings["mast"], str(cond["start"]),
                              str(flight_timeline(cond)))))
     return _remembered(truth.memo, key, measure)
 

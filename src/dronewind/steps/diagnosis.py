@@ -354,8 +354,10 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
                                               truth=truth, atmosphere=base_record, cache=cache,
                                               features=(), errors=False)  # its spectra only
                 out["spectra"]["baseline"] = binned_spectra(base["l3"])
+                del base
             else:
                 out["spectra"]["baseline"] = out["spectra"]["extended"]
+        del products  # not read again: freed before the next seed's run (one run's datasets at a time)
     return write_json(output, out)
 
 

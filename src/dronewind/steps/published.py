@@ -119,6 +119,7 @@ def published_rerun(published_file: str | Path, diagnosis_json: str | Path, outp
             if share:
                 truth = products["truth"]
                 cache.freeze()
+            del products  # not read again: freed before the next run (one run's datasets at a time)
         LOG.info("sample %s: seed %d rerun done", flight_id, seed)
     return write_json(output, out)
 
