@@ -32,66 +32,46 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from bench_common import DEFAULT_CAMPAIGN, REPO, git_commit, print_and_write
+from bench_common import (
+    REPO,
+    default_forward_setup,
+    forked_job,
+    git_commit,
+    preload_as_server,
+    print_and_write,
+    published_forward_job,
+)
 
 PUBLISHED = REPO / "config" / "published" / "seed000_samurai_s.yaml"
 
 
 def parent(rule: str, jobs: list[str], results: Path | None) -> list[dict[str, Any]]:
     """In this process (the tree on ``PYTHONPATH``): preload as the server does, fork one child per job."""
-    import gc
-
-    from dronewind.steps.preload import ONE_THREAD_ENV, preload_libraries
-
-    os.environ.update(ONE_THREAD_ENV)
-    preload_libraries()
-    gc.collect()
-    gc.freeze()
-    from dronewind.diagnose import forward
-    from dronewind.manifest import default_config, load_campaign, payload_flight_manifest
+    preload_as_server()
+    from dronewind.manifest import payload_flight_manifest
     from dronewind.steps.diagnosis import forward_probes
-    from dronewind.steps.handoff import keep_freed_memory
-    from dronewind.steps.published import published_forward
 
-    keep_freed_memory()
-    config = default_config()
-    data = load_campaign(DEFAULT_CAMPAIGN).data
-    processing = {k: config["processing"][k] for k in forward.CHAIN_SETTINGS}
-    seeds, diagnosis = config["diagnosis"]["seeds"], config["diagnosis"]
+    setup = default_forward_setup()
+    data, config, processing = setup
 
     def job(name: str, out: Path) -> None:
         if rule == "published_forward":
-            published_forward(PUBLISHED, out, campaign=payload_flight_manifest(data, name, atmosphere=True),
-                              flight_id=name, processing=processing, seeds=seeds)
+            published_forward_job(setup, name, out)
             return
         assert results is not None
         reference = next(f["reference"] for f in data["payload_flights"] if f["id"] == name)
         forward_probes(results / "diagnosis" / "measured" / f"{name}.json", out,
                        campaign=payload_flight_manifest(data, name), flight_id=name, processing=processing,
-                       seeds=seeds, mast_l1=results / "netcdf" / "L1" / f"mast_{reference}.nc",
-                       atmosphere=diagnosis["atmosphere"])
+                       seeds=config["diagnosis"]["seeds"], mast_l1=results / "netcdf" / "L1" / f"mast_{reference}.nc",
+                       atmosphere=config["diagnosis"]["atmosphere"])
 
-    rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for name in jobs:
-            pid = os.fork()
-            if pid == 0:  # the child: one job, then exit without cleanup (as the server's children)
-                import logging
-
-                logging.disable(logging.INFO)
-                job(name, Path(tmp) / f"{name}.json")
-                os._exit(0)
-            _, status, usage = os.wait4(pid, 0)
-            if status != 0:
-                raise RuntimeError(f"job {name} failed (status {status})")
-            rows.append({"job": name, "user_s": round(usage.ru_utime, 3), "sys_s": round(usage.ru_stime, 3),
-                         "minor_faults": usage.ru_minflt, "max_rss_mb": round(usage.ru_maxrss / 1024, 1)})
-    return rows
+        return [{"job": name, **forked_job(lambda name=name: job(name, Path(tmp) / f"{name}.json"))} for name in jobs]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--tree", action="append", required=True, metavar="NAME=SRC",
+    ap.add_argument("--tree", action="append", metavar="NAME=SRC",
                     help="a source tree to measure (its src folder), named; give two or more")
     ap.add_argument("--rule", choices=["published_forward", "diagnose_forward"], default="published_forward",
                     help="which jobs to fork")
@@ -104,6 +84,8 @@ def main() -> None:
     if args.parent:
         print(json.dumps(parent(args.rule, args.jobs, args.results)))
         return
+    if not args.tree or len(args.tree) < 2:
+        ap.error("give two or more --tree NAME=SRC")
     trees = dict(t.split("=", 1) for t in args.tree)
     if args.rule == "diagnose_forward" and args.results is None:
         ap.error("--rule diagnose_forward needs --results")
@@ -119,7 +101,7 @@ def main() -> None:
         for name, src in trees.items():
             env = {**os.environ, "PYTHONPATH": str(Path(src).resolve())}
             extra = [] if args.results is None else ["--results", str(args.results.resolve())]
-            out = subprocess.run([sys.executable, __file__, "--tree", args.tree[0], "--rule", args.rule, *extra,
+            out = subprocess.run([sys.executable, __file__, "--rule", args.rule, *extra,
                                   "--jobs", *jobs, "--parent"], check=True, stdout=subprocess.PIPE, text=True,
                                  env=env)
             done = json.loads(out.stdout.strip().splitlines()[-1])

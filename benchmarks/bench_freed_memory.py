@@ -17,51 +17,32 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-from bench_common import DEFAULT_CAMPAIGN, REPO, git_commit, print_and_write
-
-PUBLISHED = REPO / "config" / "published" / "seed000_samurai_s.yaml"
+from bench_common import (
+    REPO,
+    default_forward_setup,
+    forked_job,
+    git_commit,
+    preload_as_server,
+    print_and_write,
+    published_forward_job,
+)
 
 
 def parent(samples: list[str], keep: bool) -> list[dict]:
     """In this process: preload as the server does, optionally keep freed memory, fork one child per sample."""
-    import gc
-
-    from dronewind.steps.preload import ONE_THREAD_ENV, preload_libraries
-
-    os.environ.update(ONE_THREAD_ENV)
-    preload_libraries()
-    gc.collect()
-    gc.freeze()
-    from dronewind.diagnose import forward
-    from dronewind.manifest import default_config, load_campaign, payload_flight_manifest
-    from dronewind.steps.handoff import keep_freed_memory
-    from dronewind.steps.published import published_forward
-
-    kept = keep_freed_memory() if keep else False
-    config = default_config()
-    data = load_campaign(DEFAULT_CAMPAIGN).data
-    processing = {k: config["processing"][k] for k in forward.CHAIN_SETTINGS}
+    kept = preload_as_server(keep_freed=keep)
+    setup = default_forward_setup()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for sample in samples:
-            pid = os.fork()
-            if pid == 0:  # the child: one job, then exit without cleanup (as the server's children)
-                published_forward(PUBLISHED, Path(tmp) / f"{sample}.json",
-                                  campaign=payload_flight_manifest(data, sample, atmosphere=True), flight_id=sample,
-                                  processing=processing, seeds=config["diagnosis"]["seeds"])
-                os._exit(0)
-            _, status, usage = os.wait4(pid, 0)
-            if status != 0:
-                raise RuntimeError(f"job {sample} failed (status {status})")
+            usage = forked_job(lambda sample=sample: published_forward_job(setup, sample, Path(tmp) / f"{sample}.json"))
             rows.append({"sample": sample, "keep_freed_memory": keep, "setting_taken": kept,
-                         "user_s": round(usage.ru_utime, 3), "sys_s": round(usage.ru_stime, 3),
-                         "minor_faults": usage.ru_minflt})
+                         **{k: usage[k] for k in ("user_s", "sys_s", "minor_faults")}})
     return rows
 
 

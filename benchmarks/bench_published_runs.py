@@ -33,7 +33,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from bench_common import default_forward_setup, git_commit, print_and_write
+from bench_common import (
+    default_forward_setup,
+    git_commit,
+    load_runs,
+    preload_as_server,
+    print_and_write,
+    published_forward_job,
+)
 
 PUBLISHED = Path(__file__).resolve().parents[1] / "config" / "published" / "seed000_samurai_s.yaml"
 #: Steps timed inside a forward run (module, function).
@@ -45,14 +52,8 @@ STEPS = (("dronewind.simulate.payload", "_truth"), ("dronewind.simulate.payload"
 
 
 def _published_forward(setup: tuple[dict[str, Any], dict[str, Any], dict[str, Any]], flight: str) -> None:
-    from dronewind.manifest import payload_flight_manifest
-    from dronewind.steps.published import published_forward
-
-    data, config, processing = setup
     with tempfile.TemporaryDirectory() as tmp:
-        published_forward(PUBLISHED, Path(tmp) / "forward.json", campaign=payload_flight_manifest(data, flight,
-                                                                                                   atmosphere=True),
-                          flight_id=flight, processing=processing, seeds=config["diagnosis"]["seeds"])
+        published_forward_job(setup, flight, Path(tmp) / "forward.json")
 
 
 def by_kind(setup: tuple[dict[str, Any], dict[str, Any], dict[str, Any]], samples: list[str]) -> dict[str, Any]:
@@ -104,17 +105,10 @@ def by_kind(setup: tuple[dict[str, Any], dict[str, Any], dict[str, Any]], sample
 def fork_first_runs(setup: tuple[dict[str, Any], dict[str, Any], dict[str, Any]], samples: list[str]
                     ) -> dict[str, list[float]]:
     """Per sample: CPU of the first and the second run in one child of a preloaded process."""
-    import gc
     import json
     import logging
 
-    from dronewind.steps.handoff import keep_freed_memory
-    from dronewind.steps.preload import preload_libraries
-
-    preload_libraries()
-    gc.collect()
-    gc.freeze()
-    keep_freed_memory()
+    preload_as_server()
     out = {}
     for flight in samples:
         read, write = os.pipe()
@@ -137,14 +131,9 @@ def fork_first_runs(setup: tuple[dict[str, Any], dict[str, Any], dict[str, Any]]
 
 def fit_tries(forward_dir: Path) -> dict[str, int]:
     """Second-round tries of the published fit and how many were left out group by group."""
-    import json
-
     from dronewind.diagnose import published as dp
 
-    runs = {}
-    for path in sorted(forward_dir.glob("*.json")):
-        run = json.loads(path.read_text())
-        runs[run["flight"]] = run
+    runs = load_runs(forward_dir)
     counts = {"second_round_tries": 0, "second_round_left_out": 0}
     score_combo, with_heldout = dp.score_combo, dp.with_heldout
 

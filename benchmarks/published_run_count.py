@@ -37,20 +37,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from bench_common import git_commit, print_and_write
+from bench_common import git_commit, load_runs, print_and_write
 from dronewind.diagnose import published as dp
 
 PUBLISHED = Path(__file__).resolve().parents[1] / "config" / "published" / "seed000_samurai_s.yaml"
-
-
-def _load(folder: Path) -> dict[str, dict[str, Any]]:
-    runs = {}
-    for path in sorted(folder.glob("*.json")):
-        run = json.loads(path.read_text())
-        runs[run["flight"]] = run
-    if not runs:
-        raise SystemExit(f"{folder}: no forward or rerun files")
-    return runs
 
 
 def first_seeds(k: int) -> Callable[[dict[str, Any]], int]:
@@ -118,7 +108,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="JSON file for the results")
     args = parser.parse_args()
     pub = dp.load_published(PUBLISHED)
-    forward = _load(args.published / "forward")
+    forward = load_runs(args.published / "forward")
     config_alpha = json.loads((args.published / "diagnosis.json").read_text())["alpha"]
     kinds = json.loads(args.runs.read_text())["kinds"]
     per_run = {"baseline": kinds["baseline seeds"]["run_forward"] / kinds["baseline seeds"]["runs"],
@@ -143,7 +133,7 @@ def main() -> None:
         out["variants"][name] = {"runs_left_out": n_left_out,
                                  "cpu_s_saved": round(n_left_out * per_run[kind], 2),
                                  "same_as_design": same, **result}
-    reruns = _load(args.published / "rerun")
+    reruns = load_runs(args.published / "rerun")
     full = rerun_numbers(dp.rerun_summary(reruns, pub))
     one = copy.deepcopy(reruns)
     for run in one.values():

@@ -1187,9 +1187,10 @@ def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: Simu
     it is kept in the truth's memo. The key holds everything the record depends on besides the
     truth: the payload, defect and mast settings and the times. A record with a mechanism on
     the instrument (a probe level, an extended model) is read by one run only: it is measured
-    and not kept, which would hold every probe's records as long as the truth (72 of the 168
-    MB a published-numbers job of sample s05 held at its end, ``benchmarks/results/README.md``,
-    session 31).
+    and not kept, which would hold every probe's records as long as the truth (with them and
+    each run's products kept until the next run, a published-numbers job of sample s05 held
+    168.5 MB once its runs were made, 74.9 MB without: ``benchmarks/bench_job_memory.py``,
+    ``results/job_memory_s31_{start,new}.json``).
     """
     if any(name in cond["mechanisms"] for name in INSTRUMENT_MECHANISMS[instrument]):
         return measure()
