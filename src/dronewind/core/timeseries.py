@@ -3,8 +3,8 @@
 Time stamps of the products are ``datetime64[ns]``; the chains compute in float seconds
 since a reference stamp, obtained by subtracting int64 nanoseconds before converting (so a
 flight keeps sub-microsecond resolution). These helpers check the time axis and the
-variables of an input dataset, fill NaN by linear interpolation in time and find the
-longest run of a mask.
+variables of an input dataset, fill NaN by linear interpolation in time, find the
+longest run of a mask and the median step of a clock.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import xarray as xr
 
 from dronewind.errors import InputError
 
-__all__ = ["NS_PER_S", "fill_nan_by_time", "longest_true_run", "require_variables", "time_ns"]
+__all__ = ["NS_PER_S", "fill_nan_by_time", "longest_true_run", "median_step", "require_variables", "time_ns"]
 
 #: Nanoseconds per second.
 NS_PER_S: int = 1_000_000_000
@@ -121,3 +121,42 @@ def longest_true_run(mask: np.ndarray) -> tuple[int, int, int]:
         return 0, 0, 0
     k = int(np.argmax(stops - starts))
     return int(starts[k]), int(stops[k]), int(starts.size)
+
+
+#: Every how many steps :func:`median_step` takes one for its candidate.
+_STEP_SUBSAMPLE = 64
+
+
+def median_step(t: np.ndarray) -> float:
+    """Median of the steps between consecutive time stamps: ``np.median(np.diff(t))``, bit for bit.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        1-D time stamps [any unit], integer or float, at least 2.
+
+    Returns
+    -------
+    float
+        The median step [unit of ``t``]; NaN where ``np.median`` gives NaN (a NaN step).
+
+    Notes
+    -----
+    A logger's steps are nearly all the same, so the median of every 64th step is almost
+    always the median of all: it is taken as a candidate :math:`c` and verified by counting,
+    which is exact. With :math:`n` steps, fewer than :math:`n/2` of them below :math:`c` and
+    fewer than :math:`n/2` above, both middle elements of the sorted steps equal :math:`c`,
+    so the median is :math:`c`; otherwise (or with a NaN step) ``np.median`` of all steps is
+    taken. Two counting passes replace a selection: a sonic or INS record's rate was found
+    three times per forward run at 1.1-1.5 ms each (``np.median`` of 60,000-92,000 steps),
+    3.7 % of the published-numbers forward runs' profiled time, and takes 0.1 ms this way.
+    """
+    steps = np.diff(np.asarray(t))
+    n = steps.size
+    if n == 0:
+        raise ValueError("median_step: expected at least 2 time stamps")
+    if steps.dtype.kind in "iu" or (steps.dtype.kind == "f" and not np.isnan(steps).any()):
+        candidate = np.median(steps[::_STEP_SUBSAMPLE])
+        if 2 * np.count_nonzero(steps < candidate) < n and 2 * np.count_nonzero(steps > candidate) < n:
+            return float(candidate)
+    return float(np.median(steps))

@@ -59,6 +59,7 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import reused
+from dronewind.core.timeseries import median_step
 from dronewind.errors import InputError, describe_header
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
 
@@ -1162,7 +1163,7 @@ def _nominal_rate(rpi_time_us: np.ndarray) -> float:
     """Sampling rate from the median step [Hz], rounded to an integer if within 2 %."""
     if rpi_time_us.size < 2:
         return float("nan")
-    dt = float(np.median(np.diff(rpi_time_us))) / _US
+    dt = median_step(rpi_time_us) / _US
     if dt <= 0:
         return float("nan")
     fs = 1.0 / dt
@@ -1176,9 +1177,7 @@ def _finish_attrs(ds: xr.Dataset, counts: dict[str, int], log: list[str], fit: C
     ds.attrs.update(fit.attrs())
     ds.attrs["sampling_rate_hz"] = float(fs_hz)
     if rpi_time_us.size >= 2:
-        ds.attrs["sampling_rate_measured_hz"] = float(
-            _US / np.median(np.diff(rpi_time_us))
-        )
+        ds.attrs["sampling_rate_measured_hz"] = float(_US / median_step(rpi_time_us))
     ds.attrs["source_file"] = source
     ds.attrs["processing_log"] = "\n".join(log)
 
@@ -1198,7 +1197,7 @@ def _insert_missing(rpi_time_us: np.ndarray, gap_factor: float = 1.5
     if n < 3:
         return t.copy(), np.arange(n), 0, []
     d = np.diff(t)
-    dt = float(np.median(d))
+    dt = median_step(t)
     m = np.where(d > gap_factor * dt, np.rint(d / dt).astype(np.int64) - 1, 0)
     m = np.maximum(m, 0)
     total_missing = int(m.sum())

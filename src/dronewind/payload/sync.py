@@ -49,7 +49,14 @@ from dronewind.core import filtering
 from dronewind.core.cf import variable
 from dronewind.core.qc import QC_GAP_FILLED, QC_OUT_OF_RANGE, qc_flag_attrs
 from dronewind.core.reuse import reused
-from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, longest_true_run, require_variables, time_ns
+from dronewind.core.timeseries import (
+    NS_PER_S,
+    fill_nan_by_time,
+    longest_true_run,
+    median_step,
+    require_variables,
+    time_ns,
+)
 from dronewind.errors import InputError
 from dronewind.payload import checks, motion
 
@@ -778,7 +785,7 @@ def _ins_coverage(t_hover: np.ndarray, missing: np.ndarray, ti: np.ndarray, max_
         Receives ``n_ins_filled_in_hover``, ``n_ins_absent_in_hover``, the ``ins_gaps:`` line
         and the unusable reason.
     """
-    dt = float(np.median(np.diff(ti)))
+    dt = median_step(ti)
     steps = np.diff(t_hover)
     absent = int(np.sum(np.maximum(np.rint(steps / dt).astype(np.int64) - 1, 0))) if steps.size else 0
     n_expected = t_hover.size + absent
@@ -830,7 +837,7 @@ def _sonic_segment(sonic_l1: xr.Dataset, ts: np.ndarray, h0: float, h1: float, m
                          f"the sonic record ({ts.size} samples, {ts[0] - h0:+.1f} s to {ts[-1] - h0:+.1f} s from the "
                          f"hover start) does not overlap the {h1 - h0:.1f} s hover window found in the INS")
     ts_seg = ts[seg]
-    dt_nom = float(np.median(np.diff(ts_seg)))
+    dt_nom = median_step(ts_seg)
     fs_hz = float(sonic_l1.attrs.get("sampling_rate_hz", 1.0 / dt_nom))
     raw = {k: np.asarray(sonic_l1[k].values, dtype=float)[seg] for k in _SONIC_VARS}
     nan_any = np.zeros(seg.size, dtype=bool)
