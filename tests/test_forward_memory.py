@@ -15,11 +15,13 @@ import numpy as np
 import pytest
 
 from dronewind.core.raw import RawRecord
+from dronewind.core.reuse import StepStore, reusing
 from dronewind.diagnose import forward
 from dronewind.errors import InputError
 from dronewind.manifest import default_config
 from dronewind.mechanisms import get_mechanism
 from dronewind.payload.io import read_sonic_csv
+from dronewind.simulate import atmosphere
 from dronewind.simulate.payload import payload_records, payload_truth
 from tests.test_simulate_payload import _campaign as _unit_campaign
 
@@ -125,6 +127,36 @@ def test_a_truth_keeps_only_the_records_without_a_mechanism():
             else:
                 assert a is base and b is base, (mech["mechanism"], k)
     assert len(truth.memo) == kept
+
+
+def test_a_truth_at_another_hover_height_reuses_the_seeds_draws():
+    """A height offset's truth, made after the baseline's in one forward flight's step store, finds
+    the seed's jitter, INS noise, latent draws and mast series made, and gives bit for bit the
+    records of simulating it alone; its masts' records are the baseline's."""
+    store = StepStore()
+    raised = _campaign([{"mechanism": "height_offset", "parameters": {"dz_m": 5.0}}])
+    with reusing(store):
+        baseline, _ = payload_records(_campaign(), "f1")
+        hits = store.hits
+        records, _ = payload_records(raised, "f1")
+    assert store.hits - hits >= 4  # payload jitter, INS noise, latent draws, mast series
+    _same_records(records, payload_records(raised, "f1")[0])
+    _same_records(records[2:], baseline[2:])
+    assert not all(np.array_equal(records[0].columns[k], baseline[0].columns[k]) for k in records[0].columns)
+
+
+def test_reused_latent_draws_leave_the_generator_as_drawing_them_would():
+    """The draws found for a generator's state are those it would give, and it is advanced past them."""
+    store = StepStore()
+    drawn, found = np.random.default_rng(5), np.random.default_rng(5)
+    with reusing(store):
+        first = atmosphere._standard_latents(drawn, 40, 3)
+        again = atmosphere._standard_latents(found, 40, 3)
+        other = atmosphere._standard_latents(np.random.default_rng(6), 40, 3)
+    assert store.hits == 1 and again is first and not np.array_equal(other, first)
+    assert found.bit_generator.state == drawn.bit_generator.state
+    np.testing.assert_array_equal(found.standard_normal(8), drawn.standard_normal(8))
+    np.testing.assert_array_equal(atmosphere._standard_latents(np.random.default_rng(5), 40, 3), first)
 
 
 def test_a_truth_of_another_hover_height_is_refused():

@@ -76,9 +76,9 @@ from __future__ import annotations
 import copy
 import dataclasses
 import functools
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TypedDict
+from typing import Any, TypedDict
 
 import numpy as np
 import xarray as xr
@@ -809,6 +809,26 @@ def _coherence_factor(key: _CoherenceKey) -> np.ndarray:
     return chol
 
 
+def _standard_latents(rng: np.random.Generator, n_f: int, n_p: int) -> np.ndarray:
+    """Complex standard normal eta of the four latent components, (4, n_f, n_p), read-only; ``rng`` advanced.
+
+    Drawn per component in the order of :func:`_latent_fields` (real part, then imaginary
+    part). The draws depend on the generator's state and the shape only: the truths of one
+    seed at other hover heights (the same number of points) draw the same, so inside a
+    forward flight's runs they are found by that state (:mod:`dronewind.core.reuse`), and
+    the generator is then set to the state drawing them would have left it in.
+    """
+    def draw() -> tuple[np.ndarray, Mapping[str, Any]]:
+        eta = np.empty((4, n_f, n_p), dtype=complex)
+        for j in range(4):
+            eta[j] = (rng.standard_normal((n_f, n_p)) + 1j * rng.standard_normal((n_f, n_p))) / np.sqrt(2)
+        return eta, rng.bit_generator.state
+
+    eta, after = reused("latent draws", {}, repr((rng.bit_generator.state, n_f, n_p)), draw)
+    rng.bit_generator.state = after
+    return eta
+
+
 def _latent_fields(rng: np.random.Generator, fpos_hz: np.ndarray, d_eff_m: np.ndarray,
                    advection_speed_ms: float, z_pair_m: np.ndarray,
                    constraint_latents: list[np.ndarray] | None) -> np.ndarray:
@@ -823,8 +843,9 @@ def _latent_fields(rng: np.random.Generator, fpos_hz: np.ndarray, d_eff_m: np.nd
     latents = ("w", "u", "theta", "v")
     xi = np.empty((4, n_p, n_f), dtype=complex)
     n_con = 0 if constraint_latents is None else constraint_latents[0].size  # positive freqs constrained
+    draws = _standard_latents(rng, n_f, n_p)
     for j, comp in enumerate(latents):
-        eta = (rng.standard_normal((n_f, n_p)) + 1j * rng.standard_normal((n_f, n_p))) / np.sqrt(2)
+        eta = draws[j] if constraint_latents is None else draws[j].copy()
         if n_p == 1:
             chol = np.ones((n_f, 1, 1))
         else:

@@ -58,7 +58,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -652,20 +652,51 @@ class _Motion:
     rotation: np.ndarray
 
 
+class _Jitter(NamedTuple):
+    """The drone's random jitter (:func:`_jitter`): hover position [m] and attitude [degree]."""
+
+    along_m: np.ndarray
+    across_m: np.ndarray
+    vertical_m: np.ndarray
+    roll_deg: np.ndarray
+    pitch_deg: np.ndarray
+    yaw_deg: np.ndarray
+
+
+#: Payload settings the jitter depends on (:func:`_jitter`).
+_JITTER_KEYS: tuple[str, ...] = ("hover_jitter_time_s", "hover_jitter_m", "attitude_jitter_time_s",
+                                 "drone_roll_jitter_deg", "pitch_jitter_deg", "yaw_jitter_deg")
+
+
+def _jitter(p: Mapping[str, float], rng: np.random.Generator, n: int, fs_hz: float) -> _Jitter:
+    """The drone's hover and attitude jitter: low-passed noise drawn from ``rng`` (the motion stream).
+
+    Drawn in the order hover jitter along, across and vertical, then roll, pitch and yaw
+    jitter (seed 000, Sect. 2.3). It depends on the stream, the settings of
+    :data:`_JITTER_KEYS`, ``n`` and ``fs_hz`` only, not on the air: the truths of one seed
+    at other hover heights (``height_offset``) draw the same (:func:`_truth`).
+    """
+    hover, attitude = p["hover_jitter_time_s"], p["attitude_jitter_time_s"]
+    return _Jitter(_lowpass_noise(rng, n, fs_hz, hover, p["hover_jitter_m"]),
+                   _lowpass_noise(rng, n, fs_hz, hover, p["hover_jitter_m"]),
+                   _lowpass_noise(rng, n, fs_hz, hover, 0.5 * p["hover_jitter_m"]),
+                   _lowpass_noise(rng, n, fs_hz, attitude, p["drone_roll_jitter_deg"]),
+                   _lowpass_noise(rng, n, fs_hz, attitude, p["pitch_jitter_deg"]),
+                   _lowpass_noise(rng, n, fs_hz, attitude, p["yaw_jitter_deg"]))
+
+
 def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e_u: np.ndarray,
-              e_v: np.ndarray, rng: np.random.Generator,
+              e_v: np.ndarray, jitter: _Jitter,
               fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Payload position: linearised pendulum under a jittering drone, forced by the turbulent drag.
 
-    Seed 000, Sect. 2.3 (see the module docstring); draws the along, across and vertical
-    hover jitter from ``rng`` in that order.
+    Seed 000, Sect. 2.3 (see the module docstring); the drone's hover jitter is ``jitter``'s.
 
     Returns
     -------
     east_m, north_m, up_m : numpy.ndarray
         Payload position (ENU from the site) [m].
     """
-    n = air.t_s.size
     airborne = air.airborne
     l_m = p["pendulum_length_m"]
     omega0 = math.sqrt(_G / l_m)
@@ -674,9 +705,7 @@ def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e
     c_a = max(k_drag, 2 * p["min_damping_ratio"] * omega0)
     c_c = max(0.5 * k_drag, 2 * p["min_damping_ratio"] * omega0)
     trail = l_m * 0.5 * AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean**2 / (p["mass_kg"] * _G)
-    jit_a = _lowpass_noise(rng, n, fs_hz, p["hover_jitter_time_s"], p["hover_jitter_m"])
-    jit_c = _lowpass_noise(rng, n, fs_hz, p["hover_jitter_time_s"], p["hover_jitter_m"])
-    jit_z = _lowpass_noise(rng, n, fs_hz, p["hover_jitter_time_s"], 0.5 * p["hover_jitter_m"])
+    jit_a, jit_c, jit_z = jitter.along_m, jitter.across_m, jitter.vertical_m
     d_a, d_c = airborne * jit_a, airborne * jit_c
     p_a = _oscillator(omega0**2 * (d_a + airborne * trail) + airborne * k_drag * air.u_fluct_ms, omega0, c_a, fs_hz)
     p_c = _oscillator(omega0**2 * d_c + airborne * 0.5 * k_drag * air.v_fluct_ms, omega0, c_c, fs_hz)
@@ -688,27 +717,23 @@ def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e
 
 
 def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, spec: atm.FieldSpec,
-                    rng: np.random.Generator, fs_hz: float) -> _Motion:
+                    jitter: _Jitter, fs_hz: float) -> _Motion:
     """Pendulum path and attitude (seed 000, Sect. 2.3).
 
     Roll: the drone banks into lateral gusts (0.5 s lag) plus jitter; pitch: trim plus
     jitter; yaw weathervanes to the direction the relative air comes from (first order)
-    plus jitter. ``rng`` (the motion stream) is drawn in the order hover jitter (along,
-    across, vertical), roll, pitch, yaw jitter.
+    plus jitter (:func:`_jitter`).
     """
     t = air.t_s
-    n = t.size
-    pos_e, pos_n, z_pay = _pendulum(p, air, field, spec.e_u, spec.e_v, rng, fs_hz)
+    pos_e, pos_n, z_pay = _pendulum(p, air, field, spec.e_u, spec.e_v, jitter, fs_hz)
     u_mean = max(air.mean_hover_ms, 0.1)
     roll_k = AIR_DENSITY_KGM3 * p["drone_drag_area_m2"] * u_mean / (p["drone_mass_kg"] * _G)
-    roll = np.degrees(_first_order(roll_k * air.v_fluct_ms, 0.5, fs_hz)) * air.airborne \
-        + _lowpass_noise(rng, n, fs_hz, p["attitude_jitter_time_s"], p["drone_roll_jitter_deg"])
-    pitch = p["pitch_trim_deg"] + _lowpass_noise(rng, n, fs_hz, p["attitude_jitter_time_s"], p["pitch_jitter_deg"])
+    roll = np.degrees(_first_order(roll_k * air.v_fluct_ms, 0.5, fs_hz)) * air.airborne + jitter.roll_deg
+    pitch = p["pitch_trim_deg"] + jitter.pitch_deg
     spl_e, spl_n, spl_z = (CubicSpline(t, x) for x in (pos_e, pos_n, z_pay))
     rel_e, rel_n = air.wind_e_ms - spl_e(t, 1), air.wind_n_ms - spl_n(t, 1)
     from_dir = np.unwrap(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
-    yaw = np.degrees(_first_order(from_dir, p["yaw_time_constant_s"], fs_hz)) \
-        + _lowpass_noise(rng, n, fs_hz, p["attitude_jitter_time_s"], p["yaw_jitter_deg"])
+    yaw = np.degrees(_first_order(from_dir, p["yaw_time_constant_s"], fs_hz)) + jitter.yaw_deg
     return _Motion(t, spl_e, spl_n, spl_z, roll, pitch, yaw, body_to_ned(roll, pitch, yaw))
 
 
@@ -972,7 +997,14 @@ def _mast_truth(settings: SimulationSettings, clock: _FlightClock, field: _Field
     fs_m = settings["mast"]["rate_hz"]
     m0 = int(math.ceil((clock.mast_lo - clock.field_t0) / us * 1e-6 * fs_m))
     m1 = int(math.floor(clock.mast_end_field_s * fs_m))
-    series = atm.synthesize(spec, fs_m, list(range(len(field.mast_ids))), start_s=m0 / fs_m, n_samples=m1 - m0)
+    masts = list(range(len(field.mast_ids)))
+    # the field at the masts, made again by a truth of the same seed at another hover height
+    # (whose points differ after the masts only): inside a forward flight's runs, found by
+    # its coefficients (dronewind.core.reuse; read-only)
+    series = reused("mast series", {"coeffs": spec.coeffs[masts], "mean": spec.mean_enu[masts],
+                                    "theta": spec.theta_mean_k[masts], "e_u": spec.e_u, "e_v": spec.e_v},
+                    repr((spec.period_s, fs_m, m0, m1)),
+                    lambda: atm.synthesize(spec, fs_m, masts, start_s=m0 / fs_m, n_samples=m1 - m0))
     times = clock.field_t0 + np.round((m0 + np.arange(m1 - m0)) / fs_m * 1e6).astype(np.int64) * us
     rec0 = int(round((clock.field_t0 - np.datetime64("2020-01-01T00:00:00", "us")) / us * 1e-6 * fs_m)) + m0
     return _MastTruth(series, times, rec0)
@@ -1090,7 +1122,14 @@ def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadF
     field = _field_points(cond)  # turbulence at the mast sonics (first) and the hover point
     spec, info = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"), atmosphere)
     air = _air_at_payload(cond, clock, field, spec, fs_s)
-    motion = _payload_motion(p, air, field, spec, streams("motion"), fs_s)
+    # what depends on the seed's streams but not on the hover point (the jitter; the field at
+    # the masts, which comes first in the field's construction) is the same for the truths of
+    # one seed at other hover heights (height_offset): inside a forward flight's runs, they find
+    # it made (dronewind.core.reuse; read-only)
+    jitter_settings = {k: p[k] for k in _JITTER_KEYS}
+    jitter = reused("payload jitter", {}, repr((int(cond["seed"]), jitter_settings, clock.n_sonic, fs_s)),
+                    lambda: _jitter(jitter_settings, streams("motion"), clock.n_sonic, fs_s))
+    motion = _payload_motion(p, air, field, spec, jitter, fs_s)
     mast = _mast_truth(settings, clock, field, spec)
     masts = list(range(len(field.mast_ids)))
     t_mast = (mast.times - clock.field_t0) / np.timedelta64(1, "us") * 1e-6
@@ -1160,8 +1199,11 @@ def payload_records(campaign: CampaignLike, flight_id: str, truth: PayloadTruth 
         track = _remembered(truth.memo, ("ins track", repr(p["ins_rate_hz"])),
                             lambda: _ins_track(motion, p["ins_rate_hz"]))
         noise_settings = {k: p[k] for k in _INS_NOISE_KEYS}
-        noise = _remembered(truth.memo, ("ins noise", repr((noise_settings, p["ins_rate_hz"], track[0].size))),
-                            lambda: _ins_noise(noise_settings, track[0].size, streams("ins_noise"), p["ins_rate_hz"]))
+        noise_key = repr((int(cond["seed"]), noise_settings, p["ins_rate_hz"], track[0].size))
+        # the same for the truths of one seed at other hover heights (dronewind.core.reuse)
+        noise = _remembered(truth.memo, ("ins noise", noise_key),
+                            lambda: reused("INS noise", {}, noise_key, lambda: _ins_noise(
+                                noise_settings, track[0].size, streams("ins_noise"), p["ins_rate_hz"])))
         rec = _add_ins_errors(cond, _ins_truth(cond, motion, track), noise)
         return _ins_log(str(flight["ins"]["file"]), cond, rec, _ins_validity(cond, rec.t_s), motion.t_s[0], streams)
 
