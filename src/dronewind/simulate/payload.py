@@ -306,8 +306,9 @@ class _Streams:
     """The flight's named random streams: ``streams(name, k)`` is a fresh generator of stream name + k.
 
     With a truth's ``memo``, :meth:`once` keeps what a stream gave, so that the probes of one
-    truth draw it once: a fresh generator gives the same numbers every time, so this changes
-    no record.
+    truth draw it once, and the truths of the same seed at other hover heights find it inside a
+    forward flight's runs (:mod:`dronewind.core.reuse`): a fresh generator gives the same
+    numbers every time, so this changes no record.
     """
 
     seed: int
@@ -324,7 +325,8 @@ class _Streams:
         """``make()``, made once per truth and key with a memo; its arrays read-only."""
         if self.memo is None:
             return make()
-        return _remembered(self.memo, ("stream draws", repr(key)), lambda: read_only(make()))
+        return _remembered(self.memo, ("stream draws", repr(key)),
+                           lambda: reused("stream draws", {}, repr((self.seed, key)), make))
 
 
 @dataclass(frozen=True)
