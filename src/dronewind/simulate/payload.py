@@ -68,7 +68,7 @@ from scipy.interpolate import CubicSpline
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 from dronewind.core.raw import RawRecord, content_digest
-from dronewind.core.reuse import read_only, reused
+from dronewind.core.reuse import reused
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate.mast import mast_measurement
