@@ -466,3 +466,18 @@ def test_lowpass_noise_with_the_remembered_filter_equals_a_fresh_design():
         pad = int(min(10 * time_s * fs_hz, 20 * fs_hz * 60))
         x = signal.sosfilt(sos, np.random.default_rng(5).standard_normal(n + pad))[pad:]
         np.testing.assert_array_equal(got, x * (sigma / np.std(x)))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_slope_at_knots_is_the_splines_derivative_there_bit_for_bit(seed):
+    """The payload's velocity read from the spline's coefficients is scipy's evaluation at the knots."""
+    from scipy.interpolate import CubicSpline
+
+    from dronewind.simulate.payload import _slope_at_knots
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 3000))
+    t = np.cumsum(rng.uniform(0.01, 0.1, n))
+    y = np.zeros(n) if seed == 0 else np.cumsum(rng.standard_normal(n))  # a flat path: zeros keep their sign
+    spline = CubicSpline(t, y)
+    np.testing.assert_array_equal(_slope_at_knots(spline).view(np.uint64), spline(t, 1).view(np.uint64))
