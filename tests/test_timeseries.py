@@ -39,3 +39,25 @@ def test_median_step_known_answers_and_nan():
     assert np.isnan(median_step(np.array([0.0, np.nan, 1.0, 2.0])))  # as np.median: a NaN step gives NaN
     with pytest.raises(ValueError, match="at least 2"):
         median_step(np.array([5]))
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_unwrap_rad_is_numpys_unwrap_bit_for_bit(seed):
+    """Series without a step of pi (the fast path), with wraps, with a NaN, a leading -0.0 and short ones."""
+    from dronewind.core.timeseries import unwrap_rad
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 3000))
+    kind = seed % 4
+    phase = np.cumsum(rng.normal(0.0, [0.01, 0.5, 2.0, 0.01][kind], n))
+    if kind == 0:  # a yaw that crosses +/-180 degree: wrapped, so numpy unwraps it
+        phase = np.mod(phase + np.pi, 2 * np.pi) - np.pi
+    if kind == 3 and n > 5:
+        phase[n // 2] = np.nan
+    if seed % 7 == 0 and n:
+        phase[0] = -0.0
+    expected = np.unwrap(phase)
+    got = unwrap_rad(phase)
+    assert got.shape == expected.shape
+    np.testing.assert_array_equal(got.view(np.uint64), expected.view(np.uint64))
+    assert got is not phase

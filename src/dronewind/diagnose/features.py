@@ -46,6 +46,7 @@ import xarray as xr
 
 from dronewind.core import scales, spectra, stats
 from dronewind.core.reuse import reused
+from dronewind.core.timeseries import unwrap_rad
 
 __all__ = ["FEATURES", "FEATURE_STEPS", "PENDULUM_BAND_HZ", "HF_BAND_HZ", "FlightFeatures", "flight_features",
            "binned_spectra"]
@@ -148,7 +149,7 @@ def _smoothed_rates_deg_s(l2: xr.Dataset, fs_out_hz: float) -> tuple[int, np.nda
     kernel = np.ones(width) / width
     out = {}
     for name in ("pitch_deg", "roll_deg"):
-        angle = np.unwrap(np.deg2rad(l2[name].values.astype(float)))
+        angle = unwrap_rad(np.deg2rad(l2[name].values.astype(float)))
         rate = np.rad2deg(np.gradient(angle, t_s))
         out[name] = np.convolve(rate, kernel, mode="same")
     return int(t_ns[0]), t_s, out

@@ -59,7 +59,7 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import reused
-from dronewind.core.timeseries import median_step
+from dronewind.core.timeseries import median_step, unwrap_rad
 from dronewind.errors import InputError, describe_header
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
 
@@ -1038,7 +1038,7 @@ def _despike_ins(data: dict[str, np.ndarray], qc: np.ndarray, fs_hz: float) -> i
         s = despike_moving_mad(x, fs_hz)
         qc[s] |= QC_SPIKE
         n_spike += int(s.sum())
-    yaw_unwrapped = np.rad2deg(np.unwrap(np.deg2rad(np.nan_to_num(data["yaw_deg"]))))
+    yaw_unwrapped = np.rad2deg(unwrap_rad(np.deg2rad(np.nan_to_num(data["yaw_deg"]))))
     s = despike_moving_mad(np.where(qc == 0, yaw_unwrapped, np.nan), fs_hz)
     qc[s] |= QC_SPIKE
     n_spike += int(s.sum())

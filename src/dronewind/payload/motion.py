@@ -25,6 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from dronewind.core.reuse import reused
+from dronewind.core.timeseries import unwrap_rad
 from dronewind.errors import InputError
 
 __all__ = [
@@ -225,7 +226,7 @@ def body_rates_from_euler(
         raise InputError("time_s", "expected at least 3 strictly increasing sample times")
     phi = np.deg2rad(np.asarray(roll_deg, dtype=float))
     theta = np.deg2rad(np.asarray(pitch_deg, dtype=float))
-    psi = np.unwrap(np.deg2rad(np.asarray(yaw_deg, dtype=float)))
+    psi = unwrap_rad(np.deg2rad(np.asarray(yaw_deg, dtype=float)))
     return euler_rates_to_body_rates(
         phi, theta, np.gradient(phi, t), np.gradient(theta, t), np.gradient(psi, t)
     )

@@ -52,7 +52,7 @@ from dronewind.core.cf import variable
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.delimited import read_delimited
 from dronewind.core.qc import QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
-from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, time_ns
+from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, time_ns, unwrap_rad
 from dronewind.errors import InputError
 from dronewind.payload import checks, motion, sync
 from dronewind.payload.columns import RIGID_QUANTITIES, rigid_layout
@@ -452,7 +452,7 @@ def _fill_platform(l1: xr.Dataset, t: np.ndarray, where: str) -> tuple[dict[str,
                              "record")
         missing |= ~ok
         if k == "yaw_deg":
-            x[ok] = np.rad2deg(np.unwrap(np.deg2rad(x[ok])))
+            x[ok] = np.rad2deg(unwrap_rad(np.deg2rad(x[ok])))
         out[k], _ = fill_nan_by_time(t, x)
     return out, missing
 

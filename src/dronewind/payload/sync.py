@@ -56,6 +56,7 @@ from dronewind.core.timeseries import (
     median_step,
     require_variables,
     time_ns,
+    unwrap_rad,
 )
 from dronewind.errors import InputError
 from dronewind.payload import checks, motion
@@ -108,7 +109,7 @@ def interpolate_ins(time_ins_s: np.ndarray, ins: dict[str, np.ndarray], time_tar
         if arr.ndim == 2:
             out[key] = np.stack([np.interp(tt, ti, arr[:, k]) for k in range(arr.shape[1])], axis=-1)
         elif key == "yaw_deg":
-            unwrapped = np.rad2deg(np.unwrap(np.deg2rad(arr)))
+            unwrapped = np.rad2deg(unwrap_rad(np.deg2rad(arr)))
             out[key] = np.mod(np.interp(tt, ti, unwrapped), 360.0)
         else:
             out[key] = np.interp(tt, ti, arr)
@@ -710,7 +711,7 @@ def _fill_ins_gaps(ins_l1: xr.Dataset, ti: np.ndarray, tr: _Trace) -> tuple[dict
         ins_missing |= ~np.isfinite(x)
         if k == "yaw_deg":  # unwrap over the valid samples only, so gaps are bridged the short way
             ok = np.isfinite(x)
-            x[ok] = np.rad2deg(np.unwrap(np.deg2rad(x[ok])))
+            x[ok] = np.rad2deg(unwrap_rad(np.deg2rad(x[ok])))
         if not np.isfinite(x).any():
             raise InputError(f"{tr.where} [INS {k}]", f"no valid {k} sample among the {ti.size} INS samples "
                              f"({int(invalid.sum())} with ekf_valid=0)")

@@ -69,6 +69,7 @@ from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 from dronewind.core.raw import RawRecord, content_digest
 from dronewind.core.reuse import reused
+from dronewind.core.timeseries import unwrap_rad
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate.mast import mast_measurement
@@ -750,7 +751,7 @@ def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoi
     pitch = p["pitch_trim_deg"] + jitter.pitch_deg
     spl_e, spl_n, spl_z = (CubicSpline(t, x) for x in (pos_e, pos_n, z_pay))
     rel_e, rel_n = air.wind_e_ms - _slope_at_knots(spl_e), air.wind_n_ms - _slope_at_knots(spl_n)
-    from_dir = np.unwrap(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
+    from_dir = unwrap_rad(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
     yaw = np.degrees(_first_order(from_dir, p["yaw_time_constant_s"], fs_hz)) + jitter.yaw_deg
     return _Motion(t, spl_e, spl_n, spl_z, roll, pitch, yaw, body_to_ned(roll, pitch, yaw))
 
