@@ -514,7 +514,12 @@ def _process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources
 
     l2, halves = cache.get("l2" if lag_drift else "l2 without halves", [sonic_src, ins_src], payload_l2)
     mast_l1 = cache.get("mast_l1", mast_srcs, lambda: compute_mast_l1(mast_srcs, sonic_info, processing["despike"]))
-    mast_l2 = compute_mast_l2(mast_l1, l2, flight_id, processing["drone_mast"], source="forward mast")
+    # the mast over the drone's hover window: a probe that leaves the mast and the window alone
+    # (most do) finds it made
+    span = (l2["time"].values[0], l2["time"].values[-1])
+    mast_l2 = cache.get("mast_l2", mast_srcs, lambda: compute_mast_l2(mast_l1, l2, flight_id, processing["drone_mast"],
+                                                                      source="forward mast"),
+                        settings=repr((flight_id, span, sorted(processing["drone_mast"].items()))))
     l3 = compute_l3(l2, mast_l2, flight, processing["drone_mast"], processing["rotation"])
     found = flight_features(l3, l2, lag_halves_s=halves, lag_step_s=float(processing["sonic_ins_lag"]["step_s"]),
                             features=features, errors=errors)
