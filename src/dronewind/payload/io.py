@@ -431,18 +431,18 @@ def _table(source: str | os.PathLike[str] | RawRecord, expected: tuple[str, ...]
     return _parse_csv(source, expected, kinds, max_corrupt_fraction)
 
 
-def _check_backward_jump(table: _Table, t: np.ndarray, clock_jump_tol_s: float) -> None:
+def _check_backward_jump(path: str, line_no: np.ndarray, t: np.ndarray, clock_jump_tol_s: float) -> None:
     """Raise :class:`ClockJumpError` at the first backward step in row order larger than the tolerance.
 
     A late row lies below the running maximum by less than the tolerance; a larger deficit
-    means the clock was set back.
+    means the clock was set back. ``line_no`` holds the file lines of the rows of ``t``.
     """
     deficit = np.maximum.accumulate(t) - t
     jump = np.flatnonzero(deficit > clock_jump_tol_s * _US)
     if jump.size:
         i = int(jump[0])
         raise ClockJumpError(
-            f"{table.path}:{int(table.line_no[i])}",
+            f"{path}:{int(line_no[i])}",
             f"rpi_time_us steps back by {deficit[i] / _US:.3f} s relative to earlier rows "
             f"(> {clock_jump_tol_s:g} s): logger clock jump; not corrected, fix or split the file",
         )
@@ -491,23 +491,26 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
         frame = pd.DataFrame({c: table.columns[c][repeated] for c in ["rpi_time_us", *value_cols]})
         dup[repeated] = frame.duplicated(keep="first").to_numpy()
     n_dup = int(dup.sum())
-    keep = np.flatnonzero(~dup)
-    table.take(keep)
-    t = table.columns["rpi_time_us"]
+    # The rows kept are followed as indices into the table (with their stamps and lines) and
+    # the table's columns taken once at the end: the same rows in the same order as taking
+    # them after each step, without copying every column three or four times.
+    rows = np.flatnonzero(~dup)
+    t, line_no = t[rows], table.line_no[rows]
     conflict = _repeated(t)
     n_conf = int(conflict.sum())
     if n_conf:
-        lines = table.line_no[conflict][:_N_LOGGED_LINES].tolist()
+        lines = line_no[conflict][:_N_LOGGED_LINES].tolist()
         if n_conf > max_conflict_fraction * t.size:
-            _check_backward_jump(table, t, clock_jump_tol_s)  # a clock set back repeats earlier stamps: a jump
+            # a clock set back repeats earlier stamps: a jump
+            _check_backward_jump(table.path, line_no, t, clock_jump_tol_s)
             raise InputError(f"{table.path}:{lines[0]}",
                              f"{n_conf} of {t.size} rows repeat an rpi_time_us with other values "
                              f"(> {100 * max_conflict_fraction:g} %; first at lines {lines}): expected one row "
                              "per time stamp")
         table.log.append(f"order: {n_conf} rows repeating an rpi_time_us with other values dropped, none "
                          f"trusted (lines {lines})")
-        table.take(np.flatnonzero(~conflict))
-        t = table.columns["rpi_time_us"]
+        keep = np.flatnonzero(~conflict)
+        rows, t, line_no = rows[keep], t[keep], line_no[keep]
     # An isolated corrupt-but-numeric time stamp (its neighbours agree with each other but
     # it is more than the tolerance away from both) is a corrupt row, not a clock jump.
     tol_us = clock_jump_tol_s * _US
@@ -522,18 +525,17 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
         if n_iso:
             table.log.append(
                 f"order: {n_iso} isolated rows with a time stamp far from both neighbours "
-                f"removed (lines {table.line_no[iso][:_N_LOGGED_LINES].tolist()})"
+                f"removed (lines {line_no[iso][:_N_LOGGED_LINES].tolist()})"
             )
-            table.take(np.flatnonzero(~iso))
-            t = table.columns["rpi_time_us"]
+            keep = np.flatnonzero(~iso)
+            rows, t, line_no = rows[keep], t[keep], line_no[keep]
     table.counts["n_time_outliers"] = n_iso
-    _check_backward_jump(table, t, clock_jump_tol_s)
+    _check_backward_jump(table.path, line_no, t, clock_jump_tol_s)
     run_max = np.maximum.accumulate(t)
     late = np.zeros(t.size, dtype=bool)
     late[1:] = t[1:] < run_max[:-1]
     n_late = int(late.sum())
-    order = np.argsort(t, kind="stable")
-    table.take(order)
+    table.take(rows[np.argsort(t, kind="stable")])
     table.counts["n_duplicates"] = n_dup
     table.counts["n_time_conflicts"] = n_conf
     table.counts["n_out_of_order"] = n_late
