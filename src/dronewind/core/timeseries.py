@@ -16,8 +16,8 @@ import xarray as xr
 
 from dronewind.errors import InputError
 
-__all__ = ["NS_PER_S", "fill_nan_by_time", "longest_true_run", "median_step", "require_variables", "time_ns",
-           "unwrap_rad"]
+__all__ = ["NS_PER_S", "fill_nan_by_time", "longest_true_run", "median_of_steps", "median_step", "require_variables",
+           "time_ns", "unwrap_rad"]
 
 #: Nanoseconds per second.
 NS_PER_S: int = 1_000_000_000
@@ -140,7 +140,23 @@ def median_step(t: np.ndarray) -> float:
     -------
     float
         The median step [unit of ``t``]; NaN where ``np.median`` gives NaN (a NaN step, fewer
-        than 2 stamps).
+        than 2 stamps). :func:`median_of_steps` of ``np.diff(t)``.
+    """
+    return median_of_steps(np.diff(np.asarray(t)))
+
+
+def median_of_steps(steps: np.ndarray) -> float:
+    """``np.median(steps)`` bit for bit, for a clock's steps (nearly all the same).
+
+    Parameters
+    ----------
+    steps : numpy.ndarray
+        1-D steps between time stamps [any unit], integer or float.
+
+    Returns
+    -------
+    float
+        Their median [unit of ``steps``]; NaN for no step or a NaN step, as ``np.median``.
 
     Notes
     -----
@@ -149,11 +165,11 @@ def median_step(t: np.ndarray) -> float:
     which is exact. With :math:`n` steps, fewer than :math:`n/2` of them below :math:`c` and
     fewer than :math:`n/2` above, both middle elements of the sorted steps equal :math:`c`,
     so the median is :math:`c`; otherwise (or with a NaN step) ``np.median`` of all steps is
-    taken. Two counting passes replace a selection: a sonic or INS record's rate was found
-    three times per forward run at 1.1-1.5 ms each (``np.median`` of 60,000-92,000 steps),
-    3.7 % of the published-numbers forward runs' profiled time, and takes 0.1 ms this way.
+    taken. Two counting passes replace a selection, whose cost varies with the steps' order
+    (up to 10.8 ms for 92,000 INS steps): over the 160 calls of sample s01's published-numbers
+    forward job, 19.5 against 93.9 ms (``benchmarks/bench_exact_shortcuts.py``,
+    ``results/exact_shortcuts_s32.json``).
     """
-    steps = np.diff(np.asarray(t))
     n = steps.size
     if n == 0:
         return float("nan")  # as np.median of no steps, without its warning
@@ -183,9 +199,10 @@ def unwrap_rad(phase_rad: np.ndarray) -> np.ndarray:
     Where no step reaches :math:`\\pi` (a hovering payload's yaw between wraps, a series
     unwrapped before) ``np.unwrap`` adds a cumulative sum of zero corrections, so the result
     is the series plus 0.0 after its first sample; that is returned after one check of the
-    steps instead of numpy's ten passes over the series. Otherwise (or with a NaN) numpy's
-    function is called. The forward runs unwrap the INS yaw two or three times each (1.7 %
-    of the published numbers' forward runs, profiled).
+    steps instead of numpy's passes over the series. Otherwise (or with a NaN) numpy's
+    function is called, after the check: a logged yaw that wraps at +/-180 degree costs 4 %
+    more. Over the 65 calls of sample s01's published-numbers forward job, 17.2 against
+    82.5 ms (``benchmarks/bench_exact_shortcuts.py``, ``results/exact_shortcuts_s32.json``).
     """
     p = np.asarray(phase_rad, dtype=float)
     if p.ndim == 1 and p.size > 1:

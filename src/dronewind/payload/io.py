@@ -59,7 +59,7 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import reused
-from dronewind.core.timeseries import median_step, unwrap_rad
+from dronewind.core.timeseries import median_of_steps, median_step, unwrap_rad
 from dronewind.errors import InputError, describe_header
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
 
@@ -1199,7 +1199,7 @@ def _insert_missing(rpi_time_us: np.ndarray, gap_factor: float = 1.5
     if n < 3:
         return t.copy(), np.arange(n), 0, []
     d = np.diff(t)
-    dt = median_step(t)
+    dt = median_of_steps(d)
     m = np.where(d > gap_factor * dt, np.rint(d / dt).astype(np.int64) - 1, 0)
     m = np.maximum(m, 0)
     total_missing = int(m.sum())
