@@ -96,6 +96,21 @@ def test_same_bits_of_every_item_size(dtype):
         same_bits(np.array([None]), np.array([None]))
 
 
+@pytest.mark.parametrize("shape", [(1000,), (1000, 3), (300, 2, 2)])
+@pytest.mark.parametrize("dtype", [np.float64, np.float32, np.int8, np.complex128])
+def test_same_bits_of_long_arrays_wherever_they_differ(shape, dtype):
+    """Long arrays are compared on their leading rows first: a difference anywhere still counts."""
+    a = np.random.default_rng(1).normal(size=shape).astype(dtype)
+    assert same_bits(a, a.copy()) and same_bits(a[::2], a[::2].copy()) and same_bits(a[:, ...], a.copy())
+    for row in (0, 63, 64, shape[0] // 2, shape[0] - 1):
+        b = a.copy()
+        b[row] = b[row] + 1
+        assert not same_bits(a, b) and not same_bits(b, a)
+    plus, minus = np.zeros(1000), np.zeros(1000)
+    minus[-1] = -0.0  # equal numbers, other bits, at the very end
+    assert not same_bits(plus, minus)
+
+
 def test_products_are_found_by_equal_records_and_not_by_other_ones():
     """ForwardCache finds a product by the same record objects or bit-identical columns; one
     changed value, another source or another settings text is a miss; file paths match only

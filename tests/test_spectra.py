@@ -68,6 +68,31 @@ def test_cospectrum_integrates_to_covariance() -> None:
         spectra.welch_cpsd(u, w[:-1], fs_hz)
 
 
+@pytest.mark.parametrize("n", [17, 1000, 1001, 24_013, 36_000])
+@pytest.mark.parametrize("window", ["hamming", "hann"])
+def test_welch_and_cpsd_are_scipys_bit_for_bit(n: int, window: str) -> None:
+    """The remembered transform design gives scipy.signal.welch's and csd's numbers exactly."""
+    import scipy.signal
+
+    from dronewind.core.stats import detrend
+
+    rng = np.random.default_rng(n)
+    x, y = rng.normal(size=n), rng.normal(size=n).cumsum()
+    for fs_hz in (20.0, 7.3):
+        nperseg = spectra.segment_length(n)
+        noverlap = int(round(nperseg * 0.5))
+        kwargs = dict(fs=fs_hz, window=window, nperseg=nperseg, noverlap=noverlap, detrend=False,
+                      scaling="density", return_onesided=True)
+        f, p = spectra.welch_psd(x, fs_hz, window=window, min_segment=4)
+        f_ref, p_ref = scipy.signal.welch(detrend(x), **kwargs)
+        assert f.tobytes() == f_ref[1:].tobytes() and p.tobytes() == p_ref[1:].tobytes()
+        assert p.dtype == np.float64
+        f, c = spectra.welch_cpsd(x, y, fs_hz, window=window, min_segment=4)
+        f_ref, c_ref = scipy.signal.csd(detrend(x), detrend(y), **kwargs)
+        assert f.tobytes() == f_ref[1:].tobytes() and c.tobytes() == c_ref[1:].tobytes()
+        assert c.dtype == np.complex128
+
+
 def test_too_short_record_and_nan_raise() -> None:
     with pytest.raises(InputError, match="too short"):
         spectra.welch_psd(np.ones(20), 10.0)

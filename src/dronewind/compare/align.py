@@ -32,6 +32,7 @@ import xarray as xr
 
 from dronewind.core import rotation as rot
 from dronewind.core import stats
+from dronewind.core.angles import rad2deg
 from dronewind.core.cf import variable
 from dronewind.core.timeseries import NS_PER_S, require_variables, time_ns
 from dronewind.errors import InputError, ProcessingError
@@ -363,12 +364,12 @@ def _interp_finite(t_target: np.ndarray, t: np.ndarray, x: np.ndarray) -> tuple[
     """Linear interpolation using finite samples only; returns values and the number of
     target samples whose bracketing source interval contained a missing sample."""
     ok = np.isfinite(x)
-    if ok.sum() < 2:
+    n_ok = int(ok.sum())
+    if n_ok < 2:
         raise InputError("align_drone_mast", "fewer than 2 finite samples in a series")
-    y = np.interp(t_target, t[ok], x[ok])
-    if ok.all():
-        return y, 0
-    return y, _n_bridged(t_target, t, ok)
+    if n_ok == ok.size:  # nothing to select (the selection would copy both series)
+        return np.interp(t_target, t, x), 0
+    return np.interp(t_target, t[ok], x[ok]), _n_bridged(t_target, t, ok)
 
 
 def _n_bridged(t_target: np.ndarray, t: np.ndarray, ok: np.ndarray) -> int:
@@ -582,7 +583,7 @@ def _rotate_sensors(x8: np.ndarray, rotation: str, planar_fit: dict[str, rot.Pla
     out = _Rotated([], [], [], [], {"yaw_deg": [], "pitch_deg": [], "roll_deg": []}, [])
     for s, name in enumerate(("drone", "mast")):
         ue, vn, wu = x8[:, 4 * s], x8[:, 4 * s + 1], x8[:, 4 * s + 2]
-        out.wind_from_deg.append(float(np.rad2deg(np.arctan2(-ue.mean(), -vn.mean())) % 360.0))
+        out.wind_from_deg.append(float(rad2deg(np.arctan2(-ue.mean(), -vn.mean())) % 360.0))
         pf = None if planar_fit is None else planar_fit.get(name)
         method = "double" if rotation == "planar_fit" and pf is None else rotation
         a, b, c, angles = rot.rotate(ue, vn, wu, method, planar_fit=pf)

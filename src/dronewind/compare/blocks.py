@@ -42,6 +42,7 @@ import xarray as xr
 from dronewind.compare.chain import period_time
 from dronewind.compare.l4 import flight_l4
 from dronewind.core import rotation as rot
+from dronewind.core.angles import rad2deg
 from dronewind.core.cf import variable
 from dronewind.core.filtering import gap_fill_linear
 from dronewind.core.timeseries import require_variables, time_ns
@@ -311,7 +312,7 @@ def block_l3(l1: xr.Dataset, block: Block, settings: BlockSettings,
     if fill:
         ue, vn, wu, th = (gap_fill_linear(x, 1.0)[0] for x in values)
         u, v, w, angles = rot.rotate(ue, vn, wu, method, planar_fit=planar_fit)
-        wind_from = float(np.rad2deg(np.arctan2(-ue.mean(), -vn.mean())) % 360.0)
+        wind_from = float(rad2deg(np.arctan2(-ue.mean(), -vn.mean())) % 360.0)
     else:
         u = v = w = th = np.full(n, np.nan)
         angles = {"yaw_deg": np.nan, "pitch_deg": np.nan, "roll_deg": np.nan}

@@ -18,6 +18,7 @@ import xarray as xr
 from dronewind.compare.align import align_drone_mast
 from dronewind.compare.l4 import flight_l4
 from dronewind.core import rotation as rot
+from dronewind.core.angles import rad2deg
 from dronewind.errors import ProcessingError
 
 __all__ = ["planar_fits", "compute_l3", "compute_drone_l3", "compute_l4", "period_time"]
@@ -134,7 +135,7 @@ def compute_drone_l3(drone_l2: xr.Dataset, flight: Mapping[str, Any], rotation: 
     method = "double" if rotation == "planar_fit" else rotation
     u, v, w, angles = rot.rotate(u_e, v_n, w_u, method)
     height = float(drone_l2.attrs.get("height_m", flight.get("target_height_m", float("nan"))))
-    wind_from = float(np.rad2deg(np.arctan2(-np.mean(u_e), -np.mean(v_n))) % 360.0)
+    wind_from = float(rad2deg(np.arctan2(-np.mean(u_e), -np.mean(v_n))) % 360.0)
     fs = float(drone_l2.attrs["sampling_rate_hz"])
     two = ("sensor", "time")
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from dronewind.core.angles import deg2rad, rad2deg, wrap_180
 from dronewind.core.constants import WGS84_A_M, WGS84_E2
 
 __all__ = ["from_local_tangent_plane", "local_tangent_plane_m", "radii_of_curvature_m"]
@@ -28,7 +29,7 @@ def radii_of_curvature_m(lat0_deg: float) -> tuple[float, float]:
     m_radius_m, n_radius_m : float
         Meridian radius :math:`M` and prime-vertical radius :math:`N` [m].
     """
-    s2 = np.sin(np.deg2rad(lat0_deg)) ** 2
+    s2 = np.sin(deg2rad(lat0_deg)) ** 2
     m_radius = WGS84_A_M * (1.0 - WGS84_E2) / (1.0 - WGS84_E2 * s2) ** 1.5
     n_radius = WGS84_A_M / np.sqrt(1.0 - WGS84_E2 * s2)
     return float(m_radius), float(n_radius)
@@ -66,11 +67,11 @@ def local_tangent_plane_m(
     """
     lat = np.asarray(lat_deg, dtype=float)
     lon = np.asarray(lon_deg, dtype=float)
-    phi0 = np.deg2rad(lat0_deg)
+    phi0 = deg2rad(lat0_deg)
     m_radius, n_radius = radii_of_curvature_m(lat0_deg)
-    dlon = (lon - lon0_deg + 180.0) % 360.0 - 180.0
-    north_m = m_radius * np.deg2rad(lat - lat0_deg)
-    east_m = n_radius * np.cos(phi0) * np.deg2rad(dlon)
+    dlon = wrap_180(lon - lon0_deg)
+    north_m = m_radius * deg2rad(lat - lat0_deg)
+    east_m = n_radius * np.cos(phi0) * deg2rad(dlon)
     return east_m, north_m
 
 
@@ -94,6 +95,6 @@ def from_local_tangent_plane(
         Positions [degrees_north, degrees_east]; longitude wrapped to [-180, 180).
     """
     m_radius, n_radius = radii_of_curvature_m(lat0_deg)
-    lat = lat0_deg + np.rad2deg(np.asarray(north_m, dtype=float) / m_radius)
-    lon = lon0_deg + np.rad2deg(np.asarray(east_m, dtype=float) / (n_radius * np.cos(np.deg2rad(lat0_deg))))
-    return lat, (lon + 180.0) % 360.0 - 180.0
+    lat = lat0_deg + rad2deg(np.asarray(north_m, dtype=float) / m_radius)
+    lon = lon0_deg + rad2deg(np.asarray(east_m, dtype=float) / (n_radius * np.cos(deg2rad(lat0_deg))))
+    return lat, wrap_180(lon)

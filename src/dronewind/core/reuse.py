@@ -37,6 +37,10 @@ T = TypeVar("T")
 
 #: Unsigned integer types by item size, to compare arrays bit for bit (NaN equal to NaN).
 _UINTS: dict[int, type[np.unsignedinteger[Any]]] = {1: np.uint8, 2: np.uint16, 4: np.uint32, 8: np.uint64}
+#: Rows compared first: two different records of a flight's runs differ there in 99 of 100
+#: comparisons (a probe's noise, a shifted clock), so most unequal inputs are told apart
+#: without reading them whole; equal ones are then compared whole.
+_LEADING_ROWS = 64
 
 
 def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
@@ -58,6 +62,9 @@ def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     uint = _UINTS.get(a.dtype.itemsize)
     if uint is None or a.ndim == 0:
         a, b, uint = np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1), np.uint8
+    if a.shape[0] > 4 * _LEADING_ROWS and not np.array_equal(a[:_LEADING_ROWS].view(uint),
+                                                            b[:_LEADING_ROWS].view(uint)):
+        return False
     return bool(np.array_equal(a.view(uint), b.view(uint)))
 
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dronewind.core.angles import rad2deg
 from dronewind.errors import InputError, ProcessingError
 
 __all__ = [
@@ -85,7 +86,7 @@ def single_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
     u, v, w = _check(u_ms, v_ms, w_ms)
     alpha = np.arctan2(v.mean(), u.mean())
     ca, sa = np.cos(alpha), np.sin(alpha)
-    return u * ca + v * sa, -u * sa + v * ca, w.copy(), {"yaw_deg": float(np.rad2deg(alpha))}
+    return u * ca + v * sa, -u * sa + v * ca, w.copy(), {"yaw_deg": float(rad2deg(alpha))}
 
 
 def double_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
@@ -118,7 +119,7 @@ def double_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
     u1, v1, w1, angles = single_rotation(u_ms, v_ms, w_ms)
     beta = np.arctan2(w1.mean(), u1.mean())
     cb, sb = np.cos(beta), np.sin(beta)
-    angles["pitch_deg"] = float(np.rad2deg(beta))
+    angles["pitch_deg"] = float(rad2deg(beta))
     return u1 * cb + w1 * sb, v1, -u1 * sb + w1 * cb, angles
 
 
@@ -186,7 +187,7 @@ def triple_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
     vp, wp = v2 - v2.mean(), w2 - w2.mean()
     gamma = roll_angle_rad(float(np.mean(vp * wp)), float(np.mean(vp * vp)), float(np.mean(wp * wp)))
     cg, sg = np.cos(gamma), np.sin(gamma)
-    angles["roll_deg"] = float(np.rad2deg(gamma))
+    angles["roll_deg"] = float(rad2deg(gamma))
     return u2, v2 * cg + w2 * sg, -v2 * sg + w2 * cg, angles
 
 
@@ -283,10 +284,10 @@ def planar_fit_tilt(u_mean_ms: np.ndarray, v_mean_ms: np.ndarray, w_mean_ms: np.
     k = np.array([-b1, -b2, 1.0]) / norm
     return PlanarFit(
         b0_ms=b0, b1=b1, b2=b2, normal=k,
-        tilt_deg=float(np.rad2deg(np.arccos(k[2]))),
-        tilt_azimuth_deg=float(np.rad2deg(np.arctan2(b2, b1)) % 360.0),
-        pitch_deg=float(np.rad2deg(np.arcsin(-b1 / norm))),
-        roll_deg=float(np.rad2deg(np.arcsin(b2 / np.sqrt(1.0 + b2 * b2)))),
+        tilt_deg=float(rad2deg(np.arccos(k[2]))),
+        tilt_azimuth_deg=float(rad2deg(np.arctan2(b2, b1)) % 360.0),
+        pitch_deg=float(rad2deg(np.arcsin(-b1 / norm))),
+        roll_deg=float(rad2deg(np.arcsin(b2 / np.sqrt(1.0 + b2 * b2)))),
         n_blocks=n,
         rms_residual_ms=float(np.sqrt(np.mean(resid ** 2))),
     )
@@ -433,10 +434,10 @@ def planar_fit_from_attrs(attrs: dict) -> PlanarFit | None:
     b0, b1, b2 = (float(attrs[k]) for k in ("planar_fit_b0_ms", "planar_fit_b1", "planar_fit_b2"))
     norm = np.sqrt(1.0 + b1 * b1 + b2 * b2)
     k = np.array([-b1, -b2, 1.0]) / norm
-    return PlanarFit(b0_ms=b0, b1=b1, b2=b2, normal=k, tilt_deg=float(np.rad2deg(np.arccos(k[2]))),
-                     tilt_azimuth_deg=float(np.rad2deg(np.arctan2(b2, b1)) % 360.0),
-                     pitch_deg=float(np.rad2deg(np.arcsin(-b1 / norm))),
-                     roll_deg=float(np.rad2deg(np.arcsin(b2 / np.sqrt(1.0 + b2 * b2)))),
+    return PlanarFit(b0_ms=b0, b1=b1, b2=b2, normal=k, tilt_deg=float(rad2deg(np.arccos(k[2]))),
+                     tilt_azimuth_deg=float(rad2deg(np.arctan2(b2, b1)) % 360.0),
+                     pitch_deg=float(rad2deg(np.arcsin(-b1 / norm))),
+                     roll_deg=float(rad2deg(np.arcsin(b2 / np.sqrt(1.0 + b2 * b2)))),
                      n_blocks=int(attrs.get("planar_fit_n_blocks", 0)),
                      rms_residual_ms=float(attrs.get("planar_fit_rms_residual_ms", np.nan)))
 

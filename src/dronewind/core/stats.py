@@ -25,6 +25,7 @@ from typing import Literal
 import numpy as np
 import scipy.stats
 
+from dronewind.core.angles import rad2deg
 from dronewind.core.constants import GRAVITY_MS2, KARMAN
 from dronewind.errors import InputError
 
@@ -76,8 +77,12 @@ def detrend(x: np.ndarray, axis: int = -1) -> np.ndarray:
     every series of every run.
     """
     arr = np.asarray(x, dtype=float)
-    finite = np.all(np.isfinite(arr), axis=axis, keepdims=True)
-    filled = np.moveaxis(np.where(np.isfinite(arr), arr, 0.0), axis, -1)
+    is_finite = np.isfinite(arr)
+    # a finite series along the last axis (the usual case) needs neither the filling nor the
+    # NaN of the end: the same numbers without the two copies
+    plain = bool(is_finite.all()) and (arr.ndim <= 1 or axis in (-1, arr.ndim - 1))
+    finite = np.all(is_finite, axis=axis, keepdims=True)
+    filled = arr if plain else np.moveaxis(np.where(is_finite, arr, 0.0), axis, -1)
     n = filled.shape[-1]
     if n == 0:
         return arr.copy()
@@ -86,7 +91,7 @@ def detrend(x: np.ndarray, axis: int = -1) -> np.ndarray:
     # spinning after it (their CPU counted against the job) where it is not set to one thread
     slope = np.einsum("...k,k->...", filled, tau) / float(np.sum(tau * tau)) if n > 1 else np.zeros(filled.shape[:-1])
     out = filled - filled.mean(axis=-1, keepdims=True) - np.asarray(slope)[..., None] * tau
-    return np.where(finite, np.moveaxis(out, -1, axis), np.nan)
+    return out if plain else np.where(finite, np.moveaxis(out, -1, axis), np.nan)
 
 
 def fluctuation(x: np.ndarray, method: Detrend = "linear", axis: int = -1) -> np.ndarray:
@@ -142,7 +147,7 @@ def mean_wind(u_east_ms: np.ndarray, v_north_ms: np.ndarray, axis: int = -1) -> 
     ub = np.mean(np.asarray(u_east_ms, dtype=float), axis=axis)
     vb = np.mean(np.asarray(v_north_ms, dtype=float), axis=axis)
     speed = np.hypot(ub, vb)
-    direction = np.mod(270.0 - np.degrees(np.arctan2(vb, ub)), 360.0)
+    direction = np.mod(270.0 - rad2deg(np.arctan2(vb, ub)), 360.0)
     return speed, direction
 
 

@@ -45,6 +45,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind.core import scales, spectra, stats
+from dronewind.core.angles import deg2rad, rad2deg
 from dronewind.core.reuse import reused
 from dronewind.core.timeseries import unwrap_rad
 
@@ -149,8 +150,8 @@ def _smoothed_rates_deg_s(l2: xr.Dataset, fs_out_hz: float) -> tuple[int, np.nda
     kernel = np.ones(width) / width
     out = {}
     for name in ("pitch_deg", "roll_deg"):
-        angle = unwrap_rad(np.deg2rad(l2[name].values.astype(float)))
-        rate = np.rad2deg(np.gradient(angle, t_s))
+        angle = unwrap_rad(deg2rad(l2[name].values.astype(float)))
+        rate = rad2deg(np.gradient(angle, t_s))
         out[name] = np.convolve(rate, kernel, mode="same")
     return int(t_ns[0]), t_s, out
 
@@ -236,7 +237,7 @@ def _moment_features(s: _SensorSeries, out: _Features) -> None:
 
 def _angle_error_deg(s: _SensorSeries, component: str) -> float:
     """Sampling error of a flow angle from ``component`` fluctuations about the mean speed [degree]."""
-    return float(np.rad2deg(np.sqrt(sum(
+    return float(rad2deg(np.sqrt(sum(
         2 * s.time_scale_s[x][component] / s.tau_s * (s.sigma_ms[x][component] / max(abs(s.mean_u_ms[x]), 0.1)) ** 2
         for x in s.series))))
 

@@ -57,6 +57,7 @@ import pandas as pd
 import xarray as xr
 
 from dronewind.core import textscan
+from dronewind.core.angles import deg2rad
 from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
@@ -101,7 +102,7 @@ def gill_to_enu(
     -----
     .. math:: u_E = U \\sin\\beta - V \\cos\\beta, \\qquad v_N = U \\cos\\beta + V \\sin\\beta .
     """
-    b = np.deg2rad(north_azimuth_deg)
+    b = deg2rad(north_azimuth_deg)
     u = np.asarray(u_ms, dtype=float)
     v = np.asarray(v_ms, dtype=float)
     return u * np.sin(b) - v * np.cos(b), u * np.cos(b) + v * np.sin(b)

@@ -37,6 +37,7 @@ import pandas as pd
 import xarray as xr
 
 from dronewind.core import textscan
+from dronewind.core.angles import deg2rad
 from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
@@ -79,7 +80,7 @@ def csat3_to_enu(
         u_E = -U_x \\sin\\alpha + U_y \\cos\\alpha, \\qquad
         u_N = -U_x \\cos\\alpha - U_y \\sin\\alpha .
     """
-    a = np.deg2rad(azimuth_deg)
+    a = deg2rad(azimuth_deg)
     ux = np.asarray(ux_ms, dtype=float)
     uy = np.asarray(uy_ms, dtype=float)
     return -ux * np.sin(a) + uy * np.cos(a), -ux * np.cos(a) - uy * np.sin(a)

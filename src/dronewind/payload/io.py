@@ -53,6 +53,7 @@ import pandas as pd
 import xarray as xr
 
 from dronewind.core import textscan
+from dronewind.core.angles import deg2rad, rad2deg
 from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
@@ -1040,7 +1041,7 @@ def _despike_ins(data: dict[str, np.ndarray], qc: np.ndarray, fs_hz: float) -> i
         s = despike_moving_mad(x, fs_hz)
         qc[s] |= QC_SPIKE
         n_spike += int(s.sum())
-    yaw_unwrapped = np.rad2deg(unwrap_rad(np.deg2rad(np.nan_to_num(data["yaw_deg"]))))
+    yaw_unwrapped = rad2deg(unwrap_rad(deg2rad(np.nan_to_num(data["yaw_deg"]))))
     s = despike_moving_mad(np.where(qc == 0, yaw_unwrapped, np.nan), fs_hz)
     qc[s] |= QC_SPIKE
     n_spike += int(s.sum())
@@ -1321,7 +1322,7 @@ def _sonic_qc(vals: dict[str, np.ndarray], have: np.ndarray, fs_hz: float, apply
         out = range_mask(speed, *lim["speed_ms"]) | range_mask(vals["t_sonic_c"],
                                                                *lim["t_sonic_c"])  # fmt: skip
         if apply_elevation_limit:
-            elev = np.rad2deg(np.arctan2(vals["w_ms"], np.hypot(vals["u_ms"], vals["v_ms"])))
+            elev = rad2deg(np.arctan2(vals["w_ms"], np.hypot(vals["u_ms"], vals["v_ms"])))
             out |= range_mask(elev, *lim["elevation_deg"])
     qc[out] |= QC_OUT_OF_RANGE
     n_logged = max(int(have.sum()), 1)

@@ -24,6 +24,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from dronewind.core.angles import deg2rad
 from dronewind.core.reuse import reused
 from dronewind.core.timeseries import unwrap_rad
 from dronewind.errors import InputError
@@ -84,23 +85,26 @@ def rotation_matrix_body_to_ned(
     Seed 000 (Ghirardelli et al., SAMURAI-S), Appendix A; Beard and McLain (2012).
     """
     phi, theta, psi = np.broadcast_arrays(
-        np.deg2rad(np.asarray(roll_deg, dtype=float)),
-        np.deg2rad(np.asarray(pitch_deg, dtype=float)),
-        np.deg2rad(np.asarray(yaw_deg, dtype=float)),
+        deg2rad(np.asarray(roll_deg, dtype=float)),
+        deg2rad(np.asarray(pitch_deg, dtype=float)),
+        deg2rad(np.asarray(yaw_deg, dtype=float)),
     )
     sf, cf = np.sin(phi), np.cos(phi)
     st, ct = np.sin(theta), np.cos(theta)
     sp, cp = np.sin(psi), np.cos(psi)
+    # the products as written above, each term evaluated left to right as there (the two
+    # shared products once), written into the matrix without temporaries
+    sf_st, cf_st = sf * st, cf * st
     out = np.empty(phi.shape + (3, 3))
-    out[..., 0, 0] = ct * cp
-    out[..., 0, 1] = sf * st * cp - cf * sp
-    out[..., 0, 2] = cf * st * cp + sf * sp
-    out[..., 1, 0] = ct * sp
-    out[..., 1, 1] = sf * st * sp + cf * cp
-    out[..., 1, 2] = cf * st * sp - sf * cp
-    out[..., 2, 0] = -st
-    out[..., 2, 1] = sf * ct
-    out[..., 2, 2] = cf * ct
+    np.multiply(ct, cp, out=out[..., 0, 0])
+    np.subtract(sf_st * cp, cf * sp, out=out[..., 0, 1])
+    np.add(cf_st * cp, sf * sp, out=out[..., 0, 2])
+    np.multiply(ct, sp, out=out[..., 1, 0])
+    np.add(sf_st * sp, cf * cp, out=out[..., 1, 1])
+    np.subtract(cf_st * sp, sf * cp, out=out[..., 1, 2])
+    np.negative(st, out=out[..., 2, 0])
+    np.multiply(sf, ct, out=out[..., 2, 1])
+    np.multiply(cf, ct, out=out[..., 2, 2])
     return out
 
 
@@ -224,9 +228,9 @@ def body_rates_from_euler(
     t = np.asarray(time_s, dtype=float)
     if t.ndim != 1 or t.size < 3 or np.any(np.diff(t) <= 0):
         raise InputError("time_s", "expected at least 3 strictly increasing sample times")
-    phi = np.deg2rad(np.asarray(roll_deg, dtype=float))
-    theta = np.deg2rad(np.asarray(pitch_deg, dtype=float))
-    psi = unwrap_rad(np.deg2rad(np.asarray(yaw_deg, dtype=float)))
+    phi = deg2rad(np.asarray(roll_deg, dtype=float))
+    theta = deg2rad(np.asarray(pitch_deg, dtype=float))
+    psi = unwrap_rad(deg2rad(np.asarray(yaw_deg, dtype=float)))
     return euler_rates_to_body_rates(
         phi, theta, np.gradient(phi, t), np.gradient(theta, t), np.gradient(psi, t)
     )

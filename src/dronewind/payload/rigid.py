@@ -48,6 +48,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind.core import filtering
+from dronewind.core.angles import deg2rad, rad2deg
 from dronewind.core.cf import variable
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.delimited import read_delimited
@@ -452,7 +453,7 @@ def _fill_platform(l1: xr.Dataset, t: np.ndarray, where: str) -> tuple[dict[str,
                              "record")
         missing |= ~ok
         if k == "yaw_deg":
-            x[ok] = np.rad2deg(unwrap_rad(np.deg2rad(x[ok])))
+            x[ok] = rad2deg(unwrap_rad(deg2rad(x[ok])))
         out[k], _ = fill_nan_by_time(t, x)
     return out, missing
 

@@ -46,6 +46,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind.core import filtering
+from dronewind.core.angles import deg2rad, rad2deg, wrap_360
 from dronewind.core.cf import variable
 from dronewind.core.qc import QC_GAP_FILLED, QC_OUT_OF_RANGE, qc_flag_attrs
 from dronewind.core.reuse import reused
@@ -109,8 +110,8 @@ def interpolate_ins(time_ins_s: np.ndarray, ins: dict[str, np.ndarray], time_tar
         if arr.ndim == 2:
             out[key] = np.stack([np.interp(tt, ti, arr[:, k]) for k in range(arr.shape[1])], axis=-1)
         elif key == "yaw_deg":
-            unwrapped = np.rad2deg(unwrap_rad(np.deg2rad(arr)))
-            out[key] = np.mod(np.interp(tt, ti, unwrapped), 360.0)
+            unwrapped = rad2deg(unwrap_rad(deg2rad(arr)))
+            out[key] = wrap_360(np.interp(tt, ti, unwrapped))
         else:
             out[key] = np.interp(tt, ti, arr)
     return out
@@ -711,7 +712,7 @@ def _fill_ins_gaps(ins_l1: xr.Dataset, ti: np.ndarray, tr: _Trace) -> tuple[dict
         ins_missing |= ~np.isfinite(x)
         if k == "yaw_deg":  # unwrap over the valid samples only, so gaps are bridged the short way
             ok = np.isfinite(x)
-            x[ok] = np.rad2deg(unwrap_rad(np.deg2rad(x[ok])))
+            x[ok] = rad2deg(unwrap_rad(deg2rad(x[ok])))
         if not np.isfinite(x).any():
             raise InputError(f"{tr.where} [INS {k}]", f"no valid {k} sample among the {ti.size} INS samples "
                              f"({int(invalid.sum())} with ekf_valid=0)")
@@ -1009,13 +1010,16 @@ def _plausibility(sonic_l1: xr.Dataset, seg: _SonicSegment, hover_s: tuple[float
     if site_altitude_m is not None and alt_used_m.size:
         height = float(np.median(alt_used_m) - float(site_altitude_m))
         results.append(checks.height_check(height, target_height_m))
-    good = ~ins_missing
-    inputs = {"t": ti[good], **{k: ins[k][good] for k in ("lat_deg", "lon_deg", "alt_m", "vel_n_ms", "vel_e_ms",
-                                                         "vel_d_ms")}}
+    keys = ("lat_deg", "lon_deg", "alt_m", "vel_n_ms", "vel_e_ms", "vel_d_ms")
+
+    def velocity_position() -> checks.CheckResult:
+        good = ~ins_missing
+        return checks.velocity_position_check(ti[good], *(ins[k][good] for k in keys))
+
     # the INS's own check: reused inside a forward flight's runs where the INS is unchanged
-    results.append(reused("velocity-position check", inputs, "", lambda: checks.velocity_position_check(
-        inputs["t"], inputs["lat_deg"], inputs["lon_deg"], inputs["alt_m"], inputs["vel_n_ms"], inputs["vel_e_ms"],
-        inputs["vel_d_ms"])))
+    # (found by the whole series and the mask, so a reused check selects nothing)
+    results.append(reused("velocity-position check", {"t": ti, "missing": ins_missing, **{k: ins[k] for k in keys}},
+                          "", velocity_position))
     if "qc_sonic" in sonic_l1.variables:
         h0, h1 = hover_s
         in_hover = (seg.time_s >= h0) & (seg.time_s <= h1)

@@ -83,6 +83,7 @@ from typing import Any, TypedDict
 import numpy as np
 import xarray as xr
 
+from dronewind.core.angles import deg2rad
 from dronewind.core.constants import GRAVITY_MS2, KARMAN
 from dronewind.core.raw import content_digest
 from dronewind.core.reuse import reused
@@ -550,7 +551,7 @@ def wind_frame_unit_vectors(wind_from_deg: float) -> tuple[np.ndarray, np.ndarra
         Horizontal (east, north) unit vectors. Wind from the west (270) gives
         e_u = (1, 0) (blowing east) and e_v = (0, 1) (north is to the left).
     """
-    a = np.deg2rad(wind_from_deg)
+    a = deg2rad(wind_from_deg)
     e_u = np.array([-np.sin(a), -np.cos(a)])
     e_v = np.array([-e_u[1], e_u[0]])
     return e_u, e_v
@@ -1668,7 +1669,7 @@ def mean_wind_trend(series: np.ndarray, mean_enu: np.ndarray, t_s: np.ndarray, r
     out = series.copy()
     east = series[:, 0] + mean_enu[:, 0, None] * (rel - 1.0)[None, :]
     north = series[:, 1] + mean_enu[:, 1, None] * (rel - 1.0)[None, :]
-    delta = np.deg2rad(direction_trend_deg_per_h * hours)[None, :]
+    delta = deg2rad(direction_trend_deg_per_h * hours)[None, :]
     out[:, 0] = east * np.cos(delta) + north * np.sin(delta)
     out[:, 1] = -east * np.sin(delta) + north * np.cos(delta)
     return out

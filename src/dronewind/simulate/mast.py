@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dronewind.core.angles import deg2rad, rad2deg, wrap_180
 from dronewind.core.constants import ZERO_CELSIUS_K
 
 __all__ = ["CsatRecord", "enu_to_csat3", "flow_distortion", "mast_measurement", "DISTORTION_KEYS"]
@@ -89,7 +90,7 @@ def enu_to_csat3(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.ndar
     .. math:: U_x = -u_E\\sin\\alpha - u_N\\cos\\alpha,\\qquad
               U_y = u_E\\cos\\alpha - u_N\\sin\\alpha,\\qquad U_z = w
     """
-    a = np.deg2rad(azimuth_deg)
+    a = deg2rad(azimuth_deg)
     ue, vn = np.asarray(u_east_ms, float), np.asarray(v_north_ms, float)
     return -ue * np.sin(a) - vn * np.cos(a), ue * np.cos(a) - vn * np.sin(a), np.asarray(w_up_ms, float)
 
@@ -144,11 +145,11 @@ def flow_distortion(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.n
     blockage = float(settings.get("boom_blockage_deficit", 0.0))
     wake = float(settings.get("tower_wake_deficit", 0.0))
     half_width = float(settings.get("tower_wake_half_width_deg", 30.0))
-    tau = np.deg2rad(float(settings.get("streamline_tilt_deg", 0.0)))
-    wind_from = np.degrees(np.arctan2(-ue, -vn))
-    gamma = (wind_from - azimuth_deg + 180.0) % 360.0 - 180.0
+    tau = deg2rad(float(settings.get("streamline_tilt_deg", 0.0)))
+    wind_from = rad2deg(np.arctan2(-ue, -vn))
+    gamma = wrap_180(wind_from - azimuth_deg)
     behind = 180.0 - np.abs(gamma)                              # angle from the tower's wake axis
-    factor = 1.0 - blockage * np.maximum(np.cos(np.deg2rad(gamma)), 0.0)
+    factor = 1.0 - blockage * np.maximum(np.cos(deg2rad(gamma)), 0.0)
     factor = factor - wake * np.where(behind < half_width, np.cos(0.5 * np.pi * behind / half_width) ** 2, 0.0)
     ue, vn = factor * ue, factor * vn
     if tau != 0.0:

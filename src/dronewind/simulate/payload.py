@@ -65,6 +65,7 @@ import xarray as xr
 from scipy import signal
 from scipy.interpolate import CubicSpline
 
+from dronewind.core.angles import deg2rad, rad2deg, wrap_180
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 from dronewind.core.raw import RawRecord, content_digest
@@ -125,7 +126,7 @@ def body_to_ned(roll_deg: np.ndarray | float, pitch_deg: np.ndarray | float,
     Seed 000, Appendix A; written independently of the processing chain's
     ``dronewind.payload.motion`` (the simulator must not use it).
     """
-    f, t, p = (np.deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
+    f, t, p = (deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
     cf, sf, ct, st, cp, sp = np.cos(f), np.sin(f), np.cos(t), np.sin(t), np.cos(p), np.sin(p)
     r = np.empty(np.shape(f) + (3, 3))
     r[..., 0, 0] = ct * cp
@@ -748,12 +749,12 @@ def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoi
     pos_e, pos_n, z_pay = _pendulum(p, air, field, spec.e_u, spec.e_v, jitter, fs_hz)
     u_mean = max(air.mean_hover_ms, 0.1)
     roll_k = AIR_DENSITY_KGM3 * p["drone_drag_area_m2"] * u_mean / (p["drone_mass_kg"] * _G)
-    roll = np.degrees(_first_order(roll_k * air.v_fluct_ms, 0.5, fs_hz)) * air.airborne + jitter.roll_deg
+    roll = rad2deg(_first_order(roll_k * air.v_fluct_ms, 0.5, fs_hz)) * air.airborne + jitter.roll_deg
     pitch = p["pitch_trim_deg"] + jitter.pitch_deg
     spl_e, spl_n, spl_z = (CubicSpline(t, x) for x in (pos_e, pos_n, z_pay))
     rel_e, rel_n = air.wind_e_ms - _slope_at_knots(spl_e), air.wind_n_ms - _slope_at_knots(spl_n)
     from_dir = unwrap_rad(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
-    yaw = np.degrees(_first_order(from_dir, p["yaw_time_constant_s"], fs_hz)) + jitter.yaw_deg
+    yaw = rad2deg(_first_order(from_dir, p["yaw_time_constant_s"], fs_hz)) + jitter.yaw_deg
     return _Motion(t, spl_e, spl_n, spl_z, roll, pitch, yaw, body_to_ned(roll, pitch, yaw))
 
 
@@ -929,7 +930,7 @@ def _add_ins_errors(cond: PayloadFlightConditions, ins: _InsRecord, noise: Seque
     roll_i = ins.roll_deg + n_roll
     pitch_i = ins.pitch_deg + n_pitch
     yaw_unw = ins.yaw_deg + n_yaw + mech.get("heading_bias", {}).get("deg", 0.0)
-    yaw_i = (yaw_unw + 180.0) % 360.0 - 180.0
+    yaw_i = wrap_180(yaw_unw)
     yaw_i = np.where(yaw_i == -180.0, 180.0, yaw_i)
     pe = ins.east_m + n_e
     pn = ins.north_m + n_n

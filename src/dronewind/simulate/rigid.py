@@ -62,6 +62,7 @@ import numpy as np
 import pandas as pd
 import scipy.signal
 
+from dronewind.core.angles import deg2rad, rad2deg
 from dronewind.errors import InputError
 from dronewind.mechanisms import validate_parameters
 from dronewind.simulate.atmosphere import simulate_wind
@@ -316,12 +317,12 @@ def simulate_rigid_record(path: str | os.PathLike[str], settings: RigidSettings 
     disp = np.stack([_hover_displacement(rng, n, fs, sd, s.hover_frequency_hz, s.hover_damping)
                      for sd in s.position_sd_m], axis=-1)
     along = _legs(n, fs, s.leg_speed_ms, s.leg_s)
-    hd = np.deg2rad(s.leg_heading_deg)
+    hd = deg2rad(s.leg_heading_deg)
     disp[:, 0] += along * np.sin(hd)
     disp[:, 1] += along * np.cos(hd)
     vel = np.gradient(disp, 1.0 / fs, axis=0)
     yaw = s.heading_deg + ornstein_uhlenbeck(rng, n, s.attitude_sd_deg, 5.0, fs)
-    psi = np.deg2rad(yaw)
+    psi = deg2rad(yaw)
     air = wind_enu - vel
     a_fwd = air[:, 0] * np.sin(psi) + air[:, 1] * np.cos(psi)
     a_right = air[:, 0] * np.cos(psi) - air[:, 1] * np.sin(psi)
@@ -330,8 +331,8 @@ def simulate_rigid_record(path: str | os.PathLike[str], settings: RigidSettings 
     rot = body_to_ned(roll, pitch, yaw)
     sensor = sensor_reading(wind_enu, vel, rot, mount_matrix(s.mount_axes), gh, gv)
     sensor += rng.standard_normal(sensor.shape) * s.sonic_noise_ms
-    lat = s.latitude_deg + np.rad2deg(disp[:, 1] / _EARTH_RADIUS_M)
-    lon = s.longitude_deg + np.rad2deg(disp[:, 0] / (_EARTH_RADIUS_M * np.cos(np.deg2rad(s.latitude_deg))))
+    lat = s.latitude_deg + rad2deg(disp[:, 1] / _EARTH_RADIUS_M)
+    lon = s.longitude_deg + rad2deg(disp[:, 0] / (_EARTH_RADIUS_M * np.cos(deg2rad(s.latitude_deg))))
     start = np.datetime64(s.start_utc.rstrip("Z"), "ns")
     stamps = pd.DatetimeIndex(start + np.rint(t * 1e9).astype("timedelta64[ns]"))
     table = pd.DataFrame({
