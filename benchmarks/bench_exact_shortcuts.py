@@ -1,4 +1,4 @@
-"""Milliseconds of the exact shortcuts of session 32 against the computations they replace.
+"""Milliseconds of the exact shortcuts of sessions 32 and 33 against the computations they replace.
 
 Runs the workflow's ``published_forward`` job of one sample (default ``s01``: 36 forward runs)
 and keeps the inputs each shortcut gets there; then times, over all those inputs, the shortcut
@@ -11,7 +11,19 @@ the same bits:
   payload's heading) against ``np.unwrap``; a logged yaw that wraps at +/-180 degree takes
   numpy's path after the shortcut's check;
 - ``dronewind.simulate.payload._slope_at_knots`` (the payload's velocity on its own time axis)
-  against evaluating the motion's spline there.
+  against evaluating the motion's spline there;
+
+and of session 33:
+
+- :func:`dronewind.core.spectra.welch_psd` (the transform's design remembered) against
+  ``scipy.signal.welch`` of the same detrended series;
+- :func:`dronewind.core.angles.deg2rad`, ``rad2deg``, ``wrap_180`` and ``wrap_360`` against
+  ``np.deg2rad``, ``np.rad2deg`` and numpy's remainder;
+- :func:`dronewind.core.stats.detrend` (a finite series not filled) against the previous
+  version (kept here as :func:`_detrend_before`);
+- :func:`dronewind.payload.motion.rotation_matrix_body_to_ned` against the previous version
+  (:func:`_rotation_before`);
+- :func:`dronewind.core.reuse.same_bits` (leading rows first) against comparing whole arrays.
 
 Per kind: calls, total and largest milliseconds of each. Example::
 
@@ -42,8 +54,74 @@ from bench_common import (
 
 
 def _same_bits(a: Any, b: Any) -> bool:
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return a.shape == b.shape and bool(np.array_equal(a.view(np.uint64), b.view(np.uint64)))
+    if isinstance(a, tuple):
+        return all(_same_bits(x, y) for x, y in zip(a, b, strict=True))
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def _detrend_before(x: np.ndarray, axis: int = -1) -> np.ndarray:
+    """:func:`dronewind.core.stats.detrend` as it was before session 33 (always filled, then NaN'd)."""
+    arr = np.asarray(x, dtype=float)
+    finite = np.all(np.isfinite(arr), axis=axis, keepdims=True)
+    filled = np.moveaxis(np.where(np.isfinite(arr), arr, 0.0), axis, -1)
+    n = filled.shape[-1]
+    if n == 0:
+        return arr.copy()
+    tau = np.arange(n, dtype=float) - 0.5 * (n - 1)
+    slope = np.einsum("...k,k->...", filled, tau) / float(np.sum(tau * tau)) if n > 1 else np.zeros(filled.shape[:-1])
+    out = filled - filled.mean(axis=-1, keepdims=True) - np.asarray(slope)[..., None] * tau
+    return np.where(finite, np.moveaxis(out, -1, axis), np.nan)
+
+
+def _rotation_before(roll_deg: Any, pitch_deg: Any, yaw_deg: Any) -> np.ndarray:
+    """:func:`dronewind.payload.motion.rotation_matrix_body_to_ned` as it was before session 33."""
+    phi, theta, psi = np.broadcast_arrays(np.deg2rad(np.asarray(roll_deg, dtype=float)),
+                                          np.deg2rad(np.asarray(pitch_deg, dtype=float)),
+                                          np.deg2rad(np.asarray(yaw_deg, dtype=float)))
+    sf, cf = np.sin(phi), np.cos(phi)
+    st, ct = np.sin(theta), np.cos(theta)
+    sp, cp = np.sin(psi), np.cos(psi)
+    out = np.empty(phi.shape + (3, 3))
+    out[..., 0, 0] = ct * cp
+    out[..., 0, 1] = sf * st * cp - cf * sp
+    out[..., 0, 2] = cf * st * cp + sf * sp
+    out[..., 1, 0] = ct * sp
+    out[..., 1, 1] = sf * st * sp + cf * cp
+    out[..., 1, 2] = cf * st * sp - sf * cp
+    out[..., 2, 0] = -st
+    out[..., 2, 1] = sf * ct
+    out[..., 2, 2] = cf * ct
+    return out
+
+
+def _same_bits_before(a: np.ndarray, b: np.ndarray) -> bool:
+    """:func:`dronewind.core.reuse.same_bits` as it was before session 33 (whole arrays at once)."""
+    from dronewind.core.reuse import _UINTS
+
+    if a.dtype != b.dtype or a.shape != b.shape:
+        return False
+    uint = _UINTS.get(a.dtype.itemsize)
+    if uint is None or a.ndim == 0:
+        a, b, uint = np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1), np.uint8
+    return bool(np.array_equal(a.view(uint), b.view(uint)))
+
+
+def _welch_before(x: np.ndarray, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`dronewind.core.spectra.welch_psd`'s defaults as it computed them before session 33."""
+    import scipy.signal
+
+    from dronewind.core import spectra
+    from dronewind.core.stats import detrend
+
+    nperseg, noverlap = spectra._welch_setup(x.size, 3, 0.5, 16, "welch_psd(x)")
+    f, p = scipy.signal.welch(detrend(x), fs=fs_hz, window="hamming", nperseg=nperseg, noverlap=noverlap,
+                              detrend=False, scaling="density", return_onesided=True)
+    return f[1:], p[1:]
+
+
+def _is_float_array(x: Any) -> bool:
+    return isinstance(x, np.ndarray) and x.dtype == np.float64 and x.size > 1
 
 
 def _least_ms(fn: Callable[[], Any], repeat: int) -> float:
@@ -63,14 +141,16 @@ def _compare(inputs: list[Any], new: Callable[[Any], Any], old: Callable[[Any], 
             "same_bits": all(_same_bits(new(x), old(x)) for x in inputs)}
 
 
-def _collect(module_names: tuple[str, ...], name: str, inputs: list[Any], copy: Callable[[Any], Any]) -> None:
-    """Wrap ``name`` where these modules look it up, keeping a copy of each first argument."""
+def _collect(module_names: tuple[str, ...], name: str, inputs: list[Any], copy: Callable[[Any], Any],
+             all_arguments: bool = False) -> None:
+    """Wrap ``name`` where these modules look it up, keeping a copy of each first argument (or,
+    ``all_arguments``, a tuple of copies of the positional arguments)."""
     import importlib
 
     original = getattr(importlib.import_module(module_names[0]), name)
 
     def wrapper(first: Any, *args: Any, **kwargs: Any) -> Any:
-        inputs.append(copy(first))
+        inputs.append(tuple(copy(a) for a in (first, *args)) if all_arguments else copy(first))
         return original(first, *args, **kwargs)
 
     for module_name in module_names:
@@ -86,23 +166,50 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
     preload_as_server()
+    from dronewind.core import angles, reuse, spectra, stats
     from dronewind.core.timeseries import median_of_steps, unwrap_rad
+    from dronewind.payload.motion import rotation_matrix_body_to_ned
     from dronewind.simulate.payload import _slope_at_knots
 
     steps: list[np.ndarray] = []
-    angles: list[np.ndarray] = []
+    unwrapped: list[np.ndarray] = []
     splines: list[Any] = []
     _collect(("dronewind.core.timeseries", "dronewind.payload.io"), "median_of_steps", steps, np.array)
     _collect(("dronewind.core.timeseries", "dronewind.payload.io", "dronewind.payload.sync", "dronewind.payload.motion",
-              "dronewind.diagnose.features", "dronewind.simulate.payload"), "unwrap_rad", angles, np.array)
+              "dronewind.diagnose.features", "dronewind.simulate.payload"), "unwrap_rad", unwrapped, np.array)
     _collect(("dronewind.simulate.payload",), "_slope_at_knots", splines, lambda s: s)
+    users = tuple(name for name in sorted(sys.modules) if name.startswith("dronewind."))
+    collected: dict[str, list[Any]] = {}
+    shortcuts = (("dronewind.core.angles", "deg2rad", False), ("dronewind.core.angles", "rad2deg", False),
+                 ("dronewind.core.angles", "wrap_180", False), ("dronewind.core.angles", "wrap_360", False),
+                 ("dronewind.core.stats", "detrend", False), ("dronewind.core.spectra", "welch_psd", True),
+                 ("dronewind.payload.motion", "rotation_matrix_body_to_ned", True),
+                 ("dronewind.core.reuse", "same_bits", True))
+    for module, name, every in shortcuts:
+        collected[name] = []
+        _collect((module, *users), name, collected[name], lambda a: np.array(a) if isinstance(a, np.ndarray) else a,
+                 all_arguments=every)
     with tempfile.TemporaryDirectory() as tmp:
         published_forward_job(default_forward_setup(), args.sample, Path(tmp) / "forward.json")
+    floats = {name: [x for x in collected[name] if _is_float_array(x)] for name in ("deg2rad", "rad2deg", "wrap_180",
+                                                                                   "wrap_360", "detrend")}
+    welch = [a for a in collected["welch_psd"] if len(a) == 2]  # the default settings (all the forward runs use)
     result = {
         "sample": args.sample,
         "median_of_steps": _compare(steps, median_of_steps, lambda x: float(np.median(x)), args.repeat),
-        "unwrap_rad": _compare(angles, unwrap_rad, np.unwrap, args.repeat),
+        "unwrap_rad": _compare(unwrapped, unwrap_rad, np.unwrap, args.repeat),
         "slope_at_knots": _compare(splines, _slope_at_knots, lambda s: s(s.x, 1), args.repeat),
+        "welch_psd": _compare(welch, lambda a: spectra.welch_psd(*a), lambda a: _welch_before(*a), args.repeat),
+        "deg2rad": _compare(floats["deg2rad"], angles.deg2rad, np.deg2rad, args.repeat),
+        "rad2deg": _compare(floats["rad2deg"], angles.rad2deg, np.rad2deg, args.repeat),
+        "wrap_180": _compare(floats["wrap_180"], angles.wrap_180, lambda x: (x + 180.0) % 360.0 - 180.0, args.repeat),
+        "wrap_360": _compare(floats["wrap_360"], angles.wrap_360, lambda x: np.mod(x, 360.0), args.repeat),
+        "detrend": _compare(floats["detrend"], stats.detrend, _detrend_before, args.repeat),
+        "rotation_matrix_body_to_ned": _compare(collected["rotation_matrix_body_to_ned"],
+                                                lambda a: rotation_matrix_body_to_ned(*a),
+                                                lambda a: _rotation_before(*a), args.repeat),
+        "same_bits": _compare(collected["same_bits"], lambda a: reuse.same_bits(*a), lambda a: _same_bits_before(*a),
+                              args.repeat),
         "commit": git_commit(),
         "machine": machine(),
     }

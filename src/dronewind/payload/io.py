@@ -867,9 +867,10 @@ def _load_ins(
         f"gnss_time: stable valid GNSS time from line {int(line_no[start])} "
         f"(rpi_time_us={int(t[start])}); {start} earlier INS rows discarded"
     )
-    keep = np.arange(start, t.size)
-    cols = {k: v[keep] for k, v in cols.items()}
-    line_no = line_no[keep]
+    # the rows from the stable start on: copies of the columns' ends (a gather of the same rows
+    # by an index array would give the same arrays, at several times the cost)
+    cols = {k: v[start:].copy() for k, v in cols.items()}
+    line_no = line_no[start:].copy()
     t = cols["rpi_time_us"]
     fit_rows = np.flatnonzero((cols["time_valid"] == 1) & ~np.isnat(cols["utc"]))
     # Relation jumps: the offset utc - rpi_time, median-filtered over 11 rows so that a
@@ -1149,7 +1150,9 @@ def ins_l1(
     t_rpi = ins.columns["rpi_time_us"]
     utc = _utc_of_rows(ins, counts, log)
     sel = _increasing_utc(utc, counts, log)
-    cols = {k: v[sel] for k, v in ins.columns.items()}
+    # rows already in UTC order, none dropped (the usual case) are copied without the gather
+    in_order = sel.size == utc.size and not (counts["n_utc_duplicates"] or counts["n_utc_out_of_order"])
+    cols = {k: v.copy() if in_order else v[sel] for k, v in ins.columns.items()}
     ins_steps = np.diff(t_rpi[sel])
     counts["n_gaps_over_1s"] = int((ins_steps > _US).sum())
     if counts["n_gaps_over_1s"]:
