@@ -25,10 +25,11 @@ and of session 33:
   (:func:`_rotation_before`);
 - :func:`dronewind.core.reuse.same_bits` (leading rows first) against comparing whole arrays.
 
-Per kind: calls, total and largest milliseconds of each. Example::
+Per kind: calls, total and largest milliseconds of each (the inputs kept up to 200 MB per kind;
+``calls_in_the_job`` counts them all). Example::
 
     PYTHONPATH=src .venv/bin/python benchmarks/bench_exact_shortcuts.py \\
-        --out benchmarks/results/exact_shortcuts_s32.json
+        --out benchmarks/results/exact_shortcuts_s33.json
 """
 
 from __future__ import annotations
@@ -134,23 +135,38 @@ def _least_ms(fn: Callable[[], Any], repeat: int) -> float:
 
 
 def _compare(inputs: list[Any], new: Callable[[Any], Any], old: Callable[[Any], Any], repeat: int) -> dict[str, Any]:
-    new_ms = [_least_ms(lambda x=x: new(x), repeat) for x in inputs]
-    old_ms = [_least_ms(lambda x=x: old(x), repeat) for x in inputs]
+    new_ms, old_ms = [], []
+    for x in inputs:  # each input both ways in turn, so both find it equally warm in the caches
+        old(x)
+        new_ms.append(_least_ms(lambda x=x: new(x), repeat))
+        old_ms.append(_least_ms(lambda x=x: old(x), repeat))
     return {"calls": len(inputs), "new_total_ms": round(sum(new_ms), 2), "old_total_ms": round(sum(old_ms), 2),
             "new_largest_ms": round(max(new_ms), 3), "old_largest_ms": round(max(old_ms), 3),
             "same_bits": all(_same_bits(new(x), old(x)) for x in inputs)}
 
 
+#: Largest size of the copies kept per kind [bytes]: the calls after it are counted, not timed
+#: (the reuse checks alone get several GB of arrays in one job).
+MAX_KEPT_BYTES = 200_000_000
+
+
 def _collect(module_names: tuple[str, ...], name: str, inputs: list[Any], copy: Callable[[Any], Any],
-             all_arguments: bool = False) -> None:
+             all_arguments: bool = False, seen: dict[str, int] | None = None) -> None:
     """Wrap ``name`` where these modules look it up, keeping a copy of each first argument (or,
-    ``all_arguments``, a tuple of copies of the positional arguments)."""
+    ``all_arguments``, a tuple of copies of the positional arguments) up to :data:`MAX_KEPT_BYTES`;
+    ``seen[name]`` counts every call."""
     import importlib
 
     original = getattr(importlib.import_module(module_names[0]), name)
+    kept = [0]
 
     def wrapper(first: Any, *args: Any, **kwargs: Any) -> Any:
-        inputs.append(tuple(copy(a) for a in (first, *args)) if all_arguments else copy(first))
+        if seen is not None:
+            seen[name] = seen.get(name, 0) + 1
+        if kept[0] < MAX_KEPT_BYTES:
+            item = tuple(copy(a) for a in (first, *args)) if all_arguments else copy(first)
+            kept[0] += sum(getattr(a, "nbytes", 0) for a in (item if all_arguments else (item,)))
+            inputs.append(item)
         return original(first, *args, **kwargs)
 
     for module_name in module_names:
@@ -180,6 +196,7 @@ def main() -> None:
     _collect(("dronewind.simulate.payload",), "_slope_at_knots", splines, lambda s: s)
     users = tuple(name for name in sorted(sys.modules) if name.startswith("dronewind."))
     collected: dict[str, list[Any]] = {}
+    seen: dict[str, int] = {}
     shortcuts = (("dronewind.core.angles", "deg2rad", False), ("dronewind.core.angles", "rad2deg", False),
                  ("dronewind.core.angles", "wrap_180", False), ("dronewind.core.angles", "wrap_360", False),
                  ("dronewind.core.stats", "detrend", False), ("dronewind.core.spectra", "welch_psd", True),
@@ -188,7 +205,7 @@ def main() -> None:
     for module, name, every in shortcuts:
         collected[name] = []
         _collect((module, *users), name, collected[name], lambda a: np.array(a) if isinstance(a, np.ndarray) else a,
-                 all_arguments=every)
+                 all_arguments=every, seen=seen)
     with tempfile.TemporaryDirectory() as tmp:
         published_forward_job(default_forward_setup(), args.sample, Path(tmp) / "forward.json")
     floats = {name: [x for x in collected[name] if _is_float_array(x)] for name in ("deg2rad", "rad2deg", "wrap_180",
@@ -210,6 +227,7 @@ def main() -> None:
                                                 lambda a: _rotation_before(*a), args.repeat),
         "same_bits": _compare(collected["same_bits"], lambda a: reuse.same_bits(*a), lambda a: _same_bits_before(*a),
                               args.repeat),
+        "calls_in_the_job": seen,
         "commit": git_commit(),
         "machine": machine(),
     }

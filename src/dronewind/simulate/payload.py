@@ -65,7 +65,7 @@ import xarray as xr
 from scipy import signal
 from scipy.interpolate import CubicSpline
 
-from dronewind.core.angles import deg2rad, rad2deg, wrap_180
+from dronewind.core.angles import deg2rad, rad2deg
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 from dronewind.core.raw import RawRecord, content_digest
@@ -930,7 +930,7 @@ def _add_ins_errors(cond: PayloadFlightConditions, ins: _InsRecord, noise: Seque
     roll_i = ins.roll_deg + n_roll
     pitch_i = ins.pitch_deg + n_pitch
     yaw_unw = ins.yaw_deg + n_yaw + mech.get("heading_bias", {}).get("deg", 0.0)
-    yaw_i = wrap_180(yaw_unw)
+    yaw_i = (yaw_unw + 180.0) % 360.0 - 180.0  # unwrapped over the turns: seldom in range for wrap_180
     yaw_i = np.where(yaw_i == -180.0, 180.0, yaw_i)
     pe = ins.east_m + n_e
     pn = ins.north_m + n_n
