@@ -201,7 +201,11 @@ def _tke_curves(
     n_half = _check_lag_search(ts, ti, sonic, att, vel, max_lag_s, lag_step_s)
     dt = float(lag_step_s)
     t0, n = _lag_search_grid(ts, ti, n_half, dt, max_lag_s)
-    b = _sonic_body_on_grid(ts, sonic, t0 + dt * np.arange(n), mount, misalignment_deg)
+    grid = t0 + dt * np.arange(n)
+    # inside a forward flight's runs, an INS probe leaves the sonic on the grid unchanged (read-only)
+    mis = None if misalignment_deg is None else tuple(float(x) for x in misalignment_deg)
+    b = reused("sonic in the body frame on the lag-search grid", {"ts": ts, "sonic": sonic, "grid": grid},
+               repr((mount, mis)), lambda: _sonic_body_on_grid(ts, sonic, grid, mount, mis))
     grid_ext = t0 + dt * np.arange(-n_half, n + n_half)
     lever = None if lever_arm_m is None else tuple(float(x) for x in lever_arm_m)
     rot, v_sonic = _ins_on_extended_grid(ti, att, vel, grid_ext, lever)
@@ -320,7 +324,9 @@ def _ins_on_extended_grid(ti: np.ndarray, att: np.ndarray, vel: np.ndarray, grid
     with_rates = lever_arm_m is not None
     rot, rates = reused("INS attitude on the lag-search grid", {"ti": ti, "att": att, "grid": grid_ext},
                         repr(with_rates), lambda: _attitude_on_grid(ti, att, target, with_rates))
-    v_sonic = interpolate_ins(ti, {"vel": vel}, target)["vel"]
+    # the velocity likewise, which a sonic probe and an attitude probe leave unchanged (read-only)
+    v_sonic = reused("INS velocity on the lag-search grid", {"ti": ti, "vel": vel, "grid": grid_ext}, "",
+                     lambda: interpolate_ins(ti, {"vel": vel}, target)["vel"])
     if lever_arm_m is not None and rates is not None:
         v_sonic = v_sonic - motion.lever_arm_velocity_ned(rot, rates, lever_arm_m)
     return rot, v_sonic
