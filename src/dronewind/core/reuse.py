@@ -37,9 +37,10 @@ T = TypeVar("T")
 
 #: Unsigned integer types by item size, to compare arrays bit for bit (NaN equal to NaN).
 _UINTS: dict[int, type[np.unsignedinteger[Any]]] = {1: np.uint8, 2: np.uint16, 4: np.uint32, 8: np.uint64}
-#: Rows compared first: two different records of a flight's runs differ there in 99 of 100
-#: comparisons (a probe's noise, a shifted clock), so most unequal inputs are told apart
-#: without reading them whole; equal ones are then compared whole.
+#: Rows compared first: two different records of a flight's runs mostly differ there already
+#: (a probe's noise, a shifted clock), so they are told apart without reading them whole (the
+#: unequal comparisons of two samples' published forward jobs: 0.074 -> 0.013 s); equal ones
+#: are then compared whole.
 _LEADING_ROWS = 64
 
 
