@@ -19,10 +19,8 @@ and of session 33:
   ``scipy.signal.welch`` of the same detrended series;
 - :func:`dronewind.core.angles.deg2rad`, ``rad2deg``, ``wrap_180`` and ``wrap_360`` against
   ``np.deg2rad``, ``np.rad2deg`` and numpy's remainder;
-- :func:`dronewind.core.stats.detrend` (a finite series not filled) against the previous
-  version (kept here as :func:`_detrend_before`);
-- :func:`dronewind.payload.motion.rotation_matrix_body_to_ned` against the previous version
-  (:func:`_rotation_before`);
+- :func:`dronewind.core.stats.detrend` (a finite series not filled) against its general path
+  (``stats._detrend_filled``), which every series took before;
 - :func:`dronewind.core.reuse.same_bits` (leading rows first) against comparing whole arrays.
 
 Per kind: calls, total and largest milliseconds of each (the inputs kept up to 200 MB per kind;
@@ -59,41 +57,6 @@ def _same_bits(a: Any, b: Any) -> bool:
         return all(_same_bits(x, y) for x, y in zip(a, b, strict=True))
     a, b = np.asarray(a), np.asarray(b)
     return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
-
-
-def _detrend_before(x: np.ndarray, axis: int = -1) -> np.ndarray:
-    """:func:`dronewind.core.stats.detrend` as it was before session 33 (always filled, then NaN'd)."""
-    arr = np.asarray(x, dtype=float)
-    finite = np.all(np.isfinite(arr), axis=axis, keepdims=True)
-    filled = np.moveaxis(np.where(np.isfinite(arr), arr, 0.0), axis, -1)
-    n = filled.shape[-1]
-    if n == 0:
-        return arr.copy()
-    tau = np.arange(n, dtype=float) - 0.5 * (n - 1)
-    slope = np.einsum("...k,k->...", filled, tau) / float(np.sum(tau * tau)) if n > 1 else np.zeros(filled.shape[:-1])
-    out = filled - filled.mean(axis=-1, keepdims=True) - np.asarray(slope)[..., None] * tau
-    return np.where(finite, np.moveaxis(out, -1, axis), np.nan)
-
-
-def _rotation_before(roll_deg: Any, pitch_deg: Any, yaw_deg: Any) -> np.ndarray:
-    """:func:`dronewind.payload.motion.rotation_matrix_body_to_ned` as it was before session 33."""
-    phi, theta, psi = np.broadcast_arrays(np.deg2rad(np.asarray(roll_deg, dtype=float)),
-                                          np.deg2rad(np.asarray(pitch_deg, dtype=float)),
-                                          np.deg2rad(np.asarray(yaw_deg, dtype=float)))
-    sf, cf = np.sin(phi), np.cos(phi)
-    st, ct = np.sin(theta), np.cos(theta)
-    sp, cp = np.sin(psi), np.cos(psi)
-    out = np.empty(phi.shape + (3, 3))
-    out[..., 0, 0] = ct * cp
-    out[..., 0, 1] = sf * st * cp - cf * sp
-    out[..., 0, 2] = cf * st * cp + sf * sp
-    out[..., 1, 0] = ct * sp
-    out[..., 1, 1] = sf * st * sp + cf * cp
-    out[..., 1, 2] = cf * st * sp - sf * cp
-    out[..., 2, 0] = -st
-    out[..., 2, 1] = sf * ct
-    out[..., 2, 2] = cf * ct
-    return out
 
 
 def _same_bits_before(a: np.ndarray, b: np.ndarray) -> bool:
@@ -151,10 +114,11 @@ MAX_KEPT_BYTES = 200_000_000
 
 
 def _collect(module_names: tuple[str, ...], name: str, inputs: list[Any], copy: Callable[[Any], Any],
-             all_arguments: bool = False, seen: dict[str, int] | None = None) -> None:
+             all_arguments: bool = False, seen: dict[str, int] | None = None) -> Callable[[], None]:
     """Wrap ``name`` where these modules look it up, keeping a copy of each first argument (or,
     ``all_arguments``, a tuple of copies of the positional arguments) up to :data:`MAX_KEPT_BYTES`;
-    ``seen[name]`` counts every call."""
+    ``seen[name]`` counts every call. Returns what puts the original back (before anything is
+    timed: the functions timed call each other)."""
     import importlib
 
     original = getattr(importlib.import_module(module_names[0]), name)
@@ -169,10 +133,16 @@ def _collect(module_names: tuple[str, ...], name: str, inputs: list[Any], copy: 
             inputs.append(item)
         return original(first, *args, **kwargs)
 
-    for module_name in module_names:
-        module = importlib.import_module(module_name)
-        if getattr(module, name, None) is original:
-            setattr(module, name, wrapper)
+    wrapped = [importlib.import_module(m) for m in module_names]
+    wrapped = [module for module in dict.fromkeys(wrapped) if getattr(module, name, None) is original]
+    for module in wrapped:
+        setattr(module, name, wrapper)
+
+    def restore() -> None:
+        for module in wrapped:
+            setattr(module, name, original)
+
+    return restore
 
 
 def main() -> None:
@@ -184,30 +154,34 @@ def main() -> None:
     preload_as_server()
     from dronewind.core import angles, reuse, spectra, stats
     from dronewind.core.timeseries import median_of_steps, unwrap_rad
-    from dronewind.payload.motion import rotation_matrix_body_to_ned
     from dronewind.simulate.payload import _slope_at_knots
 
     steps: list[np.ndarray] = []
     unwrapped: list[np.ndarray] = []
     splines: list[Any] = []
-    _collect(("dronewind.core.timeseries", "dronewind.payload.io"), "median_of_steps", steps, np.array)
-    _collect(("dronewind.core.timeseries", "dronewind.payload.io", "dronewind.payload.sync", "dronewind.payload.motion",
-              "dronewind.diagnose.features", "dronewind.simulate.payload"), "unwrap_rad", unwrapped, np.array)
-    _collect(("dronewind.simulate.payload",), "_slope_at_knots", splines, lambda s: s)
+    restores = [
+        _collect(("dronewind.core.timeseries", "dronewind.payload.io"), "median_of_steps", steps, np.array),
+        _collect(("dronewind.core.timeseries", "dronewind.payload.io", "dronewind.payload.sync",
+                  "dronewind.payload.motion", "dronewind.diagnose.features", "dronewind.simulate.payload"),
+                 "unwrap_rad", unwrapped, np.array),
+        _collect(("dronewind.simulate.payload",), "_slope_at_knots", splines, lambda s: s),
+    ]
     users = tuple(name for name in sorted(sys.modules) if name.startswith("dronewind."))
     collected: dict[str, list[Any]] = {}
     seen: dict[str, int] = {}
     shortcuts = (("dronewind.core.angles", "deg2rad", False), ("dronewind.core.angles", "rad2deg", False),
                  ("dronewind.core.angles", "wrap_180", False), ("dronewind.core.angles", "wrap_360", False),
                  ("dronewind.core.stats", "detrend", False), ("dronewind.core.spectra", "welch_psd", True),
-                 ("dronewind.payload.motion", "rotation_matrix_body_to_ned", True),
                  ("dronewind.core.reuse", "same_bits", True))
     for module, name, every in shortcuts:
         collected[name] = []
-        _collect((module, *users), name, collected[name], lambda a: np.array(a) if isinstance(a, np.ndarray) else a,
-                 all_arguments=every, seen=seen)
+        restores.append(_collect((module, *users), name, collected[name],
+                                 lambda a: np.array(a) if isinstance(a, np.ndarray) else a, all_arguments=every,
+                                 seen=seen))
     with tempfile.TemporaryDirectory() as tmp:
         published_forward_job(default_forward_setup(), args.sample, Path(tmp) / "forward.json")
+    for restore in restores:
+        restore()
     floats = {name: [x for x in collected[name] if _is_float_array(x)] for name in ("deg2rad", "rad2deg", "wrap_180",
                                                                                    "wrap_360", "detrend")}
     welch = [a for a in collected["welch_psd"] if len(a) == 2]  # the default settings (all the forward runs use)
@@ -221,10 +195,8 @@ def main() -> None:
         "rad2deg": _compare(floats["rad2deg"], angles.rad2deg, np.rad2deg, args.repeat),
         "wrap_180": _compare(floats["wrap_180"], angles.wrap_180, lambda x: (x + 180.0) % 360.0 - 180.0, args.repeat),
         "wrap_360": _compare(floats["wrap_360"], angles.wrap_360, lambda x: np.mod(x, 360.0), args.repeat),
-        "detrend": _compare(floats["detrend"], stats.detrend, _detrend_before, args.repeat),
-        "rotation_matrix_body_to_ned": _compare(collected["rotation_matrix_body_to_ned"],
-                                                lambda a: rotation_matrix_body_to_ned(*a),
-                                                lambda a: _rotation_before(*a), args.repeat),
+        "detrend": _compare(floats["detrend"], stats.detrend,
+                            lambda x: stats._detrend_filled(x, np.isfinite(x), -1), args.repeat),
         "same_bits": _compare(collected["same_bits"], lambda a: reuse.same_bits(*a), lambda a: _same_bits_before(*a),
                               args.repeat),
         "calls_in_the_job": seen,

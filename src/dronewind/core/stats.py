@@ -78,20 +78,30 @@ def detrend(x: np.ndarray, axis: int = -1) -> np.ndarray:
     """
     arr = np.asarray(x, dtype=float)
     is_finite = np.isfinite(arr)
-    # a finite series along the last axis (the usual case) needs neither the filling nor the
-    # NaN of the end: the same numbers without the two copies
-    plain = bool(is_finite.all()) and (arr.ndim <= 1 or axis in (-1, arr.ndim - 1))
+    if (arr.ndim <= 1 or axis in (-1, arr.ndim - 1)) and bool(is_finite.all()):
+        # a finite series along the last axis (the usual case) is neither filled nor NaN'd
+        # at the end: the same numbers without the two copies
+        return _line_removed(arr)
+    return _detrend_filled(arr, is_finite, axis)
+
+
+def _detrend_filled(arr: np.ndarray, is_finite: np.ndarray, axis: int) -> np.ndarray:
+    """:func:`detrend` of any float series: fitted with its non-finite samples as 0, NaN where one was."""
     finite = np.all(is_finite, axis=axis, keepdims=True)
-    filled = arr if plain else np.moveaxis(np.where(is_finite, arr, 0.0), axis, -1)
+    out = _line_removed(np.moveaxis(np.where(is_finite, arr, 0.0), axis, -1))
+    return np.where(finite, np.moveaxis(out, -1, axis), np.nan)
+
+
+def _line_removed(filled: np.ndarray) -> np.ndarray:
+    """``filled`` (finite, time along the last axis) minus its least-squares line (:func:`detrend`, Notes)."""
     n = filled.shape[-1]
     if n == 0:
-        return arr.copy()
+        return filled.copy()
     tau = np.arange(n, dtype=float) - 0.5 * (n - 1)
     # einsum, not the matrix product: BLAS may run a long dot product on threads that keep
     # spinning after it (their CPU counted against the job) where it is not set to one thread
     slope = np.einsum("...k,k->...", filled, tau) / float(np.sum(tau * tau)) if n > 1 else np.zeros(filled.shape[:-1])
-    out = filled - filled.mean(axis=-1, keepdims=True) - np.asarray(slope)[..., None] * tau
-    return out if plain else np.where(finite, np.moveaxis(out, -1, axis), np.nan)
+    return filled - filled.mean(axis=-1, keepdims=True) - np.asarray(slope)[..., None] * tau
 
 
 def fluctuation(x: np.ndarray, method: Detrend = "linear", axis: int = -1) -> np.ndarray:

@@ -948,8 +948,9 @@ def _utc_of_rows(ins: InsTable, counts: dict[str, int], log: list[str]) -> np.nd
     return utc
 
 
-def _increasing_utc(utc: np.ndarray, counts: dict[str, int], log: list[str]) -> np.ndarray:
-    """Rows in UTC order with repeated UTC stamps dropped (a GNSS glitch); their indices."""
+def _increasing_utc(utc: np.ndarray, counts: dict[str, int], log: list[str]) -> tuple[np.ndarray, bool]:
+    """Rows in UTC order with repeated UTC stamps dropped (a GNSS glitch): their indices, and
+    whether those are all rows in their own order."""
     order = np.argsort(utc, kind="stable")
     n_utc_unsorted = int((order != np.arange(order.size)).sum())
     utc_sorted = utc[order]
@@ -960,7 +961,8 @@ def _increasing_utc(utc: np.ndarray, counts: dict[str, int], log: list[str]) -> 
     if dup.any() or n_utc_unsorted:
         log.append(f"gnss_time: {int(dup.sum())} rows repeating a UTC stamp dropped, "
                    f"{n_utc_unsorted} rows re-ordered by UTC")  # fmt: skip
-    return order[~dup]
+        return order[~dup], False
+    return order, True
 
 
 def _ins_qc(cols: dict[str, np.ndarray], fs_hz: float, despike: bool, counts: dict[str, int], log: list[str],
@@ -1149,9 +1151,8 @@ def ins_l1(
     counts, log = ins.counts, ins.log
     t_rpi = ins.columns["rpi_time_us"]
     utc = _utc_of_rows(ins, counts, log)
-    sel = _increasing_utc(utc, counts, log)
-    # rows already in UTC order, none dropped (the usual case) are copied without the gather
-    in_order = sel.size == utc.size and not (counts["n_utc_duplicates"] or counts["n_utc_out_of_order"])
+    sel, in_order = _increasing_utc(utc, counts, log)
+    # rows already in UTC order, none dropped (the usual case), are copied without the gather
     cols = {k: v.copy() if in_order else v[sel] for k, v in ins.columns.items()}
     ins_steps = np.diff(t_rpi[sel])
     counts["n_gaps_over_1s"] = int((ins_steps > _US).sum())

@@ -92,19 +92,16 @@ def rotation_matrix_body_to_ned(
     sf, cf = np.sin(phi), np.cos(phi)
     st, ct = np.sin(theta), np.cos(theta)
     sp, cp = np.sin(psi), np.cos(psi)
-    # the products as written above, each term evaluated left to right as there (the two
-    # shared products once), written into the matrix without temporaries
-    sf_st, cf_st = sf * st, cf * st
     out = np.empty(phi.shape + (3, 3))
-    np.multiply(ct, cp, out=out[..., 0, 0])
-    np.subtract(sf_st * cp, cf * sp, out=out[..., 0, 1])
-    np.add(cf_st * cp, sf * sp, out=out[..., 0, 2])
-    np.multiply(ct, sp, out=out[..., 1, 0])
-    np.add(sf_st * sp, cf * cp, out=out[..., 1, 1])
-    np.subtract(cf_st * sp, sf * cp, out=out[..., 1, 2])
-    np.negative(st, out=out[..., 2, 0])
-    np.multiply(sf, ct, out=out[..., 2, 1])
-    np.multiply(cf, ct, out=out[..., 2, 2])
+    out[..., 0, 0] = ct * cp
+    out[..., 0, 1] = sf * st * cp - cf * sp
+    out[..., 0, 2] = cf * st * cp + sf * sp
+    out[..., 1, 0] = ct * sp
+    out[..., 1, 1] = sf * st * sp + cf * cp
+    out[..., 1, 2] = cf * st * sp - sf * cp
+    out[..., 2, 0] = -st
+    out[..., 2, 1] = sf * ct
+    out[..., 2, 2] = cf * ct
     return out
 
 
