@@ -165,6 +165,45 @@ def test_bad_mount(tmp_path):
     expect_error(tmp_path, data, "payload_flights[0].sonic.mount", "sideways")
 
 
+
+def test_mistyped_key_is_named_with_the_nearest_valid_one(tmp_path):
+    """``mounting: upright`` would leave the mount at its default (v and w flipped): an error, not a pass."""
+    data = copy.deepcopy(VALID)
+    data["payload_flights"][0]["sonic"] = {"file": "flights/s01/sonic.csv", "mounting": "upright"}
+    expect_error(tmp_path, data, "payload_flights[0].sonic.mounting", "did you mean 'mount'?")
+
+
+def test_mistyped_key_beside_the_real_one_is_an_error(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["payload_flights"][0]["target_hieght_m"] = 28
+    expect_error(tmp_path, data, "payload_flights[0].target_hieght_m", "did you mean 'target_height_m'?")
+
+
+def test_unknown_key_far_from_any_lists_the_valid_keys(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["site"]["weather"] = "sunny"
+    err = expect_error(tmp_path, data, "site.weather", "the keys here are: altitude_m, extra, latitude")
+    assert "x-weather" in str(err)
+
+
+def test_every_unknown_key_is_reported(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["masts"][0]["sonics"][1]["hieght_m"] = 60
+    data["quadrotor_flights"][0]["uavs"][0]["fromat"] = "ulog"
+    err = expect_error(tmp_path, data, "masts[0].sonics[1].hieght_m", "did you mean 'height_m'?")
+    assert "[quadrotor_flights[0].uavs[0].fromat]" in str(err) and "did you mean 'format'?" in str(err)
+
+
+def test_own_keys_under_x_prefix_or_extra_are_kept(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["x-operator"] = "A. Smith"
+    data["payload_flights"][0]["x-battery"] = 3
+    data["payload_flights"][0]["sonic"]["extra"] = {"serial": "81000-123"}
+    data["masts"][0]["extra"] = {"painted": True}
+    campaign = load_campaign(write_campaign(tmp_path, data))
+    assert campaign.data["x-operator"] == "A. Smith"
+    assert campaign.payload_flights[0]["sonic"]["extra"] == {"serial": "81000-123"}
+
 def test_simulated_campaign_needs_no_files(tmp_path):
     data = copy.deepcopy(VALID)
     data["simulation"] = {"seed": 1}

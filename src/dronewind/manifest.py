@@ -5,7 +5,11 @@ passes and every problem is reported with the manifest file, the key path and wh
 expected:
 
 1. structure, against the JSON schema ``dronewind/schemas/campaign.schema.json``
-   (missing keys, wrong types, bad identifiers and times);
+   (missing keys, wrong types, bad identifiers and times, and keys the schema does not
+   define: a typo such as ``mounting:`` for ``mount:`` is reported with its key path and the
+   nearest valid name, as :mod:`dronewind.config` reports the settings, instead of being
+   ignored while the default applies). Keys of one's own are kept under an ``x-`` prefix
+   (``x-operator: ...``) or in an ``extra:`` mapping, at any level;
 2. paths: a virtual campaign's data paths are where the simulator writes
    (``results/<name>/L0/<path>``), so they must be relative and stay below that folder
    (absolute paths and ``..`` above it are rejected); a measured campaign's files are only
@@ -30,6 +34,7 @@ from __future__ import annotations
 
 import copy
 import datetime as _dt
+import difflib
 import glob
 import json
 import ntpath
@@ -159,6 +164,29 @@ def _key_path(parts: Any) -> str:
     for part in parts:
         out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
     return out or "(top level)"
+
+
+def _unknown_keys(error: Any) -> list[tuple[str, str]]:
+    """The keys an ``additionalProperties: false`` object of the manifest does not define.
+
+    Each unknown key is reported at its own key path; one close to a valid name (difflib
+    ratio 0.6, as :func:`dronewind.config._unknown_keys`) with that name, the others with
+    the valid keys of their level.
+    """
+    import re
+
+    known = sorted(error.schema.get("properties") or {})
+    patterns = list(error.schema.get("patternProperties") or {})
+    parent = _key_path(error.absolute_path)
+    out = []
+    for key in sorted(map(str, error.instance)):
+        if key in known or any(re.search(p, key) for p in patterns):
+            continue
+        where = f"{parent}.{key}" if error.absolute_path else key
+        close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+        hint = f"did you mean {close[0]!r}?" if close else f"the keys here are: {', '.join(known)}"
+        out.append((where, f"{key!r} is not a manifest key: {hint} (a key of one's own: x-{key} or under extra:)"))
+    return out
 
 
 @dataclass
@@ -546,6 +574,8 @@ def load_campaign(path: str | Path, *, check_files: bool | None = None) -> Campa
             missing = error.message.split("'")[1] if "'" in error.message else error.message
             problems.append((f"{key}.{missing}" if error.absolute_path else missing,
                              f"missing required key: {error.message}"))
+        elif error.validator == "additionalProperties":
+            problems += _unknown_keys(error)
         elif error.validator == "type":
             got = f"{type(error.instance).__name__} ({error.instance!r})"
             problems.append((key, f"wrong type: expected {error.validator_value}, got {got}"))
