@@ -51,6 +51,7 @@ from dronewind.manifest import Campaign, is_rigid, record_format
 
 # the column layouts, not the readers (which import xarray): this module runs at every Snakemake start
 from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS, REQUIRED_TOA5_COLUMNS
+from dronewind.payload import delimited as payload_delimited
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS, rigid_layout
 from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
 
@@ -227,7 +228,8 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
         raise InputError(p, "file not found")
     name = fmt["name"]
     allowed = {"mast_sonic": ("toa5", "gill_raw", "delimited"), "quadrotor_uav": ("contract_csv", "ulog"),
-               "rigid_record": ("delimited",)}.get(
+               "rigid_record": ("delimited",), "payload_sonic": ("contract_csv", "delimited"),
+               "payload_ins": ("contract_csv", "delimited")}.get(
         kind, ("contract_csv",))
     if name not in allowed:
         raise InputError(where, f"format {name!r} for a {kind.replace('_', ' ')}, expected one of {', '.join(allowed)}")
@@ -237,6 +239,10 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
         _check_gill(p, fmt)
     elif name == "delimited" and kind == "rigid_record":
         check_delimited_head(p, rigid_layout(fmt, where))
+    elif name == "delimited" and kind == "payload_sonic":
+        check_delimited_head(p, payload_delimited.sonic_layout(fmt, where))
+    elif name == "delimited" and kind == "payload_ins":
+        check_delimited_head(p, payload_delimited.ins_layouts(fmt, where)[0])
     elif name == "delimited":
         check_delimited_head(p, delimited_layout(fmt, where))
     elif name == "ulog":

@@ -266,6 +266,14 @@ def payload_file(kind):
     return lambda wc: str(L0 / CAMPAIGN.payload_flight(wc.flight)[kind]["file"])
 
 
+def payload_format(kind):
+    """Params function: the declared format of a payload flight's sonic or INS file (None: the contract CSV)."""
+    def declared(wc):
+        fmt = CAMPAIGN.payload_flight(wc.flight)[kind].get("format")
+        return None if fmt in (None, "contract_csv", {"name": "contract_csv"}) else fmt
+    return declared
+
+
 def mast_files(sonic_id):
     """Raw TOA5 files of a mast sonic (for a virtual campaign: one per flight)."""
     return [str(p) for p in CAMPAIGN.mast_files(sonic_id, L0)]

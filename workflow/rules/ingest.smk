@@ -23,6 +23,8 @@ rule payload_l1:
         despike=PROCESSING["despike"],
         simulated=CAMPAIGN.simulated,
         data_root=str(L0),
+        sonic_format=payload_format("sonic"),
+        ins_format=payload_format("ins"),
     script:
         "../../scripts/payload_l1.py"
 

@@ -428,7 +428,11 @@ def _table(source: str | os.PathLike[str] | RawRecord, expected: tuple[str, ...]
            max_corrupt_fraction: float) -> _Table:
     """Parse a file (:func:`_parse_csv`) or take an in-memory record (:mod:`dronewind.core.raw`)."""
     if isinstance(source, RawRecord):
-        return _table_of_record(source, expected, kinds)
+        table = _table_of_record(source, expected, kinds)
+        # a file read by its manifest mapping (dronewind.payload.delimited) brings its parsing's counts and log
+        table.counts.update(getattr(source, "counts", {}))
+        table.log[-1:] = list(getattr(source, "log", ())) or table.log[-1:]
+        return table
     return _parse_csv(source, expected, kinds, max_corrupt_fraction)
 
 

@@ -38,6 +38,7 @@ from dronewind.manifest import confined_path
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.payload import rigid
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
+from dronewind.payload.delimited import payload_source
 from dronewind.simulate.settings import simulation_manifest
 from dronewind.steps.common import LOG
 
@@ -275,14 +276,16 @@ def payload_l1(
     sonic_file: str | Path, ins_file: str | Path, out_sonic: str | Path, out_ins: str | Path, *, campaign: str,
     flight_id: str, site: Mapping[str, Any], target_height_m: float | None, despike: Mapping[str, Any],
     simulated: bool,
-    data_root: str | Path | None = None,
+    data_root: str | Path | None = None, sonic_format: Mapping[str, Any] | None = None,
+    ins_format: Mapping[str, Any] | None = None,
 ) -> tuple[Path, Path]:
     """L0 -> L1 files for one payload flight: sonic and INS to UTC with range/spike/gap QC.
 
     Parameters
     ----------
     sonic_file, ins_file : str or Path
-        Raw payload sonic and INS CSV files.
+        Raw payload sonic and INS files: the contract CSVs, or in the layouts
+        ``sonic_format`` and ``ins_format`` declare.
     out_sonic, out_ins : str or Path
         L1 NetCDF files to write.
     campaign, flight_id : str
@@ -299,6 +302,9 @@ def payload_l1(
         Folder the manifest's data paths refer to (the manifest's folder, or
         ``results/<name>/L0`` of a virtual campaign): the ``source_file`` attributes are
         stored relative to it, so the products do not depend on where the results lie.
+    sonic_format, ins_format : mapping, optional
+        The manifest's ``sonic.format`` and ``ins.format`` when they are ``delimited``
+        mappings (:mod:`dronewind.payload.delimited`); ``None``: the contract CSV.
 
     Returns
     -------
@@ -306,7 +312,8 @@ def payload_l1(
         The written files.
     """
     LOG.info("flight %s: reading %s and %s", flight_id, sonic_file, ins_file)
-    sonic, ins = compute_payload_l1(sonic_file, ins_file, despike)
+    sonic, ins = compute_payload_l1(payload_source(sonic_file, sonic_format, "sonic", "sonic.format"),
+                                    payload_source(ins_file, ins_format, "ins", "ins.format"), despike)
     sonic.attrs.update(source_file=source_name(sonic_file, data_root), ins_source_file=source_name(ins_file, data_root))
     ins.attrs["source_file"] = source_name(ins_file, data_root)
     LOG.info("sonic L1: %d samples; %s", sonic.sizes["time"], sonic.attrs.get("processing_log", ""))
