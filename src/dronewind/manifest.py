@@ -185,7 +185,8 @@ def _unknown_keys(error: Any) -> list[tuple[str, str]]:
         where = f"{parent}.{key}" if error.absolute_path else key
         close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
         hint = f"did you mean {close[0]!r}?" if close else f"the keys here are: {', '.join(known)}"
-        out.append((where, f"{key!r} is not a manifest key: {hint} (a key of one's own: x-{key} or under extra:)"))
+        own = f" (a key of one's own: x-{key} or under extra:)" if patterns else ""
+        out.append((where, f"{key!r} is not a manifest key: {hint}{own}"))
     return out
 
 
