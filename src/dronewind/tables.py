@@ -1,4 +1,4 @@
-r"""Campaign tables drawn from stored L4 products (seed 000, Tables 4 and 5).
+r"""Campaign tables drawn from stored L4 products (Ghirardelli et al. (2025), Tables 4 and 5).
 
 Every number in these tables is read from the L4 NetCDF files written by
 :func:`dronewind.steps.l4` (read with :func:`dronewind.core.products.load_l4_products`);
@@ -12,7 +12,7 @@ readable, NaN as an empty field), ``.md`` (Markdown, rounded for reading) and ``
 
 References
 ----------
-.. [1] Seed 000 (``../shared/papers/000_*.txt``), Table 4 (summary of the samples) and
+.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Table 4 (summary of the samples) and
    Table 5 (mean and turbulent flow statistics, drone vs mast).
 """
 
@@ -72,7 +72,7 @@ _UNITS_MD = {"m s-1": "m s⁻¹", "m2 s-2": "m² s⁻²", "K m s-1": "K m s⁻¹
 
 
 def default_detail_flights(flights: Sequence[str]) -> list[str]:
-    """The flights shown in detail by default: the first and the seventh (seed 000: s1, s7).
+    """The flights shown in detail by default: the first and the seventh (Ghirardelli et al. (2025): s1, s7).
 
     Parameters
     ----------
@@ -111,7 +111,7 @@ def stability_class(zeta: float, bounds: tuple[float, float, float] = STABILITY_
 
     Notes
     -----
-    The default (-0.1, 0.1, 1) puts seed 000's s1 (ζ = -0.46) in "unstable", s7 (ζ = 0.1)
+    The default (-0.1, 0.1, 1) puts Ghirardelli et al. (2025)'s s1 (ζ = -0.46) in "unstable", s7 (ζ = 0.1)
     in "stable" and s4 (ζ = 1.25) in "very stable", as the paper's text describes them.
     """
     if zeta is None or not np.isfinite(zeta):
@@ -266,14 +266,14 @@ def _table4_markdown_latex(rows: Sequence[Mapping[str, Any]]) -> tuple[str, str]
     notes = _table4_notes(rows)
     md_text = "Table 4 (dronewind): summary of the payload flights.\n\n" + _markdown(list(TABLE4_HEAD_MD), body, notes)
     tex_notes = [n.replace("\\*", "*") for n in notes]
-    tex_text = _latex("Summary of the payload flights (after seed 000, Table 4).", "tab:flights",
+    tex_text = _latex("Summary of the payload flights (after Ghirardelli et al. (2025), Table 4).", "tab:flights",
                       list(TABLE4_HEAD_TEX), body_tex, tex_notes, "ll" + "l" + "r" * 7 + "l" + "rr")
     return md_text, tex_text
 
 
 def table_flights(l4_files: Iterable[PathLike], out_stem: PathLike,
                   stability_bounds: tuple[float, float, float] = STABILITY_BOUNDS) -> list[Path]:
-    r"""Table 4 equivalent: one row per payload flight (seed 000, Table 4).
+    r"""Table 4 equivalent: one row per payload flight (Ghirardelli et al. (2025), Table 4).
 
     Columns: flight, reference mast sonic, start (UTC) and duration of the analysed
     record, payload height, reference sonic height, wind direction, mean wind speed,
@@ -351,7 +351,7 @@ def _table5_markdown_latex(data: Mapping[str, list[Any]], chosen: Sequence[str],
     head_tex = ["Statistic", "Units"] + ["Drone", "Mast"] * len(chosen)
     tex_text = _latex(
         r"Mean and turbulent flow statistics for the drone- and mast-mounted sonic anemometers "
-        r"(after seed 000, Table 5): standard deviation $\sigma$, skewness $\gamma$, kurtosis $\kappa$, "
+        r"(after Ghirardelli et al. 2025, Table 5): standard deviation $\sigma$, skewness $\gamma$, kurtosis $\kappa$, "
         r"momentum flux $\overline{u'w'}$ and buoyancy flux $\overline{w'\theta_v'}$.",
         "tab:statistics", head_tex, body_tex, notes, "ll" + "rr" * len(chosen), header_top=top)
     return md_text, tex_text
@@ -359,7 +359,7 @@ def _table5_markdown_latex(data: Mapping[str, list[Any]], chosen: Sequence[str],
 
 def table_flight_statistics(l4_files: Iterable[PathLike], out_stem: PathLike,
                             flights: Sequence[str] | None = None) -> list[Path]:
-    r"""Table 5 equivalent: mean and turbulence statistics, drone vs mast (seed 000, Table 5).
+    r"""Table 5 equivalent: mean and turbulence statistics, drone vs mast (Ghirardelli et al. (2025), Table 5).
 
     Rows: :math:`\bar u`, :math:`\sigma_{u,v,w}`, skewness :math:`\gamma_{u,v,w}`,
     kurtosis :math:`\kappa_{u,v,w}` (Pearson, 3 for a Gaussian), :math:`\overline{u'w'}`

@@ -25,6 +25,7 @@ rule payload_l1:
         data_root=str(L0),
         sonic_format=payload_format("sonic"),
         ins_format=payload_format("ins"),
+        attribution=ATTRIBUTION,
     script:
         "../../scripts/payload_l1.py"
 
@@ -47,5 +48,6 @@ rule mast_l1:
         despike=PROCESSING["despike"],
         simulated=CAMPAIGN.simulated,
         data_root=str(L0),
+        attribution=ATTRIBUTION,
     script:
         "../../scripts/mast_l1.py"

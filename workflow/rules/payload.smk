@@ -52,6 +52,7 @@ rule rigid_l1:
         site=SITE,
         despike=PROCESSING["despike"],
         data_root=str(L0),
+        attribution=ATTRIBUTION,
     script:
         "../../scripts/rigid_l1.py"
 

@@ -2,7 +2,7 @@
 
 :func:`align_drone_mast` takes the payload L2 (drone) and the mast sonic over the flight and
 returns both sensors aligned, on a common 8 Hz base and in streamline coordinates
-(seed 000, Sect. 4.4). Its steps, each a function of this module:
+(Ghirardelli et al. (2025), Sect. 4.4). Its steps, each a function of this module:
 
 1. :func:`drone_mast_lag` -- advection lag by maximum cross-correlation of the horizontal
    wind fluctuations on a common 32 Hz base over the overlap;
@@ -75,7 +75,7 @@ def design_antialias_fir(
     fs_in_hz : float
         Input rate [Hz]; default 32 Hz.
     decimate : int
-        Decimation factor; default 4 (seed 000, Sect. 4.4: 32 Hz -> 8 Hz).
+        Decimation factor; default 4 (Ghirardelli et al. (2025), Sect. 4.4: 32 Hz -> 8 Hz).
     passband_edge_hz : float, optional
         End of the passband [Hz]; default 0.75 x the output Nyquist (3 Hz at 8 Hz).
     stopband_edge_hz : float, optional
@@ -98,12 +98,12 @@ def design_antialias_fir(
     passband (0-3 Hz) deviation <= 0.094 %, stopband (4-16 Hz) attenuation >= 60.4 dB. Applied as a
     centred convolution (group delay removed), i.e. zero phase in a single pass. The band
     3-4 Hz of the 8 Hz output is the transition band: spectra there are attenuated
-    (and 4-5 Hz partly aliases into it). Seed 000 mentions an "FIR filter of order 4";
+    (and 4-5 Hz partly aliases into it). Ghirardelli et al. (2025) mentions an "FIR filter of order 4";
     a 4th-order FIR cannot give a useful anti-alias stopband, so this design replaces it.
 
     References
     ----------
-    Seed 000, Sect. 4.4; Kaiser (1974); scipy.signal.kaiserord / firwin.
+    Ghirardelli et al. (2025), Sect. 4.4; Kaiser (1974); scipy.signal.kaiserord / firwin.
     """
     return _antialias_taps(float(fs_in_hz), decimate, passband_edge_hz, stopband_edge_hz,
                            float(attenuation_db)).copy()
@@ -220,7 +220,7 @@ def drone_mast_lag(
     fs_hz : float
         Sampling rate of the common base [Hz].
     max_lag_s : float
-        Largest lag searched [s]; default 6 s (seed 000, Sect. 4.4).
+        Largest lag searched [s]; default 6 s (Ghirardelli et al. (2025), Sect. 4.4).
 
     Returns
     -------
@@ -251,7 +251,7 @@ def drone_mast_lag(
 
     References
     ----------
-    Seed 000, Sect. 4.4 ("maximises the cross-correlation of the horizontal velocity
+    Ghirardelli et al. (2025), Sect. 4.4 ("maximises the cross-correlation of the horizontal velocity
     fluctuations", up to 6 s).
     """
     arrays = [np.asarray(a, dtype=float) for a in (drone_u_ms, drone_v_ms, mast_u_ms, mast_v_ms)]
@@ -418,7 +418,7 @@ def _read_sensors(drone_l2: xr.Dataset, mast_l2: xr.Dataset, counts: dict[str, i
 
 def _lag_on_overlap(s: _Sensors, fs_common_hz: float, max_lag_s: float, min_overlap_s: float,
                     log: list[str]) -> tuple[float, np.ndarray, np.ndarray, bool]:
-    """Step 1: drone-mast lag on the overlap of both records (seed 000, Sect. 4.4).
+    """Step 1: drone-mast lag on the overlap of both records (Ghirardelli et al. (2025), Sect. 4.4).
 
     Both sensors are linearly interpolated onto a grid of step 1/``fs_common_hz`` over
     their overlap (gaps bridged linearly) and the lag is found with :func:`drone_mast_lag`.
@@ -462,7 +462,7 @@ def _common_grid(s: _Sensors, lag: float, fs_common_hz: float, decimate: int, co
     The grid (step 1/``fs_common_hz``) is phase-locked to multiples of the output step
     ``decimate``/``fs_common_hz`` of UTC and spans the common window of the mast and the
     lag-shifted drone; the drone is interpolated at ``t - lag`` and the mast at ``t``
-    (linear, as in seed 000; gaps bridged and counted). Linear interpolation of a record
+    (linear, as in Ghirardelli et al. (2025); gaps bridged and counted). Linear interpolation of a record
     sampled at :math:`f_s` acts on average as a low-pass with a power gain of
     :math:`(2 + \\cos 2\\pi f/f_s)/3` (mean over the interpolation phase): at 3 Hz 0.94 for
     the 32 Hz drone, 0.86 for a 20 Hz mast and 0.56 for a 10 Hz mast (whose own Nyquist is
@@ -668,12 +668,12 @@ def align_drone_mast(
         Mast sonic in east/north/up with the same variable names, 10 or 20 Hz, NaN
         where flagged; attrs ``height_m``.
     max_lag_s : float
-        Largest drone-mast lag searched [s]; default 6 s (seed 000, Sect. 4.4).
+        Largest drone-mast lag searched [s]; default 6 s (Ghirardelli et al. (2025), Sect. 4.4).
     decimate : int
         Decimation factor from the common base; default 4 (32 Hz -> 8 Hz).
     rotation : {"none", "single", "double", "triple", "planar_fit"}
         Rotation into streamline coordinates, per sensor over the common window; default
-        "double" (seed 000, Sect. 4.4).
+        "double" (Ghirardelli et al. (2025), Sect. 4.4).
     fs_common_hz : float
         Common base rate before decimation [Hz]; default 32 Hz.
     drone_height_m : float, optional
@@ -705,7 +705,7 @@ def align_drone_mast(
 
     References
     ----------
-    Seed 000, Sect. 4.4; McMillen (1988); Wilczak et al. (2001).
+    Ghirardelli et al. (2025), Sect. 4.4; McMillen (1988); Wilczak et al. (2001).
     """
     if rotation not in rot.ROTATION_METHODS:
         raise InputError("rotation", f"unknown rotation method {rotation!r}")

@@ -8,7 +8,7 @@ flight's mast sensor:
 
 1. coverage: the fraction of the block's ``block_s * fs`` samples that are absent or
    flagged; above ``processing.max_missing_fraction`` the block is unusable and is not
-   gap-filled (seed 000, Sect. 3.2: "did not exceed 2 %"); otherwise the flagged samples
+   gap-filled (Ghirardelli et al. (2025), Sect. 3.2: "did not exceed 2 %"); otherwise the flagged samples
    are bridged linearly (:func:`dronewind.core.filtering.gap_fill_linear`, as the flight
    L3 bridges the mast);
 2. wind-from direction of the mean (east, north) vector and rotation into streamline
@@ -19,7 +19,7 @@ flight's mast sensor:
    drone there is no common 8 Hz base to decimate to) goes to
    :func:`dronewind.compare.l4.flight_l4` with ``processing.detrending``, ``spectra`` and
    ``quadrant``: the same statistics, spectra, fits, quadrant ratios, uncertainties and
-   length scales as a flight's mast sensor (seed 000, Sects. 4.1-4.4).
+   length scales as a flight's mast sensor (Ghirardelli et al. (2025), Sects. 4.1-4.4).
 
 :func:`block_stats_row` turns a block's L4 into a row of ``tables/block_stats.csv``
 (DESIGN.md, "Outputs that other tools read"). ``usable`` is False, with the reason naming
@@ -432,8 +432,8 @@ def block_stats_row(l4: xr.Dataset, record: str, sensor: str) -> dict[str, Any]:
         :data:`BLOCK_STATS_COLUMNS`: ``U_ms`` mean horizontal speed [m s-1] (speed of the
         mean vector after rotation), ``wind_from_deg`` meteorological [degree],
         ``sigma_*_ms`` [m s-1], ``ustar_ms`` [m s-1], ``uw_m2s2`` [m2 s-2], ``wT_Kms``
-        kinematic buoyancy flux [K m s-1], ``L_m`` Obukhov length [m] (seed 000 Eq. 9),
-        ``zeta`` = z/L [1], ``Sw_Su`` inertial-subrange ratio [1] (seed 000 Sect. 4.1),
+        kinematic buoyancy flux [K m s-1], ``L_m`` Obukhov length [m] (Ghirardelli et al. (2025), Eq. 9),
+        ``zeta`` = z/L [1], ``Sw_Su`` inertial-subrange ratio [1] (Ghirardelli et al. (2025), Sect. 4.1),
         ``usable`` (bool), ``reason``, ``missing_fraction`` [1].
     """
     row: dict[str, Any] = {"record": record, "sensor": sensor, "start_utc": l4.attrs["block_start_utc"],

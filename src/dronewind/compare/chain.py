@@ -81,7 +81,7 @@ def compute_l3(
     flight : mapping
         Payload flight entry of the manifest (``target_height_m`` when the L2 has no height).
     drone_mast : mapping
-        ``processing.drone_mast``: ``max_lag_s`` [s] and ``decimation`` (seed 000, Sect. 4.4).
+        ``processing.drone_mast``: ``max_lag_s`` [s] and ``decimation`` (Ghirardelli et al. (2025), Sect. 4.4).
     rotation : str
         ``processing.rotation``: ``single``, ``double``, ``triple`` or ``planar_fit`` (the
         mast's whole-record fit; the drone is double-rotated).
@@ -208,7 +208,7 @@ def compute_l4(l3: xr.Dataset, sensor: str, spectra: Mapping[str, Any], quadrant
     -------
     xarray.Dataset
         Statistics, spectra, fits, uncertainties and scales, with the L3's lag and
-        usability attributes (seed 000, Sects. 4.1-4.3).
+        usability attributes (Ghirardelli et al. (2025), Sects. 4.1-4.3).
     """
     ds = flight_l4(
         l3, sensor, n_segments=int(spectra["segments"]), overlap=float(spectra["overlap"]),

@@ -20,7 +20,7 @@ sensor) raises :class:`~dronewind.errors.InputError`.
 
 References
 ----------
-.. [1] Seed 000 (``../shared/papers/000_*.txt``), Sects. 4.1-4.4, Eqs 4-17, Tables 4-5.
+.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Sects. 4.1-4.4, Eqs 4-17, Tables 4-5.
 """
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ def record_l4(
     wind_from_deg : float, optional
         Mean wind-from direction [degree] (passed through).
     n_segments, overlap, window : optional
-        Welch settings (3, 0.5, ``"hamming"``; seed 000, Sect. 4.4).
+        Welch settings (3, 0.5, ``"hamming"``; Ghirardelli et al. (2025), Sect. 4.4).
     n_bins : int, optional
         Logarithmic frequency bins (100).
     min_segment_samples : int, optional
@@ -143,7 +143,7 @@ def record_l4(
     min_samples : int, optional
         Shortest record for any statistic [samples].
     quadrant_min_speed_ms : float, optional
-        Spectral ratios only above this mean speed (2 m s-1, seed 000 Sect. 4.1).
+        Spectral ratios only above this mean speed (2 m s-1, Ghirardelli et al. (2025), Sect. 4.1).
     fr_band : (float, float), optional
         Reduced-frequency band of the ratios (2, 10).
     fit_f_max_hz : float, optional
@@ -151,7 +151,7 @@ def record_l4(
         the anti-alias filter the record went through (:func:`flight_l4` takes it from the
         L3 attribute ``fir_passband_edge_hz``). Default: every frequency (an unfiltered record).
     detrending : {"linear", "block_mean"}, optional
-        Fluctuations about a least-squares line (seed 000) or the block mean, for every
+        Fluctuations about a least-squares line (Ghirardelli et al. (2025)) or the block mean, for every
         statistic (``attrs["detrending"]``).
 
     Returns
@@ -243,9 +243,10 @@ def _l4_attrs(fs_hz: float, n: int, nonfinite: dict[str, int], n_segments: int, 
         "detrending": _DETRENDING_TEXT[method][0],
         "spectral_method": (
             f"Welch, {n_segments} segments, {overlap:.0%} overlap, {window} window, one-sided density; "
-            f"{n_bins} logarithmic bins (seed 000 Sect. 4.4)"
+            f"{n_bins} logarithmic bins (Ghirardelli et al. (2025), Sect. 4.4)"
         ),
-        "obukhov_temperature": "mean sonic temperature theta_v_k [K] as virtual potential temperature (seed 000 Eq. 9)",
+        "obukhov_temperature": "mean sonic temperature theta_v_k [K] as virtual potential temperature "
+                               "(Ghirardelli et al. 2025, Eq. 9)",
         "karman_constant": KARMAN,
         "gravity_ms2": GRAVITY_MS2,
     }
@@ -279,7 +280,7 @@ def _input_status(n: int, nonfinite: dict[str, int], min_samples: int
 
 def _moments(arrays: dict[str, np.ndarray], vel_ok: bool, temp_ok: bool,
              method: stats.Detrend = "linear") -> _Moments:
-    """Mean speed, standard deviations, skewness, kurtosis, fluxes, u*, TKE and I_u (seed 000, Sect. 4.1).
+    """Mean speed, standard deviations, skewness, kurtosis, fluxes, u*, TKE, I_u (Ghirardelli et al. 2025, Sect. 4.1).
 
     Fluctuations about a line or the block mean (``method``); the temperature statistics only
     when ``temp_ok``.
@@ -335,7 +336,7 @@ def _moment_part(b: _Builder, m: _Moments, wind_from_deg: float, height_m: float
 
 def _obukhov_part(b: _Builder, m: _Moments, height_m: float, temp_ok: bool, temp_flag: str, temp_reason: str
                   ) -> None:
-    """Obukhov length L and stability parameter z/L (seed 000, Eq. 9)."""
+    """Obukhov length L and stability parameter z/L (Ghirardelli et al. (2025), Eq. 9)."""
     if temp_ok:
         ell = float(stats.obukhov_length(m.ustar, m.wt, m.th_mean)) if m.wt != 0.0 else np.inf
         if not np.isfinite(ell):
@@ -369,7 +370,7 @@ def _spectral_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None, wp
                    vel_flag: str, vel_reason: str, temp_ok: bool, *, n_segments: int, overlap: float,
                    window: str, n_bins: int, min_segment: int, min_speed: float,
                    fr_band: tuple[float, float], fit_f_max_hz: float | None = None) -> None:
-    """Spectra, co-spectra, model fits and spectral ratios (seed 000, Eqs 4-8)."""
+    """Spectra, co-spectra, model fits and spectral ratios (Ghirardelli et al. (2025), Eqs 4-8)."""
     flag, reason, nperseg = _spectral_status(up, vel_flag, vel_reason, n_segments, overlap, min_segment)
     binned, dof = None, None
     if flag == "ok":
@@ -464,7 +465,7 @@ def _spectrum_vars(b: _Builder, binned: spectra.BinnedSpectrum | None, height_m:
 def _fit_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, fr: np.ndarray, dof: np.ndarray | None,
               height_m: float, speed: float, ustar: float, flag: str, reason: str,
               f_max_hz: float | None = None) -> None:
-    """Fits of the spectral models, seed 000 Eqs 4-7, within the filter passband (``f_max_hz``), and the
+    """Fits of the spectral models, Ghirardelli et al. 2025, Eqs 4-7, within the filter passband (``f_max_hz``), and the
     fitted curves."""
     for comp, row in zip(("u", "v", "w", "uw"), vals[:4], strict=True):
         model, eq = _FITS[comp]
@@ -476,8 +477,10 @@ def _fit_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, fr: np.ndarray, dof
             fit = spectra.fit_spectral_model(fb, row, height_m, speed, ustar, model, start=start,
                                              bin_dof=dof, f_max_hz=f_max_hz)
             fstat, freason = _status_of(fit.converged, "fit_not_converged", fit.reason)
-        b.scalar(f"fit_a_{comp}", fit.a, "1", f"coefficient a_{comp} of the {model} model ({eq}, seed 000)")
-        b.scalar(f"fit_b_{comp}", fit.b, "1", f"coefficient b_{comp} of the {model} model ({eq}, seed 000)")
+        b.scalar(f"fit_a_{comp}", fit.a, "1",
+                 f"coefficient a_{comp} of the {model} model ({eq}, Ghirardelli et al. 2025)")
+        b.scalar(f"fit_b_{comp}", fit.b, "1",
+                 f"coefficient b_{comp} of the {model} model ({eq}, Ghirardelli et al. 2025)")
         b.scalar(f"fit_rms_{comp}", fit.rms_residual, "1", f"RMS residual of the {model} fit")
         b.status(f"status_fit_{comp}", f"{model} model fit of {comp} ({eq})", fstat, freason)
         key = "Co_uw_model" if comp == "uw" else f"S_{comp}_model"
@@ -493,7 +496,7 @@ def _fit_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, fr: np.ndarray, dof
 
 def _ratio_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, height_m: float, speed: float, flag: str,
                 reason: str, fr_band: tuple[float, float], min_speed: float) -> None:
-    """Spectral ratios <S_w/S_u> and <S_v/S_u> for the quadrant analysis (seed 000, Sect. 4.1)."""
+    """Spectral ratios <S_w/S_u> and <S_v/S_u> for the quadrant analysis (Ghirardelli et al. (2025), Sect. 4.1)."""
     for name, row in (("Sw_Su", vals[2]), ("Sv_Su", vals[1])):
         if flag != "ok":
             val, qflag, qreason, nb, flo, fhi = np.nan, flag, reason, 0, np.nan, np.nan
@@ -507,14 +510,15 @@ def _ratio_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, height_m: float, 
             else:
                 qflag, qreason = "band_not_resolved", r.reason
         comp = name[1]
-        b.scalar(name, val, "1", f"<S_{comp}/S_u> averaged over {fr_band[0]} < f_r < {fr_band[1]} (seed 000 Sect. 4.1)",
+        b.scalar(name, val, "1", f"<S_{comp}/S_u> averaged over {fr_band[0]} < f_r < {fr_band[1]} "
+                 "(Ghirardelli et al. 2025, Sect. 4.1)",
                  n_bins=np.int32(nb), f_min_hz=np.float64(flo), f_max_hz=np.float64(fhi), reason=qreason)
         b.status(f"status_{name}", f"spectral ratio {name}", qflag, qreason)
 
 
 def _scale_part(b: _Builder, u: np.ndarray, v: np.ndarray, w: np.ndarray, fs_hz: float, speed: float, su: float,
                 vel_flag: str, vel_reason: str, method: stats.Detrend = "linear") -> None:
-    """Integral time and length scales (seed 000, Eqs 14-17)."""
+    """Integral time and length scales (Ghirardelli et al. (2025), Eqs 14-17)."""
     for comp, x in zip("uvw", (u, v, w), strict=True):
         if vel_flag != "ok":
             t_s, l_m = np.nan, np.nan
@@ -549,7 +553,7 @@ def _uncertainty_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None,
                       thp: np.ndarray | None, fs_hz: float, height_m: float, duration_s: float,
                       speed: float, ustar: float, su: float, sv: float, sw: float, wt: float,
                       vel_flag: str, vel_reason: str, temp_ok: bool, temp_flag: str, temp_reason: str) -> None:
-    """Uncertainty metrics, seed 000 Eqs 10-13, and the integral-time-scale form."""
+    """Uncertainty metrics, Ghirardelli et al. (2025), Eqs 10-13, and the integral-time-scale form."""
     items = [  # name, needs temperature, phi builder, normaliser, variance?, equation
         ("sigma_u2", False, lambda: _product(up, up), lambda: su**2, True, "Eq. 13"),
         ("sigma_v2", False, lambda: _product(vp, vp), lambda: sv**2, True, "Eq. 13"),
@@ -576,7 +580,7 @@ def _uncertainty_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None,
             aflag, areason = _unc_status(a)
             eflag, ereason = _unc_status(eps)
         b.scalar(f"a_{name}", a.value, "1",
-                 f"normalised random uncertainty of {name} (seed 000 {eq}, time scale z/U)")
+                 f"normalised random uncertainty of {name} (Ghirardelli et al. (2025) {eq}, time scale z/U)")
         b.status(f"status_a_{name}", f"uncertainty a_{name}", aflag, areason)
         b.scalar(f"eps_{name}", eps.value, "1",
                  f"relative random error of {name} from the measured integral time scale of its product series "

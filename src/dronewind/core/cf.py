@@ -78,7 +78,7 @@ _FIXED_GLOBAL_ATTRS: dict[str, str] = {
     "publisher_email": "dronewind@users.noreply.github.com",
     "publisher_url": "https://github.com/dronewind/dronewind",
     "publisher_institution": "dronewind project",
-    "license": "CC-BY-4.0 unless the input data licence says otherwise",
+    "license": "CC-BY-4.0",
     "acknowledgment": "Methods after Ghirardelli et al. (SAMURAI-S) and Wetz et al. (SWUF-3D).",
     "platform_vocabulary": "https://vocab.nerc.ac.uk/collection/L06/current/",
     "instrument_vocabulary": "https://vocab.nerc.ac.uk/collection/L05/current/",
@@ -86,6 +86,45 @@ _FIXED_GLOBAL_ATTRS: dict[str, str] = {
     "product_version": __version__,
     "software_version": __version__,
 }
+
+#: The attribution of a product: who made the data and under which licence they are shared. The
+#: defaults above apply unless the campaign manifest sets them (``creator:``, ``license:``,
+#: :func:`attribution`); the L1 steps state them and every later level inherits them from its
+#: inputs, like ``source``. The outputs' licence is CC-BY-4.0 by default; the code's is MIT
+#: (LICENSE).
+ATTRIBUTION_KEYS: tuple[str, ...] = ("creator_name", "creator_email", "creator_url", "creator_type",
+                                     "creator_institution", "institution", "license")
+
+
+def attribution(creator: Mapping[str, Any] | None = None, license: str | None = None) -> dict[str, str]:
+    """The attribution attributes of a campaign's products from its manifest.
+
+    Parameters
+    ----------
+    creator : mapping, optional
+        Manifest ``creator``: ``name``, ``email``, ``institution``, ``url`` (each optional).
+    license : str, optional
+        Manifest ``license``: the licence of the products (e.g. ``CC-BY-4.0``, ``CC0-1.0``).
+
+    Returns
+    -------
+    dict
+        ``creator_name``, ``creator_email``, ``creator_url``, ``creator_type`` (``person``),
+        ``creator_institution`` and ``institution`` (the creator's institution), ``license``:
+        only those the manifest sets (the rest keep the defaults of every product).
+    """
+    out: dict[str, str] = {}
+    for key in ("name", "email", "url", "institution"):
+        if (creator or {}).get(key):
+            out[f"creator_{key}"] = str(creator[key])  # type: ignore[index]
+    if "creator_name" in out:
+        out["creator_type"] = "person"
+    if "creator_institution" in out:
+        out["institution"] = out["creator_institution"]
+    if license:
+        out["license"] = str(license)
+    return out
+
 
 #: ``source`` global attribute by origin of the raw data: a manifest without a ``simulation:``
 #: section is measured data, one with it a virtual campaign (raw files written by the simulator).
@@ -111,16 +150,22 @@ def data_source(simulated: bool) -> str:
 
 def _inherited_source(inputs: Iterable[str | Path]) -> str | None:
     """The ``source`` of the NetCDF inputs a product is computed from (None if none has one)."""
+    return _inherited(inputs).get("source")
+
+
+def _inherited(inputs: Iterable[str | Path]) -> dict[str, str]:
+    """``source`` and the attribution (:data:`ATTRIBUTION_KEYS`) of the NetCDF inputs, joined by `` + ``."""
     import netCDF4
 
-    found = []
+    found: dict[str, list[str]] = {}
     for path in map(Path, inputs):
         if path.suffix != ".nc" or not path.is_file():
             continue
         with netCDF4.Dataset(path) as nc:
-            if "source" in nc.ncattrs():
-                found.append(str(nc.getncattr("source")))
-    return " + ".join(dict.fromkeys(found)) or None
+            for key in ("source", *ATTRIBUTION_KEYS):
+                if key in nc.ncattrs():
+                    found.setdefault(key, []).append(str(nc.getncattr(key)))
+    return {k: " + ".join(dict.fromkeys(v)) for k, v in found.items()}
 
 
 _KEYWORDS = (
@@ -561,11 +606,15 @@ def write_netcdf(
     attrs = _discovery_attrs(ds, title, summary, processing_level)
     inputs = list(inputs)
     attrs.update(_provenance_attrs(ds, path, history, inputs, config))
-    # measured or virtual: stated by the L1 step (the manifest), inherited by every later level
+    # measured or virtual, and who made the data under which licence: stated by the L1 step (the
+    # manifest), inherited by every later level
+    inherited = _inherited(inputs)
     attrs["source"] = (
-        (extra_attrs or {}).get("source") or ds.attrs.get("source") or _inherited_source(inputs)
+        (extra_attrs or {}).get("source") or ds.attrs.get("source") or inherited.get("source")
         or DATA_SOURCES["unknown"]
     )
+    for key in ATTRIBUTION_KEYS:
+        attrs[key] = (extra_attrs or {}).get(key) or ds.attrs.get(key) or inherited.get(key) or attrs[key]
     _feature_type_attrs(attrs, feature_type)
     attrs.update(_coverage_attrs(out))
     attrs.update({k: v for k, v in (extra_attrs or {}).items() if v is not None})

@@ -5,9 +5,9 @@ Every module that needs one of these imports it from here; values are those the 
 
 from __future__ import annotations
 
-#: von Karman constant [1] (seed 000, Eq. 9).
+#: von Karman constant [1] (Ghirardelli et al. (2025), Eq. 9).
 KARMAN: float = 0.40
-#: Gravitational acceleration [m s-2] (seed 000, Sect. 2.3 and Eq. 9; seed 001, Eq. 9).
+#: Gravitational acceleration [m s-2] (Ghirardelli et al. (2025), Sect. 2.3 and Eq. 9; Wetz et al. (2021), Eq. 9).
 GRAVITY_MS2: float = 9.81
 #: 0 degC in kelvin [K].
 ZERO_CELSIUS_K: float = 273.15

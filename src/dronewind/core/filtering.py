@@ -1,6 +1,6 @@
 """Filtering of raw sonic and INS series: range limits, despiking, gap filling, hover window.
 
-The four public filters implement the data-filtering stage of seed 000, Sect. 3.2:
+The four public filters implement the data-filtering stage of Ghirardelli et al. (2025), Sect. 3.2:
 
 1. range check against the manufacturer's measurement ranges (:data:`INSTRUMENT_LIMITS`,
    :func:`range_mask`);
@@ -38,15 +38,15 @@ __all__ = [
 #: sigma = MAD / 0.6745 (i.e. 1.4826 MAD). Mauder et al. (2013, Eq. 1) scale the MAD by it.
 MAD_TO_SIGMA: float = 1.0 / 0.6745
 
-#: Measurement ranges used as hard limits (seed 000, Sect. 3.2: "filtering thresholds were
+#: Measurement ranges used as hard limits (Ghirardelli et al. (2025), Sect. 3.2: "filtering thresholds were
 #: determined based on the sensor specifications provided by the manufacturers").
 #: Each entry maps a quantity to (lower, upper) in the units of its key suffix.
 #:
-#: * ``rmyoung_81000`` -- RM Young 81000 (seed 000, Table 2): wind speed 0-40 m/s (applied to
+#: * ``rmyoung_81000`` -- RM Young 81000 (Ghirardelli et al. (2025), Table 2): wind speed 0-40 m/s (applied to
 #:   the speed |V| and hence to each component), sonic temperature -50..+50 degC, wind
 #:   elevation range +/-60 deg (documented; only applied on request because at low speed the
 #:   elevation of a swinging payload legitimately exceeds it).
-#: * ``sbg_ellipse_d`` -- SBG Ellipse-D. Seed 000, Table 3 lists accuracies only, no ranges, so
+#: * ``sbg_ellipse_d`` -- SBG Ellipse-D. Ghirardelli et al. (2025), Table 3 lists accuracies only, no ranges, so
 #:   the limits are the physical domains of the EKF outputs (angles, latitude, longitude) and the
 #:   GNSS receiver's operating limits (COCOM: 515 m/s, 18 km altitude); they catch corrupt values,
 #:   not a drone's flight envelope.
@@ -59,7 +59,7 @@ INSTRUMENT_LIMITS: dict[str, dict[str, Any]] = {
         "speed_ms": (0.0, 40.0),
         "t_sonic_c": (-50.0, 50.0),
         "elevation_deg": (-60.0, 60.0),
-        "source": "Seed 000, Table 2 (RM Young 81000 specifications)",
+        "source": "Ghirardelli et al. (2025), Table 2 (RM Young 81000 specifications)",
     },
     "sbg_ellipse_d": {
         "roll_deg": (-180.0, 180.0),
@@ -69,7 +69,7 @@ INSTRUMENT_LIMITS: dict[str, dict[str, Any]] = {
         "lon_deg": (-180.0, 360.0),
         "alt_m": (-500.0, 18000.0),
         "vel_ms": (-515.0, 515.0),
-        "source": "Seed 000, Table 3 gives accuracies only; physical domains and GNSS (COCOM) "
+        "source": "Ghirardelli et al. (2025), Table 3 gives accuracies only; physical domains and GNSS (COCOM) "
         "operating limits",
     },
     "csat3": {
@@ -112,7 +112,7 @@ def range_mask(x: npt.ArrayLike, lower: float, upper: float) -> np.ndarray:
 
     References
     ----------
-    Seed 000, Sect. 3.2 (range filter from manufacturer specifications).
+    Ghirardelli et al. (2025), Sect. 3.2 (range filter from manufacturer specifications).
     """
     arr = np.asarray(x, dtype=float)
     if lower > upper:
@@ -145,7 +145,7 @@ def despike_moving_mad(
     fs_hz : float
         Sampling rate [Hz].
     window_s : float, optional
-        Length of the centred moving window [s]; default 10 s (seed 000, Sect. 3.2). The
+        Length of the centred moving window [s]; default 10 s (Ghirardelli et al. (2025), Sect. 3.2). The
         window holds ``2*round(window_s*fs_hz/2) + 1`` samples (odd, so it is centred).
     n_mad : float, optional
         Threshold in units of the *scaled* MAD (MAD/0.6745, the Gaussian-consistent
@@ -166,7 +166,7 @@ def despike_moving_mad(
 
         |x_i - m_i| > q \\, \\frac{\\mathrm{MAD}_i}{0.6745}, \\qquad q = 7 .
 
-    Seed 000 (Sect. 3.2) says "a distance of +/-7 MAD from the median" and adopts the method
+    Ghirardelli et al. (2025) (Sect. 3.2) says "a distance of +/-7 MAD from the median" and adopts the method
     of Mauder et al. (2013), whose Eq. 1 bounds the deviation by ``q MAD / 0.6745`` with
     ``q = 7``; we follow Mauder et al. and use the scaled MAD. For Gaussian noise the
     false-positive rate is then P(|z| > 7) = 2.6e-12 per sample. Deviations are taken from
@@ -179,7 +179,7 @@ def despike_moving_mad(
 
     References
     ----------
-    Seed 000, Sect. 3.2. Mauder, M., et al. (2013): A strategy for quality and uncertainty
+    Ghirardelli et al. (2025), Sect. 3.2. Mauder, M., et al. (2013): A strategy for quality and uncertainty
     assessment of long-term eddy-covariance measurements, Agric. For. Meteorol. 169,
     122-135, Eq. 1.
     """
@@ -221,7 +221,7 @@ def gap_fill_linear(
         Evenly sampled series [any unit] in which missing and flagged samples are NaN.
     max_missing_fraction : float, optional
         Largest fraction of NaN samples for which the record is filled and usable;
-        default 0.02 (seed 000, Sect. 3.2: "did not exceed 2 %").
+        default 0.02 (Ghirardelli et al. (2025), Sect. 3.2: "did not exceed 2 %").
 
     Returns
     -------
@@ -242,7 +242,7 @@ def gap_fill_linear(
 
     References
     ----------
-    Seed 000, Sect. 3.2.
+    Ghirardelli et al. (2025), Sect. 3.2.
     """
     arr = np.array(x, dtype=float, copy=True)
     if arr.ndim != 1:
@@ -291,7 +291,7 @@ def hover_window_mask(
 
     Notes
     -----
-    Two steps (seed 000, Sect. 3.2). Step 1 keeps :math:`|z_i - \\tilde z| \\le 3` m with
+    Two steps (Ghirardelli et al. (2025), Sect. 3.2). Step 1 keeps :math:`|z_i - \\tilde z| \\le 3` m with
     :math:`\\tilde z` the median altitude of all valid samples. Step 2 takes the median
     latitude and longitude of the samples kept in step 1, converts positions to east/north
     offsets (:func:`local_tangent_plane_m`) and keeps
@@ -300,7 +300,7 @@ def hover_window_mask(
 
     References
     ----------
-    Seed 000, Sect. 3.2.
+    Ghirardelli et al. (2025), Sect. 3.2.
     """
     alt = np.asarray(alt_m, dtype=float)
     lat = np.asarray(lat_deg, dtype=float)

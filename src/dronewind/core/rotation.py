@@ -1,6 +1,6 @@
 """Coordinate rotations of sonic records into streamline coordinates.
 
-Single, double and triple rotation (McMillen, 1988; seed 000, Sect. 4.4) per record and
+Single, double and triple rotation (McMillen, 1988; Ghirardelli et al. (2025), Sect. 4.4) per record and
 the planar fit (Wilczak et al., 2001) over many records. Input components are a
 right-handed earth-fixed triplet with z up (east, north, up for dronewind's L2 data);
 outputs are streamline components u (along the mean wind), v (cross-wind, positive to
@@ -81,7 +81,7 @@ def single_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
 
     References
     ----------
-    McMillen (1988), Boundary-Layer Meteorol. 43, 231-245; seed 000, Sect. 4.4.
+    McMillen (1988), Boundary-Layer Meteorol. 43, 231-245; Ghirardelli et al. (2025), Sect. 4.4.
     """
     u, v, w = _check(u_ms, v_ms, w_ms)
     alpha = np.arctan2(v.mean(), u.mean())
@@ -114,7 +114,7 @@ def double_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
 
     References
     ----------
-    McMillen (1988); seed 000, Sect. 4.4 (the method used for all its statistics).
+    McMillen (1988); Ghirardelli et al. (2025), Sect. 4.4 (the method used for all its statistics).
     """
     u1, v1, w1, angles = single_rotation(u_ms, v_ms, w_ms)
     beta = np.arctan2(w1.mean(), u1.mean())
@@ -181,7 +181,7 @@ def triple_rotation(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray
 
     References
     ----------
-    McMillen (1988); seed 000, Sect. 4.4.
+    McMillen (1988); Ghirardelli et al. (2025), Sect. 4.4.
     """
     u2, v2, w2, angles = double_rotation(u_ms, v_ms, w_ms)
     vp, wp = v2 - v2.mean(), w2 - w2.mean()
@@ -489,7 +489,7 @@ def rotate(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, method: str = "
     u_ms, v_ms, w_ms : numpy.ndarray
         Components in a right-handed frame with z up [m s-1].
     method : {"none", "single", "double", "triple", "planar_fit"}
-        Rotation method; "double" is the choice of seed 000, Sect. 4.4.
+        Rotation method; "double" is the choice of Ghirardelli et al. (2025), Sect. 4.4.
     planar_fit : PlanarFit, optional
         Required for ``method="planar_fit"``.
 
@@ -503,7 +503,7 @@ def rotate(u_ms: np.ndarray, v_ms: np.ndarray, w_ms: np.ndarray, method: str = "
 
     References
     ----------
-    McMillen (1988); Wilczak et al. (2001); seed 000, Sect. 4.4.
+    McMillen (1988); Wilczak et al. (2001); Ghirardelli et al. (2025), Sect. 4.4.
     """
     out: tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]
     if method == "none":

@@ -1,4 +1,4 @@
-r"""Integral time and length scales of turbulence (seed 000, Sect. 4.3, Eqs 14-17).
+r"""Integral time and length scales of turbulence (Ghirardelli et al. (2025), Sect. 4.3, Eqs 14-17).
 
 Two steps, as in the paper: an exponential is fitted by least squares to the
 autocovariance of the (linearly detrended) fluctuations, giving the integral time scale
@@ -8,7 +8,7 @@ m s-1), and NaN with a reason where it does not.
 
 References
 ----------
-.. [1] Seed 000 (``../shared/papers/000_*.txt``), Sect. 4.3, Eqs 14-17.
+.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Sect. 4.3, Eqs 14-17.
 .. [2] Kaimal, J. C. and Finnigan, J. J.: Atmospheric Boundary Layer Flows, 1994.
 """
 
@@ -31,7 +31,7 @@ __all__ = [
     "integral_time_scale",
 ]
 
-#: Seed 000, Eq. 16: Taylor's hypothesis is used only below this turbulence intensity ...
+#: Ghirardelli et al. (2025), Eq. 16: Taylor's hypothesis is used only below this turbulence intensity ...
 MAX_TURBULENCE_INTENSITY: float = 0.5
 #: ... and above this mean speed [m s-1].
 MIN_TAYLOR_SPEED_MS: float = 1.0
@@ -72,7 +72,7 @@ class LengthScale:
     length_scale_m : float
         :math:`L_\\xi` [m]; NaN when ``valid`` is False.
     valid : bool
-        True when Taylor's hypothesis holds (seed 000, Eq. 16) and T is finite.
+        True when Taylor's hypothesis holds (Ghirardelli et al. (2025), Eq. 16) and T is finite.
     reason : str
         Empty when valid, else why not.
     """
@@ -85,7 +85,7 @@ class LengthScale:
 def autocovariance(
     x: np.ndarray, fs_hz: float, max_lag_s: float | None = None, method: Detrend = "linear"
 ) -> tuple[np.ndarray, np.ndarray]:
-    r"""Autocovariance of the fluctuation of a series (seed 000, Eq. 14).
+    r"""Autocovariance of the fluctuation of a series (Ghirardelli et al. (2025), Eq. 14).
 
     Parameters
     ----------
@@ -135,7 +135,7 @@ def integral_time_scale(
     max_lag_s: float | None = None,
     method: Detrend = "linear",
 ) -> IntegralTimeScale:
-    r"""Integral time scale by a least-squares exponential fit (seed 000, Eqs 14-15).
+    r"""Integral time scale by a least-squares exponential fit (Ghirardelli et al. (2025), Eqs 14-15).
 
     Parameters
     ----------
@@ -218,7 +218,7 @@ def integral_length_scale(
     max_intensity: float = MAX_TURBULENCE_INTENSITY,
     min_speed_ms: float = MIN_TAYLOR_SPEED_MS,
 ) -> LengthScale:
-    r"""Integral length scale by Taylor's hypothesis (seed 000, Eqs 16-17).
+    r"""Integral length scale by Taylor's hypothesis (Ghirardelli et al. (2025), Eqs 16-17).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
-r"""Spectra, co-spectra, spectral model fits and the quadrant analysis (seed 000, Sect. 4.1, 4.4).
+r"""Spectra, co-spectra, spectral model fits and the quadrant analysis (Ghirardelli et al. (2025), Sect. 4.1, 4.4).
 
 * Welch auto- and cross-spectral densities of linearly detrended series, three segments
-  with 50 % overlap (seed 000, Sect. 4.4), one-sided, in unit² Hz-1.
+  with 50 % overlap (Ghirardelli et al. (2025), Sect. 4.4), one-sided, in unit² Hz-1.
 * Bin-averaging over 100 logarithmically spaced frequency bins (Kaimal and Finnigan 1994).
 * Least-squares fits of the blunt (Eqs 4-5), pointed (Eq. 6) and co-spectral (Eq. 7)
   models in reduced frequency :math:`f_r = f z/\bar u` (Eq. 8).
@@ -14,7 +14,7 @@ allowed through ``window``).
 
 References
 ----------
-.. [1] Seed 000 (``../shared/papers/000_*.txt``), Eqs 4-8, Sects. 4.1, 4.4, Figs 6, 9, 11, 15.
+.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Eqs 4-8, Sects. 4.1, 4.4, Figs 6, 9, 11, 15.
 .. [2] Welch, P.: IEEE Trans. Audio Electroacoust. 15, 70-73, 1967.
 .. [3] Kaimal, J. C., Wyngaard, J. C., Izumi, Y., Cote, O. R.: Q. J. R. Meteorol. Soc. 98,
    563-589, 1972 (starting values of the fits).
@@ -57,7 +57,7 @@ __all__ = [
     "welch_psd",
 ]
 
-#: Local isotropy in the inertial subrange: S_w/S_u = S_v/S_u = 4/3 (seed 000, Sect. 4.1).
+#: Local isotropy in the inertial subrange: S_w/S_u = S_v/S_u = 4/3 (Ghirardelli et al. (2025), Sect. 4.1).
 ISOTROPIC_RATIO: float = 4.0 / 3.0
 
 ModelName = Literal["blunt", "pointed", "cospectrum"]
@@ -80,7 +80,7 @@ def segment_length(n_samples: int, n_segments: int = 3, overlap: float = 0.5) ->
     n_samples : int
         Record length [samples].
     n_segments : int, optional
-        Number of segments (3 in seed 000, Sect. 4.4).
+        Number of segments (3 in Ghirardelli et al. (2025), Sect. 4.4).
     overlap : float, optional
         Fractional overlap in [0, 1) (0.5 in the paper).
 
@@ -232,7 +232,7 @@ def welch_psd(
     window: str = "hamming",
     min_segment: int = 16,
 ) -> tuple[np.ndarray, np.ndarray]:
-    r"""One-sided auto power spectral density by Welch's method (seed 000, Sect. 4.4).
+    r"""One-sided auto power spectral density by Welch's method (Ghirardelli et al. (2025), Sect. 4.4).
 
     Parameters
     ----------
@@ -286,7 +286,7 @@ def welch_cpsd(
     window: str = "hamming",
     min_segment: int = 16,
 ) -> tuple[np.ndarray, np.ndarray]:
-    r"""One-sided cross power spectral density by Welch's method (seed 000, Sect. 4.4).
+    r"""One-sided cross power spectral density by Welch's method (Ghirardelli et al. (2025), Sect. 4.4).
 
     Parameters
     ----------
@@ -349,7 +349,7 @@ def bin_log(f_hz: np.ndarray, spectra: np.ndarray, n_bins: int = 100) -> BinnedS
     spectra : array-like
         Values on ``f_hz`` along the last axis (real or complex) [any unit].
     n_bins : int, optional
-        Number of bins between the lowest and highest frequency (100 in seed 000,
+        Number of bins between the lowest and highest frequency (100 in Ghirardelli et al. (2025),
         Sect. 4.4).
 
     Returns
@@ -382,7 +382,7 @@ def bin_log(f_hz: np.ndarray, spectra: np.ndarray, n_bins: int = 100) -> BinnedS
 
 
 def reduced_frequency(f_hz: np.ndarray, height_m: float, speed_ms: float) -> np.ndarray:
-    r"""Reduced frequency :math:`f_r = f z/\bar u` (seed 000, Eq. 8).
+    r"""Reduced frequency :math:`f_r = f z/\bar u` (Ghirardelli et al. (2025), Eq. 8).
 
     Parameters
     ----------
@@ -404,7 +404,7 @@ def reduced_frequency(f_hz: np.ndarray, height_m: float, speed_ms: float) -> np.
 
 
 def blunt_model(f_r: np.ndarray, a: float, b: float) -> np.ndarray:
-    r"""Blunt spectral model, seed 000, Eqs 4-5 (u and v).
+    r"""Blunt spectral model, Ghirardelli et al. (2025), Eqs 4-5 (u and v).
 
     Parameters
     ----------
@@ -427,7 +427,7 @@ def blunt_model(f_r: np.ndarray, a: float, b: float) -> np.ndarray:
 
 
 def pointed_model(f_r: np.ndarray, a: float, b: float) -> np.ndarray:
-    r"""Pointed spectral model, seed 000, Eq. 6 (w).
+    r"""Pointed spectral model, Ghirardelli et al. (2025), Eq. 6 (w).
 
     Parameters
     ----------
@@ -450,7 +450,7 @@ def pointed_model(f_r: np.ndarray, a: float, b: float) -> np.ndarray:
 
 
 def cospectrum_model(f_r: np.ndarray, a: float, b: float) -> np.ndarray:
-    r"""Co-spectral model, seed 000, Eq. 7 (Re S_uw; a < 0 for a downward momentum flux).
+    r"""Co-spectral model, Ghirardelli et al. (2025), Eq. 7 (Re S_uw; a < 0 for a downward momentum flux).
 
     Parameters
     ----------
@@ -516,7 +516,7 @@ def fit_spectral_model(
     bin_dof: np.ndarray | None = None,
     f_max_hz: float | None = None,
 ) -> SpectralFit:
-    r"""Least-squares fit of a spectral model of seed 000, Eqs 4-7, in reduced frequency.
+    r"""Least-squares fit of a spectral model of Ghirardelli et al. (2025), Eqs 4-7, in reduced frequency.
 
     Parameters
     ----------
@@ -676,7 +676,7 @@ def _replace_reason(fit: SpectralFit, reason: str) -> SpectralFit:
 
 @dataclass(frozen=True)
 class SpectralRatio:
-    """Frequency-averaged spectral ratio (seed 000, Sect. 4.1, Fig. 15).
+    """Frequency-averaged spectral ratio (Ghirardelli et al. (2025), Sect. 4.1, Fig. 15).
 
     Attributes
     ----------
@@ -707,7 +707,7 @@ def spectral_ratio(
     fr_max: float = 10.0,
     min_speed_ms: float = 2.0,
 ) -> SpectralRatio:
-    r"""Frequency-averaged spectral ratio, e.g. :math:`\langle S_w/S_u\rangle` (seed 000, Sect. 4.1).
+    r"""Frequency-averaged spectral ratio, e.g. :math:`\langle S_w/S_u\rangle` (Ghirardelli et al. (2025), Sect. 4.1).
 
     Parameters
     ----------
@@ -758,7 +758,7 @@ def spectral_ratio(
 
 
 def quadrant(ratio_mast: float, ratio_drone: float, reference: float = ISOTROPIC_RATIO) -> str:
-    r"""Quadrant of Fig. 6 of seed 000 for a pair of spectral ratios.
+    r"""Quadrant of Fig. 6 of Ghirardelli et al. (2025) for a pair of spectral ratios.
 
     Parameters
     ----------

@@ -2,7 +2,7 @@ r"""One-point turbulence statistics of sonic-anemometer records.
 
 Small, pure functions in the style of :mod:`metpy.calc.turbulence`: each takes plain
 arrays (time along the last axis) and returns a number or an array. Fluctuations are
-taken about a linear trend by default, as in seed 000, Sect. 4.4 ("Integral and spectral
+taken about a linear trend by default, as in Ghirardelli et al. (2025), Sect. 4.4 ("Integral and spectral
 turbulence characteristics are studied using linearly detrended data"); ``detrend=
 "constant"`` gives plain Reynolds (block-mean) fluctuations for comparison with other
 software.
@@ -13,7 +13,7 @@ number count and report missing samples first (see :func:`dronewind.compare.l4.f
 References
 ----------
 .. [1] Ghirardelli, M., Kral, S. T., Cheynet, E., Reuder, J., et al.: SAMURAI-S,
-   seed 000 of this project (``../shared/papers/000_*.txt``), Sects. 4.1-4.4.
+   Ghirardelli et al. (2025) of this project (``../shared/papers/000_*.txt``), Sects. 4.1-4.4.
 .. [2] Kaimal, J. C. and Finnigan, J. J.: Atmospheric Boundary Layer Flows, Oxford
    University Press, 1994.
 """
@@ -67,7 +67,7 @@ def detrend(x: np.ndarray, axis: int = -1) -> np.ndarray:
     -----
     .. math:: x'(t) = x(t) - (\alpha + \beta t),
 
-    with :math:`\alpha, \beta` from ordinary least squares. Seed 000, Sect. 4.4. The line
+    with :math:`\alpha, \beta` from ordinary least squares. Ghirardelli et al. (2025), Sect. 4.4. The line
     is fitted in closed form about the record's centre,
     :math:`\beta = \sum_k \tau_k x_k / \sum_k \tau_k^2` with
     :math:`\tau_k = k - (n-1)/2` and :math:`\alpha = \bar x` there, which is the solution
@@ -112,8 +112,8 @@ def fluctuation(x: np.ndarray, method: Detrend = "linear", axis: int = -1) -> np
     x : array-like
         Series [any unit].
     method : {"linear", "constant", "none"}
-        ``"linear"``: about a least-squares line (seed 000, Sect. 4.4); ``"constant"``:
-        about the block mean (Reynolds decomposition, seed 000 Sect. 4.1); ``"none"``:
+        ``"linear"``: about a least-squares line (Ghirardelli et al. (2025), Sect. 4.4); ``"constant"``:
+        about the block mean (Reynolds decomposition, Ghirardelli et al. (2025), Sect. 4.1); ``"none"``:
         ``x`` is already a fluctuation.
     axis : int, optional
         Time axis.
@@ -207,7 +207,7 @@ def covariance(a: np.ndarray, b: np.ndarray, method: Detrend = "linear", axis: i
 
 
 def skewness(x: np.ndarray, method: Detrend = "linear", axis: int = -1) -> np.ndarray:
-    r"""Skewness :math:`\gamma = \overline{x'^3}/\sigma^3` (seed 000, Sect. 4.1, Table 5).
+    r"""Skewness :math:`\gamma = \overline{x'^3}/\sigma^3` (Ghirardelli et al. (2025), Sect. 4.1, Table 5).
 
     Parameters
     ----------
@@ -230,7 +230,7 @@ def skewness(x: np.ndarray, method: Detrend = "linear", axis: int = -1) -> np.nd
 def kurtosis(x: np.ndarray, method: Detrend = "linear", axis: int = -1) -> np.ndarray:
     r"""Kurtosis :math:`\kappa = \overline{x'^4}/\sigma^4` (Pearson; 3 for a Gaussian).
 
-    Seed 000, Sect. 4.1 and Table 5 use this (non-excess) definition.
+    Ghirardelli et al. (2025), Sect. 4.1 and Table 5 use this (non-excess) definition.
 
     Parameters
     ----------
@@ -267,7 +267,7 @@ def friction_velocity(uw_m2s2: float | np.ndarray, vw_m2s2: float | np.ndarray) 
     -----
     .. math:: u_* = \left(\overline{u'w'}^2 + \overline{v'w'}^2\right)^{1/4}
 
-    As in :func:`metpy.calc.friction_velocity` and seed 000 (Eqs 4-10).
+    As in :func:`metpy.calc.friction_velocity` and Ghirardelli et al. (2025) (Eqs 4-10).
     """
     uw = np.asarray(uw_m2s2, dtype=float)
     vw = np.asarray(vw_m2s2, dtype=float)
@@ -293,14 +293,14 @@ def turbulent_kinetic_energy(
     -----
     .. math:: e = \tfrac12\left(\sigma_u^2 + \sigma_v^2 + \sigma_w^2\right)
 
-    Seed 000, Sect. 3.3 (the TKE it minimises over the sonic-INS lag).
+    Ghirardelli et al. (2025), Sect. 3.3 (the TKE it minimises over the sonic-INS lag).
     """
     su, sv, sw = (np.asarray(s, dtype=float) for s in (sigma_u_ms, sigma_v_ms, sigma_w_ms))
     return 0.5 * (su**2 + sv**2 + sw**2)
 
 
 def turbulence_intensity(sigma_u_ms: float | np.ndarray, speed_ms: float | np.ndarray) -> np.ndarray:
-    r"""Streamwise turbulence intensity :math:`I_u = \sigma_u/\bar u` (seed 000, Eq. 16).
+    r"""Streamwise turbulence intensity :math:`I_u = \sigma_u/\bar u` (Ghirardelli et al. (2025), Eq. 16).
 
     Parameters
     ----------
@@ -327,7 +327,7 @@ def obukhov_length(
     karman: float = KARMAN,
     gravity_ms2: float = GRAVITY_MS2,
 ) -> np.ndarray:
-    r"""Obukhov length (seed 000, Eq. 9).
+    r"""Obukhov length (Ghirardelli et al. (2025), Eq. 9).
 
     Parameters
     ----------
@@ -336,10 +336,10 @@ def obukhov_length(
     w_theta_v_kms : float or array-like
         Buoyancy flux :math:`\overline{w'\theta_v'}` [K m s-1].
     theta_v_mean_k : float or array-like
-        Mean virtual potential temperature [K]. Seed 000 approximates it by the mean
+        Mean virtual potential temperature [K]. Ghirardelli et al. (2025) approximates it by the mean
         *sonic* temperature, and so does :func:`dronewind.compare.l4.flight_l4` (``theta_v_k``).
     karman : float, optional
-        von Karman constant [1]; 0.40 as in seed 000.
+        von Karman constant [1]; 0.40 as in Ghirardelli et al. (2025).
     gravity_ms2 : float, optional
         Gravitational acceleration [m s-2]; 9.81.
 
@@ -364,7 +364,7 @@ def obukhov_length(
 
 
 def stability_parameter(height_m: float | np.ndarray, obukhov_length_m: float | np.ndarray) -> np.ndarray:
-    r"""Stability parameter :math:`\zeta = z/L` (seed 000, Sect. 4.1 after Eq. 9).
+    r"""Stability parameter :math:`\zeta = z/L` (Ghirardelli et al. (2025), Sect. 4.1 after Eq. 9).
 
     Parameters
     ----------

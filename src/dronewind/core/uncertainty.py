@@ -1,11 +1,11 @@
-r"""Random (sampling) uncertainty of variances and fluxes (seed 000, Sect. 4.2, Eqs 10-13).
+r"""Random (sampling) uncertainty of variances and fluxes (Ghirardelli et al. (2025), Sect. 4.2, Eqs 10-13).
 
 Two forms are provided.
 
 * :func:`paper_uncertainty` is the published normalised metric: the integral time scale
   of the product series is replaced by the surface-layer scale :math:`z/\bar u`
   (Wyngaard 1973; Stiperski and Rotach 2016), with a factor 4 for variances (Eq. 13).
-  Seed 000 (Sect. 5.3, Fig. 16) calls values below 0.5 "low statistical uncertainty".
+  Ghirardelli et al. (2025) (Sect. 5.3, Fig. 16) calls values below 0.5 "low statistical uncertainty".
 * :func:`relative_random_error` is the general ergodic estimate it comes from
   (Lumley and Panofsky 1964): the relative standard error of the time mean of a product
   series :math:`\phi` (:math:`\phi = \xi'^2` for a variance, :math:`a'b'` for a flux)
@@ -32,7 +32,7 @@ bracket). The two agree only when :math:`\overline{v'w'}^2 = u_*^4`.
 
 References
 ----------
-.. [1] Seed 000 (``../shared/papers/000_*.txt``), Sect. 4.2, Eqs 10-13; Sect. 5.3.
+.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Sect. 4.2, Eqs 10-13; Sect. 5.3.
 .. [2] Lumley, J. L. and Panofsky, H. A.: The Structure of Atmospheric Turbulence, 1964.
 .. [3] Stiperski, I. and Rotach, M. W.: Boundary-Layer Meteorol. 159, 97-121, 2016.
 """
@@ -55,7 +55,7 @@ __all__ = [
     "relative_random_error",
 ]
 
-#: Seed 000, Sect. 4.2: normalised uncertainties below this indicate high quality.
+#: Ghirardelli et al. (2025), Sect. 4.2: normalised uncertainties below this indicate high quality.
 QUALITY_THRESHOLD: float = 0.5
 
 
@@ -147,7 +147,7 @@ def relative_random_error(
 
     Notes
     -----
-    Lumley and Panofsky (1964), the basis of seed 000, Eqs 10-13:
+    Lumley and Panofsky (1964), the basis of Ghirardelli et al. (2025), Eqs 10-13:
 
     .. math:: \epsilon^2 = \frac{2 T_\phi}{\tau}\,
               \frac{\overline{\phi^2} - \bar\phi^2}{N^2}, \quad N = \bar\phi
@@ -187,7 +187,7 @@ def paper_uncertainty(
     normaliser: float,
     variance: bool = False,
 ) -> RandomError:
-    r"""Normalised uncertainty metric of seed 000, Eqs 10-13.
+    r"""Normalised uncertainty metric of Ghirardelli et al. (2025), Eqs 10-13.
 
     Parameters
     ----------

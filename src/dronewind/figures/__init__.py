@@ -1,6 +1,6 @@
 """Figures drawn from stored products (NetCDF, CSV and JSON) only; they compute nothing.
 
-Seed 000 campaign figures, one module per topic: :mod:`~dronewind.figures.synchronisation`
+Ghirardelli et al. (2025) campaign figures, one module per topic: :mod:`~dronewind.figures.synchronisation`
 (Fig. 4), :mod:`~dronewind.figures.positions` (Fig. 7), :mod:`~dronewind.figures.timeseries`
 (Figs 8, 10), :mod:`~dronewind.figures.spectra` (Figs 9, 11, B1, B2),
 :mod:`~dronewind.figures.statistics` (Figs 12, 14), :mod:`~dronewind.figures.fluxes`

@@ -1,6 +1,6 @@
-r"""Turbulent fluxes, Obukhov length and their random uncertainty, drone against mast (seed 000, Figs 13, 16).
+r"""Fluxes, Obukhov length and their random uncertainty, drone against mast (Ghirardelli et al. 2025, Figs 13, 16).
 
-Drawn from the stored L4 covariances, Obukhov length and uncertainty metrics (seed 000,
+Drawn from the stored L4 covariances, Obukhov length and uncertainty metrics (Ghirardelli et al. (2025),
 Eqs 10-13, computed and stored by the L4 step) with the drone-vs-mast scatter panels of
 :mod:`dronewind.figures.scatter`.
 """
@@ -81,10 +81,10 @@ def fig16_uncertainty(l4_files: Iterable[PathLike], out_stem: PathLike, metric: 
     out_stem : str or Path
         Output path without suffix.
     metric : {"a", "eps"}
-        ``"a"``: seed 000 Eqs 10-13 (time scale z/U); ``"eps"``: relative random error
+        ``"a"``: Ghirardelli et al. (2025), Eqs 10-13 (time scale z/U); ``"eps"``: relative random error
         from the measured integral time scale of the product series.
     threshold : float
-        Side of the green low-uncertainty square (seed 000: 0.5).
+        Side of the green low-uncertainty square (Ghirardelli et al. (2025): 0.5).
 
     Returns
     -------

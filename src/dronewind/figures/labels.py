@@ -16,7 +16,7 @@ __all__ = ["HEIGHT_MARKERS", "PAPERS", "REFERENCES", "PathLike", "figure_caption
 
 PathLike = str | Path
 
-#: Markers of the reference heights, lowest first (seed 000: circles 30 m, triangles 60 m).
+#: Markers of the reference heights, lowest first (Ghirardelli et al. (2025): circles 30 m, triangles 60 m).
 HEIGHT_MARKERS = ("o", "^", "s", "D", "v", "P")
 
 #: The three papers the project follows (``../shared/papers/000_*``, ``001_*``, ``002_*``), cited by
@@ -99,23 +99,25 @@ BLOCK_FIGURE = "block_series"
 
 #: Quadrotor figures: file stem -> caption.
 QUAD_FIGURES: dict[str, str] = {
-    "quadrotor_fig3_individual": "10-min wind speed, drone vs tower, individual calibration (seed 001 Fig. 3)",
-    "quadrotor_fig4_regression": "Tilt vs tower wind speed and the universal regression law (seed 001 Fig. 4)",
+    "quadrotor_fig3_individual": "10-min wind speed, drone vs tower, individual calibration (Wetz et al. 2021, Fig. 3)",
+    "quadrotor_fig4_regression": "Tilt vs tower wind speed and the universal regression law (Wetz et al. 2021, Fig. 4)",
     "quadrotor_fig5_validation": "Validation flights, drone vs tower with universal law and calibrated offsets "
-                                 "(seed 001 Fig. 5)",
-    "quadrotor_fig6_direction": "Wind direction, drone (corrected heading) vs tower (seed 001 Fig. 6)",
-    "quadrotor_fig7_timeseries": "1 Hz UAV wind speed and tower 1-min means of one flight (seed 001 Fig. 7)",
-    "quadrotor_fig8_profiles": "Wind-speed profiles, drones (with calibration RMSE) vs tower (seed 001 Fig. 8)",
-    "quadrotor_fig9_variance": "Variance of 1-min mean speeds in each window, drone vs tower (seed 001 Fig. 9 "
+                                 "(Wetz et al. (2021), Fig. 5)",
+    "quadrotor_fig6_direction": "Wind direction, drone (corrected heading) vs tower (Wetz et al. (2021), Fig. 6)",
+    "quadrotor_fig7_timeseries": "1 Hz UAV wind speed and tower 1-min means of one flight (Wetz et al. (2021), Fig. 7)",
+    "quadrotor_fig8_profiles": "Wind-speed profiles, drones (with calibration RMSE) vs tower "
+                               "(Wetz et al. 2021, Fig. 8)",
+    "quadrotor_fig9_variance": "Variance of 1-min mean speeds in each window, drone vs tower (Wetz et al. 2021, Fig. 9 "
                                "analogue: the tower reports 1-min means)",
 }
 #: Tunnel figures: file stem -> caption.
 TUNNEL_FIGURES: dict[str, str] = {
-    "tunnel_fig4_sideslip": "RMSE of the UAS speed over the CTA speed per angle of sideslip (seed 002 Fig. 4)",
-    "tunnel_fig5_portability": "Speed error of each UAS over the CTA speed (seed 002 Fig. 5)",
-    "tunnel_fig6_gusts": "Gust RMSE at V0 and at the peak Vp per preset (seed 002 Fig. 6)",
-    "tunnel_fig7_steps": "Velocity-step RMSEs per preset (seed 002 Fig. 7)",
-    "tunnel_fig9_variance": "Variance, UAS vs CTA at full and cut bandwidth (seed 002 Fig. 9)",
+    "tunnel_fig4_sideslip": "RMSE of the UAS speed over the CTA speed per angle of sideslip "
+                            "(Kistner et al. 2024, Fig. 4)",
+    "tunnel_fig5_portability": "Speed error of each UAS over the CTA speed (Kistner et al. (2024), Fig. 5)",
+    "tunnel_fig6_gusts": "Gust RMSE at V0 and at the peak Vp per preset (Kistner et al. (2024), Fig. 6)",
+    "tunnel_fig7_steps": "Velocity-step RMSEs per preset (Kistner et al. (2024), Fig. 7)",
+    "tunnel_fig9_variance": "Variance, UAS vs CTA at full and cut bandwidth (Kistner et al. (2024), Fig. 9)",
 }
 
 

@@ -1,4 +1,4 @@
-r"""Payload positions: height above ground over time and track around the mast (seed 000, Fig. 7).
+r"""Payload positions: height above ground over time and track around the mast (Ghirardelli et al. (2025), Fig. 7).
 
 Drawn from the stored L2 drone files (GNSS ``altitude``, ``precise_lat``/``precise_lon``
 on ``time``; nominal ``lat``/``lon``), the mast L4 files (``U_ms``, ``wind_from_deg`` for

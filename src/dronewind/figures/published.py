@@ -1,7 +1,7 @@
 """Figure of the published-numbers diagnosis: baseline and extended model against the paper's claims.
 
 Drawn from the stored before/after summary (``before_after.json``, written by
-:func:`dronewind.steps.published.published_report`) and the published numbers (seed 000,
+:func:`dronewind.steps.published.published_report`) and the published numbers (Ghirardelli et al. (2025),
 Table 5 and the claims of Sects. 5.2 and 6). Presentation-only arithmetic: the stored
 linear fit of the σ_w excess evaluated along the wind-speed axis.
 """

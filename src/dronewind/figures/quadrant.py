@@ -1,7 +1,7 @@
 r"""Quadrant plot of the spectral ratios :math:`\langle S_w/S_u\rangle` and :math:`\langle S_v/S_u\rangle`.
 
 Drawn from the stored L4 ratios (``Sw_Su``, ``Sv_Su``, averaged over 2 < f z/U < 10 by
-the L4 step) and the mast's stored mean speed ``U_ms`` (the colour); seed 000, Fig. 15.
+the L4 step) and the mast's stored mean speed ``U_ms`` (the colour); Ghirardelli et al. (2025), Fig. 15.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from dronewind.figures.style import (
 
 __all__ = ["ISOTROPIC_RATIO", "fig15_quadrant"]
 
-#: Spectral ratio of isotropic turbulence in the inertial subrange (seed 000, Fig. 6).
+#: Spectral ratio of isotropic turbulence in the inertial subrange (Ghirardelli et al. (2025), Fig. 6).
 ISOTROPIC_RATIO = 4.0 / 3.0
 #: Panels: (L4 ratio, label).
 RATIOS: tuple[tuple[str, str], ...] = (("Sw_Su", "$\\langle S_w/S_u\\rangle$"),
@@ -109,7 +109,7 @@ def fig15_quadrant(l4_files: Iterable[PathLike], out_stem: PathLike, low_speed_m
     out_stem : str or Path
         Output path without suffix.
     low_speed_ms : float
-        Mean speed below which a sample is drawn as a grey triangle [m s-1] (seed 000
+        Mean speed below which a sample is drawn as a grey triangle [m s-1] (Ghirardelli et al. (2025)
         text: 2 m/s; its caption says 1 m/s).
 
     Returns
@@ -119,7 +119,7 @@ def fig15_quadrant(l4_files: Iterable[PathLike], out_stem: PathLike, low_speed_m
 
     Notes
     -----
-    Lines at the isotropic value 4/3 split each panel into quadrants (seed 000, Fig. 6);
+    Lines at the isotropic value 4/3 split each panel into quadrants (Ghirardelli et al. (2025), Fig. 6);
     colour = the mast's mean wind speed. L4 stores the ratios as NaN (status
     ``low_wind_speed``) when U is below its ``quadrant_min_speed_ms``: such samples are
     listed in the note, since no value is stored to draw.

@@ -1,11 +1,11 @@
-r"""Figures of the quadrotor fleet (seed 001, Figs 3-9) and the wind tunnel (seed 002, Figs 4-7, 9).
+r"""Figures of the quadrotor fleet (Wetz et al. 2021, Figs 3-9) and the wind tunnel (Kistner et al. 2024, Figs 4-7, 9).
 
 Drawn only from stored products: the campaign tables written by
 :func:`dronewind.steps.quadrotor.quadrotor_calibration` and
 :func:`dronewind.steps.quadrotor.tunnel_analysis`, ``quadrotor/calibration.json`` (the
 universal law evaluated on a tilt grid), the L2 NetCDF files of one flight and its tower
 reference CSV. Presentation-only arithmetic: absolute values of stored per-step errors
-(Fig. 5 of seed 002, one step's RMSE) and the 1:1 lines.
+(Fig. 5 of Kistner et al. (2024), one step's RMSE) and the 1:1 lines.
 
 Output: one PNG per figure, fixed size and resolution, no time stamp in the metadata
 (deterministic bytes for identical inputs), written atomically; Agg canvas, no pyplot state.
@@ -14,8 +14,8 @@ silently.
 
 References
 ----------
-.. [1] Seed 001 (``../shared/papers/001_*.txt``), Figs 3-9 with their captions.
-.. [2] Seed 002 (``../shared/papers/002_*.txt``), Figs 4-7 and 9 with their captions.
+.. [1] Wetz et al. (2021) (``../shared/papers/001_*.txt``), Figs 3-9 with their captions.
+.. [2] Kistner et al. (2024) (``../shared/papers/002_*.txt``), Figs 4-7 and 9 with their captions.
 """
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ def _by_path(outputs: Sequence[str | Path]) -> dict[str, Path]:
 
 
 def _fig3_individual(win: pd.DataFrame, label: str, path: Path, note: str) -> Path:
-    """Seed 001 Fig. 3: window speeds of the individual calibration against the tower."""
+    """Wetz et al. (2021), Fig. 3: window speeds of the individual calibration against the tower."""
     fig, ax = _figure()
     _scatter_by_uav(ax, win, "ref_speed_ms", "speed_individual_ms")
     _one_to_one(ax, win["ref_speed_ms"], win["speed_individual_ms"])
@@ -97,7 +97,7 @@ def _fig3_individual(win: pd.DataFrame, label: str, path: Path, note: str) -> Pa
 
 
 def _fig4_regression(win: pd.DataFrame, summary: dict[str, Any], path: Path, skipped: str) -> Path:
-    """Seed 001 Fig. 4: tilt against tower speed with the stored universal law."""
+    """Wetz et al. (2021), Fig. 4: tilt against tower speed with the stored universal law."""
     fig, ax = _figure()
     _scatter_by_uav(ax, win, "tilt_deg", "ref_speed_ms")
     curve = summary.get("regression_curve", {})
@@ -113,7 +113,7 @@ def _fig4_regression(win: pd.DataFrame, summary: dict[str, Any], path: Path, ski
 
 
 def _fig5_validation(val: pd.DataFrame, path: Path, note: str) -> Path:
-    """Seed 001 Fig. 5: validation windows, universal law with calibrated offsets, against the tower."""
+    """Wetz et al. (2021), Fig. 5: validation windows, universal law with calibrated offsets, against the tower."""
     fig, ax = _figure()
     _scatter_by_uav(ax, val, "ref_speed_ms", "uav_speed_ms")
     _one_to_one(ax, val["ref_speed_ms"], val["uav_speed_ms"])
@@ -124,7 +124,7 @@ def _fig5_validation(val: pd.DataFrame, path: Path, note: str) -> Path:
 
 
 def _fig6_direction(val: pd.DataFrame, path: Path, note: str) -> Path:
-    """Seed 001 Fig. 6: wind direction from the corrected heading against the tower."""
+    """Wetz et al. (2021), Fig. 6: wind direction from the corrected heading against the tower."""
     fig, ax = _figure()
     _scatter_by_uav(ax, val, "ref_from_deg", "uav_from_deg")
     ax.plot([0, 360], [0, 360], color="0.5", lw=0.8, ls="--")
@@ -135,7 +135,7 @@ def _fig6_direction(val: pd.DataFrame, path: Path, note: str) -> Path:
 
 
 def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path, path: Path) -> Path:
-    """Seed 001 Fig. 7: 1 Hz wind of the UAVs of one flight (L2 files) and the tower's 1-min means."""
+    """Wetz et al. (2021), Fig. 7: 1 Hz wind of the UAVs of one flight (L2 files) and the tower's 1-min means."""
     from matplotlib.dates import DateFormatter
     from matplotlib.figure import Figure
 
@@ -176,7 +176,7 @@ def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path,
 
 
 def _fig8_profiles(prof: pd.DataFrame, path: Path, note: str) -> Path:
-    """Seed 001 Fig. 8: profiles of the UAVs (error bars: their RMSE) and the tower, two flights."""
+    """Wetz et al. (2021), Fig. 8: profiles of the UAVs (error bars: their RMSE) and the tower, two flights."""
     fig, ax = _figure(5.0, 5.0)
     counts = prof.groupby("flight")["ref_height_m"].nunique().sort_values(ascending=False, kind="stable")
     for flight, style in zip(counts.index[:2], ("-", "--"), strict=False):
@@ -190,7 +190,7 @@ def _fig8_profiles(prof: pd.DataFrame, path: Path, note: str) -> Path:
 
 
 def _fig9_variance(win: pd.DataFrame, path: Path) -> Path:
-    """Seed 001 Fig. 9 analogue: variance of 1-min mean speeds per window, UAV against tower."""
+    """Wetz et al. (2021), Fig. 9 analogue: variance of 1-min mean speeds per window, UAV against tower."""
     fig, ax = _figure()
     if "var_ref_1min_m2s2" in win:
         ok = np.isfinite(win["var_ref_1min_m2s2"]) & np.isfinite(win["var_uav_1min_m2s2"])
@@ -208,7 +208,7 @@ def _fig9_variance(win: pd.DataFrame, path: Path) -> Path:
 
 def quadrotor_figures(tables_dir: str | Path, summary_file: str | Path, l2_files: Sequence[str | Path],
                       reference_file: str | Path, outputs: Sequence[str | Path]) -> list[Path]:
-    """Draw seed 001 Figs 3-9 from the stored quadrotor tables.
+    """Draw Wetz et al. (2021), Figs 3-9 from the stored quadrotor tables.
 
     Parameters
     ----------
@@ -259,7 +259,7 @@ def _read_tunnel_table(tables_dir: Path, name: str) -> pd.DataFrame:
 
 
 def _tunnel_fig4_sideslip(side: pd.DataFrame, path: Path) -> Path:
-    """Seed 002 Fig. 4: RMSE of the UAS speed over the CTA speed per angle of sideslip."""
+    """Kistner et al. (2024), Fig. 4: RMSE of the UAS speed over the CTA speed per angle of sideslip."""
     fig, ax = _figure()
     note = ""
     if len(side) and "speed_bin_ms" in side:
@@ -274,7 +274,7 @@ def _tunnel_fig4_sideslip(side: pd.DataFrame, path: Path) -> Path:
 
 
 def _tunnel_fig5_portability(acc: pd.DataFrame, path: Path) -> Path:
-    """Seed 002 Fig. 5: speed error of each UAS per step (absolute value of the stored error)."""
+    """Kistner et al. (2024), Fig. 5: speed error of each UAS per step (absolute value of the stored error)."""
     fig, ax = _figure()
     po = acc[acc["kind"] == "portability"] if len(acc) else acc
     note = "" if len(po) else "no portability runs"
@@ -289,7 +289,7 @@ def _tunnel_fig5_portability(acc: pd.DataFrame, path: Path) -> Path:
 
 
 def _tunnel_fig6_gusts(gs: pd.DataFrame, path: Path) -> Path:
-    """Seed 002 Fig. 6: gust RMSE at V0 and at the peak Vp per preset."""
+    """Kistner et al. (2024), Fig. 6: gust RMSE at V0 and at the peak Vp per preset."""
     fig, ax = _figure()
     note = "" if len(gs) else "no gust runs"
     if len(gs):
@@ -304,7 +304,7 @@ def _tunnel_fig6_gusts(gs: pd.DataFrame, path: Path) -> Path:
 
 
 def _tunnel_fig7_steps(ss: pd.DataFrame, path: Path) -> Path:
-    """Seed 002 Fig. 7: velocity-step RMSEs per preset."""
+    """Kistner et al. (2024), Fig. 7: velocity-step RMSEs per preset."""
     fig, ax = _figure()
     note = "" if len(ss) else "no velocity-step runs"
     if len(ss):
@@ -320,7 +320,7 @@ def _tunnel_fig7_steps(ss: pd.DataFrame, path: Path) -> Path:
 
 
 def _tunnel_fig9_variance(tb: pd.DataFrame, path: Path) -> Path:
-    """Seed 002 Fig. 9: UAS variance against the CTA's, at full and cut bandwidth."""
+    """Kistner et al. (2024), Fig. 9: UAS variance against the CTA's, at full and cut bandwidth."""
     fig, ax = _figure()
     note = "" if len(tb) else "no turbulence runs"
     if len(tb):
@@ -333,7 +333,7 @@ def _tunnel_fig9_variance(tb: pd.DataFrame, path: Path) -> Path:
 
 
 def tunnel_figures(tables_dir: str | Path, outputs: Sequence[str | Path]) -> list[Path]:
-    """Draw seed 002 Figs 4-7 and 9 from the stored tunnel tables.
+    """Draw Kistner et al. (2024), Figs 4-7 and 9 from the stored tunnel tables.
 
     Parameters
     ----------

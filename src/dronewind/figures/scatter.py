@@ -1,4 +1,4 @@
-"""Drone (y) against mast (x) scatter panels of stored L4 statistics (seed 000, Figs 12-14, 16).
+"""Drone (y) against mast (x) scatter panels of stored L4 statistics (Ghirardelli et al. (2025), Figs 12-14, 16).
 
 One colour per flight, one marker per reference height; a flight whose drone record is
 unusable, or a value that is NaN in the product, is left out and named in the note with

@@ -1,4 +1,4 @@
-r"""Spectra and co-spectra, drone against mast (seed 000, Figs 9, 11, B1 and B2).
+r"""Spectra and co-spectra, drone against mast (Ghirardelli et al. (2025), Figs 9, 11, B1 and B2).
 
 Drawn from the stored L4 spectra (``frequency``; ``S_u``, ``S_v``, ``S_w``, ``S_T``,
 ``Co_uw``, ``Co_wT``, ``Co_uT`` and the drone's fitted ``*_model``) with the stored
@@ -247,7 +247,7 @@ def fig09_velocity_spectra(l4_files: Iterable[PathLike], out_stem: PathLike,
     Notes
     -----
     Auto-spectra on log-log axes; the co-spectrum on a linear y axis (its sign is
-    information). The black line is the model fitted to the drone (seed 000, Eqs 4-7:
+    information). The black line is the model fitted to the drone (Ghirardelli et al. (2025), Eqs 4-7:
     blunt for u, v and uw, pointed for w) as stored in L4.
     """
     l4 = load_l4_products(l4_files)
@@ -355,7 +355,7 @@ def figB1_normalised_velocity_spectra(l4_files: Iterable[PathLike], out_stem: Pa
 
     Notes
     -----
-    Normalisers are the stored ``sigma_*_ms`` squared and ``uw_m2s2`` (seed 000,
+    Normalisers are the stored ``sigma_*_ms`` squared and ``uw_m2s2`` (Ghirardelli et al. (2025),
     Appendix B: "normalised by the variance or covariance").
     """
     return _normalised_spectra_figure(l4_files, out_stem, flights, NORMALISED_VELOCITY_PANELS, 13.0)

@@ -1,4 +1,4 @@
-r"""Mean wind, standard deviations and integral length scales, drone against mast (seed 000, Figs 12, 14).
+r"""Mean wind, standard deviations and integral scales, drone against mast (Ghirardelli et al. 2025, Figs 12, 14).
 
 Drawn from the stored L4 statistics with :func:`dronewind.figures.scatter.scatter_figure`.
 """
@@ -41,7 +41,7 @@ def fig14_length_scales(l4_files: Iterable[PathLike], out_stem: PathLike) -> lis
     ----------
     l4_files : iterable of path
         L4 files (``L_u_m``, ``L_v_m``, ``L_w_m``; NaN where Taylor's hypothesis fails,
-        seed 000 Eq. 16, with the reason in ``status_L_*``).
+        Ghirardelli et al. (2025), Eq. 16, with the reason in ``status_L_*``).
     out_stem : str or Path
         Output path without suffix.
 

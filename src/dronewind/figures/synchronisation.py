@@ -1,4 +1,4 @@
-r"""Sonic-INS synchronisation: TKE of the motion-corrected wind against the lag (seed 000, Fig. 4).
+r"""Sonic-INS synchronisation: TKE of the motion-corrected wind against the lag (Ghirardelli et al. (2025), Fig. 4).
 
 Drawn from the stored L2 drone files: the TKE-vs-lag curve (``lag_s``, ``tke_m2s2``) and
 the lag found (attribute ``lag_sonic_ins_s``). The only arithmetic is the normalisation

@@ -1,4 +1,4 @@
-r"""Time series of the detailed flights, drone against mast (seed 000, Figs 8 and 10).
+r"""Time series of the detailed flights, drone against mast (Ghirardelli et al. (2025), Figs 8 and 10).
 
 Drawn from the stored L3 files (streamline velocities and sonic temperature of both
 sensors on one time base) with heights, mean speeds and mean temperatures from L4. The

@@ -92,7 +92,7 @@ def compute_payload_l1(
 ) -> tuple[xr.Dataset, xr.Dataset]:
     """Payload sonic and INS L1 datasets (library names; see :mod:`dronewind.payload.io`).
 
-    The INS file is parsed once, for the logger-clock fit and for the INS L1 (seed 000,
+    The INS file is parsed once, for the logger-clock fit and for the INS L1 (Ghirardelli et al. (2025),
     Sect. 3.2): :func:`compute_ins_l1`, then :func:`compute_sonic_l1`.
 
     Parameters
@@ -143,10 +143,10 @@ def compute_payload_l2(
         Ground altitude of the site above mean sea level [m].
     sonic_ins_lag : mapping
         ``processing.sonic_ins_lag``: ``max_lag_s`` and ``step_s`` of the lag search [s]
-        (seed 000, Sect. 3.3).
+        (Ghirardelli et al. (2025), Sect. 3.3).
     hover : mapping
         ``processing.hover``: ``alt_tol_m``, ``horiz_tol_m`` [m] and ``min_duration_s`` [s]
-        of the hover window (seed 000, Sect. 3.2).
+        of the hover window (Ghirardelli et al. (2025), Sect. 3.2).
     max_missing_fraction : float
         ``processing.max_missing_fraction``: most missing data that are gap-filled [1].
     lag_only : bool

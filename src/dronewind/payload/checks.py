@@ -12,7 +12,7 @@ silently. Every check also returns its numbers for the processing log.
   position, horizontally and vertically (a gain of 3.6 is km/h, 0.3 an altitude in feet,
   a negative correlation a sign convention);
 * :func:`sonic_range_check` -- fraction of sonic samples beyond the instrument's range
-  (RM Young 81000, seed 000 Table 2).
+  (RM Young 81000, Ghirardelli et al. (2025), Table 2).
 """
 
 from __future__ import annotations
@@ -204,7 +204,7 @@ def sonic_range_check(n_out_of_range: int, n_samples: int, max_fraction: float, 
     n_samples : int
         Samples in the hover window.
     max_fraction : float
-        Largest accepted fraction [1] (the gap-filling limit, seed 000 Sect. 3.2: 2 %).
+        Largest accepted fraction [1] (the gap-filling limit, Ghirardelli et al. (2025), Sect. 3.2: 2 %).
     instrument : str
         Range description for the message (e.g. ``RM Young 81000: |V| <= 40 m/s``).
 

@@ -5,15 +5,15 @@ Frames and signs follow ../shared/DESIGN.md ("Frames and signs"):
 * body frame b1 forward, b2 right, b3 down, origin at the sonic's measurement volume;
 * INS Euler angles roll phi, pitch theta, yaw psi (degrees, yaw clockwise from true
   north) give the body-to-NED rotation :math:`R = [R_3(\\phi) R_2(\\theta) R_1(\\psi)]^T`
-  (seed 000, Appendix A);
+  (Ghirardelli et al. (2025), Appendix A);
 * the sonic measures the air velocity relative to the sensor in the sensor frame; the
   ``mount`` maps it to the body frame (``upside_down``: body = sensor; ``upright``:
   body = diag(1, -1, -1) sensor);
 * INS velocity (NED) is the velocity of the sonic's measurement volume (or of a point at a
   lever arm from it, see :func:`motion_correct`);
-* wind NED = R V_body + V_sonic (seed 000, Eq. 1, with the sign of its relative velocity
+* wind NED = R V_body + V_sonic (Ghirardelli et al. (2025), Eq. 1, with the sign of its relative velocity
   vector flipped as explained in DESIGN.md), then east = V_E, north = V_N, up = -V_D
-  (seed 000, Eq. 2).
+  (Ghirardelli et al. (2025), Eq. 2).
 
 All functions are vectorised over time (leading axis ``n``).
 """
@@ -51,7 +51,7 @@ MOUNTS: dict[str, np.ndarray] = {
 def rotation_matrix_body_to_ned(
     roll_deg: np.ndarray | float, pitch_deg: np.ndarray | float, yaw_deg: np.ndarray | float
 ) -> np.ndarray:
-    """Body-to-NED rotation matrix from INS Euler angles (seed 000, Appendix A).
+    """Body-to-NED rotation matrix from INS Euler angles (Ghirardelli et al. (2025), Appendix A).
 
     Parameters
     ----------
@@ -78,11 +78,11 @@ def rotation_matrix_body_to_ned(
         \\end{pmatrix}
 
     with :math:`R_1, R_2, R_3` the elementary frame rotations about the third, second
-    and first axis given in seed 000, Appendix A (yaw-pitch-roll, z-y-x sequence).
+    and first axis given in Ghirardelli et al. (2025), Appendix A (yaw-pitch-roll, z-y-x sequence).
 
     References
     ----------
-    Seed 000 (Ghirardelli et al., SAMURAI-S), Appendix A; Beard and McLain (2012).
+    Ghirardelli et al. (2025) (Ghirardelli et al., SAMURAI-S), Appendix A; Beard and McLain (2012).
     """
     phi, theta, psi = np.broadcast_arrays(
         deg2rad(np.asarray(roll_deg, dtype=float)),
@@ -121,7 +121,7 @@ def mount_matrix(mount: str) -> np.ndarray:
 
     Notes
     -----
-    Seed 000, Sect. 3.2: the RM Young 81000 was mounted upside down, so its frame is
+    Ghirardelli et al. (2025), Sect. 3.2: the RM Young 81000 was mounted upside down, so its frame is
     already the body frame.
     """
     try:
@@ -177,7 +177,7 @@ def euler_rates_to_body_rates(
     -------
     numpy.ndarray
         Shape (n, 3): body rates (p, q, r) about b1, b2, b3 [rad s-1], defined by
-        :math:`\\dot R = R\\,[\\omega_b]_\\times` for R of seed 000, Appendix A.
+        :math:`\\dot R = R\\,[\\omega_b]_\\times` for R of Ghirardelli et al. (2025), Appendix A.
 
     Notes
     -----
@@ -189,7 +189,7 @@ def euler_rates_to_body_rates(
 
     References
     ----------
-    Beard and McLain (2012), Small Unmanned Aircraft, Ch. 3 (attitude kinematics, inverted); seed 000,
+    Beard and McLain (2012), Small Unmanned Aircraft, Ch. 3 (attitude kinematics, inverted); Ghirardelli et al. (2025),
     Appendix A for the rotation sequence.
     """
     sf, cf = np.sin(roll_rad), np.cos(roll_rad)
@@ -266,7 +266,7 @@ def lever_arm_velocity_ned(rot_body_to_ned: np.ndarray, body_rates_rad_s: np.nda
 
 
 def ned_to_enu(v_ned: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """North-east-down vector -> (east, north, up) components (seed 000, Eq. 2).
+    """North-east-down vector -> (east, north, up) components (Ghirardelli et al. (2025), Eq. 2).
 
     Parameters
     ----------
@@ -309,7 +309,7 @@ def motion_correct(
         Sonic mount, see :func:`mount_matrix`.
     lever_arm_m : (x, y, z) [m], optional
         Body-frame offset of the INS reference point from the sonic; None (default)
-        means the INS outputs at the sonic (seed 000, Sect. 3.2).
+        means the INS outputs at the sonic (Ghirardelli et al. (2025), Sect. 3.2).
     body_rates_rad_s : numpy.ndarray, optional
         (n, 3) body rates [rad s-1] for the lever-arm term; if None and a lever arm is
         given, they are computed from the Euler angles and ``time_s``.
@@ -325,7 +325,7 @@ def motion_correct(
 
     Notes
     -----
-    Seed 000, Eqs. 1 and 2 with the DESIGN.md sign convention:
+    Ghirardelli et al. (2025), Eqs. 1 and 2 with the DESIGN.md sign convention:
 
     .. math::
 
@@ -337,7 +337,7 @@ def motion_correct(
 
     References
     ----------
-    Seed 000, Sect. 3.1, Eqs. 1-2 and Appendix A.
+    Ghirardelli et al. (2025), Sect. 3.1, Eqs. 1-2 and Appendix A.
     """
     arrays = _series_1d(u_sensor_ms, v_sensor_ms, w_sensor_ms, roll_deg, pitch_deg, yaw_deg,
                         vel_n_ms, vel_e_ms, vel_d_ms)

@@ -19,11 +19,11 @@ L2 (:func:`rigid_l2`):
    horizontal speed at most a limit, for at least ``min_segment_s``: a drone that hovers
    and one that flies slow legs both pass; the longest segment is processed, every run
    that is rejected is counted with the criterion it failed;
-3. the sonic-platform lag of minimum TKE (seed 000, Sect. 3.3, Eq. 3;
+3. the sonic-platform lag of minimum TKE (Ghirardelli et al. (2025), Sect. 3.3, Eq. 3;
    :func:`dronewind.payload.sync.tke_vs_lag`) with its step at the sampling interval
    (1/fs) and its range in seconds (``max_lag_s``), after checking the segment holds the
    samples the search needs (:func:`lag_search_min_samples`);
-4. motion correction (seed 000, Eqs. 1-2 with DESIGN.md's sign):
+4. motion correction (Ghirardelli et al. (2025), Eqs. 1-2 with DESIGN.md's sign):
    :math:`V_{wind} = R(\phi, \theta, \psi)\, M\, V_{sensor} + V_{platform}` (minus the
    lever-arm term :math:`R\,(\omega \times r)` when ``lever_arm_m`` is given), M the mount's
    sensor-to-body matrix (:func:`mount_matrix_of`);

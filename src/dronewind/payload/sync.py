@@ -5,7 +5,7 @@ this module:
 
 1. INS gaps (NaN or ``ekf_valid == 0``) filled linearly in time (:func:`_fill_ins_gaps`);
 2. hover window = longest contiguous run of
-   :func:`dronewind.core.filtering.hover_window_mask` (seed 000, Sect. 3.2;
+   :func:`dronewind.core.filtering.hover_window_mask` (Ghirardelli et al. (2025), Sect. 3.2;
    :func:`_hover_window`); the 2 % rule applies to the INS too, counting filled samples
    and absent rows (gaps in time) against the samples expected at the INS rate
    (:func:`_ins_coverage`);
@@ -14,9 +14,9 @@ this module:
    samples interpolated only for the lag search; :func:`_sonic_segment`); missing samples
    are counted against the samples the hover window should hold at the sonic rate, so a
    sonic record that ends early counts what it lacks;
-4. lag of minimum TKE (:func:`tke_vs_lag`, seed 000, Sect. 3.3; :func:`_sonic_ins_lag`);
+4. lag of minimum TKE (:func:`tke_vs_lag`, Ghirardelli et al. (2025), Sect. 3.3; :func:`_sonic_ins_lag`);
 5. INS interpolated to the shifted sonic times and the wind corrected
-   (:func:`dronewind.payload.motion.motion_correct`, seed 000, Eqs. 1-2;
+   (:func:`dronewind.payload.motion.motion_correct`, Ghirardelli et al. (2025), Eqs. 1-2;
    :func:`_correct_motion`), east/north/up wind at the sonic rate; the duration is measured
    on the sonic samples used (:func:`_used_duration`), and the plausibility checks of
    :mod:`dronewind.payload.checks` run (hover height, INS velocity against the GNSS position,
@@ -96,7 +96,7 @@ def interpolate_ins(time_ins_s: np.ndarray, ins: dict[str, np.ndarray], time_tar
 
     Notes
     -----
-    Seed 000, Sect. 3.2: the 50 Hz EKF output is brought to the 32 Hz sonic times by linear
+    Ghirardelli et al. (2025), Sect. 3.2: the 50 Hz EKF output is brought to the 32 Hz sonic times by linear
     interpolation.
     """
     tt = np.asarray(time_target_s, dtype=float)
@@ -144,9 +144,9 @@ def tke_vs_lag(
     lever_arm_m : (x, y, z) [m], optional
         INS reference point relative to the sonic (body frame).
     max_lag_s : float
-        Half-width of the search range [s]; default 2 s (seed 000, Sect. 3.3).
+        Half-width of the search range [s]; default 2 s (Ghirardelli et al. (2025), Sect. 3.3).
     lag_step_s : float
-        Step of the search [s]; default 1/32 s (seed 000, Sect. 3.3).
+        Step of the search [s]; default 1/32 s (Ghirardelli et al. (2025), Sect. 3.3).
     misalignment_deg : (roll, pitch, yaw) [degree], optional
         Mount misalignment, see :func:`dronewind.payload.motion.sensor_to_body_matrix`.
 
@@ -162,7 +162,7 @@ def tke_vs_lag(
 
     Notes
     -----
-    Seed 000, Sect. 3.3 and Eq. 3, :math:`TKE = \\tfrac12(\\sigma_u^2 + \\sigma_v^2 +
+    Ghirardelli et al. (2025), Sect. 3.3 and Eq. 3, :math:`TKE = \\tfrac12(\\sigma_u^2 + \\sigma_v^2 +
     \\sigma_w^2)` of the corrected wind at each lag, all lags at once by FFT correlations
     (:func:`_mean_tke_per_lag`) on a regular grid of step ``lag_step_s``
     (:func:`_lag_search_grid`, :func:`_ins_on_extended_grid`). Variances use the
@@ -170,7 +170,7 @@ def tke_vs_lag(
 
     References
     ----------
-    Seed 000 (Ghirardelli et al.), Sect. 3.3, Eq. 3 and Fig. 4.
+    Ghirardelli et al. (2025) (Ghirardelli et al.), Sect. 3.3, Eq. 3 and Fig. 4.
     """
     lags, tke, n, _ = _tke_curves(time_sonic_s, sonic_sensor_ms, time_ins_s, attitude_deg, vel_ned_ms, mount,
                                   lever_arm_m, max_lag_s, lag_step_s, misalignment_deg)
@@ -504,7 +504,7 @@ def _mean_tke_per_lag(rot: np.ndarray, v_sonic: np.ndarray, b: np.ndarray, n: in
 
     Notes
     -----
-    Seed 000, Eq. 3, with :math:`b = M V_{sensor}` and :math:`V` the sonic velocity (INS
+    Ghirardelli et al. (2025), Eq. 3, with :math:`b = M V_{sensor}` and :math:`V` the sonic velocity (INS
     velocity minus the lever-arm term). Because R is a rotation, :math:`|R b| = |b|`, so
 
     .. math::
@@ -525,7 +525,7 @@ def _mean_tke_per_lag(rot: np.ndarray, v_sonic: np.ndarray, b: np.ndarray, n: in
 
 
 def find_sonic_ins_lag(lag_s: np.ndarray, tke_m2s2: np.ndarray) -> tuple[float, bool]:
-    """Lag of minimum TKE (seed 000, Sect. 3.3).
+    """Lag of minimum TKE (Ghirardelli et al. (2025), Sect. 3.3).
 
     Parameters
     ----------
@@ -732,7 +732,7 @@ def _fill_ins_gaps(ins_l1: xr.Dataset, ti: np.ndarray, tr: _Trace) -> tuple[dict
 def _hover_window(ins: dict[str, np.ndarray], ti: np.ndarray, ins_missing: np.ndarray, alt_tol_m: float,
                   horiz_tol_m: float, min_hover_s: float, max_missing_fraction: float, tr: _Trace,
                   ) -> tuple[float, float]:
-    """Step 2: the hover window, longest contiguous run of the hover mask (seed 000, Sect. 3.2).
+    """Step 2: the hover window, longest contiguous run of the hover mask (Ghirardelli et al. (2025), Sect. 3.2).
 
     Parameters
     ----------
@@ -788,7 +788,7 @@ def _ins_coverage(t_hover: np.ndarray, missing: np.ndarray, ti: np.ndarray, max_
     ti : numpy.ndarray
         All INS times [s] (the nominal step is their median step).
     max_missing_fraction : float
-        Largest fraction of missing samples [1] (seed 000, Sect. 3.2: 2 %).
+        Largest fraction of missing samples [1] (Ghirardelli et al. (2025), Sect. 3.2: 2 %).
     tr : _Trace
         Receives ``n_ins_filled_in_hover``, ``n_ins_absent_in_hover``, the ``ins_gaps:`` line
         and the unusable reason.
@@ -914,7 +914,7 @@ def _sonic_ins_lag(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndar
                    mount: str, lever_arm_m: tuple[float, float, float] | None, max_lag_s: float, lag_step_s: float,
                    misalignment_deg: tuple[float, float, float] | None, fixed_lag_s: float | None, tr: _Trace,
                    halves: bool = False) -> tuple[float, float, np.ndarray, np.ndarray, tuple[float, float] | None]:
-    """Step 4: lag of minimum TKE over the hover window (seed 000, Sect. 3.3), or the fixed lag.
+    """Step 4: lag of minimum TKE over the hover window (Ghirardelli et al. (2025), Sect. 3.3), or the fixed lag.
 
     Returns
     -------
@@ -960,7 +960,7 @@ def _correct_motion(seg: _SonicSegment, lag: float, hover_s: tuple[float, float]
                     ) -> tuple[np.ndarray, dict[str, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Step 5: INS at the shifted sonic times inside the hover window, wind motion-corrected.
 
-    :func:`dronewind.payload.motion.motion_correct` (seed 000, Eqs. 1-2) of the filled
+    :func:`dronewind.payload.motion.motion_correct` (Ghirardelli et al. (2025), Eqs. 1-2) of the filled
     sonic (or of the raw one when the flight is unusable).
 
     Returns
@@ -1164,22 +1164,22 @@ def payload_l2(
         Sonic mount (DESIGN.md).
     lever_arm_m : (x, y, z) [m], optional
         INS reference point relative to the sonic, body frame; None = INS outputs at the
-        sonic (seed 000, Sect. 3.2).
+        sonic (Ghirardelli et al. (2025), Sect. 3.2).
     max_lag_s, lag_step_s : float
-        Sonic-INS lag search range and step [s] (seed 000, Sect. 3.3: 2 s and 1/32 s).
+        Sonic-INS lag search range and step [s] (Ghirardelli et al. (2025), Sect. 3.3: 2 s and 1/32 s).
     misalignment_deg : (roll, pitch, yaw) [degree], optional
         Known mount misalignment, see :func:`dronewind.payload.motion.sensor_to_body_matrix`.
     window : (start, end), optional
         UTC limits (anything ``numpy.datetime64`` accepts) applied before the hover
         search, e.g. the manifest's flight window.
     min_hover_s : float
-        Shortest usable hover [s]; default 600 s (seed 000, Sect. 5: at least 10 min).
+        Shortest usable hover [s]; default 600 s (Ghirardelli et al. (2025), Sect. 5: at least 10 min).
     hover_alt_tol_m, hover_horiz_tol_m : float
         Hover window: median altitude +/- ``hover_alt_tol_m``, then +/- ``hover_horiz_tol_m``
-        horizontally (seed 000, Sect. 3.2: 3 m and 4 m) [m].
+        horizontally (Ghirardelli et al. (2025), Sect. 3.2: 3 m and 4 m) [m].
     max_missing_fraction : float
         Largest fraction of missing sonic samples that is gap-filled; default 0.02
-        (seed 000, Sect. 3.2).
+        (Ghirardelli et al. (2025), Sect. 3.2).
     fixed_lag_s : float, optional
         Apply this sonic-INS lag [s] instead of the TKE minimum (the TKE curve is still
         computed and stored); attrs ``lag_tke_min_s`` keeps the search result.
@@ -1217,7 +1217,7 @@ def payload_l2(
 
     Notes
     -----
-    Steps 1-5 of the module docstring. References: seed 000, Sects. 3.1-3.3, Eqs. 1-3.
+    Steps 1-5 of the module docstring. References: Ghirardelli et al. (2025), Sects. 3.1-3.3, Eqs. 1-3.
     """
     _check_l2_inputs(sonic_l1, ins_l1, mount)
     tr = _Trace(where=_describe_flight(sonic_l1, ins_l1, flight_id))

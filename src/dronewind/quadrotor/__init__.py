@@ -3,13 +3,14 @@
 Modules, in the order the data flow through them:
 
 * :mod:`~dronewind.quadrotor.io`: readers of the UAV logs (CSV or PX4 ULog) and the tower reference;
-* :mod:`~dronewind.quadrotor.drag`: the drag balance (seed 001 Eqs 9-18, seed 002 Eq. 1), attitude geometry;
+* :mod:`~dronewind.quadrotor.drag`: the drag balance (Wetz et al. 2021, Eqs 9-18, Kistner et al. 2024, Eq. 1),
+  attitude geometry;
 * :mod:`~dronewind.quadrotor.wind`: wind from the attitude (the inversion), calibrated wind series of a UAV;
-* :mod:`~dronewind.quadrotor.hover`: hover selection and position accuracy (seed 001 Sect. 4.3);
+* :mod:`~dronewind.quadrotor.hover`: hover selection and position accuracy (Wetz et al. (2021), Sect. 4.3);
 * :mod:`~dronewind.quadrotor.windows`: averaging windows paired with the tower, the calibration data set;
 * :mod:`~dronewind.quadrotor.calibration`: the calibrators (individual, universal, pitch and yaw offsets,
-  speed ranges; seed 001 Sect. 5, seed 002 Sect. 3.1);
-* :mod:`~dronewind.quadrotor.validation`: validation tables (seed 001 Tables 2, 3, C1, C2, scenarios a-d)
+  speed ranges; Wetz et al. (2021), Sect. 5, Kistner et al. (2024), Sect. 3.1);
+* :mod:`~dronewind.quadrotor.validation`: validation tables (Wetz et al. (2021), Tables 2, 3, C1, C2, scenarios a-d)
   and the contract table;
 * :mod:`~dronewind.quadrotor.chain`: the chain, Dataset in, Dataset out (L1, windows, tables, L2).
 """
@@ -22,10 +23,10 @@ __all__ = ["QUAD_TABLES"]
 QUAD_TABLES: dict[str, str] = {
     "quadrotor_calibration": "contract table: one row per UAV (uav, pitch_offset_deg, yaw_offset_deg, rmse_ms, "
                              "bias_ms, ...)",
-    "quadrotor_table2": "seed 001 Table 2: individual vs universal calibration, 10-min windows",
-    "quadrotor_table3": "seed 001 Table 3: calibration scenarios a-d, 10-min windows",
-    "quadrotor_tableC1": "seed 001 Table C1: as Table 2 with 2-min windows",
-    "quadrotor_tableC2": "seed 001 Table C2: as Table 3 with 2-min windows",
+    "quadrotor_table2": "Wetz et al. (2021), Table 2: individual vs universal calibration, 10-min windows",
+    "quadrotor_table3": "Wetz et al. (2021), Table 3: calibration scenarios a-d, 10-min windows",
+    "quadrotor_tableC1": "Wetz et al. (2021), Table C1: as Table 2 with 2-min windows",
+    "quadrotor_tableC2": "Wetz et al. (2021), Table C2: as Table 3 with 2-min windows",
     "quadrotor_direction": "speed and direction accuracy with scenario-d pitch and yaw offsets (Sect. 5.4)",
     "quadrotor_windows": "per 10-min window: reference, UAV speed per calibration, direction, tilt, variance",
     "quadrotor_profiles": "per flight and height: mean UAV and tower speed (Fig. 8)",

@@ -1,23 +1,23 @@
-r"""Calibration of the quadrotor fleet against the tower (seed 001, Sect. 5; seed 002, Sect. 3.1).
+r"""Calibration of the quadrotor fleet against the tower (Wetz et al. 2021, Sect. 5; Kistner et al. 2024, Sect. 3.1).
 
 * :func:`calibrate_individual`: :math:`c_{d,0}A_0`, :math:`c_p` and a pitch offset per UAV
-  (seed 001, Sect. 5.1);
+  (Wetz et al. (2021), Sect. 5.1);
 * :func:`calibrate_universal`: common aerodynamic parameters with per-UAV pitch offsets
   (Sect. 5.2, Eq. 18);
 * :func:`calibrate_pitch_offsets`: pitch offsets alone with fixed aerodynamic parameters,
   the calibration of scenarios a-d (Sect. 5.3);
 * :func:`calibrate_yaw_offsets`: heading offsets under weather-vane mode (Sect. 5.4);
 * :func:`calibrate_speed_ranges` and :func:`calibrate_fleet_speed_ranges`: power laws per
-  speed range (seed 002, Eq. 1, Table 2), on tunnel steps or field windows.
+  speed range (Kistner et al. (2024), Eq. 1, Table 2), on tunnel steps or field windows.
 
 All fits use the averaging windows of :mod:`dronewind.quadrotor.windows`; the validation
 tables that use the results are in :mod:`dronewind.quadrotor.validation`.
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
    (``../shared/papers/001_*.txt``), Sect. 5, Eqs. 12-18.
-.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
    (``../shared/papers/002_*.txt``), Sect. 3.1, Eq. 1, Table 2.
 .. [3] Branch, M. A., Coleman, T. F., Li, Y.: A subspace, interior, and conjugate
    gradient method for large-scale bound-constrained minimization problems, SIAM J.
@@ -81,7 +81,7 @@ def calibrate_individual(blocks: pd.DataFrame, windows: pd.DataFrame,
                          flights: Iterable[str] | None = None, method: str = "tilt",
                          mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3,
                          bounds: Mapping[str, tuple[float, float]] | None = None) -> pd.DataFrame:
-    r"""Calibrate :math:`c_{d,0}A_0`, :math:`c_p` and :math:`\Delta\theta` per UAV (seed 001, Sect. 5.1).
+    r"""Calibrate :math:`c_{d,0}A_0`, :math:`c_p` and :math:`\Delta\theta` per UAV (Wetz et al. (2021), Sect. 5.1).
 
     Parameters
     ----------
@@ -107,7 +107,7 @@ def calibrate_individual(blocks: pd.DataFrame, windows: pd.DataFrame,
     -----
     Minimises :math:`\sum_j (\bar V_j - \bar V_{ref,j})^2` over the UAV's windows
     :math:`j` with ``scipy.optimize.least_squares(method="trf")`` inside physical bounds
-    (seed 001, Sect. 5.1: Trust Region Reflective, Branch et al. 1999). UAVs with fewer
+    (Wetz et al. (2021), Sect. 5.1: Trust Region Reflective, Branch et al. 1999). UAVs with fewer
     than 3 windows are not fitted (``status = "too few windows"``).
     """
     bd = {**BOUNDS, **dict(bounds or {})}
@@ -145,7 +145,7 @@ def calibrate_universal(blocks: pd.DataFrame, windows: pd.DataFrame,
                         flights: Iterable[str] | None = None, method: str = "tilt",
                         mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3,
                         bounds: Mapping[str, tuple[float, float]] | None = None) -> tuple[dict, pd.DataFrame]:
-    r"""Common aerodynamic parameters with per-UAV pitch offsets (seed 001, Sect. 5.2, Eq. 18).
+    r"""Common aerodynamic parameters with per-UAV pitch offsets (Wetz et al. (2021), Sect. 5.2, Eq. 18).
 
     Parameters
     ----------
@@ -163,7 +163,7 @@ def calibrate_universal(blocks: pd.DataFrame, windows: pd.DataFrame,
     -----
     One joint least-squares fit (TRF, bounded) of :math:`c_{d,0}A_0`, :math:`c_p` and one
     :math:`\Delta\theta_i` per UAV to all windows, which "minimize[s] the overall error"
-    (seed 001, Sect. 5.2). The common level of the offsets and :math:`c_{d,0}A_0` are
+    (Wetz et al. (2021), Sect. 5.2). The common level of the offsets and :math:`c_{d,0}A_0` are
     only weakly separable; their standard errors say how well.
     """
     bd = {**BOUNDS, **dict(bounds or {})}
@@ -217,7 +217,7 @@ def calibrate_pitch_offsets(blocks: pd.DataFrame, windows: pd.DataFrame, aero: M
                             flights: Iterable[str] | None = None, method: str = "tilt",
                             mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3,
                             bounds: tuple[float, float] = BOUNDS["pitch_offset_deg"]) -> pd.DataFrame:
-    r"""Per-UAV pitch offset with fixed aerodynamic parameters (seed 001, Sect. 5.3).
+    r"""Per-UAV pitch offset with fixed aerodynamic parameters (Wetz et al. (2021), Sect. 5.3).
 
     Parameters
     ----------
@@ -257,14 +257,14 @@ def calibrate_pitch_offsets(blocks: pd.DataFrame, windows: pd.DataFrame, aero: M
 def calibrate_yaw_offsets(blocks: pd.DataFrame, windows: pd.DataFrame,
                           flights: Iterable[str] | None = None,
                           min_speed_ms: float = 2.0) -> pd.DataFrame:
-    r"""Per-UAV yaw (magnetometer) offset under weather-vane mode (seed 001, Sect. 5.4).
+    r"""Per-UAV yaw (magnetometer) offset under weather-vane mode (Wetz et al. (2021), Sect. 5.4).
 
     Parameters
     ----------
     blocks, windows : pandas.DataFrame
         From :func:`dronewind.quadrotor.windows.flight_windows`.
     flights : iterable of str, optional
-        Calibration flights (seed 001 uses #31 and #56).
+        Calibration flights (Wetz et al. (2021) uses #31 and #56).
     min_speed_ms : float
         Windows with a reference speed below this are not used: the weather-vane mode
         needs roll above 1 degree to turn the nose into the wind (Sect. 5.4) [m s-1].
@@ -313,7 +313,7 @@ def calibrate_speed_ranges(force_n: np.ndarray, ref_speed_ms: np.ndarray,
                            b_bounds: tuple[float, float] = (0.2, 2.0),
                            c_bounds: tuple[float, float] = (0.5, 50.0),
                            edge_tol_ms: float = 0.5, scale: np.ndarray | None = None) -> pd.DataFrame:
-    r"""Power-law coefficients per speed range (seed 002, Sect. 3.1, Eq. 1, Table 2).
+    r"""Power-law coefficients per speed range (Kistner et al. (2024), Sect. 3.1, Eq. 1, Table 2).
 
     Parameters
     ----------
@@ -327,7 +327,7 @@ def calibrate_speed_ranges(force_n: np.ndarray, ref_speed_ms: np.ndarray,
         Upper edges of the speed ranges [m s-1]; ranges (-inf, e1], (e1, e2), ...
     group : array_like of int, optional
         Index of the averaging interval of each sample; the model speed is averaged
-        per group before it is compared with ``ref_speed_ms[group]`` (seed 002: averages
+        per group before it is compared with ``ref_speed_ms[group]`` (Kistner et al. (2024): averages
         over each constant-speed step).
     b_bounds, c_bounds : (float, float)
         Physical bounds of the exponent [-] and factor [m s-1 (m s-2)^-b].
@@ -349,7 +349,7 @@ def calibrate_speed_ranges(force_n: np.ndarray, ref_speed_ms: np.ndarray,
     -----
     :math:`V = c\,F^{b}`; each range is fitted separately to the intervals whose
     reference speed lies in it, with ``scipy.optimize.least_squares(method="trf")``
-    (the algorithm named by seed 002, Sect. 3.1).
+    (the algorithm named by Kistner et al. (2024), Sect. 3.1).
     """
     f = np.abs(np.asarray(force_n, float))
     ref = np.asarray(ref_speed_ms, float)
@@ -390,7 +390,7 @@ def calibrate_fleet_speed_ranges(blocks: pd.DataFrame, windows: pd.DataFrame,
                                  edges_ms: Sequence[float] = (4.0, 12.0),
                                  flights: Iterable[str] | None = None,
                                  edge_tol_ms: float = 0.5) -> pd.DataFrame:
-    r"""Speed-range power laws (seed 002, Table 2 form) fitted to field "drone tower" windows.
+    r"""Speed-range power laws (Kistner et al. (2024), Table 2 form) fitted to field "drone tower" windows.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-r"""The quadrotor processing chain, Dataset in, Dataset out (seed 001).
+r"""The quadrotor processing chain, Dataset in, Dataset out (Wetz et al. (2021)).
 
 The workflow steps (:mod:`dronewind.steps.quadrotor`) read the files, call these functions
 and write what they return:
@@ -6,7 +6,7 @@ and write what they return:
 * :func:`compute_quadrotor_l1`: a UAV log (:func:`dronewind.quadrotor.io.read_quadrotor`)
   in CF form (GNSS track as CF H.5 ``precise_lat``/``precise_lon``/``altitude``, :func:`uav_track_to_cf`);
 * :func:`compute_flight_windows`: the 10-min and 2-min averaging windows of every UAV of
-  a flight (seed 001 Sect. 5 and App. C), UAV logs that cannot be used listed, never
+  a flight (Wetz et al. (2021), Sect. 5 and App. C), UAV logs that cannot be used listed, never
   dropped silently;
 * :func:`compute_quadrotor_tables`: the campaign tables (Tables 2, 3, C1, C2, the contract
   table and the data of Figs 3-9) and the calibration summary;
@@ -15,7 +15,7 @@ and write what they return:
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
    (``../shared/papers/001_*.txt``), Sects. 4-6, Tables 2, 3, C1, C2, Figs 3-9.
 """
 
@@ -44,7 +44,7 @@ __all__ = [
 
 LOG = logging.getLogger(__name__)
 
-#: Averaging times of the windows [s]: 10 min (seed 001 Sect. 5) and 2 min (App. C).
+#: Averaging times of the windows [s]: 10 min (Wetz et al. (2021), Sect. 5) and 2 min (App. C).
 WINDOW_LENGTHS_S: tuple[float, ...] = (600.0, 120.0)
 
 _WINDOW_COLUMNS = ["window_key", "flight", "uav", "window", "start", "end", "height_m", "ref_height_m",
@@ -151,7 +151,7 @@ def compute_flight_windows(logs: Mapping[str, xr.Dataset], reference: xr.Dataset
                            site_altitude_m: float, files: Mapping[str, str] | None = None,
                            block_s: float = 1.0,
                            hover: Mapping[str, float] | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-    """Averaging windows of every UAV of a flight, 10-min and 2-min (seed 001 Sect. 5, App. C).
+    """Averaging windows of every UAV of a flight, 10-min and 2-min (Wetz et al. (2021), Sect. 5, App. C).
 
     Parameters
     ----------
@@ -261,7 +261,7 @@ def window_predictions(main: Mapping[str, Any], blocks: pd.DataFrame, windows: p
     bs = block_speeds(blocks, windows, params, aero)
     g = bs.groupby("window_key")
     pw["tilt_deg"] = pw["window_key"].map(g["tilt_deg"].mean())
-    # variance of 1-min means (the tower reports 1-min means; seed 001 Fig. 9 analogue)
+    # variance of 1-min means (the tower reports 1-min means; Wetz et al. (2021), Fig. 9 analogue)
     bs["minute"] = bs.groupby("window_key").cumcount() // 60
     m = bs.groupby(["window_key", "minute"])["speed_ms"].mean().groupby("window_key")
     pw["var_uav_1min_m2s2"] = pw["window_key"].map(m.var(ddof=0))
@@ -315,7 +315,7 @@ def calibration_summary(main: Mapping[str, Any], window_s: float, n_windows: Map
     dict
         Aerodynamic parameters, convergence and status, scenarios, validation flights,
         hover accuracy, counts, the individual calibration and the universal law on a tilt
-        grid (seed 001 Fig. 4 draws it from here).
+        grid (Wetz et al. (2021), Fig. 4 draws it from here).
     """
     aero = main["aero"]
     converged = bool(aero.get("converged", False))
@@ -341,7 +341,7 @@ def calibration_summary(main: Mapping[str, Any], window_s: float, n_windows: Map
 def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, blocks2: pd.DataFrame,
                              windows2: pd.DataFrame, problems: pd.DataFrame,
                              calibration_window_s: float = 600.0) -> dict[str, Any]:
-    """All campaign tables of the quadrotor chain (seed 001 Tables 2, 3, C1, C2, Figs 3-9 data).
+    """All campaign tables of the quadrotor chain (Wetz et al. (2021), Tables 2, 3, C1, C2, Figs 3-9 data).
 
     Parameters
     ----------
@@ -352,7 +352,7 @@ def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, bl
     problems : pandas.DataFrame
         UAV logs left out (concatenated per-flight problem tables).
     calibration_window_s : float
-        Window length of the contract table (600 as seed 001 Sect. 5; 120 for short flights).
+        Window length of the contract table (600 as Wetz et al. (2021), Sect. 5; 120 for short flights).
 
     Returns
     -------
@@ -394,7 +394,7 @@ def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, bl
 
 def compute_quadrotor_l2(log: xr.Dataset, calibration: pd.DataFrame, aero: Mapping[str, float], uav: str,
                          average_s: float = 1.0, hover: Mapping[str, float] | None = None) -> xr.Dataset:
-    """Calibrated wind series of one UAV (seed 001 Sect. 6) with a hover flag.
+    """Calibrated wind series of one UAV (Wetz et al. (2021), Sect. 6) with a hover flag.
 
     Parameters
     ----------
@@ -407,7 +407,7 @@ def compute_quadrotor_l2(log: xr.Dataset, calibration: pd.DataFrame, aero: Mappi
     uav : str
         UAV id.
     average_s : float
-        Output averaging [s] (1 Hz in seed 001).
+        Output averaging [s] (1 Hz in Wetz et al. (2021)).
     hover : mapping, optional
         Hover selection settings (:func:`dronewind.quadrotor.hover.hover_segment`).
 

@@ -1,6 +1,6 @@
 r"""The drag balance of a hovering quadrotor: drag laws, attitude geometry, body-axis forces.
 
-The SWUF-3D method (seed 001, Sects. 4-5; seed 002, Sect. 2.1): a quadrotor that holds
+The SWUF-3D method (Wetz et al. (2021), Sects. 4-5; Kistner et al. (2024), Sect. 2.1): a quadrotor that holds
 its position leans into the wind until the horizontal component of its thrust balances
 the aerodynamic drag. Its tilt therefore measures the wind speed, and, in PX4's
 weather-vane mode (the nose is yawed into the wind), its yaw measures the direction.
@@ -9,22 +9,22 @@ wind itself is assembled in :mod:`dronewind.quadrotor.wind`.
 
 Conventions (``../shared/DESIGN.md``): roll :math:`\phi`, pitch :math:`\theta`, yaw
 :math:`\psi` in degrees as logged (PX4: pitch negative nose-down, yaw clockwise from true
-north); body-to-NED rotation :math:`R(\phi,\theta,\psi)` of seed 001, Eq. D1. A quadrotor
+north); body-to-NED rotation :math:`R(\phi,\theta,\psi)` of Wetz et al. (2021), Eq. D1. A quadrotor
 facing into the wind leans nose-down, so its *tilt* :math:`\gamma = -\theta > 0`.
 
 Two drag laws are implemented:
 
-``rayleigh`` (seed 001, Eqs. 12-17)
+``rayleigh`` (Wetz et al. (2021), Eqs. 12-17)
     :math:`m g \sin\gamma = \tfrac{\rho}{2} c_dA(\gamma) V^2`,
-    :math:`c_dA = c_{d,0}A_0 + c_p\,\gamma`. Seed 001, Eq. 18 gives
+    :math:`c_dA = c_{d,0}A_0 + c_p\,\gamma`. Wetz et al. (2021), Eq. 18 gives
     :math:`c_dA = 0.03 - 0.047\,\theta`; we read its :math:`\theta` as the tilt
     magnitude, i.e. ``cp_m2_per_rad = -0.047`` with :math:`\gamma \ge 0`. The other
     reading (drag area growing with tilt) makes a 10 m/s wind need a 33 degree tilt and
     puts 15 m/s out of reach, while this one gives 11 degrees at 10 m/s and 18 degrees
-    at 15 m/s, close to the seed 002 coefficients (Table 2: 10 degrees at 8 m/s).
-``body_axis`` (seed 002, Eq. 1 and Table 2)
+    at 15 m/s, close to the Kistner et al. (2024) coefficients (Table 2: 10 degrees at 8 m/s).
+``body_axis`` (Kistner et al. (2024), Eq. 1 and Table 2)
     body-axis wind accelerations :math:`a_x = F_{w,x}/m = g\sin\theta`,
-    :math:`a_y = -g\cos\theta\sin\phi` (seed 001, Eqs. 9-10 at rest; the sign of the
+    :math:`a_y = -g\cos\theta\sin\phi` (Wetz et al. (2021), Eqs. 9-10 at rest; the sign of the
     roll term in the published Eq. 10 is a typo, gravity in the body frame is
     :math:`+mg\cos\theta\sin\phi`), air velocity relative to the vehicle
     :math:`u = \operatorname{sgn}(a_x)\,c_x|a_x|^{b_x}`,
@@ -33,9 +33,9 @@ Two drag laws are implemented:
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
    (``../shared/papers/001_*.txt``), Sects. 4-5, Eqs. 9-18, Table 1, D1.
-.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
    (``../shared/papers/002_*.txt``), Eqs. 1-2, Table 2.
 """
 
@@ -55,15 +55,15 @@ __all__ = [
     "body_accelerations_ms2", "body_axis_relative_air",
 ]
 
-#: Air density assumed constant in seed 001, Sect. 4.2 [kg m-3].
+#: Air density assumed constant in Wetz et al. (2021), Sect. 4.2 [kg m-3].
 RHO_KGM3: float = 1.2
-#: Take-off mass of the Holybro QAV250 quadrotor, seed 001 Table 1 [kg].
+#: Take-off mass of the Holybro QAV250 quadrotor, Wetz et al. (2021), Table 1 [kg].
 MASS_KG: float = 0.65
-#: Universal aerodynamic parameters of seed 001, Eq. 18 (slope on the tilt, see module doc).
+#: Universal aerodynamic parameters of Wetz et al. (2021), Eq. 18 (slope on the tilt, see module doc).
 SEED001_AERO: dict[str, float] = {"cd0a0_m2": 0.03, "cp_m2_per_rad": -0.047}
 #: Floor of the drag area [m2] (see :func:`speed_from_tilt`).
 MIN_DRAG_AREA_M2: float = 1e-4
-#: Longitudinal speed-range coefficients of seed 002, Table 2: (upper edge [m s-1], b_x, c_x);
+#: Longitudinal speed-range coefficients of Kistner et al. (2024), Table 2: (upper edge [m s-1], b_x, c_x);
 #: lateral (b_y, c_y) = (0.860, 5.600).
 SEED002_RANGES: dict[str, object] = {
     "edges_ms": [4.0, 12.0],
@@ -81,14 +81,14 @@ class DragLaw:
     Parameters
     ----------
     law : {"rayleigh", "body_axis"}
-        Seed 001 Eqs. 12-17 or seed 002 Eq. 1 with speed ranges (see module doc).
+        Wetz et al. (2021), Eqs. 12-17 or Kistner et al. (2024), Eq. 1 with speed ranges (see module doc).
     cd0a0_m2 : float
         :math:`c_{d,0}A_0` [m2] (rayleigh).
     cp_m2_per_rad : float
         :math:`c_p` [m2 rad-1], slope of :math:`c_dA` on the tilt (rayleigh).
     edges_ms : tuple of float
         Upper edges of the longitudinal speed ranges [m s-1] (body_axis); ranges are
-        (-inf, e1], (e1, e2), [e2, inf) as in seed 002, Table 2.
+        (-inf, e1], (e1, e2), [e2, inf) as in Kistner et al. (2024), Table 2.
     b_x, c_x : tuple of float
         Exponent [-] and factor [m s-1 N^-b] per range (body_axis).
     b_y, c_y : float
@@ -138,7 +138,7 @@ class DragLaw:
 
 def rotation_body_to_ned(roll_rad: np.ndarray, pitch_rad: np.ndarray,
                          yaw_rad: np.ndarray) -> np.ndarray:
-    r"""Body-to-NED rotation matrix :math:`R(\phi,\theta,\psi)` (seed 001, Eq. D1).
+    r"""Body-to-NED rotation matrix :math:`R(\phi,\theta,\psi)` (Wetz et al. (2021), Eq. D1).
 
     Parameters
     ----------
@@ -158,7 +158,7 @@ def rotation_body_to_ned(roll_rad: np.ndarray, pitch_rad: np.ndarray,
         c_\theta s_\psi & c_\phi c_\psi + s_\theta s_\phi s_\psi & -s_\phi c_\psi + s_\theta c_\phi s_\psi\\
         -s_\theta & c_\theta s_\phi & c_\theta c_\phi \end{bmatrix}
 
-    (Seed 002, Eq. 2 prints :math:`\cos\theta\sin\phi` in row 2, column 1: a typo.)
+    (Kistner et al. (2024), Eq. 2 prints :math:`\cos\theta\sin\phi` in row 2, column 1: a typo.)
     """
     phi, th, psi = np.broadcast_arrays(np.asarray(roll_rad, float), np.asarray(pitch_rad, float),
                                        np.asarray(yaw_rad, float))
@@ -177,7 +177,7 @@ def rotation_body_to_ned(roll_rad: np.ndarray, pitch_rad: np.ndarray,
 
 
 def drag_area_m2(tilt_rad: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: float) -> np.ndarray:
-    r"""Drag area as a function of tilt (seed 001, Eqs. 16-17).
+    r"""Drag area as a function of tilt (Wetz et al. (2021), Eqs. 16-17).
 
     Parameters
     ----------
@@ -202,7 +202,7 @@ def drag_area_m2(tilt_rad: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: float) ->
 
 def speed_from_tilt(tilt_rad: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: float,
                     mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3) -> np.ndarray:
-    r"""Wind speed from tilt by the drag balance (seed 001, Eqs. 12-17).
+    r"""Wind speed from tilt by the drag balance (Wetz et al. (2021), Eqs. 12-17).
 
     Parameters
     ----------
@@ -251,7 +251,7 @@ def tilt_from_attitude(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.
     -----
     The upward thrust axis :math:`-b_3` in the heading frame (forward, right, up) is
     :math:`(-\sin\theta\cos\phi,\ \sin\phi,\ \cos\theta\cos\phi)` (third column of
-    :math:`R`, seed 001 Eq. D1, with :math:`\psi=0`), so
+    :math:`R`, Wetz et al. (2021), Eq. D1, with :math:`\psi=0`), so
     :math:`\gamma = \operatorname{atan2}(\sqrt{f^2+r^2},\,\cos\theta\cos\phi)` (atan2
     rather than arccos for accuracy at small tilt).
     """
@@ -264,7 +264,7 @@ def tilt_from_attitude(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.
 
 
 def body_accelerations_ms2(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    r"""Horizontal body-axis wind accelerations of a vehicle at rest (seed 001, Eqs. 9-10, 13).
+    r"""Horizontal body-axis wind accelerations of a vehicle at rest (Wetz et al. (2021), Eqs. 9-10, 13).
 
     Parameters
     ----------
@@ -275,7 +275,7 @@ def body_accelerations_ms2(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple
     -------
     ax_ms2, ay_ms2 : numpy.ndarray
         Wind force per unit mass along body x (forward) and y (right) [m s-2]: the
-        "accelerations measured by the autopilot's avionics" that seed 002 (Sect. 3.1)
+        "accelerations measured by the autopilot's avionics" that Kistner et al. (2024) (Sect. 3.1)
         relates to the wind speed.
 
     Notes
@@ -293,7 +293,7 @@ def _power(f: np.ndarray, b, c) -> np.ndarray:
 
 def body_axis_relative_air(ax_ms2: np.ndarray, ay_ms2: np.ndarray,
                            law: DragLaw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r"""Air velocity relative to the vehicle in body axes from the wind forces (seed 002, Eq. 1).
+    r"""Air velocity relative to the vehicle in body axes from the wind forces (Kistner et al. (2024), Eq. 1).
 
     Parameters
     ----------
@@ -314,7 +314,7 @@ def body_axis_relative_air(ax_ms2: np.ndarray, ay_ms2: np.ndarray,
     .. math:: u = \operatorname{sgn}(a_x)\,c_{x,k}|a_x|^{b_{x,k}},\qquad
               v = \operatorname{sgn}(a_y)\,c_y|a_y|^{b_y}
 
-    with :math:`a` in m s-2 (the coefficients of seed 002, Table 2 are for accelerations;
+    with :math:`a` in m s-2 (the coefficients of Kistner et al. (2024), Table 2 are for accelerations;
     with forces in N they would need 36 degree of tilt at 16 m/s).
 
     The range :math:`k` is chosen by the acceleration: range :math:`k` ends where its

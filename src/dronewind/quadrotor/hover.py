@@ -1,4 +1,4 @@
-r"""Hover selection of a quadrotor flight and its position accuracy (seed 001, Sect. 4.3).
+r"""Hover selection of a quadrotor flight and its position accuracy (Wetz et al. (2021), Sect. 4.3).
 
 A "drone tower" flight climbs to its height, holds its position and descends; only the
 hover measures the wind. :func:`hover_segment` finds the longest run of samples that stay
@@ -7,7 +7,7 @@ a UAV that never hovers raises :class:`dronewind.errors.InputError` naming it.
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
    (``../shared/papers/001_*.txt``), Sect. 4.3.
 """
 
@@ -57,7 +57,7 @@ def _local_en_m(lat_deg: np.ndarray, lon_deg: np.ndarray, lat0: float,
 def hover_segment(ds: xr.Dataset, horiz_tol_m: float = 4.0, alt_tol_m: float = 3.0,
                   max_speed_ms: float = 1.5, max_gap_s: float = 2.0,
                   min_duration_s: float = 60.0, where: str = "quadrotor log") -> tuple[np.ndarray, dict]:
-    r"""Select the hover state of a quadrotor flight (seed 001, Sect. 4.3).
+    r"""Select the hover state of a quadrotor flight (Wetz et al. (2021), Sect. 4.3).
 
     Parameters
     ----------
@@ -120,7 +120,7 @@ def hover_segment(ds: xr.Dataset, horiz_tol_m: float = 4.0, alt_tol_m: float = 3
 
 
 def hover_accuracy(ds: xr.Dataset, mask: np.ndarray) -> dict[str, float]:
-    r"""Position standard deviations during hover (seed 001, Sect. 4.3).
+    r"""Position standard deviations during hover (Wetz et al. (2021), Sect. 4.3).
 
     Parameters
     ----------
@@ -133,8 +133,8 @@ def hover_accuracy(ds: xr.Dataset, mask: np.ndarray) -> dict[str, float]:
     -------
     dict
         ``sigma_h_m``: horizontal standard deviation per axis,
-        :math:`\sqrt{(\sigma_E^2+\sigma_N^2)/2}` [m] (seed 001 reports 0.19 m);
-        ``sigma_v_m``: vertical standard deviation [m] (seed 001: 0.85 m).
+        :math:`\sqrt{(\sigma_E^2+\sigma_N^2)/2}` [m] (Wetz et al. (2021) reports 0.19 m);
+        ``sigma_v_m``: vertical standard deviation [m] (Wetz et al. (2021): 0.85 m).
     """
     lat = ds["lat_deg"].to_numpy()[mask]
     lon = ds["lon_deg"].to_numpy()[mask]

@@ -28,7 +28,7 @@ line or variable and what was expected.
 References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F.: Distributed wind measurements with multiple
-   quadrotor UAVs in the atmospheric boundary layer (SWUF-3D), seed 001
+   quadrotor UAVs in the atmospheric boundary layer (SWUF-3D), Wetz et al. (2021)
    (``../shared/papers/001_*.txt``), Sects. 2-5.
 .. [2] PX4 ULog file format, https://docs.px4.io/main/en/dev_log/ulog_file_format.html
 """
@@ -160,7 +160,7 @@ def _finish(ds: xr.Dataset, source: Path, log: list[str]) -> xr.Dataset:
 
 
 def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
-    """Read a quadrotor CSV log (data contract, seed 001 Sect. 2).
+    """Read a quadrotor CSV log (data contract, Wetz et al. (2021), Sect. 2).
 
     Parameters
     ----------
@@ -281,7 +281,7 @@ def quaternion_to_euler_deg(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
 
     Notes
     -----
-    The rotation matrix is that of seed 001, Eq. D1, so that
+    The rotation matrix is that of Wetz et al. (2021), Eq. D1, so that
 
     .. math::
         \phi = \operatorname{atan2}(2(q_0q_1+q_2q_3),\,1-2(q_1^2+q_2^2)),\quad
@@ -325,7 +325,7 @@ def _ulog_attitude(ulog: Any, path: Path) -> tuple[np.ndarray, np.ndarray, np.nd
     if att is None or len(att["timestamp"]) == 0:
         raise InputError(f"{path} [vehicle_attitude]",
                          "the log holds no vehicle_attitude topic; attitude is needed to "
-                         "measure wind from the quadrotor's tilt (seed 001, Sect. 4.2)")
+                         "measure wind from the quadrotor's tilt (Wetz et al. (2021), Sect. 4.2)")
     t_us = att["timestamp"].astype(np.int64)
     q = np.column_stack([att[f"q[{i}]"] for i in range(4)])
     roll, pitch, yaw = quaternion_to_euler_deg(q)

@@ -1,4 +1,4 @@
-r"""Validation of the calibrated fleet: the tables of seed 001 and the contract table.
+r"""Validation of the calibrated fleet: the tables of Wetz et al. (2021) and the contract table.
 
 * :func:`predict_windows`: calibrated UAV wind speed and direction per window;
 * :func:`accuracy_table`: bias and RMS deviation per UAV (Tables 2, 3, C1, C2);
@@ -9,9 +9,9 @@ r"""Validation of the calibrated fleet: the tables of seed 001 and the contract 
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
    (``../shared/papers/001_*.txt``), Sect. 5, Tables 2, 3, C1, C2, E1, E2.
-.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
    (``../shared/papers/002_*.txt``), Eq. 3.
 """
 
@@ -93,7 +93,8 @@ def predict_windows(blocks: pd.DataFrame, windows: pd.DataFrame, params: pd.Data
 
 
 def accuracy_table(predicted: pd.DataFrame, label: str = "") -> pd.DataFrame:
-    r"""Bias and RMS deviation per UAV and their mean (seed 001, Tables 2, 3, C1, C2; seed 002, Eq. 3).
+    r"""Bias and RMS deviation per UAV, and their mean (Wetz et al. 2021, Tables 2, 3, C1, C2; Kistner et al. 2024,
+    Eq. 3).
 
     Parameters
     ----------
@@ -113,7 +114,7 @@ def accuracy_table(predicted: pd.DataFrame, label: str = "") -> pd.DataFrame:
     .. math:: \Delta V_w = \frac1n\sum(\bar V_{UAV}-\bar V_{ref}),\qquad
               \sigma_{rms} = \sqrt{\frac1n\sum(\bar V_{UAV}-\bar V_{ref})^2}
 
-    The ``mean`` row averages the per-UAV values (as in the tables of seed 001).
+    The ``mean`` row averages the per-UAV values (as in the tables of Wetz et al. (2021)).
     """
     g = predicted.groupby(predicted["uav"].astype(str))
     t = pd.DataFrame({
@@ -139,7 +140,7 @@ def flight_number(flight_id: str) -> int:
 
 
 def seed001_scenarios(flight_ids: Iterable[str]) -> tuple[dict[str, list[str]], list[str]]:
-    r"""Calibration scenarios a-d and validation flights of seed 001, Sect. 5.3.
+    r"""Calibration scenarios a-d and validation flights of Wetz et al. (2021), Sect. 5.3.
 
     Parameters
     ----------
@@ -168,7 +169,7 @@ def seed001_scenarios(flight_ids: Iterable[str]) -> tuple[dict[str, list[str]], 
 def calibration_scenarios(blocks: pd.DataFrame, windows: pd.DataFrame, aero: Mapping,
                           scenarios: Mapping[str, Sequence[str]], validation: Sequence[str],
                           method: str = "tilt") -> pd.DataFrame:
-    r"""Table 3 / C2 of seed 001: pitch-offset-only calibration on several flight subsets.
+    r"""Table 3 / C2 of Wetz et al. (2021): pitch-offset-only calibration on several flight subsets.
 
     Parameters
     ----------
@@ -203,7 +204,7 @@ def calibration_scenarios(blocks: pd.DataFrame, windows: pd.DataFrame, aero: Map
 def seed001_tables(blocks: pd.DataFrame, windows: pd.DataFrame, method: str = "tilt",
                    scenarios: Mapping[str, Sequence[str]] | None = None,
                    validation: Sequence[str] | None = None) -> dict[str, Any]:
-    r"""Seed 001, Tables 2 and 3 (10-min windows) or C1 and C2 (2-min windows), and the
+    r"""Wetz et al. (2021), Tables 2 and 3 (10-min windows) or C1 and C2 (2-min windows), and the
     contract table ``quadrotor_calibration.csv``.
 
     Parameters

@@ -2,21 +2,21 @@ r"""Wind from the attitude of a hovering quadrotor (the inversion of the drag ba
 
 :func:`wind_from_attitude` turns logged roll, pitch and yaw into the horizontal wind with
 one of the drag laws of :mod:`dronewind.quadrotor.drag`; :func:`uav_wind_dataset` makes
-the calibrated wind time series of one UAV's hover (seed 001, Sect. 6).
+the calibrated wind time series of one UAV's hover (Wetz et al. (2021), Sect. 6).
 
 ``pitch_offset_deg`` and ``yaw_offset_deg`` are logged minus true; corrections subtract
 them. Wind is returned as speed, direction the wind blows *from*, and east/north
 components of the vector the air moves *to*.
 
-GNSS velocity correction (seed 002, Eq. 1): the drag balance gives the air velocity
-relative to the vehicle; the wind is that plus the vehicle's GNSS velocity (seed 002
+GNSS velocity correction (Kistner et al. (2024), Eq. 1): the drag balance gives the air velocity
+relative to the vehicle; the wind is that plus the vehicle's GNSS velocity (Kistner et al. (2024)
 writes a minus sign because its relative-velocity vector is defined the other way).
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
    (``../shared/papers/001_*.txt``), Sects. 4-6, Eqs. 12-17.
-.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
    (``../shared/papers/002_*.txt``), Eqs. 1-2.
 """
 
@@ -71,7 +71,7 @@ def corrected_attitude_rad(roll_deg: npt.ArrayLike, pitch_deg: npt.ArrayLike, ya
 
 def relative_air_drag_balance(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_rad: np.ndarray,
                               law: DragLaw, method: str = "tilt") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r"""Air velocity relative to the vehicle from the ``rayleigh`` drag balance (seed 001, Eqs. 12-17).
+    r"""Air velocity relative to the vehicle from the ``rayleigh`` drag balance (Wetz et al. (2021), Eqs. 12-17).
 
     Parameters
     ----------
@@ -80,7 +80,7 @@ def relative_air_drag_balance(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_r
     law : DragLaw
         ``law="rayleigh"``.
     method : {"tilt", "pitch"}
-        ``pitch``: seed 001, Eq. 13 literally (pitch only, direction = yaw); ``tilt``: the
+        ``pitch``: Wetz et al. (2021), Eq. 13 literally (pitch only, direction = yaw); ``tilt``: the
         same balance on the total tilt from roll and pitch, direction from the lean
         direction.
 
@@ -130,7 +130,7 @@ def drag_balance_direction(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_rad:
 
 def relative_air_from_direction(tilt_rad: np.ndarray, cos_lean: np.ndarray, sin_lean: np.ndarray, law: DragLaw
                                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The drag-law part of :func:`relative_air_drag_balance` (seed 001, Eqs. 12-17).
+    """The drag-law part of :func:`relative_air_drag_balance` (Wetz et al. (2021), Eqs. 12-17).
 
     Parameters
     ----------
@@ -150,7 +150,7 @@ def relative_air_from_direction(tilt_rad: np.ndarray, cos_lean: np.ndarray, sin_
 
 def relative_air_body_axis(roll_rad: np.ndarray, pitch_rad: np.ndarray, yaw_rad: np.ndarray,
                            law: DragLaw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r"""Air velocity relative to the vehicle from the body-axis law (seed 002, Eq. 1).
+    r"""Air velocity relative to the vehicle from the body-axis law (Kistner et al. (2024), Eq. 1).
 
     Parameters
     ----------
@@ -203,18 +203,18 @@ def wind_from_attitude(roll_deg: npt.ArrayLike, pitch_deg: npt.ArrayLike, yaw_de
     roll_deg, pitch_deg, yaw_deg : array_like
         Attitude as logged [degree].
     vel_n_ms, vel_e_ms : array_like
-        GNSS velocity of the vehicle [m s-1] (seed 002, Eq. 1 correction).
+        GNSS velocity of the vehicle [m s-1] (Kistner et al. (2024), Eq. 1 correction).
     law : DragLaw, optional
-        Drag law (default: rayleigh with seed 001, Eq. 18).
+        Drag law (default: rayleigh with Wetz et al. (2021), Eq. 18).
     pitch_offset_deg, yaw_offset_deg : float
         Logged minus true pitch and yaw [degree]; subtracted before use.
     roll_offset_deg : float
-        Logged minus true roll [degree] (accelerometer offset, seed 002 Sect. 3.2.1).
+        Logged minus true roll [degree] (accelerometer offset, Kistner et al. (2024), Sect. 3.2.1).
     method : {"tilt", "pitch", "body_axis"}
-        ``pitch``: seed 001, Eq. 13 literally (pitch only, direction = corrected yaw);
+        ``pitch``: Wetz et al. (2021), Eq. 13 literally (pitch only, direction = corrected yaw);
         ``tilt``: the same balance on the total tilt from roll and pitch, direction from
         the lean direction (equal to ``pitch`` when the roll is zero); ``body_axis``:
-        seed 002, Eq. 1 (forces law must be ``body_axis``).
+        Kistner et al. (2024), Eq. 1 (forces law must be ``body_axis``).
 
     Returns
     -------
@@ -222,13 +222,13 @@ def wind_from_attitude(roll_deg: npt.ArrayLike, pitch_deg: npt.ArrayLike, yaw_de
         ``speed_ms``, ``wind_from_deg`` (0-360, from the corrected wind vector),
         ``u_east_ms``, ``v_north_ms`` (the air moves towards), ``relative_speed_ms``
         (speed from the drag balance alone, before the GNSS correction), ``yaw_from_deg``
-        (corrected yaw, the weather-vane direction estimate, seed 001 Sect. 5.4).
+        (corrected yaw, the weather-vane direction estimate, Wetz et al. (2021), Sect. 5.4).
 
     Notes
     -----
     :math:`\mathbf{V} = \mathbf{V}_{air} + \dot{\mathbf{x}}_{gnss}` with the relative air
-    velocity of :func:`relative_air_drag_balance` (``pitch``/``tilt``, seed 001, Eqs.
-    12-17) or :func:`relative_air_body_axis` (``body_axis``, seed 002, Eq. 1).
+    velocity of :func:`relative_air_drag_balance` (``pitch``/``tilt``, Wetz et al. (2021), Eqs.
+    12-17) or :func:`relative_air_body_axis` (``body_axis``, Kistner et al. (2024), Eq. 1).
     """
     law = law or DragLaw()
     phi, th, psi = corrected_attitude_rad(roll_deg, pitch_deg, yaw_deg, roll_offset_deg,
@@ -310,14 +310,14 @@ def _wind_series_dataset(time: np.ndarray, wind: Mapping[str, np.ndarray],
 def uav_wind_dataset(ds: xr.Dataset, law: DragLaw | None = None, pitch_offset_deg: float = 0.0,
                      yaw_offset_deg: float = 0.0, method: str = "tilt", average_s: float = 1.0,
                      hover_kwargs: Mapping | None = None) -> xr.Dataset:
-    r"""Calibrated wind time series of one hovering UAV (seed 001, Sect. 6: 1 Hz series).
+    r"""Calibrated wind time series of one hovering UAV (Wetz et al. (2021), Sect. 6: 1 Hz series).
 
     Parameters
     ----------
     ds : xarray.Dataset
         Quadrotor log (:func:`dronewind.quadrotor.io.read_quadrotor`).
     law : DragLaw, optional
-        Drag law (default seed 001, Eq. 18).
+        Drag law (default Wetz et al. (2021), Eq. 18).
     pitch_offset_deg, yaw_offset_deg : float
         Calibrated offsets (logged minus true) [degree].
     method : str

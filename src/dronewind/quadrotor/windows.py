@@ -1,6 +1,6 @@
 r"""Averaging windows of the hover paired with the tower reference: the calibration data set.
 
-Seed 001 compares 10-min means (Sect. 5) and 2-min means (Appendix C) of the UAV wind
+Wetz et al. (2021) compares 10-min means (Sect. 5) and 2-min means (Appendix C) of the UAV wind
 with the tower. :func:`flight_windows` cuts one UAV's hover into such windows; within a
 window the attitude is averaged in short blocks (1 s) before the non-linear drag law is
 applied, and each window is paired with the tower records at the nearest height.
@@ -10,7 +10,7 @@ model evaluations of the calibrations.
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
    (``../shared/papers/001_*.txt``), Sects. 4.3, 5, Appendix C.
 """
 
@@ -228,7 +228,7 @@ def flight_windows(ds: xr.Dataset, reference: xr.Dataset, site_altitude_m: float
     flight, uav : str
         Identifiers stored in the tables.
     window_s : float
-        Averaging time [s]: 600 (seed 001, Sect. 5) or 120 (Appendix C); see
+        Averaging time [s]: 600 (Wetz et al. (2021), Sect. 5) or 120 (Appendix C); see
         :func:`window_edges`.
     block_s : float
         The attitude is averaged in blocks of this length [s] before the (non-linear)

@@ -82,7 +82,7 @@ def mast_blocks(l1_file: str | Path, output: str | Path, *, campaign: str, sonic
         summary=(f"Sonic {sonic['id']} at {float(sonic['height_m']):g} m on mast {sonic['mast_id']} in blocks of "
                  f"{settings.block_s:g} s aligned to UTC: mean wind, standard deviations, fluxes, friction "
                  "velocity, Obukhov length, spectra with model fits, quadrant ratios, random-error estimates and "
-                 "integral scales per block (seed 000, Sects. 4.1-4.4)."),
+                 "integral scales per block (Ghirardelli et al. (2025), Sects. 4.1-4.4)."),
         processing_level="L4: statistics, spectra, uncertainties, scales in blocks",
         history=f"mast_blocks {sonic['id']}", inputs=[l1_file], config={"processing": dict(processing)},
         feature_type="timeSeries", station_id=str(sonic["id"]), latitude=sonic.get("latitude"),

@@ -139,7 +139,7 @@ PRODUCTS: dict[str, ProductSpec] = {
         "{campaign} flight {flight}: {sensor} statistics and spectra, L4",
         "Mean wind, standard deviations, skewness, kurtosis, fluxes, friction velocity, TKE, Obukhov length, "
         "spectra with blunt/pointed model fits, isotropy ratios, random-error estimates and integral scales "
-        "(seed 000, Sects. 4.1-4.3).",
+        "(Ghirardelli et al. (2025), Sects. 4.1-4.3).",
         "L4: statistics, spectra, uncertainties, scales", "l4 {flight} {sensor}", "analysis", None,
         ("campaign", "flight", "sensor")),
 }
@@ -277,7 +277,7 @@ def payload_l1(
     flight_id: str, site: Mapping[str, Any], target_height_m: float | None, despike: Mapping[str, Any],
     simulated: bool,
     data_root: str | Path | None = None, sonic_format: Mapping[str, Any] | None = None,
-    ins_format: Mapping[str, Any] | None = None,
+    ins_format: Mapping[str, Any] | None = None, attribution: Mapping[str, str] | None = None,
 ) -> tuple[Path, Path]:
     """L0 -> L1 files for one payload flight: sonic and INS to UTC with range/spike/gap QC.
 
@@ -305,6 +305,9 @@ def payload_l1(
     sonic_format, ins_format : mapping, optional
         The manifest's ``sonic.format`` and ``ins.format`` when they are ``delimited``
         mappings (:mod:`dronewind.payload.delimited`); ``None``: the contract CSV.
+    attribution : mapping, optional
+        Creator and licence from the manifest (:func:`dronewind.core.cf.attribution`),
+        inherited by every later level.
 
     Returns
     -------
@@ -320,6 +323,8 @@ def payload_l1(
     LOG.info("INS L1: %d samples; %s", ins.sizes["time"], ins.attrs.get("processing_log", ""))
     fields = {"campaign": campaign, "flight": flight_id}
     sonic.attrs["source"] = ins.attrs["source"] = data_source(simulated)
+    sonic.attrs.update(attribution or {})
+    ins.attrs.update(attribution or {})
     where = Position(site["latitude"], site["longitude"], float(target_height_m or 0.0) or None)
     settings = {"processing": {"despike": despike}}
     return (write_product(sonic, out_sonic, "payload_sonic_l1", fields, where, [sonic_file, ins_file], settings),
@@ -327,7 +332,8 @@ def payload_l1(
 
 
 def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, sonic: Mapping[str, Any],
-            despike: Mapping[str, Any], simulated: bool, data_root: str | Path | None = None) -> Path:
+            despike: Mapping[str, Any], simulated: bool, data_root: str | Path | None = None,
+            attribution: Mapping[str, str] | None = None) -> Path:
     """L0 -> L1 file for one mast sonic: its files, read in their declared format, to east/north/up with QC flags.
 
     Parameters
@@ -348,6 +354,8 @@ def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, s
         The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
     data_root : str or Path, optional
         As :func:`payload_l1` (``source_files`` relative to it).
+    attribution : mapping, optional
+        As :func:`payload_l1`.
 
     Returns
     -------
@@ -356,6 +364,7 @@ def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, s
     """
     ds = compute_mast_l1(files, sonic, despike)
     ds.attrs["source"] = data_source(simulated)
+    ds.attrs.update(attribution or {})
     ds.attrs["source_files"] = ", ".join(source_name(f, data_root) for f in files)
     LOG.info("mast %s L1: %d samples from %d file(s); %s", sonic["id"], ds.sizes["time"], len(files),
              ds.attrs.get("processing_log", ""))
@@ -527,7 +536,8 @@ def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str
 
 
 def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flight_id: str, flight: Mapping[str, Any],
-             site: Mapping[str, Any], despike: Mapping[str, Any], data_root: str | Path | None = None) -> Path:
+             site: Mapping[str, Any], despike: Mapping[str, Any], data_root: str | Path | None = None,
+             attribution: Mapping[str, str] | None = None) -> Path:
     """L0 -> L1 file for a rigid-mount flight: sonic and platform on one time axis with QC.
 
     Parameters
@@ -546,6 +556,8 @@ def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flig
         ``processing.despike``.
     data_root : str or Path, optional
         Folder the manifest's data paths refer to (``source_file`` relative to it).
+    attribution : mapping, optional
+        As :func:`payload_l1`.
 
     Returns
     -------
@@ -558,6 +570,7 @@ def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flig
                         where=f"payload flight {flight_id} record.format")
     ds.attrs["source_file"] = source_name(record_file, data_root)
     ds.attrs["source"] = data_source(False)
+    ds.attrs.update(attribution or {})
     LOG.info("flight %s rigid-mount L1: %d samples; %s", flight_id, ds.sizes["time"], ds.attrs["processing_log"])
     fields = {"campaign": campaign, "flight": flight_id, "model": sonic.get("model", "3-D")}
     where = Position(site["latitude"], site["longitude"], flight.get("target_height_m"))

@@ -1,4 +1,4 @@
-"""The quadrotor (SWUF-3D, seed 001) and wind-tunnel (seed 002) workflow steps: files in, files out.
+"""The quadrotor (SWUF-3D, Wetz et al. 2021) and wind-tunnel (Kistner et al. 2024) workflow steps: files in, files out.
 
 Each function reads its inputs, calls the library (:mod:`dronewind.quadrotor.chain`,
 :mod:`dronewind.tunnel.analysis`, :mod:`dronewind.diagnose.quadrotor`, the simulators) and
@@ -14,17 +14,17 @@ Steps and products (``R = results/<name>``):
   ``R/netcdf/L1/quadrotor/<flight>_<uav>.nc`` (attitude and GNSS log in CF form).
 * :func:`quadrotor_windows` (one job per flight): the flight's averaging windows
   ``R/quadrotor/windows/<flight>_{windows,blocks,problems}.csv`` (10-min and 2-min windows,
-  seed 001 Sect. 5 and App. C; UAV logs that cannot be used are listed, never dropped
+  Wetz et al. (2021), Sect. 5 and App. C; UAV logs that cannot be used are listed, never dropped
   silently).
 * :func:`quadrotor_calibration` (campaign): ``R/tables/quadrotor_calibration.csv`` (the
   contract table), ``quadrotor_table2/3/C1/C2.csv``, ``quadrotor_direction.csv``,
   ``quadrotor_windows.csv`` (per-window predictions that the figures plot),
   ``quadrotor_profiles.csv``, ``quadrotor_problems.csv`` and ``R/quadrotor/calibration.json``.
 * :func:`quadrotor_l2_flight` (one job per flight; :func:`quadrotor_l2` for each of its UAVs):
-  ``R/netcdf/L2/quadrotor/<flight>_<uav>.nc``, the calibrated 1 Hz wind of the UAV (seed 001
+  ``R/netcdf/L2/quadrotor/<flight>_<uav>.nc``, the calibrated 1 Hz wind of the UAV (Wetz et al. (2021)
   Sect. 6).
 * :func:`quadrotor_diagnosis` (campaign): ``R/quadrotor_diagnosis.json``.
-* :func:`tunnel_analysis`: ``R/tables/tunnel_<table>.csv`` (seed 002 Table 2 equivalent,
+* :func:`tunnel_analysis`: ``R/tables/tunnel_<table>.csv`` (Kistner et al. (2024), Table 2 equivalent,
   Figs 4-5 RMSEs, gusts, steps, turbulence).
 """
 
@@ -189,7 +189,7 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
     return write_netcdf(
         ds, out_l1, title=f"{campaign} flight {flight_id}: quadrotor {uav} attitude and GNSS, L1",
         summary="Attitude (roll, pitch, yaw) and GNSS/EKF velocity and position of a SWUF-3D quadrotor as "
-                "logged, time sorted and de-duplicated (seed 001 Sect. 2).",
+                "logged, time sorted and de-duplicated (Wetz et al. (2021), Sect. 2).",
         processing_level="L1: UTC time, sorted, duplicates removed", history=f"quadrotor_flight {flight_id} {uav}",
         inputs=[log_file], config={}, station_id=f"{flight_id}_{uav}", latitude=lat, longitude=lon,
         height_m=height, extra_attrs={"campaign": campaign, "flight": flight_id, "uav": uav,
@@ -317,7 +317,7 @@ def _json_default(value: Any) -> Any:
 def quadrotor_calibration(campaign: str, windows_files: Sequence[str | Path], blocks_files: Sequence[str | Path],
                           problems_files: Sequence[str | Path], tables_dir: str | Path, summary_file: str | Path,
                           calibration_window_s: float) -> list[Path]:
-    """Campaign calibration and validation tables of the quadrotor fleet (seed 001 Sect. 5).
+    """Campaign calibration and validation tables of the quadrotor fleet (Wetz et al. (2021), Sect. 5).
 
     Parameters
     ----------
@@ -404,7 +404,7 @@ def quadrotor_diagnosis(campaign: str, windows_files: Sequence[str | Path], bloc
 def quadrotor_l2(campaign: str, flight_id: str, uav: str, l1_file: str | Path, calibration_file: str | Path,
                  summary_file: str | Path, site: Mapping[str, Any], out_l2: str | Path, average_s: float,
                  hover: Mapping[str, float]) -> Path:
-    """L1 -> L2 NetCDF of one UAV: calibrated 1 Hz wind (seed 001 Sect. 6, Fig. 7).
+    """L1 -> L2 NetCDF of one UAV: calibrated 1 Hz wind (Wetz et al. (2021), Sect. 6, Fig. 7).
 
     Parameters
     ----------
@@ -442,7 +442,7 @@ def quadrotor_l2(campaign: str, flight_id: str, uav: str, l1_file: str | Path, c
         ds, out_l2, title=f"{campaign} flight {flight_id}: quadrotor {uav} wind, L2",
         summary="Horizontal wind from the attitude of a hovering SWUF-3D quadrotor: drag balance with the "
                 "universal aerodynamic parameters and the UAV's pitch and yaw offsets from the campaign "
-                "calibration, GNSS velocity added, 1 s averages over the hover (seed 001 Eqs 12-18, Sect. 6).",
+                "calibration, GNSS velocity added, 1 s averages over the hover (Wetz et al. 2021, Eqs 12-18, Sect. 6).",
         processing_level="L2: calibrated wind, earth frame", history=f"quadrotor_l2 {flight_id} {uav}",
         inputs=[l1_file, calibration_file, summary_file],
         config={"average_s": average_s, "hover": dict(hover)}, station_id=f"{flight_id}_{uav}",
@@ -491,7 +491,7 @@ def quadrotor_l2_flight(campaign: str, flight_id: str, uavs: Sequence[str], l1_f
 
 
 def tunnel_analysis(campaign: str, runs_file: str | Path, tables_dir: str | Path) -> list[Path]:
-    """All seed 002 tables of the tunnel campaign (:func:`dronewind.tunnel.analysis.analyse_tunnel`).
+    """All Kistner et al. (2024) tables of the tunnel campaign (:func:`dronewind.tunnel.analysis.analyse_tunnel`).
 
     Parameters
     ----------

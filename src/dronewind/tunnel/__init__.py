@@ -1,4 +1,4 @@
-"""The wind tunnel (seed 002): calibration and verification of the quadrotors.
+"""The wind tunnel (Kistner et al. (2024)): calibration and verification of the quadrotors.
 
 * :mod:`~dronewind.tunnel.io`: the run index, CTA signals and UAS logs;
 * :mod:`~dronewind.tunnel.calibration`: accelerometer offsets, body-axis drag law per speed range,

@@ -1,7 +1,7 @@
-r"""Wind-tunnel calibration and verification of quadrotor wind measurement (seed 002): all tables.
+r"""Wind-tunnel calibration and verification of quadrotor wind measurement (Kistner et al. (2024)): all tables.
 
 :func:`analyse_tunnel` reads a tunnel campaign (:mod:`dronewind.tunnel.io`) and computes
-the tables of seed 002:
+the tables of Kistner et al. (2024):
 
 * calibration of the body-axis drag law per speed range (Sect. 3.1, Eq. 1, Table 2) on
   constant-speed steps, with the accelerometer offsets taken from a calm hover
@@ -17,7 +17,7 @@ the tables of seed 002:
 
 References
 ----------
-.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
    (``../shared/papers/002_*.txt``), Sects. 3-4, Eqs. 1-17, Table 2, Figs. 4-10.
 """
 
@@ -41,7 +41,7 @@ __all__ = ["TUNNEL_TABLES", "analyse_tunnel", "sideslip_table", "portability_tab
 
 def _block_mean_at(t_src: np.ndarray, x: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
     """Mean of ``x`` over the interval each destination sample represents (down-sampling
-    the CTA to the UAS rate, seed 002 Sect. 2.3)."""
+    the CTA to the UAS rate, Kistner et al. (2024), Sect. 2.3)."""
     dt = np.median(np.diff(t_dst))
     edges = np.concatenate([t_dst - dt / 2, [t_dst[-1] + dt / 2]])
     k = np.searchsorted(edges, t_src, side="right") - 1
@@ -169,7 +169,7 @@ def turbulence_summary(t: pd.DataFrame) -> pd.DataFrame:
 
 def analyse_tunnel(index_path: str | Path, edges_ms: Sequence[float] = (4.0, 12.0),
                    mass_kg: float = 0.645) -> dict[str, pd.DataFrame]:
-    r"""All seed 002 tables of a tunnel campaign (analysis entry point).
+    r"""All Kistner et al. (2024) tables of a tunnel campaign (analysis entry point).
 
     Parameters
     ----------

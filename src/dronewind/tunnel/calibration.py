@@ -1,13 +1,13 @@
 r"""Calibration of the quadrotor drag law in the wind tunnel and its accuracy on constant-speed steps.
 
-* :func:`uas_offsets`: accelerometer offsets from a calm hover (seed 002, Sect. 3.2.1);
+* :func:`uas_offsets`: accelerometer offsets from a calm hover (Kistner et al. (2024), Sect. 3.2.1);
 * :func:`calibrate_tunnel`: body-axis power laws per speed range (Sect. 3.1, Eq. 1, Table 2);
 * :func:`stepped_accuracy`: UAS versus CTA speed per step, for the sideslip and portability
   runs (Figs. 4-5).
 
 References
 ----------
-.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
    (``../shared/papers/002_*.txt``), Sects. 3.1-3.2.2, Eq. 1, Table 2, Figs. 4-5.
 """
 
@@ -63,7 +63,7 @@ def step_index(time_s: np.ndarray, n_steps: int, hold_s: float, settle_s: float 
 
 
 def uas_offsets(index: pd.DataFrame, calm_speed_ms: float = 0.5) -> pd.DataFrame:
-    """Accelerometer (roll and pitch) offsets per UAS from calm hover (seed 002, Sect. 3.2.1).
+    """Accelerometer (roll and pitch) offsets per UAS from calm hover (Kistner et al. (2024), Sect. 3.2.1).
 
     Parameters
     ----------
@@ -165,7 +165,7 @@ def _fit_axis(samples: tuple[list, list, list, list], edges_ms: Sequence[float],
 
 def calibrate_tunnel(index: pd.DataFrame, offsets: pd.DataFrame, edges_ms: Sequence[float] = (4.0, 12.0),
                      mass_kg: float = 0.645, min_speed_ms: float = 1.0) -> tuple[DragLaw, pd.DataFrame]:
-    r"""Body-axis calibration per speed range on the calibration runs (seed 002, Sect. 3.1, Table 2).
+    r"""Body-axis calibration per speed range on the calibration runs (Kistner et al. (2024), Sect. 3.1, Table 2).
 
     Parameters
     ----------
@@ -177,7 +177,7 @@ def calibrate_tunnel(index: pd.DataFrame, offsets: pd.DataFrame, edges_ms: Seque
     edges_ms : sequence of float
         Upper edges of the longitudinal speed ranges [m s-1].
     mass_kg : float
-        UAS mass [kg] (0.645 kg, seed 002 Table 1).
+        UAS mass [kg] (0.645 kg, Kistner et al. (2024), Table 1).
     min_speed_ms : float
         Steps with a smaller reference speed are not used [m s-1].
 
@@ -185,7 +185,7 @@ def calibrate_tunnel(index: pd.DataFrame, offsets: pd.DataFrame, edges_ms: Seque
     -------
     law : DragLaw
         ``body_axis`` law with the fitted coefficients; without a converged lateral fit the
-        lateral coefficients of seed 002, Table 2.
+        lateral coefficients of Kistner et al. (2024), Table 2.
     table : pandas.DataFrame
         ``axis`` (x or y), ``lower_ms``, ``upper_ms``, ``b``, ``c``, ``n``, ``rmse_ms``,
         ``converged``.
@@ -215,7 +215,7 @@ def calibrate_tunnel(index: pd.DataFrame, offsets: pd.DataFrame, edges_ms: Seque
 
 
 def uas_speed(uas: pd.DataFrame, law: DragLaw, off: pd.Series) -> np.ndarray:
-    """Wind speed of a UAS log by the body-axis law (seed 002, Eq. 1) after its accelerometer
+    """Wind speed of a UAS log by the body-axis law (Kistner et al. (2024), Eq. 1) after its accelerometer
     offsets ``off`` (``pitch_offset_deg``, ``roll_offset_deg``) [m s-1]; no GNSS in the tunnel."""
     w = wind_from_attitude(uas["roll_deg"].to_numpy(), uas["pitch_deg"].to_numpy(),
                            uas["yaw_deg"].to_numpy(), law=law, method="body_axis",
@@ -227,7 +227,7 @@ def uas_speed(uas: pd.DataFrame, law: DragLaw, off: pd.Series) -> np.ndarray:
 def stepped_accuracy(index: pd.DataFrame, law: DragLaw, offsets: pd.DataFrame,
                      kinds: Sequence[str] = ("sideslip", "portability"),
                      min_speed_ms: float = 1.0) -> pd.DataFrame:
-    """UAS versus CTA speed per constant-speed step (seed 002, Figs. 4-5).
+    """UAS versus CTA speed per constant-speed step (Kistner et al. (2024), Figs. 4-5).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Files of a wind-tunnel campaign (seed 002): the run index, the CTA signals and the UAS logs.
+"""Files of a wind-tunnel campaign (Kistner et al. (2024)): the run index, the CTA signals and the UAS logs.
 
 Formats in :mod:`dronewind.simulate.tunnel` (measured campaigns write the same):
 ``tunnel/runs.csv`` lists the runs; each run has a CTA file (``time_s,wind_speed_ms``) and a
@@ -6,7 +6,7 @@ UAS attitude log (``time_s,roll_deg,pitch_deg,yaw_deg``) on one clock.
 
 References
 ----------
-.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
    (``../shared/papers/002_*.txt``), Sect. 2.
 """
 

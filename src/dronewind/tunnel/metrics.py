@@ -1,4 +1,4 @@
-r"""Metrics of seed 002 on a pair of speed series (UAS and CTA): RMSE, gusts, steps, turbulence.
+r"""Metrics of Kistner et al. (2024) on a pair of speed series (UAS and CTA): RMSE, gusts, steps, turbulence.
 
 * :func:`rmse` (Eqs. 3, 5, 14, 17);
 * :func:`gust_events`: IEC gusts, initial speed, peak and the two dips (Sect. 3.2.3, Eqs. 4-5);
@@ -9,7 +9,7 @@ r"""Metrics of seed 002 on a pair of speed series (UAS and CTA): RMSE, gusts, st
 
 References
 ----------
-.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
+.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
    (``../shared/papers/002_*.txt``), Sects. 3.2-4, Eqs. 3-17, Figs. 6-10.
 """
 
@@ -25,7 +25,7 @@ import scipy.signal
 __all__ = ["rmse", "gust_events", "step_events", "turbulence_metrics"]
 
 def rmse(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
-    r"""Root-mean-square error (seed 002, Eqs. 3, 5, 14, 17).
+    r"""Root-mean-square error (Kistner et al. (2024), Eqs. 3, 5, 14, 17).
 
     .. math:: \epsilon = \sqrt{\frac1n\sum_i (a_i - b_i)^2}
 
@@ -50,7 +50,7 @@ def _parabolic_min(t: np.ndarray, x: np.ndarray, i: int) -> tuple[float, float]:
 
 def gust_events(time_s: np.ndarray, v_ms: np.ndarray, starts_s: Sequence[float],
                 duration_s: float = 10.5, pre_s: float = 5.0) -> pd.DataFrame:
-    r"""Speeds and timing of IEC gusts in a time series (seed 002, Sect. 3.2.3, Eqs. 4-5).
+    r"""Speeds and timing of IEC gusts in a time series (Kistner et al. (2024), Sect. 3.2.3, Eqs. 4-5).
 
     Parameters
     ----------
@@ -111,7 +111,7 @@ def _crossing(t: np.ndarray, v: np.ndarray, i0: int, level: float, upward: bool)
 
 def step_events(time_s: np.ndarray, v_ms: np.ndarray, rep_starts_s: Sequence[float], period_s: float,
                 smooth_s: float = 0.3, guard_s: float = 1.0) -> pd.DataFrame:
-    r"""Velocity-step metrics per repetition (seed 002, Sect. 3.2.4, Eqs. 6-13).
+    r"""Velocity-step metrics per repetition (Kistner et al. (2024), Sect. 3.2.4, Eqs. 6-13).
 
     Parameters
     ----------
@@ -143,7 +143,7 @@ def step_events(time_s: np.ndarray, v_ms: np.ndarray, rep_starts_s: Sequence[flo
         \Delta V_u = V(T_{u,1}) - V(T_{u,0}),\quad \Delta V_d = V(T_{d,1}) - V(T_{d,0}),\quad
         \Delta T_u = T_{u,1}-T_{u,0},\quad \Delta T_d = T_{d,1}-T_{d,0}
 
-    (Eq. 9 of seed 002 prints "1.1"; we read it as 90 % of the downward change.)
+    (Eq. 9 of Kistner et al. (2024) prints "1.1"; we read it as 90 % of the downward change.)
     :math:`V_l` is the mean before the up step, :math:`V_h` the mean over the second half
     of the high plateau. Crossing times are linearly interpolated.
     """
@@ -190,7 +190,7 @@ def _lowpass_var(x: np.ndarray, fs_hz: float, fc_hz: float) -> float:
 def turbulence_metrics(v_uas_ms: np.ndarray, fs_uas_hz: float, v_cta_ms: np.ndarray, fs_cta_hz: float,
                        ratio_tol: float = 2.0, segment_s: float = 30.0,
                        bins_per_decade: int = 10, f_min_hz: float = 0.1) -> dict[str, float]:
-    r"""Turbulence resolved by the UAS compared with the CTA (seed 002, Sect. 3.2.5, Eqs. 15-17).
+    r"""Turbulence resolved by the UAS compared with the CTA (Kistner et al. (2024), Sect. 3.2.5, Eqs. 15-17).
 
     Parameters
     ----------
@@ -204,7 +204,7 @@ def turbulence_metrics(v_uas_ms: np.ndarray, fs_uas_hz: float, v_cta_ms: np.ndar
     segment_s : float
         Welch segment length [s].
     bins_per_decade : int
-        Logarithmic frequency bins for the bin-averaged spectra (seed 002, Fig. 8).
+        Logarithmic frequency bins for the bin-averaged spectra (Kistner et al. (2024), Fig. 8).
     f_min_hz : float
         Lowest frequency compared [Hz]: below it few Welch segments make the ratio noisy
         (and grid or fan excitation, not the UAS, dominates the difference).
