@@ -6,7 +6,7 @@ The library is organised one module per physical topic (see ../shared/DESIGN.md)
 ``mechanisms``, ``diagnose``, ``cf`` (the one NetCDF writer) and ``figures``.
 """
 
-__all__ = ["__version__"]
+__all__ = ["__version__", "open_product"]
 
 
 def __getattr__(name: str) -> str:
@@ -25,4 +25,8 @@ def __getattr__(name: str) -> str:
             found = "0+unknown"
         globals()["__version__"] = found
         return found
+    if name == "open_product":  # one call for a product with its groups (docs/outputs.md)
+        from dronewind.core.products import open_product
+
+        return open_product
     raise AttributeError(f"module 'dronewind' has no attribute {name!r}")

@@ -515,6 +515,25 @@ def _feature_type_attrs(attrs: dict[str, Any], feature_type: str | None) -> None
         attrs.pop("featureType", None)
 
 
+def _reading_note(ds: xr.Dataset, groups: Mapping[str, xr.Dataset]) -> str:
+    """The ``comment`` of a product: how to open it whole (groups, labelled dimensions)."""
+    text = "Produced by the dronewind workflow; see processing_log for every step."
+    labelled = list(dict.fromkeys(str(d) for part in (ds, *groups.values()) for d in part.dims
+                                  if d in part.coords and part[d].dtype.kind in "OUS"))
+    if groups:
+        names = ", ".join(f"'{g}'" for g in groups)
+        text += (f" Quantities without a CF standard name are in the NetCDF-4 group(s) {names}: "
+                 f"xarray.open_dataset(path, group={next(iter(groups))!r}) or xarray.open_datatree(path).")
+    if labelled:
+        text += " " + ", ".join(f"{d}_name" for d in labelled) + " label(s) the " + ", ".join(labelled) + \
+            " dimension."
+    if groups or labelled:
+        text += (" dronewind.open_product(path) opens the root and every group as one dataset"
+                 + (f" with {labelled[0]} selectable by name (ds.sel({labelled[0]}='drone'))" if labelled else "")
+                 + "; docs/outputs.md.")
+    return text
+
+
 def _write_atomically(out: xr.Dataset, groups: Mapping[str, xr.Dataset], path: Path) -> None:
     """Write the root group and every sub-group to a temporary file, then rename it into place."""
     handle, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -620,6 +639,7 @@ def write_netcdf(
     attrs.update({k: v for k, v in (extra_attrs or {}).items() if v is not None})
     if groups:
         attrs["groups"] = ", ".join(groups)
+    attrs["comment"] = _reading_note(ds, groups or {})
     out.attrs = _netcdf_attrs(attrs)
     _write_atomically(out, groups or {}, path)
     return path
