@@ -63,6 +63,7 @@ for _qf in QUAD_FLIGHTS:
             uavs=quad_uavs(_qf),
             site=SITE,
             simulated=CAMPAIGN.simulated,
+            attribution=ATTRIBUTION,
         script:
             "../../scripts/quadrotor_l1.py"
 

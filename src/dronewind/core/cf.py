@@ -283,20 +283,23 @@ def _iso(value: Any) -> str:
 
 
 def _label_dimensions(ds: xr.Dataset) -> xr.Dataset:
-    """Replace string dimension coordinates by integer dimensions plus a label variable.
+    """Store string dimension coordinates as character arrays, so that they stay selectable by name.
 
-    A string-valued dimension coordinate (e.g. ``sensor = ["drone", "mast"]``) makes the
-    IOOS checker fail; CF prefers an auxiliary label variable. The labels are kept in
-    ``<dim>_name(<dim>)``; :func:`dronewind.steps.open_product` restores them.
+    A string-valued coordinate variable ``sensor(sensor)`` is not CF (a coordinate variable is
+    numeric, CF 1.11 Sect. 1.2) and makes the IOOS checker fail. Stored as a character array
+    ``sensor(sensor, sensor_strlen)`` with ``_Encoding = "utf-8"`` (CF 1.11 Sect. 2.2, a
+    string as an array of characters) it is a label variable to CF and the checker, while
+    ``xarray.open_dataset`` decodes it back into the string index of the dimension:
+    ``ds.sel(sensor="drone")`` works on the file as stored.
     """
     out = ds
     for dim in [str(d) for d in ds.dims]:
         if dim in ds.coords and ds[dim].dtype.kind in "OUS":
             labels = np.asarray(ds[dim].values).astype(str)
-            out = out.drop_vars(dim).assign_coords(
-                {f"{dim}_name": xr.DataArray(labels.astype(object), dims=(dim,),
-                                             attrs={"long_name": f"{dim} label"})}
-            )
+            var = xr.Variable((dim,), labels, attrs={**ds[dim].attrs, "long_name": ds[dim].attrs.get(
+                "long_name", f"{dim} name")})
+            var.encoding = {"dtype": "S1", "char_dim_name": f"{dim}_strlen", "_Encoding": "utf-8"}
+            out = out.assign_coords({dim: var})
     return out
 
 
@@ -516,21 +519,19 @@ def _feature_type_attrs(attrs: dict[str, Any], feature_type: str | None) -> None
 
 
 def _reading_note(ds: xr.Dataset, groups: Mapping[str, xr.Dataset]) -> str:
-    """The ``comment`` of a product: how to open it whole (groups, labelled dimensions)."""
+    """The ``comment`` of a product: where its groups are and how to open it whole."""
     text = "Produced by the dronewind workflow; see processing_log for every step."
-    labelled = list(dict.fromkeys(str(d) for part in (ds, *groups.values()) for d in part.dims
-                                  if d in part.coords and part[d].dtype.kind in "OUS"))
+    labelled = {str(d): str(part[d].values[0]) for part in (ds, *groups.values()) for d in part.dims
+                if d in part.coords and part[d].dtype.kind in "OUS" and part[d].size}
     if groups:
         names = ", ".join(f"'{g}'" for g in groups)
         text += (f" Quantities without a CF standard name are in the NetCDF-4 group(s) {names}: "
                  f"xarray.open_dataset(path, group={next(iter(groups))!r}) or xarray.open_datatree(path).")
     if labelled:
-        text += " " + ", ".join(f"{d}_name" for d in labelled) + " label(s) the " + ", ".join(labelled) + \
-            " dimension."
-    if groups or labelled:
-        text += (" dronewind.open_product(path) opens the root and every group as one dataset"
-                 + (f" with {labelled[0]} selectable by name (ds.sel({labelled[0]}='drone'))" if labelled else "")
-                 + "; docs/outputs.md.")
+        text += " " + ", ".join(f"{d} is selectable by name (ds.sel({d}={first!r}))" for d, first in labelled.items()) \
+            + "."
+    if groups:
+        text += " dronewind.open_product(path) opens the root and every group as one dataset; docs/outputs.md."
     return text
 
 

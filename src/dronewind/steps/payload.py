@@ -140,7 +140,7 @@ PRODUCTS: dict[str, ProductSpec] = {
         "Mean wind, standard deviations, skewness, kurtosis, fluxes, friction velocity, TKE, Obukhov length, "
         "spectra with blunt/pointed model fits, isotropy ratios, random-error estimates and integral scales "
         "(Ghirardelli et al. (2025), Sects. 4.1-4.3).",
-        "L4: statistics, spectra, uncertainties, scales", "l4 {flight} {sensor}", "analysis", None,
+        "L4: statistics, spectra, uncertainties, scales", "l4 {flight} {sensor}", "analysis", "{flight}_{sensor}",
         ("campaign", "flight", "sensor")),
 }
 

@@ -153,7 +153,7 @@ def simulate_tunnel(simulation: Mapping[str, Any], runs: str, out_dir: str | Pat
 
 
 def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, site: Mapping[str, Any],
-                 out_l1: str | Path, *, simulated: bool) -> Path:
+                 out_l1: str | Path, *, simulated: bool, attribution: Mapping[str, str] | None = None) -> Path:
     """L0 -> L1 NetCDF of one UAV log (attitude and GNSS in CF form).
 
     Parameters
@@ -171,6 +171,10 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
 
     simulated : bool
         The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
+    attribution : mapping, optional
+        Creator and licence from the manifest (:func:`dronewind.core.cf.attribution`),
+        inherited by every later level.
+
     Returns
     -------
     Path
@@ -193,7 +197,7 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
         processing_level="L1: UTC time, sorted, duplicates removed", history=f"quadrotor_flight {flight_id} {uav}",
         inputs=[log_file], config={}, station_id=f"{flight_id}_{uav}", latitude=lat, longitude=lon,
         height_m=height, extra_attrs={"campaign": campaign, "flight": flight_id, "uav": uav,
-                                      "source": data_source(simulated)},
+                                      "source": data_source(simulated), **(attribution or {})},
         nonstandard_group="platform_velocity")
 
 
@@ -206,7 +210,8 @@ def _per_uav(flight_id: str, uavs: Sequence[str], **files: Sequence[str | Path])
 
 
 def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_files: Sequence[str | Path],
-                        site: Mapping[str, Any], out_l1: Sequence[str | Path], *, simulated: bool) -> list[Path]:
+                        site: Mapping[str, Any], out_l1: Sequence[str | Path], *, simulated: bool,
+                        attribution: Mapping[str, str] | None = None) -> list[Path]:
     """L0 -> L1 NetCDF of every UAV of a quadrotor flight (:func:`quadrotor_l1` for each).
 
     One workflow job per flight: the UAVs are processed in one process, which pays the
@@ -226,6 +231,8 @@ def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_
         The manifest's ``site``.
     simulated : bool
         The campaign is virtual (stated in ``source``).
+    attribution : mapping, optional
+        As :func:`quadrotor_l1`.
 
     Returns
     -------
@@ -233,7 +240,7 @@ def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_
         The written files, in the order of ``uavs``.
     """
     _per_uav(flight_id, uavs, logs=log_files, outputs=out_l1)
-    return [quadrotor_l1(campaign, flight_id, uav, log, site, out, simulated=simulated)
+    return [quadrotor_l1(campaign, flight_id, uav, log, site, out, simulated=simulated, attribution=attribution)
             for uav, log, out in zip(uavs, log_files, out_l1, strict=True)]
 
 
