@@ -253,7 +253,7 @@ _ENTRIES: tuple[Mechanism, ...] = (
         (_p("coefficients", "1", 0.0, 0.0,
             "list of {min_speed_ms, max_speed_ms, ...coefficients} per speed range", kind="table"),),
         ("quadrotor",),
-        "quadrotor drag law changes with speed (seed 002, Table 2)",
+        "quadrotor drag law changes with speed (Kistner et al. 2024, Table 2)",
     ),
     Mechanism(
         "response_lag",

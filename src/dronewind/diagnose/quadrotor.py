@@ -873,7 +873,7 @@ def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.D
             names.append(c["mechanism"])
     out["named_causes"] = names
     out["as_mechanisms"] = _as_mechanisms(out["candidates"])
-    out["method"] = ("single-law quasi-steady baseline (seed 001 Eq. 17, c_d0A0 and c_p fitted) vs extensions; "
+    out["method"] = ("single-law quasi-steady baseline (Wetz et al. 2021, Eq. 17; c_d0A0, c_p fitted) vs extensions; "
                      f"field: {k_folds}-fold over flights, held-out window RMSE, one-sided paired test per UAV "
                      "log (Wilcoxon signed-rank); tunnel: leave-one-run-out (response_lag) or runs not used in the "
                      "calibration; "

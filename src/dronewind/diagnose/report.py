@@ -134,8 +134,8 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
               "The forward model without any mechanism was run for every flight with the conditions measured "
               "by the reference mast (mean wind, direction, temperature, u*, Obukhov length) and the drone's hover "
               "height, position and window, and processed exactly like the data. Residual = measured − "
-              "predicted; z = residual / sampling error (seed 000, Eqs 10-13, scaled by the spread of the "
-              "forward model's seeds).", ""]
+              "predicted; z = residual / sampling error (Ghirardelli et al. 2025, Eqs 10-13, scaled by the "
+              "spread of the forward model's seeds).", ""]
     metrics = (diag.get("baseline") or {}).get("metrics") or {}
     lines += [f"- misfit χ² = {_fmt(metrics.get('chi2'))} over {metrics.get('n_features_used', '–')} features "
               f"(χ²/feature = {_fmt(metrics.get('chi2_per_feature'))}; ≈ 1 when the model is right)",

@@ -864,7 +864,7 @@ def _load_ins(
         raise InputError(
             path,
             f"no stable valid GNSS time: time_valid never stays 1 for >= {min_stable_s:g} s "
-            "(seed 000, Sect. 3.2: data before a stable valid GNSS time are discarded)",
+            "(Ghirardelli et al. 2025, Sect. 3.2: data before a stable valid GNSS time are discarded)",
         )
     counts["n_before_stable_time"] = int(start)
     log.append(
