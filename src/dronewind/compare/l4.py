@@ -354,7 +354,8 @@ def _obukhov_part(b: _Builder, m: _Moments, height_m: float, temp_ok: bool, temp
 
 
 _FITS: dict[str, tuple[spectra.ModelName, str]] = {
-    "u": ("blunt", "Eq. 4"), "v": ("blunt", "Eq. 5"), "w": ("pointed", "Eq. 6"), "uw": ("cospectrum", "Eq. 7")}
+    "u": ("blunt", "Ghirardelli et al. 2025, Eq. 4"), "v": ("blunt", "Ghirardelli et al. 2025, Eq. 5"),
+    "w": ("pointed", "Ghirardelli et al. 2025, Eq. 6"), "uw": ("cospectrum", "Ghirardelli et al. 2025, Eq. 7")}
 
 _SPECTRUM_VARS = (("S_u", "m2 s-2 Hz-1", "one-sided power spectral density of u"),
                   ("S_v", "m2 s-2 Hz-1", "one-sided power spectral density of v"),
@@ -455,7 +456,7 @@ def _spectrum_vars(b: _Builder, binned: spectra.BinnedSpectrum | None, height_m:
         fr = fb * height_m / speed
     else:
         fr = np.full_like(fb, np.nan)
-    b.data_vars["f_r"] = variable(dims, fr, "1", long_name="reduced frequency f z / U (Eq. 8)")
+    b.data_vars["f_r"] = variable(dims, fr, "1", long_name="reduced frequency f z / U (Ghirardelli et al. 2025, Eq. 8)")
     b.data_vars["frequency"] = xr.Variable(
         dims, fb, variable_attrs("Hz", long_name="mean frequency of the logarithmic bin"),
         encoding={"_FillValue": None})  # CF: no fill value on coordinates
@@ -478,9 +479,9 @@ def _fit_part(b: _Builder, fb: np.ndarray, vals: np.ndarray, fr: np.ndarray, dof
                                              bin_dof=dof, f_max_hz=f_max_hz)
             fstat, freason = _status_of(fit.converged, "fit_not_converged", fit.reason)
         b.scalar(f"fit_a_{comp}", fit.a, "1",
-                 f"coefficient a_{comp} of the {model} model ({eq}, Ghirardelli et al. 2025)")
+                 f"coefficient a_{comp} of the {model} model ({eq})")
         b.scalar(f"fit_b_{comp}", fit.b, "1",
-                 f"coefficient b_{comp} of the {model} model ({eq}, Ghirardelli et al. 2025)")
+                 f"coefficient b_{comp} of the {model} model ({eq})")
         b.scalar(f"fit_rms_{comp}", fit.rms_residual, "1", f"RMS residual of the {model} fit")
         b.status(f"status_fit_{comp}", f"{model} model fit of {comp} ({eq})", fstat, freason)
         key = "Co_uw_model" if comp == "uw" else f"S_{comp}_model"
@@ -580,7 +581,7 @@ def _uncertainty_part(b: _Builder, up: np.ndarray | None, vp: np.ndarray | None,
             aflag, areason = _unc_status(a)
             eflag, ereason = _unc_status(eps)
         b.scalar(f"a_{name}", a.value, "1",
-                 f"normalised random uncertainty of {name} (Ghirardelli et al. (2025) {eq}, time scale z/U)")
+                 f"normalised random uncertainty of {name} (Ghirardelli et al. 2025, {eq}, time scale z/U)")
         b.status(f"status_a_{name}", f"uncertainty a_{name}", aflag, areason)
         b.scalar(f"eps_{name}", eps.value, "1",
                  f"relative random error of {name} from the measured integral time scale of its product series "
