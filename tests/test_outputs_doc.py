@@ -44,3 +44,23 @@ def test_outputs_page_examples_run(results, monkeypatch):
     assert namespace["w_drone"].dims == ("time",)
     np.testing.assert_array_equal(namespace["w_first"].values, namespace["w_drone"].values)
     assert "S_w" in namespace["stats"] and float(namespace["l4"]["sigma_w_ms"]) > 0
+
+
+def test_every_product_opens_with_xarray_alone(results):
+    """featureType everywhere, sensor selectable by name, the comment says where the groups are."""
+    import xarray as xr
+
+    files = sorted((results / "netcdf").glob("L*/*.nc"))
+    assert {f.parent.name for f in files} == {"L1", "L2", "L3", "L4"}
+    for path in files:
+        ds = xr.open_dataset(path)
+        assert ds.attrs["featureType"] == "timeSeries", path.name
+        assert "seed 00" not in str(ds.attrs)
+        for group in ds.attrs.get("groups", "").split(", "):
+            if group:
+                assert f"group={group!r}" in ds.attrs["comment"], path.name
+                sub = xr.open_dataset(path, group=group)
+                assert not any("seed 00" in str(v.attrs) for v in sub.variables.values()), (path.name, group)
+    l3 = xr.open_dataset(results / "netcdf" / "L3" / "s01.nc")
+    assert list(l3.indexes["sensor"]) == ["drone", "mast"]
+    assert l3["u_ms"].sel(sensor="mast").dims == ("time",)
