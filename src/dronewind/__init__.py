@@ -6,11 +6,14 @@ The library is organised one module per physical topic (see ../shared/DESIGN.md)
 ``mechanisms``, ``diagnose``, ``cf`` (the one NetCDF writer) and ``figures``.
 """
 
+from typing import Any
+
 __all__ = ["__version__", "open_product"]
 
 
-def __getattr__(name: str) -> str:
-    """``__version__``, looked up in the installed metadata when first asked for (PEP 562).
+def __getattr__(name: str) -> Any:
+    """``__version__`` (looked up in the installed metadata when first asked for, PEP 562) and
+    :func:`dronewind.core.products.open_product` (imported when first asked for).
 
     Importing :mod:`importlib.metadata` and finding the distribution costs a process about
     0.07 CPU-s; every workflow job's process and every Snakemake start imports this package,

@@ -267,8 +267,8 @@ def ins_record(path: str | os.PathLike[str], fmt: Mapping[str, Any], where: str 
                         counts=counts, log=log, lines=table.line_no)
 
 
-def payload_source(path: str | os.PathLike[str], fmt: Mapping[str, Any] | str | None, part: str,
-                   where: str | None = None) -> str | os.PathLike[str] | MappedRecord:
+def payload_source(path: str | Path, fmt: Mapping[str, Any] | str | None, part: str,
+                   where: str | None = None) -> str | Path | MappedRecord:
     """What the payload chain reads for one file: the path (contract CSV) or its mapped record.
 
     Parameters
