@@ -6,7 +6,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from dronewind.core.cf import attribution, write_netcdf
+from dronewind.core.attribution import attribution
+from dronewind.core.cf import write_netcdf
 from dronewind.manifest import campaign_schema
 
 

@@ -6,12 +6,10 @@ The library is organised one module per physical topic (see ../shared/DESIGN.md)
 ``mechanisms``, ``diagnose``, ``cf`` (the one NetCDF writer) and ``figures``.
 """
 
-from typing import Any
-
 __all__ = ["__version__", "open_product"]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     """``__version__`` (looked up in the installed metadata when first asked for, PEP 562) and
     :func:`dronewind.core.products.open_product` (imported when first asked for).
 

@@ -12,7 +12,7 @@ from snakemake.logging import logger
 from snakemake.utils import min_version, validate
 
 from dronewind.config import check_config
-from dronewind.core.cf import attribution
+from dronewind.core.attribution import attribution
 from dronewind.diagnose.probes import CHAIN_SETTINGS, fresh_seeds, probe_parts
 from dronewind.figures.labels import (
     BLOCK_FIGURE,
@@ -168,7 +168,7 @@ CHAIN = {key: PROCESSING[key] for key in CHAIN_SETTINGS}
 # settings of the block analysis of tower and mast records (rule mast_blocks)
 BLOCK_PROCESSING = block_settings(PROCESSING)
 SITE = CAMPAIGN.data["site"]
-# creator and licence of the products, from the manifest (dronewind.core.cf.attribution)
+# creator and licence of the products, from the manifest (dronewind.core.attribution)
 ATTRIBUTION = attribution(CAMPAIGN.data.get("creator"), CAMPAIGN.data.get("license"))
 
 

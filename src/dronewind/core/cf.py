@@ -51,6 +51,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind import __version__
+from dronewind.core.attribution import ATTRIBUTION_KEYS
 from dronewind.core.duckarrays import defer_duck_array_imports
 
 # every module that writes or reads products imports this one: from here on, xarray's checks
@@ -86,45 +87,6 @@ _FIXED_GLOBAL_ATTRS: dict[str, str] = {
     "product_version": __version__,
     "software_version": __version__,
 }
-
-#: The attribution of a product: who made the data and under which licence they are shared. The
-#: defaults above apply unless the campaign manifest sets them (``creator:``, ``license:``,
-#: :func:`attribution`); the L1 steps state them and every later level inherits them from its
-#: inputs, like ``source``. The outputs' licence is CC-BY-4.0 by default; the code's is MIT
-#: (LICENSE).
-ATTRIBUTION_KEYS: tuple[str, ...] = ("creator_name", "creator_email", "creator_url", "creator_type",
-                                     "creator_institution", "institution", "license")
-
-
-def attribution(creator: Mapping[str, Any] | None = None, license: str | None = None) -> dict[str, str]:
-    """The attribution attributes of a campaign's products from its manifest.
-
-    Parameters
-    ----------
-    creator : mapping, optional
-        Manifest ``creator``: ``name``, ``email``, ``institution``, ``url`` (each optional).
-    license : str, optional
-        Manifest ``license``: the licence of the products (e.g. ``CC-BY-4.0``, ``CC0-1.0``).
-
-    Returns
-    -------
-    dict
-        ``creator_name``, ``creator_email``, ``creator_url``, ``creator_type`` (``person``),
-        ``creator_institution`` and ``institution`` (the creator's institution), ``license``:
-        only those the manifest sets (the rest keep the defaults of every product).
-    """
-    out: dict[str, str] = {}
-    for key in ("name", "email", "url", "institution"):
-        if (creator or {}).get(key):
-            out[f"creator_{key}"] = str(creator[key])  # type: ignore[index]
-    if "creator_name" in out:
-        out["creator_type"] = "person"
-    if "creator_institution" in out:
-        out["institution"] = out["creator_institution"]
-    if license:
-        out["license"] = str(license)
-    return out
-
 
 #: ``source`` global attribute by origin of the raw data: a manifest without a ``simulation:``
 #: section is measured data, one with it a virtual campaign (raw files written by the simulator).

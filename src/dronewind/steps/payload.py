@@ -306,7 +306,7 @@ def payload_l1(
         The manifest's ``sonic.format`` and ``ins.format`` when they are ``delimited``
         mappings (:mod:`dronewind.payload.delimited`); ``None``: the contract CSV.
     attribution : mapping, optional
-        Creator and licence from the manifest (:func:`dronewind.core.cf.attribution`),
+        Creator and licence from the manifest (:func:`dronewind.core.attribution.attribution`),
         inherited by every later level.
 
     Returns

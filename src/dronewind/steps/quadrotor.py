@@ -172,7 +172,7 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
     simulated : bool
         The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
     attribution : mapping, optional
-        Creator and licence from the manifest (:func:`dronewind.core.cf.attribution`),
+        Creator and licence from the manifest (:func:`dronewind.core.attribution.attribution`),
         inherited by every later level.
 
     Returns
