@@ -8,6 +8,8 @@ The library is organised one module per physical topic (see ../shared/DESIGN.md)
 
 __all__ = ["__version__", "open_product"]
 
+__version__: str  # set by __getattr__ when first asked for
+
 
 def __getattr__(name: str) -> object:
     """``__version__`` (looked up in the installed metadata when first asked for, PEP 562) and
