@@ -130,7 +130,9 @@ def _read(files: list[Path], layout: DelimitedLayout, max_corrupt_fraction: floa
         counts["n_corrupt_lines"] += table.n_corrupt
         counts["n_nonnumeric"] += table.n_nonnumeric
         msg = f"read: {f.name}: {len(frame)} rows, {table.n_corrupt} corrupt removed"
-        log.append(msg + (f" (corrupt lines {table.corrupt_lines})" if table.n_corrupt else ""))
+        log.append(msg + (f" (corrupt lines {table.corrupt_lines})" if table.n_corrupt else "")
+                   + (f"; {table.problem}: the lines before it read" if table.problem else ""))
+        counts["n_damaged_streams"] = counts.get("n_damaged_streams", 0) + (table.problem is not None)
         frames.append(frame)
     data = pd.concat(frames, ignore_index=True)
     value_cols = ["time", *layout.variables]

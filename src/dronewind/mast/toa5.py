@@ -23,7 +23,6 @@ QC bitmask ``qc_mast`` (bits of :mod:`dronewind.core.qc`): 1 out of range (CSAT3
 
 from __future__ import annotations
 
-import csv
 import glob
 import os
 import re
@@ -43,6 +42,7 @@ from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_DIAG, QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
+from dronewind.core.rowfaults import split_csv_line, split_csv_lines, text_lines
 from dronewind.errors import InputError
 from dronewind.mast.columns import REQUIRED_TOA5_COLUMNS
 
@@ -126,8 +126,7 @@ def _read_header(p: Path, required: Sequence[str]) -> tuple[list[str], list[list
     """
     if not p.is_file():
         raise InputError(p, "file not found")
-    text = p.read_bytes().decode("utf-8", errors="replace").lstrip("\ufeff")
-    lines = text.splitlines()
+    lines = text_lines(p.read_bytes())
     if len(lines) < 4:
         raise InputError(p, f"only {len(lines)} lines; a TOA5 file has 4 header lines")
     header, names, units = _check_header(p, lines[:4], required)
@@ -137,7 +136,7 @@ def _read_header(p: Path, required: Sequence[str]) -> tuple[list[str], list[list
 def _check_header(p: Path, head: list[str], required: Sequence[str],
                   ) -> tuple[list[list[str]], list[str], dict[str, str]]:
     """Split and check the four header lines `head` (see :func:`_read_header`)."""
-    header = [next(csv.reader([ln]), []) for ln in head]
+    header = [split_csv_line(ln) or [] for ln in head]
     if not header[0] or header[0][0] != "TOA5":
         raise InputError(f"{p}:1", "line 1 does not start with the field \"TOA5\"; expected a Campbell TOA5 file "
                          "(4 header lines: environment, field names, units, processing)")
@@ -240,10 +239,11 @@ def _toa5_careful(p: Path, required: Sequence[str]) -> _Toa5Rows:
     if n_lines == 0:
         raise InputError(p, "no data rows after the 4 header lines")
     ncol = len(names)
-    # csv.reader handles the quoted TIMESTAMP and keeps every line (with its number), so
-    # rows with a wrong field count can be counted instead of being skipped silently.
-    split = list(csv.reader(body))
-    good_count = np.fromiter((len(r) == ncol for r in split), dtype=bool, count=n_lines)
+    # csv.reader's split of the quoted TIMESTAMP, one row per line (a line cut short inside a
+    # quote does not swallow the next), so rows with a wrong field count are counted instead
+    # of being skipped silently and every row keeps its line number.
+    split = split_csv_lines(body)
+    good_count = np.fromiter((r is not None and len(r) == ncol for r in split), dtype=bool, count=n_lines)
     raw = pd.DataFrame([r for r, g in zip(split, good_count, strict=True) if g], columns=names, dtype=object)
     ts = pd.to_datetime(raw["TIMESTAMP"], format="ISO8601", errors="coerce")
     return _Toa5Rows(header, names, units, n_lines, good_count, ts.to_numpy().astype("datetime64[ns]"),
@@ -283,7 +283,7 @@ def _toa5_fast(p: Path, required: Sequence[str]) -> _Toa5Rows | None:
     odd = textscan.lines_holding(raw, buf, starts, bytes(range(0x20, 0x7F)), unusual)
     for i in np.flatnonzero(odd):
         line = raw[starts[i]:ends[i]].decode("utf-8", errors="replace")
-        if '"' in line or len(next(csv.reader([line]), [])) == ncol:
+        if '"' in line or len(split_csv_line(line) or []) == ncol:
             return None
     commas = np.flatnonzero(buf == ord(","))
     rows, cpos, first_comma = textscan.comma_grid(commas, starts, ends, ~odd, ncol)
@@ -484,7 +484,7 @@ def _read_toa5_chunked(p: Path, required: Sequence[str]) -> tuple[pd.DataFrame, 
     head_lines = data[start:cut].decode("utf-8", errors="replace").splitlines()
     if len(head_lines) != 4:
         return None
-    header = [next(csv.reader([ln]), []) for ln in head_lines]
+    header = [split_csv_line(ln) or [] for ln in head_lines]
     names = [h.strip() for h in header[1]]
     if (not header[0] or header[0][0] != "TOA5" or any(c not in names for c in required)
             or len(set(names)) != len(names) or any(len(header[k]) != len(names) for k in (2, 3))

@@ -60,6 +60,7 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import reused
+from dronewind.core.rowfaults import text_lines
 from dronewind.core.timeseries import median_of_steps, median_step, unwrap_rad
 from dronewind.errors import InputError, describe_header
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
@@ -117,13 +118,12 @@ class _Table:
         self.line_no = self.line_no[index]
 
 
-def _read_text(path: str | os.PathLike[str]) -> str:
+def _read_text(path: str | os.PathLike[str]) -> bytes:
     p = Path(path)
     if not p.is_file():
         raise InputError(p, "file not found")
-    raw = p.read_bytes()
     # Binary garbage in a line must not stop the reader: it becomes a corrupt line.
-    return raw.decode("utf-8", errors="replace").lstrip("\ufeff")
+    return p.read_bytes()
 
 
 def _split_lines(path: str | os.PathLike[str], expected: tuple[str, ...]) -> tuple[list[str], np.ndarray, int]:
@@ -145,8 +145,7 @@ def _split_lines(path: str | os.PathLike[str], expected: tuple[str, ...]) -> tup
     n_blank : int
         Number of blank lines dropped.
     """
-    text = _read_text(path)
-    lines = text.splitlines()
+    lines = text_lines(_read_text(path))
     if not lines:
         raise InputError(path, f"empty file; expected header {','.join(expected)!r}")
     header = tuple(h.strip() for h in lines[0].split(","))
