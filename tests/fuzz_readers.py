@@ -502,3 +502,81 @@ READERS: list[Reader] = [
     Reader("tower_reference", "reference.csv", 1, False, _tower_samples, _tower_rows, _tower_full, _TEXT_OPS),
     Reader("px4_ulog", "log.ulg", 0, False, _ulog_samples, None, _ulog_full, BINARY_OPS),
 ]
+
+
+# ----------------------------------------------------------------------------- the property
+
+
+@dataclass
+class Prepared:
+    """A reader's clean samples, written once, with their rows."""
+
+    reader: Reader
+    folder: Path
+    clean: dict[str, bytes]
+    rows: dict[str, dict[int, tuple]]
+
+
+def prepare(reader: Reader, folder: Path) -> Prepared:
+    """Write a reader's samples and read their clean rows (the reference of :func:`check`)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    clean = reader.samples(folder)
+    rows: dict[str, dict[int, tuple]] = {}
+    for name, content in clean.items():
+        path = folder / reader.file_name
+        path.write_bytes(gzip.compress(content, mtime=0) if reader.gzipped else content)
+        if reader.rows is not None:
+            rows[name] = reader.rows(path)[0]
+            assert rows[name], f"{reader.name} {name}: no rows in the clean sample"
+        reader.full(path)  # the clean sample reads without error
+    return Prepared(reader, folder, clean, rows)
+
+
+def check(prep: Prepared, sample: str, op: str, u: tuple[float, float, float], junk: bytes) -> str:
+    """Damage one sample, read it, and check the property; return the outcome.
+
+    The only exception that may leave the reader is :class:`dronewind.errors.InputError`;
+    when it reads the file, every row of a clean line outside the damaged span is read, at
+    its (shifted) line, with the clean values, and no row appears at a line outside the
+    span that the clean file did not have.
+
+    Returns
+    -------
+    str
+        ``"read"`` (the public reader returned), ``"input_error"`` (it raised the named error).
+    """
+    from dronewind.errors import InputError
+
+    r = prep.reader
+    d = damage(prep.clean[sample], op, u, junk, r.header_lines, r.gzipped)
+    path = prep.folder / r.file_name
+    path.write_bytes(d.data)
+    try:
+        r.full(path)
+        outcome = "read"
+    except InputError:
+        outcome = "input_error"
+    if r.rows is None:
+        return outcome
+    try:
+        rows, _ = r.rows(path)
+    except InputError:
+        return outcome
+    clean = prep.rows[sample]
+    for ln, row in clean.items():
+        if d.first <= ln <= d.last:
+            continue
+        at = ln if ln < d.first else ln + d.shift
+        assert rows.get(at) == row, (f"{r.name}/{sample} {op} {u}: clean line {ln + 1} (now {at + 1}) read as "
+                                     f"{rows.get(at)}, expected {row}")
+    for ln in rows:
+        if ln < d.first:
+            assert ln in clean, f"{r.name}/{sample} {op} {u}: a row at line {ln + 1} before the damage"
+        elif ln > d.last + d.shift:
+            assert ln - d.shift in clean, f"{r.name}/{sample} {op} {u}: a row at line {ln + 1} after the damage"
+    return outcome
+
+
+def reader_by_name(name: str) -> Reader:
+    """The entry of :data:`READERS` called ``name``."""
+    return next(r for r in READERS if r.name == name)
