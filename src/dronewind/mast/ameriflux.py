@@ -64,7 +64,7 @@ from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_att
 from dronewind.core.rowfaults import gunzip_readable, text_lines
 from dronewind.errors import InputError
 from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS
-from dronewind.mast.toa5 import _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
+from dronewind.mast.toa5 import UNREADABLE_PREFIX, _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
 
 __all__ = [
     "AMERIFLUX_GOLD_COLUMNS",
@@ -554,13 +554,21 @@ def mast_l1_gill(
     compression = str(spec.get("compression", "auto"))
     frames, log = [], []
     counts = dict.fromkeys(_SUMMED_COUNTS, 0)
+    errors: list[InputError] = []
     for k, f in enumerate(files):
-        block = read_ameriflux_gold(
-            f, north_azimuth_deg=north, year=year, utc_offset_hours=utc_offset, height_m=float(sonic["height_m"]),
-            despike=despike, max_corrupt_fraction=max_corrupt_fraction,
-            columns=tuple(spec.get("columns", AMERIFLUX_GOLD_COLUMNS)),
-            gzipped=None if compression == "auto" else compression == "gzip",
-            despike_window_s=despike_window_s, despike_n_mad=despike_n_mad)
+        try:
+            block = read_ameriflux_gold(
+                f, north_azimuth_deg=north, year=year, utc_offset_hours=utc_offset,
+                height_m=float(sonic["height_m"]), despike=despike, max_corrupt_fraction=max_corrupt_fraction,
+                columns=tuple(spec.get("columns", AMERIFLUX_GOLD_COLUMNS)),
+                gzipped=None if compression == "auto" else compression == "gzip",
+                despike_window_s=despike_window_s, despike_n_mad=despike_n_mad)
+        except InputError as exc:  # left out if others can be read (see dronewind.mast.toa5._read_files)
+            if len(files) == 1:
+                raise
+            errors.append(exc)
+            log.append(f"{UNREADABLE_PREFIX}{exc}")
+            continue
         for key in _SUMMED_COUNTS:
             counts[key] += int(block.attrs[key])
         log.extend(ln for ln in str(block.attrs["processing_log"]).split("\n") if ln.startswith("read:"))
@@ -569,6 +577,9 @@ def mast_l1_gill(
         frame.insert(0, "time", block["time"].values.astype("datetime64[ns]"))
         frame["_file"], frame["_line"] = k, np.arange(1, block.sizes["time"] + 1)
         frames.append(frame)
+    if not frames:
+        raise errors[0]
+    counts["n_unreadable_files"] = len(errors)
     data = pd.concat(frames, ignore_index=True).sort_values("time", kind="stable")
     dup = data.duplicated(subset=["time"], keep="first").to_numpy()
     counts["n_time_conflicts"] = int(dup.sum())

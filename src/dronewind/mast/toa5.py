@@ -46,10 +46,12 @@ from dronewind.core.rowfaults import split_csv_line, split_csv_lines, text_lines
 from dronewind.errors import InputError
 from dronewind.mast.columns import REQUIRED_TOA5_COLUMNS
 
-__all__ = ["REQUIRED_TOA5_COLUMNS", "csat3_to_enu", "mast_l1", "read_toa5"]
+__all__ = ["REQUIRED_TOA5_COLUMNS", "UNREADABLE_PREFIX", "csat3_to_enu", "mast_l1", "read_toa5", "unreadable_files"]
 
 
 _N_LOGGED = 5
+#: Start of a processing-log line naming a file of a record that could not be read, and why.
+UNREADABLE_PREFIX = "unreadable file left out: "
 _TIMESTAMP_RE = re.compile(r"\d{4}-\d{2}-\d{2}[ T]\d{1,2}:\d{2}")
 
 
@@ -88,6 +90,23 @@ def csat3_to_enu(
 
 TOA5Source = str | os.PathLike[str] | RawRecord
 """A TOA5 file (path or glob pattern) or its in-memory record (:mod:`dronewind.core.raw`)."""
+
+
+def unreadable_files(ds: xr.Dataset) -> list[str]:
+    """The files of a mast record left out because they could not be read, each with its error.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A mast L1 (its ``processing_log``).
+
+    Returns
+    -------
+    list of str
+        ``"<file>:<line>: <what>"`` per file left out (empty when every file was read).
+    """
+    return [ln[len(UNREADABLE_PREFIX):] for ln in str(ds.attrs.get("processing_log", "")).split("\n")
+            if ln.startswith(UNREADABLE_PREFIX)]
 
 
 def _expand_paths(paths: TOA5Source | Sequence[TOA5Source]) -> list[Path | RawRecord]:
@@ -567,13 +586,27 @@ def _record_frame(rec: RawRecord,
 
 def _read_files(files: list[Path | RawRecord], max_corrupt_fraction: float, counts: dict[str, int],
                 log: list[str]) -> list[pd.DataFrame]:
-    """Read every TOA5 file or record (Ts in degC), count RECORD skips and restarts; sorted by first time."""
+    """Read every TOA5 file or record (Ts in degC), count RECORD skips and restarts; sorted by first time.
+
+    A file that cannot be read (:class:`InputError`: a damaged header, too many corrupt rows)
+    is left out when others can be read: counted in ``n_unreadable_files`` and named with
+    its error in the log, so that only the flights its time span covers lose their
+    reference (:func:`unreadable_files`); when no file can be read, the first error is raised.
+    """
     frames: list[pd.DataFrame] = []
-    for f in files:
-        if isinstance(f, RawRecord):
-            frame, info = _record_frame(f)
-        else:
-            frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
+    errors: list[InputError] = []
+    for k, f in enumerate(files):
+        try:
+            if isinstance(f, RawRecord):
+                frame, info = _record_frame(f)
+            else:
+                frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
+        except InputError as exc:
+            if len(files) == 1:
+                raise
+            errors.append(exc)
+            log.append(f"{UNREADABLE_PREFIX}{exc}")
+            continue
         ts_unit = info["units"].get("Ts", "C")
         if ts_unit.strip().upper() in ("K", "KELVIN"):
             frame["Ts"] = frame["Ts"] - ZERO_CELSIUS_K
@@ -591,8 +624,11 @@ def _read_files(files: list[Path | RawRecord], max_corrupt_fraction: float, coun
         if info["n_corrupt_lines"]:
             msg += f" (corrupt lines {info['corrupt_lines']})"
         log.append(msg)
-        frame["_file"] = len(frames)
+        frame["_file"] = k
         frames.append(frame)
+    if not frames:
+        raise errors[0]
+    counts["n_unreadable_files"] = len(errors)
     frames.sort(key=lambda fr: fr["time"].iloc[0] if len(fr) else np.datetime64("NaT"))
     return frames
 
