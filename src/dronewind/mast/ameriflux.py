@@ -498,7 +498,7 @@ def read_ameriflux_gold_blocks(
 
 
 _L1_VARIABLES = ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k", "u_gill_ms", "v_gill_ms", "w_gill_ms", "t_sonic_c")
-_SUMMED_COUNTS = ("n_rows", "n_missing_rows", "n_corrupt_lines", "n_out_of_range", "n_spikes")
+_SUMMED_COUNTS = ("n_rows", "n_missing_rows", "n_corrupt_lines", "n_out_of_range", "n_spikes", "n_damaged_streams")
 
 
 def mast_l1_gill(

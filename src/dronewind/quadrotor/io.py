@@ -243,6 +243,10 @@ def _sort_dedupe(ds: xr.Dataset, log: list[str]) -> xr.Dataset:
     if n_unsorted:
         ds = ds.sortby("time")
         log.append(f"sort: {n_unsorted} out-of-order time stamps sorted")
+    t = ds["time"].to_numpy()
+    if t.size < 2 or bool(np.all(t[1:] > t[:-1])):  # no repeated time stamp (every well-formed log)
+        ds.attrs.update(n_out_of_order=n_unsorted, n_duplicates=0, n_time_conflicts=0)
+        return ds
     frame = ds.to_dataframe().reset_index()
     exact = frame.duplicated(keep="first").to_numpy()
     conflict = frame.loc[~exact].duplicated(subset=["time"], keep=False).to_numpy()
