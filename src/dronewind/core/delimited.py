@@ -17,6 +17,8 @@ A record in a format no dedicated reader knows is described in its manifest entr
 
 Rows with a wrong number of fields or a time that does not parse are corrupt (removed,
 counted, their line numbers kept); ``NAN``, empty and other non-numeric values become NaN.
+Lines are split one by one (a quote never continues on the next line) and a gzip stream
+that is cut short or damaged is read as far as it goes (:mod:`dronewind.core.rowfaults`).
 Every error names the file and line and what was expected.
 """
 

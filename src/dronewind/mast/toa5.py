@@ -14,7 +14,12 @@ processing), then quoted-timestamp CSV rows with at least
   missing samples (``n_missing``);
 * a changed header (required column missing) -> :class:`~dronewind.errors.InputError` naming
   the file and the column; a row whose TIMESTAMP or RECORD cannot be parsed is corrupt
-  (counted; more than 5 % corrupt -> InputError).
+  (counted; more than 5 % corrupt -> InputError);
+* a row cut short (even inside its quoted TIMESTAMP), NUL bytes or binary garbage make
+  their own lines corrupt and nothing more: lines are split one by one
+  (:mod:`dronewind.core.rowfaults`), at ``\n``, ``\r\n`` or ``\r`` only;
+* of several files, one that cannot be read is left out of the record, counted
+  (``n_unreadable_files``) and named with its error in the log (:func:`unreadable_files`).
 
 QC bitmask ``qc_mast`` (bits of :mod:`dronewind.core.qc`): 1 out of range (CSAT3 limits in
 :data:`dronewind.core.filtering.INSTRUMENT_LIMITS`), 2 spike (moving MAD), 4 missing/corrupt,
