@@ -473,6 +473,30 @@ def _repeated(t: np.ndarray) -> np.ndarray:
     return out
 
 
+def _block_out_of_order(t: np.ndarray) -> bool:
+    """Whether rows out of time order are only a block in the wrong place (reversed, moved), not a clock set back.
+
+    A logger clock set back goes on from the earlier time: its rows fall between rows already
+    logged, so in time order some follow each other by far less than the sampling interval.
+    Rows of a block written in reverse (or elsewhere in the file) fit back on the sampling
+    grid when sorted: no step of the sorted times is below a quarter of the median step.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        int64 time stamps in row order, without repeats.
+
+    Returns
+    -------
+    bool
+        True when some rows are out of order and the sorted times interleave nowhere.
+    """
+    if t.size < 3 or bool(np.all(t[1:] > t[:-1])):
+        return False
+    step = np.diff(np.sort(t))
+    return bool(step.min() >= 0.25 * np.median(step))
+
+
 def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
                 max_conflict_fraction: float = 0.05) -> None:
     """Drop exact duplicates and time conflicts, check backward jumps, sort by rpi_time_us.
@@ -530,7 +554,8 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
             keep = np.flatnonzero(~iso)
             rows, t, line_no = rows[keep], t[keep], line_no[keep]
     table.counts["n_time_outliers"] = n_iso
-    _check_backward_jump(table.path, line_no, t, clock_jump_tol_s)
+    if not _block_out_of_order(t):
+        _check_backward_jump(table.path, line_no, t, clock_jump_tol_s)
     run_max = np.maximum.accumulate(t)
     late = np.zeros(t.size, dtype=bool)
     late[1:] = t[1:] < run_max[:-1]
