@@ -431,15 +431,17 @@ def _table(source: str | os.PathLike[str] | RawRecord, expected: tuple[str, ...]
     return _parse_csv(source, expected, kinds, max_corrupt_fraction)
 
 
-def _check_backward_jump(path: str, line_no: np.ndarray, t: np.ndarray, clock_jump_tol_s: float) -> None:
+def _check_backward_jump(path: str, line_no: np.ndarray, t: np.ndarray, clock_jump_tol_s: float,
+                         allow_block: bool = False) -> None:
     """Raise :class:`ClockJumpError` at the first backward step in row order larger than the tolerance.
 
     A late row lies below the running maximum by less than the tolerance; a larger deficit
-    means the clock was set back. ``line_no`` holds the file lines of the rows of ``t``.
+    means the clock was set back, unless ``allow_block`` and the rows are only a block out of
+    order (:func:`_block_out_of_order`). ``line_no`` holds the file lines of the rows of ``t``.
     """
     deficit = np.maximum.accumulate(t) - t
     jump = np.flatnonzero(deficit > clock_jump_tol_s * _US)
-    if jump.size:
+    if jump.size and not (allow_block and _block_out_of_order(t)):
         i = int(jump[0])
         raise ClockJumpError(
             f"{path}:{int(line_no[i])}",
@@ -554,8 +556,7 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
             keep = np.flatnonzero(~iso)
             rows, t, line_no = rows[keep], t[keep], line_no[keep]
     table.counts["n_time_outliers"] = n_iso
-    if not _block_out_of_order(t):
-        _check_backward_jump(table.path, line_no, t, clock_jump_tol_s)
+    _check_backward_jump(table.path, line_no, t, clock_jump_tol_s, allow_block=True)
     run_max = np.maximum.accumulate(t)
     late = np.zeros(t.size, dtype=bool)
     late[1:] = t[1:] < run_max[:-1]
