@@ -38,13 +38,14 @@ from typing import Any
 
 import numpy as np
 import pytest
+import xarray as xr
 import yaml
 
 from dronewind.compare.chain import compute_l3, compute_l4
 from dronewind.core import spectra
-from dronewind.errors import DronewindError, ManifestError
+from dronewind.errors import DronewindError, InputError, ManifestError
 from dronewind.manifest import default_config, load_campaign
-from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
+from dronewind.mast.chain import compute_mast_l1, flight_reference, reference_unusable_l3
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 from dronewind.steps.lock import LOCK_NAME, ResultsLockedError, acquire_results_lock, lock_owner, release_results_lock
 from dronewind.steps.payload import simulate_payload, simulation_manifest
@@ -92,21 +93,30 @@ def run_flight(folder: Path, data: dict[str, Any], fid: str) -> Outcome:
         l2 = compute_payload_l2(sonic, ins, flight, float(data["site"]["altitude_m"]),
                                 sonic_ins_lag=PROCESSING["sonic_ins_lag"], hover=HOVER,
                                 max_missing_fraction=PROCESSING["max_missing_fraction"])
-        mast = compute_mast_l1(_files_of(folder, data, fid)[2:], sonic_entry, PROCESSING["despike"])
-        l3 = compute_l3(l2, compute_mast_l2(mast, l2, fid, PROCESSING["drone_mast"]), flight,
-                        PROCESSING["drone_mast"], PROCESSING["rotation"])
+        try:  # a mast record that cannot be read or used: the flight goes on without its reference
+            mast: Any = compute_mast_l1(_files_of(folder, data, fid)[2:], sonic_entry, PROCESSING["despike"])
+        except InputError as exc:
+            mast = exc
+        mast_l2, reason = flight_reference(mast, l2, fid, PROCESSING["drone_mast"])
+        if mast_l2 is None:
+            l3 = reference_unusable_l3(l2, flight, PROCESSING["rotation"], reason)
+        else:
+            l3 = compute_l3(l2, mast_l2, flight, PROCESSING["drone_mast"], PROCESSING["rotation"])
         l4 = compute_l4(l3, "drone", PROCESSING["spectra"], PROCESSING["quadrant"], PROCESSING["detrending"])
     except DronewindError as exc:
         return Outcome("error", message=str(exc))
+    if isinstance(mast, InputError):
+        mast = xr.Dataset()
+    usable = bool(l2.attrs["usable"]) and bool(l4.attrs.get("drone_usable", 1))
+    reasons = str(l4.attrs.get("drone_unusable_reason", "")) or str(l2.attrs["unusable_reason"])
     numbers = {"lag_sonic_ins_s": float(l2.attrs["lag_sonic_ins_s"]), "height_m": float(l2.attrs["height_m"]),
-               "lag_drone_mast_s": float(l3.attrs["lag_drone_mast_s"])}
+               "lag_drone_mast_s": float(l3.attrs.get("lag_drone_mast_s", float("nan")))}
     numbers.update({k: float(l4[k]) for k in ("U_ms", "sigma_u_ms", "sigma_w_ms", "uw_m2s2")})
     counts = {k: int(v) for ds in (sonic, ins, l2, mast) for k, v in ds.attrs.items() if k.startswith("n_")}
     counts.update({f"sonic_{k}": int(v) for k, v in sonic.attrs.items() if k.startswith("n_")})
     counts.update({f"ins_{k}": int(v) for k, v in ins.attrs.items() if k.startswith("n_")})
     counts.update({f"mast_{k}": int(v) for k, v in mast.attrs.items() if k.startswith("n_")})
-    return Outcome("ok" if l2.attrs["usable"] else "unusable", reason=str(l2.attrs["unusable_reason"]),
-                   numbers=numbers, counts=counts,
+    return Outcome("ok" if usable else "unusable", reason=reasons, numbers=numbers, counts=counts,
                    log="\n".join(str(ds.attrs.get("processing_log", "")) for ds in (sonic, ins, l2, mast)))
 
 
@@ -335,6 +345,63 @@ def f_toa5_changed_header(folder: Path, data: dict) -> None:
     write_lines(mast_path(folder), lines)
 
 
+def _mast_mid(folder: Path) -> tuple[bytes, int]:
+    """The mast file of s01 and the byte offset of the start of its middle data line."""
+    raw = mast_path(folder).read_bytes()
+    n = raw.count(b"\n")
+    pos = 0
+    for _ in range(n // 2):
+        pos = raw.index(b"\n", pos) + 1
+    return raw, pos
+
+
+def f_toa5_row_cut_short(folder: Path, data: dict) -> None:
+    """Power lost while the logger wrote a row: the row ends inside its quoted TIMESTAMP (an SD card's torn line)."""
+    raw, pos = _mast_mid(folder)
+    mast_path(folder).write_bytes(raw[:pos + 12] + raw[raw.index(b"\n", pos + 1):])
+
+
+def f_toa5_nul_block(folder: Path, data: dict) -> None:
+    """200 NUL bytes (a zeroed SD-card sector) in the middle of a row."""
+    raw, pos = _mast_mid(folder)
+    mast_path(folder).write_bytes(raw[:pos + 30] + b"\x00" * 200 + raw[pos + 30:])
+
+
+def f_toa5_garbage_block(folder: Path, data: dict) -> None:
+    """A block of binary garbage with line ends and quotes in it, over several rows."""
+    raw, pos = _mast_mid(folder)
+    junk = bytes(np.random.default_rng(3).integers(0, 256, 700, dtype=np.uint8)) + b'\n"\r\x00\n'
+    mast_path(folder).write_bytes(raw[:pos + 5] + junk + raw[pos + 400:])
+
+
+def f_toa5_mangled_time_and_number(folder: Path, data: dict) -> None:
+    """A mangled TIMESTAMP and a field that is not a number."""
+    lines = lines_of(mast_path(folder))
+    lines[3001] = lines[3001].replace("-", "#", 1)
+    fields = lines[5001].split(",")
+    fields[3] = "1.2.3x"
+    lines[5001] = ",".join(fields)
+    write_lines(mast_path(folder), lines)
+
+
+def f_sonic_row_cut_short_nul(folder: Path, data: dict) -> None:
+    """The payload sonic: a row cut short and a block of 200 NUL bytes."""
+    lines = lines_of(sonic_path(folder))
+    k = len(lines) // 2
+    lines[k] = lines[k][:9]
+    lines[k + 500] = lines[k + 500][:5] + "\x00" * 200 + lines[k + 500][5:]
+    write_lines(sonic_path(folder), lines)
+
+
+def f_ins_row_cut_short_nul(folder: Path, data: dict) -> None:
+    """The INS: a row cut short without its line end and a block of NUL bytes."""
+    raw = ins_path(folder).read_bytes()
+    mid = raw.index(b"\n", len(raw) // 2) + 1
+    cut = raw[:mid + 20] + raw[raw.index(b"\n", mid) + 1:]
+    mid2 = cut.index(b"\n", len(cut) * 3 // 4) + 1
+    ins_path(folder).write_bytes(cut[:mid2 + 7] + b"\x00" * 200 + cut[mid2 + 7:])
+
+
 def f_sonic_header_missing_column(folder: Path, data: dict) -> None:
     lines = lines_of(sonic_path(folder))
     write_lines(sonic_path(folder), [",".join(ln.split(",")[:4]) for ln in lines])
@@ -560,18 +627,29 @@ CASES: list[tuple[str, Callable[[Path, dict], None], str, str, tuple[str, ...]]]
      r"sonic samples \(\d+ %\) beyond the RM Young 81000 range .*median \|V\| 4\d\d", ()),
     ("sonic_out_of_range_30s", f_sonic_out_of_range_30s, "unusable", r"\d\.\d % of the sonic samples in the hover "
      r"window beyond the instrument range", ()),
-    ("toa5_header_line_missing", f_toa5_header_line_missing, "error",
-     r"mast30_s01\.dat:4: line 4 is a data row .* only 3 header lines", ()),
-    ("toa5_units_line_missing", f_toa5_units_line_missing, "error", r"mast30_s01\.dat:4: line 4 is a data row", ()),
+    ("toa5_header_line_missing", f_toa5_header_line_missing, "unusable",
+     r"reference mast record not usable over the flight's window \(.*mast sonic covers 0 % .*file\(s\) of the "
+     r"record left out as unreadable: .*mast30_s01\.dat:4: line 4 is a data row .* only 3 header lines", ()),
+    ("toa5_units_line_missing", f_toa5_units_line_missing, "unusable",
+     r"left out as unreadable: .*mast30_s01\.dat:4: line 4 is a data row", ()),
     ("toa5_conflicting_duplicates_few", f_toa5_conflicting_duplicates_few, "ok", "", ("mast_n_time_conflicts",)),
-    ("toa5_conflicting_duplicates_many", f_toa5_conflicting_duplicates_many, "error",
-     r"mast30_s01\.dat:\d+: \d+ of \d+ rows repeat a TIMESTAMP with other values", ()),
+    ("toa5_conflicting_duplicates_many", f_toa5_conflicting_duplicates_many, "unusable",
+     r"reference mast record cannot be read \(.*mast30_s01\.dat:\d+: \d+ of \d+ rows repeat a TIMESTAMP with other "
+     r"values", ()),
     ("toa5_nan_and_diag", f_toa5_nan_and_diag, "ok", "", ("mast_n_nan_values", "mast_n_diag_flagged")),
-    ("toa5_hole_over_hover", f_toa5_hole_over_hover, "error", r"mast sonic covers \d+ % of flight s01's hover window",
-     ()),
-    ("toa5_off_grid_timestamp", f_toa5_off_grid_timestamp, "error",
-     r"mast30_s01\.dat:\d+: TIMESTAMP .* is off the 10 Hz sampling grid", ()),
-    ("toa5_changed_header", f_toa5_changed_header, "error", r"mast30_s01\.dat:2: required column\(s\) Uz missing", ()),
+    ("toa5_hole_over_hover", f_toa5_hole_over_hover, "unusable",
+     r"not usable over the flight's window \(.*mast sonic covers \d+ % of flight s01's hover window", ()),
+    ("toa5_off_grid_timestamp", f_toa5_off_grid_timestamp, "unusable",
+     r"cannot be read \(.*mast30_s01\.dat:\d+: TIMESTAMP .* is off the 10 Hz sampling grid", ()),
+    ("toa5_changed_header", f_toa5_changed_header, "unusable",
+     r"left out as unreadable: .*mast30_s01\.dat:2: required column\(s\) Uz missing", ()),
+    ("toa5_row_cut_short", f_toa5_row_cut_short, "ok", "", ("mast_n_corrupt_lines",)),
+    ("toa5_nul_block", f_toa5_nul_block, "ok", "", ("mast_n_corrupt_lines",)),
+    ("toa5_garbage_block", f_toa5_garbage_block, "ok", "", ("mast_n_corrupt_lines",)),
+    ("toa5_mangled_time_and_number", f_toa5_mangled_time_and_number, "ok", "", ("mast_n_corrupt_lines",
+                                                                                 "mast_n_nonnumeric")),
+    ("sonic_row_cut_short_nul", f_sonic_row_cut_short_nul, "ok", "", ("sonic_n_corrupt_lines",)),
+    ("ins_row_cut_short_nul", f_ins_row_cut_short_nul, "ok", "", ("ins_n_corrupt_lines",)),
     ("sonic_header_missing_column", f_sonic_header_missing_column, "error",
      r"sonic\.csv:1: header has 4 fields, expected 5 .*missing: t_sonic_c", ()),
     ("sonic_header_renamed", f_sonic_header_renamed, "error", r"sonic\.csv:1: .*missing: u_ms; 1 unexpected field",
@@ -627,10 +705,11 @@ CASES: list[tuple[str, Callable[[Path, dict], None], str, str, tuple[str, ...]]]
 TOLERANCE = {"lag_sonic_ins_s": 1e-9, "height_m": 0.05, "U_ms": 0.02, "sigma_u_ms": 0.02, "sigma_w_ms": 0.01,
              "uw_m2s2": 0.01}
 
-#: Faults in the mast record, which every flight referencing the sonic reads: the other
-#: flight stops with the same named error (none of its outputs is written).
-SHARED = {"toa5_header_line_missing", "toa5_units_line_missing", "toa5_conflicting_duplicates_many",
-          "toa5_off_grid_timestamp", "toa5_changed_header"}
+#: Faults in the mast record that make the whole record unreadable (it is read as one): every
+#: flight referencing the sonic goes on without its reference, usable = 0 with the same
+#: reason. A file that cannot be read on its own (a damaged header) is left out of the record
+#: instead, and only the flight whose window it covers loses its reference.
+SHARED = {"toa5_conflicting_duplicates_many", "toa5_off_grid_timestamp"}
 
 
 @pytest.mark.parametrize("name, fault, status, pattern, counted", CASES, ids=[c[0] for c in CASES])
@@ -651,12 +730,16 @@ def test_fault(base, tmp_path, name, fault, status, pattern, counted):
         assert outcome.reason == ""
         for key in counted:
             assert outcome.counts.get(key, 0) > 0, (key, outcome.counts)
+        if "mast_n_corrupt_lines" in counted:  # the file and the lines, in the processing log
+            assert re.search(r"read: mast30_s01\.dat: \d+ rows, [1-9]\d* corrupt removed.*\(corrupt lines \[\d+",
+                             outcome.log), outcome.log
         for key, tol in TOLERANCE.items():
             assert abs(outcome.numbers[key] - baseline["s01"].numbers[key]) <= tol, (key, outcome.numbers[key],
                                                                                      baseline["s01"].numbers[key])
     other = other_flight(case, data)
     if name in SHARED:
-        assert other.status == "error" and other.message == outcome.message
+        assert other.status == "unusable" and other.reason == outcome.reason
+        assert other.numbers["lag_sonic_ins_s"] == baseline["s02"].numbers["lag_sonic_ins_s"]
     else:
         assert other.status == "ok" and other.numbers == baseline["s02"].numbers
 

@@ -66,8 +66,14 @@ def test_bad_files_raise(tmp_path):
     with pytest.raises(InputError, match="G<DDD><HHMM>"):
         read_ameriflux_gold(bad_name)
     lines = gzip.decompress(EXCERPT.read_bytes()).decode().splitlines()
-    lines[10] = lines[10].replace(",,,", ",7,,", 1)  # a number in an empty column
+    lines[10] = lines[10].replace(",,,", ",7,,", 1)  # a number in an empty column: one corrupt line
     extra = tmp_path / "G1040030.RAW"
+    extra.write_text("\r\n".join(lines) + "\r\n")
+    ds = read_ameriflux_gold(extra)
+    assert ds.attrs["n_corrupt_lines"] == 1 and "corrupt lines of G1040030.RAW: [11]" in ds.attrs["processing_log"]
+    assert np.isnan(ds["w_gill_ms"].values[10]) and ds.sizes["time"] == 300
+    for i in range(10, 30):  # in many lines: the columns declared are not the file's
+        lines[i] = lines[i].replace(",,,", ",7,,", 1)
     extra.write_text("\r\n".join(lines) + "\r\n")
     with pytest.raises(InputError, match=r"G1040030\.RAW:11: non-empty field beyond column 6"):
         read_ameriflux_gold(extra)

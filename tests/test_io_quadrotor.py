@@ -195,16 +195,22 @@ def test_csv_fast_path_gives_way_or_agrees(tmp_path, edit):
     assert ds.attrs["n_nonfinite"] == careful[2]
 
 
-def test_csv_fast_path_leaves_bad_stamps_to_the_named_error(tmp_path):
+def test_csv_fast_path_leaves_bad_stamps_to_the_careful_count(tmp_path):
     from dronewind.quadrotor.io import _quadrotor_columns_fast
 
     p = tmp_path / "q.csv"
     text = _plain_log(np.random.default_rng(7))
     p.write_text(text.replace("T10:19:30.100Z", "T10:19:30.100", 1))
     assert _quadrotor_columns_fast(p) is None
-    with pytest.raises(InputError, match=r"q\.csv:3.*trailing 'Z'"):
+    ds = read_quadrotor_csv(p)  # one bad stamp: its line counted and named, the others read
+    assert ds.attrs["n_corrupt_lines"] == 1 and ds.sizes["time"] == 399 and "(lines [3])" in ds.attrs["processing_log"]
+    lines = text.split("\n")
+    p.write_text("\n".join([lines[0], *(ln.replace("Z,", ",", 1) for ln in lines[1:40]), *lines[40:]]))
+    with pytest.raises(InputError, match=r"q\.csv:2.*trailing 'Z'"):  # many: the named error
         read_quadrotor_csv(p)
     p.write_text(text.replace("2020-07-24T10:19:30.100Z", "2020-02-30T10:19:30.100Z", 1))
     assert _quadrotor_columns_fast(p) is None
-    with pytest.raises(InputError, match=r"q\.csv:3.*not a valid date"):
+    assert read_quadrotor_csv(p).attrs["n_corrupt_lines"] == 1
+    p.write_text(text.replace("2020-07-24T10:19:3", "2020-02-30T10:19:3", 40))
+    with pytest.raises(InputError, match=r"q\.csv:2.*not a valid date"):
         read_quadrotor_csv(p)

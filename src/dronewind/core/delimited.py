@@ -17,15 +17,16 @@ A record in a format no dedicated reader knows is described in its manifest entr
 
 Rows with a wrong number of fields or a time that does not parse are corrupt (removed,
 counted, their line numbers kept); ``NAN``, empty and other non-numeric values become NaN.
+Lines are split one by one (a quote never continues on the next line) and a gzip stream
+that is cut short or damaged is read as far as it goes (:mod:`dronewind.core.rowfaults`).
 Every error names the file and line and what was expected.
 """
 
 from __future__ import annotations
 
-import csv
-import gzip
 import os
 import re
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from dronewind.core.constants import ZERO_CELSIUS_K
+from dronewind.core.rowfaults import gunzip_readable, split_csv_lines, text_lines
 from dronewind.errors import InputError
 
 __all__ = ["UNITS", "ColumnMap", "DelimitedLayout", "DelimitedTable", "GZIP_MAGIC", "delimited_layout",
@@ -206,31 +208,36 @@ def read_text_lines(path: str | os.PathLike[str], compression: str = "auto", n: 
     Returns
     -------
     list of str
-        Lines without line ends (UTF-8, undecodable bytes replaced, a BOM dropped).
+        Lines without line ends (:func:`dronewind.core.rowfaults.text_lines`); of a gzip
+        stream that is cut short or damaged, the lines before the damage.
 
     Raises
     ------
     InputError
-        The file is missing, the compression contradicts the first bytes, or the gzip
-        stream is corrupt.
+        The file is missing, the compression contradicts the first bytes, or no byte of a
+        gzip stream can be decompressed.
     """
-    p = Path(path)
+    return _read_lines(Path(path), compression, n)[0]
+
+
+def _read_lines(p: Path, compression: str, n: int | None = None) -> tuple[list[str], str | None]:
+    """:func:`read_text_lines` and what stopped a damaged gzip stream (None if intact)."""
     if not p.is_file():
         raise InputError(p, "file not found")
     problem = compression_problem(p, compression)
     if problem:
         raise InputError(f"{p}:1", problem)
     try:
-        if _gzipped(p, compression):
-            with gzip.open(p, "rb") as fh:
-                raw = b"".join(fh.readline() for _ in range(n)) if n is not None else fh.read()
-        else:
-            with open(p, "rb") as fh:
-                raw = b"".join(fh.readline() for _ in range(n)) if n is not None else fh.read()
-    except (OSError, EOFError) as exc:
+        raw = p.read_bytes()
+    except OSError as exc:
         raise InputError(p, f"cannot read ({exc})") from exc
-    lines = raw.decode("utf-8", errors="replace").lstrip("\ufeff").splitlines()
-    return lines[:n] if n is not None else lines
+    gz_problem = None
+    if _gzipped(p, compression):
+        raw, gz_problem = gunzip_readable(raw)
+        if gz_problem and not raw:
+            raise InputError(p, f"cannot read: {gz_problem}")
+    lines = text_lines(raw)
+    return (lines[:n] if n is not None else lines), gz_problem
 
 
 def split_fields(lines: Sequence[str], delimiter: str = ",") -> list[list[str]]:
@@ -246,8 +253,10 @@ def split_fields(lines: Sequence[str], delimiter: str = ",") -> list[list[str]]:
     Returns
     -------
     list of list of str
+        One per line (:func:`dronewind.core.rowfaults.split_csv_lines`: a quote never
+        continues on the next line); ``[]`` for a line that cannot be split.
     """
-    return [[f.strip() for f in row] for row in csv.reader(lines, delimiter=delimiter)]
+    return [[f.strip() for f in row] if row is not None else [] for row in split_csv_lines(lines, delimiter)]
 
 
 def _quote_fields(fields: Sequence[str]) -> str:
@@ -401,6 +410,8 @@ class DelimitedTable:
         Data rows, corrupt rows removed, non-numeric values set to NaN.
     corrupt_lines : list of int
         The first few corrupt lines.
+    problem : str or None
+        Where a damaged gzip stream stopped (its readable lines are read), else None.
     """
 
     time: np.ndarray
@@ -410,16 +421,18 @@ class DelimitedTable:
     n_corrupt: int
     n_nonnumeric: int
     corrupt_lines: list[int]
+    problem: str | None = None
 
 
-def _header_and_rows(p: Path, lines: list[str], layout: DelimitedLayout) -> tuple[list[str] | None, list[list[str]]]:
-    """The header fields (None without a header) and the data rows, split."""
-    if len(lines) < layout.first_data_line:
+def _header_and_rows(p: Path, lines: list[str], layout: DelimitedLayout, split_body: bool = True,
+                     ) -> tuple[list[str] | None, list[list[str]]]:
+    """The header fields (None without a header) and the data rows, split (unless ``split_body`` is False)."""
+    if len(lines) < layout.first_data_line - (0 if split_body else 1):
         raise InputError(p, f"only {len(lines)} lines; expected the header on line {layout.header_line} and data "
                          f"from line {layout.first_data_line}")
     header = split_fields([lines[layout.header_line - 1]], layout.delimiter)[0] if layout.header_line else None
     body = lines[layout.first_data_line - 1:]
-    return header, split_fields(body, layout.delimiter)
+    return header, split_fields(body, layout.delimiter) if split_body else []
 
 
 def read_delimited(path: str | os.PathLike[str], layout: DelimitedLayout,
@@ -446,18 +459,25 @@ def read_delimited(path: str | os.PathLike[str], layout: DelimitedLayout,
         corrupt rows (naming the first).
     """
     p = Path(path)
-    lines = read_text_lines(p, layout.compression)
-    header, rows = _header_and_rows(p, lines, layout)
-    rows_line = np.arange(layout.first_data_line, layout.first_data_line + len(rows))
-    keep_nonblank = np.fromiter((bool(r) and any(r) for r in rows), dtype=bool, count=len(rows))
-    rows = [r for r, k in zip(rows, keep_nonblank, strict=True) if k]
+    lines, gz_problem = _read_lines(p, layout.compression)
+    header, _ = _header_and_rows(p, lines[:layout.first_data_line - 1], layout, split_body=False)
+    split = split_csv_lines(lines[layout.first_data_line - 1:], layout.delimiter)
+    # a line csv cannot split (None) is corrupt, a blank one is skipped
+    rows_all = [[f.strip() for f in r] if r is not None else None for r in split]
+    rows_line = np.arange(layout.first_data_line, layout.first_data_line + len(rows_all))
+    keep_nonblank = np.fromiter((r is None or (bool(r) and any(r)) for r in rows_all), dtype=bool,
+                                count=len(rows_all))
+    rows = [r for r, k in zip(rows_all, keep_nonblank, strict=True) if k]
     rows_line = rows_line[keep_nonblank]
     if not rows:
         raise InputError(p, f"no data rows from line {layout.first_data_line}")
-    n_fields = len(header) if header is not None else len(rows[0])
+    # without a header, a row has the number of fields most rows have (the first may be damaged)
+    n_fields = len(header) if header is not None else Counter(
+        len(r) for r in rows[:1000] if r is not None).most_common(1)[0][0] if any(
+        r is not None for r in rows[:1000]) else 0
     where = f"{p}:{layout.header_line or layout.first_data_line}"
     index = resolve_columns(header, n_fields, layout, where)
-    good = np.fromiter((len(r) == n_fields for r in rows), dtype=bool, count=len(rows))
+    good = np.fromiter((r is not None and len(r) == n_fields for r in rows), dtype=bool, count=len(rows))
     frame = pd.DataFrame([r for r, g in zip(rows, good, strict=True) if g], dtype=object)
     time = parse_times(frame[index["time"]] if len(frame) else [], layout.time_kind, layout.utc_offset_hours)
     t_ok = ~np.isnat(time)
@@ -474,7 +494,7 @@ def read_delimited(path: str | os.PathLike[str], layout: DelimitedLayout,
         n_nonnumeric += int(nonnum.sum())
         values[var] = to_si(v, m)
     return DelimitedTable(time[t_ok], values, line_good[t_ok], len(rows), int(bad_lines.size), n_nonnumeric,
-                          bad_lines[:_N_LOGGED].tolist())
+                          bad_lines[:_N_LOGGED].tolist(), gz_problem)
 
 
 def check_delimited_head(path: str | os.PathLike[str], layout: DelimitedLayout, n_rows: int = 5) -> None:

@@ -44,11 +44,10 @@ alternative (all horizontal components change sign).
 
 from __future__ import annotations
 
-import gzip
-import io
 import os
 import re
 from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -62,9 +61,10 @@ from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
+from dronewind.core.rowfaults import gunzip_readable, text_lines
 from dronewind.errors import InputError
 from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS
-from dronewind.mast.toa5 import _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
+from dronewind.mast.toa5 import UNREADABLE_PREFIX, _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
 
 __all__ = [
     "AMERIFLUX_GOLD_COLUMNS",
@@ -121,8 +121,8 @@ def _block_start(path: Path, year: int, utc_offset_hours: float) -> np.datetime6
 
 
 def _read_gold_values(p: Path, max_corrupt_fraction: float, columns: Sequence[str] = AMERIFLUX_GOLD_COLUMNS,
-                      gzipped: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """The six numeric columns of a gold file and the mask of corrupt lines.
+                      gzipped: bool | None = None, with_lines: bool = False) -> tuple[np.ndarray, ...]:
+    """The six numeric columns of a gold file and the mask of corrupt samples.
 
     Parameters
     ----------
@@ -135,59 +135,116 @@ def _read_gold_values(p: Path, max_corrupt_fraction: float, columns: Sequence[st
         ``unused``; the fields after them must be empty.
     gzipped : bool, optional
         Read as gzip; default: when the name ends in ``.gz``.
+    with_lines : bool, optional
+        Also return the file line of every sample.
 
     Returns
     -------
     values : numpy.ndarray
-        (n_lines, 6) w, u, v, T, H2O, CO2 as logged (NaN where not a number or not among
+        (n_samples, 6) w, u, v, T, H2O, CO2 as logged (NaN where not a number or not among
         ``columns``).
     corrupt : numpy.ndarray
-        True for lines whose declared columns do not all hold numbers.
+        True for samples whose line does not hold the declared numbers and empty fields.
+    line_no : numpy.ndarray
+        1-based file line of every sample (only with ``with_lines``).
 
     Raises
     ------
     InputError
-        Unreadable file, a line with fields beyond the declared columns, or too many
-        corrupt lines.
+        See :func:`_gold_values`.
+    """
+    got = _gold_values(p, max_corrupt_fraction, columns, gzipped)
+    return (got.values, got.corrupt, got.line_no) if with_lines else (got.values, got.corrupt)
+
+
+@dataclass
+class _GoldValues:
+    """What :func:`_gold_values` read: values, corrupt samples, their lines and what stopped a damaged stream."""
+
+    values: np.ndarray
+    corrupt: np.ndarray
+    line_no: np.ndarray
+    n_joined: int = 0
+    problem: str | None = None
+
+
+def _gold_values(p: Path, max_corrupt_fraction: float, columns: Sequence[str] = AMERIFLUX_GOLD_COLUMNS,
+                 gzipped: bool | None = None) -> _GoldValues:
+    """The samples of a gold file, line by line (see :func:`_read_gold_values`).
+
+    A line is one sample. It is corrupt (NaN, flagged missing) when a declared field is not a
+    number or a field after the declared ones is not empty. A line with more than 21 fields
+    holds several samples whose line ends were lost (a logger's torn write): it stands for
+    ``ceil(fields / 21)`` corrupt samples, so that the samples after it keep their times
+    (the file has no time stamps; a sample's time is its position). A gzip stream that is
+    cut short or damaged is read as far as it goes (:func:`dronewind.core.rowfaults.gunzip_readable`).
+
+    Raises
+    ------
+    InputError
+        Unreadable file (not one byte of its gzip stream readable), no data lines, or more
+        than ``max_corrupt_fraction`` of the lines corrupt (naming the first).
     """
     if gzipped is None:
         gzipped = p.suffix.lower() == ".gz"
-    opener = gzip.open if gzipped else open
     try:
-        with opener(p, "rb") as fh:
-            raw = fh.read()
-    except (OSError, EOFError) as exc:
+        raw = p.read_bytes()
+    except OSError as exc:
         raise InputError(p, f"cannot read ({exc})") from exc
-    fast = _gold_values_fast(raw, columns)
+    problem = None
+    if gzipped:
+        raw, problem = gunzip_readable(raw)
+        if problem and not raw:
+            raise InputError(p, f"cannot read: {problem}")
+    fast = _gold_values_fast(raw, columns) if problem is None else None
     if fast is not None:
-        return fast
-    text = raw.decode("ascii", errors="replace")
-    frame = pd.read_csv(
-        io.StringIO(text), header=None, dtype=str, keep_default_na=False,
-        skip_blank_lines=True, names=list(range(max(_N_FIELDS, len(columns)))),
-        on_bad_lines="error", engine="c",
-    )  # fmt: skip
-    n_lines = len(frame)
-    if n_lines == 0:
-        raise InputError(p, "no data lines")
+        return _GoldValues(fast[0], fast[1], np.arange(1, fast[1].size + 1))
+    # line by line (str.split: the format has no quotes); hand-written because pandas' C parser
+    # stops at a line with more fields than the first and has no per-line accounting
     n_cols = len(columns)
-    extra = (frame.iloc[:, n_cols:] != "").to_numpy().any(axis=1)
-    if extra.any():
-        i = int(np.flatnonzero(extra)[0])
-        raise InputError(f"{p}:{i + 1}", f"non-empty field beyond column {n_cols}; expected "
-                         f"{','.join(columns)} followed by empty fields")  # fmt: skip
+    cells: list[list[str]] = []
+    line_no: list[int] = []
+    beyond: list[bool] = []
+    joined: list[bool] = []
+    for ln, line in enumerate(text_lines(raw), start=1):
+        if not line.strip():
+            continue
+        fields = line.split(",")
+        if len(fields) > _N_FIELDS:
+            k = -(-len(fields) // _N_FIELDS)
+            cells.extend([[""] * n_cols] * k)
+            line_no.extend([ln] * k)
+            beyond.extend([False] * k)
+            joined.extend([True] * k)
+            continue
+        cells.append((fields + [""] * n_cols)[:n_cols])
+        line_no.append(ln)
+        beyond.append(any(f.strip() for f in fields[n_cols:]))
+        joined.append(False)
+    n_lines = len(cells)
+    if n_lines == 0:
+        raise InputError(p, "no data lines" + (f" ({problem})" if problem else ""))
+    frame = pd.DataFrame(cells, dtype=object)
     vals = np.full((n_lines, 6), np.nan)
     declared = [j for j, name in enumerate(AMERIFLUX_GOLD_COLUMNS) if name in columns]
     for j in declared:
         k = list(columns).index(AMERIFLUX_GOLD_COLUMNS[j])
-        vals[:, j] = pd.to_numeric(frame[k].str.strip(), errors="coerce").to_numpy(dtype=float)
-    corrupt = np.asarray(~np.isfinite(vals[:, declared]).all(axis=1))
+        vals[:, j] = pd.to_numeric(frame[k].astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
+    beyond_a, joined_a = np.asarray(beyond, dtype=bool), np.asarray(joined, dtype=bool)
+    corrupt = np.asarray(~np.isfinite(vals[:, declared]).all(axis=1)) | beyond_a | joined_a
+    vals[corrupt] = np.nan
+    lines = np.asarray(line_no, dtype=np.int64)
     n_corrupt = int(corrupt.sum())
     if n_corrupt > max_corrupt_fraction * n_lines:
+        if beyond_a.any():
+            i = int(np.flatnonzero(beyond_a)[0])
+            raise InputError(f"{p}:{int(lines[i])}", f"non-empty field beyond column {n_cols} ({n_corrupt} of "
+                             f"{n_lines} lines corrupt, {int(beyond_a.sum())} with such fields); expected "
+                             f"{','.join(columns)} followed by empty fields")  # fmt: skip
         i = int(np.flatnonzero(corrupt)[0])
-        raise InputError(f"{p}:{i + 1}", f"{n_corrupt} of {n_lines} lines do not hold {len(declared)} "
+        raise InputError(f"{p}:{int(lines[i])}", f"{n_corrupt} of {n_lines} lines do not hold {len(declared)} "
                          f"numbers ({','.join(columns)})")  # fmt: skip
-    return vals, corrupt
+    return _GoldValues(vals, corrupt, lines, int(joined_a.sum()), problem)
 
 
 #: Bytes of a plain gold file (after ``\r\n`` -> ``\n``): digits, signs, points, commas, line ends.
@@ -385,7 +442,8 @@ def read_ameriflux_gold(
     missing = [c for c in ("w", "u", "v", "t_sonic_c") if c not in columns]
     if missing:
         raise InputError(p, f"columns {list(columns)} lack {', '.join(missing)}; expected w, u, v and t_sonic_c")
-    vals, corrupt = _read_gold_values(p, max_corrupt_fraction, columns, gzipped)
+    got = _gold_values(p, max_corrupt_fraction, columns, gzipped)
+    vals, corrupt = got.values, got.corrupt
     n_lines = corrupt.size
     n_expected = int(round(_FS_HZ * _BLOCK_S))
     qc, out, spikes = _gold_qc(vals[:, 1], vals[:, 2], vals[:, 0], vals[:, 3], corrupt, despike, despike_window_s,
@@ -394,6 +452,15 @@ def read_ameriflux_gold(
     ds = _gold_dataset(vals, qc, time, north_azimuth_deg)
     ds.attrs.update(_gold_attrs(p, n_lines, n_expected, int(corrupt.sum()), out, spikes, qc, despike,
                                 north_azimuth_deg, height_m, year, utc_offset_hours))
+    if corrupt.any():  # where the damage is: file and lines
+        bad = np.unique(got.line_no[corrupt])
+        ds.attrs["processing_log"] += (f"\nread: corrupt lines of {p.name}: {bad[:5].tolist()}"
+                                       + (f" ({bad.size} lines)" if bad.size > 5 else "")
+                                       + (f"; {got.n_joined} samples on lines with more than {_N_FIELDS} fields "
+                                          "(line ends lost)" if got.n_joined else ""))
+    ds.attrs["n_damaged_streams"] = int(got.problem is not None)
+    if got.problem:
+        ds.attrs["processing_log"] += f"\nread: {p.name}: {got.problem}; the samples before it read"
     return ds
 
 
@@ -431,7 +498,7 @@ def read_ameriflux_gold_blocks(
 
 
 _L1_VARIABLES = ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k", "u_gill_ms", "v_gill_ms", "w_gill_ms", "t_sonic_c")
-_SUMMED_COUNTS = ("n_rows", "n_missing_rows", "n_corrupt_lines", "n_out_of_range", "n_spikes")
+_SUMMED_COUNTS = ("n_rows", "n_missing_rows", "n_corrupt_lines", "n_out_of_range", "n_spikes", "n_damaged_streams")
 
 
 def mast_l1_gill(
@@ -487,21 +554,32 @@ def mast_l1_gill(
     compression = str(spec.get("compression", "auto"))
     frames, log = [], []
     counts = dict.fromkeys(_SUMMED_COUNTS, 0)
+    errors: list[InputError] = []
     for k, f in enumerate(files):
-        block = read_ameriflux_gold(
-            f, north_azimuth_deg=north, year=year, utc_offset_hours=utc_offset, height_m=float(sonic["height_m"]),
-            despike=despike, max_corrupt_fraction=max_corrupt_fraction,
-            columns=tuple(spec.get("columns", AMERIFLUX_GOLD_COLUMNS)),
-            gzipped=None if compression == "auto" else compression == "gzip",
-            despike_window_s=despike_window_s, despike_n_mad=despike_n_mad)
+        try:
+            block = read_ameriflux_gold(
+                f, north_azimuth_deg=north, year=year, utc_offset_hours=utc_offset,
+                height_m=float(sonic["height_m"]), despike=despike, max_corrupt_fraction=max_corrupt_fraction,
+                columns=tuple(spec.get("columns", AMERIFLUX_GOLD_COLUMNS)),
+                gzipped=None if compression == "auto" else compression == "gzip",
+                despike_window_s=despike_window_s, despike_n_mad=despike_n_mad)
+        except InputError as exc:  # left out if others can be read (see dronewind.mast.toa5._read_files)
+            if len(files) == 1:
+                raise
+            errors.append(exc)
+            log.append(f"{UNREADABLE_PREFIX}{exc}")
+            continue
         for key in _SUMMED_COUNTS:
             counts[key] += int(block.attrs[key])
-        log.append(str(block.attrs["processing_log"]).split("\n")[0])
+        log.extend(ln for ln in str(block.attrs["processing_log"]).split("\n") if ln.startswith("read:"))
         frame = pd.DataFrame({v: block[v].values for v in _L1_VARIABLES})
         frame["qc"] = block["qc_sonic"].values.astype(float)
         frame.insert(0, "time", block["time"].values.astype("datetime64[ns]"))
         frame["_file"], frame["_line"] = k, np.arange(1, block.sizes["time"] + 1)
         frames.append(frame)
+    if not frames:
+        raise errors[0]
+    counts["n_unreadable_files"] = len(errors)
     data = pd.concat(frames, ignore_index=True).sort_values("time", kind="stable")
     dup = data.duplicated(subset=["time"], keep="first").to_numpy()
     counts["n_time_conflicts"] = int(dup.sum())

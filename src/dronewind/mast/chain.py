@@ -22,7 +22,8 @@ from dronewind.errors import DronewindError, InputError
 from dronewind.manifest import record_format
 from dronewind.mast import ameriflux, delimited, toa5
 
-__all__ = ["record_planar_fit", "compute_mast_l1", "window_coverage", "compute_mast_l2"]
+__all__ = ["record_planar_fit", "compute_mast_l1", "window_coverage", "compute_mast_l2", "flight_reference",
+           "reference_unusable_l3", "unreadable_mast_l1", "unusable_mast_l2"]
 
 
 def record_planar_fit(ds: xr.Dataset) -> dict[str, float | int | str]:
@@ -187,3 +188,131 @@ def compute_mast_l2(
         f"+/- {max_lag_s + margin_s:g} s; valid data cover {100 * coverage:.1f} % of the window"
     ).strip()
     return cut
+
+
+def flight_reference(
+    mast: xr.Dataset | InputError, drone_l2: xr.Dataset, flight_id: str, drone_mast: Mapping[str, Any],
+    source: str | Path = "mast L1",
+) -> tuple[xr.Dataset | None, str]:
+    """A flight's reference mast over its hover window, or None and why it cannot be used.
+
+    A mast record that cannot be read, or whose valid data do not cover the flight's
+    window, does not stop the flight: the flight goes on as one without a reference
+    (drone-only L3 and L4, :func:`reference_unusable_l3`) with ``usable = 0`` and this
+    reason, and the campaign's other flights are unaffected.
+
+    Parameters
+    ----------
+    mast : xarray.Dataset or InputError
+        Mast L1 of the flight's reference sonic (:func:`compute_mast_l1`; or
+        :func:`unreadable_mast_l1`), or the error that reading it raised.
+    drone_l2, flight_id, drone_mast, source
+        As :func:`compute_mast_l2`.
+
+    Returns
+    -------
+    mast_l2 : xarray.Dataset or None
+        :func:`compute_mast_l2`, or None.
+    reason : str
+        Empty, or why the reference cannot be used (the file, line and error).
+    """
+    if isinstance(mast, InputError):
+        return None, f"reference mast record cannot be read ({mast})"
+    if "unreadable_reason" in mast.attrs:  # written by unreadable_mast_l1
+        return None, f"reference mast record cannot be read ({mast.attrs['unreadable_reason']})"
+    try:
+        return compute_mast_l2(mast, drone_l2, flight_id, drone_mast, source=source), ""
+    except InputError as exc:
+        left_out = toa5.unreadable_files(mast)
+        reason = f"reference mast record not usable over the flight's window ({exc})"
+        if left_out:
+            reason += f"; file(s) of the record left out as unreadable: {'; '.join(left_out)}"
+        return None, reason
+
+
+def reference_unusable_l3(drone_l2: xr.Dataset, flight: Mapping[str, Any], rotation: str,
+                          reason: str) -> xr.Dataset:
+    """The drone-only L3 of a flight whose reference mast cannot be used, marked ``usable = 0``.
+
+    The same L3 as a flight without a reference (:func:`dronewind.compare.chain.compute_drone_l3`:
+    the drone in streamline coordinates at its L2 rate), so its L4 is the drone's; attrs
+    ``drone_usable`` = 0 and ``drone_unusable_reason`` (the drone's own reason, if any, then
+    ``reason``), ``reference_unusable_reason`` = ``reason``.
+
+    Parameters
+    ----------
+    drone_l2 : xarray.Dataset
+        L2 of the drone.
+    flight : mapping
+        Payload flight entry of the manifest.
+    rotation : str
+        ``processing.rotation``.
+    reason : str
+        Why the reference cannot be used (:func:`flight_reference`).
+
+    Returns
+    -------
+    xarray.Dataset
+    """
+    from dronewind.compare.chain import compute_drone_l3  # scipy: only the L3 steps
+
+    ds = compute_drone_l3(drone_l2, flight, rotation)
+    own = str(ds.attrs.get("drone_unusable_reason", ""))
+    ds.attrs["drone_usable"] = 0
+    ds.attrs["drone_unusable_reason"] = f"{own}; {reason}" if own else reason
+    ds.attrs["reference_unusable_reason"] = reason
+    ds.attrs["processing_log"] = (str(ds.attrs.get("processing_log", "")) + f"\nl3: drone only: {reason}").strip()
+    return ds
+
+
+def unreadable_mast_l1(error: InputError, sonic: Mapping[str, Any]) -> xr.Dataset:
+    """The mast L1 of a record that cannot be read: no samples, the error in ``unreadable_reason``.
+
+    Written by the workflow's mast step in place of the L1, so that the flights referencing
+    the sonic go on without it (:func:`flight_reference`) instead of the campaign stopping.
+
+    Parameters
+    ----------
+    error : InputError
+        What reading the record raised (file, line, what was expected).
+    sonic : mapping
+        Manifest entry of the sonic (``id``, ``height_m``).
+
+    Returns
+    -------
+    xarray.Dataset
+        The L1 variables with zero samples; attrs ``unreadable_reason``, ``sensor_id``,
+        ``height_m``, ``processing_log``.
+    """
+    from dronewind.core.cf import variable_attrs
+
+    empty = np.zeros(0)
+    ds = xr.Dataset(
+        {"u_east_ms": ("time", empty, variable_attrs("m s-1", "eastward_wind")),
+         "v_north_ms": ("time", empty, variable_attrs("m s-1", "northward_wind")),
+         "w_up_ms": ("time", empty, variable_attrs("m s-1", "upward_air_velocity")),
+         "t_sonic_k": ("time", empty, variable_attrs("K", "virtual_temperature",
+                                                     units_metadata="temperature: on_scale"))},
+        coords={"time": ("time", np.zeros(0, dtype="datetime64[ns]"), {"long_name": "time (UTC)"})},
+    )
+    ds.attrs.update(unreadable_reason=str(error), sensor_id=str(sonic["id"]), height_m=float(sonic["height_m"]),
+                    processing_log=f"read: the record cannot be read: {error}")
+    return ds
+
+
+def unusable_mast_l2(reason: str) -> xr.Dataset:
+    """The mast L2 of a flight whose reference cannot be used: no samples, ``reference_unusable_reason``.
+
+    Parameters
+    ----------
+    reason : str
+        :func:`flight_reference`'s reason.
+
+    Returns
+    -------
+    xarray.Dataset
+    """
+    ds = unreadable_mast_l1(InputError("mast L2", reason), {"id": "", "height_m": float("nan")})
+    ds.attrs = {"reference_unusable_reason": reason, "flight_coverage_fraction": 0.0,
+                "processing_log": f"mast_l2: {reason}"}
+    return ds

@@ -38,7 +38,7 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_DIAG, QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.errors import InputError
 from dronewind.mast.ameriflux import gill_to_enu
-from dronewind.mast.toa5 import _Grid, _on_grid, _regular_grid, csat3_to_enu
+from dronewind.mast.toa5 import UNREADABLE_PREFIX, _Grid, _on_grid, _regular_grid, csat3_to_enu
 
 __all__ = ["sensor_to_enu", "limits_for", "mast_l1_delimited"]
 
@@ -123,15 +123,28 @@ def _read(files: list[Path], layout: DelimitedLayout, max_corrupt_fraction: floa
           log: list[str]) -> pd.DataFrame:
     """Every file by the mapping, concatenated, exact duplicates and conflicting time stamps dropped."""
     frames = []
+    errors: list[InputError] = []
     for k, f in enumerate(files):
-        table = read_delimited(f, layout, max_corrupt_fraction)
+        try:
+            table = read_delimited(f, layout, max_corrupt_fraction)
+        except InputError as exc:  # left out if others can be read (see dronewind.mast.toa5._read_files)
+            if len(files) == 1:
+                raise
+            errors.append(exc)
+            log.append(f"{UNREADABLE_PREFIX}{exc}")
+            continue
         frame = pd.DataFrame({"time": table.time, **table.values, "_file": k, "_line": table.line_no})
         counts["n_lines"] += table.n_lines
         counts["n_corrupt_lines"] += table.n_corrupt
         counts["n_nonnumeric"] += table.n_nonnumeric
         msg = f"read: {f.name}: {len(frame)} rows, {table.n_corrupt} corrupt removed"
-        log.append(msg + (f" (corrupt lines {table.corrupt_lines})" if table.n_corrupt else ""))
+        log.append(msg + (f" (corrupt lines {table.corrupt_lines})" if table.n_corrupt else "")
+                   + (f"; {table.problem}: the lines before it read" if table.problem else ""))
+        counts["n_damaged_streams"] = counts.get("n_damaged_streams", 0) + (table.problem is not None)
         frames.append(frame)
+    if not frames:
+        raise errors[0]
+    counts["n_unreadable_files"] = len(errors)
     data = pd.concat(frames, ignore_index=True)
     value_cols = ["time", *layout.variables]
     exact_dup = data.duplicated(subset=value_cols, keep="first").to_numpy()

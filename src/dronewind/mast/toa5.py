@@ -14,7 +14,12 @@ processing), then quoted-timestamp CSV rows with at least
   missing samples (``n_missing``);
 * a changed header (required column missing) -> :class:`~dronewind.errors.InputError` naming
   the file and the column; a row whose TIMESTAMP or RECORD cannot be parsed is corrupt
-  (counted; more than 5 % corrupt -> InputError).
+  (counted; more than 5 % corrupt -> InputError);
+* a row cut short (even inside its quoted TIMESTAMP), NUL bytes or binary garbage make
+  their own lines corrupt and nothing more: lines are split one by one
+  (:mod:`dronewind.core.rowfaults`), at ``\n``, ``\r\n`` or ``\r`` only;
+* of several files, one that cannot be read is left out of the record, counted
+  (``n_unreadable_files``) and named with its error in the log (:func:`unreadable_files`).
 
 QC bitmask ``qc_mast`` (bits of :mod:`dronewind.core.qc`): 1 out of range (CSAT3 limits in
 :data:`dronewind.core.filtering.INSTRUMENT_LIMITS`), 2 spike (moving MAD), 4 missing/corrupt,
@@ -23,7 +28,6 @@ QC bitmask ``qc_mast`` (bits of :mod:`dronewind.core.qc`): 1 out of range (CSAT3
 
 from __future__ import annotations
 
-import csv
 import glob
 import os
 import re
@@ -43,13 +47,16 @@ from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_DIAG, QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
+from dronewind.core.rowfaults import split_csv_line, split_csv_lines, text_lines
 from dronewind.errors import InputError
 from dronewind.mast.columns import REQUIRED_TOA5_COLUMNS
 
-__all__ = ["REQUIRED_TOA5_COLUMNS", "csat3_to_enu", "mast_l1", "read_toa5"]
+__all__ = ["REQUIRED_TOA5_COLUMNS", "UNREADABLE_PREFIX", "csat3_to_enu", "mast_l1", "read_toa5", "unreadable_files"]
 
 
 _N_LOGGED = 5
+#: Start of a processing-log line naming a file of a record that could not be read, and why.
+UNREADABLE_PREFIX = "unreadable file left out: "
 _TIMESTAMP_RE = re.compile(r"\d{4}-\d{2}-\d{2}[ T]\d{1,2}:\d{2}")
 
 
@@ -90,6 +97,23 @@ TOA5Source = str | os.PathLike[str] | RawRecord
 """A TOA5 file (path or glob pattern) or its in-memory record (:mod:`dronewind.core.raw`)."""
 
 
+def unreadable_files(ds: xr.Dataset) -> list[str]:
+    """The files of a mast record left out because they could not be read, each with its error.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A mast L1 (its ``processing_log``).
+
+    Returns
+    -------
+    list of str
+        ``"<file>:<line>: <what>"`` per file left out (empty when every file was read).
+    """
+    return [ln[len(UNREADABLE_PREFIX):] for ln in str(ds.attrs.get("processing_log", "")).split("\n")
+            if ln.startswith(UNREADABLE_PREFIX)]
+
+
 def _expand_paths(paths: TOA5Source | Sequence[TOA5Source]) -> list[Path | RawRecord]:
     items = [paths] if isinstance(paths, (str, os.PathLike, RawRecord)) else list(paths)
     out: list[Path | RawRecord] = []
@@ -126,8 +150,7 @@ def _read_header(p: Path, required: Sequence[str]) -> tuple[list[str], list[list
     """
     if not p.is_file():
         raise InputError(p, "file not found")
-    text = p.read_bytes().decode("utf-8", errors="replace").lstrip("\ufeff")
-    lines = text.splitlines()
+    lines = text_lines(p.read_bytes())
     if len(lines) < 4:
         raise InputError(p, f"only {len(lines)} lines; a TOA5 file has 4 header lines")
     header, names, units = _check_header(p, lines[:4], required)
@@ -137,7 +160,7 @@ def _read_header(p: Path, required: Sequence[str]) -> tuple[list[str], list[list
 def _check_header(p: Path, head: list[str], required: Sequence[str],
                   ) -> tuple[list[list[str]], list[str], dict[str, str]]:
     """Split and check the four header lines `head` (see :func:`_read_header`)."""
-    header = [next(csv.reader([ln]), []) for ln in head]
+    header = [split_csv_line(ln) or [] for ln in head]
     if not header[0] or header[0][0] != "TOA5":
         raise InputError(f"{p}:1", "line 1 does not start with the field \"TOA5\"; expected a Campbell TOA5 file "
                          "(4 header lines: environment, field names, units, processing)")
@@ -240,10 +263,11 @@ def _toa5_careful(p: Path, required: Sequence[str]) -> _Toa5Rows:
     if n_lines == 0:
         raise InputError(p, "no data rows after the 4 header lines")
     ncol = len(names)
-    # csv.reader handles the quoted TIMESTAMP and keeps every line (with its number), so
-    # rows with a wrong field count can be counted instead of being skipped silently.
-    split = list(csv.reader(body))
-    good_count = np.fromiter((len(r) == ncol for r in split), dtype=bool, count=n_lines)
+    # csv.reader's split of the quoted TIMESTAMP, one row per line (a line cut short inside a
+    # quote does not swallow the next), so rows with a wrong field count are counted instead
+    # of being skipped silently and every row keeps its line number.
+    split = split_csv_lines(body)
+    good_count = np.fromiter((r is not None and len(r) == ncol for r in split), dtype=bool, count=n_lines)
     raw = pd.DataFrame([r for r, g in zip(split, good_count, strict=True) if g], columns=names, dtype=object)
     ts = pd.to_datetime(raw["TIMESTAMP"], format="ISO8601", errors="coerce")
     return _Toa5Rows(header, names, units, n_lines, good_count, ts.to_numpy().astype("datetime64[ns]"),
@@ -283,7 +307,7 @@ def _toa5_fast(p: Path, required: Sequence[str]) -> _Toa5Rows | None:
     odd = textscan.lines_holding(raw, buf, starts, bytes(range(0x20, 0x7F)), unusual)
     for i in np.flatnonzero(odd):
         line = raw[starts[i]:ends[i]].decode("utf-8", errors="replace")
-        if '"' in line or len(next(csv.reader([line]), [])) == ncol:
+        if '"' in line or len(split_csv_line(line) or []) == ncol:
             return None
     commas = np.flatnonzero(buf == ord(","))
     rows, cpos, first_comma = textscan.comma_grid(commas, starts, ends, ~odd, ncol)
@@ -484,7 +508,7 @@ def _read_toa5_chunked(p: Path, required: Sequence[str]) -> tuple[pd.DataFrame, 
     head_lines = data[start:cut].decode("utf-8", errors="replace").splitlines()
     if len(head_lines) != 4:
         return None
-    header = [next(csv.reader([ln]), []) for ln in head_lines]
+    header = [split_csv_line(ln) or [] for ln in head_lines]
     names = [h.strip() for h in header[1]]
     if (not header[0] or header[0][0] != "TOA5" or any(c not in names for c in required)
             or len(set(names)) != len(names) or any(len(header[k]) != len(names) for k in (2, 3))
@@ -567,13 +591,27 @@ def _record_frame(rec: RawRecord,
 
 def _read_files(files: list[Path | RawRecord], max_corrupt_fraction: float, counts: dict[str, int],
                 log: list[str]) -> list[pd.DataFrame]:
-    """Read every TOA5 file or record (Ts in degC), count RECORD skips and restarts; sorted by first time."""
+    """Read every TOA5 file or record (Ts in degC), count RECORD skips and restarts; sorted by first time.
+
+    A file that cannot be read (:class:`InputError`: a damaged header, too many corrupt rows)
+    is left out when others can be read: counted in ``n_unreadable_files`` and named with
+    its error in the log, so that only the flights its time span covers lose their
+    reference (:func:`unreadable_files`); when no file can be read, the first error is raised.
+    """
     frames: list[pd.DataFrame] = []
-    for f in files:
-        if isinstance(f, RawRecord):
-            frame, info = _record_frame(f)
-        else:
-            frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
+    errors: list[InputError] = []
+    for k, f in enumerate(files):
+        try:
+            if isinstance(f, RawRecord):
+                frame, info = _record_frame(f)
+            else:
+                frame, info = read_toa5(f, max_corrupt_fraction=max_corrupt_fraction)
+        except InputError as exc:
+            if len(files) == 1:
+                raise
+            errors.append(exc)
+            log.append(f"{UNREADABLE_PREFIX}{exc}")
+            continue
         ts_unit = info["units"].get("Ts", "C")
         if ts_unit.strip().upper() in ("K", "KELVIN"):
             frame["Ts"] = frame["Ts"] - ZERO_CELSIUS_K
@@ -591,8 +629,11 @@ def _read_files(files: list[Path | RawRecord], max_corrupt_fraction: float, coun
         if info["n_corrupt_lines"]:
             msg += f" (corrupt lines {info['corrupt_lines']})"
         log.append(msg)
-        frame["_file"] = len(frames)
+        frame["_file"] = k
         frames.append(frame)
+    if not frames:
+        raise errors[0]
+    counts["n_unreadable_files"] = len(errors)
     frames.sort(key=lambda fr: fr["time"].iloc[0] if len(fr) else np.datetime64("NaT"))
     return frames
 

@@ -60,6 +60,7 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import reused
+from dronewind.core.rowfaults import text_lines
 from dronewind.core.timeseries import median_of_steps, median_step, unwrap_rad
 from dronewind.errors import InputError, describe_header
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
@@ -117,13 +118,12 @@ class _Table:
         self.line_no = self.line_no[index]
 
 
-def _read_text(path: str | os.PathLike[str]) -> str:
+def _read_text(path: str | os.PathLike[str]) -> bytes:
     p = Path(path)
     if not p.is_file():
         raise InputError(p, "file not found")
-    raw = p.read_bytes()
     # Binary garbage in a line must not stop the reader: it becomes a corrupt line.
-    return raw.decode("utf-8", errors="replace").lstrip("\ufeff")
+    return p.read_bytes()
 
 
 def _split_lines(path: str | os.PathLike[str], expected: tuple[str, ...]) -> tuple[list[str], np.ndarray, int]:
@@ -145,8 +145,7 @@ def _split_lines(path: str | os.PathLike[str], expected: tuple[str, ...]) -> tup
     n_blank : int
         Number of blank lines dropped.
     """
-    text = _read_text(path)
-    lines = text.splitlines()
+    lines = text_lines(_read_text(path))
     if not lines:
         raise InputError(path, f"empty file; expected header {','.join(expected)!r}")
     header = tuple(h.strip() for h in lines[0].split(","))
@@ -436,15 +435,17 @@ def _table(source: str | os.PathLike[str] | RawRecord, expected: tuple[str, ...]
     return _parse_csv(source, expected, kinds, max_corrupt_fraction)
 
 
-def _check_backward_jump(path: str, line_no: np.ndarray, t: np.ndarray, clock_jump_tol_s: float) -> None:
+def _check_backward_jump(path: str, line_no: np.ndarray, t: np.ndarray, clock_jump_tol_s: float,
+                         allow_block: bool = False) -> None:
     """Raise :class:`ClockJumpError` at the first backward step in row order larger than the tolerance.
 
     A late row lies below the running maximum by less than the tolerance; a larger deficit
-    means the clock was set back. ``line_no`` holds the file lines of the rows of ``t``.
+    means the clock was set back, unless ``allow_block`` and the rows are only a block out of
+    order (:func:`_block_out_of_order`). ``line_no`` holds the file lines of the rows of ``t``.
     """
     deficit = np.maximum.accumulate(t) - t
     jump = np.flatnonzero(deficit > clock_jump_tol_s * _US)
-    if jump.size:
+    if jump.size and not (allow_block and _block_out_of_order(t)):
         i = int(jump[0])
         raise ClockJumpError(
             f"{path}:{int(line_no[i])}",
@@ -476,6 +477,30 @@ def _repeated(t: np.ndarray) -> np.ndarray:
     out = np.empty(t.size, dtype=bool)
     out[order] = in_order
     return out
+
+
+def _block_out_of_order(t: np.ndarray) -> bool:
+    """Whether rows out of time order are only a block in the wrong place (reversed, moved), not a clock set back.
+
+    A logger clock set back goes on from the earlier time: its rows fall between rows already
+    logged, so in time order some follow each other by far less than the sampling interval.
+    Rows of a block written in reverse (or elsewhere in the file) fit back on the sampling
+    grid when sorted: no step of the sorted times is below a quarter of the median step.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        int64 time stamps in row order, without repeats.
+
+    Returns
+    -------
+    bool
+        True when some rows are out of order and the sorted times interleave nowhere.
+    """
+    if t.size < 3 or bool(np.all(t[1:] > t[:-1])):
+        return False
+    step = np.diff(np.sort(t))
+    return bool(step.min() >= 0.25 * np.median(step))
 
 
 def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
@@ -535,7 +560,7 @@ def _dedup_sort(table: _Table, value_cols: list[str], clock_jump_tol_s: float,
             keep = np.flatnonzero(~iso)
             rows, t, line_no = rows[keep], t[keep], line_no[keep]
     table.counts["n_time_outliers"] = n_iso
-    _check_backward_jump(table.path, line_no, t, clock_jump_tol_s)
+    _check_backward_jump(table.path, line_no, t, clock_jump_tol_s, allow_block=True)
     run_max = np.maximum.accumulate(t)
     late = np.zeros(t.size, dtype=bool)
     late[1:] = t[1:] < run_max[:-1]

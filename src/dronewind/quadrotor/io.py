@@ -45,6 +45,7 @@ import xarray as xr
 
 from dronewind.core import textscan
 from dronewind.core.geo import from_local_tangent_plane
+from dronewind.core.rowfaults import split_csv_line, split_csv_lines, text_lines
 from dronewind.errors import InputError
 from dronewind.quadrotor.columns import QUADROTOR_COLUMNS, REFERENCE_COLUMNS
 
@@ -130,20 +131,136 @@ def parse_time_utc(values: pd.Series | np.ndarray | list[str], where: str | Path
     return stamps.to_numpy(dtype="datetime64[ns]")
 
 
+_N_LOGGED = 5
+
+
+def _time_problem(text: str) -> str | None:
+    """Why a time_utc field is not a time stamp of the contract, or None."""
+    if not _ISO_Z.match(text):
+        return (f"time_utc {_quoted_time(text)} is not ISO 8601 UTC with a trailing 'Z' "
+                "(expected e.g. 2020-07-24T10:19:30Z or 2020-07-24T10:19:30.25Z)")
+    if pd.isna(pd.to_datetime(text[:-1], format="ISO8601", errors="coerce")):
+        return f"time_utc {_quoted_time(text)} is not a valid date/time"
+    return None
+
+
+def _csv_rows(path: Path, not_found: str, required: tuple[str, ...] = ("time_utc",), exact: bool = True,
+              ) -> tuple[list[str], pd.DataFrame, np.ndarray, np.ndarray, list[str], int]:
+    """The rows of a CSV log line by line: header, fields of the good rows, their times and lines.
+
+    A data line is corrupt when it has another number of fields than the header (with
+    ``exact`` False: fewer than up to the last ``required`` column, or more than the
+    header's; the missing ones are empty) or a ``time_utc`` that is not a contract time stamp
+    (:func:`parse_time_utc`); blank lines are skipped.
+
+    Returns
+    -------
+    header : list of str
+        The field names (stripped).
+    frame : pandas.DataFrame
+        The good rows' fields as text, columns named by the header.
+    time : numpy.ndarray
+        datetime64[ns] of the good rows.
+    line_no : numpy.ndarray
+        1-based file line of the good rows.
+    bad : list of str
+        ``"<line>: <what>"`` of every corrupt line, in file order.
+    n_lines : int
+        Non-blank data lines.
+
+    Raises
+    ------
+    InputError
+        Missing file, empty file, a header without the ``required`` columns, no data rows.
+    """
+    if not path.is_file():
+        raise InputError(path, not_found)
+    lines = text_lines(path.read_bytes())
+    if not lines:
+        raise InputError(path, "empty file; expected a header line")
+    header = [h.strip() for h in split_csv_line(lines[0]) or []]
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise InputError(f"{path}:1", f"missing column(s) {missing}; expected header {','.join(required)}")
+    split = split_csv_lines(lines[1:])
+    ncol = len(header)
+    # fields a row must have: up to the last required column, or all of the header's
+    n_needed = ncol if exact else 1 + max(header.index(c) for c in required)
+    good_rows: list[list[str]] = []
+    good_lines: list[int] = []
+    bad: list[str] = []
+    n_lines = 0
+    for ln, row in enumerate(split, start=2):
+        if row is not None and not any(f.strip() for f in row):
+            continue
+        n_lines += 1
+        if row is None or not n_needed <= len(row) <= ncol:
+            bad.append(f"{ln}: {0 if row is None else len(row)} fields, expected {ncol}")
+        else:
+            good_rows.append(row + [""] * (ncol - len(row)))
+            good_lines.append(ln)
+    if n_lines == 0:
+        raise InputError(path, "no data rows")
+    frame = pd.DataFrame(good_rows, columns=header, dtype=object) if good_rows else pd.DataFrame(columns=header)
+    text = frame["time_utc"].astype(str).str.strip() if good_rows else pd.Series([], dtype=object)
+    ok = text.str.match(_ISO_Z.pattern).fillna(False).to_numpy(dtype=bool)
+    stamps = pd.to_datetime(text.where(ok, "1970-01-01T00:00:00Z").str.slice(0, -1), format="ISO8601",
+                            errors="coerce")
+    ok = ok & ~stamps.isna().to_numpy()
+    line_no = np.asarray(good_lines, dtype=np.int64)
+    for i in np.flatnonzero(~ok):
+        bad.append(f"{int(line_no[i])}: {_time_problem(str(text.iloc[i]))}")
+    bad.sort(key=lambda b: int(b.split(":", 1)[0]))
+    return header, frame.loc[ok].reset_index(drop=True), stamps.to_numpy(dtype="datetime64[ns]")[ok], \
+        line_no[ok], bad, n_lines
+
+
+def _corrupt_check(path: Path, bad: list[str], n_lines: int, max_corrupt_fraction: float, what: str) -> None:
+    """Raise InputError at the first corrupt line when more than ``max_corrupt_fraction`` of the lines are."""
+    if len(bad) > max_corrupt_fraction * n_lines:
+        line, reason = bad[0].split(": ", 1)
+        raise InputError(f"{path}:{line}", f"{reason} ({len(bad)} of {n_lines} data lines corrupt, "
+                         f"> {100 * max_corrupt_fraction:g} %: {what}; first at lines "
+                         f"{[int(b.split(':', 1)[0]) for b in bad[:_N_LOGGED]]})")
+
+
+def _corrupt_log(path: Path, bad: list[str], n_lines: int) -> str:
+    """The processing-log line of the corrupt lines of a file."""
+    lines = [int(b.split(":", 1)[0]) for b in bad]
+    return (f"read: {path.name}: {len(bad)} of {n_lines} data lines corrupt removed"
+            + (f" (lines {lines[:_N_LOGGED]}{', ...' if len(lines) > _N_LOGGED else ''})" if bad else ""))
+
+
 def _sort_dedupe(ds: xr.Dataset, log: list[str]) -> xr.Dataset:
-    """Sort by time and drop duplicated time stamps, counting both."""
+    """Sort by time, drop exact duplicate rows and every row of a time stamp repeated with other values.
+
+    Rows repeating a time stamp with other values conflict (a mangled time stamp, a clock
+    set back): no rule says which one is right, so all of them are dropped and counted in
+    ``n_time_conflicts``.
+    """
     t = ds["time"].to_numpy()
     n_unsorted = int(np.sum(np.diff(t.astype("int64")) < 0)) if t.size > 1 else 0
     if n_unsorted:
         ds = ds.sortby("time")
         log.append(f"sort: {n_unsorted} out-of-order time stamps sorted")
-    _, first = np.unique(ds["time"].to_numpy(), return_index=True)
-    n_dup = ds.sizes["time"] - first.size
+    t = ds["time"].to_numpy()
+    if t.size < 2 or bool(np.all(t[1:] > t[:-1])):  # no repeated time stamp (every well-formed log)
+        ds.attrs.update(n_out_of_order=n_unsorted, n_duplicates=0, n_time_conflicts=0)
+        return ds
+    frame = ds.to_dataframe().reset_index()
+    exact = frame.duplicated(keep="first").to_numpy()
+    conflict = frame.loc[~exact].duplicated(subset=["time"], keep=False).to_numpy()
+    keep = np.flatnonzero(~exact)[~conflict]
+    n_dup, n_conflict = int(exact.sum()), int(conflict.sum())
+    if n_dup or n_conflict:
+        ds = ds.isel(time=keep)
     if n_dup:
-        ds = ds.isel(time=np.sort(first))
         log.append(f"dedupe: {n_dup} duplicated time stamps removed (first kept)")
+    if n_conflict:
+        log.append(f"dedupe: {n_conflict} rows repeating a time stamp with other values removed, none trusted")
     ds.attrs["n_out_of_order"] = n_unsorted
-    ds.attrs["n_duplicates"] = int(n_dup)
+    ds.attrs["n_duplicates"] = n_dup
+    ds.attrs["n_time_conflicts"] = n_conflict
     return ds
 
 
@@ -159,36 +276,44 @@ def _finish(ds: xr.Dataset, source: Path, log: list[str]) -> xr.Dataset:
     return ds
 
 
-def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
+def read_quadrotor_csv(path: str | Path, max_corrupt_fraction: float = 0.05) -> xr.Dataset:
     """Read a quadrotor CSV log (data contract, Wetz et al. (2021), Sect. 2).
 
     Parameters
     ----------
     path : str or Path
         CSV file with the columns of :data:`QUADROTOR_COLUMNS` (more are ignored).
+    max_corrupt_fraction : float, optional
+        Largest tolerated fraction of corrupt data lines (another number of fields than
+        the header, a time stamp that is not ISO 8601 UTC with a trailing ``Z``) [1].
 
     Returns
     -------
     xarray.Dataset
         Dimension ``time`` (UTC); variables ``roll_deg``, ``pitch_deg``, ``yaw_deg``
         [degree], ``vel_n_ms``, ``vel_e_ms``, ``vel_d_ms`` [m s-1], ``lat_deg``,
-        ``lon_deg`` [degree], ``alt_m`` [m above MSL]. attrs ``n_out_of_order``,
-        ``n_duplicates``, ``n_nonfinite`` (rows with a non-numeric or missing value; kept
-        as NaN), ``sampling_rate_hz``, ``processing_log``.
+        ``lon_deg`` [degree], ``alt_m`` [m above MSL]. attrs ``n_lines``,
+        ``n_corrupt_lines`` (removed; their lines in the log), ``n_out_of_order``,
+        ``n_duplicates``, ``n_time_conflicts``, ``n_nonfinite`` (values not numeric or
+        missing; kept as NaN), ``sampling_rate_hz``, ``processing_log``.
 
     Raises
     ------
     InputError
-        Missing file or columns, an empty file, a bad time stamp (names the line) or a
-        sampling rate below 1 Hz.
+        Missing file or columns, an empty file, more than ``max_corrupt_fraction`` of the
+        lines corrupt (names the first) or a sampling rate below 1 Hz.
     """
     path = Path(path)
-    time, columns, n_nonfinite = _quadrotor_columns_fast(path) or _quadrotor_columns_careful(path)
+    time, columns, line_no, counts = _quadrotor_rows(path, max_corrupt_fraction)
     log = [f"read: {time.size} rows from {path.name}"]
+    if counts["n_corrupt_lines"]:
+        log.append(counts.pop("_log"))
+    counts.pop("_log", None)
     ds = xr.Dataset({col: ("time", values) for col, values in columns.items()}, coords={"time": time})
+    n_nonfinite = counts["n_nonfinite"]
     if n_nonfinite:
         log.append(f"parse: {n_nonfinite} non-numeric or missing values set to NaN")
-    ds.attrs["n_nonfinite"] = n_nonfinite
+    ds.attrs.update(counts)
     ds = _sort_dedupe(ds, log)
     ds = _finish(ds, path, log)
     if ds.sizes["time"] > 1 and ds.attrs["sampling_rate_hz"] < 1.0:
@@ -197,26 +322,57 @@ def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
     return ds
 
 
-def _quadrotor_columns_careful(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
-    """Time stamps, numeric columns and non-finite values of a quadrotor CSV, field by field (the reference).
+def _quadrotor_rows(path: Path, max_corrupt_fraction: float = 0.05,
+                    ) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, dict[str, Any]]:
+    """Time stamps, numeric columns and file lines of the good rows of a quadrotor CSV, and counts.
 
-    Every cell is read as text and stripped; numbers are converted with ``pandas.to_numeric``
-    (non-numeric fields become NaN and are counted); errors name the file and line.
+    Plain files take the byte-level path (:func:`_quadrotor_columns_fast`), the others are
+    read line by line (:func:`_csv_rows`): corrupt lines removed and counted.
+
+    Returns
+    -------
+    time, columns, line_no
+        Of the good rows in file order.
+    counts : dict
+        ``n_lines``, ``n_corrupt_lines``, ``n_nonfinite`` and ``_log`` (the log line of the
+        corrupt lines).
     """
-    df = _read_csv_text(path, "quadrotor log not found")
-    missing = [c for c in QUADROTOR_COLUMNS if c not in df.columns]
-    if missing:
-        raise InputError(path, f"missing column(s) {missing}; expected header "
-                               f"{','.join(QUADROTOR_COLUMNS)}")
-    if df.empty:
+    fast = _quadrotor_columns_fast(path)
+    if fast is not None:
+        n = fast[0].size
+        return fast[0], fast[1], np.arange(2, n + 2), {"n_lines": n, "n_corrupt_lines": 0, "n_nonfinite": 0,
+                                                       "_log": ""}
+    time, columns, n_nonfinite, line_no, bad, n_lines = _careful_rows(path, max_corrupt_fraction)
+    return time, columns, line_no, {"n_lines": n_lines, "n_corrupt_lines": len(bad), "n_nonfinite": n_nonfinite,
+                                    "_log": _corrupt_log(path, bad, n_lines)}
+
+
+def _careful_rows(path: Path, max_corrupt_fraction: float,
+                  ) -> tuple[np.ndarray, dict[str, np.ndarray], int, np.ndarray, list[str], int]:
+    """:func:`_quadrotor_columns_careful` with the good rows' lines, the corrupt lines and the data lines."""
+    _, frame, time, line_no, bad, n_lines = _csv_rows(path, "quadrotor log not found", QUADROTOR_COLUMNS,
+                                                      exact=False)
+    _corrupt_check(path, bad, n_lines, max_corrupt_fraction, "another number of fields than the header or a "
+                   "time_utc that is not ISO 8601 UTC with a trailing 'Z'")
+    if time.size == 0:
         raise InputError(path, "no data rows")
-    time = parse_time_utc(df["time_utc"], path)
     columns = {}
     n_nonfinite = 0
     for col in QUADROTOR_COLUMNS[1:]:
-        values = pd.to_numeric(df[col].str.strip(), errors="coerce").to_numpy(dtype=float)
+        values = pd.to_numeric(frame[col].astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
         n_nonfinite += int((~np.isfinite(values)).sum())
         columns[col] = values
+    return time, columns, n_nonfinite, line_no, bad, n_lines
+
+
+def _quadrotor_columns_careful(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
+    """Time stamps, numeric columns and non-finite values of a quadrotor CSV, line by line (the reference).
+
+    Every cell is read as text and stripped; numbers are converted with ``pandas.to_numeric``
+    (non-numeric fields become NaN and are counted); corrupt lines are removed
+    (:func:`_csv_rows`); errors name the file and line.
+    """
+    time, columns, n_nonfinite, _, _, _ = _careful_rows(path, 0.05)
     return time, columns, n_nonfinite
 
 
@@ -487,28 +643,23 @@ def read_quadrotor(path: str | Path) -> xr.Dataset:
 _WIDE = re.compile(r"^(wind_speed_ms|wind_from_deg)_(\d+(?:\.\d+)?)m?$")
 
 
-def _read_csv_text(path: Path, not_found: str) -> pd.DataFrame:
-    """All cells of a CSV file as text (errors name the file)."""
-    if not path.is_file():
-        raise InputError(path, not_found)
-    try:
-        return pd.read_csv(path, dtype=str, keep_default_na=False)
-    except (pd.errors.EmptyDataError, pd.errors.ParserError) as exc:
-        raise InputError(path, f"not a readable CSV file ({exc})") from exc
-
-
-def _reference_long_form(df: pd.DataFrame, time: np.ndarray) -> pd.DataFrame:
+def _reference_long_form(df: pd.DataFrame, time: np.ndarray, line_no: np.ndarray) -> pd.DataFrame:
     """Long-form reference rows: ``time``, ``height_m``, ``wind_speed_ms``, ``wind_from_deg``, ``line``."""
     return pd.DataFrame({
         "time": time,
-        "height_m": pd.to_numeric(df["height_m"], errors="coerce"),
-        "wind_speed_ms": pd.to_numeric(df["wind_speed_ms"], errors="coerce"),
-        "wind_from_deg": pd.to_numeric(df["wind_from_deg"], errors="coerce"),
-        "line": np.arange(2, len(df) + 2),
+        "height_m": _numbers(df["height_m"]),
+        "wind_speed_ms": _numbers(df["wind_speed_ms"]),
+        "wind_from_deg": _numbers(df["wind_from_deg"]),
+        "line": line_no,
     })
 
 
-def _reference_wide_to_long(df: pd.DataFrame, time: np.ndarray, path: Path) -> pd.DataFrame:
+def _numbers(s: pd.Series) -> np.ndarray:
+    """float64 of text fields (stripped; not a number -> NaN)."""
+    return pd.to_numeric(s.astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
+
+
+def _reference_wide_to_long(df: pd.DataFrame, time: np.ndarray, line_no: np.ndarray, path: Path) -> pd.DataFrame:
     """Wide-form reference (``wind_speed_ms_<h>m``, ``wind_from_deg_<h>m``) as long-form rows."""
     cols = {c: m for c in df.columns if (m := _WIDE.match(c))}
     heights = sorted({float(m.group(2)) for m in cols.values()})
@@ -524,27 +675,64 @@ def _reference_wide_to_long(df: pd.DataFrame, time: np.ndarray, path: Path) -> p
             raise InputError(path, f"wide form: no wind_speed_ms column for height {h:g} m")
         parts.append(pd.DataFrame({
             "time": time, "height_m": h,
-            "wind_speed_ms": pd.to_numeric(df[sp[0]], errors="coerce"),
-            "wind_from_deg": pd.to_numeric(df[di[0]], errors="coerce") if di else np.nan,
-            "line": np.arange(2, len(df) + 2),
+            "wind_speed_ms": _numbers(df[sp[0]]),
+            "wind_from_deg": _numbers(df[di[0]]) if di else np.nan,
+            "line": line_no,
         }))
     return pd.concat(parts, ignore_index=True)
 
 
-def _check_reference_values(long: pd.DataFrame, path: Path) -> None:
-    """Raise InputError naming the first line with a bad height, speed or direction."""
-    bad_h = ~np.isfinite(long["height_m"]) | (long["height_m"] < 0)
-    if bad_h.any():
-        line = int(long.loc[bad_h, "line"].iloc[0])
-        raise InputError(f"{path}:{line}", "height_m must be a number >= 0 (m above ground)")
-    sp = long["wind_speed_ms"]
-    if (sp < 0).any():
-        line = int(long.loc[sp < 0, "line"].iloc[0])
-        raise InputError(f"{path}:{line}", "wind_speed_ms must be >= 0")
-    di = long["wind_from_deg"]
-    if ((di < 0) | (di > 360)).any():
-        line = int(long.loc[(di < 0) | (di > 360), "line"].iloc[0])
-        raise InputError(f"{path}:{line}", "wind_from_deg must be within [0, 360]")
+def _reference_value_problems(long: pd.DataFrame) -> tuple[np.ndarray, list[str]]:
+    """Rows with a bad height, speed or direction: their mask and ``"<line>: <what>"`` (a row's first problem)."""
+    checks = [
+        (~np.isfinite(long["height_m"]) | (long["height_m"] < 0), "height_m must be a number >= 0 (m above ground)"),
+        (long["wind_speed_ms"] < 0, "wind_speed_ms must be >= 0"),
+        ((long["wind_from_deg"] < 0) | (long["wind_from_deg"] > 360), "wind_from_deg must be within [0, 360]"),
+    ]
+    wrong = np.zeros(len(long), dtype=bool)
+    what = np.full(len(long), "", dtype=object)
+    for mask, text in checks:
+        m = mask.to_numpy(dtype=bool) & ~wrong
+        what[m] = text
+        wrong |= m
+    lines = long["line"].to_numpy()
+    return wrong, [f"{int(lines[i])}: {what[i]}" for i in np.flatnonzero(wrong)]
+
+
+def _reference_rows(path: Path, max_corrupt_fraction: float = 0.05) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The good long-form rows of a tower reference with their file lines, and counts.
+
+    A line is corrupt when it has another number of fields than the header or a time stamp
+    that is not ISO 8601 UTC with a trailing ``Z``; a (time, height) row when its height is
+    not a number >= 0, its speed negative or its direction outside [0, 360].
+
+    Returns
+    -------
+    long : pandas.DataFrame
+        ``time``, ``height_m``, ``wind_speed_ms``, ``wind_from_deg``, ``line``.
+    counts : dict
+        ``form``, ``n_lines``, ``n_corrupt_lines`` (lines and rows), ``_log``.
+
+    Raises
+    ------
+    InputError
+        See :func:`read_tower_reference`.
+    """
+    header, frame, time, line_no, bad, n_lines = _csv_rows(path, "tower reference not found")
+    if {"height_m", "wind_speed_ms", "wind_from_deg"} <= set(header):
+        form, long = "long", _reference_long_form(frame, time, line_no)
+    else:
+        form, long = "wide", _reference_wide_to_long(frame, time, line_no, path)
+    wrong, bad_values = _reference_value_problems(long)
+    long = long.loc[~wrong]
+    bad = sorted(bad + bad_values, key=lambda b: int(b.split(":", 1)[0]))
+    _corrupt_check(path, bad, n_lines, max_corrupt_fraction, "another number of fields than the header, a "
+                   "time_utc that is not ISO 8601 UTC with a trailing 'Z', or a height, speed or direction out "
+                   "of range")
+    if long.empty:
+        raise InputError(path, "no data rows")
+    return long.reset_index(drop=True), {"form": form, "n_lines": n_lines, "n_corrupt_lines": len(bad),
+                                         "_log": _corrupt_log(path, bad, n_lines)}
 
 
 def _reference_grid(long: pd.DataFrame) -> xr.Dataset:
@@ -562,7 +750,7 @@ def _reference_grid(long: pd.DataFrame) -> xr.Dataset:
     return ds
 
 
-def read_tower_reference(path: str | Path) -> xr.Dataset:
+def read_tower_reference(path: str | Path, max_corrupt_fraction: float = 0.05) -> xr.Dataset:
     """Read the tower reference CSV (1 Hz or 1-min means; long or wide form).
 
     Parameters
@@ -570,6 +758,8 @@ def read_tower_reference(path: str | Path) -> xr.Dataset:
     path : str or Path
         Long form ``time_utc,height_m,wind_speed_ms,wind_from_deg`` (one row per time and
         height), or wide form ``time_utc,wind_speed_ms_<h>m,wind_from_deg_<h>m,...``.
+    max_corrupt_fraction : float, optional
+        Largest tolerated fraction of corrupt lines (:func:`_reference_rows`) [1].
 
     Returns
     -------
@@ -577,40 +767,43 @@ def read_tower_reference(path: str | Path) -> xr.Dataset:
         Dimensions ``time`` (UTC, time stamp of each record) and ``height`` (coordinate
         ``height_m`` [m above ground]); variables ``wind_speed_ms`` [m s-1] and
         ``wind_from_deg`` [degree], NaN where a height has no record at a time. attrs
-        ``sampling_interval_s`` (median spacing), ``n_nonfinite``, ``n_duplicates``,
+        ``sampling_interval_s`` (median spacing), ``n_lines``, ``n_corrupt_lines`` (removed,
+        their lines in the log), ``n_nonfinite``, ``n_duplicates``, ``n_time_conflicts``,
         ``processing_log``.
 
     Raises
     ------
     InputError
-        Missing file/columns, bad times (names the line), negative speeds or heights, a
-        direction outside [0, 360], or no data.
+        Missing file/columns, more than ``max_corrupt_fraction`` of the lines corrupt (bad
+        times, negative speeds or heights, a direction outside [0, 360]; names the first),
+        or no data.
     """
     path = Path(path)
-    df = _read_csv_text(path, "tower reference not found")
-    if "time_utc" not in df.columns:
-        raise InputError(path, "missing column 'time_utc'")
-    if df.empty:
-        raise InputError(path, "no data rows")
-    log = [f"read: {len(df)} rows from {path.name}"]
-    time = parse_time_utc(df["time_utc"], path)
-    if {"height_m", "wind_speed_ms", "wind_from_deg"} <= set(df.columns):
-        form, long = "long", _reference_long_form(df, time)
-    else:
-        form, long = "wide", _reference_wide_to_long(df, time, path)
-    _check_reference_values(long, path)
+    long, counts = _reference_rows(path, max_corrupt_fraction)
+    form = counts["form"]
+    log = [f"read: {len(long)} rows from {path.name}"]
+    if counts["n_corrupt_lines"]:
+        log.append(counts["_log"])
     n_nonfinite = int((~np.isfinite(long["wind_speed_ms"])).sum() + (~np.isfinite(long["wind_from_deg"])).sum())
-    n_dup = int(long.duplicated(["time", "height_m"]).sum())
-    long = long.drop_duplicates(["time", "height_m"], keep="first")
+    exact = long.drop(columns="line").duplicated(keep="first").to_numpy()
+    long = long.loc[~exact]
+    conflict = long.duplicated(["time", "height_m"], keep=False).to_numpy()
+    long = long.loc[~conflict]
+    n_dup, n_conflict = int(exact.sum()), int(conflict.sum())
     if n_dup:
         log.append(f"dedupe: {n_dup} duplicated (time, height) rows removed (first kept)")
+    if n_conflict:
+        log.append(f"dedupe: {n_conflict} rows repeating a (time, height) with other values removed, none trusted")
     if n_nonfinite:
         log.append(f"parse: {n_nonfinite} missing or non-numeric values kept as NaN")
+    if long.empty:
+        raise InputError(path, "no data rows left after removing conflicting time stamps")
     ds = _reference_grid(long)
     t_ns = ds["time"].to_numpy().astype("int64")
     ds.attrs.update({
         "sampling_interval_s": float(np.median(np.diff(t_ns)) / 1e9) if t_ns.size > 1 else float("nan"),
-        "n_nonfinite": n_nonfinite, "n_duplicates": n_dup, "form": form,
+        "n_nonfinite": n_nonfinite, "n_duplicates": n_dup, "n_time_conflicts": n_conflict, "form": form,
+        "n_lines": counts["n_lines"], "n_corrupt_lines": counts["n_corrupt_lines"],
         "source_file": str(path), "processing_log": "\n".join(log),
     })
     return ds

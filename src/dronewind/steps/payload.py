@@ -34,8 +34,15 @@ from dronewind.core.cf import (
     write_netcdf,
 )
 from dronewind.core.products import open_product
+from dronewind.errors import InputError
 from dronewind.manifest import confined_path
-from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
+from dronewind.mast.chain import (
+    compute_mast_l1,
+    flight_reference,
+    reference_unusable_l3,
+    unreadable_mast_l1,
+    unusable_mast_l2,
+)
 from dronewind.payload import rigid
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 from dronewind.payload.delimited import payload_source
@@ -362,7 +369,11 @@ def mast_l1(files: Sequence[str | Path], output: str | Path, *, campaign: str, s
     Path
         The written file.
     """
-    ds = compute_mast_l1(files, sonic, despike)
+    try:
+        ds = compute_mast_l1(files, sonic, despike)
+    except InputError as exc:  # the flights referencing the sonic go on without it (mast.chain.flight_reference)
+        LOG.warning("mast %s cannot be read: %s; its flights go on without their reference", sonic["id"], exc)
+        ds = unreadable_mast_l1(exc, sonic)
     ds.attrs["source"] = data_source(simulated)
     ds.attrs.update(attribution or {})
     ds.attrs["source_files"] = ", ".join(source_name(f, data_root) for f in files)
@@ -442,8 +453,11 @@ def mast_l2(mast_l1_file: str | Path, drone_l2_file: str | Path, output: str | P
     Path
         The written file.
     """
-    cut = compute_mast_l2(strip_cf(open_product(mast_l1_file)), open_product(drone_l2_file), flight_id, drone_mast,
-                          source=mast_l1_file)
+    cut, reason = flight_reference(strip_cf(open_product(mast_l1_file)), open_product(drone_l2_file), flight_id,
+                                   drone_mast, source=mast_l1_file)
+    if cut is None:
+        LOG.warning("flight %s: %s; processed without its reference (usable = 0)", flight_id, reason)
+        cut = unusable_mast_l2(reason)
     LOG.info("flight %s mast L2: %d samples, coverage %.1f %%", flight_id, cut.sizes["time"],
              100 * cut.attrs["flight_coverage_fraction"])
     fields = {"campaign": campaign, "flight": flight_id, "reference": reference["id"]}
@@ -479,6 +493,12 @@ def l3(drone_l2_file: str | Path, mast_l2_file: str | Path, output: str | Path, 
     mast = strip_cf(open_product(mast_l2_file))
     from dronewind.compare.chain import compute_l3  # scipy.signal and scipy.stats: only the L3 and L4 jobs
 
+    reason = mast.attrs.get("reference_unusable_reason")
+    if reason is not None:  # the reference cannot be used: the drone-only L3, as for a flight without one
+        ds = reference_unusable_l3(drone, flight, rotation, str(reason))
+        LOG.info("flight %s L3: drone only (%s)", flight_id, reason)
+        return write_product(ds, output, "l3_drone", {"campaign": campaign, "flight": flight_id}, _at_sonic(reference),
+                             [drone_l2_file, mast_l2_file], {"processing": {"rotation": rotation}})
     ds = compute_l3(drone, mast, flight, drone_mast, rotation)
     LOG.info("flight %s L3: lag_drone_mast_s = %.3f, %d samples at %g Hz", flight_id, ds.attrs["lag_drone_mast_s"],
              ds.sizes["time"], ds.attrs["sampling_rate_hz"])
@@ -519,7 +539,14 @@ def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str
     """
     from dronewind.compare.chain import compute_l4
 
-    ds = compute_l4(strip_cf(open_product(l3_file)), sensor, spectra, quadrant, detrending)
+    l3_ds = strip_cf(open_product(l3_file))
+    reason = l3_ds.attrs.get("reference_unusable_reason")
+    if reason is not None and sensor == "mast":  # no mast record: the drone's layout, every number NaN
+        ds = compute_l4(l3_ds, "drone", spectra, quadrant, detrending)
+        ds = ds.map(lambda v: v * math.nan if v.dtype.kind == "f" else v, keep_attrs=True)
+        ds.attrs.update(mast_usable=0, mast_unusable_reason=str(reason))
+    else:
+        ds = compute_l4(l3_ds, sensor, spectra, quadrant, detrending)
     LOG.info("flight %s %s L4: U = %.2f m/s, sigma_w = %.3f m/s", flight_id, sensor,
              float(ds["U_ms"]), float(ds["sigma_w_ms"]))
     fields = {"campaign": campaign, "flight": flight_id, "sensor": sensor}
@@ -677,8 +704,8 @@ def _flight_stats_row(ds: xr.Dataset) -> dict[str, Any]:
         else:
             value = float(ds[col]) if col in ds else math.nan
         row[col] = value
-    row["usable"] = int(ds.attrs.get("drone_usable", 1)) if sensor == "drone" else 1
-    row["unusable_reason"] = str(ds.attrs.get("drone_unusable_reason", "")) if sensor == "drone" else ""
+    row["usable"] = int(ds.attrs.get(f"{sensor}_usable", 1))
+    row["unusable_reason"] = str(ds.attrs.get(f"{sensor}_unusable_reason", ""))
     return row
 
 
