@@ -143,7 +143,9 @@ FALLBACK_DRAW_SEED = 2026
 
 #: Allowed estimation error per parameter (absolute, or relative when the key ends in '%').
 TOLERANCES: dict[str, dict[str, float]] = {
-    "sonic_ins_lag": {"lag_s": 0.08},
+    # the lag measured on each flight against processing + hidden lag + CHAIN_LAG_OFFSET_S:
+    # 3 standard deviations of the chain's offset (0.033 s over 60 flights)
+    "sonic_ins_lag": {"lag_s": 0.1},
     "heading_bias": {"deg": 2.0},
     "w_gain": {"gain": 0.05},
     "sonic_noise": {"sigma_ms%": 0.35},
@@ -421,12 +423,12 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
 
 
 #: Offset of the chain's sonic-INS lag (lag of minimum TKE, Ghirardelli et al. 2025, Sect.
-#: 3.3) from the simulated lag in the hidden-effect campaign [s]: -0.090 +- 0.036 s (mean and
-#: standard deviation, range -0.137 to -0.026 s) over the 20 flights of the null draws of
-#: seeds 7-11 (:func:`campaign_manifest`). The payload's attitude follows the wind, so a
+#: 3.3) from the simulated lag in the hidden-effect campaign [s]: -0.092 +- 0.033 s (mean and
+#: standard deviation, range -0.173 to -0.026 s) over the 60 flights of the null draws of
+#: seeds 7-21 (:func:`campaign_manifest`). The payload's attitude follows the wind, so a
 #: shift of the INS against the sonic also removes part of the wind's variance
 #: (:func:`dronewind.diagnose.forward.simulated_sonic_ins_lag_s`).
-CHAIN_LAG_OFFSET_S = -0.09
+CHAIN_LAG_OFFSET_S = -0.092
 
 
 def judge(truth: Draw, diagnosis: Mapping[str, Any], campaign: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -442,7 +444,7 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any], campaign: Mapping[str, Any]
     processing lag plus the hidden lag within :data:`TOLERANCES`, after the chain's offset
     :data:`CHAIN_LAG_OFFSET_S`:
 
-    .. math:: |\\ell_{measured} - (\\ell_{base} + \\ell_{hidden}) - \\ell_{offset}| \\le 0.08\\ \\mathrm{s}.
+    .. math:: |\\ell_{measured} - (\\ell_{base} + \\ell_{hidden}) - \\ell_{offset}| \\le 0.1\\ \\mathrm{s}.
 
     Parameters
     ----------

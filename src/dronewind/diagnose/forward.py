@@ -840,7 +840,7 @@ def simulated_sonic_ins_lag_s(campaign_data: Mapping[str, Any], flight_id: str, 
     processing lag itself: the payload's attitude follows the wind (the drone banks into
     lateral gusts, the payload weathervanes), so shifting the INS against the sonic also
     removes part of the wind's own variance, and the minimum lies below the simulated lag
-    (by 0.090 +- 0.036 s, mean and standard deviation over 20 flights of the hidden-effect
+    (by 0.092 +- 0.033 s, mean and standard deviation over 60 flights of the hidden-effect
     campaign without a mechanism, 3.5-9.5 m s-1). Simulating the measured lag itself would
     shift the forward runs' lag by that much again. One step of a fixed-point iteration
     removes it: the first seed's flight is simulated with the measured lag :math:`\\ell_m`
