@@ -151,7 +151,9 @@ def test_written_files_read_by_the_chain_readers(base):
 
 def test_chain_finds_the_gnss_time_and_the_sonic_ins_lag(tmp_path, base):
     """End to end with the chain (skipped if absent): the L1 INS starts at the stable GNSS
-    time (not at the blink), and the TKE-minimising lag moves by the simulated lag_s."""
+    time (not at the blink), and the TKE-minimising lag moves by the flight's processing lag
+    and by the mechanism's lag_s (within one step of the 1/32 s search grid, 1.5 steps for
+    the sum of two grid roundings)."""
     io_payload = importlib.import_module("dronewind.payload.io")
     sync = importlib.import_module("dronewind.payload.sync")
     ins = base["ins"].sort_values("rpi_time_us")
@@ -167,10 +169,16 @@ def test_chain_finds_the_gnss_time_and_the_sonic_ins_lag(tmp_path, base):
         i = io_payload.ins_l1(run["files"][1])
         return sync.payload_l2(s, i, "upside_down").attrs["lag_sonic_ins_s"]
 
+    no_lag = _campaign()
+    no_lag["simulation"]["payload"].update(sonic_ins_lag_low_s=0.0, sonic_ins_lag_high_s=0.0)
+    lag_none = lag_of(_run(tmp_path, no_lag, "no_lag"))
     lag0 = lag_of(base)
     lag1 = lag_of(_with(tmp_path, "sonic_ins_lag", lag_s=0.3))
-    assert abs(lag0) <= 0.25  # seed 000, Fig. 4: minima between -0.185 s and 0 s
-    assert lag1 - lag0 == pytest.approx(0.3, abs=1.5 / 32)  # lag grid step 1/32 s
+    processing_lag_s = resolve_payload_flight(_campaign(), "f1")["sonic_ins_lag_s"]
+    assert -0.185 <= processing_lag_s <= 0.0  # the default draw: Ghirardelli et al. 2025, Fig. 4
+    assert abs(lag_none) <= 0.25  # without a processing lag the minimum lies near Fig. 4's range
+    assert lag0 - lag_none == pytest.approx(processing_lag_s, abs=1 / 32)  # lag grid step 1/32 s
+    assert lag1 - lag0 == pytest.approx(0.3, abs=1.5 / 32)
 
 
 def test_mast_signs_and_reference_wind(base):
@@ -405,11 +413,46 @@ def _bad(mutator):
     (lambda c: c["simulation"].update(seed=-1), "simulation.seed"),
     (lambda c: c["simulation"]["payload_flights"]["f1"].update(roughness_length_m=0.0),
      "simulation.payload_flights.f1.roughness_length_m"),
+    (lambda c: c["simulation"]["payload_flights"]["f1"].update(sonic_ins_lag_s=2.5),
+     "simulation.payload_flights.f1.sonic_ins_lag_s"),
+    (lambda c: c["simulation"]["payload"].update(sonic_ins_lag_low_s=0.1, sonic_ins_lag_high_s=0.0),
+     "simulation.payload.sonic_ins_lag_low_s"),
 ])
 def test_bad_settings_rejected_with_the_setting_named(mutator, where):
     with pytest.raises(InputError) as err:
         validate_simulation(_bad(mutator))
     assert err.value.where == where, str(err.value)
+
+
+def test_processing_lag_is_drawn_per_flight_in_the_range_of_fig4_and_overridable():
+    """Every flight's sonic-INS processing lag: by default drawn from its seed in [-0.185, 0] s
+    (Ghirardelli et al. 2025, Fig. 4), another per flight, the same on every call; fixed by
+    the campaign's range (low = high) or by the flight's own ``sonic_ins_lag_s``."""
+    data = yaml.safe_load(DEFAULT_CAMPAIGN.read_text())
+    ids = [f["id"] for f in data["payload_flights"]]
+    lags = [resolve_payload_flight(data, fid)["sonic_ins_lag_s"] for fid in ids]
+    assert all(-0.185 <= lag <= 0.0 for lag in lags) and len(set(lags)) == len(ids)
+    assert np.ptp(lags) > 0.185 / 2  # spread over the range, not one value (10 uniform draws)
+    assert lags == [resolve_payload_flight(data, fid)["sonic_ins_lag_s"] for fid in ids]
+    fixed = _campaign()
+    fixed["simulation"]["payload"].update(sonic_ins_lag_low_s=-0.1, sonic_ins_lag_high_s=-0.1)
+    assert resolve_payload_flight(fixed, "f1")["sonic_ins_lag_s"] == -0.1
+    own = _campaign(sonic_ins_lag_s=0.05)
+    assert resolve_payload_flight(own, "f1")["sonic_ins_lag_s"] == 0.05
+
+
+def test_processing_lag_shifts_only_the_sonic_stamps(tmp_path, base):
+    """The processing lag moves the sonic's logger stamps by exactly the lag and changes
+    nothing else: the sonic's values, the INS and the mast records are bit for bit those of a
+    flight with another lag."""
+    lag = resolve_payload_flight(_campaign(), "f1")["sonic_ins_lag_s"]
+    other = _run(tmp_path, _campaign(sonic_ins_lag_s=lag + 0.25), "other")
+    d = other["sonic"].rpi_time_us.to_numpy() - base["sonic"].rpi_time_us.to_numpy()
+    assert np.all(np.abs(d + 250_000) <= 1)  # 0.25 s more lag: stamped 0.25 s earlier (+-1 us rounding)
+    pd.testing.assert_frame_equal(other["sonic"].drop(columns="rpi_time_us"), base["sonic"].drop(columns="rpi_time_us"))
+    pd.testing.assert_frame_equal(other["ins"], base["ins"])
+    for name, mast in base["masts"].items():
+        pd.testing.assert_frame_equal(other["masts"][name], mast)
 
 
 def test_mast_glob_without_star_rejected(tmp_path):

@@ -77,6 +77,7 @@ def test_same_lag_and_wind_as_fftconvolve_on_a_simulated_flight(monkeypatch):
     """A simulated payload flight (400 s hover, sonic stamped 0.25 s early) through L1 and L2: the same lag,
     hence the same wind."""
     camp = _campaign([{"mechanism": "sonic_ins_lag", "parameters": {"lag_s": 0.25}}])
+    camp["simulation"]["payload_flights"]["f1"]["sonic_ins_lag_s"] = 0.0  # the mechanism's lag alone
     records, _ = payload_records(camp, "f1")
     proc = copy.deepcopy(default_config()["processing"])
     table, ins_l1 = chain.compute_ins_l1(records[1])

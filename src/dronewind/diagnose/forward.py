@@ -88,7 +88,8 @@ __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETT
            "forward_conditions", "forward_manifest", "measured_features", "run_forward", "ForwardCache",
            "same_records", "lag_halves", "probe_runs", "probe_parts", "merge_probe_runs", "BASELINE_PART",
            "file_round_trip", "run_differences", "ATMOSPHERES", "RECORD_INVERSES", "shares_truth", "atmosphere_record",
-           "fresh_seeds", "record_through", "hover_span", "atmosphere_window", "ATMOSPHERE_VARIABLES"]
+           "fresh_seeds", "record_through", "hover_span", "atmosphere_window", "ATMOSPHERE_VARIABLES",
+           "simulated_sonic_ins_lag_s"]
 
 if TYPE_CHECKING:
     from dronewind.payload.io import InsTable
@@ -209,7 +210,13 @@ def forward_conditions(
         ``mean_speed_ms``, ``wind_from_deg``, ``obukhov_length_m``, ``z_ref_m``,
         ``hover_height_m``, ``start``, ``duration_s``, ``hover_offset_enu_m``,
         ``roughness_length_m``, ``theta_mean_k``; the surface layer from
-        :func:`mast_surface_layer`, the roughness length from :func:`roughness_length_m`.
+        :func:`mast_surface_layer`, the roughness length from :func:`roughness_length_m`;
+        and ``sonic_ins_lag_s``, the sonic-INS lag the chain found for the flight (the L2's
+        ``lag_tke_min_s``, else its ``lag_sonic_ins_s``; absent when neither is finite):
+        every sonic-INS system has a processing lag of its own, different per flight
+        (Ghirardelli et al. 2025, Sect. 3.3, Fig. 4), which the forward runs reproduce
+        (:func:`simulated_sonic_ins_lag_s`). A condition of the forward model, the lag is
+        then no evidence of the diagnosis.
     """
     layer = mast_surface_layer(l3)
     m = list(np.asarray(l3["sensor"].values).astype(str)).index("mast")
@@ -218,6 +225,7 @@ def forward_conditions(
     times = l2_drone["time"].values
     height = float(l2_drone.attrs.get("height_m", flight.get("target_height_m", layer.z_m)))
     ell = layer.obukhov_length_m
+    lag = _measured_lag_s(l2_drone)
     return {
         "mean_speed_ms": float(min(max(layer.speed_ms, 0.05), 40.0)),
         "wind_from_deg": float(l3["wind_from_deg"].values[m]) % 360.0,
@@ -229,7 +237,17 @@ def forward_conditions(
         "hover_offset_enu_m": [east, north],
         "roughness_length_m": roughness_length_m(layer),
         "theta_mean_k": float(min(max(layer.theta_mean_k, 221.0), 329.0)),
+        **({} if lag is None else {"sonic_ins_lag_s": lag}),
     }
+
+
+def _measured_lag_s(l2_drone: xr.Dataset) -> float | None:
+    """The sonic-INS lag of minimum TKE the chain found (L2 ``lag_tke_min_s``, else ``lag_sonic_ins_s``) [s]."""
+    for key in ("lag_tke_min_s", "lag_sonic_ins_s"):
+        value = float(l2_drone.attrs.get(key, np.nan))
+        if math.isfinite(value):
+            return value
+    return None
 
 
 def forward_manifest(
@@ -270,7 +288,9 @@ def forward_manifest(
         Manifest content with one payload flight (without its ``window``, or with the
         measured one for ``measured_atmosphere``), its reference
         mast sonic (:func:`dronewind.manifest.payload_flight_manifest`) and a
-        ``simulation:`` section.
+        ``simulation:`` section. The flight's sonic-INS processing lag is the conditions'
+        ``sonic_ins_lag_s``, or 0 without one (not the simulator's per-flight draw, which
+        would give every seed another lag).
     """
     data = payload_flight_manifest(campaign_data, flight_id)
     flight = data["payload_flights"][0]
@@ -281,7 +301,8 @@ def forward_manifest(
     data["name"] = f"{campaign_data['name']}_forward_{flight_id}"
     data["simulation"] = {
         "seed": int(seed),
-        "payload_flights": {flight_id: dict(conditions)},
+        "payload_flights": {flight_id: {**dict(conditions), "sonic_ins_lag_s": float(conditions.get("sonic_ins_lag_s",
+                                                                                                    0.0))}},
         "mechanisms": [dict(m) for m in (mechanisms or [])],
     }
     if measured_atmosphere:
@@ -718,7 +739,11 @@ def probe_runs(
         run and ``reused_products`` counts the products reused (:class:`ForwardCache`),
         ``reused_steps`` the steps inside them (:attr:`ForwardCache.steps`);
         ``atmosphere`` says which atmosphere was used (``measured`` or ``model``) and
-        ``atmosphere_record`` what was used of the measured record. The probes' features
+        ``atmosphere_record`` what was used of the measured record;
+        ``simulated_sonic_ins_lag_s`` (when the conditions carry the measured lag
+        ``sonic_ins_lag_s``) is the processing lag every run simulates
+        (:func:`simulated_sonic_ins_lag_s`; a probe of ``sonic_ins_lag`` or
+        ``attitude_lag`` adds to it). The probes' features
         are values only (their errors NaN, not computed): the diagnosis takes the errors
         from the baseline seeds (:mod:`dronewind.diagnose.campaign`).
 
@@ -751,14 +776,20 @@ def probe_runs(
     run_seeds = seeds if BASELINE_PART in parts else ()
     progress = Progress("probe", len(run_seeds) + len(levels), "run")
     measured = atmosphere is not None
-    truth = None  # the first seed's true state, reused by every measurement-stage probe
-    cache = ForwardCache()  # and its products, reused where a probe leaves a record unchanged
+    cache = ForwardCache()  # the products of the runs, reused where a probe leaves a record unchanged
+    # the first seed's true state, reused by every measurement-stage probe (made here when the
+    # conditions carry the measured lag, which is reproduced on it)
+    base_lag, truth = simulated_sonic_ins_lag_s(campaign_data, flight_id, conditions, processing, seeds[0],
+                                                atmosphere, cache=cache)
+    if base_lag is not None:
+        out["simulated_sonic_ins_lag_s"] = base_lag
+        conditions = {**dict(conditions), "sonic_ins_lag_s": base_lag}
     for seed in run_seeds:
         with progress.item(f"flight {flight_id} baseline seed {seed}"):
             feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed, measured),
-                                          flight_id, processing, cache=cache, atmosphere=atmosphere,
-                                          lag_drift=lag_drift, features=features)
-        if truth is None:
+                                          flight_id, processing, truth=truth if seed == seeds[0] else None,
+                                          cache=cache, atmosphere=atmosphere, lag_drift=lag_drift, features=features)
+        if seed == seeds[0]:
             truth = products["truth"]
             cache.freeze()
         # a run's products are not read again: freed before the next run, so that two runs'
@@ -797,6 +828,80 @@ def probe_runs(
     out["reused_products"] = {"hits": cache.hits, "misses": cache.misses}
     out["reused_steps"] = {"hits": cache.steps.hits, "misses": cache.steps.misses}
     return out
+
+
+def simulated_sonic_ins_lag_s(campaign_data: Mapping[str, Any], flight_id: str, conditions: Mapping[str, Any],
+                              processing: Mapping[str, Any], seed: int, atmosphere: xr.Dataset | None = None,
+                              truth: PayloadTruth | None = None, cache: ForwardCache | None = None
+                              ) -> tuple[float | None, PayloadTruth | None]:
+    """The sonic-INS processing lag with which the forward chain finds the flight's measured lag.
+
+    The chain's lag of minimum TKE (Ghirardelli et al. 2025, Sect. 3.3) is not the
+    processing lag itself: the payload's attitude follows the wind (the drone banks into
+    lateral gusts, the payload weathervanes), so shifting the INS against the sonic also
+    removes part of the wind's own variance, and the minimum lies below the simulated lag
+    (by 0.092 +- 0.033 s, mean and standard deviation over 60 flights of the hidden-effect
+    campaign without a mechanism, 3.5-9.5 m s-1). Simulating the measured lag itself would
+    shift the forward runs' lag by that much again. One step of a fixed-point iteration
+    removes it: the first seed's flight is simulated with the measured lag :math:`\\ell_m`
+    and its lag :math:`\\ell_f` found by the chain's lag search (lag only), and the runs take
+
+    .. math:: \\ell_{sim} = \\ell_m - (\\ell_f - \\ell_m).
+
+    On the search grid a whole number of lag steps moves the sonic's stamps and the TKE
+    curve alike, so the first seed's baseline finds :math:`\\ell_m` again
+    (``tests/test_forward_lag.py``); the other seeds differ by their own sampling error.
+
+    Parameters
+    ----------
+    campaign_data, flight_id, conditions, processing
+        As :func:`probe_runs`; the measured lag is ``conditions["sonic_ins_lag_s"]``
+        (:func:`forward_conditions`).
+    seed : int
+        The first baseline seed (the probes' seed).
+    atmosphere : xarray.Dataset, optional
+        The measured atmosphere record (:func:`atmosphere_record`).
+    truth : PayloadTruth, optional
+        The seed's true state, if made already.
+    cache : ForwardCache, optional
+        The flight's cache: the INS L1 and the simulator's steps made here are those of the
+        first baseline run, which then reuses them.
+
+    Returns
+    -------
+    lag_s : float or None
+        The processing lag to simulate [s], within the settings' range
+        (:data:`dronewind.simulate.settings.SONIC_INS_LAG_RANGE_S`); None when the conditions
+        carry no lag. The measured lag itself when the lag search fails on the simulated flight.
+    truth : PayloadTruth or None
+        The seed's true state (None when the conditions carry no lag and none was given).
+    """
+    from dronewind.simulate.payload import payload_records
+    from dronewind.simulate.settings import SONIC_INS_LAG_RANGE_S
+
+    if conditions.get("sonic_ins_lag_s") is None:
+        return None, truth
+    measured_lag = float(conditions["sonic_ins_lag_s"])
+    manifest = forward_manifest(campaign_data, flight_id, conditions, None, seed, atmosphere is not None)
+    cache = ForwardCache() if cache is None else cache
+    with reusing(cache.steps):
+        records, truth = payload_records(manifest, flight_id, truth, atmosphere)
+        ins_table, ins_l1 = cache.get("ins_l1", [records[1]], lambda: compute_ins_l1(records[1]))
+        sonic_l1 = compute_sonic_l1(records[0], records[1], ins_table, processing["despike"])
+        flight = next(f for f in manifest["payload_flights"] if f["id"] == flight_id)
+        lag = {key: processing[key] for key in LAG_SETTINGS}
+        try:
+            l2 = compute_payload_l2(sonic_l1, ins_l1, flight, float(manifest["site"]["altitude_m"]), lag_only=True,
+                                    **lag)
+        except InputError as exc:
+            LOG.warning("flight %s: the forward runs simulate the measured lag %+.5f s (lag search failed: %s)",
+                        flight_id, measured_lag, exc)
+            return measured_lag, truth
+    found = _measured_lag_s(l2)
+    if found is None:
+        return measured_lag, truth
+    lo, hi = SONIC_INS_LAG_RANGE_S
+    return float(min(max(2.0 * measured_lag - found, lo), hi)), truth
 
 
 def shares_truth(mechanisms: Sequence[Mapping[str, Any]], measured: bool) -> bool:
@@ -851,7 +956,8 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     first = parts[0]
     names: list[str] = []
     for part in parts:
-        for key in ("flight", "conditions", "seeds", "atmosphere", "lag_drift", "features"):
+        for key in ("flight", "conditions", "seeds", "atmosphere", "lag_drift", "features",
+                    "simulated_sonic_ins_lag_s"):
             if part.get(key) != first.get(key):
                 raise InputError(f"parts: {key}", f"forward-run parts disagree on {key}: {part.get(key)!r} and "
                                  f"{first.get(key)!r}")
@@ -874,6 +980,8 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     records = [p["atmosphere_record"] for p in parts if "atmosphere_record" in p]
     if records:
         out["atmosphere_record"] = records[0]
+    if "simulated_sonic_ins_lag_s" in first:
+        out["simulated_sonic_ins_lag_s"] = first["simulated_sonic_ins_lag_s"]
     for key in ("reused_products", "reused_steps"):
         out[key] = {k: sum(int(p.get(key, {}).get(k, 0)) for p in parts) for k in ("hits", "misses")}
     return out

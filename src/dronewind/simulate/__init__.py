@@ -76,6 +76,10 @@ whole numbers of Hz::
         ekf_init_s: 5                         # [0, 600] s
         logger_clock_offset_s: -5400          # [-1e+09, 1e+09] s
         logger_clock_drift_ppm: 0             # [-500, 500] ppm
+        sonic_ins_lag_low_s: -0.185           # [-1, 1] s, each flight's sonic-INS processing
+        sonic_ins_lag_high_s: 0               # [-1, 1] s, lag drawn from its seed in [low, high]
+                                              #   (Ghirardelli et al. 2025, Fig. 4); low = high
+                                              #   fixes it (0, 0: none)
         defects:                            # per file, each key optional
           sonic:
             missing_rate: 0.001               # [0, 0.02] 1
@@ -112,6 +116,8 @@ whole numbers of Hz::
           hover_offset_enu_m: [25, -30]   # payload position relative to the reference mast;
                                       #   default 35 m right of the mast (looking downwind)
                                       #   and 10 m upwind
+          sonic_ins_lag_s: -0.1       # [-2, 2] s, this flight's processing lag (time to add
+                                      #   to the sonic clock); default: drawn in the payload's range
           roughness_length_m: 0.3     # overrides of the atmosphere block
           theta_mean_k: 299.0
           boundary_layer_height_m: 1500

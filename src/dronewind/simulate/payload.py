@@ -34,6 +34,13 @@ Physics (seed 000, Sects 2-3):
   model) and alt MSL with Gauss-Markov errors of the Table 3 accuracies; GNSS time valid
   only ``gnss_acquisition_s`` after logging starts, with one blink of
   ``gnss_blink_s`` (< 10 s) halfway before; EKF valid after ``ekf_init_s``.
+* Sonic-INS processing lag: the sonic's rows are stamped ``sonic_ins_lag_s`` late against
+  the INS's (the time the chain must add to the sonic clock, DESIGN.md's
+  ``lag_sonic_ins_s``), per flight: its ``simulation.payload_flights.<id>.sonic_ins_lag_s``,
+  else drawn from the flight's seed in [``sonic_ins_lag_low_s``, ``sonic_ins_lag_high_s``],
+  by default [-0.185, 0] s, the range of the ten validation flights' lags (Ghirardelli et
+  al. 2025, Sect. 3.3, Fig. 4; :func:`dronewind.simulate.settings.processing_lag_s`). The
+  ``sonic_ins_lag`` mechanism adds to it.
 * Logger clock: ``rpi_time_us`` = (UTC + ``logger_clock_offset_s``) with
   ``logger_clock_drift_ppm``, shared by both files.
 * Row defects (missing, duplicated, swapped, out-of-range) at the ``defects`` rates.
@@ -825,9 +832,14 @@ def _logger_clock_us(t_s: np.ndarray, log_t0_s: float, start: np.datetime64, p: 
 
 
 def _sonic_stamps_us(cond: PayloadFlightConditions, t_s: np.ndarray) -> np.ndarray:
-    """Logger stamps of the sonic rows, shifted by the ``sonic_ins_lag`` and ``clock_drift`` mechanisms."""
+    """Logger stamps of the sonic rows: shifted by the flight's processing lag (``sonic_ins_lag_s``)
+    and the ``sonic_ins_lag`` and ``clock_drift`` mechanisms.
+
+    A sample of true time t is stamped t - lag: the chain adds lag to the sonic's clock to
+    align it with the INS (DESIGN.md's ``lag_sonic_ins_s``).
+    """
     mech, log_t0 = cond["mechanisms"], t_s[0]
-    t_stamp = t_s.copy()
+    t_stamp = t_s - cond["sonic_ins_lag_s"]
     if "sonic_ins_lag" in mech:
         t_stamp = t_stamp - mech["sonic_ins_lag"]["lag_s"]
     if "clock_drift" in mech:
@@ -1247,7 +1259,8 @@ def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: Simu
     The record without a mechanism on the instrument is the one every probe of another
     instrument reads again (a sonic probe reads the INS and mast records of the baseline), so
     it is kept in the truth's memo. The key holds everything the record depends on besides the
-    truth: the payload, defect and mast settings and the times. A record with a mechanism on
+    truth: the payload, defect and mast settings, the times and, for the sonic, the flight's
+    processing lag. A record with a mechanism on
     the instrument (a probe level, an extended model) is read by one run only: it is measured
     and not kept, which would hold every probe's records as long as the truth (with them and
     each run's products kept until the next run, a published-numbers job of sample s05 held
@@ -1256,8 +1269,9 @@ def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: Simu
     """
     if any(name in cond["mechanisms"] for name in INSTRUMENT_MECHANISMS[instrument]):
         return measure()
+    lag = (cond["sonic_ins_lag_s"],) if instrument == "sonic" else ()
     key = (instrument, repr((cond["payload"], cond["defects"], settings["mast"], str(cond["start"]),
-                             str(flight_timeline(cond)))))
+                             str(flight_timeline(cond)), *lag)))
     return _remembered(truth.memo, key, measure)
 
 

@@ -39,6 +39,9 @@ __all__ = [
     "campaign_dict",
     "parse_time",
     "flight_seed",
+    "processing_lag_s",
+    "PROCESSING_LAG_STREAM",
+    "SONIC_INS_LAG_RANGE_S",
     "validate_simulation",
     "resolve_payload_flight",
 ]
@@ -114,6 +117,13 @@ PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
     "ekf_init_s": (5.0, 0.0, 600.0, "s"),
     "logger_clock_offset_s": (-5400.0, -1e9, 1e9, "s"),    # RPi clock minus UTC at log start
     "logger_clock_drift_ppm": (0.0, -500.0, 500.0, "ppm"),
+    # the sonic-INS processing lag of each flight (the time to add to the sonic's clock to
+    # align it with the INS, DESIGN.md's lag_sonic_ins_s), drawn uniformly in [low, high]
+    # from the flight's seed (:func:`processing_lag_s`): the lags of minimum TKE of the
+    # ten validation flights lie between -0.185 s and 0 s (Ghirardelli et al. 2025, Sect.
+    # 3.3, Fig. 4); low = high fixes every flight's lag (0 and 0: none)
+    "sonic_ins_lag_low_s": (-0.185, -1.0, 1.0, "s"),
+    "sonic_ins_lag_high_s": (0.0, -1.0, 1.0, "s"),
 }
 
 MAST_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
@@ -146,8 +156,16 @@ DEFECT_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
 
 _FLIGHT_KEYS = {
     "mean_speed_ms", "wind_from_deg", "z_over_L", "obukhov_length_m", "z_ref_m", "hover_height_m",
-    "start", "duration_s", "flight_duration_s", "hover_offset_enu_m", *ATMOSPHERE_DEFAULTS,
+    "start", "duration_s", "flight_duration_s", "hover_offset_enu_m", "sonic_ins_lag_s", *ATMOSPHERE_DEFAULTS,
 }
+
+#: Random stream of the per-flight sonic-INS processing lag (:func:`processing_lag_s`); apart
+#: from the simulator's streams (:mod:`dronewind.simulate.payload`), so that drawing it leaves
+#: their draws unchanged.
+PROCESSING_LAG_STREAM = 200
+#: Range of a flight's ``sonic_ins_lag_s`` [s]: the lag search's default range (+-2 s,
+#: Ghirardelli et al. 2025, Sect. 3.3) and the catalog's ``sonic_ins_lag`` range.
+SONIC_INS_LAG_RANGE_S = (-2.0, 2.0)
 
 
 class ManifestLike(Protocol):
@@ -236,6 +254,9 @@ class PayloadFlightConditions(TypedDict):
     hover_offset_enu_m: list[float]
     seed: int
     sonic_mount: str
+    #: The flight's sonic-INS processing lag [s]: time to add to the sonic's clock to align
+    #: it with the INS (its ``sonic_ins_lag_s``, else drawn, :func:`processing_lag_s`).
+    sonic_ins_lag_s: float
 
 
 def campaign_dict(campaign: CampaignLike) -> dict[str, Any]:
@@ -303,6 +324,40 @@ def flight_seed(campaign_seed: int, flight_id: str) -> int:
     """
     digest = hashlib.sha256(f"{int(campaign_seed)}:{flight_id}".encode()).digest()
     return int.from_bytes(digest[:8], "little")
+
+
+def processing_lag_s(seed: int, low_s: float, high_s: float) -> float:
+    """A flight's sonic-INS processing lag, drawn uniformly in [low_s, high_s] from its seed.
+
+    Every sonic-INS system has a processing lag of its own, different from flight to flight:
+    the lags of minimum TKE of the ten SAMURAI-S validation flights lie between -0.185 s and
+    0 s (Ghirardelli et al. 2025, Sect. 3.3, Fig. 4), the defaults of ``low_s`` and
+    ``high_s`` (``simulation.payload.sonic_ins_lag_low_s``, ``sonic_ins_lag_high_s``).
+
+    Parameters
+    ----------
+    seed : int
+        The flight's seed (:func:`flight_seed`).
+    low_s, high_s : float
+        Range [s], ``low_s <= high_s``; equal: that value, nothing drawn.
+
+    Returns
+    -------
+    float
+        Lag [s] (time to add to the sonic's clock to align it with the INS, DESIGN.md's
+        ``lag_sonic_ins_s``), rounded to 1 microsecond (the logger's stamp resolution).
+
+    Examples
+    --------
+    >>> processing_lag_s(1, 0.0, 0.0)
+    0.0
+    >>> -0.185 <= processing_lag_s(1, -0.185, 0.0) <= 0.0
+    True
+    """
+    if low_s == high_s:
+        return float(low_s)
+    value = np.random.default_rng([int(seed), PROCESSING_LAG_STREAM]).uniform(low_s, high_s)
+    return round(float(value), 6)
 
 
 def _number(value: object, where: str, lower: float, upper: float, unit: str,
@@ -389,6 +444,10 @@ def _payload_settings(sim: Mapping[str, Any]) -> tuple[dict[str, float], dict[st
         raise InputError(f"simulation.payload.defects.{bad[0]}", "unknown key; expected sonic or ins")
     payload = _block(payload_raw, PAYLOAD_DEFAULTS, "simulation.payload",
                      exclusive=("pendulum_length_m", "mass_kg", "drag_area_m2"))
+    if payload["sonic_ins_lag_low_s"] > payload["sonic_ins_lag_high_s"]:
+        raise InputError("simulation.payload.sonic_ins_lag_low_s",
+                         f"{payload['sonic_ins_lag_low_s']} s is above sonic_ins_lag_high_s = "
+                         f"{payload['sonic_ins_lag_high_s']} s (expected low <= high)")
     defects = {k: _block(defects_raw.get(k), DEFECT_DEFAULTS, f"simulation.payload.defects.{k}")
                for k in ("sonic", "ins")}
     return payload, defects
@@ -635,6 +694,13 @@ def _hover_offset_enu_m(cond: Mapping[str, Any], where: str, wind_from_deg: floa
     return [35 * e_right[0] - 10 * e_u[0], 35 * e_right[1] - 10 * e_u[1]]
 
 
+def _flight_lag_s(cond: Mapping[str, Any], where: str, payload: Mapping[str, float], seed: int) -> float:
+    """The flight's ``sonic_ins_lag_s`` [s], else drawn in the payload's range (:func:`processing_lag_s`)."""
+    if "sonic_ins_lag_s" in cond:
+        return _number(cond["sonic_ins_lag_s"], f"{where}.sonic_ins_lag_s", *SONIC_INS_LAG_RANGE_S, "s")
+    return processing_lag_s(seed, payload["sonic_ins_lag_low_s"], payload["sonic_ins_lag_high_s"])
+
+
 def _sonic_mount(flight: Mapping[str, Any], flight_id: str) -> str:
     """``upside_down`` (default) or ``upright``."""
     mount = str((flight.get("sonic") or {}).get("mount", "upside_down"))
@@ -664,7 +730,8 @@ def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
         ``duration_s, flight_duration_s`` (None if not set), ``hover_offset_enu_m``
         (2 floats, relative to the reference sonic's mast), the atmosphere settings,
         ``turbulence`` (the campaign's :class:`TurbulenceModel`),
-        ``payload, defects, mast`` (dicts), ``mechanisms`` (dict name -> parameters of
+        ``payload, defects, mast`` (dicts), ``sonic_ins_lag_s`` (the flight's processing
+        lag, :func:`processing_lag_s`), ``mechanisms`` (dict name -> parameters of
         the payload/mast mechanisms active for this flight), ``reference`` (sonic id),
         ``mast_sonics`` (dict), ``site`` (dict), ``flight`` (manifest entry).
 
@@ -689,6 +756,7 @@ def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
     payload = settings["payload"]
     mechs = _flight_mechanisms(settings["mechanisms"], flight_id)
     _check_hover_height(hover_height, mechs, flight_id)
+    seed = flight_seed(settings["seed"], flight_id)
     return PayloadFlightConditions(
         flight_id=flight_id, flight=flight, reference=ref, mast_sonics=sonics, site=dict(data.get("site") or {}),
         mean_speed_ms=wind["mean_speed_ms"], wind_from_deg=wind["wind_from_deg"], z_ref_m=wind["z_ref_m"],
@@ -699,7 +767,8 @@ def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
         defects=settings["defects"], mast=settings["mast"], mechanisms=mechs,
         flight_duration_s=_flight_duration_s(cond, where, duration, hover_height, payload),
         hover_offset_enu_m=_hover_offset_enu_m(cond, where, wind["wind_from_deg"]),
-        seed=flight_seed(settings["seed"], flight_id), sonic_mount=_sonic_mount(flight, flight_id))
+        seed=seed, sonic_mount=_sonic_mount(flight, flight_id),
+        sonic_ins_lag_s=_flight_lag_s(cond, where, payload, seed))
 
 
 def simulation_manifest(campaign_data: Mapping[str, Any]) -> dict[str, Any]:
