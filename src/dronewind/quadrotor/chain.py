@@ -34,7 +34,7 @@ from dronewind.errors import InputError
 from dronewind.quadrotor import QUAD_TABLES
 from dronewind.quadrotor.drag import DragLaw, speed_from_tilt, tilt_from_attitude
 from dronewind.quadrotor.wind import uav_wind_dataset, wind_from_attitude
-from dronewind.quadrotor.windows import flight_windows
+from dronewind.quadrotor.windows import flight_windows_with_gaps
 
 __all__ = [
     "QUAD_TABLES", "WINDOW_LENGTHS_S", "uav_track_to_cf", "nominal_position",
@@ -186,12 +186,22 @@ def compute_flight_windows(logs: Mapping[str, xr.Dataset], reference: xr.Dataset
     for uav, ds in logs.items():
         for window_s in WINDOW_LENGTHS_S:
             try:
-                b, w = flight_windows(ds, reference, site_altitude_m, flight_id, uav, window_s=window_s,
-                                      block_s=block_s, hover_kwargs=hover)
+                b, w, skipped = flight_windows_with_gaps(ds, reference, site_altitude_m, flight_id, uav,
+                                                         window_s=window_s, block_s=block_s, hover_kwargs=hover)
             except InputError as exc:
                 LOG.warning("flight %s uav %s (%g s windows): %s", flight_id, uav, window_s, exc)
                 problems.append({"flight": flight_id, "uav": uav, "file": files.get(uav, ""),
                                  "window_s": window_s, "error": str(exc)})
+                continue
+            # a window a gap touches is skipped, the others kept: one problem row per skipped window
+            for _, row in skipped.iterrows():
+                problems.append({"flight": flight_id, "uav": uav, "file": files.get(uav, ""), "window_s": window_s,
+                                 "error": f"window {row['window']} ({pd.Timestamp(row['start']):%Y-%m-%dT%H:%M:%SZ} to "
+                                          f"{pd.Timestamp(row['end']):%Y-%m-%dT%H:%M:%SZ}) skipped: {row['reason']}"})
+            if len(skipped):
+                LOG.warning("flight %s uav %s (%g s windows): %d kept, %d skipped (gaps or coverage)", flight_id,
+                            uav, window_s, len(w), len(skipped))
+            if w.empty:
                 continue
             windows.append(w.assign(window_s=window_s, var_ref_1min_m2s2=reference_variance(reference, w)))
             blocks.append(b.assign(window_s=window_s))

@@ -36,6 +36,7 @@ References
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -457,13 +458,18 @@ def read_quadrotor_ulog(path: str | Path, utc_start: str | None = None) -> xr.Da
     return _finish(ds, path, log)
 
 
-def read_quadrotor(path: str | Path) -> xr.Dataset:
-    """Read a quadrotor log, CSV or PX4 ULog by file suffix (data contract).
+def read_quadrotor(path: str | Path, fmt: str | Mapping[str, Any] | None = None) -> xr.Dataset:
+    """Read a quadrotor log: contract CSV, PX4 ULog or ArduPilot DataFlash (by format or file suffix).
 
     Parameters
     ----------
     path : str or Path
-        ``.csv`` or ``.ulg`` file.
+        ``.csv``, ``.ulg`` or ``.bin`` file.
+    fmt : str or mapping, optional
+        The manifest's ``format`` (a name or a mapping with ``name``): ``contract_csv``,
+        ``ulog``, ``ardupilot_bin`` (:func:`dronewind.quadrotor.ardupilot.read_quadrotor_ardupilot`,
+        setting ``ekf_core``) or ``delimited``
+        (:func:`dronewind.quadrotor.delimited.read_quadrotor_delimited`). Default: by suffix.
 
     Returns
     -------
@@ -473,15 +479,29 @@ def read_quadrotor(path: str | Path) -> xr.Dataset:
     Raises
     ------
     InputError
-        Unknown suffix or a reader error.
+        Unknown suffix or format, or a reader error.
     """
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix == ".csv":
+    spec = {"name": fmt} if isinstance(fmt, str) else dict(fmt or {})
+    name = spec.get("name") or {".csv": "contract_csv", ".ulg": "ulog", ".bin": "ardupilot_bin"}.get(
+        path.suffix.lower())
+    if name == "contract_csv":
         return read_quadrotor_csv(path)
-    if suffix == ".ulg":
+    if name == "ulog":
         return read_quadrotor_ulog(path)
-    raise InputError(path, f"unknown quadrotor log type {suffix!r}; expected .csv or .ulg")
+    if name == "ardupilot_bin":
+        from dronewind.quadrotor.ardupilot import read_quadrotor_ardupilot
+
+        return read_quadrotor_ardupilot(path, ekf_core=int(spec.get("ekf_core", 0)))
+    if name == "delimited":
+        from dronewind.quadrotor.delimited import read_quadrotor_delimited
+
+        return read_quadrotor_delimited(path, spec)
+    if name is None:
+        raise InputError(path, f"unknown quadrotor log type {path.suffix.lower()!r}; expected .csv, .ulg or .bin "
+                               "(or a declared format)")
+    raise InputError(path, f"unknown quadrotor log format {name!r}; expected contract_csv, ulog, ardupilot_bin "
+                           "or delimited")
 
 
 _WIDE = re.compile(r"^(wind_speed_ms|wind_from_deg)_(\d+(?:\.\d+)?)m?$")
