@@ -18,7 +18,9 @@ puts them on one time axis in UTC:
 * ``GPS``: ``GWk`` (GPS week) and ``GMS`` (milliseconds of the week) give UTC:
   :func:`gps_to_utc_ns` subtracts the leap seconds of :data:`GPS_UTC_LEAP_SECONDS`;
 * ``BARO``: ``Alt`` [m above the arming point], ``Press`` [Pa], ``Temp`` [degC] (the
-  sensor's temperature, inside the airframe: not the air's).
+  sensor's temperature, inside the airframe: not the air's);
+* ``PARM``: the parameters of :data:`KEPT_PARAMETERS` (attitude trims, the EKF's drag model,
+  the frame) as ``attrs['param_<NAME>']``.
 
 Every stream is linearly interpolated to the ``ATT`` times (NaN outside its own time span).
 The result has the variables of :func:`dronewind.quadrotor.io.read_quadrotor_csv` plus the
@@ -48,7 +50,7 @@ from dronewind.errors import InputError
 
 __all__ = [
     "GPS_EPOCH", "GPS_UTC_LEAP_SECONDS", "LEAP_TABLE_VALID_UNTIL", "gps_utc_offset_s", "gps_to_utc_ns",
-    "read_dataflash_messages", "read_quadrotor_ardupilot", "read_platform_ardupilot",
+    "KEPT_PARAMETERS", "read_dataflash_messages", "read_quadrotor_ardupilot", "read_platform_ardupilot",
 ]
 
 #: Start of GPS time (GPS week 0), UTC.
@@ -81,7 +83,14 @@ _MESSAGES: dict[str, tuple[str, ...]] = {
     "ORGN": ("TimeUS", "Type", "Lat", "Lng", "Alt"),
     "GPS": ("TimeUS", "Status", "GWk", "GMS"),
     "BARO": ("TimeUS", "I", "Alt", "Press", "Temp"),
+    "PARM": ("Name", "Value"),
 }
+
+#: Parameters kept in the dataset's attrs (``param_<NAME>``): the attitude trims, the EKF's
+#: drag model (with which a multicopter's EKF3 estimates wind) and the frame.
+KEPT_PARAMETERS: tuple[str, ...] = (
+    "AHRS_TRIM_X", "AHRS_TRIM_Y", "AHRS_ORIENTATION", "EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y", "EK3_DRAG_MCOEF",
+    "EK3_WIND_P_NSE", "EK3_WIND_PSCALE", "FRAME_CLASS", "FRAME_TYPE", "MOT_THST_HOVER")
 
 _ATTRS: dict[str, dict[str, str]] = {
     "des_roll_deg": {"units": "degree", "long_name": "roll set point of the attitude controller (DesRoll)"},
@@ -208,7 +217,8 @@ def _utc_offset_ns(msgs: dict[str, dict[str, np.ndarray]], path: Path, log: list
         good = (gps["GWk"] > 0) & (gps["Status"] >= 3)
         if good.any():
             utc = gps_to_utc_ns(gps["GWk"][good], gps["GMS"][good])
-            off = int(np.median(utc.astype(np.int64) - gps["TimeUS"][good].astype(np.int64) * 1000))
+            # to whole microseconds, the resolution of the boot clock
+            off = 1000 * int(round(float(np.median(utc.astype(np.int64) - gps["TimeUS"][good].astype(np.int64) * 1000)) / 1000))
             leap = int(gps_utc_offset_s(utc[:1])[0])
             log.append(f"utc: GPS week and ms of week of {int(good.sum())} 3-D fixes, minus {leap} leap seconds")
             if utc[-1] > LEAP_TABLE_VALID_UNTIL:
@@ -274,7 +284,7 @@ def read_quadrotor_ardupilot(path: str | Path, ekf_core: int = 0) -> xr.Dataset:
     if att is None or att["TimeUS"].size == 0:
         raise InputError(f"{path} [ATT]", "the log holds no ATT message; the attitude is needed to measure "
                                           "wind from the multicopter's tilt (Wetz et al. 2021, Sect. 4.2)")
-    log = [f"read: DataFlash {path.name}: " + ", ".join(f"{k} {v['TimeUS'].size}" for k, v in msgs.items())]
+    log = [f"read: DataFlash {path.name}: " + ", ".join(f"{k} {next(iter(v.values())).size}" for k, v in msgs.items())]
     t_us = att["TimeUS"].astype(np.int64)
     ekf_name = "EKF3" if "XKF1" in msgs else ("EKF2" if "NKF1" in msgs else "none")
     kf1 = _one_core(msgs["XKF1"], ekf_core) if "XKF1" in msgs else msgs.get("NKF1")
@@ -317,6 +327,11 @@ def read_quadrotor_ardupilot(path: str | Path, ekf_core: int = 0) -> xr.Dataset:
     log.append(f"position: from {source}; velocity from {ekf_name} core {ekf_core}; {n_pos_missing} attitude "
                "samples without position or velocity (NaN)")
     utc_offset_ns, utc_valid = _utc_offset_ns(msgs, path, log)
+    params = {}
+    if "PARM" in msgs:  # the last value logged of each kept parameter
+        for name, value in zip(msgs["PARM"]["Name"], msgs["PARM"]["Value"], strict=True):
+            if str(name) in KEPT_PARAMETERS:
+                params[f"param_{name}"] = float(value)
     time = (t_us * 1000 + utc_offset_ns).astype("datetime64[ns]")
     ds = xr.Dataset({k: ("time", v) for k, v in data.items()}, coords={"time": time})
     ds = _sort_dedupe(ds, log)
@@ -324,7 +339,7 @@ def read_quadrotor_ardupilot(path: str | Path, ekf_core: int = 0) -> xr.Dataset:
         ds[name].attrs.update(attrs)
     ds.attrs.update({"utc_valid": utc_valid, "utc_offset_us": utc_offset_ns // 1000, "ekf": ekf_name,
                      "ekf_core": ekf_core, "position_source": source, "n_ekf_wind_unset": n_unset,
-                     "n_position_missing": n_pos_missing, "n_nonfinite": 0, "format": "ardupilot_bin"})
+                     "n_position_missing": n_pos_missing, "n_nonfinite": 0, "format": "ardupilot_bin", **params})
     return _finish(ds, path, log)
 
 

@@ -234,14 +234,21 @@ def record_gaps(time: np.ndarray, max_gap_s: float, start: np.datetime64 | None 
     return [(t[i], t[i + 1]) for i in k]
 
 
-def _touching(gaps: list[tuple[np.datetime64, np.datetime64]], t0: np.datetime64,
-              t1: np.datetime64) -> list[tuple[np.datetime64, np.datetime64]]:
-    """Gaps that overlap the window [t0, t1)."""
-    return [(a, b) for a, b in gaps if a < t1 and b > t0]
+def _touching(gaps: list[tuple[np.datetime64, np.datetime64]], t0: np.datetime64, t1: np.datetime64,
+              spacing_s: float) -> list[tuple[np.datetime64, np.datetime64]]:
+    """Gaps that take samples from the window [t0, t1).
+
+    A gap from its last sample ``a`` to its next ``b`` misses the samples after ``a`` and
+    before ``b``: it touches the window unless ``a`` is the window's last sample or ``b``
+    its first (``spacing_s``, the record's sample spacing, is the slack).
+    """
+    slack = np.timedelta64(int(round(spacing_s * 1e9)), "ns")
+    return [(a, b) for a, b in gaps if a + slack < t1 and b > t0]
 
 
-def _gap_text(kind: str, gaps: list[tuple[np.datetime64, np.datetime64]]) -> str:
-    longest = max((b - a).astype("int64") / 1e9 for a, b in gaps)
+def _gap_text(kind: str, gaps: list[tuple[np.datetime64, np.datetime64]], spacing_s: float) -> str:
+    """The reason for a skipped window: its gaps and the longest time without records (spacing less one sample)."""
+    longest = max((b - a).astype("int64") / 1e9 for a, b in gaps) - spacing_s
     return (f"the {kind} does not cover it: {len(gaps)} gap{'s' if len(gaps) > 1 else ''}, the longest "
             f"{longest:.0f} s without records")
 
@@ -298,6 +305,7 @@ def flight_windows_with_gaps(ds: xr.Dataset, reference: xr.Dataset, site_altitud
     interval = float(reference.attrs.get("sampling_interval_s") or 60.0)
     hover_t = t[mask & np.isfinite(ds["roll_deg"].to_numpy()) & np.isfinite(ds["pitch_deg"].to_numpy())]
     uav_gaps = record_gaps(hover_t, max_gap_s, edges[0], edges[-1])
+    uav_spacing_s = float(np.median(np.diff(hover_t.astype("int64")))) / 1e9 if hover_t.size > 1 else 0.0
     # a record stamped at the start of its interval covers up to one interval after it
     ref_gaps = record_gaps(ref_t[np.isfinite(ref_sp)], max(max_gap_s, 2.0 * interval), edges[0],
                            edges[-1] - np.timedelta64(int(round(interval * 1e9)), "ns"))
@@ -312,10 +320,10 @@ def flight_windows_with_gaps(ds: xr.Dataset, reference: xr.Dataset, site_altitud
         rsel, expected = reference_coverage(ref_t, ref_sp, t0, t1, interval)
         sel = np.flatnonzero(mask & (t >= t0) & (t < t1))
         reasons = []
-        if g := _touching(uav_gaps, t0, t1):
-            reasons.append(_gap_text("UAV record", g))
-        if g := _touching(ref_gaps, t0, t1):
-            reasons.append(_gap_text("reference", g))
+        if g := _touching(uav_gaps, t0, t1, uav_spacing_s):
+            reasons.append(_gap_text("UAV record", g, uav_spacing_s))
+        if g := _touching(ref_gaps, t0, t1, interval):
+            reasons.append(_gap_text("reference", g, interval))
         if rsel.sum() < min_coverage * expected:
             reasons.append(f"the reference does not cover it: {int(rsel.sum())} of {expected} records at "
                            f"{ref_height:g} m (at least {min_coverage:.0%} needed)")
