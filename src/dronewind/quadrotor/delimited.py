@@ -31,14 +31,10 @@ import xarray as xr
 
 from dronewind.core.delimited import delimited_layout, read_delimited
 from dronewind.errors import InputError
+from dronewind.quadrotor.columns import QUADROTOR_QUANTITIES
 
 __all__ = ["QUADROTOR_QUANTITIES", "read_quadrotor_delimited", "reference_from_record"]
 
-#: Variables of a delimited quadrotor record and the SI unit their declared unit must convert to.
-QUADROTOR_QUANTITIES: dict[str, str] = {
-    "roll": "degree", "pitch": "degree", "yaw": "degree", "vel_n": "m s-1", "vel_e": "m s-1", "vel_d": "m s-1",
-    "vel_u": "m s-1", "lat": "degree", "lon": "degree", "alt": "m", "ref_speed": "m s-1", "ref_from": "degree",
-}
 
 
 def read_quadrotor_delimited(path: str | Path, fmt: Mapping[str, Any], where: str = "format") -> xr.Dataset:
