@@ -51,7 +51,8 @@ def record(tmp_path_factory):
     frame = pd.DataFrame({
         "time": pd.to_datetime(t).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "roll": np.round(rng.normal(1.0, 0.3, sec.size), 3), "pitch": np.round(rng.normal(-4.0, 0.3, sec.size), 3),
-        "speed": np.round(5.0 + rng.normal(0, 0.5, sec.size), 3), "direction": np.round(rng.uniform(200, 220, sec.size), 2),
+        "speed": np.round(5.0 + rng.normal(0, 0.5, sec.size), 3),
+        "direction": np.round(rng.uniform(200, 220, sec.size), 2),
     })
     path = tmp_path_factory.mktemp("gaps") / "uav_1hz.csv"
     frame.to_csv(path, index=False)

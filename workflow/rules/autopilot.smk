@@ -10,12 +10,12 @@ rule autopilot_wind:
     output:
         l3=AUTOPILOT_DIR / "L3" / "autopilot" / "{aflight}.nc",
         l4=AUTOPILOT_DIR / "L4" / "autopilot" / "{aflight}.nc",
-    wildcard_constraints:
-        aflight=_alternatives(AUTOPILOT_FLIGHTS),
     log:
         log_path("autopilot_wind", "aflight"),
     benchmark:
         bench_path("autopilot_wind", "aflight")
+    wildcard_constraints:
+        aflight=_alternatives(AUTOPILOT_FLIGHTS),
     conda:
         ENV
     params:
@@ -30,8 +30,14 @@ rule autopilot_wind:
 rule autopilot_summary:
     """The comparison table of every autopilot flight and a figure per flight."""
     input:
-        l3=expand(AUTOPILOT_DIR / "L3" / "autopilot" / "{aflight}.nc", aflight=AUTOPILOT_FLIGHTS),
-        l4=expand(AUTOPILOT_DIR / "L4" / "autopilot" / "{aflight}.nc", aflight=AUTOPILOT_FLIGHTS),
+        l3=expand(
+            AUTOPILOT_DIR / "L3" / "autopilot" / "{aflight}.nc",
+            aflight=AUTOPILOT_FLIGHTS,
+        ),
+        l4=expand(
+            AUTOPILOT_DIR / "L4" / "autopilot" / "{aflight}.nc",
+            aflight=AUTOPILOT_FLIGHTS,
+        ),
     output:
         table=RESULTS / "tables" / "autopilot_ekf_wind.csv",
         figures=[

@@ -477,5 +477,6 @@ def autopilot_targets():
     if not AUTOPILOT_FLIGHTS:
         return []
     return [str(RESULTS / "tables" / "autopilot_ekf_wind.csv")] + [
-        str(RESULTS / "figures" / f"autopilot_ekf_wind_{f}.png") for f in AUTOPILOT_FLIGHTS
+        str(RESULTS / "figures" / f"autopilot_ekf_wind_{f}.png")
+        for f in AUTOPILOT_FLIGHTS
     ]

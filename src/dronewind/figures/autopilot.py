@@ -40,9 +40,10 @@ def ekf_wind_figure(l3: xr.Dataset, stats: pd.DataFrame, path: str | Path, fligh
     """
     from matplotlib.dates import DateFormatter
     from matplotlib.figure import Figure
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
 
-    fig = Figure(figsize=(7.5, 7.0), layout="constrained")
-    fig.get_layout_engine().set(rect=(0.0, 0.03, 1.0, 0.97))  # room for the note under the axes
+    fig = Figure(figsize=(7.5, 7.0))
+    fig.set_layout_engine(ConstrainedLayoutEngine(rect=(0.0, 0.03, 1.0, 0.97)))  # room for the note under the axes
     ax_s, ax_d, ax_h = fig.subplots(3, 1, sharex=True, height_ratios=[3, 3, 1.4])
     t = l3["time"].to_numpy()
     att = stats.set_index("source").loc["attitude"] if len(stats) else None
@@ -66,7 +67,7 @@ def ekf_wind_figure(l3: xr.Dataset, stats: pd.DataFrame, path: str | Path, fligh
     ax_s.legend(fontsize=7, loc="upper right")
     if att is not None:
         ax_s.set_title(f"{flight}: tilt minus EKF speed: bias {att['speed_bias_ms']:+.2f} m/s, RMSE "
-                       f"{att['speed_rmse_ms']:.2f} m/s, r = {att['speed_corr']:.2f} (n = {int(att['n_blocks'])} s)",
+                       f"{att['speed_rmse_ms']:.2f} m/s, r = {att['speed_corr']:.2f} (n = {att['n_blocks']:.0f} s)",
                        fontsize=8)
         ax_d.set_title(f"direction: bias {att['direction_bias_deg']:+.0f} deg, RMS difference "
                        f"{att['direction_rmse_deg']:.0f} deg; mean tilt {att['mean_tilt_deg']:.2f} deg", fontsize=8)

@@ -218,7 +218,8 @@ def _utc_offset_ns(msgs: dict[str, dict[str, np.ndarray]], path: Path, log: list
         if good.any():
             utc = gps_to_utc_ns(gps["GWk"][good], gps["GMS"][good])
             # to whole microseconds, the resolution of the boot clock
-            off = 1000 * int(round(float(np.median(utc.astype(np.int64) - gps["TimeUS"][good].astype(np.int64) * 1000)) / 1000))
+            diff_ns = utc.astype(np.int64) - gps["TimeUS"][good].astype(np.int64) * 1000
+            off = 1000 * int(round(float(np.median(diff_ns)) / 1000))
             leap = int(gps_utc_offset_s(utc[:1])[0])
             log.append(f"utc: GPS week and ms of week of {int(good.sum())} 3-D fixes, minus {leap} leap seconds")
             if utc[-1] > LEAP_TABLE_VALID_UNTIL:

@@ -189,7 +189,7 @@ def tilt_and_ekf_wind(ds: xr.Dataset, law: DragLaw | None = None, average_s: flo
         frame[f"c_{name}"] = np.cos(np.radians(sub[name].to_numpy()))
     frame["k"] = k
     g = frame.groupby("k").mean()
-    yaw = np.degrees(np.arctan2(g["s_yaw_deg"], g["c_yaw_deg"])).to_numpy() % 360.0
+    yaw = np.degrees(np.arctan2(g["s_yaw_deg"].to_numpy(), g["c_yaw_deg"].to_numpy())) % 360.0
     rho = air_density_kgm3(g["pressure_pa"].to_numpy(), g["baro_temp_degc"].to_numpy())
     if density == "logged":
         rho = np.where(np.isfinite(rho), rho, law.rho_kgm3)

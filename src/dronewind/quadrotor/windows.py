@@ -36,7 +36,8 @@ from dronewind.quadrotor.wind import (
     wind_from_attitude,
 )
 
-__all__ = ["circular_mean_deg", "flight_windows", "flight_windows_with_gaps", "record_gaps", "SKIPPED_COLUMNS", "campaign_windows", "WindowArrays", "select_windows"]
+__all__ = ["circular_mean_deg", "flight_windows", "flight_windows_with_gaps", "record_gaps", "SKIPPED_COLUMNS",
+           "campaign_windows", "WindowArrays", "select_windows"]
 
 
 def circular_mean_deg(angles_deg: np.ndarray, weights: np.ndarray | None = None) -> float:
@@ -224,12 +225,14 @@ def record_gaps(time: np.ndarray, max_gap_s: float, start: np.datetime64 | None 
     """
     t = np.sort(np.asarray(time, dtype="datetime64[ns]"))
     lim = np.timedelta64(int(round(max_gap_s * 1e9)), "ns")
-    if start is not None:
-        t = np.concatenate([[np.datetime64(start, "ns")], t[t >= start]])
-    if end is not None:
-        t = np.concatenate([t[t <= end], [np.datetime64(end, "ns")]])
+    t0 = None if start is None else np.asarray(start, dtype="datetime64[ns]")
+    t1 = None if end is None else np.asarray(end, dtype="datetime64[ns]")
+    if t0 is not None:
+        t = np.concatenate([t0[None], t[t >= t0]])
+    if t1 is not None:
+        t = np.concatenate([t[t <= t1], t1[None]])
     if t.size < 2:
-        return [] if start is None or end is None else [(np.datetime64(start, "ns"), np.datetime64(end, "ns"))]
+        return [] if t0 is None or t1 is None else [(t0.reshape(1)[0], t1.reshape(1)[0])]
     k = np.flatnonzero(np.diff(t) > lim)
     return [(t[i], t[i + 1]) for i in k]
 
@@ -313,7 +316,9 @@ def flight_windows_with_gaps(ds: xr.Dataset, reference: xr.Dataset, site_altitud
     common = {"flight": flight, "uav": uav, "height_m": height, "ref_height_m": float(ref_height),
               "sigma_h_m": info["sigma_h_m"], "sigma_v_m": info["sigma_v_m"], "hover_s": dur,
               "n_dropped_s": float(dur - (edges[-1] - edges[0]).astype("int64") / 1e9) if n_win else 0.0}
-    blocks_out, windows_out, skipped = [], [], []
+    blocks_out: list[pd.DataFrame] = []
+    windows_out: list[dict[str, Any]] = []
+    skipped: list[dict[str, Any]] = []
     for k in range(len(edges) - 1):
         key = f"{flight}/{uav}/{k}"
         t0, t1 = edges[k], edges[k + 1]
@@ -327,8 +332,8 @@ def flight_windows_with_gaps(ds: xr.Dataset, reference: xr.Dataset, site_altitud
         if rsel.sum() < min_coverage * expected:
             reasons.append(f"the reference does not cover it: {int(rsel.sum())} of {expected} records at "
                            f"{ref_height:g} m (at least {min_coverage:.0%} needed)")
-        g, n_all_blocks = block_means(ds.isel(time=sel), t0, block_s)
-        if not reasons and len(g) == 0:
+        means, n_all_blocks = block_means(ds.isel(time=sel), t0, block_s)
+        if not reasons and len(means) == 0:
             reasons.append("no UAV block with finite attitude and velocity")
         if reasons:
             skipped.append({"window_key": key, "flight": flight, "uav": uav, "window": k, "start": t0, "end": t1,
@@ -336,13 +341,13 @@ def flight_windows_with_gaps(ds: xr.Dataset, reference: xr.Dataset, site_altitud
                                 (t[sel] - t0).astype("int64") // 1_000_000_000).size),
                             "n_ref": int(rsel.sum()), "n_ref_expected": expected})
             continue
-        g["window_key"] = key
-        blocks_out.append(g.reset_index(drop=True))
+        means["window_key"] = key
+        blocks_out.append(means.reset_index(drop=True))
         windows_out.append({
             "window_key": key, "window": k, "start": t0, "end": t1,
             "ref_speed_ms": float(np.mean(ref_sp[rsel])),
             "ref_from_deg": circular_mean_deg(ref["wind_from_deg"].to_numpy()[rsel], ref_sp[rsel]),
-            "n_blocks": len(g), "n_blocks_nan": n_all_blocks - len(g), "n_ref": int(rsel.sum()), **common})
+            "n_blocks": len(means), "n_blocks_nan": n_all_blocks - len(means), "n_ref": int(rsel.sum()), **common})
     blocks = (pd.concat(blocks_out, ignore_index=True) if blocks_out
               else pd.DataFrame(columns=["roll_deg", "pitch_deg", "vel_n_ms", "vel_e_ms", "yaw_deg", "window_key"]))
     windows = _window_table(windows_out) if windows_out else pd.DataFrame(columns=list(WINDOW_COLUMNS))

@@ -76,9 +76,9 @@ def autopilot_wind(campaign: str, flight: Mapping[str, Any], raw_file: str | Pat
     extra = {"campaign": campaign, "flight": flight_id, "source": data_source(simulated),
              "utc_valid": int(log.attrs.get("utc_valid", 0)), "ekf": str(log.attrs.get("ekf", "")),
              "reader_log": str(log.attrs.get("processing_log", ""))}
-    common = {"history": f"autopilot_wind {flight_id}", "inputs": [raw_file],
-              "config": {k: flight.get(k) for k in ("aero", "segment", "density", "average_s")},
-              "latitude": lat, "longitude": lon}
+    common: dict[str, Any] = {"history": f"autopilot_wind {flight_id}", "inputs": [raw_file],
+                              "config": {k: flight.get(k) for k in ("aero", "segment", "density", "average_s")},
+                              "latitude": lat, "longitude": lon}
     p3 = write_netcdf(
         l3, out_l3, title=f"{campaign} flight {flight_id}: tilt-based wind and the autopilot's EKF wind, L3",
         summary="1-s block means over the slow airborne part of the flight: wind from the tilt of the airframe "
