@@ -111,6 +111,7 @@ rule quadrotor_calibration:
         campaign=CAMPAIGN.name,
         tables_dir=lambda wc, output: str(Path(output.tables[0]).parent),
         calibration_window_s=QUAD["calibration_window_s"],
+        roles={f["id"]: f.get("role", "") for f in CAMPAIGN.quadrotor_flights},
     script:
         "../../scripts/quadrotor_calibration.py"
 

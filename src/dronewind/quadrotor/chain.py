@@ -350,7 +350,8 @@ def calibration_summary(main: Mapping[str, Any], window_s: float, n_windows: Map
 
 def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, blocks2: pd.DataFrame,
                              windows2: pd.DataFrame, problems: pd.DataFrame,
-                             calibration_window_s: float = 600.0) -> dict[str, Any]:
+                             calibration_window_s: float = 600.0,
+                             roles: Mapping[str, str] | None = None) -> dict[str, Any]:
     """All campaign tables of the quadrotor chain (seed 001 Tables 2, 3, C1, C2, Figs 3-9 data).
 
     Parameters
@@ -363,6 +364,10 @@ def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, bl
         UAV logs left out (concatenated per-flight problem tables).
     calibration_window_s : float
         Window length of the contract table (600 as seed 001 Sect. 5; 120 for short flights).
+    roles : mapping, optional
+        Flight id -> ``calibration`` or ``validation`` (the manifest's ``role``): the
+        calibrations are fitted on the calibration flights and tested on the validation
+        flights. Default (or no ``validation`` role): the chain's own split.
 
     Returns
     -------
@@ -376,8 +381,12 @@ def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, bl
     """
     from dronewind.quadrotor.validation import seed001_tables  # scipy.optimize/stats: only where used
 
-    res10 = seed001_tables(blocks10, windows10) if len(windows10) >= 3 else None
-    res2 = seed001_tables(blocks2, windows2) if len(windows2) >= 3 else None
+    split: dict[str, Any] = {}
+    if roles and "validation" in roles.values():
+        split = {"calibration": [f for f, r in roles.items() if r != "validation"],
+                 "validation": [f for f, r in roles.items() if r == "validation"]}
+    res10 = seed001_tables(blocks10, windows10, **split) if len(windows10) >= 3 else None
+    res2 = seed001_tables(blocks2, windows2, **split) if len(windows2) >= 3 else None
     if res10 is None and res2 is None:
         raise InputError("quadrotor windows", f"{len(windows10)} 10-min and {len(windows2)} 2-min windows; at least 3 "
                                               "are needed to calibrate (see quadrotor_problems.csv)")

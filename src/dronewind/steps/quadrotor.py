@@ -316,7 +316,7 @@ def _json_default(value: Any) -> Any:
 
 def quadrotor_calibration(campaign: str, windows_files: Sequence[str | Path], blocks_files: Sequence[str | Path],
                           problems_files: Sequence[str | Path], tables_dir: str | Path, summary_file: str | Path,
-                          calibration_window_s: float) -> list[Path]:
+                          calibration_window_s: float, roles: Mapping[str, str] | None = None) -> list[Path]:
     """Campaign calibration and validation tables of the quadrotor fleet (seed 001 Sect. 5).
 
     Parameters
@@ -331,6 +331,8 @@ def quadrotor_calibration(campaign: str, windows_files: Sequence[str | Path], bl
         JSON with the aerodynamic parameters, convergence, scenarios and hover accuracy.
     calibration_window_s : float
         Window length of the contract table [s] (600, or 120 for short flights).
+    roles : mapping, optional
+        Flight id -> ``calibration`` or ``validation`` (the manifest's ``role``).
 
     Returns
     -------
@@ -346,7 +348,7 @@ def quadrotor_calibration(campaign: str, windows_files: Sequence[str | Path], bl
     b2, w2 = read_windows(windows_files, blocks_files, 120.0)
     probs = [pd.read_csv(f, dtype=str) for f in problems_files]
     problems = pd.concat(probs, ignore_index=True) if probs else pd.DataFrame()
-    res = chain.compute_quadrotor_tables(b10, w10, b2, w2, problems, float(calibration_window_s))
+    res = chain.compute_quadrotor_tables(b10, w10, b2, w2, problems, float(calibration_window_s), roles=roles)
     summary = {"campaign": campaign, **res.pop("summary")}
     if not summary["converged"]:
         LOG.warning("quadrotor calibration did not converge: %s", summary["aero"])
