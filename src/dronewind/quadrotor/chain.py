@@ -50,7 +50,7 @@ WINDOW_LENGTHS_S: tuple[float, ...] = (600.0, 120.0)
 _WINDOW_COLUMNS = ["window_key", "flight", "uav", "window", "start", "end", "height_m", "ref_height_m",
                    "ref_speed_ms", "ref_from_deg", "n_blocks", "n_blocks_nan", "n_ref", "sigma_h_m", "sigma_v_m",
                    "hover_s", "n_dropped_s", "window_s", "var_ref_1min_m2s2"]
-_BLOCK_COLUMNS = ["window_key", "roll_deg", "pitch_deg", "yaw_deg", "vel_n_ms", "vel_e_ms", "window_s"]
+_BLOCK_COLUMNS = ["window_key", "roll_deg", "pitch_deg", "yaw_deg", "vel_n_ms", "vel_e_ms", "rho_kgm3", "window_s"]
 _PROBLEM_COLUMNS = ["flight", "uav", "file", "window_s", "error"]
 
 
@@ -141,6 +141,8 @@ def _window_tables(windows: list[pd.DataFrame], blocks: list[pd.DataFrame],
     """Per-flight window, block and problem tables in their stored column order (ISO times)."""
     w = pd.concat(windows, ignore_index=True) if windows else pd.DataFrame(columns=_WINDOW_COLUMNS)
     b = pd.concat(blocks, ignore_index=True) if blocks else pd.DataFrame(columns=_BLOCK_COLUMNS)
+    if "rho_kgm3" not in b:
+        b["rho_kgm3"] = np.nan
     for col in ("start", "end"):
         if len(w):
             w[col] = pd.to_datetime(w[col]).dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")

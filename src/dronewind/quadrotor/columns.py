@@ -21,6 +21,7 @@ REFERENCE_COLUMNS: tuple[str, ...] = ("time_utc", "height_m", "wind_speed_ms", "
 QUADROTOR_QUANTITIES: dict[str, str] = {
     "roll": "degree", "pitch": "degree", "yaw": "degree", "vel_n": "m s-1", "vel_e": "m s-1", "vel_d": "m s-1",
     "vel_u": "m s-1", "lat": "degree", "lon": "degree", "alt": "m", "ref_speed": "m s-1", "ref_from": "degree",
+    "temperature": "K", "pressure": "Pa",
 }
 #: First bytes of every message of an ArduPilot DataFlash log (the first is an FMT, type 128).
 DATAFLASH_MAGIC: bytes = b"\xa3\x95\x80"

@@ -14,7 +14,9 @@ Sect. 4.2: the tilt gives the speed):
 * position absent: ``lat``/``lon`` 0 and ``alt`` the format's ``altitude_m`` (metres above
   mean sea level of the hover, required then); ``attrs['position_known'] = 0``;
 * ``ref_speed`` and ``ref_from`` (optional): a reference wind in the same record
-  (:func:`reference_from_record` turns them into the tower reference dataset).
+  (:func:`reference_from_record` turns them into the tower reference dataset);
+* ``temperature`` and ``pressure`` (optional): the air's, for the density of the drag balance
+  (``air_temp_degc``, ``pressure_pa``).
 
 Rates down to 1 Hz (averaged values) are accepted. Each assumption is logged in
 ``processing_log``.
@@ -29,6 +31,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.delimited import delimited_layout, read_delimited
 from dronewind.errors import InputError
 from dronewind.quadrotor.columns import QUADROTOR_QUANTITIES
@@ -106,6 +109,10 @@ def read_quadrotor_delimited(path: str | Path, fmt: Mapping[str, Any], where: st
         log.append("position: not in the record; latitude and longitude 0 (unknown), the hover taken as still")
     if "alt" not in v:
         log.append(f"altitude: not in the record; {float(fmt['altitude_m']):g} m (format altitude_m) throughout")
+    if "temperature" in v:
+        data["air_temp_degc"] = v["temperature"] - ZERO_CELSIUS_K
+    if "pressure" in v:
+        data["pressure_pa"] = v["pressure"]
     for ref in ("ref_speed", "ref_from"):
         if ref in v:
             data[f"{ref}_{'ms' if ref == 'ref_speed' else 'deg'}"] = v[ref]

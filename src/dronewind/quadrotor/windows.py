@@ -27,6 +27,7 @@ import xarray as xr
 
 from dronewind.errors import InputError
 from dronewind.quadrotor.drag import DragLaw
+from dronewind.quadrotor.ekf_wind import air_density_kgm3
 from dronewind.quadrotor.hover import hover_segment
 from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
 from dronewind.quadrotor.wind import (
@@ -186,7 +187,8 @@ def block_means(sub: xr.Dataset, t0: np.datetime64, block_s: float) -> tuple[pd.
     -------
     blocks : pandas.DataFrame
         ``roll_deg``, ``pitch_deg``, ``vel_n_ms``, ``vel_e_ms``, ``yaw_deg`` (circular mean,
-        0-360) per block with all values finite.
+        0-360) per block with all values finite, and ``rho_kgm3`` (:func:`logged_air_density`;
+        NaN when the record has no pressure and temperature).
     n_all : int
         Number of blocks before those without a finite sample were left out.
     """
@@ -200,7 +202,24 @@ def block_means(sub: xr.Dataset, t0: np.datetime64, block_s: float) -> tuple[pd.
     g["yaw_deg"] = np.degrees(np.arctan2(g["sy"], g["cy"])) % 360.0
     n_all_blocks = len(g)
     g = g.drop(columns=["sy", "cy"]).dropna()  # blocks without any finite sample: counted
+    rho = logged_air_density(sub)
+    g["rho_kgm3"] = (pd.Series(rho).groupby(tb).mean().reindex(g.index).to_numpy() if rho is not None
+                     else np.nan)
     return g, n_all_blocks
+
+
+def logged_air_density(ds: xr.Dataset) -> np.ndarray | None:
+    """Air density of each sample from the logged pressure and temperature, or None without them.
+
+    The temperature is the record's air temperature (``air_temp_degc``) or else its barometer's
+    (``baro_temp_degc``, an autopilot's sensor inside the airframe); the density is that of dry
+    air (:func:`dronewind.quadrotor.ekf_wind.air_density_kgm3`), the :math:`\rho` of the drag
+    balance (Wetz et al. 2021, Eq. 12).
+    """
+    temp = next((ds[n].to_numpy() for n in ("air_temp_degc", "baro_temp_degc") if n in ds), None)
+    if temp is None or "pressure_pa" not in ds:
+        return None
+    return air_density_kgm3(ds["pressure_pa"].to_numpy(), temp)
 
 
 def record_gaps(time: np.ndarray, max_gap_s: float, start: np.datetime64 | None = None,
