@@ -10,4 +10,4 @@ from dronewind.steps.quadrotor import quadrotor_l1_flight
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
     quadrotor_l1_flight(sm.params.campaign, sm.params.flight_id, sm.params.uavs, list(sm.input.raw), sm.params.site,
-                        list(sm.output), simulated=sm.params.simulated)
+                        list(sm.output), simulated=sm.params.simulated, formats=sm.params.formats)

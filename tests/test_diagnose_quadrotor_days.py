@@ -36,7 +36,7 @@ def _tilt_for(speed_ms: np.ndarray, rho: float) -> np.ndarray:
 def _windows(seed: int, offset_deg, rho_of_flight, log_density: bool = True):
     rng = np.random.default_rng(seed)
     blocks, windows = [], []
-    for i, flight in enumerate(FLIGHTS):
+    for flight in FLIGHTS:
         for u in UAVS:
             for k in range(5):
                 key = f"{flight}/{u}/{k}"

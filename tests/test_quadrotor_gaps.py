@@ -142,3 +142,21 @@ def test_no_covered_window_is_a_named_error(record):
     ref = ref.isel(time=slice(0, 10))  # ten seconds of reference
     with pytest.raises(InputError, match="no window covered.*reference does not cover it"):
         flight_windows(ds, ref, 100.0, "day1", "m600", window_s=600)
+
+
+def test_record_reference_through_the_workflow_steps(record, tmp_path):
+    """A delimited UAV record whose reference is its own columns: L1, then the flight's windows."""
+    from dronewind.steps.quadrotor import quadrotor_l1, quadrotor_windows
+
+    path, _, present = record
+    site = {"latitude": 0.0, "longitude": 0.0, "altitude_m": 100.0}
+    l1 = quadrotor_l1("gaps", "day1", "m600", path, site, tmp_path / "l1.nc", simulated=False, fmt=FORMAT)
+    flight = {"id": "day1", "reference": {"from_record": True, "height_m": 50.0},
+              "uavs": [{"id": "m600", "file": path.name, "format": FORMAT}]}
+    out = [tmp_path / f"{k}.csv" for k in ("windows", "blocks", "problems")]
+    quadrotor_windows(flight, {"m600": l1}, path, 100.0, 1.0, {}, *out)
+    windows, problems = pd.read_csv(out[0]), pd.read_csv(out[2])
+    for window_s in (600, 120):
+        full, n = _expected_windows(present, int(np.flatnonzero(present)[0]), window_s)
+        assert (windows["window_s"] == window_s).sum() == len(full)
+        assert (problems["window_s"] == window_s).sum() == n - len(full)

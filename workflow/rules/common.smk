@@ -381,7 +381,10 @@ def quad_uavs(flight_id):
 def quad_raw(flight_id):
     """Raw UAV logs of a quadrotor flight (manifest order) and its tower reference."""
     flight = CAMPAIGN.quadrotor_flight(flight_id)
-    return [str(L0 / u["file"]) for u in flight["uavs"]], str(L0 / flight["reference"])
+    uavs = [str(L0 / u["file"]) for u in flight["uavs"]]
+    # a reference from the UAV records' own columns: the first record stands for it
+    ref = flight["reference"]
+    return uavs, str(L0 / ref) if isinstance(ref, str) else uavs[0]
 
 
 def quad_flight(wc):

@@ -61,6 +61,7 @@ for _qf in QUAD_FLIGHTS:
             campaign=CAMPAIGN.name,
             flight_id=_qf,
             uavs=quad_uavs(_qf),
+            formats=[u.get("format") for u in CAMPAIGN.quadrotor_flight(_qf)["uavs"]],
             site=SITE,
             simulated=CAMPAIGN.simulated,
         script:

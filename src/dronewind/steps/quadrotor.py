@@ -153,7 +153,7 @@ def simulate_tunnel(simulation: Mapping[str, Any], runs: str, out_dir: str | Pat
 
 
 def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, site: Mapping[str, Any],
-                 out_l1: str | Path, *, simulated: bool) -> Path:
+                 out_l1: str | Path, *, simulated: bool, fmt: str | Mapping[str, Any] | None = None) -> Path:
     """L0 -> L1 NetCDF of one UAV log (attitude and GNSS in CF form).
 
     Parameters
@@ -171,6 +171,10 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
 
     simulated : bool
         The campaign is virtual (its manifest has ``simulation:``): stated in ``source``.
+    fmt : str or mapping, optional
+        The UAV's declared ``format`` (:func:`dronewind.quadrotor.io.read_quadrotor`; default:
+        by the file suffix).
+
     Returns
     -------
     Path
@@ -182,7 +186,7 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
         A log that cannot be read (e.g. without attitude columns): its L1 file cannot be
         written, so the job stops naming the file and what is missing.
     """
-    ds = chain.compute_quadrotor_l1(read_quadrotor(log_file))
+    ds = chain.compute_quadrotor_l1(read_quadrotor(log_file, fmt))
     lat, lon, height = chain.nominal_position(ds, site)
     LOG.info("flight %s uav %s L1: %d samples; %s", flight_id, uav, ds.sizes["time"],
              ds.attrs.get("processing_log", "").replace("\n", "; "))
@@ -206,7 +210,8 @@ def _per_uav(flight_id: str, uavs: Sequence[str], **files: Sequence[str | Path])
 
 
 def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_files: Sequence[str | Path],
-                        site: Mapping[str, Any], out_l1: Sequence[str | Path], *, simulated: bool) -> list[Path]:
+                        site: Mapping[str, Any], out_l1: Sequence[str | Path], *, simulated: bool,
+                        formats: Sequence[str | Mapping[str, Any] | None] | None = None) -> list[Path]:
     """L0 -> L1 NetCDF of every UAV of a quadrotor flight (:func:`quadrotor_l1` for each).
 
     One workflow job per flight: the UAVs are processed in one process, which pays the
@@ -226,6 +231,8 @@ def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_
         The manifest's ``site``.
     simulated : bool
         The campaign is virtual (stated in ``source``).
+    formats : sequence, optional
+        Each UAV's declared ``format`` (None: by the file suffix), in the order of ``uavs``.
 
     Returns
     -------
@@ -233,8 +240,9 @@ def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_
         The written files, in the order of ``uavs``.
     """
     _per_uav(flight_id, uavs, logs=log_files, outputs=out_l1)
-    return [quadrotor_l1(campaign, flight_id, uav, log, site, out, simulated=simulated)
-            for uav, log, out in zip(uavs, log_files, out_l1, strict=True)]
+    fmts = list(formats) if formats is not None else [None] * len(uavs)
+    return [quadrotor_l1(campaign, flight_id, uav, log, site, out, simulated=simulated, fmt=fmt)
+            for uav, log, out, fmt in zip(uavs, log_files, out_l1, fmts, strict=True)]
 
 
 def quadrotor_windows(flight: Mapping[str, Any], l1_files: Mapping[str, str | Path], reference_file: str | Path,
@@ -266,6 +274,10 @@ def quadrotor_windows(flight: Mapping[str, Any], l1_files: Mapping[str, str | Pa
     """
     flight_id = str(flight["id"])
     logs = {uav: track_from_cf(strip_cf(open_product(path))) for uav, path in l1_files.items()}
+    if isinstance(flight["reference"], Mapping):
+        # the reference is each UAV record's own ref_speed/ref_from columns: windows UAV by UAV
+        return _windows_from_records(flight, logs, site_altitude_m, block_s, hover, out_windows, out_blocks,
+                                     out_problems)
     try:
         ref = read_tower_reference(reference_file)
     except InputError as exc:
@@ -276,6 +288,29 @@ def quadrotor_windows(flight: Mapping[str, Any], l1_files: Mapping[str, str | Pa
         w, b, problems = chain.compute_flight_windows(logs, ref, flight_id, float(site_altitude_m), files,
                                                       block_s=float(block_s), hover=hover)
     LOG.info("flight %s: %d windows (600 s and 120 s), %d problem(s)", flight_id, len(w), len(problems))
+    return [_csv(w, out_windows), _csv(b, out_blocks), _csv(problems, out_problems)]
+
+
+def _windows_from_records(flight: Mapping[str, Any], logs: Mapping[str, Any], site_altitude_m: float, block_s: float,
+                          hover: Mapping[str, float], out_windows: str | Path, out_blocks: str | Path,
+                          out_problems: str | Path) -> list[Path]:
+    """:func:`quadrotor_windows` for a flight whose reference is in the UAV records' columns."""
+    from dronewind.quadrotor.delimited import reference_from_record
+
+    flight_id = str(flight["id"])
+    files = {u["id"]: Path(u["file"]).name for u in flight["uavs"]}
+    parts = []
+    for uav, ds in logs.items():
+        try:
+            ref = reference_from_record(ds, float(flight["reference"]["height_m"]))
+        except InputError as exc:
+            parts.append(chain.unreadable_reference([uav], files.get(uav, ""), flight_id, exc))
+            continue
+        parts.append(chain.compute_flight_windows({uav: ds}, ref, flight_id, float(site_altitude_m), files,
+                                                  block_s=float(block_s), hover=hover))
+    w, b, problems = (pd.concat([p[i] for p in parts], ignore_index=True) for i in range(3))
+    LOG.info("flight %s: %d windows (600 s and 120 s) against the records' own reference, %d problem(s)",
+             flight_id, len(w), len(problems))
     return [_csv(w, out_windows), _csv(b, out_blocks), _csv(problems, out_problems)]
 
 
