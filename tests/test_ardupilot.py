@@ -207,3 +207,15 @@ def test_real_campaign_workflow(tmp_path):
     assert table.loc[0, "speed_bias_ms"] == pytest.approx(0.02, abs=0.01)
     assert (out / "netcdf" / "L3" / "autopilot" / "finse20230328.nc").is_file()
     assert (out / "netcdf" / "L4" / "autopilot" / "finse20230328.nc").is_file()
+
+
+def test_platform_state_for_a_rigid_mount(synthetic):
+    from dronewind.payload.rigid import read_platform_state
+
+    path, _, _ = synthetic
+    ds = read_platform_state(path, {"name": "ardupilot_bin", "ekf_core": 1})
+    assert list(ds.data_vars) == ["roll_deg", "pitch_deg", "yaw_deg", "vel_n_ms", "vel_e_ms", "vel_d_ms", "lat_deg",
+                                  "lon_deg", "alt_m"]
+    assert np.nanmin(ds["vel_n_ms"].to_numpy()) == 1.0 and np.allclose(ds["yaw_deg"], YAW_DEG)
+    with pytest.raises(InputError, match="no platform-state reader"):
+        read_platform_state(path, "ulog")
