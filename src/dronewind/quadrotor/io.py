@@ -1,7 +1,9 @@
 r"""Readers for quadrotor (SWUF-3D) flight logs and the tower reference.
 
 Three L0 formats of the data contract (``../shared/DESIGN.md``, "Quadrotor file" and
-"Tower reference") are read here:
+"Tower reference") are read here (and, through :func:`read_quadrotor`, ArduPilot DataFlash
+logs, :mod:`dronewind.quadrotor.ardupilot`, and delimited text by a column mapping,
+:mod:`dronewind.quadrotor.delimited`):
 
 * quadrotor CSV, at 10 Hz or more::
 
