@@ -160,3 +160,30 @@ def test_record_reference_through_the_workflow_steps(record, tmp_path):
         full, n = _expected_windows(present, int(np.flatnonzero(present)[0]), window_s)
         assert (windows["window_s"] == window_s).sum() == len(full)
         assert (problems["window_s"] == window_s).sum() == n - len(full)
+
+
+def test_delimited_record_format_check_and_manifest(record, tmp_path):
+    """The start-up check reads the mapped columns; a from_record reference needs mapped reference columns."""
+    import yaml
+
+    from dronewind.errors import ManifestError
+    from dronewind.formats import check_file_format
+    from dronewind.manifest import load_campaign
+
+    path, _, _ = record
+    check_file_format(path, FORMAT, "quadrotor_uav")
+    bad = {**FORMAT, "variables": {**FORMAT["variables"], "roll": {"column": "bank", "unit": "degree"}}}
+    with pytest.raises(InputError, match="bank"):
+        check_file_format(path, bad, "quadrotor_uav")
+    manifest = {"name": "gaps", "site": {"latitude": 0.0, "longitude": 0.0, "altitude_m": 100.0},
+                "data_root": str(path.parent),
+                "quadrotor_flights": [{"id": "day1", "role": "calibration",
+                                       "reference": {"from_record": True, "height_m": 50.0},
+                                       "uavs": [{"id": "m600", "file": path.name, "format": FORMAT}]}]}
+    (tmp_path / "ok.yaml").write_text(yaml.safe_dump(manifest))
+    assert load_campaign(tmp_path / "ok.yaml").quadrotor_flights[0]["role"] == "calibration"
+    no_ref = {**FORMAT, "variables": {k: v for k, v in FORMAT["variables"].items() if not k.startswith("ref_")}}
+    manifest["quadrotor_flights"][0]["uavs"][0]["format"] = no_ref
+    (tmp_path / "bad.yaml").write_text(yaml.safe_dump(manifest))
+    with pytest.raises(ManifestError, match="ref_speed"):
+        load_campaign(tmp_path / "bad.yaml")
