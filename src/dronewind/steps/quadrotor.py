@@ -274,7 +274,7 @@ def quadrotor_windows(flight: Mapping[str, Any], l1_files: Mapping[str, str | Pa
     """
     flight_id = str(flight["id"])
     logs = {uav: track_from_cf(strip_cf(open_product(path))) for uav, path in l1_files.items()}
-    if isinstance(flight["reference"], Mapping):
+    if isinstance(flight.get("reference"), Mapping):
         # the reference is each UAV record's own ref_speed/ref_from columns: windows UAV by UAV
         return _windows_from_records(flight, logs, site_altitude_m, block_s, hover, out_windows, out_blocks,
                                      out_problems)
