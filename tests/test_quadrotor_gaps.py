@@ -187,3 +187,23 @@ def test_delimited_record_format_check_and_manifest(record, tmp_path):
     (tmp_path / "bad.yaml").write_text(yaml.safe_dump(manifest))
     with pytest.raises(ManifestError, match="ref_speed"):
         load_campaign(tmp_path / "bad.yaml")
+
+
+def test_contract_csv_without_yaw_and_a_tower_file(record, tmp_path):
+    """The record converted by hand to the contract CSV (yaw empty, velocities 0, one height) and
+    the tower's 1-Hz speed and direction as the reference file: the same windows as above."""
+    path, _, present = record
+    src = pd.read_csv(path)
+    uav = pd.DataFrame({"time_utc": src["time"], "roll_deg": src["roll"], "pitch_deg": src["pitch"], "yaw_deg": "",
+                        "vel_n_ms": 0.0, "vel_e_ms": 0.0, "vel_d_ms": 0.0, "lat_deg": 60.0, "lon_deg": 7.0,
+                        "alt_m": 150.0})
+    uav.to_csv(tmp_path / "uav.csv", index=False)
+    tower = pd.DataFrame({"time_utc": src["time"], "height_m": 50.0, "wind_speed_ms": src["speed"],
+                          "wind_from_deg": src["direction"]})
+    tower.to_csv(tmp_path / "tower.csv", index=False)
+    ds = read_quadrotor(tmp_path / "uav.csv")
+    assert ds.attrs["yaw_known"] == 0 and "relative to the nose" in ds.attrs["processing_log"]
+    _, windows, skipped = flight_windows_with_gaps(ds, read_tower_reference(tmp_path / "tower.csv"), 100.0, "day1",
+                                                   "m600", window_s=600)
+    full, n = _expected_windows(present, int(np.flatnonzero(present)[0]), 600)
+    assert list(windows["window"]) == full and len(skipped) == n - len(full)

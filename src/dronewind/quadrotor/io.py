@@ -177,7 +177,8 @@ def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
         [degree], ``vel_n_ms``, ``vel_e_ms``, ``vel_d_ms`` [m s-1], ``lat_deg``,
         ``lon_deg`` [degree], ``alt_m`` [m above MSL]. attrs ``n_out_of_order``,
         ``n_duplicates``, ``n_nonfinite`` (rows with a non-numeric or missing value; kept
-        as NaN), ``sampling_rate_hz``, ``processing_log``.
+        as NaN), ``yaw_known`` (0 when no row has a yaw: yaw is then set to 0 and only the
+        speed holds), ``sampling_rate_hz``, ``processing_log``.
 
     Raises
     ------
@@ -192,6 +193,12 @@ def read_quadrotor_csv(path: str | Path) -> xr.Dataset:
     if n_nonfinite:
         log.append(f"parse: {n_nonfinite} non-numeric or missing values set to NaN")
     ds.attrs["n_nonfinite"] = n_nonfinite
+    ds.attrs["yaw_known"] = int(bool(np.isfinite(ds["yaw_deg"].to_numpy()).any()))
+    if not ds.attrs["yaw_known"]:
+        # a record whose yaw is unknown throughout (e.g. converted by hand from a vehicle log):
+        # the speed of a hovering vehicle holds without it, the direction does not
+        ds["yaw_deg"] = xr.zeros_like(ds["yaw_deg"])
+        log.append("yaw: missing in every row; set to 0: the wind speed holds, its direction is relative to the nose")
     ds = _sort_dedupe(ds, log)
     ds = _finish(ds, path, log)
     if ds.sizes["time"] > 1 and ds.attrs["sampling_rate_hz"] < 1.0:
