@@ -10,4 +10,5 @@ from dronewind.steps.quadrotor import quadrotor_l1_flight
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
     quadrotor_l1_flight(sm.params.campaign, sm.params.flight_id, sm.params.uavs, list(sm.input.raw), sm.params.site,
-                        list(sm.output), simulated=sm.params.simulated, attribution=sm.params.attribution)
+                        list(sm.output), simulated=sm.params.simulated, attribution=sm.params.attribution,
+                        formats=sm.params.formats)

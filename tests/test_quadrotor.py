@@ -141,8 +141,13 @@ def test_flight_windows_and_reference_checks():
     blocks, windows = qw.flight_windows(ds, _reference("2020-07-24T09:50", 30), 73.0, "f31", "q01", window_s=120)
     assert len(windows) == 2  # 300 s of hover -> two 2-min windows
     assert (windows["n_blocks"] == 120).all() and (windows["ref_speed_ms"] == 6.0).all()
+    # a reference covering only the first window: that window is kept, the second listed as skipped
+    b, w, skipped = qw.flight_windows_with_gaps(ds, _reference("2020-07-24T10:01", 2), 73.0, "f31", "q01",
+                                                window_s=120)
+    assert list(w["window"]) == [0] and list(skipped["window"]) == [1]
+    assert skipped["reason"].str.contains("reference does not cover").all()
     with pytest.raises(InputError, match="does not cover"):
-        qw.flight_windows(ds, _reference("2020-07-24T10:01", 2), 73.0, "f31", "q01", window_s=120)
+        qw.flight_windows(ds, _reference("2020-07-24T10:10", 2), 73.0, "f31", "q01", window_s=120)
     with pytest.raises(InputError, match="no reference height"):
         qw.flight_windows(ds, _reference("2020-07-24T09:50", 30, heights=(10.0,)), 73.0, "f31", "q01")
 

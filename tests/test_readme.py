@@ -201,7 +201,8 @@ def test_manifest_page_examples_are_valid_manifests(tmp_path):
             # measured: every file it names must exist (globs must match); create them
             names = [f for m in example.get("masts") or [] for s in m["sonics"] for f in s["files"]]
             names += [f[key]["file"] for f in example.get("payload_flights") or [] for key in ("sonic", "ins")]
-            names += [f["reference"] for f in example.get("quadrotor_flights") or []]
+            names += [f["reference"] for f in example.get("quadrotor_flights") or [] if isinstance(f["reference"], str)]
+            names += [f["file"] for f in example.get("autopilot_flights") or []]
             names += [u["file"] for f in example.get("quadrotor_flights") or [] for u in f["uavs"]]
             names += [example["tunnel"]["runs"]] if example.get("tunnel") else []
             for name in names:

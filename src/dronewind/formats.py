@@ -18,6 +18,7 @@ What is checked, per format:
 * ``contract_csv``: the header line of the kind (payload sonic, INS, quadrotor) exactly,
   and a first data row with as many fields;
 * ``ulog``: the ULog magic bytes ``ULog 01 12 35``;
+* ``ardupilot_bin``: the first bytes of a DataFlash log's first message (``a3 95 80``, an FMT);
 * ``delimited``: :func:`dronewind.core.delimited.check_delimited_head` (the mapped columns
   in the header, the field count, the time column parsing, numbers where mapped); the
   record of a rigid-mount flight (kind ``rigid_record``) is checked with its platform
@@ -53,7 +54,7 @@ from dronewind.manifest import Campaign, is_rigid, record_format
 from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS, REQUIRED_TOA5_COLUMNS
 from dronewind.payload import delimited as payload_delimited
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS, rigid_layout
-from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
+from dronewind.quadrotor.columns import DATAFLASH_MAGIC, QUADROTOR_COLUMNS, QUADROTOR_QUANTITIES
 
 __all__ = ["ULOG_MAGIC", "CONTRACT_HEADERS", "describe_content", "check_file_format", "format_problems",
            "check_campaign_formats"]
@@ -92,6 +93,8 @@ def describe_content(head: bytes) -> str | None:
         return "gzip-compressed data (bytes 1f 8b; e.g. the AmeriFlux/Gill RAW .gz files: format gill_raw)"
     if head.startswith(ULOG_MAGIC):
         return "a PX4 ULog file (format ulog)"
+    if head.startswith(DATAFLASH_MAGIC):
+        return "an ArduPilot DataFlash log (format ardupilot_bin)"
     if head.startswith((b"\x89HDF", b"CDF\x01", b"CDF\x02")):
         return "a NetCDF/HDF5 file (a product, not raw data)"
     if b"\x00" in head:
@@ -204,6 +207,14 @@ def _check_ulog(p: Path) -> None:
                          "CSV or ULog by the suffix)")
 
 
+def _check_dataflash(p: Path) -> None:
+    head = _head(p)
+    if not head.startswith(DATAFLASH_MAGIC):
+        found = _found(head, "first bytes " + (head[:3].hex(" ") or "none"))
+        raise InputError(f"{p}:1", f"{found}, expected an ArduPilot DataFlash log (first bytes a3 95 80: an FMT "
+                         "message)")
+
+
 def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where: str = "format") -> None:
     """Check the first lines of one file against its declared format.
 
@@ -227,9 +238,10 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
     if not p.is_file():
         raise InputError(p, "file not found")
     name = fmt["name"]
-    allowed = {"mast_sonic": ("toa5", "gill_raw", "delimited"), "quadrotor_uav": ("contract_csv", "ulog"),
-               "rigid_record": ("delimited",), "payload_sonic": ("contract_csv", "delimited"),
-               "payload_ins": ("contract_csv", "delimited")}.get(
+    allowed = {"mast_sonic": ("toa5", "gill_raw", "delimited"),
+               "quadrotor_uav": ("contract_csv", "ulog", "ardupilot_bin", "delimited"),
+               "autopilot_log": ("ardupilot_bin",), "rigid_record": ("delimited",),
+               "payload_sonic": ("contract_csv", "delimited"), "payload_ins": ("contract_csv", "delimited")}.get(
         kind, ("contract_csv",))
     if name not in allowed:
         raise InputError(where, f"format {name!r} for a {kind.replace('_', ' ')}, expected one of {', '.join(allowed)}")
@@ -243,6 +255,10 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
         check_delimited_head(p, payload_delimited.sonic_layout(fmt, where))
     elif name == "delimited" and kind == "payload_ins":
         check_delimited_head(p, payload_delimited.ins_layouts(fmt, where)[0])
+    elif name == "delimited" and kind == "quadrotor_uav":
+        check_delimited_head(p, delimited_layout(fmt, where, QUADROTOR_QUANTITIES))
+    elif name == "ardupilot_bin":
+        _check_dataflash(p)
     elif name == "delimited":
         check_delimited_head(p, delimited_layout(fmt, where))
     elif name == "ulog":
@@ -274,6 +290,9 @@ def _records(campaign: Campaign) -> list[tuple[str, str, dict[str, Any], list[Pa
         for j, uav in enumerate(flight["uavs"]):
             out.append((f"quadrotor_flights[{i}].uavs[{j}]", "quadrotor_uav", record_format(uav, "quadrotor_uav"),
                         [root / uav["file"]]))
+    for i, flight in enumerate(data.get("autopilot_flights") or []):
+        out.append((f"autopilot_flights[{i}]", "autopilot_log", record_format(flight, "autopilot_log"),
+                    [root / flight["file"]]))
     return out
 
 

@@ -236,6 +236,18 @@ class Campaign:
         """Quadrotor (SWUF-3D) flights."""
         return list(self.data.get("quadrotor_flights") or [])
 
+    @property
+    def autopilot_flights(self) -> list[dict[str, Any]]:
+        """Autopilot logs compared with the autopilot's own EKF wind."""
+        return list(self.data.get("autopilot_flights") or [])
+
+    def autopilot_flight(self, flight_id: str) -> dict[str, Any]:
+        """The autopilot flight with this id."""
+        for flight in self.autopilot_flights:
+            if flight["id"] == flight_id:
+                return flight
+        raise KeyError(f"{self.path}: no autopilot flight {flight_id!r}")
+
     def mast_sonics(self) -> dict[str, dict[str, Any]]:
         """Mast sonics by id, each with its mast's id and position merged in."""
         out: dict[str, dict[str, Any]] = {}
@@ -327,7 +339,7 @@ def payload_flight_manifest(data: Mapping[str, Any], flight_id: str, *, atmosphe
             masts.append({**copy.deepcopy(mast), "sonics": sonics})
     out: dict[str, Any] = {}
     for key, value in data.items():
-        if key in ("simulation", "quadrotor_flights", "tunnel"):
+        if key in ("simulation", "quadrotor_flights", "tunnel", "autopilot_flights"):
             continue
         out[key] = [copy.deepcopy(flight)] if key == "payload_flights" else masts if key == "masts" \
             else copy.deepcopy(value)
@@ -362,8 +374,10 @@ def data_paths(data: Mapping[str, Any]) -> list[tuple[str, str]]:
             continue
         out += [(f"payload_flights[{i}].{part}.file", str(flight[part]["file"])) for part in ("sonic", "ins")]
     for i, flight in enumerate(data.get("quadrotor_flights") or []):
-        out.append((f"quadrotor_flights[{i}].reference", str(flight["reference"])))
+        if isinstance(flight["reference"], str):  # else the UAV records' own columns
+            out.append((f"quadrotor_flights[{i}].reference", str(flight["reference"])))
         out += [(f"quadrotor_flights[{i}].uavs[{j}].file", str(u["file"])) for j, u in enumerate(flight["uavs"])]
+    out += [(f"autopilot_flights[{i}].file", str(f["file"])) for i, f in enumerate(data.get("autopilot_flights") or [])]
     if (data.get("tunnel") or {}).get("runs"):
         out.append(("tunnel.runs", str(data["tunnel"]["runs"])))
     return out
@@ -371,7 +385,8 @@ def data_paths(data: Mapping[str, Any]) -> list[tuple[str, str]]:
 
 #: The format of a record that declares none: the contract format of its kind (DESIGN.md).
 DEFAULT_FORMATS: dict[str, str] = {"mast_sonic": "toa5", "payload_sonic": "contract_csv",
-                                   "payload_ins": "contract_csv", "quadrotor_uav": "contract_csv"}
+                                   "payload_ins": "contract_csv", "quadrotor_uav": "contract_csv",
+                                   "autopilot_log": "ardupilot_bin"}
 
 
 def record_format(record: Mapping[str, Any], kind: str, file: str | None = None) -> dict[str, Any]:
@@ -397,8 +412,11 @@ def record_format(record: Mapping[str, Any], kind: str, file: str | None = None)
     declared = record.get("format")
     if declared is None:
         name = DEFAULT_FORMATS[kind]
-        if kind == "quadrotor_uav" and str(file or record.get("file", "")).lower().endswith(".ulg"):
+        suffix = str(file or record.get("file", "")).lower()
+        if kind == "quadrotor_uav" and suffix.endswith(".ulg"):
             name = "ulog"
+        elif kind == "quadrotor_uav" and suffix.endswith(".bin"):
+            name = "ardupilot_bin"
         return {"name": name}
     if isinstance(declared, str):
         return {"name": declared}
@@ -514,14 +532,27 @@ def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> lis
                 uav_ids = [u["id"] for u in flight["uavs"]]
                 for dup in sorted({u for u in uav_ids if uav_ids.count(u) > 1}):
                     problems.append((f"{key}.uavs", f"duplicate UAV id {dup!r}"))
+                if isinstance(flight["reference"], dict):
+                    for j, uav in enumerate(flight["uavs"]):
+                        fmt = uav.get("format")
+                        if not (isinstance(fmt, dict) and "ref_speed" in (fmt.get("variables") or {})):
+                            problems.append((f"{key}.uavs[{j}].format", "the reference is from_record, so each UAV "
+                                             "record must be delimited with a ref_speed variable"))
                 if check_files:
-                    if not (root / flight["reference"]).is_file():
+                    if isinstance(flight["reference"], str) and not (root / flight["reference"]).is_file():
                         problems.append((f"{key}.reference",
                                          f"file {flight['reference']!r} does not exist under {root}"))
                     for j, uav in enumerate(flight["uavs"]):
                         if not (root / uav["file"]).is_file():
                             problems.append((f"{key}.uavs[{j}].file",
                                              f"file {uav['file']!r} does not exist under {root}"))
+    for i, flight in enumerate(data.get("autopilot_flights") or []):
+        key = f"autopilot_flights[{i}]"
+        if flight["id"] in seen_flights:
+            problems.append((f"{key}.id", f"duplicate flight id {flight['id']!r} (also {seen_flights[flight['id']]})"))
+        seen_flights.setdefault(flight["id"], key)
+        if check_files and not (root / flight["file"]).is_file():
+            problems.append((f"{key}.file", f"file {flight['file']!r} does not exist under {root}"))
     return problems
 
 

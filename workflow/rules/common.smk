@@ -256,7 +256,7 @@ def all_outputs():
         out.append(str(RESULTS / "figures" / f"{BLOCK_FIGURE}.png"))
     if PUBLISHED:
         out.append(str(RESULTS / "published" / "report.md"))
-    out += quadrotor_targets() + tunnel_targets()
+    out += quadrotor_targets() + tunnel_targets() + autopilot_targets()
     out.append(str(RESULTS / "report" / "summary.html"))
     return out
 
@@ -392,7 +392,10 @@ def quad_uavs(flight_id):
 def quad_raw(flight_id):
     """Raw UAV logs of a quadrotor flight (manifest order) and its tower reference."""
     flight = CAMPAIGN.quadrotor_flight(flight_id)
-    return [str(L0 / u["file"]) for u in flight["uavs"]], str(L0 / flight["reference"])
+    uavs = [str(L0 / u["file"]) for u in flight["uavs"]]
+    # a reference from the UAV records' own columns: the first record stands for it
+    ref = flight["reference"]
+    return uavs, str(L0 / ref) if isinstance(ref, str) else uavs[0]
 
 
 def quad_flight(wc):
@@ -470,3 +473,24 @@ def tunnel_targets():
         str(RESULTS / "tables" / "tunnel_calibration.csv"),
         str(RESULTS / "quadrotor_diagnosis.json"),
     ] + [str(RESULTS / "figures" / f"{name}.png") for name in TUNNEL_FIGURES]
+
+
+# ----------------------------------------------------------------------------- autopilot flights
+# (tilt wind against the autopilot's EKF wind; rules in autopilot.smk)
+AUTOPILOT_FLIGHTS = [f["id"] for f in CAMPAIGN.autopilot_flights]
+AUTOPILOT_DIR = RESULTS / "netcdf"
+
+
+def autopilot_entry(wc):
+    """Params function: an autopilot flight's manifest entry."""
+    return canonical(CAMPAIGN.autopilot_flight(wc.aflight))
+
+
+def autopilot_targets():
+    """Default targets of the autopilot comparison (empty without autopilot flights)."""
+    if not AUTOPILOT_FLIGHTS:
+        return []
+    return [str(RESULTS / "tables" / "autopilot_ekf_wind.csv")] + [
+        str(RESULTS / "figures" / f"autopilot_ekf_wind_{f}.png")
+        for f in AUTOPILOT_FLIGHTS
+    ]

@@ -61,6 +61,7 @@ for _qf in QUAD_FLIGHTS:
             campaign=CAMPAIGN.name,
             flight_id=_qf,
             uavs=quad_uavs(_qf),
+            formats=[u.get("format") for u in CAMPAIGN.quadrotor_flight(_qf)["uavs"]],
             site=SITE,
             simulated=CAMPAIGN.simulated,
             attribution=ATTRIBUTION,
@@ -112,6 +113,7 @@ rule quadrotor_calibration:
         campaign=CAMPAIGN.name,
         tables_dir=lambda wc, output: str(Path(output.tables[0]).parent),
         calibration_window_s=QUAD["calibration_window_s"],
+        roles={f["id"]: f.get("role", "") for f in CAMPAIGN.quadrotor_flights},
     script:
         "../../scripts/quadrotor_calibration.py"
 

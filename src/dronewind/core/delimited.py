@@ -55,6 +55,8 @@ UNITS: dict[str, tuple[str, float, float]] = {
     "degree": ("degree", 1.0, 0.0),
     "rad": ("degree", 180.0 / 3.141592653589793, 0.0),
     "m": ("m", 1.0, 0.0),
+    "Pa": ("Pa", 1.0, 0.0),
+    "hPa": ("Pa", 100.0, 0.0),
 }
 #: The SI unit each variable of a sonic mapping must convert to.
 SONIC_QUANTITIES: dict[str, str] = {"u": "m s-1", "v": "m s-1", "w": "m s-1", "t": "K", "diag": "1"}

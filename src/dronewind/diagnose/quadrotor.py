@@ -19,7 +19,16 @@ DESIGN.md (``dronewind.mechanisms``) except ``sideslip``:
     tunnel's gust and step runs;
 ``sideslip`` (tunnel)
     separate lateral coefficients :math:`(b_y, c_y)` (seed 002, Eq. 1) instead of the
-    longitudinal law at every angle of sideslip.
+    longitudinal law at every angle of sideslip;
+``flight_pitch_offset`` (field, scored after the naming rounds)
+    one pitch offset per flight and UAV instead of per UAV: an IMU re-levelled between days
+    of a multi-day campaign. A new flight's offset cannot be known in advance, so it is
+    held out within flights (every ``k``-th window of each flight and UAV), the model it
+    extends scored on the same folds;
+``air_density`` (field, scored after the naming rounds)
+    the air density of the drag balance (Wetz et al. 2021, Eq. 12) from the logged pressure
+    and temperature of each block instead of one constant; scored only when the records hold
+    them.
 
 Scoring (the same for every candidate): the parameters are fitted on training data and
 the misfit is measured on held-out data: field windows of flights left out (k-fold over
@@ -59,7 +68,7 @@ import scipy.stats
 from dronewind.core.constants import GRAVITY_MS2
 from dronewind.errors import InputError
 from dronewind.quadrotor.calibration import BOUNDS
-from dronewind.quadrotor.drag import DragLaw, speed_from_tilt, tilt_from_attitude
+from dronewind.quadrotor.drag import RHO_KGM3, DragLaw, speed_from_tilt, tilt_from_attitude
 from dronewind.quadrotor.wind import wind_from_attitude
 from dronewind.simulate.common import first_order_lag
 from dronewind.tunnel.calibration import calibrate_tunnel, stepped_accuracy, uas_offsets
@@ -93,12 +102,27 @@ class FieldData:
     flight: np.ndarray
     uav: np.ndarray
     uavs: list[str]
+    rho: np.ndarray | None = None  # air density of each block [kg m-3] (NaN: not logged)
+    units: list[str] | None = None  # flight/uav of the per-flight offsets (default: those present)
     count: np.ndarray = field(init=False)
     uav_index: np.ndarray = field(init=False)
+    unit: np.ndarray = field(init=False)
+    unit_index: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
         self.count = np.bincount(self.win, minlength=self.ref_speed.size).astype(float)
         self.uav_index = np.searchsorted(self.uavs, self.uav)
+        self.unit = np.char.add(np.char.add(self.flight.astype(str), "/"), self.uav.astype(str))
+        if self.units is None:
+            self.units = sorted(set(self.unit.tolist()))
+        self.unit_index = np.searchsorted(self.units, self.unit)
+        if self.rho is None:
+            self.rho = np.full(self.win.size, np.nan)
+
+    @property
+    def has_density(self) -> bool:
+        """Whether any block has a logged air density."""
+        return bool(np.isfinite(cast(np.ndarray, self.rho)).any())
 
     @property
     def n(self) -> int:
@@ -131,7 +155,7 @@ class FieldData:
         keep = mask[self.win]
         return FieldData(new[self.win[keep]], self.roll[keep], self.pitch[keep], self.yaw[keep], self.vn[keep],
                          self.ve[keep], self.ref_speed[idx], self.ref_from[idx], self.flight[idx], self.uav[idx],
-                         self.uavs)
+                         self.uavs, cast(np.ndarray, self.rho)[keep], self.units)
 
 
 def field_data(blocks: pd.DataFrame, windows: pd.DataFrame, block_s: float = 10.0) -> FieldData:
@@ -163,13 +187,16 @@ def field_data(blocks: pd.DataFrame, windows: pd.DataFrame, block_s: float = 10.
     b["k"] = b.groupby("win").cumcount() // max(1, int(round(block_s)))
     b["sy"] = np.sin(np.radians(b["yaw_deg"]))
     b["cy"] = np.cos(np.radians(b["yaw_deg"]))
-    g = b.groupby(["win", "k"], sort=True)[["roll_deg", "pitch_deg", "sy", "cy", "vel_n_ms", "vel_e_ms"]].mean()
+    if "rho_kgm3" not in b:
+        b["rho_kgm3"] = np.nan
+    g = b.groupby(["win", "k"], sort=True)[["roll_deg", "pitch_deg", "sy", "cy", "vel_n_ms", "vel_e_ms",
+                                            "rho_kgm3"]].mean()
     win = g.index.get_level_values("win").to_numpy()
     uav = w["uav"].astype(str).to_numpy()
     return FieldData(win, g["roll_deg"].to_numpy(), g["pitch_deg"].to_numpy(),
                      np.degrees(np.arctan2(g["sy"].to_numpy(), g["cy"].to_numpy())), g["vel_n_ms"].to_numpy(),
                      g["vel_e_ms"].to_numpy(), w["ref_speed_ms"].to_numpy(float), w["ref_from_deg"].to_numpy(float),
-                     w["flight"].astype(str).to_numpy(), uav, sorted(set(uav)))
+                     w["flight"].astype(str).to_numpy(), uav, sorted(set(uav)), g["rho_kgm3"].to_numpy(float))
 
 
 def regime_speed(accel_ms2: np.ndarray | float, edges_ms: Sequence[float], b: Sequence[float] | np.ndarray,
@@ -215,6 +242,15 @@ class FieldModel:
     pitch: bool = False
     yaw: bool = False
     regime_edges: tuple[float, ...] | None = None  # None: rayleigh law (seed 001 Eq. 17)
+    flight_pitch: bool = False  # one pitch offset per flight and UAV (replaces the per-UAV one)
+    density: bool = False  # the logged air density in the drag balance
+    units: tuple[str, ...] = ()  # flight/uav of the per-flight offsets
+
+    def offset_names(self, uavs: Sequence[str]) -> list[str]:
+        """Names of the pitch-offset parameters (per flight and UAV, per UAV, or none)."""
+        if self.flight_pitch:
+            return [f"pitch_{u}" for u in self.units]
+        return [f"pitch_{u}" for u in uavs] if self.pitch else []
 
     def speed_names(self, uavs: Sequence[str]) -> list[str]:
         if self.regime_edges is None:
@@ -222,9 +258,7 @@ class FieldModel:
         else:
             nr = len(self.regime_edges) + 1
             names = [f"b_{k}" for k in range(nr)] + [f"c_{k}" for k in range(nr)]
-        if self.pitch:
-            names += [f"pitch_{u}" for u in uavs]
-        return names
+        return names + self.offset_names(uavs)
 
     def bounds(self, uavs: Sequence[str]) -> tuple[list[float], list[float]]:
         lo, hi = [], []
@@ -249,7 +283,7 @@ class FieldModel:
         else:
             nr = len(self.regime_edges) + 1
             x = [0.6] * nr + [7.0] * nr
-        return np.array(x + ([0.0] * len(uavs) if self.pitch else []), float)
+        return np.array(x + [0.0] * len(self.offset_names(uavs)), float)
 
 
 @dataclass
@@ -268,10 +302,17 @@ class FieldFit:
 
 def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray | None) -> tuple[np.ndarray, ...]:
     """Window-mean (signed) speed and wind vector of a field model."""
-    nu = len(data.uavs)
-    nspeed = len(model.speed_names(data.uavs)) - (nu if model.pitch else 0)
-    if model.pitch or (model.yaw and yaw_deg is not None):
-        p_off = x[nspeed:][data.uav_index[data.win]] if model.pitch else 0.0
+    n_off = len(model.offset_names(data.uavs))
+    nspeed = len(model.speed_names(data.uavs)) - n_off
+    if n_off or (model.yaw and yaw_deg is not None):
+        p_off: np.ndarray | float
+        if model.flight_pitch:
+            # a unit the training never saw (a held-out flight) keeps zero offset
+            known = np.isin(data.unit[data.win], model.units)
+            idx = np.searchsorted(model.units, data.unit[data.win]).clip(0, max(n_off - 1, 0))
+            p_off = np.where(known, x[nspeed:][idx], 0.0)
+        else:
+            p_off = x[nspeed:][data.uav_index[data.win]] if model.pitch else 0.0
         y_off = yaw_deg[data.uav_index[data.win]] if (model.yaw and yaw_deg is not None) else 0.0
         terms = _attitude_terms(data, p_off, y_off)
     else:
@@ -282,6 +323,10 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
     else:
         nr = len(model.regime_edges) + 1
         vrel = regime_speed(GRAVITY_MS2 * np.sin(tilt), model.regime_edges, x[:nr], x[nr:2 * nr])
+    if model.density:
+        # V scales as rho**-1/2 (Wetz et al. 2021, Eq. 12); blocks without a logged density keep the law's
+        rho = cast(np.ndarray, data.rho)
+        vrel = vrel * np.sqrt(RHO_KGM3 / np.where(np.isfinite(rho), rho, RHO_KGM3))
     wn = -vrel * cos_lean + data.vn
     we = -vrel * sin_lean + data.ve
     sp = np.hypot(wn, we)
@@ -360,13 +405,16 @@ def fit_field(data: FieldData, model: FieldModel) -> FieldFit:
     lo, hi = model.bounds(uavs)
     names = model.speed_names(uavs)
     nu = len(uavs)
-    nspeed = len(names) - (nu if model.pitch else 0)
+    nspeed = len(names) - len(model.offset_names(uavs))
 
     def fun(x):
         return _wind(data, model, x, None)[1] - data.ref_speed
 
     sparsity = np.ones((data.n, len(names)), dtype=int)
-    if model.pitch:
+    if model.flight_pitch:
+        sparsity[:, nspeed:] = 0
+        sparsity[np.arange(data.n), nspeed + np.searchsorted(model.units, data.unit)] = 1
+    elif model.pitch:
         sparsity[:, nspeed:] = 0
         w_uav = np.searchsorted(uavs, data.uav)
         sparsity[np.arange(data.n), nspeed + w_uav] = 1
@@ -430,11 +478,18 @@ class HeldOut:
         return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
 
 
-def cross_validate(data: FieldData, model: FieldModel, k_folds: int = 5) -> HeldOut:
-    """Held-out speed and direction errors of every window (k-fold over flights)."""
+def _within_folds(units: np.ndarray, k_folds: int) -> list[np.ndarray]:
+    """Folds of every ``k``-th window of each flight and UAV (each fold keeps windows of every unit to train on)."""
+    rank = pd.Series(np.arange(units.size)).groupby(units).cumcount().to_numpy()
+    return [rank % k_folds == j for j in range(k_folds)]
+
+
+def cross_validate(data: FieldData, model: FieldModel, k_folds: int = 5, within_flights: bool = False) -> HeldOut:
+    """Held-out speed and direction errors of every window (k-fold over flights, or within flights)."""
     sp_err = np.full(data.n, np.nan)
     dir_err = np.full(data.n, np.nan)
-    for test in _folds(data.flight, k_folds):
+    folds = _within_folds(data.unit, k_folds) if within_flights else _folds(data.flight, k_folds)
+    for test in folds:
         train = ~test
         if train.sum() < 3:
             continue
@@ -484,7 +539,18 @@ def _estimate(fit: FieldFit, cand: str, uavs: Sequence[str]) -> tuple[dict[str, 
     names = fit.model.speed_names(uavs)
     est: dict[str, Any]
     unc: dict[str, Any]
-    if cand == "pitch_offset":
+    if cand == "flight_pitch_offset":
+        est = {u: float(fit.x[names.index(f"pitch_{u}")]) for u in fit.model.units}
+        unc = {u: float(fit.se[names.index(f"pitch_{u}")]) for u in fit.model.units}
+    elif cand == "air_density":
+        est, unc = {"density": "logged pressure and temperature"}, {}
+    elif cand == "pitch_offset" and fit.model.flight_pitch:
+        # per-UAV offsets replaced by per-flight ones: each UAV's mean over its flights
+        per = {u: [float(fit.x[names.index(f"pitch_{k}")]) for k in fit.model.units if k.endswith(f"/{u}")]
+               for u in uavs}
+        est = {u: float(np.mean(v)) if v else float("nan") for u, v in per.items()}
+        unc = {u: float(np.std(v)) if v else float("nan") for u, v in per.items()}
+    elif cand == "pitch_offset":
         est = {u: float(fit.x[names.index(f"pitch_{u}")]) for u in uavs}
         unc = {u: float(fit.se[names.index(f"pitch_{u}")]) for u in uavs}
     elif cand == "yaw_offset":
@@ -570,9 +636,63 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
         named.append(top)
         current, cur_ho = top["_model"], top["_ho"]
         remaining = [c for c in remaining if c != top["mechanism"]]
+    extra = _beside_candidates(data, current, cur_ho, units, alpha, min_gain, k_folds)
+    if extra:
+        rounds.append(extra)
+        for s in sorted((s for s in extra if s["significant"]), key=lambda s: -s["gain"]):
+            named.append(s)
+            m = s["_model"]
+            current = FieldModel(pitch=current.pitch and not m.flight_pitch, yaw=current.yaw,
+                                 regime_edges=current.regime_edges, flight_pitch=current.flight_pitch or m.flight_pitch,
+                                 density=current.density or m.density, units=m.units or current.units)
+            if s["mechanism"] == "air_density":  # scored on the flight folds: the extended model's errors
+                cur_ho = s["_ho"]
     final_fit = fit_field(data, current)
     return {"baseline": {"fit": base_fit, "heldout": base_ho}, "rounds": rounds, "named": named,
             "extended": cur_ho, "final_fit": final_fit, "final_model": current, "edges": edges}
+
+
+def _beside_candidates(data: FieldData, current: FieldModel, cur_ho: HeldOut, units: np.ndarray, alpha: float,
+                       min_gain: float, k_folds: int) -> list[dict[str, Any]]:
+    """Per-flight pitch offsets and the logged air density scored against the named model (see module doc).
+
+    ``flight_pitch_offset`` replaces the per-UAV pitch offsets (or adds offsets when none are
+    named) and is held out within flights, the named model scored on the same folds;
+    ``air_density`` is held out over flights like the naming rounds. Each is tested against
+    the named model alone (Bonferroni over the two).
+    """
+    cands: list[tuple[str, FieldModel, bool]] = []
+    if len(set(data.flight.tolist())) > 1 and data.n >= 2 * k_folds:
+        cands.append(("flight_pitch_offset", FieldModel(pitch=False, yaw=current.yaw,
+                                                        regime_edges=current.regime_edges, flight_pitch=True,
+                                                        density=current.density, units=tuple(data.units or ())),
+                      True))
+    if data.has_density and not current.density:
+        cands.append(("air_density", FieldModel(pitch=current.pitch, yaw=current.yaw,
+                                                regime_edges=current.regime_edges, density=True), False))
+    scored: list[dict[str, Any]] = []
+    ref_fit = fit_field(data, current)
+    for cand, model, within in cands:
+        ref_ho = cross_validate(data, current, k_folds, within_flights=True) if within else cur_ho
+        ho = cross_validate(data, model, k_folds, within_flights=within)
+        r0, r1 = ref_ho.rmse("speed"), ho.rmse("speed")
+        gain = 1.0 - r1 / r0 if r0 > 0 else 0.0
+        p, n_units = _paired(ref_ho.speed_err, ho.speed_err, units)
+        fit = fit_field(data, model)
+        dp = len(model.speed_names(data.uavs)) - len(current.speed_names(data.uavs))
+        f_stat = float("nan")
+        if dp > 0 and data.n > len(fit.x):
+            f_stat = float(((ref_fit.rss - fit.rss) / dp) / (fit.rss / (data.n - len(fit.x))))
+        est, unc = _estimate(fit, cand, data.uavs)
+        scored.append({"mechanism": cand, "source": "field", "metric": "speed_rmse",
+                       "heldout": f"{k_folds}-fold within flights" if within else "k-fold over flights",
+                       "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": float(gain),
+                       "p_value": p, "n_units": n_units, "n_parameters": int(dp), "f_statistic": f_stat,
+                       "estimate": est, "uncertainty": unc, "converged": fit.converged, "_model": model, "_ho": ho})
+    for s in scored:
+        s["alpha_bonferroni"] = alpha / len(scored)
+        s["significant"] = bool(s["p_value"] < s["alpha_bonferroni"] and s["gain"] >= min_gain and s["converged"])
+    return scored
 
 
 # ----------------------------------------------------------------------------- tunnel

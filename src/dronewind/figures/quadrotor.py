@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dronewind.errors import InputError
 from dronewind.figures.labels import QUAD_FIGURES, TUNNEL_FIGURES
 
 __all__ = ["QUAD_FIGURES", "TUNNEL_FIGURES", "quadrotor_figures", "tunnel_figures"]
@@ -144,8 +145,12 @@ def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path,
 
     fig = Figure(figsize=(7.5, 6.0), layout="constrained")
     ax_one, ax = fig.subplots(2, 1, sharex=True)
-    ref = read_tower_reference(reference_file)
     flight, notes = "", []
+    try:
+        ref = read_tower_reference(reference_file)
+    except InputError as exc:  # a reference held in the UAV records' own columns is no tower file
+        ref = None
+        notes.append(f"tower reference not drawn ({exc})")
     series = []
     for l2 in l2_files:
         ds = open_product(l2)
@@ -160,11 +165,12 @@ def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path,
             notes.append(f"{ds.attrs.get('uav', '')}: {ds.attrs.get('unusable_reason', '')}")
     if series:
         h, ds = series[-1]
-        k = int(np.argmin(np.abs(ref["height_m"].values - h)))
+        k = int(np.argmin(np.abs(ref["height_m"].values - h))) if ref is not None else 0
         ax_one.plot(ds["time"].values, ds["wind_speed_ms"].values, lw=0.8, color="tab:red",
                     label=f"UAV {ds.attrs.get('uav', '')} at {h:.0f} m (1 Hz)")
-        ax_one.step(ref["time"].values, ref["wind_speed_ms"].isel(height=k).values, where="post", color="k",
-                    lw=1.2, label=f"tower {float(ref['height_m'].values[k]):g} m (1-min means)")
+        if ref is not None:
+            ax_one.step(ref["time"].values, ref["wind_speed_ms"].isel(height=k).values, where="post", color="k",
+                        lw=1.2, label=f"tower {float(ref['height_m'].values[k]):g} m (1-min means)")
         t = np.concatenate([d["time"].values for _, d in series])
         ax.set_xlim(t.min(), t.max())
         ax_one.legend(fontsize=7)

@@ -603,3 +603,40 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
     if site_altitude_m is not None:
         ds.attrs["height_m"] = height
     return ds
+
+
+# ----------------------------------------------------------------------------- platform state from a vehicle log
+
+__all__ += ["read_platform_state"]
+
+
+def read_platform_state(path: str | os.PathLike[str], fmt: str | Mapping[str, Any]) -> xr.Dataset:
+    """Platform state of a rigid-mount vehicle from its own log, by the log's format.
+
+    Parameters
+    ----------
+    path : str or Path
+        The vehicle's log.
+    fmt : str or mapping
+        Its format: ``ardupilot_bin`` (:func:`dronewind.core.dataflash.read_dataflash`; a
+        mapping may set ``ekf_core``).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``roll_deg``, ``pitch_deg``, ``yaw_deg``, ``vel_n_ms``, ``vel_e_ms``, ``vel_d_ms``,
+        ``lat_deg``, ``lon_deg``, ``alt_m`` on the log's times (UTC), with the reader's attrs.
+
+    Raises
+    ------
+    InputError
+        A format without a platform-state reader, or a reader error.
+    """
+    spec = {"name": fmt} if isinstance(fmt, str) else dict(fmt)
+    if spec.get("name") == "ardupilot_bin":
+        from dronewind.core.dataflash import PLATFORM_VARIABLES, read_dataflash
+
+        ds = read_dataflash(Path(path), ekf_core=int(spec.get("ekf_core", 0)))
+        return ds[list(PLATFORM_VARIABLES)].sortby("time")
+    raise InputError(str(path), f"format {spec.get('name')!r} has no platform-state reader; expected ardupilot_bin "
+                     "(or the platform columns of the record's delimited mapping)")

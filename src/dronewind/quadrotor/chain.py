@@ -34,7 +34,7 @@ from dronewind.errors import InputError
 from dronewind.quadrotor import QUAD_TABLES
 from dronewind.quadrotor.drag import DragLaw, speed_from_tilt, tilt_from_attitude
 from dronewind.quadrotor.wind import uav_wind_dataset, wind_from_attitude
-from dronewind.quadrotor.windows import flight_windows
+from dronewind.quadrotor.windows import flight_windows_with_gaps
 
 __all__ = [
     "QUAD_TABLES", "WINDOW_LENGTHS_S", "uav_track_to_cf", "nominal_position",
@@ -50,7 +50,7 @@ WINDOW_LENGTHS_S: tuple[float, ...] = (600.0, 120.0)
 _WINDOW_COLUMNS = ["window_key", "flight", "uav", "window", "start", "end", "height_m", "ref_height_m",
                    "ref_speed_ms", "ref_from_deg", "n_blocks", "n_blocks_nan", "n_ref", "sigma_h_m", "sigma_v_m",
                    "hover_s", "n_dropped_s", "window_s", "var_ref_1min_m2s2"]
-_BLOCK_COLUMNS = ["window_key", "roll_deg", "pitch_deg", "yaw_deg", "vel_n_ms", "vel_e_ms", "window_s"]
+_BLOCK_COLUMNS = ["window_key", "roll_deg", "pitch_deg", "yaw_deg", "vel_n_ms", "vel_e_ms", "rho_kgm3", "window_s"]
 _PROBLEM_COLUMNS = ["flight", "uav", "file", "window_s", "error"]
 
 
@@ -141,6 +141,8 @@ def _window_tables(windows: list[pd.DataFrame], blocks: list[pd.DataFrame],
     """Per-flight window, block and problem tables in their stored column order (ISO times)."""
     w = pd.concat(windows, ignore_index=True) if windows else pd.DataFrame(columns=_WINDOW_COLUMNS)
     b = pd.concat(blocks, ignore_index=True) if blocks else pd.DataFrame(columns=_BLOCK_COLUMNS)
+    if "rho_kgm3" not in b:
+        b["rho_kgm3"] = np.nan
     for col in ("start", "end"):
         if len(w):
             w[col] = pd.to_datetime(w[col]).dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
@@ -186,12 +188,22 @@ def compute_flight_windows(logs: Mapping[str, xr.Dataset], reference: xr.Dataset
     for uav, ds in logs.items():
         for window_s in WINDOW_LENGTHS_S:
             try:
-                b, w = flight_windows(ds, reference, site_altitude_m, flight_id, uav, window_s=window_s,
-                                      block_s=block_s, hover_kwargs=hover)
+                b, w, skipped = flight_windows_with_gaps(ds, reference, site_altitude_m, flight_id, uav,
+                                                         window_s=window_s, block_s=block_s, hover_kwargs=hover)
             except InputError as exc:
                 LOG.warning("flight %s uav %s (%g s windows): %s", flight_id, uav, window_s, exc)
                 problems.append({"flight": flight_id, "uav": uav, "file": files.get(uav, ""),
                                  "window_s": window_s, "error": str(exc)})
+                continue
+            # a window a gap touches is skipped, the others kept: one problem row per skipped window
+            for _, row in skipped.iterrows():
+                problems.append({"flight": flight_id, "uav": uav, "file": files.get(uav, ""), "window_s": window_s,
+                                 "error": f"window {row['window']} ({pd.Timestamp(row['start']):%Y-%m-%dT%H:%M:%SZ} to "
+                                          f"{pd.Timestamp(row['end']):%Y-%m-%dT%H:%M:%SZ}) skipped: {row['reason']}"})
+            if len(skipped):
+                LOG.warning("flight %s uav %s (%g s windows): %d kept, %d skipped (gaps or coverage)", flight_id,
+                            uav, window_s, len(w), len(skipped))
+            if w.empty:
                 continue
             windows.append(w.assign(window_s=window_s, var_ref_1min_m2s2=reference_variance(reference, w)))
             blocks.append(b.assign(window_s=window_s))
@@ -340,7 +352,8 @@ def calibration_summary(main: Mapping[str, Any], window_s: float, n_windows: Map
 
 def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, blocks2: pd.DataFrame,
                              windows2: pd.DataFrame, problems: pd.DataFrame,
-                             calibration_window_s: float = 600.0) -> dict[str, Any]:
+                             calibration_window_s: float = 600.0,
+                             roles: Mapping[str, str] | None = None) -> dict[str, Any]:
     """All campaign tables of the quadrotor chain (Wetz et al. (2021), Tables 2, 3, C1, C2, Figs 3-9 data).
 
     Parameters
@@ -353,6 +366,10 @@ def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, bl
         UAV logs left out (concatenated per-flight problem tables).
     calibration_window_s : float
         Window length of the contract table (600 as Wetz et al. (2021), Sect. 5; 120 for short flights).
+    roles : mapping, optional
+        Flight id -> ``calibration`` or ``validation`` (the manifest's ``role``): the
+        calibrations are fitted on the calibration flights and tested on the validation
+        flights. Default (or no ``validation`` role): the chain's own split.
 
     Returns
     -------
@@ -366,8 +383,12 @@ def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, bl
     """
     from dronewind.quadrotor.validation import seed001_tables  # scipy.optimize/stats: only where used
 
-    res10 = seed001_tables(blocks10, windows10) if len(windows10) >= 3 else None
-    res2 = seed001_tables(blocks2, windows2) if len(windows2) >= 3 else None
+    split: dict[str, Any] = {}
+    if roles and "validation" in roles.values():
+        split = {"calibration": [f for f, r in roles.items() if r != "validation"],
+                 "validation": [f for f, r in roles.items() if r == "validation"]}
+    res10 = seed001_tables(blocks10, windows10, **split) if len(windows10) >= 3 else None
+    res2 = seed001_tables(blocks2, windows2, **split) if len(windows2) >= 3 else None
     if res10 is None and res2 is None:
         raise InputError("quadrotor windows", f"{len(windows10)} 10-min and {len(windows2)} 2-min windows; at least 3 "
                                               "are needed to calibrate (see quadrotor_problems.csv)")

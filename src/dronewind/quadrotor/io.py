@@ -1,7 +1,9 @@
 r"""Readers for quadrotor (SWUF-3D) flight logs and the tower reference.
 
 Three L0 formats of the data contract (``../shared/DESIGN.md``, "Quadrotor file" and
-"Tower reference") are read here:
+"Tower reference") are read here (and, through :func:`read_quadrotor`, ArduPilot DataFlash
+logs, :mod:`dronewind.quadrotor.ardupilot`, and delimited text by a column mapping,
+:mod:`dronewind.quadrotor.delimited`):
 
 * quadrotor CSV, at 10 Hz or more::
 
@@ -36,6 +38,7 @@ References
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -295,7 +298,8 @@ def read_quadrotor_csv(path: str | Path, max_corrupt_fraction: float = 0.05) -> 
         ``lon_deg`` [degree], ``alt_m`` [m above MSL]. attrs ``n_lines``,
         ``n_corrupt_lines`` (removed; their lines in the log), ``n_out_of_order``,
         ``n_duplicates``, ``n_time_conflicts``, ``n_nonfinite`` (values not numeric or
-        missing; kept as NaN), ``sampling_rate_hz``, ``processing_log``.
+        missing; kept as NaN), ``yaw_known`` (0 when no row has a yaw: yaw is then set to 0 and
+        only the speed holds), ``sampling_rate_hz``, ``processing_log``.
 
     Raises
     ------
@@ -314,6 +318,12 @@ def read_quadrotor_csv(path: str | Path, max_corrupt_fraction: float = 0.05) -> 
     if n_nonfinite:
         log.append(f"parse: {n_nonfinite} non-numeric or missing values set to NaN")
     ds.attrs.update(counts)
+    ds.attrs["yaw_known"] = int(bool(np.isfinite(ds["yaw_deg"].to_numpy()).any()))
+    if not ds.attrs["yaw_known"]:
+        # a record whose yaw is unknown throughout (e.g. converted by hand from a vehicle log):
+        # the speed of a hovering vehicle holds without it, the direction does not
+        ds["yaw_deg"] = xr.zeros_like(ds["yaw_deg"])
+        log.append("yaw: missing in every row; set to 0: the wind speed holds, its direction is relative to the nose")
     ds = _sort_dedupe(ds, log)
     ds = _finish(ds, path, log)
     if ds.sizes["time"] > 1 and ds.attrs["sampling_rate_hz"] < 1.0:
@@ -613,13 +623,18 @@ def read_quadrotor_ulog(path: str | Path, utc_start: str | None = None) -> xr.Da
     return _finish(ds, path, log)
 
 
-def read_quadrotor(path: str | Path) -> xr.Dataset:
-    """Read a quadrotor log, CSV or PX4 ULog by file suffix (data contract).
+def read_quadrotor(path: str | Path, fmt: str | Mapping[str, Any] | None = None) -> xr.Dataset:
+    """Read a quadrotor log: contract CSV, PX4 ULog or ArduPilot DataFlash (by format or file suffix).
 
     Parameters
     ----------
     path : str or Path
-        ``.csv`` or ``.ulg`` file.
+        ``.csv``, ``.ulg`` or ``.bin`` file.
+    fmt : str or mapping, optional
+        The manifest's ``format`` (a name or a mapping with ``name``): ``contract_csv``,
+        ``ulog``, ``ardupilot_bin`` (:func:`dronewind.quadrotor.ardupilot.read_quadrotor_ardupilot`,
+        setting ``ekf_core``) or ``delimited``
+        (:func:`dronewind.quadrotor.delimited.read_quadrotor_delimited`). Default: by suffix.
 
     Returns
     -------
@@ -629,15 +644,29 @@ def read_quadrotor(path: str | Path) -> xr.Dataset:
     Raises
     ------
     InputError
-        Unknown suffix or a reader error.
+        Unknown suffix or format, or a reader error.
     """
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix == ".csv":
+    spec = {"name": fmt} if isinstance(fmt, str) else dict(fmt or {})
+    name = spec.get("name") or {".csv": "contract_csv", ".ulg": "ulog", ".bin": "ardupilot_bin"}.get(
+        path.suffix.lower())
+    if name == "contract_csv":
         return read_quadrotor_csv(path)
-    if suffix == ".ulg":
+    if name == "ulog":
         return read_quadrotor_ulog(path)
-    raise InputError(path, f"unknown quadrotor log type {suffix!r}; expected .csv or .ulg")
+    if name == "ardupilot_bin":
+        from dronewind.quadrotor.ardupilot import read_quadrotor_ardupilot
+
+        return read_quadrotor_ardupilot(path, ekf_core=int(spec.get("ekf_core", 0)))
+    if name == "delimited":
+        from dronewind.quadrotor.delimited import read_quadrotor_delimited
+
+        return read_quadrotor_delimited(path, spec)
+    if name is None:
+        raise InputError(path, f"unknown quadrotor log type {path.suffix.lower()!r}; expected .csv, .ulg or .bin "
+                               "(or a declared format)")
+    raise InputError(path, f"unknown quadrotor log format {name!r}; expected contract_csv, ulog, ardupilot_bin "
+                           "or delimited")
 
 
 _WIDE = re.compile(r"^(wind_speed_ms|wind_from_deg)_(\d+(?:\.\d+)?)m?$")

@@ -203,7 +203,8 @@ def calibration_scenarios(blocks: pd.DataFrame, windows: pd.DataFrame, aero: Map
 
 def seed001_tables(blocks: pd.DataFrame, windows: pd.DataFrame, method: str = "tilt",
                    scenarios: Mapping[str, Sequence[str]] | None = None,
-                   validation: Sequence[str] | None = None) -> dict[str, Any]:
+                   validation: Sequence[str] | None = None,
+                   calibration: Sequence[str] | None = None) -> dict[str, Any]:
     r"""Wetz et al. (2021), Tables 2 and 3 (10-min windows) or C1 and C2 (2-min windows), and the
     contract table ``quadrotor_calibration.csv``.
 
@@ -218,6 +219,11 @@ def seed001_tables(blocks: pd.DataFrame, windows: pd.DataFrame, method: str = "t
         Default :func:`seed001_scenarios` of the flights present. Flight ids without a
         number, or no second-week flight, give one scenario ``a_all`` validated on the
         calibration flights themselves (flag ``independent_validation`` False).
+    calibration : sequence of str, optional
+        Flights the calibrations are fitted on (the manifest's ``role: calibration``; a
+        multi-day campaign calibrated on some days and validated on others). Default: all.
+        With it, the default scenario is ``a_calibration`` (these flights) and the default
+        validation flights are the others.
 
     Returns
     -------
@@ -240,19 +246,27 @@ def seed001_tables(blocks: pd.DataFrame, windows: pd.DataFrame, method: str = "t
         s, v = seed001_scenarios(flights)
     except InputError:
         s, v = {"a_all": flights}, []
+    fit_b, fit_w = blocks, windows
+    if calibration is not None:
+        cal = [f for f in flights if f in {str(c) for c in calibration}]
+        if not cal:
+            raise InputError("quadrotor_flights.role", "no window of a calibration flight; the calibration needs "
+                             "at least one")
+        s, v = {"a_calibration": cal}, [f for f in flights if f not in cal]
+        fit_b, fit_w = select_windows(blocks, windows, cal)
     scenarios = dict(scenarios or s)
     validation = list(validation if validation is not None else v)
     independent = bool(validation)
     if not validation:
         validation = flights
-    ind = calibrate_individual(blocks, windows, method=method)
-    aero, uoff = calibrate_universal(blocks, windows, method=method)
+    ind = calibrate_individual(fit_b, fit_w, method=method)
+    aero, uoff = calibrate_universal(fit_b, fit_w, method=method)
     t_ind = accuracy_table(predict_windows(blocks, windows, ind, method=method), "_individual")
     t_uni = accuracy_table(predict_windows(blocks, windows, uoff, aero=aero, method=method), "_universal")
     table2 = pd.concat([t_ind, t_uni], axis=1)
     scen = {k: f for k, f in scenarios.items() if len(f)}
     table3 = calibration_scenarios(blocks, windows, aero, scen, validation, method=method)
-    yaw_flights = scenarios.get("d_flights31_56") or flights
+    yaw_flights = scenarios.get("d_flights31_56") or sorted(fit_w["flight"].astype(str).unique())
     yaw = calibrate_yaw_offsets(blocks, windows, flights=yaw_flights)
     p = calibrate_pitch_offsets(blocks, windows, aero, flights=yaw_flights, method=method) \
         .merge(yaw[["uav", "yaw_offset_deg"]], on="uav", how="left")

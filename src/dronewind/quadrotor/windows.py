@@ -27,6 +27,7 @@ import xarray as xr
 
 from dronewind.errors import InputError
 from dronewind.quadrotor.drag import DragLaw
+from dronewind.quadrotor.ekf_wind import air_density_kgm3
 from dronewind.quadrotor.hover import hover_segment
 from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
 from dronewind.quadrotor.wind import (
@@ -36,7 +37,8 @@ from dronewind.quadrotor.wind import (
     wind_from_attitude,
 )
 
-__all__ = ["circular_mean_deg", "flight_windows", "campaign_windows", "WindowArrays", "select_windows"]
+__all__ = ["circular_mean_deg", "flight_windows", "flight_windows_with_gaps", "record_gaps", "SKIPPED_COLUMNS",
+           "campaign_windows", "WindowArrays", "select_windows"]
 
 
 def circular_mean_deg(angles_deg: np.ndarray, weights: np.ndarray | None = None) -> float:
@@ -185,7 +187,8 @@ def block_means(sub: xr.Dataset, t0: np.datetime64, block_s: float) -> tuple[pd.
     -------
     blocks : pandas.DataFrame
         ``roll_deg``, ``pitch_deg``, ``vel_n_ms``, ``vel_e_ms``, ``yaw_deg`` (circular mean,
-        0-360) per block with all values finite.
+        0-360) per block with all values finite, and ``rho_kgm3`` (:func:`logged_air_density`;
+        NaN when the record has no pressure and temperature).
     n_all : int
         Number of blocks before those without a finite sample were left out.
     """
@@ -199,21 +202,180 @@ def block_means(sub: xr.Dataset, t0: np.datetime64, block_s: float) -> tuple[pd.
     g["yaw_deg"] = np.degrees(np.arctan2(g["sy"], g["cy"])) % 360.0
     n_all_blocks = len(g)
     g = g.drop(columns=["sy", "cy"]).dropna()  # blocks without any finite sample: counted
+    rho = logged_air_density(sub)
+    g["rho_kgm3"] = (pd.Series(rho).groupby(tb).mean().reindex(g.index).to_numpy() if rho is not None
+                     else np.nan)
     return g, n_all_blocks
 
 
-def _coverage_error(reference: xr.Dataset, where: str, k: int, t0: np.datetime64, t1: np.datetime64,
-                    n_found: int, expected: int, ref_height_m: float) -> InputError:
-    return InputError(_reference_source(reference),
-                      f"{where}: the reference does not cover window {k} "
-                      f"({np.datetime_as_string(t0, 's')}Z to "
-                      f"{np.datetime_as_string(t1, 's')}Z): {n_found} of "
-                      f"{expected} records at {ref_height_m:g} m")
+def logged_air_density(ds: xr.Dataset) -> np.ndarray | None:
+    """Air density of each sample from the logged pressure and temperature, or None without them.
+
+    The temperature is the record's air temperature (``air_temp_degc``) or else its barometer's
+    (``baro_temp_degc``, an autopilot's sensor inside the airframe); the density is that of dry
+    air (:func:`dronewind.quadrotor.ekf_wind.air_density_kgm3`), the :math:`\rho` of the drag
+    balance (Wetz et al. 2021, Eq. 12).
+    """
+    temp = next((ds[n].to_numpy() for n in ("air_temp_degc", "baro_temp_degc") if n in ds), None)
+    if temp is None or "pressure_pa" not in ds:
+        return None
+    return air_density_kgm3(ds["pressure_pa"].to_numpy(), temp)
+
+
+def record_gaps(time: np.ndarray, max_gap_s: float, start: np.datetime64 | None = None,
+                end: np.datetime64 | None = None) -> list[tuple[np.datetime64, np.datetime64]]:
+    """Stretches without samples longer than ``max_gap_s`` in a record.
+
+    Parameters
+    ----------
+    time : numpy.ndarray of datetime64
+        Sample times (sorted).
+    max_gap_s : float
+        Longest spacing that is not a gap [s].
+    start, end : numpy.datetime64, optional
+        Span to look at: a record that begins later than ``start`` + ``max_gap_s`` or ends
+        earlier than ``end`` - ``max_gap_s`` has a gap there too.
+
+    Returns
+    -------
+    list of (numpy.datetime64, numpy.datetime64)
+        ``(last sample before, first sample after)`` of each gap (the span's edges where
+        the record does not reach them).
+    """
+    t = np.sort(np.asarray(time, dtype="datetime64[ns]"))
+    lim = np.timedelta64(int(round(max_gap_s * 1e9)), "ns")
+    t0 = None if start is None else np.asarray(start, dtype="datetime64[ns]")
+    t1 = None if end is None else np.asarray(end, dtype="datetime64[ns]")
+    if t0 is not None:
+        t = np.concatenate([t0[None], t[t >= t0]])
+    if t1 is not None:
+        t = np.concatenate([t[t <= t1], t1[None]])
+    if t.size < 2:
+        return [] if t0 is None or t1 is None else [(t0.reshape(1)[0], t1.reshape(1)[0])]
+    k = np.flatnonzero(np.diff(t) > lim)
+    return [(t[i], t[i + 1]) for i in k]
+
+
+def _touching(gaps: list[tuple[np.datetime64, np.datetime64]], t0: np.datetime64, t1: np.datetime64,
+              spacing_s: float) -> list[tuple[np.datetime64, np.datetime64]]:
+    """Gaps that take samples from the window [t0, t1).
+
+    A gap from its last sample ``a`` to its next ``b`` misses the samples after ``a`` and
+    before ``b``: it touches the window unless ``a`` is the window's last sample or ``b``
+    its first (``spacing_s``, the record's sample spacing, is the slack).
+    """
+    slack = np.timedelta64(int(round(spacing_s * 1e9)), "ns")
+    return [(a, b) for a, b in gaps if a + slack < t1 and b > t0]
+
+
+def _gap_text(kind: str, gaps: list[tuple[np.datetime64, np.datetime64]], spacing_s: float) -> str:
+    """The reason for a skipped window: its gaps and the longest time without records (spacing less one sample)."""
+    longest = max((b - a).astype("int64") / 1e9 for a, b in gaps) - spacing_s
+    return (f"the {kind} does not cover it: {len(gaps)} gap{'s' if len(gaps) > 1 else ''}, the longest "
+            f"{longest:.0f} s without records")
+
+
+#: Column order of the table of skipped windows of :func:`flight_windows_with_gaps`.
+SKIPPED_COLUMNS: tuple[str, ...] = ("window_key", "flight", "uav", "window", "start", "end", "reason",
+                                    "n_uav_s", "n_ref", "n_ref_expected")
+
+
+def flight_windows_with_gaps(ds: xr.Dataset, reference: xr.Dataset, site_altitude_m: float,
+                             flight: str, uav: str, window_s: float = 600.0, block_s: float = 1.0,
+                             height_tol_m: float = 5.0, min_coverage: float = 0.8, max_gap_s: float = 10.0,
+                             hover_kwargs: Mapping | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    r"""Averaging windows of a UAV's hover wherever the UAV record and the reference cover them.
+
+    The hover (:func:`dronewind.quadrotor.hover.hover_segment`) is cut into windows of
+    ``window_s`` from its start (Wetz et al. 2021, Sect. 5: 10-min means; App. C: 2-min). A
+    window is kept when the UAV record has no gap longer than ``max_gap_s`` in it, the
+    reference has no gap longer than ``max(max_gap_s, 2 x its record interval)`` in it, and
+    the reference holds at least ``min_coverage`` of the records expected. Every other window
+    is skipped and listed with its reason: a gap ends no search, the windows after it are
+    taken as those before.
+
+    Parameters
+    ----------
+    ds, reference, site_altitude_m, flight, uav, window_s, block_s, height_tol_m, min_coverage, hover_kwargs
+        As :func:`flight_windows`.
+    max_gap_s : float
+        Longest time without UAV samples (or reference records) that is not a gap [s].
+
+    Returns
+    -------
+    blocks, windows : pandas.DataFrame
+        As :func:`flight_windows` (kept windows only; ``window`` numbers the windows of the
+        hover, kept or skipped, so the numbers of kept windows may jump).
+    skipped : pandas.DataFrame
+        One row per skipped window: :data:`SKIPPED_COLUMNS` (``reason`` names the gaps or
+        the coverage; ``n_uav_s`` seconds with UAV samples, ``n_ref`` and
+        ``n_ref_expected`` reference records found and expected).
+
+    Raises
+    ------
+    InputError
+        UAV never hovers; no reference height within ``height_tol_m``.
+    """
+    where = f"flight {flight}, uav {uav}"
+    mask, info = hover_segment(ds, where=where, **dict(hover_kwargs or {}))
+    height = info["alt_m"] - site_altitude_m
+    ref, ref_height = reference_at_height(reference, height, height_tol_m, where)
+    edges, n_win = window_edges(info, window_s, where)
+    t = ds["time"].to_numpy()
+    ref_sp = ref["wind_speed_ms"].to_numpy()
+    ref_t = ref["time"].to_numpy()
+    interval = float(reference.attrs.get("sampling_interval_s") or 60.0)
+    hover_t = t[mask & np.isfinite(ds["roll_deg"].to_numpy()) & np.isfinite(ds["pitch_deg"].to_numpy())]
+    uav_gaps = record_gaps(hover_t, max_gap_s, edges[0], edges[-1])
+    uav_spacing_s = float(np.median(np.diff(hover_t.astype("int64")))) / 1e9 if hover_t.size > 1 else 0.0
+    # a record stamped at the start of its interval covers up to one interval after it
+    ref_gaps = record_gaps(ref_t[np.isfinite(ref_sp)], max(max_gap_s, 2.0 * interval), edges[0],
+                           edges[-1] - np.timedelta64(int(round(interval * 1e9)), "ns"))
+    dur = info["duration_s"]
+    common = {"flight": flight, "uav": uav, "height_m": height, "ref_height_m": float(ref_height),
+              "sigma_h_m": info["sigma_h_m"], "sigma_v_m": info["sigma_v_m"], "hover_s": dur,
+              "n_dropped_s": float(dur - (edges[-1] - edges[0]).astype("int64") / 1e9) if n_win else 0.0}
+    blocks_out: list[pd.DataFrame] = []
+    windows_out: list[dict[str, Any]] = []
+    skipped: list[dict[str, Any]] = []
+    for k in range(len(edges) - 1):
+        key = f"{flight}/{uav}/{k}"
+        t0, t1 = edges[k], edges[k + 1]
+        rsel, expected = reference_coverage(ref_t, ref_sp, t0, t1, interval)
+        sel = np.flatnonzero(mask & (t >= t0) & (t < t1))
+        reasons = []
+        if g := _touching(uav_gaps, t0, t1, uav_spacing_s):
+            reasons.append(_gap_text("UAV record", g, uav_spacing_s))
+        if g := _touching(ref_gaps, t0, t1, interval):
+            reasons.append(_gap_text("reference", g, interval))
+        if rsel.sum() < min_coverage * expected:
+            reasons.append(f"the reference does not cover it: {int(rsel.sum())} of {expected} records at "
+                           f"{ref_height:g} m (at least {min_coverage:.0%} needed)")
+        means, n_all_blocks = block_means(ds.isel(time=sel), t0, block_s)
+        if not reasons and len(means) == 0:
+            reasons.append("no UAV block with finite attitude and velocity")
+        if reasons:
+            skipped.append({"window_key": key, "flight": flight, "uav": uav, "window": k, "start": t0, "end": t1,
+                            "reason": "; ".join(reasons), "n_uav_s": int(np.unique(
+                                (t[sel] - t0).astype("int64") // 1_000_000_000).size),
+                            "n_ref": int(rsel.sum()), "n_ref_expected": expected})
+            continue
+        means["window_key"] = key
+        blocks_out.append(means.reset_index(drop=True))
+        windows_out.append({
+            "window_key": key, "window": k, "start": t0, "end": t1,
+            "ref_speed_ms": float(np.mean(ref_sp[rsel])),
+            "ref_from_deg": circular_mean_deg(ref["wind_from_deg"].to_numpy()[rsel], ref_sp[rsel]),
+            "n_blocks": len(means), "n_blocks_nan": n_all_blocks - len(means), "n_ref": int(rsel.sum()), **common})
+    blocks = (pd.concat(blocks_out, ignore_index=True) if blocks_out
+              else pd.DataFrame(columns=["roll_deg", "pitch_deg", "vel_n_ms", "vel_e_ms", "yaw_deg", "window_key"]))
+    windows = _window_table(windows_out) if windows_out else pd.DataFrame(columns=list(WINDOW_COLUMNS))
+    return blocks, windows, pd.DataFrame(skipped, columns=list(SKIPPED_COLUMNS))
 
 
 def flight_windows(ds: xr.Dataset, reference: xr.Dataset, site_altitude_m: float,
                    flight: str, uav: str, window_s: float = 600.0, block_s: float = 1.0,
-                   height_tol_m: float = 5.0, min_coverage: float = 0.8,
+                   height_tol_m: float = 5.0, min_coverage: float = 0.8, max_gap_s: float = 10.0,
                    hover_kwargs: Mapping | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     r"""Cut a UAV's hover into averaging windows and pair each with the tower reference.
 
@@ -237,6 +399,8 @@ def flight_windows(ds: xr.Dataset, reference: xr.Dataset, site_altitude_m: float
         Largest difference between hover height and the nearest reference height [m].
     min_coverage : float
         Smallest fraction of the expected reference records inside a window.
+    max_gap_s : float
+        Longest time without samples that is not a gap [s] (:func:`flight_windows_with_gaps`).
     hover_kwargs : mapping, optional
         Passed to :func:`dronewind.quadrotor.hover.hover_segment`.
 
@@ -251,41 +415,25 @@ def flight_windows(ds: xr.Dataset, reference: xr.Dataset, site_altitude_m: float
         (scalar mean), ``ref_from_deg`` (speed-weighted vector mean), ``n_blocks``,
         ``n_blocks_nan`` (blocks left out for a missing value), ``n_ref``, ``sigma_h_m``,
         ``sigma_v_m``, ``hover_s``, ``n_dropped_s`` (hover seconds outside any window).
+        Windows touching a gap of either record are left out
+        (:func:`flight_windows_with_gaps` lists them with their reasons).
 
     Raises
     ------
     InputError
-        UAV never hovers; no reference height within ``height_tol_m``; reference not
-        covering a window.
+        UAV never hovers; no reference height within ``height_tol_m``; no window covered
+        by both records (names the first skipped window and why).
     """
-    where = f"flight {flight}, uav {uav}"
-    mask, info = hover_segment(ds, where=where, **dict(hover_kwargs or {}))
-    height = info["alt_m"] - site_altitude_m
-    ref, ref_height = reference_at_height(reference, height, height_tol_m, where)
-    edges, n_win = window_edges(info, window_s, where)
-    t = ds["time"].to_numpy()
-    ref_sp = ref["wind_speed_ms"].to_numpy()
-    interval = float(reference.attrs.get("sampling_interval_s") or 60.0)
-    dur = info["duration_s"]
-    common = {"flight": flight, "uav": uav, "height_m": height, "ref_height_m": float(ref_height),
-              "sigma_h_m": info["sigma_h_m"], "sigma_v_m": info["sigma_v_m"], "hover_s": dur,
-              "n_dropped_s": float(dur - (edges[-1] - edges[0]).astype("int64") / 1e9) if n_win else 0.0}
-    blocks_out, windows_out = [], []
-    for k in range(len(edges) - 1):
-        key = f"{flight}/{uav}/{k}"
-        t0, t1 = edges[k], edges[k + 1]
-        rsel, expected = reference_coverage(ref["time"].to_numpy(), ref_sp, t0, t1, interval)
-        if rsel.sum() < min_coverage * expected:
-            raise _coverage_error(reference, where, k, t0, t1, int(rsel.sum()), expected, ref_height)
-        g, n_all_blocks = block_means(ds.isel(time=np.flatnonzero(mask & (t >= t0) & (t < t1))), t0, block_s)
-        g["window_key"] = key
-        blocks_out.append(g.reset_index(drop=True))
-        windows_out.append({
-            "window_key": key, "window": k, "start": t0, "end": t1,
-            "ref_speed_ms": float(np.mean(ref_sp[rsel])),
-            "ref_from_deg": circular_mean_deg(ref["wind_from_deg"].to_numpy()[rsel], ref_sp[rsel]),
-            "n_blocks": len(g), "n_blocks_nan": n_all_blocks - len(g), "n_ref": int(rsel.sum()), **common})
-    return pd.concat(blocks_out, ignore_index=True), _window_table(windows_out)
+    blocks, windows, skipped = flight_windows_with_gaps(
+        ds, reference, site_altitude_m, flight, uav, window_s=window_s, block_s=block_s,
+        height_tol_m=height_tol_m, min_coverage=min_coverage, max_gap_s=max_gap_s, hover_kwargs=hover_kwargs)
+    if windows.empty:
+        first = skipped.iloc[0]
+        raise InputError(_reference_source(reference),
+                         f"flight {flight}, uav {uav}: no window covered by the UAV record and the reference; "
+                         f"{len(skipped)} skipped, the first ({pd.Timestamp(first['start']):%Y-%m-%dT%H:%M:%SZ} to "
+                         f"{pd.Timestamp(first['end']):%Y-%m-%dT%H:%M:%SZ}): {first['reason']}")
+    return blocks, windows
 
 
 #: Column order of the window table of :func:`flight_windows`.

@@ -153,7 +153,8 @@ def simulate_tunnel(simulation: Mapping[str, Any], runs: str, out_dir: str | Pat
 
 
 def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, site: Mapping[str, Any],
-                 out_l1: str | Path, *, simulated: bool, attribution: Mapping[str, str] | None = None) -> Path:
+                 out_l1: str | Path, *, simulated: bool, attribution: Mapping[str, str] | None = None,
+                 fmt: str | Mapping[str, Any] | None = None) -> Path:
     """L0 -> L1 NetCDF of one UAV log (attitude and GNSS in CF form).
 
     Parameters
@@ -174,6 +175,9 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
     attribution : mapping, optional
         Creator and licence from the manifest (:func:`dronewind.core.attribution.attribution`),
         inherited by every later level.
+    fmt : str or mapping, optional
+        The UAV's declared ``format`` (:func:`dronewind.quadrotor.io.read_quadrotor`; default:
+        by the file suffix).
 
     Returns
     -------
@@ -186,7 +190,7 @@ def quadrotor_l1(campaign: str, flight_id: str, uav: str, log_file: str | Path, 
         A log that cannot be read (e.g. without attitude columns): its L1 file cannot be
         written, so the job stops naming the file and what is missing.
     """
-    ds = chain.compute_quadrotor_l1(read_quadrotor(log_file))
+    ds = chain.compute_quadrotor_l1(read_quadrotor(log_file, fmt))
     lat, lon, height = chain.nominal_position(ds, site)
     LOG.info("flight %s uav %s L1: %d samples; %s", flight_id, uav, ds.sizes["time"],
              ds.attrs.get("processing_log", "").replace("\n", "; "))
@@ -211,7 +215,8 @@ def _per_uav(flight_id: str, uavs: Sequence[str], **files: Sequence[str | Path])
 
 def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_files: Sequence[str | Path],
                         site: Mapping[str, Any], out_l1: Sequence[str | Path], *, simulated: bool,
-                        attribution: Mapping[str, str] | None = None) -> list[Path]:
+                        attribution: Mapping[str, str] | None = None,
+                        formats: Sequence[str | Mapping[str, Any] | None] | None = None) -> list[Path]:
     """L0 -> L1 NetCDF of every UAV of a quadrotor flight (:func:`quadrotor_l1` for each).
 
     One workflow job per flight: the UAVs are processed in one process, which pays the
@@ -233,6 +238,8 @@ def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_
         The campaign is virtual (stated in ``source``).
     attribution : mapping, optional
         As :func:`quadrotor_l1`.
+    formats : sequence, optional
+        Each UAV's declared ``format`` (None: by the file suffix), in the order of ``uavs``.
 
     Returns
     -------
@@ -240,8 +247,10 @@ def quadrotor_l1_flight(campaign: str, flight_id: str, uavs: Sequence[str], log_
         The written files, in the order of ``uavs``.
     """
     _per_uav(flight_id, uavs, logs=log_files, outputs=out_l1)
-    return [quadrotor_l1(campaign, flight_id, uav, log, site, out, simulated=simulated, attribution=attribution)
-            for uav, log, out in zip(uavs, log_files, out_l1, strict=True)]
+    fmts = list(formats) if formats is not None else [None] * len(uavs)
+    return [quadrotor_l1(campaign, flight_id, uav, log, site, out, simulated=simulated, attribution=attribution,
+                         fmt=fmt)
+            for uav, log, out, fmt in zip(uavs, log_files, out_l1, fmts, strict=True)]
 
 
 def quadrotor_windows(flight: Mapping[str, Any], l1_files: Mapping[str, str | Path], reference_file: str | Path,
@@ -273,6 +282,10 @@ def quadrotor_windows(flight: Mapping[str, Any], l1_files: Mapping[str, str | Pa
     """
     flight_id = str(flight["id"])
     logs = {uav: track_from_cf(strip_cf(open_product(path))) for uav, path in l1_files.items()}
+    if isinstance(flight.get("reference"), Mapping):
+        # the reference is each UAV record's own ref_speed/ref_from columns: windows UAV by UAV
+        return _windows_from_records(flight, logs, site_altitude_m, block_s, hover, out_windows, out_blocks,
+                                     out_problems)
     try:
         ref = read_tower_reference(reference_file)
     except InputError as exc:
@@ -283,6 +296,29 @@ def quadrotor_windows(flight: Mapping[str, Any], l1_files: Mapping[str, str | Pa
         w, b, problems = chain.compute_flight_windows(logs, ref, flight_id, float(site_altitude_m), files,
                                                       block_s=float(block_s), hover=hover)
     LOG.info("flight %s: %d windows (600 s and 120 s), %d problem(s)", flight_id, len(w), len(problems))
+    return [_csv(w, out_windows), _csv(b, out_blocks), _csv(problems, out_problems)]
+
+
+def _windows_from_records(flight: Mapping[str, Any], logs: Mapping[str, Any], site_altitude_m: float, block_s: float,
+                          hover: Mapping[str, float], out_windows: str | Path, out_blocks: str | Path,
+                          out_problems: str | Path) -> list[Path]:
+    """:func:`quadrotor_windows` for a flight whose reference is in the UAV records' columns."""
+    from dronewind.quadrotor.delimited import reference_from_record
+
+    flight_id = str(flight["id"])
+    files = {u["id"]: Path(u["file"]).name for u in flight["uavs"]}
+    parts = []
+    for uav, ds in logs.items():
+        try:
+            ref = reference_from_record(ds, float(flight["reference"]["height_m"]))
+        except InputError as exc:
+            parts.append(chain.unreadable_reference([uav], files.get(uav, ""), flight_id, exc))
+            continue
+        parts.append(chain.compute_flight_windows({uav: ds}, ref, flight_id, float(site_altitude_m), files,
+                                                  block_s=float(block_s), hover=hover))
+    w, b, problems = (pd.concat([p[i] for p in parts], ignore_index=True) for i in range(3))
+    LOG.info("flight %s: %d windows (600 s and 120 s) against the records' own reference, %d problem(s)",
+             flight_id, len(w), len(problems))
     return [_csv(w, out_windows), _csv(b, out_blocks), _csv(problems, out_problems)]
 
 
@@ -323,7 +359,7 @@ def _json_default(value: Any) -> Any:
 
 def quadrotor_calibration(campaign: str, windows_files: Sequence[str | Path], blocks_files: Sequence[str | Path],
                           problems_files: Sequence[str | Path], tables_dir: str | Path, summary_file: str | Path,
-                          calibration_window_s: float) -> list[Path]:
+                          calibration_window_s: float, roles: Mapping[str, str] | None = None) -> list[Path]:
     """Campaign calibration and validation tables of the quadrotor fleet (Wetz et al. (2021), Sect. 5).
 
     Parameters
@@ -338,6 +374,8 @@ def quadrotor_calibration(campaign: str, windows_files: Sequence[str | Path], bl
         JSON with the aerodynamic parameters, convergence, scenarios and hover accuracy.
     calibration_window_s : float
         Window length of the contract table [s] (600, or 120 for short flights).
+    roles : mapping, optional
+        Flight id -> ``calibration`` or ``validation`` (the manifest's ``role``).
 
     Returns
     -------
@@ -353,7 +391,7 @@ def quadrotor_calibration(campaign: str, windows_files: Sequence[str | Path], bl
     b2, w2 = read_windows(windows_files, blocks_files, 120.0)
     probs = [pd.read_csv(f, dtype=str) for f in problems_files]
     problems = pd.concat(probs, ignore_index=True) if probs else pd.DataFrame()
-    res = chain.compute_quadrotor_tables(b10, w10, b2, w2, problems, float(calibration_window_s))
+    res = chain.compute_quadrotor_tables(b10, w10, b2, w2, problems, float(calibration_window_s), roles=roles)
     summary = {"campaign": campaign, **res.pop("summary")}
     if not summary["converged"]:
         LOG.warning("quadrotor calibration did not converge: %s", summary["aero"])
