@@ -591,7 +591,7 @@ def _covariates(group: str, m: dict[str, np.ndarray], requested: Sequence[str]) 
     rows = 2 * k if group == "horizontal" else k
     base = 4 if group == "horizontal" else 2
     per = 2 if group == "horizontal" else 1
-    out = []
+    out: list[str] = []
     for c in requested:
         if c == "altitude" and float(np.ptp(m["z"])) < 1.0:
             continue
@@ -623,7 +623,7 @@ def response_fit(group: str, m: dict[str, np.ndarray], covariates: Sequence[str]
         ``covariates``, ``n_segments``.
     """
     k = len(m["t"])
-    need = 3 if group == "horizontal" else 3
+    need = 3
     if k < need:
         raise InputError(f"platform response ({group})", f"{k} commanded segments; expected at least {need} "
                          "(legs flown both ways for the horizontal, climbs and descents for the vertical)")
