@@ -223,6 +223,10 @@ def test_segments_and_turnaround_lag_on_a_noiseless_track():
     legs = [sg for sg in segs if sg.kind == "leg"]
     assert len(legs) == 12 and len([sg for sg in segs if sg.kind == "turnaround"]) == 11
     assert {round(sg.course_deg) % 360 for sg in legs} == {90, 270}
+    # set points, where logged, are used instead of the track (here the same motion: the same segments)
+    from_setpoints = pc.commanded_segments(t, v + 0.3, setpoint_vel_enu=v)
+    assert [(sg.kind, sg.start, sg.stop) for sg in from_setpoints] == [(sg.kind, sg.start, sg.stop) for sg in segs]
+    assert {sg.source for sg in from_setpoints} == {"setpoint"}
     for lag in (0.0, 0.6, -0.6):
         reading = -np.stack([np.interp(t + lag, t, v[:, j]) for j in range(3)], axis=-1)
         res = pc.turnaround_lag(t, reading, v, segs)

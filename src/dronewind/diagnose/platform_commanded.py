@@ -49,8 +49,9 @@ Steps (all pure functions of arrays)
 3. Segment means and their sampling error (:func:`segment_means`): the random error of a
    mean of a turbulent series over :math:`T` is :math:`\sigma^2\, 2\tau/T` with :math:`\tau` the
    integral time scale (Lenschow, Mann and Kristensen 1994, J. Atmos. Oceanic Technol. 11,
-   661-673, Eq. 15), :math:`\tau` of each component from the autocorrelation of its anomalies
-   within the legs (the longest segments; also for the climbs and descents).
+   661-673, the random error of a mean), :math:`\tau` of each component from the
+   autocorrelation of its anomalies within the legs (the longest segments; also used for the
+   climbs and descents).
 4. Regression (:func:`response_fit`): weighted least squares of the segment means on the
    segment-mean platform velocity with a mean-wind intercept, a linear trend in time and (for
    legs at several altitudes) a linear altitude term as nuisance covariates. Horizontal: legs,
@@ -496,8 +497,8 @@ def segment_means(y: np.ndarray, v: np.ndarray, t_s: np.ndarray, alt_m: np.ndarr
     r"""Means of the corrected wind and platform velocity over each segment, with the sampling variance.
 
     The sampling variance of the mean of a turbulent series of variance :math:`\sigma^2` over
-    :math:`T` is :math:`\sigma^2\, 2\tau/T` (Lenschow, Mann and Kristensen 1994, Eq. 15),
-    capped at :math:`\sigma^2`.
+    :math:`T` is :math:`\sigma^2\, 2\tau/T` (Lenschow, Mann and Kristensen 1994, the random
+    error of a mean), capped at :math:`\sigma^2`.
 
     Parameters
     ----------
