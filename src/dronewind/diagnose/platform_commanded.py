@@ -37,8 +37,11 @@ Steps (all pure functions of arrays)
    ``max_course_change_deg`` of the leg's, at least ``min_leg_s``), climbs and descents
    (vertical speed at least ``min_climb_speed_ms`` and horizontal speed below the leg limit,
    at least ``min_climb_s``), and turnarounds (the stretch between two legs of opposite
-   course). ``trim_s`` is cut from both ends of every leg, climb and descent (the transients of
-   the controller and the sonic-platform lag).
+   course). ``trim_s`` is cut from both ends of every leg (the transients of the controller
+   and the sonic-platform lag); climbs and descents, a few seconds long on a multicopter, are
+   padded by ``climb_pad_s`` instead (three standard errors of the lag of step 2), so that
+   their windows hold the whole vertical excursion in the reading and in the platform velocity
+   whatever the lag's error.
 2. Sonic-platform clock lag (:func:`turnaround_lag`): the reading carries
    :math:`-G V_{platform}(t + L)`, so in each turnaround it reverses with the platform. The
    normalised reversals of reading and platform, averaged over the turns on the platform's
@@ -151,7 +154,7 @@ def _course_deg(ve: np.ndarray, vn: np.ndarray) -> float:
 def commanded_segments(t_s: np.ndarray, vel_enu: np.ndarray, *, setpoint_vel_enu: np.ndarray | None = None,
                        min_leg_speed_ms: float = 0.8, max_course_change_deg: float = 25.0, min_leg_s: float = 8.0,
                        min_climb_speed_ms: float = 0.3, min_climb_s: float = 1.6, trim_s: float = 1.0,
-                       climb_trim_s: float = 0.4, max_turnaround_s: float = 30.0, smooth_s: float = 1.0
+                       climb_pad_s: float = 2.0, max_turnaround_s: float = 30.0, smooth_s: float = 1.0
                        ) -> list[CommandedSegment]:
     """Legs, climbs, descents and turnarounds of a flight, from its set points or its track.
 
@@ -168,10 +171,16 @@ def commanded_segments(t_s: np.ndarray, vel_enu: np.ndarray, *, setpoint_vel_enu
         course [degree], lasting at least this after trimming [s].
     min_climb_speed_ms, min_climb_s : float
         A climb or descent: vertical speed at least this [m s-1] (horizontal speed below
-        ``min_leg_speed_ms``), lasting at least this after trimming [s].
-    trim_s, climb_trim_s : float
-        Cut from both ends of legs, and of climbs and descents (short on a multicopter: a few
-        seconds) [s].
+        ``min_leg_speed_ms``), lasting at least this [s].
+    trim_s : float
+        Cut from both ends of legs [s].
+    climb_pad_s : float
+        Added to both ends of climbs and descents [s]: a multicopter's climb lasts a few
+        seconds, so its window takes in the whole vertical excursion and some level flight on
+        either side; the means of the reading and of the platform velocity over it then hold
+        the whole excursion whatever the error of the sonic-platform lag (up to the pad), and
+        the vertical fit does not depend on it. :func:`diagnose_commanded` sets it to three
+        standard errors of the lag unless given.
     max_turnaround_s : float
         Longest gap between two legs of opposite course counted as a turnaround [s].
     smooth_s : float
@@ -210,10 +219,15 @@ def commanded_segments(t_s: np.ndarray, vel_enu: np.ndarray, *, setpoint_vel_enu
                 ref /= np.linalg.norm(ref)
 
     def add(kind: str, a: int, b: int, min_s: float) -> bool:
-        cut = trim if kind == "leg" else int(round(climb_trim_s / dt))
-        a2, b2 = a + cut, b - cut
-        if b2 - a2 < 2 or (b2 - a2) * dt < min_s:
-            return False
+        if kind == "leg":
+            a2, b2 = a + trim, b - trim
+            if b2 - a2 < 2 or (b2 - a2) * dt < min_s:
+                return False
+        else:
+            if b - a < 2 or (b - a) * dt < min_s:
+                return False
+            pad = int(round(climb_pad_s / dt))
+            a2, b2 = max(a - pad, 0), min(b + pad, t.size)
         sl = slice(a2, b2)
         if kind == "leg":
             spd, course = float(np.mean(np.hypot(v[sl, 0], v[sl, 1]))), _course_deg(v[sl, 0], v[sl, 1])
@@ -801,6 +815,12 @@ def diagnose_commanded(t_s: np.ndarray, sensor_xyz: np.ndarray, attitude_deg: np
                                     "peak_correlation": float("nan")}
     lag["cross_correlation"]["samples_used"] = int(windows.sum())
     lag["lag_used_s"] = lag_used
+    if "climb_pad_s" not in segment_kw:
+        # climbs and descents padded by three standard errors of the lag (at least two samples,
+        # at most the lag search): their windows then hold the whole excursion in the reading
+        pad = float(np.clip(3.0 * lag["sigma_s"], 2 * dt, max_lag_s)) if lag["identified"] else float(max_lag_s)
+        segs = commanded_segments(t, v, setpoint_vel_enu=setpoint_vel_enu, climb_pad_s=pad, **segment_kw)
+        lag["climb_pad_s"] = pad
     groups = {"horizontal": [sg for sg in segs if sg.kind in _KINDS_H],
               "vertical": [sg for sg in segs if sg.kind in _KINDS_V]}
     fits: dict[str, dict[str, Any]] = {}
