@@ -9,4 +9,4 @@ from dronewind.steps.diagnosis import platform_diagnosis
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    platform_diagnosis(sm.input.drone, sm.output[0], **sm.params)
+    platform_diagnosis(sm.input.drone, sm.output[0], rigid_l1=sm.input.l1, **sm.params)

@@ -129,3 +129,107 @@ def test_constant_gain_passes_band_constancy(tmp_path):
     y, x, fs = _l2_arrays(tmp_path, (0.5, 0.6), 404)
     d = diagnose_platform(y, x, fs)
     assert d["significant"] and d["adequate"] and d["named"]
+
+
+# ----------------------------------------------------------------------------- commanded motion
+
+from dronewind.diagnose import platform_commanded as pc  # noqa: E402
+
+
+def _survey(tmp_path, gains, seed, **kw):
+    """A 30-min position-hold survey flight (legs both ways at 3 m/s, climbs and descents of 15 m), read to L1."""
+    s = RigidSettings(duration_s=1800.0, fs_hz=5.0, platform_model="position_hold", leg_speed_ms=3.0, leg_s=40.0,
+                      climb_m=15.0, climb_speed_ms=2.0, heading_deg=90.0, leg_heading_deg=90.0, **kw)
+    mech = [{"mechanism": "platform_velocity_response", "parameters": {"gain_h": gains[0], "gain_v": gains[1]}}]
+    rec = simulate_rigid_record(tmp_path / f"s{seed}.csv", s, mechanisms=mech, seed=seed)
+    return s, rec, rigid.rigid_l1(rec.path, rec.format)
+
+
+def test_commanded_null_names_nothing(tmp_path):
+    """G = I on a position-hold survey: gains within 3 sigma of 1, nothing named (alpha 0.01)."""
+    s, _, l1 = _survey(tmp_path, (1.0, 1.0), 1001)
+    d = pc.diagnose_commanded_l1(l1, rigid.rigid_mount({"axes": dict(s.mount_axes)}).matrix, alpha=0.01)
+    assert d["segments_used"]["horizontal"] >= 30 and d["segments_used"]["vertical"] >= 14
+    for p in ("gain_h", "gain_v"):
+        assert abs(d["estimate"][p] - 1.0) < 3 * d["uncertainty"][p], (p, d["estimate"], d["uncertainty"])
+        assert 0 < d["uncertainty"][p] < 0.08  # 30-odd legs at 3 m/s, 16 climbs at 2 m/s (bench: 0.03, 0.04)
+    assert not d["named"]
+
+
+@pytest.mark.parametrize("seed, gains, offset_deg, lag_s", [(1002, (0.6, 1.3), 6.0, 0.6), (1003, (1.25, 0.4), -8.0,
+                                                                                             -0.4)])
+def test_commanded_recovers_gains_heading_offset_and_lag(tmp_path, seed, gains, offset_deg, lag_s):
+    """Gains within 0.1 (the benchmark's criterion), the sonic's heading offset and clock lag within 3 sigma."""
+    s, _, l1 = _survey(tmp_path, gains, seed, sonic_yaw_offset_deg=offset_deg, sonic_lag_s=lag_s)
+    d = pc.diagnose_commanded_l1(l1, rigid.rigid_mount({"axes": dict(s.mount_axes)}).matrix, alpha=0.01)
+    for p, g in zip(("gain_h", "gain_v"), gains, strict=True):
+        assert abs(d["estimate"][p] - g) < 0.1, (p, g, d["estimate"])
+    assert d["named"]
+    assert abs(d["heading_offset_deg"] - offset_deg) < 3 * d["heading_offset_sigma_deg"] + 0.5
+    assert d["lag"]["identified"] and abs(d["lag"]["lag_s"] - lag_s) < 3 * d["lag"]["sigma_s"] + 0.1
+    # the extended model predicts the segments left out better than the present one
+    assert d["held_out"]["combined_gain"] > 0.3
+    kinds = {sg["kind"] for sg in d["segments"]}
+    assert kinds == {"leg", "turnaround", "climb", "descent"}
+
+
+def test_hover_drift_biases_the_spectral_estimate_and_is_not_used(tmp_path):
+    """A position-holding hover (no commanded motion): the hover estimate is pulled far from the true g = 1, the
+    commanded-motion diagnosis identifies nothing instead of naming anything."""
+    s = RigidSettings(duration_s=900.0, fs_hz=5.0, platform_model="position_hold", mean_speed_ms=8.0)
+    rec = simulate_rigid_record(tmp_path / "h.csv", s, seed=1010)
+    tr = rec.truth
+    wind, vel = tr[list(WIND)].values, tr[["vel_e_ms", "vel_n_ms", "vel_u_ms"]].values
+    # with a correct sensor (G = I) the corrected wind is the true wind
+    hover = diagnose_platform(wind, vel, s.fs_hz, segment_s=60.0)
+    assert hover["estimate"]["gain_h"] < 0.5  # biased by rho sigma_w / sigma_x (true 1)
+    d = pc.diagnose_commanded_l1(rigid.rigid_l1(rec.path, rec.format),
+                                 rigid.rigid_mount({"axes": dict(s.mount_axes)}).matrix)
+    assert d["segments_used"] == {"horizontal": 0, "vertical": 0}
+    assert d["estimate"] == {"gain_h": None, "gain_v": None} and not d["named"]
+
+
+def test_response_fit_exact_on_noiseless_segments():
+    """Segment means built from the model: H = 1 - g e^{i delta} and h_v recovered exactly; LOSO gain 1."""
+    rng = np.random.default_rng(3)
+    k = 12
+    g, delta, gv = 0.8, np.radians(5.0), 1.2
+    v = np.zeros((k, 3))
+    v[:, 0] = np.where(np.arange(k) % 2 == 0, 3.0, -3.0)
+    v[:, 1] = rng.normal(0, 0.2, k)
+    v[:, 2] = np.where(np.arange(k) % 3 == 0, 1.5, -1.5)
+    wind = np.array([4.0, -2.0])
+    z = wind[0] + 1j * wind[1] + (1 - g * np.exp(1j * delta)) * (v[:, 0] + 1j * v[:, 1])
+    y = np.stack([z.real, z.imag, 0.1 + (1 - gv) * v[:, 2]], axis=-1)
+    m = {"y": y, "v": v, "var": np.full(k, 0.01), "t": np.arange(k) * 60.0, "z": np.zeros(k)}
+    h = pc.response_fit("horizontal", m)
+    assert h["gain"] == pytest.approx(g, abs=1e-9)
+    assert h["heading_offset_deg"] == pytest.approx(5.0, abs=1e-7)
+    vv = pc.response_fit("vertical", m)
+    assert vv["gain"] == pytest.approx(gv, abs=1e-9)
+    held = pc.leave_one_segment_out("horizontal", m, h["covariates"])
+    assert held["gain"] == pytest.approx(1.0, abs=1e-9)
+    with pytest.raises(InputError, match="at least 3"):
+        pc.response_fit("vertical", {key: val[:2] for key, val in m.items()})
+
+
+def test_segments_and_turnaround_lag_on_a_noiseless_track():
+    """Legs back and forth with ramps: legs and turnarounds found; a reading lagged by L gives L (to 1/10 step)."""
+    t = np.arange(0.0, 600.0, 0.2)
+    v = np.zeros((t.size, 3))
+    v[:, 0] = np.convolve(np.where((t // 50) % 2 == 0, 3.0, -3.0), np.ones(20) / 20, mode="same")
+    v[:, 1] = 0.01 * np.sin(t)
+    segs = pc.commanded_segments(t, v)
+    legs = [sg for sg in segs if sg.kind == "leg"]
+    assert len(legs) == 12 and len([sg for sg in segs if sg.kind == "turnaround"]) == 11
+    assert {round(sg.course_deg) % 360 for sg in legs} == {90, 270}
+    # set points, where logged, are used instead of the track (here the same motion: the same segments)
+    from_setpoints = pc.commanded_segments(t, v + 0.3, setpoint_vel_enu=v)
+    assert [(sg.kind, sg.start, sg.stop) for sg in from_setpoints] == [(sg.kind, sg.start, sg.stop) for sg in segs]
+    assert {sg.source for sg in from_setpoints} == {"setpoint"}
+    for lag in (0.0, 0.6, -0.6):
+        reading = -np.stack([np.interp(t + lag, t, v[:, j]) for j in range(3)], axis=-1)
+        res = pc.turnaround_lag(t, reading, v, segs)
+        assert res["lag_s"] == pytest.approx(lag, abs=0.021)
+    with pytest.raises(InputError, match="finite"):
+        pc.commanded_segments(t, np.full_like(v, np.nan))

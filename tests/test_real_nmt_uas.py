@@ -70,27 +70,42 @@ def test_correction_removes_part_of_the_platform_motion(results):
     assert np.corrcoef(wind["u_east_ms"], plat["u_east_ms"])[0, 1] < -0.3
 
 
-def test_platform_response_verdict(results):
-    """The platform-motion response is fitted, tested and reported (the verdict, not a fixed number)."""
+def test_platform_response_from_commanded_motion(results):
+    """The platform-motion response from the commanded motion (legs flown east and west, the climbs and descents
+    between them), with the sonic-platform lag and the sonic's heading offset; listed in diagnosis.json and the report.
+
+    Measured on the record: 22 legs (1.0-3.8 m/s), 24 climbs and descents (0.5-1 m/s), 14 turnarounds;
+    gain_h 1.49 +/- 0.08 (legs flown east and west: the mean corrected wind depends on the leg's direction),
+    gain_v 0.68 +/- 0.19 (p 0.11 on its own), heading offset +7.6 +/- 2.9 degree, lag -0.70 +/- 0.72 s (the
+    chain's TKE lag on the hover: -0.6 s), held-out gain 0.46. The bounds below follow from the measured values'
+    intervals (3 sigma), not the numbers themselves.
+    """
     import json
 
     flight = json.loads((results / "diagnosis" / "platform" / "nmt20230419.json").read_text())
-    for p in ("gain_h", "gain_v"):
-        assert 0.0 < flight["uncertainty"][p] < 1.0
-        assert np.isfinite(flight["estimate"][p])
+    c = flight["commanded"]
+    kinds = [s["kind"] for s in c["segments"]]
+    assert kinds.count("leg") >= 15 and kinds.count("climb") + kinds.count("descent") >= 10
+    assert c["segments_used"]["horizontal"] >= 15 and c["segments_used"]["vertical"] >= 10
+    for s in c["segments"]:
+        assert s["t_stop_s"] > s["t_start_s"] and s["source"] == "track"
+    est, unc = flight["estimate"], flight["uncertainty"]
+    assert 0.0 < unc["gain_h"] < 0.2 and 0.0 < unc["gain_v"] < 0.4
+    # legs flown both ways: the mean corrected wind depends on the leg's direction (g_h > 1)
+    assert est["gain_h"] - 3 * unc["gain_h"] > 1.0
+    assert 0.0 < est["gain_v"] < 1.3
     assert flight["significant"] == (flight["test"]["p_value"] < flight["test"]["alpha"])
-    assert flight["settings"]["n_segments"] >= 8
-    for group in ("horizontal", "vertical"):
-        before, after = flight["gain"][group]["before"], flight["gain"][group]["after"]
-        assert after["coherence"] <= before["coherence"] + 1e-12
+    assert abs(c["heading_offset_deg"]) < 20.0 and 0.0 < c["heading_offset_sigma_deg"] < 6.0
+    assert c["lag"]["identified"] and -2.0 < c["lag"]["lag_s"] < 0.5
+    assert c["held_out"]["combined_gain"] > 0.0  # the extended model predicts segments left out better
+    # the hover estimate is kept for reference only, labelled as not used
+    assert "not_used" in flight["hover_spectral"]
     diag = json.loads((results / "diagnosis.json").read_text())
-    cand = [c for c in diag["candidates"] if c["mechanism"] == "platform_velocity_response"]
+    cand = [x for x in diag["candidates"] if x["mechanism"] == "platform_velocity_response"]
     assert len(cand) == 1 and cand[0]["flights"][0]["flight"] == "nmt20230419"
-    # named only when the present model is rejected AND one gain describes the band; otherwise
-    # the response is reported as model error among the unexplained features
-    adequate = all(f["adequate"] for f in cand[0]["flights"])
-    assert ("platform_velocity_response" in diag["named_causes"]) == (cand[0]["significant"] and adequate)
-    if cand[0]["significant"] and not adequate:
-        assert any(u["feature"] == "platform-motion transfer function" for u in diag["unexplained"])
+    assert ("platform_velocity_response" in diag["named_causes"]) == cand[0]["significant"]
+    assert "leave-one-segment-out" in cand[0]["gain_kind"]
+    assert len(diag["rigid_mount"]["segments"]["nmt20230419"]) == len(c["segments"])
     summary = (results / "report" / "summary.html").read_text()
     assert "platform_velocity_response" in summary and flight["verdict"].split(":")[0] in summary
+    assert "turnaround" in summary and "heading offset" in summary

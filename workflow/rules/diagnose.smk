@@ -136,12 +136,14 @@ rule diagnose:
 
 
 # Rigid-mount flights: the platform-motion response (platform_velocity_response) of each
-# flight from its own L2, without a mast (dronewind.diagnose.platform).
+# flight from its commanded motion over the whole record (L1), without a mast
+# (dronewind.diagnose.platform_commanded); the L2 hover's spectral estimate for reference.
 
 
 rule diagnose_platform:
     input:
         drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
+        l1=RESULTS / "netcdf" / "L1" / "{flight}_rigid.nc",
     output:
         RESULTS / "diagnosis" / "platform" / "{flight}.json",
     log:
@@ -157,6 +159,8 @@ rule diagnose_platform:
         alpha=DIAGNOSIS["alpha"],
         segment_s=DIAGNOSIS["platform"]["segment_s"],
         band_factor=DIAGNOSIS["platform"]["band_factor"],
+        flight=flight_entry,
+        max_lag_s=PROCESSING["rigid_mount"]["max_lag_s"],
     script:
         "../../scripts/diagnose_platform.py"
 

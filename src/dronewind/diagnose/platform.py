@@ -63,9 +63,12 @@ Assumption
 ----------
 The wind at the platform-motion frequencies is taken as uncorrelated with the platform
 velocity. A position-holding multicopter pushed downwind by gusts breaks it (its velocity
-then follows the wind, biasing :math:`\hat H` upward and :math:`\hat g` downward); only a
-reference (mast) or a vehicle whose motion is commanded independently of the wind separates
-the two. The report states this next to the numbers.
+then follows the wind, biasing :math:`\hat H` upward and :math:`\hat g` downward, by about
+:math:`\rho\, \sigma_w / \sigma_x`); only a reference (mast) or a vehicle whose motion is
+commanded independently of the wind separates the two. The workflow therefore estimates the
+gains from commanded motion (:mod:`dronewind.diagnose.platform_commanded`: legs flown both
+ways, climbs and descents) and keeps this hover estimate for reference only, labelled as not
+used.
 """
 
 from __future__ import annotations

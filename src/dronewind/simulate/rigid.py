@@ -19,6 +19,24 @@ Model
   straight legs back and forth at ``leg_speed_ms`` along ``leg_heading_deg``. The logged
   velocity :math:`V_{platform}` is the time derivative of the displacement; the logged
   position is the hover point plus the displacement (so the two agree).
+* Platform, ``platform_model = "position_hold"``: a position-hold controller flying a
+  survey plan and carried by the wind, as a real multicopter is. The set points are a hover
+  of ``hover_s``, then repeated straight legs of ``leg_s`` at ``leg_speed_ms`` along
+  ``leg_heading_deg`` and back, with turnarounds of ``turn_s`` between them, and after every
+  second leg a climb or descent (alternately) of ``climb_m`` at ``climb_speed_ms`` (so legs
+  both ways are flown at both heights); set-point velocity ramps are acceleration-limited
+  (``accel_ms2``). About its set point the vehicle's error :math:`e = x - x_{sp}` in each axis
+  obeys
+
+  .. math:: \ddot e = k_a (V_{wind} - \bar V_{wind}) - c\, \dot e - K_p e - K_i \int e\, dt,
+
+  a PID loop on position (:math:`K_p = \omega_0^2`, :math:`c = 2 \zeta \omega_0`,
+  :math:`K_i = 0.1\, \omega_0^3`) with the set point's velocity and the tilt holding the mean
+  wind fed forward, and the gusts coupled in through the linear drag of the airframe and
+  rotors, :math:`k_a` = ``drag_per_s`` (horizontal) and ``drag_vertical_per_s`` (vertical).
+  The logged velocity is :math:`V_{sp} + \dot e`: in a hover it follows the gusts
+  (correlated with the wind), on the legs, climbs and descents it is dominated by the
+  commanded velocity (independent of the wind).
 * Attitude: the vehicle leans into the air flowing past it, pitch
   :math:`\theta = k\, a_{fwd}` and roll :math:`\phi = -k\, a_{right}` with
   :math:`a = V_{wind} - V_{platform}` projected on the body's forward and right axes and
@@ -35,7 +53,11 @@ Model
   V_{platform}`). The catalog mechanism ``platform_velocity_response`` (``gain_h``,
   ``gain_v``) sets :math:`g_h, g_v`: airframe and rotor flow distortion make the sonic see
   only part (or more than all) of the platform's own velocity. White noise
-  (``sonic_noise_ms``) is added to each sensor component.
+  (``sonic_noise_ms``) is added to each sensor component. Two installation errors the chain
+  does not know of: the sonic yawed on the airframe by ``sonic_yaw_offset_deg`` (clockwise
+  seen from above: the true sensor-to-body matrix is :math:`R_z(\delta) M`), and its clock
+  offset from the platform's by ``sonic_lag_s`` (the sonic sample stamped :math:`t` was
+  taken at platform time :math:`t + L`, the convention of the chain's ``lag_sonic_ins_s``).
 
 Sling load
 ----------
@@ -70,7 +92,7 @@ from dronewind.simulate.common import ornstein_uhlenbeck
 from dronewind.simulate.payload import body_to_ned
 
 __all__ = ["RigidSettings", "RigidRecord", "mount_matrix", "platform_gains", "sensor_reading",
-           "simulate_rigid_record", "RIGID_FORMAT"]
+           "survey_setpoints", "position_hold_error", "simulate_rigid_record", "RIGID_FORMAT"]
 
 _EARTH_RADIUS_M = 6_371_000.0
 _BODY = {"forward": (1.0, 0.0, 0.0), "back": (-1.0, 0.0, 0.0), "right": (0.0, 1.0, 0.0),
@@ -122,6 +144,18 @@ class RigidSettings:
         Each sensor axis as a body direction (``{"u": "right", "v": "forward", "w": "up"}``).
     sonic_noise_ms : float
         White noise on each sensor component [m s-1].
+    platform_model : str
+        ``noise`` (the damped oscillator driven by white noise) or ``position_hold`` (the
+        controller driven by the wind, flying the survey plan).
+    drag_per_s, drag_vertical_per_s : float
+        Gust coupling :math:`k_a` of the position hold, horizontal and vertical [s-1].
+    hover_s, turn_s, climb_m, climb_speed_ms, accel_ms2 : float
+        Survey plan of the position hold: initial hover [s], turnaround [s], climb or descent
+        after every second leg [m] (0: none), its speed [m s-1], set-point acceleration [m s-2].
+    sonic_yaw_offset_deg : float
+        Yaw of the sonic on the airframe off the declared mount [degree, clockwise from above].
+    sonic_lag_s : float
+        Sonic clock offset [s]: the sample stamped t was taken at platform time t + lag.
     temperature_c : float
         Mean sonic temperature [degC].
     latitude_deg, longitude_deg, site_altitude_m : float
@@ -148,6 +182,16 @@ class RigidSettings:
     attitude_sd_deg: float = 1.0
     mount_axes: Mapping[str, str] = field(default_factory=lambda: {"u": "right", "v": "forward", "w": "up"})
     sonic_noise_ms: float = 0.03
+    platform_model: str = "noise"
+    drag_per_s: float = 0.4
+    drag_vertical_per_s: float = 0.2
+    hover_s: float = 60.0
+    turn_s: float = 6.0
+    climb_m: float = 0.0
+    climb_speed_ms: float = 1.0
+    accel_ms2: float = 1.0
+    sonic_yaw_offset_deg: float = 0.0
+    sonic_lag_s: float = 0.0
     temperature_c: float = 20.0
     latitude_deg: float = 32.69
     longitude_deg: float = -103.07
@@ -282,6 +326,81 @@ def _legs(n: int, fs_hz: float, speed_ms: float, leg_s: float) -> np.ndarray:
     return speed_ms * np.where(phase < leg_s, phase, 2 * leg_s - phase)
 
 
+def survey_setpoints(n: int, fs_hz: float, s: RigidSettings) -> tuple[np.ndarray, np.ndarray]:
+    """Set-point displacement and velocity of the survey plan (east, north, up about the hover point).
+
+    Parameters
+    ----------
+    n : int
+        Samples.
+    fs_hz : float
+        Sampling rate [Hz].
+    s : RigidSettings
+        ``hover_s``, ``leg_s``, ``leg_speed_ms``, ``leg_heading_deg``, ``turn_s``, ``climb_m``,
+        ``climb_speed_ms``, ``accel_ms2``.
+
+    Returns
+    -------
+    position_m, velocity_ms : numpy.ndarray
+        (n, 3) each; the position is the integral of the velocity.
+    """
+    v = np.zeros((n, 3))
+    hd = deg2rad(s.leg_heading_deg)
+    along = np.array([np.sin(hd), np.cos(hd), 0.0])
+    k = int(round(s.hover_s * fs_hz))
+    n_leg, n_turn = int(round(s.leg_s * fs_hz)), int(round(s.turn_s * fs_hz))
+    climb_s = s.climb_m / s.climb_speed_ms if s.climb_m > 0 and s.climb_speed_ms > 0 else 0.0
+    n_climb = int(round(climb_s * fs_hz))
+    sign, up, legs = 1.0, 1.0, 0
+    while s.leg_speed_ms > 0 and n_leg > 0 and k < n:
+        v[k:k + n_leg] = sign * s.leg_speed_ms * along
+        k += n_leg + n_turn
+        sign, legs = -sign, legs + 1
+        if n_climb and legs % 2 == 0 and k < n:
+            v[k:k + n_climb, 2] = up * s.climb_speed_ms
+            k += n_climb + n_turn
+            up = -up
+    # acceleration-limited ramps: a moving mean as long as the largest speed change takes
+    ramp = max(s.leg_speed_ms, s.climb_speed_ms if n_climb else 0.0) / max(s.accel_ms2, 1e-6)
+    m = max(1, int(round(ramp * fs_hz)))
+    if m > 1:
+        kern = np.ones(m) / m
+        v = np.stack([np.convolve(v[:, j], kern, mode="full")[:n] for j in range(3)], axis=-1)
+    return np.cumsum(v, axis=0) / fs_hz, v
+
+
+def position_hold_error(t_s: np.ndarray, gust_ms: np.ndarray, drag_per_s: float, f0_hz: float, damping: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    r"""Position-hold error of one axis driven by the gusts through the airframe's drag.
+
+    :math:`\ddot e = k_a u' - 2\zeta\omega_0 \dot e - \omega_0^2 e - 0.1\,\omega_0^3 \int e\, dt`
+    (a PID position loop with the mean wind and the set point's motion fed forward), solved as
+    a linear state-space system by :func:`scipy.signal.lsim`.
+
+    Parameters
+    ----------
+    t_s : numpy.ndarray
+        Regular times [s].
+    gust_ms : numpy.ndarray
+        Wind minus its mean along the axis [m s-1].
+    drag_per_s : float
+        :math:`k_a` [s-1].
+    f0_hz, damping : float
+        Natural frequency [Hz] and damping ratio of the loop.
+
+    Returns
+    -------
+    e_m, de_ms : numpy.ndarray
+        Displacement [m] and velocity [m s-1] about the set point.
+    """
+    w0 = 2 * np.pi * f0_hz
+    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-0.1 * w0 ** 3, -w0 ** 2, -2 * damping * w0]])
+    b = np.array([[0.0], [0.0], [drag_per_s]])
+    c = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    _, y, _ = scipy.signal.lsim((a, b, c, np.zeros((2, 1))), np.asarray(gust_ms, float), np.asarray(t_s, float))
+    return y[:, 0], y[:, 1]
+
+
 def simulate_rigid_record(path: str | os.PathLike[str], settings: RigidSettings | None = None, *,
                           mechanisms: Sequence[Mapping[str, Any]] | None = None, seed: int = 0) -> RigidRecord:
     """Simulate one rigid-mount flight and write it as the CSV the rigid-mount chain reads.
@@ -314,13 +433,24 @@ def simulate_rigid_record(path: str | os.PathLike[str], settings: RigidSettings 
                          theta_mean_k=s.temperature_c + 273.15)
     wind_enu = np.stack([wind[k].values[0, :n] for k in ("u_east_ms", "v_north_ms", "w_up_ms")], axis=-1)
     theta = wind["theta_v_k"].values[0, :n] - 273.15
-    disp = np.stack([_hover_displacement(rng, n, fs, sd, s.hover_frequency_hz, s.hover_damping)
-                     for sd in s.position_sd_m], axis=-1)
-    along = _legs(n, fs, s.leg_speed_ms, s.leg_s)
-    hd = deg2rad(s.leg_heading_deg)
-    disp[:, 0] += along * np.sin(hd)
-    disp[:, 1] += along * np.cos(hd)
-    vel = np.gradient(disp, 1.0 / fs, axis=0)
+    if s.platform_model == "noise":
+        disp = np.stack([_hover_displacement(rng, n, fs, sd, s.hover_frequency_hz, s.hover_damping)
+                         for sd in s.position_sd_m], axis=-1)
+        along = _legs(n, fs, s.leg_speed_ms, s.leg_s)
+        hd = deg2rad(s.leg_heading_deg)
+        disp[:, 0] += along * np.sin(hd)
+        disp[:, 1] += along * np.cos(hd)
+        vel = np.gradient(disp, 1.0 / fs, axis=0)
+    elif s.platform_model == "position_hold":
+        pos_sp, vel_sp = survey_setpoints(n, fs, s)
+        disp, vel = pos_sp.copy(), vel_sp.copy()
+        for j, k_a in enumerate((s.drag_per_s, s.drag_per_s, s.drag_vertical_per_s)):
+            e, de = position_hold_error(t, wind_enu[:, j] - wind_enu[:, j].mean(), k_a, s.hover_frequency_hz,
+                                        s.hover_damping)
+            disp[:, j] += e
+            vel[:, j] += de
+    else:
+        raise InputError("platform_model", f"{s.platform_model!r}; expected 'noise' or 'position_hold'")
     yaw = s.heading_deg + ornstein_uhlenbeck(rng, n, s.attitude_sd_deg, 5.0, fs)
     psi = deg2rad(yaw)
     air = wind_enu - vel
@@ -329,7 +459,12 @@ def simulate_rigid_record(path: str | os.PathLike[str], settings: RigidSettings 
     pitch = s.tilt_deg_per_ms * a_fwd + ornstein_uhlenbeck(rng, n, s.attitude_sd_deg, 1.0, fs)
     roll = -s.tilt_deg_per_ms * a_right + ornstein_uhlenbeck(rng, n, s.attitude_sd_deg, 1.0, fs)
     rot = body_to_ned(roll, pitch, yaw)
-    sensor = sensor_reading(wind_enu, vel, rot, mount_matrix(s.mount_axes), gh, gv)
+    dz = deg2rad(s.sonic_yaw_offset_deg)
+    yaw_mount = np.array([[np.cos(dz), -np.sin(dz), 0.0], [np.sin(dz), np.cos(dz), 0.0], [0.0, 0.0, 1.0]])
+    sensor = sensor_reading(wind_enu, vel, rot, yaw_mount @ mount_matrix(s.mount_axes), gh, gv)
+    if s.sonic_lag_s:
+        # the sample stamped t was taken at platform time t + lag
+        sensor = np.stack([np.interp(t + s.sonic_lag_s, t, sensor[:, j]) for j in range(3)], axis=-1)
     sensor += rng.standard_normal(sensor.shape) * s.sonic_noise_ms
     lat = s.latitude_deg + rad2deg(disp[:, 1] / _EARTH_RADIUS_M)
     lon = s.longitude_deg + rad2deg(disp[:, 0] / (_EARTH_RADIUS_M * np.cos(deg2rad(s.latitude_deg))))

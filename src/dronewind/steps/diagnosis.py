@@ -407,39 +407,50 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
 # ----------------------------------------------------------------------------- rigid-mount flights
 
 
+def _fmt(x: float | None, spec: str = ".2f") -> str:
+    return "n/a" if x is None else format(x, spec)
+
+
 def _platform_verdict(d: Mapping[str, Any]) -> str:
-    """One flight's platform-response result in words."""
+    """One flight's platform-response result in words (commanded motion; hover drift not used)."""
+    c = d["commanded"]
     est, unc, test = d["estimate"], d["uncertainty"], d["test"]
-    pm, gain = d["present_model"], d["gain"]
-    fit = (f"gain_h = {est['gain_h']:.2f} ± {unc['gain_h']:.2f}, gain_v = {est['gain_v']:.2f} ± {unc['gain_v']:.2f} "
-           f"(p = {test['p_value']:.2g} against the present model g = 1, false-alarm rate {test['alpha']:g})")
-    coh = "; ".join(f"{g} coherence {gain[g]['before']['coherence']:.2f} → {gain[g]['after']['coherence']:.3f}, "
-                    f"coherent power {gain[g]['before']['coherent_power_m2s2']:.3g} → "
-                    f"{gain[g]['after']['coherent_power_m2s2']:.2g} m2 s-2 "
-                    f"({pm[g]['band_hz'][0]:.2f}-{pm[g]['band_hz'][1]:.2f} Hz)" for g in ("horizontal", "vertical"))
-    if d["significant"] and not d.get("adequate", True):
-        worst = min(d["band_constancy"].values(), key=lambda c: c["p_value"])
-        return (f"flight {d['flight']}: model error: the corrected wind still follows the platform velocity, but "
-                f"not with one gain across the platform-motion band (band constancy p = {worst['p_value']:.2g}): "
-                f"a frequency-dependent response that no catalog mechanism describes; {fit}; {coh}.")
+    used = c["segments_used"]
+    lag = c["lag"]
+    fit = (f"gain_h = {_fmt(est['gain_h'])} ± {_fmt(unc['gain_h'])} from {used['horizontal']} legs, gain_v = "
+           f"{_fmt(est['gain_v'])} ± {_fmt(unc['gain_v'])} from {used['vertical']} climbs and descents (p = "
+           f"{_fmt(test['p_value'], '.2g')} against the present model g = 1, false-alarm rate {test['alpha']:g})")
+    extra = (f"; sonic heading offset on the airframe {_fmt(c['heading_offset_deg'], '+.1f')} ± "
+             f"{_fmt(c['heading_offset_sigma_deg'], '.1f')} degree; sonic-platform lag "
+             + (f"{lag['lag_s']:+.2f} ± {lag['sigma_s']:.2f} s from {lag['n_turns']} turnarounds"
+                if lag["identified"] else "not identified (0 s applied)")
+             + f"; held-out gain of the extended correction (leave-one-segment-out) "
+               f"{_fmt(c['held_out'].get('combined_gain'))}")
+    if est["gain_h"] is None and est["gain_v"] is None:
+        return (f"flight {d['flight']}: platform response not identified: no commanded motion (straight legs flown "
+                "both ways, climbs and descents) in the record; hover drift follows the wind and is not used.")
     if d["significant"]:
-        return (f"flight {d['flight']}: platform_velocity_response named: the motion correction assumes the sonic sees "
-                f"the platform's whole velocity; it sees {fit}. Extended correction "
-                f"V_wind = R M V_sensor + G V_platform: {coh}. Without a mast this response is not separated from a "
-                "platform whose velocity follows the wind at these frequencies (a vehicle carried by gusts), which "
-                "gives the same transfer function; a gain far below 1 is the signature of that alternative.")
-    return f"flight {d['flight']}: no platform-motion response beyond sampling error: {fit}; {coh}."
+        return (f"flight {d['flight']}: platform_velocity_response named from commanded motion: the motion correction "
+                f"assumes the sonic sees the platform's whole velocity; it sees {fit}{extra}. Extended correction "
+                "V_wind = R M V_sensor + G V_platform.")
+    return f"flight {d['flight']}: no platform-motion response beyond sampling error (commanded motion): {fit}{extra}."
 
 
 def platform_diagnosis(drone_l2: str | Path, output: str | Path, *, flight_id: str, alpha: float,
-                       segment_s: float = 60.0, band_factor: float = 10.0) -> Path:
-    """``platform_velocity_response`` of one rigid-mount flight from its L2, as JSON.
+                       segment_s: float = 60.0, band_factor: float = 10.0, rigid_l1: str | Path | None = None,
+                       flight: Mapping[str, Any] | None = None, max_lag_s: float = 2.0) -> Path:
+    """``platform_velocity_response`` of one rigid-mount flight from its commanded motion, as JSON.
+
+    The estimate is :func:`dronewind.diagnose.platform_commanded.diagnose_commanded_l1` on
+    the whole record (legs flown both ways, climbs and descents; hover drift not used). The
+    spectral estimate on the L2's steady segment (:func:`dronewind.diagnose.platform.diagnose_platform`)
+    is kept under ``hover_spectral`` for reference: in a hover the vehicle's velocity follows
+    the wind, which biases it.
 
     Parameters
     ----------
     drone_l2 : str or Path
-        The flight's L2 (:func:`dronewind.payload.rigid.rigid_l2`: corrected wind and
-        ``platform_vel_*_ms`` on the steady segment's time axis).
+        The flight's L2 (:func:`dronewind.payload.rigid.rigid_l2`).
     output : str or Path
         JSON file (``results/<name>/diagnosis/platform/<flight>.json``).
     flight_id : str
@@ -447,7 +458,14 @@ def platform_diagnosis(drone_l2: str | Path, output: str | Path, *, flight_id: s
     alpha : float
         False-alarm rate of the test against the present model (``diagnosis.alpha``) [1].
     segment_s, band_factor : float
-        :func:`dronewind.diagnose.platform.diagnose_platform` settings [s], [1].
+        Spectral settings of the hover estimate [s], [1].
+    rigid_l1 : str or Path, optional
+        The flight's L1 (whole record); without it only the hover estimate is made and the
+        response is reported as not identified.
+    flight : mapping, optional
+        The flight's manifest entry (``sonic`` mount).
+    max_lag_s : float
+        Half-width of the sonic-platform lag search [s] (``processing.rigid_mount.max_lag_s``).
 
     Returns
     -------
@@ -455,20 +473,37 @@ def platform_diagnosis(drone_l2: str | Path, output: str | Path, *, flight_id: s
         The written file.
     """
     from dronewind.diagnose.platform import diagnose_platform
+    from dronewind.diagnose.platform_commanded import diagnose_commanded_l1
+    from dronewind.payload.rigid import rigid_mount
 
     l2 = strip_cf(open_product(drone_l2))
     if l2.attrs.get("platform") != "rigid_mount":
         raise ValueError(f"{drone_l2}: platform {l2.attrs.get('platform')!r}; expected a rigid_mount L2")
     wind = np.stack([l2[k].values for k in ("u_east_ms", "v_north_ms", "w_up_ms")], axis=-1)
     vel = np.stack([l2[k].values for k in ("platform_vel_e_ms", "platform_vel_n_ms", "platform_vel_u_ms")], axis=-1)
-    d = diagnose_platform(wind, vel, float(l2.attrs["sampling_rate_hz"]), segment_s=segment_s,
-                          band_factor=band_factor, alpha=alpha)
-    d["flight"] = flight_id
-    d["usable"] = int(l2.attrs.get("usable", 1))
-    d["steady_segment_s"] = float(l2.attrs.get("steady_segment_used_s", float("nan")))
-    d["assumption"] = ("the wind at the platform-motion frequencies is uncorrelated with the platform velocity; a "
-                       "position-holding vehicle pushed by gusts breaks it (its velocity follows the wind: H biased "
-                       "up, g down); without a reference mast the two are not separated")
+    hover = diagnose_platform(wind, vel, float(l2.attrs["sampling_rate_hz"]), segment_s=segment_s,
+                              band_factor=band_factor, alpha=alpha)
+    hover["not_used"] = ("hover drift of a position-holding vehicle follows the gusts: the wind is correlated with "
+                         "the platform velocity, so this estimate is biased (reported for reference only)")
+    if rigid_l1 is not None and flight is not None:
+        mount = rigid_mount(flight["sonic"], f"payload flight {flight_id} sonic").matrix
+        c = diagnose_commanded_l1(track_from_cf(strip_cf(open_product(rigid_l1))), mount, alpha=alpha,
+                                  max_lag_s=max_lag_s)
+    else:
+        c = {"segments": [], "segments_used": {"horizontal": 0, "vertical": 0}, "estimate": {"gain_h": None,
+             "gain_v": None}, "uncertainty": {"gain_h": None, "gain_v": None}, "significant": False,
+             "test": {"p_value": float("nan"), "alpha": float(alpha)}, "lag": {"identified": False},
+             "heading_offset_deg": None, "heading_offset_sigma_deg": None, "held_out": {}}
+    d: dict[str, Any] = {
+        "mechanism": "platform_velocity_response", "flight": flight_id, "usable": int(l2.attrs.get("usable", 1)),
+        "method": "commanded motion (legs flown both ways, climbs and descents); hover drift not used",
+        "estimate": c["estimate"], "uncertainty": c["uncertainty"], "test": c["test"],
+        "significant": bool(c["significant"]), "adequate": True, "named": bool(c["significant"]),
+        "commanded": c, "hover_spectral": hover,
+        "assumption": ("over commanded segments the segment-mean platform velocity is set by the flight plan, "
+                       "independent of the segment-mean wind; the turbulence's sampling error and the "
+                       "segment-to-segment scatter make the uncertainty"),
+    }
     d["verdict"] = _platform_verdict(d)
     LOG.info("%s", d["verdict"])
     return write_json(output, d)
@@ -485,62 +520,66 @@ def platform_entries(platform_files: Sequence[str | Path]) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``candidates`` (one ``platform_velocity_response`` entry: pooled estimate and
-        uncertainty of the usable flights, the smallest p-value after a Bonferroni
-        correction over flights, ``significant``, ``gain`` = relative reduction of the
-        wind power coherent with the platform velocity in the band, on flights left out of
-        the pooled fit when there are two or more, else in-sample and labelled so, and
-        ``flights`` with each flight's estimate, uncertainty, p-value and before/after),
-        ``named_causes`` and ``rigid_mount`` (``flights``: every flight's full result,
-        ``verdict``: sentences).
+        ``candidates`` (one ``platform_velocity_response`` entry: inverse-variance pooled
+        estimate and uncertainty of the usable flights' commanded-motion estimates, the
+        smallest p-value after a Bonferroni correction over flights, ``significant``,
+        ``gain`` = held-out gain of the extended correction, leave-one-segment-out over the
+        flights' commanded segments, and ``flights`` with each flight's estimate,
+        uncertainty, p-value, segments, lag and heading offset), ``named_causes`` and
+        ``rigid_mount`` (``flights``: every flight's full result, ``segments``: the segments
+        used per flight, ``verdict``: sentences).
     """
-    from dronewind.diagnose.platform import BandSums, band_power_after, pooled_estimate
-
     flights = [json.loads(Path(p).read_text()) for p in platform_files]
     usable = [f for f in flights if f.get("usable", 1)]
     out: dict[str, Any] = {"candidates": [], "named_causes": [],
                            "rigid_mount": {"flights": {f["flight"]: f for f in flights},
+                                           "segments": {f["flight"]: [
+                                               {"kind": s["kind"], "t_start_s": s["t_start_s"],
+                                                "t_stop_s": s["t_stop_s"], "speed_ms": s["speed_ms"],
+                                                "course_deg": s["course_deg"]}
+                                               for s in f["commanded"]["segments"]] for f in flights},
                                            "verdict": [f["verdict"] for f in flights]}}
-    if not usable:
+    identified = [f for f in usable if any(v is not None for v in f["estimate"].values())]
+    if not identified:
         return out
-    alpha = float(usable[0]["test"]["alpha"])
-    p_min = min(1.0, min(f["test"]["p_value"] for f in usable) * len(usable))
-    pooled = pooled_estimate(usable)
-    before = after = 0.0
-    for f in usable:
-        fit = pooled_estimate(usable, leave_out=f["flight"]) if len(usable) > 1 else pooled
-        for group, p in (("horizontal", "gain_h"), ("vertical", "gain_v")):
-            s = BandSums(**f["band_sums"][group])
-            before += band_power_after(s, 1.0)["coherent_power_m2s2"]
-            after += band_power_after(s, fit["estimate"][p])["coherent_power_m2s2"]
+    alpha = float(identified[0]["test"]["alpha"])
+    p_min = min(1.0, min(f["test"]["p_value"] for f in identified) * len(identified))
+    est: dict[str, float | None] = {}
+    unc: dict[str, float | None] = {}
+    for p in ("gain_h", "gain_v"):
+        have = [f for f in identified if f["estimate"][p] is not None and f["uncertainty"][p]]
+        if not have:
+            est[p] = unc[p] = None
+            continue
+        w = np.array([1.0 / f["uncertainty"][p] ** 2 for f in have])
+        est[p] = float(np.sum(w * np.array([f["estimate"][p] for f in have])) / np.sum(w))
+        unc[p] = float(1.0 / np.sqrt(np.sum(w)))
+    sse_p = sum(h["sse_present"] for f in identified for g, h in f["commanded"]["held_out"].items()
+                if isinstance(h, dict))
+    sse_e = sum(h["sse_extended"] for f in identified for g, h in f["commanded"]["held_out"].items()
+                if isinstance(h, dict))
     significant = p_min < alpha
-    # a constant gain that does not describe a flight's band is model error, never the cause
-    inadequate = [f["flight"] for f in usable if f["significant"] and not f.get("adequate", True)]
-    if inadequate:
-        out["unexplained"] = [{"feature": "platform-motion transfer function", "flights": inadequate,
-                               "what": "the corrected wind follows the platform velocity with a response that changes "
-                                       "across the platform-motion band; no catalog mechanism describes it",
-                               "band_constancy": {f["flight"]: f["band_constancy"] for f in usable
-                                                  if f["flight"] in inadequate}}]
     out["candidates"].append({
-        "mechanism": "platform_velocity_response", "platform": "rigid_mount",
-        "estimate": pooled["estimate"], "uncertainty": pooled["uncertainty"],
-        "gain": 1.0 - after / before if before > 0 else float("nan"),
-        "gain_kind": ("held out: each flight scored with the gains pooled over the other flights"
-                      if len(usable) > 1 else "in-sample: one rigid flight, nothing to hold out"),
-        "gain_measure": "relative reduction of the wind power coherent with the platform velocity in the "
-                        "platform-motion band, horizontal and vertical summed",
+        "mechanism": "platform_velocity_response", "platform": "rigid_mount", "estimate": est, "uncertainty": unc,
+        "gain": 1.0 - sse_e / sse_p if sse_p > 0 else float("nan"),
+        "gain_kind": "held out: each commanded segment predicted from a fit to the flight's other segments "
+                     "(leave-one-segment-out)",
+        "gain_measure": "relative reduction of the weighted squared error of held-out segment-mean corrected wind "
+                        "(present model: no platform response, nuisance terms refitted), horizontal and vertical "
+                        "summed",
         "p_value": p_min, "significant": bool(significant),
         "flights": [{"flight": f["flight"], "estimate": f["estimate"], "uncertainty": f["uncertainty"],
-                     "p_value": f["test"]["p_value"], "significant": f["significant"],
-                     "adequate": f.get("adequate", True),
-                     "before_after": f["gain"]} for f in usable],
+                     "p_value": f["test"]["p_value"], "significant": f["significant"], "adequate": True,
+                     "segments_used": f["commanded"]["segments_used"],
+                     "lag_s": f["commanded"]["lag"].get("lag_s"), "lag_sigma_s": f["commanded"]["lag"].get("sigma_s"),
+                     "heading_offset_deg": f["commanded"]["heading_offset_deg"],
+                     "heading_offset_sigma_deg": f["commanded"]["heading_offset_sigma_deg"],
+                     "held_out_gain": f["commanded"]["held_out"].get("combined_gain")} for f in identified],
     })
-    if significant and not inadequate:
+    if significant:
         out["named_causes"].append("platform_velocity_response")
         out["named_estimates"] = {"platform_velocity_response": {
-            "estimate": pooled["estimate"], "uncertainty": pooled["uncertainty"],
-            "gain": out["candidates"][0]["gain"]}}
+            "estimate": est, "uncertainty": unc, "gain": out["candidates"][0]["gain"]}}
     return out
 
 

@@ -198,20 +198,32 @@ def _diagnosis_section(diag: Mapping[str, Any]) -> str:
 
 
 def _platform_section(diag: Mapping[str, Any]) -> str:
-    """Rigid-mount flights: the platform-motion response (``rigid_mount`` of diagnosis.json)."""
+    """Rigid-mount flights: the platform-motion response from commanded motion (``rigid_mount`` of diagnosis.json)."""
     rigid = diag.get("rigid_mount") or {}
-    rows = []
+
+    def pm(x: Any, y: Any, spec: str = ".2f") -> str:
+        return "n/a" if x is None else f"{x:{spec}} ± {y:{spec}}"
+
+    rows, seg_rows = [], []
     for name, d in (rigid.get("flights") or {}).items():
-        est, unc, pm, gain = d["estimate"], d["uncertainty"], d["present_model"], d["gain"]
-        td = d.get("time_domain") or {}
-        cells = [name, f"{td.get('slope', [float('nan')] * 3)[0]:+.2f} / {td.get('slope', [float('nan')] * 3)[2]:+.2f}",
-                 f"{pm['horizontal']['coherence']:.2f} / {pm['vertical']['coherence']:.2f}",
-                 f"{est['gain_h']:.2f} ± {unc['gain_h']:.2f}", f"{est['gain_v']:.2f} ± {unc['gain_v']:.2f}",
-                 f"{d['test']['p_value']:.2g}", "yes" if d["significant"] else "no"]
-        for g in ("horizontal", "vertical"):
-            b, a = gain[g]["before"], gain[g]["after"]
-            cells.append(f"{b['coherence']:.2f} → {a['coherence']:.3f}; {b['power_m2s2']:.3g} → {a['power_m2s2']:.3g}")
-        rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
+        c = d.get("commanded") or {}
+        est, unc, lag = d["estimate"], d["uncertainty"], c.get("lag") or {}
+        hov = (d.get("hover_spectral") or {}).get("estimate") or {}
+        held = (c.get("held_out") or {}).get("combined_gain")
+        cells = [name, pm(est["gain_h"], unc["gain_h"]), pm(est["gain_v"], unc["gain_v"]),
+                 pm(c.get("heading_offset_deg"), c.get("heading_offset_sigma_deg"), ".1f"),
+                 pm(lag.get("lag_s"), lag.get("sigma_s")) if lag.get("identified") else "not identified",
+                 f"{d['test']['p_value']:.2g}", "yes" if d["significant"] else "no",
+                 "n/a" if held is None else f"{held:.2f}",
+                 f"{hov.get('gain_h', float('nan')):.2f} / {hov.get('gain_v', float('nan')):.2f}"]
+        rows.append("<tr>" + "".join(f"<td>{html.escape(x)}</td>" for x in cells) + "</tr>")
+        for sg in c.get("segments") or []:
+            vertical = sg["kind"] in ("climb", "descent")
+            speed = f"{sg['speed_ms']:+.2f} (vertical)" if vertical else f"{sg['speed_ms']:.2f}"
+            cd = sg["course_deg"]
+            course = "" if cd is None or cd != cd else f"{cd:.0f}"
+            cells = [name, sg["kind"], f"{sg['t_start_s']:.1f}-{sg['t_stop_s']:.1f}", speed, course]
+            seg_rows.append("<tr>" + "".join(f"<td>{html.escape(x)}</td>" for x in cells) + "</tr>")
     cand: Mapping[str, Any] = next((c for c in diag.get("candidates") or []
                                     if c.get("mechanism") == "platform_velocity_response"), {})
     extra = (f" Gain of the extended correction: {cand['gain']:.2f} ({html.escape(str(cand.get('gain_kind', '')))}"
@@ -220,20 +232,25 @@ def _platform_section(diag: Mapping[str, Any]) -> str:
     first: Mapping[str, Any] = next(iter((rigid.get("flights") or {}).values()), {})
     return ("<h2>Rigid-mount flights: the sonic's response to the platform's own velocity</h2>"
             "<p>The motion correction V<sub>wind</sub> = R M V<sub>sensor</sub> + V<sub>platform</sub> assumes the "
-            "sonic sees the platform's whole velocity. At the platform-motion frequencies the corrected wind's "
-            "response to the platform velocity is 1 − g (catalog mechanism <code>platform_velocity_response</code>, "
-            "gains g<sub>h</sub>, g<sub>v</sub>; present model g = 1); the extended correction is "
-            "V<sub>wind</sub> = R M V<sub>sensor</sub> + G V<sub>platform</sub>, "
-            "G = diag(g<sub>h</sub>, g<sub>h</sub>, g<sub>v</sub>).</p>"
+            "sonic sees the platform's whole velocity. If it sees G V<sub>platform</sub> (catalog mechanism "
+            "<code>platform_velocity_response</code>, G = diag(g<sub>h</sub>, g<sub>h</sub>, g<sub>v</sub>); present "
+            "model G = I), the corrected wind keeps (I − G) V<sub>platform</sub>. The gains are measured from "
+            "commanded motion only: segment means of the corrected wind regressed on the segment-mean platform "
+            "velocity over straight legs flown both ways (g<sub>h</sub> and the sonic's heading offset on the "
+            "airframe) and over climbs and descents (g<sub>v</sub>); the sonic-platform lag from the turnarounds. "
+            "Hover drift follows the wind and is not used (its spectral estimate is listed for reference).</p>"
             + "".join(f"<p class='dw-verdict'><strong>Verdict.</strong> {html.escape(v)}</p>"
                       for v in rigid.get("verdict") or [])
-            + "<table><thead><tr><th>flight</th><th>slope of corrected wind on platform velocity, east / up</th>"
-            "<th>band coherence h / v (present model)</th><th>gain_h</th><th>gain_v</th><th>p (g = 1)</th>"
-            "<th>named</th><th>horizontal: coherence; power [m² s⁻²] before → after</th>"
-            "<th>vertical: coherence; power [m² s⁻²] before → after</th></tr></thead>"
+            + "<table><thead><tr><th>flight</th><th>gain_h</th><th>gain_v</th><th>heading offset [°]</th>"
+            "<th>lag [s]</th><th>p (g = 1)</th><th>named</th><th>held-out gain</th>"
+            "<th>hover spectral gain_h / gain_v (biased, not used)</th></tr></thead>"
             f"<tbody>{''.join(rows)}</tbody></table>"
-            f"<p>Uncertainties: delete-one-segment jackknife of the band transfer function.{extra} Assumption: "
-            f"{html.escape(str(first.get('assumption', '')))}.</p>")
+            f"<p>Uncertainties: weighted least squares over the segments, weights from the turbulence's sampling "
+            f"error of each segment mean and the segment-to-segment scatter beyond it.{extra} Assumption: "
+            f"{html.escape(str(first.get('assumption', '')))}.</p>"
+            "<p>Segments (time from the record's start [s], speed [m s⁻¹], course [°]):</p>"
+            "<table><thead><tr><th>flight</th><th>kind</th><th>time [s]</th><th>speed [m s⁻¹]</th><th>course [°]</th>"
+            f"</tr></thead><tbody>{''.join(seg_rows)}</tbody></table>")
 
 
 def _published_section(diag: Mapping[str, Any]) -> str:
