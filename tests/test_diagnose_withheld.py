@@ -54,7 +54,8 @@ def _campaign(rng: np.random.Generator, sonic_noise_ms: float = 0.0, hf_u_excess
                    "fixed": {}, "features": _features(seeds[0], level)} for level in (0.15, 0.35)]
         probes += [{"candidate": "w_gain", "mechanism": "w_gain", "parameter": "gain", "level": level, "fixed": {},
                     "features": _features(seeds[0] + _w_gain_effect(level, w_gain_on_hf_w))} for level in (0.85, 1.2)]
-        forward[flight] = {"flight": flight, "conditions": {"mean_speed_ms": 4.0 + 2 * i}, "seeds": list(range(N_SEEDS)),
+        forward[flight] = {"flight": flight, "conditions": {"mean_speed_ms": 4.0 + 2 * i},
+                           "seeds": list(range(N_SEEDS)),
                            "baseline": [_features(s) for s in seeds], "probes": probes}
         noise = rng.normal(0.0, SIGMA, len(FEATURES)) + _w_gain_effect(w_gain, w_gain_on_hf_w)
         measured[flight] = _features(noise, sonic_noise_ms, hf_u_excess)

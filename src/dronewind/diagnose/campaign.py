@@ -39,9 +39,9 @@ over seeds that repeats every estimate above on each replicate
 Westfall-Young min-p over the candidates of a naming round, at the family-wise rate
 ``diagnosis.alpha``.
 
-Naming: a significant candidate is named when its held-out gain exceeds its own uncertainty
-(and ``diagnosis.min_gain``); a further cause only when it raises the held-out gain of the
-named set by more than that rise's uncertainty (both from the flights' held-out misfits). A
+Naming: a significant candidate is named when its held-out gain reaches ``diagnosis.min_gain``;
+a further cause only when it raises the held-out gain of the named set by more than that
+rise's uncertainty (from the flights' held-out misfits). A
 candidate whose estimate sits at a catalog bound is not identified and never named
 (``not_identified``). Ambiguity is computed from the probes' responses: a candidate whose
 whitened response over the campaign's flights reproduces a named cause's fitted effect (cosine
@@ -68,6 +68,7 @@ import scipy.stats
 
 from dronewind.diagnose.calibration import (
     DEFAULT_REPLICATES,
+    MIN_FLIGHTS_TREND,
     Discrepancy,
     NullReference,
     discrepancy,
@@ -381,7 +382,8 @@ def error_model(ev: CampaignEvidence, result: DiagnosisResult | None = None) -> 
         if d is not None:
             out["discrepancy"] = {
                 "method": "DerSimonian-Laird moments about a common offset (and a wind-speed trend from "
-                          f"{5} flights), 95 % Q-profile interval; added to the covariance of every candidate test",
+                          f"{MIN_FLIGHTS_TREND} flights), 95 % Q-profile interval; added to the covariance of every "
+                          "candidate test",
                 "per_feature": {f: {"tau": _finite(d.tau[j]), "ci95": [_finite(d.low[j]), _finite(d.high[j])],
                                     "q": _finite(d.q_statistic[j]), "dof": int(d.dof[j])}
                                 for j, f in enumerate(FEATURES) if d.dof[j] > 0},
@@ -708,9 +710,12 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
         if bound:
             not_identified.append((best, score, f"at bound: not identified ({', '.join(bound)})"))
             continue
-        if score.gain < min_gain or not rise > rise_se:
-            not_identified.append((best, score, f"held-out gain {rise:.3f} not above its uncertainty {rise_se:.3f} "
-                                                f"(or below min_gain {min_gain:g})"))
+        if score.gain < min_gain:
+            not_identified.append((best, score, f"held-out gain {score.gain:.3f} below min_gain {min_gain:g}"))
+            continue
+        if named and not rise > rise_se:
+            not_identified.append((best, score, f"a further cause: it raises the held-out gain by {rise:.3f}, not "
+                                                f"more than that rise's uncertainty {rise_se:.3f}"))
             continue
         model = ev.models[best]
         effect = model.predict(score.fit.theta, idx) - model.baseline

@@ -398,8 +398,8 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
             "window": {"start": f"{start}Z", "end": f"{end}Z"},
         })
         conditions[fid] = {"mean_speed_ms": float(speeds_ms[i % len(speeds_ms)]),
-                           "wind_from_deg": float((200 + 25 * i) % 360), "z_over_L": float(-0.2 + 0.1 * i if z_over_l is None
-                                                                              else z_over_l[i % len(z_over_l)]),
+                           "wind_from_deg": float((200 + 25 * i) % 360),
+                           "z_over_L": float(-0.2 + 0.1 * i if z_over_l is None else z_over_l[i % len(z_over_l)]),
                            "hover_height_m": 28.0}
     mechanisms = [] if truth.mechanism == "none" else [{"mechanism": truth.mechanism,
                                                         "parameters": dict(truth.parameters)}]

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 __all__ = ["CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS", "ATMOSPHERES", "Probe", "MECHANISM_BASELINES",
            "PROBES", "fresh_seeds", "baseline_level", "BASELINE_PART", "probe_parts", "SEED_DOF",
-           "MIN_SEEDS", "baseline_seeds", "resolved_seeds"]
+           "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds"]
 
 
 #: Keys of ``processing`` that the chain up to L3 uses (what a forward run depends on).
@@ -134,9 +134,13 @@ SEED_DOF = 350
 #: Fewest baseline seeds per flight (the seed scale of every feature then has at least 29
 #: degrees of freedom on one flight).
 MIN_SEEDS = 30
+#: Most baseline seeds per flight by default: campaigns of one to three flights stop here
+#: (89, 178 and 267 pooled degrees of freedom) instead of paying up to 351 runs per flight.
+MAX_SEEDS = 90
 
 
-def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS) -> list[int]:
+def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS,
+                   maximum: int = MAX_SEEDS) -> list[int]:
     """Baseline seeds of the forward model for a campaign of ``n_flights`` (``diagnosis.seeds: null``).
 
     Parameters
@@ -145,20 +149,21 @@ def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS
         Payload flights whose seeds are pooled.
     dof : int
         Pooled degrees of freedom wanted, :math:`n_{flights}(n_{seeds} - 1)`.
-    minimum : int
-        Fewest seeds per flight.
+    minimum, maximum : int
+        Fewest and most seeds per flight.
 
     Returns
     -------
     list of int
-        ``max(minimum, ceil(dof / n_flights) + 1)`` seeds, the multiples of 101 from 101.
+        ``ceil(dof / n_flights) + 1`` seeds within ``[minimum, maximum]``, the multiples of 101
+        from 101.
 
     Examples
     --------
-    >>> len(baseline_seeds(4)), len(baseline_seeds(6)), len(baseline_seeds(20))
-    (89, 60, 30)
+    >>> len(baseline_seeds(1)), len(baseline_seeds(4)), len(baseline_seeds(6)), len(baseline_seeds(20))
+    (90, 89, 60, 30)
     """
-    n = max(int(minimum), -(-int(dof) // max(int(n_flights), 1)) + 1)
+    n = min(int(maximum), max(int(minimum), -(-int(dof) // max(int(n_flights), 1)) + 1))
     return [101 * (k + 1) for k in range(n)]
 
 

@@ -225,6 +225,6 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
               "sampling covariance and the model discrepancy) is compared with its distribution under the model "
               "without a cause, from a parametric bootstrap over seeds that repeats every estimate; the family-wise "
               "p-value over the round's candidates (Westfall-Young min-p) must be below the false-alarm rate and "
-              "the held-out gain must exceed its own uncertainty. A further cause is named only if it raises the "
+              "the held-out gain must reach diagnosis.min_gain. A further cause is named only if it raises the "
               "held-out gain by more than that rise's uncertainty on what the causes before it leave.", ""]
     return "\n".join(lines) + "\n"
