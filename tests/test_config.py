@@ -108,7 +108,7 @@ def test_every_setting_round_trips_through_text():
     ({"processing": {"rotation": "dubble"}},
      "processing.rotation = 'dubble' is not allowed: must be one of single, double, triple, planar_fit"),
     ({"processing": {"spectra": {"segments": "three"}}}, "processing.spectra.segments = 'three' is not an integer"),
-    ({"diagnosis": {"seeds": []}}, "diagnosis.seeds = [] has 0 item(s): must have at least 1"),
+    ({"diagnosis": {"seeds": [3]}}, "diagnosis.seeds = [3] has 1 item(s): must have at least 2"),
     ({"diagnosis": {"platform": {"segment_s": "5"}}},
      "diagnosis.platform.segment_s = 5 is out of range: must be >= 10"),
 ])

@@ -170,9 +170,10 @@ def test_a_model_error_named_as_its_caveated_alias_is_flagged_not_excused():
 
 def test_extended_reruns_get_seeds_the_baseline_never_ran():
     from dronewind.diagnose.forward import fresh_seeds
+    from dronewind.diagnose.probes import resolved_seeds
     from dronewind.manifest import default_config
 
-    baseline = default_config()["diagnosis"]["seeds"]
+    baseline = resolved_seeds(default_config()["diagnosis"]["seeds"], 4)
     rerun = fresh_seeds(baseline)
     assert len(set(rerun)) == 2 and not set(rerun) & set(baseline)
     assert fresh_seeds([101, 202]) == (303, 404)  # the historical rerun seeds where free

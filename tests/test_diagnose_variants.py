@@ -17,6 +17,12 @@ import pytest
 from dronewind.diagnose import campaign as dc
 from dronewind.diagnose.features import FEATURES
 
+#: baseline seeds per flight (the diagnosis needs at least 30: dronewind.diagnose.probes.MIN_SEEDS)
+N_SEEDS = 30
+#: bootstrap replicates of the reference distributions (fewer than the default 600, for speed: a
+#: family-wise p of 0.01 then has a Monte-Carlo error of 0.007)
+REPLICATES = 200
+
 SPEEDS_MS = (3.5, 5.5, 7.5, 9.5)
 SIGMA = 0.05  # analytic error of every feature [feature units]
 #: feature -> response per degree of pitch per (m/s of mean wind) [feature units]
@@ -43,7 +49,7 @@ def _campaign(pitch_deg: float, rng: np.random.Generator, roll_deg: float = 0.0,
     measured, forward = {}, {}
     for i, speed in enumerate(SPEEDS_MS):
         flight = f"h{i + 1:02d}"
-        seeds = [rng.normal(0.0, SIGMA, len(FEATURES)) for _ in range(5)]
+        seeds = [rng.normal(0.0, SIGMA, len(FEATURES)) for _ in range(N_SEEDS)]
         probes = []
         for parameter, levels in (("roll_deg", (-4.0, 4.0)), ("pitch_deg", (-4.0, 4.0)), ("yaw_deg", (-6.0, 6.0))):
             for level in levels:
@@ -56,7 +62,7 @@ def _campaign(pitch_deg: float, rng: np.random.Generator, roll_deg: float = 0.0,
             probes.append({"candidate": "w_gain", "mechanism": "w_gain", "parameter": "gain", "level": level,
                            "fixed": {}, "features": _features(speed, 0.0, seeds[0] + np.where(
                                np.array(FEATURES) == "ln_sigma_ratio_w", np.log(level), 0.0))})
-        forward[flight] = {"flight": flight, "conditions": {"mean_speed_ms": speed}, "seeds": list(range(5)),
+        forward[flight] = {"flight": flight, "conditions": {"mean_speed_ms": speed}, "seeds": list(range(N_SEEDS)),
                            "baseline": [_features(speed, 0.0, s) for s in seeds], "probes": probes}
         measured[flight] = _features(speed, pitch_deg, rng.normal(0.0, SIGMA, len(FEATURES)), roll_deg)
     return measured, forward
@@ -87,39 +93,40 @@ def test_a_mount_pitch_is_named_through_the_one_parameter_variant(draw):
     rng = np.random.default_rng(100 + draw)
     pitch = float(rng.uniform(2.5, 6.0) * rng.choice([-1.0, 1.0]))
     measured, forward = _campaign(pitch, rng)
-    result = dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3)
+    result = dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3, n_replicates=REPLICATES)
     out = dc.to_json(result, "variants")
     assert out["named_causes"] == ["mount_misalignment"], out["named_causes"]
-    assert result.scores[VARIANT].p_value < result.scores["mount_misalignment"].p_value
+    assert result.scores[VARIANT].p_value <= result.scores["mount_misalignment"].p_value
     est = out["named_estimates"]["mount_misalignment"]
     assert est["estimate"]["roll_deg"] == 0.0 and est["estimate"]["yaw_deg"] == 0.0
     assert abs(est["estimate"]["pitch_deg"] - pitch) < 3 * est["uncertainty"]["pitch_deg"], (est, pitch)
 
 
-def test_a_small_pitch_the_three_angle_test_misses_is_found_by_the_variant():
-    """Near the detection limit (3.2 degree on four flights with these errors) the one-degree test
-    of the same fit passes more often than the three-angle one (the draws of the workflow that
-    missed 3.5 and 7.8 degree)."""
+def test_a_small_pitch_is_found_and_the_variant_is_at_least_as_powerful():
+    """Near the detection limit (3.2 degree on four flights with these errors) the pitch is found
+    in most draws, and the one-parameter variant, tested against its own bootstrap reference,
+    passes at least as often as the three-angle fit of the same data (measured: 15 and 15 of 20;
+    the bound 12 is 1.7 binomial standard errors below 15)."""
     found_full = found_variant = 0
     for draw in range(20):
         rng = np.random.default_rng(500 + draw)
         measured, forward = _campaign(3.2, rng)
         ev = dc.assemble(measured, forward)
-        result = dc.diagnose(ev, alpha=0.01, max_causes=1)
+        result = dc.diagnose(ev, alpha=0.01, max_causes=1, n_replicates=REPLICATES)
         found_full += result.scores["mount_misalignment"].significant
         found_variant += result.scores[VARIANT].significant
-    # measured: 7 of 20 by the variant, 1 of 20 by the three-angle candidate
-    assert found_variant >= found_full + 4, (found_variant, found_full)
+    assert found_variant >= max(found_full, 12), (found_variant, found_full)
 
 
 def test_null_draws_name_nothing_with_the_variant():
-    """60 null campaigns: the family-wise false-alarm rate stays near alpha = 1 % with the
-    variant tried (Binomial(60, 0.01): P(X >= 4) < 0.3 %)."""
+    """30 null campaigns: the family-wise false-alarm rate stays near alpha = 1 % with the
+    variant tried (Binomial(30, 0.01): P(X >= 3) < 0.3 %)."""
     alarms = 0
-    for draw in range(60):
+    for draw in range(30):
         measured, forward = _campaign(0.0, np.random.default_rng(9000 + draw))
-        alarms += bool(dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3).named)
-    assert alarms <= 3, alarms
+        result = dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3, n_replicates=REPLICATES)
+        alarms += bool(result.named)
+    assert alarms <= 2, alarms
 
 
 @pytest.mark.parametrize("draw", range(4))
@@ -129,7 +136,7 @@ def test_the_three_angles_are_named_when_a_roll_moves_the_features(draw):
     rng = np.random.default_rng(700 + draw)
     pitch, roll = (float(rng.uniform(3.0, 6.0) * rng.choice([-1.0, 1.0])) for _ in range(2))
     measured, forward = _campaign(pitch, rng, roll_deg=roll, roll_moves=True)
-    result = dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3)
+    result = dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3, n_replicates=REPLICATES)
     assert [c for c, _ in result.named] == ["mount_misalignment"]
     est = dc.to_json(result, "variants")["named_estimates"]["mount_misalignment"]
     for name, true in (("pitch_deg", pitch), ("roll_deg", roll)):
@@ -143,5 +150,5 @@ def test_a_pitch_alone_is_named_as_the_variant_when_a_roll_could_be_seen(draw):
     rng = np.random.default_rng(800 + draw)
     pitch = float(rng.uniform(3.5, 6.0) * rng.choice([-1.0, 1.0]))
     measured, forward = _campaign(pitch, rng, roll_moves=True)
-    result = dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3)
+    result = dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3, n_replicates=REPLICATES)
     assert [c for c, _ in result.named] == [VARIANT]

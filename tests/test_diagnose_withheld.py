@@ -18,6 +18,12 @@ import pytest
 from dronewind.diagnose import campaign as dc
 from dronewind.diagnose.features import FEATURES
 
+#: baseline seeds per flight (the diagnosis needs at least 30: dronewind.diagnose.probes.MIN_SEEDS)
+N_SEEDS = 30
+#: bootstrap replicates of the reference distributions (fewer than the default 600, for speed: a
+#: family-wise p of 0.01 then has a Monte-Carlo error of 0.007)
+REPLICATES = 200
+
 SIGMA = 0.05  # analytic error of every feature [feature units]
 #: feature -> response to the noise variance [feature units per m2 s-2]
 NOISE_SIGNATURE = {"ln_hf_u": 4.0, "ln_hf_w": 4.0}
@@ -43,12 +49,13 @@ def _campaign(rng: np.random.Generator, sonic_noise_ms: float = 0.0, hf_u_excess
     measured, forward = {}, {}
     for i in range(4):
         flight = f"h{i + 1:02d}"
-        seeds = [rng.normal(0.0, SIGMA, len(FEATURES)) for _ in range(5)]
+        seeds = [rng.normal(0.0, SIGMA, len(FEATURES)) for _ in range(N_SEEDS)]
         probes = [{"candidate": "sonic_noise", "mechanism": "sonic_noise", "parameter": "sigma_ms", "level": level,
                    "fixed": {}, "features": _features(seeds[0], level)} for level in (0.15, 0.35)]
         probes += [{"candidate": "w_gain", "mechanism": "w_gain", "parameter": "gain", "level": level, "fixed": {},
                     "features": _features(seeds[0] + _w_gain_effect(level, w_gain_on_hf_w))} for level in (0.85, 1.2)]
-        forward[flight] = {"flight": flight, "conditions": {"mean_speed_ms": 4.0 + 2 * i}, "seeds": list(range(5)),
+        forward[flight] = {"flight": flight, "conditions": {"mean_speed_ms": 4.0 + 2 * i},
+                           "seeds": list(range(N_SEEDS)),
                            "baseline": [_features(s) for s in seeds], "probes": probes}
         noise = rng.normal(0.0, SIGMA, len(FEATURES)) + _w_gain_effect(w_gain, w_gain_on_hf_w)
         measured[flight] = _features(noise, sonic_noise_ms, hf_u_excess)
@@ -56,7 +63,7 @@ def _campaign(rng: np.random.Generator, sonic_noise_ms: float = 0.0, hf_u_excess
 
 
 def _diagnosis(measured: dict, forward: dict) -> dict:
-    return dc.to_json(dc.diagnose(dc.assemble(measured, forward)), "synthetic")
+    return dc.to_json(dc.diagnose(dc.assemble(measured, forward), n_replicates=REPLICATES), "synthetic")
 
 
 def test_feature_shares_known_answer():
@@ -98,7 +105,7 @@ def test_genuine_noise_is_named(seed):
 @pytest.mark.parametrize("seed", [21, 22, 23])
 def test_an_hf_u_excess_alone_is_withheld_and_left_unexplained(seed):
     measured, forward = _campaign(np.random.default_rng(seed), hf_u_excess=0.2)
-    result = dc.diagnose(dc.assemble(measured, forward))
+    result = dc.diagnose(dc.assemble(measured, forward), n_replicates=REPLICATES)
     assert result.scores["sonic_noise"].significant  # the catalog's best fit, significant ...
     diag = dc.to_json(result, "synthetic")
     assert diag["named_causes"] == []  # ... but not named
@@ -127,7 +134,7 @@ def test_a_second_cause_is_reported_at_its_own_rounds_fit():
     fitted after the first one's effect is removed, and that fit (the one the goodness of fit
     and the extended model use) is what diagnosis.json reports, not the first round's."""
     measured, forward = _campaign(np.random.default_rng(41), sonic_noise_ms=0.3, w_gain=1.15, w_gain_on_hf_w=True)
-    result = dc.diagnose(dc.assemble(measured, forward))
+    result = dc.diagnose(dc.assemble(measured, forward), n_replicates=REPLICATES)
     assert [c for c, _ in result.named] == ["sonic_noise", "w_gain"]
     cand, second = result.named[1]
     first_round = result.scores[cand].estimate()["gain"]

@@ -36,9 +36,9 @@ NAMED = {
 def test_verdict_sentence_names_causes_estimates_gains_and_what_remains() -> None:
     text = verdict_sentence(NAMED)
     assert text.startswith("Named cause: w_gain (gain = 1.21 ± 0.03; held-out gain 0.74).")
-    assert "p = 0.52" in text and "Still unexplained" in text and "ln_hf_w (mean z +2.4)" in text
+    assert "p = 0.52" in text and "Still unexplained" in text and "ln_hf_w (offset z +2.4)" in text
     none = verdict_sentence({"named_causes": [], "candidates": NAMED["candidates"][1:], "unexplained": []})
-    assert none.startswith("No mechanism is significant") and none.endswith("Nothing remains unexplained.")
+    assert none.startswith("No cause named") and none.endswith("Nothing remains unexplained.")
     assert verdict_sentence({"candidates": [], "note": "1 usable flight(s)"}) == "Not diagnosed: 1 usable flight(s)."
 
 

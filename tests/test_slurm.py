@@ -21,9 +21,8 @@ import pytest
 
 from dronewind.core.cf import atomic_write_text
 from dronewind.diagnose.forward import probe_parts
-from dronewind.manifest import default_config
 from tests.conftest import SLURM_RUN, is_xdist_worker, shared_tmp, wait_for_file
-from tests.small_campaign import SHORT_HOVER, write_small_campaign
+from tests.small_campaign import SHORT_HOVER, SMALL_SEEDS, write_small_campaign
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -188,5 +187,5 @@ def test_small_campaign_runs_through_sbatch(slurm_run):
     # the flight's probes were in the queue side by side, then joined into its forward runs
     assert slurm_run.watch.most >= 3, f"at most {slurm_run.watch.most} diagnose_probe jobs were queued at once"
     runs = json.loads((results / "smallcamp" / "diagnosis" / "forward" / "s01.json").read_text())
-    assert runs["parts"] == list(probe_parts()) and len(runs["baseline"]) == len(default_config()["diagnosis"]["seeds"])
+    assert runs["parts"] == list(probe_parts()) and len(runs["baseline"]) == len(SMALL_SEEDS)
     assert runs["probes"]

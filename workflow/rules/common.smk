@@ -13,7 +13,7 @@ from snakemake.utils import min_version, validate
 
 from dronewind.config import check_config
 from dronewind.core.attribution import attribution
-from dronewind.diagnose.probes import CHAIN_SETTINGS, fresh_seeds, probe_parts
+from dronewind.diagnose.probes import CHAIN_SETTINGS, fresh_seeds, probe_parts, resolved_seeds
 from dronewind.figures.labels import (
     BLOCK_FIGURE,
     QUAD_FIGURES,
@@ -163,6 +163,8 @@ def canonical(value):
 
 PROCESSING = canonical(config["processing"])
 DIAGNOSIS = canonical(config["diagnosis"])
+# the baseline seeds: as configured, or enough for the campaign's payload flights (probes.baseline_seeds)
+DIAGNOSIS["seeds"] = resolved_seeds(DIAGNOSIS["seeds"], len(PAYLOAD_FLIGHTS))
 # settings of the chain up to L3 (what a forward-model run depends on)
 CHAIN = {key: PROCESSING[key] for key in CHAIN_SETTINGS}
 # settings of the block analysis of tower and mast records (rule mast_blocks)
@@ -191,6 +193,8 @@ def _published():
 
 
 PUBLISHED, PUBLISHED_FLIGHTS = _published()
+# the published numbers' baseline seeds, enough for their stationary flights
+PUBLISHED_SEEDS = resolved_seeds(config["diagnosis"]["seeds"], len(PUBLISHED_FLIGHTS))
 
 # Job priorities (Snakemake picks among ready jobs by priority). The forward-model runs are the
 # longest jobs, so the chain that feeds them (simulation, L1-L3, measured features) and the

@@ -131,6 +131,7 @@ rule diagnose:
         max_causes=DIAGNOSIS["max_causes"],
         min_gain=DIAGNOSIS["min_gain"],
         atmosphere=DIAGNOSIS["atmosphere"],
+        bootstrap=DIAGNOSIS["bootstrap"],
     script:
         "../../scripts/diagnose.py"
 

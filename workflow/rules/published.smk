@@ -22,7 +22,7 @@ if DIAGNOSIS["probe_jobs"] == "mechanism":
             campaign=published_manifest,
             flight_id="{flight}",
             processing=CHAIN,
-            seeds=DIAGNOSIS["seeds"],
+            seeds=PUBLISHED_SEEDS,
             part="{part}",
         script:
             "../../scripts/published_forward.py"
@@ -68,7 +68,7 @@ else:
             campaign=published_manifest,
             flight_id="{flight}",
             processing=CHAIN,
-            seeds=DIAGNOSIS["seeds"],
+            seeds=PUBLISHED_SEEDS,
         script:
             "../../scripts/published_forward.py"
 
@@ -113,7 +113,7 @@ rule published_rerun:
         campaign=published_manifest,
         flight_id="{flight}",
         processing=CHAIN,
-        seeds=fresh_seeds(DIAGNOSIS["seeds"]),
+        seeds=fresh_seeds(PUBLISHED_SEEDS),
     script:
         "../../scripts/published_rerun.py"
 

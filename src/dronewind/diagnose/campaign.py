@@ -5,77 +5,58 @@ runs of :func:`dronewind.diagnose.forward.probe_runs`. Output: the ``diagnosis.j
 structure of DESIGN.md plus the evidence a report needs.
 
 Sampling errors: every feature has an analytic standard error from
-:mod:`dronewind.diagnose.features` (seed 000, Eqs 10-13 and their analogues). The forward
-model's baseline seeds calibrate it: for each feature the scale factor
+:mod:`dronewind.diagnose.features` (Ghirardelli et al. 2025, Eqs 10-13, and their analogues)
+computed on the forward runs. The forward model's baseline seeds calibrate it: for each
+feature the scale factor
 
 .. math:: k_f^2 = \frac{\sum_i \sum_s (b_{i,s,f} - \bar b_{i,f})^2 / s_{i,f}^2}
                        {\sum_i (n_{seeds} - 1)}
 
-(deviations of the baseline seeds from their flight's mean, pooled over flights; for two
-seeds the pair formula :math:`(b_{i,1} - b_{i,2})^2 / 2 s_{i,f}^2`) turns the analytic error
-:math:`s_{i,f}` into the realisation-to-realisation scatter of that feature, which is what
-separates a measured flight from its forward prediction. The error of a residual is then
-:math:`\sigma_{i,f}^2 = (1 + 1/n_{seeds})\,\max(k_f^2, k_{min}^2)\,s_{i,f}^2`: one
-realisation measured, the mean of :math:`n_{seeds}` predicted. ``k_min`` = 1: the seed pairs
-see only the realisation noise with the flight's conditions held fixed, while a measured
-flight also differs from its prediction by the error of the conditions estimated from it
-(u*, L, roughness length from one mast record). On null campaigns a floor of 0.5 left the
-mean z² of several features at 2-3 and gave false alarms, so the seed scatter may widen
-the analytic error but never shrink it. Finally, an empirical overdispersion factor (the
-variance over flights of the z-scores about a fitted common effect, a constant in the
-feature's units plus a constant in error units, when above 1 and with at least four flights)
-widens a feature's errors: on a null campaign it keeps each feature's mean z² near 1, while a
-mechanism's common effect of either shape (an angle, a lag, a log gain; a downdraft decaying
-with wind speed as the errors do), being removed with the fit, still shows.
+(deviations of the baseline seeds from their flight's mean, pooled over flights) turns the
+analytic error :math:`s_{i,f}` into the realisation-to-realisation scatter of that feature.
+The sampling error of a residual is
+:math:`\sigma_{i,f}^2 = (1 + 1/n_{seeds})\,k_f^2\,s_{i,f}^2`: one realisation measured, the
+mean of :math:`n_{seeds}` predicted. The errors are neither floored nor widened: what the
+forward model cannot reproduce is the model discrepancy, estimated and reported as such.
 
-Correlated errors: the same seed deviations, divided by the analytic errors, give the
-pooled feature correlation matrix, shrunk toward the identity with the Schäfer-Strimmer
-analytic intensity (:mod:`dronewind.diagnose.covariance`). The residual covariance of
-flight :math:`i` is :math:`C_i = D_i R^* D_i`, :math:`D_i = \mathrm{diag}(\sigma_{i,f})`,
-and every misfit (the fits, the likelihood-ratio statistic, the held-out gain, the
-ambiguity sets and the goodness of fit) is the whitened :math:`z_i^\top R^{*-1} z_i`
-(:mod:`dronewind.diagnose.fitting`). Without it the features that come from one w series
-(:math:`\sigma_w` ratio, drone :math:`S_w/S_u`, pendulum-band and high-frequency w power)
-count one realisation's excursion several times and the likelihood-ratio test over-states
-the evidence. ``diagnosis.json`` states the error model (``error_model``: number of seeds,
-pooled degrees of freedom, shrinkage intensity, the largest correlations kept).
+Correlated errors: the same seed deviations, divided by the analytic errors, give the pooled
+feature correlation matrix, shrunk toward the identity with the Schäfer-Strimmer analytic
+intensity (:mod:`dronewind.diagnose.covariance`). The number of seeds
+(:func:`dronewind.diagnose.probes.baseline_seeds`) gives the campaign 350 pooled degrees of
+freedom, so that the intensity stays below about 0.3 and real correlations are kept.
 
-Number of seeds: ``diagnosis.seeds`` defaults to five (:data:`DEFAULT_SEEDS_NOTE`): with
-four flights that is 16 pooled degrees of freedom for the scale factors and the
-correlations (two seeds gave 4, too few for a 15 x 15 correlation matrix, which the
-shrinkage then sets to nearly the identity). Each extra seed is one forward run per flight,
-about 0.3 CPU-s in memory.
+Model discrepancy (:mod:`dronewind.diagnose.calibration`): the scatter of every feature's
+residuals across flights beyond its sampling error, about a common offset and trend, is
+estimated per feature (Kennedy and O'Hagan 2001; DerSimonian and Laird 1986) and added to the
+residual covariance of every test of a candidate,
+:math:`C_i = D_i R^* D_i + \mathrm{diag}(\tau^2)`, so that a cause is named only where its
+signature across flights stands above the misfit no candidate describes.
 
-False-alarm calibration: the Bonferroni-corrected likelihood-ratio test names a cause at
-a nominal family-wise rate :math:`\alpha` = 0.01 per naming round when the whitened misfit
-is :math:`\chi^2`-distributed. Whether it is, with errors estimated from few seeds and
-conditions estimated from one mast record, was measured on 60 stratified draws of 4-flight
-virtual campaigns with the measured atmosphere (``benchmarks/bench_diagnosis_rates.py
---draws 60 --seed 1``, results in ``benchmarks/results/diagnosis_rates.json``,
-:data:`NULL_CALIBRATION`, also written to ``diagnosis.json`` under ``error_model.calibration``):
+Reference distributions: the likelihood-ratio statistic of every candidate, the goodness of
+fit and the offset and trend tests of ``unexplained`` are referred to a parametric bootstrap
+over seeds that repeats every estimate above on each replicate
+(:func:`dronewind.diagnose.calibration.null_reference`); candidates are tested by the
+Westfall-Young min-p over the candidates of a naming round, at the family-wise rate
+``diagnosis.alpha``.
 
-* null draws: no cause named in 12 of 12 (false-alarm rate 0, 95 % Wilson interval
-  0-0.24); no candidate passed the corrected LR test (0/12, before the gain filter);
-* the per-candidate LR p-values of the null draws: 0 of 132 below 0.01 (95 % 0-0.028) and
-  4 below 0.05 (0.030, 0.012-0.075); mean LR statistic per fitted parameter 0.60 (1 for an
-  exact :math:`\chi^2`): the test is conservative. The whitened baseline misfit per degree
-  of freedom is 0.46 (median over null and model-error draws, smallest goodness-of-fit p
-  0.43): the calibrated errors (``k_min`` = 1 and the overdispersion floor) are wider than
-  the realisation scatter alone, deliberately;
-* model errors (physics the forward model does not have: pendulum length or damping,
-  spectra, isotropy, a mean-wind trend, a mast flow distortion): a catalog cause named in 2
-  of 9 (0.22, 0.06-0.55), both mast flow distortions named ``mount_misalignment`` (a tilt
-  of the mast's flow and of the drone's sonic look alike: ``UNCATALOGUED_ALIASES``);
-* hidden catalog mechanisms (both sides where signed): detected 38 of 39 (0.97,
-  0.87-1.00), a wrong cause in 1 of 39 (a sonic-INS lag of -0.32 s named ``lever_arm``),
-  estimate within tolerance 38 of 39; median |error| / tolerance 0.09 (95 % 0.05-0.18).
+Naming: a significant candidate is named when its held-out gain reaches ``diagnosis.min_gain``;
+a further cause only when it raises the held-out gain of the named set by more than that
+rise's uncertainty (from the flights' held-out misfits). A
+candidate whose estimate sits at a catalog bound is not identified and never named
+(``not_identified``). Ambiguity is computed from the probes' responses: a candidate whose
+whitened response over the campaign's flights reproduces a named cause's fitted effect (cosine
+of at least :data:`AMBIGUITY_COSINE`) is listed in that cause's ambiguity set.
 
-With 12 null draws the false-alarm rate is bounded only to below 0.24; a tighter bound
-needs more null draws (``--null-share``).
+Measured conditions: a sonic-INS lag that the chain measured for every flight is a condition
+of the forward runs (``conditions["sonic_ins_lag_s"]``), not evidence: its feature
+``lag_sonic_ins_s`` leaves the misfit and ``sonic_ins_lag`` leaves the candidates
+(:data:`CONDITIONED`); ``diagnosis.json`` reports the flights' lags under
+``measured_conditions``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections import Counter, defaultdict
 from collections.abc import Mapping, Sequence
@@ -85,48 +66,49 @@ from typing import Any
 import numpy as np
 import scipy.stats
 
-from dronewind.diagnose.covariance import ShrunkCorrelation, Whitener, shrunk_correlation
+from dronewind.diagnose.calibration import (
+    DEFAULT_REPLICATES,
+    MIN_FLIGHTS_TREND,
+    Discrepancy,
+    NullReference,
+    discrepancy,
+    empirical_p,
+    familywise_p,
+    null_reference,
+    offset_trend_z,
+    seed_scale,
+)
+from dronewind.diagnose.covariance import ShrunkCorrelation, Whitener, flight_correlations, shrunk_correlation
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.fitting import (
     CandidateScore,
     ParameterResponse,
     ResponseModel,
-    ambiguity_sets,
     chi2,
     score_candidate,
 )
 from dronewind.diagnose.forward import baseline_level
 from dronewind.mechanisms import get_mechanism
 
-__all__ = ["CampaignEvidence", "assemble", "diagnose", "DiagnosisResult", "goodness_of_fit", "unexplained_features",
+__all__ = ["CampaignEvidence", "assemble", "CONDITIONED", "AMBIGUITY_COSINE", "response_ambiguity",
+           "measured_conditions", "diagnose", "DiagnosisResult", "goodness_of_fit", "unexplained_features",
            "UNCATALOGUED_ALIASES", "FEATURE_ALIASES", "SINGLE_FEATURE_SHARE", "feature_shares",
            "single_feature_alias", "caveats", "Withheld", "withheld_json", "PARAMETER_SUBSETS", "n_tests",
            "simplest_variant"]
 
-K_MIN = 1.0
-#: Why five baseline seeds by default (``diagnosis.seeds``; module docstring).
-DEFAULT_SEEDS_NOTE = ("5 baseline seeds: 4 (n_flights) x 4 = 16 pooled degrees of freedom for the error scales and "
-                      "the feature correlations, at 0.3 CPU-s per extra seed and flight")
-#: Measured false-alarm calibration of the diagnosis (module docstring), written to
-#: ``diagnosis.json`` (``error_model.calibration``): where it comes from and what it found.
-NULL_CALIBRATION: dict[str, Any] = {
-    "benchmark": "benchmarks/results/diagnosis_rates.json",
-    "command": "benchmarks/bench_diagnosis_rates.py --draws 60 --seed 1 --workers 2",
-    "campaign": "4 virtual flights, 12-min hovers, 3.5-9.5 m/s, 5 baseline seeds, measured atmosphere",
-    "nominal_familywise_alpha": 0.01,
-    "null_false_alarm": {"k": 0, "n": 12, "ci95": [0.0, 0.24]},
-    "null_lr_p_below_0.01": {"k": 0, "n": 132, "ci95": [0.0, 0.028]},
-    "null_mean_lr_per_parameter": 0.60,
-    "model_error_false_attribution": {"k": 2, "n": 9, "ci95": [0.06, 0.55]},
-    "mechanism_detection": {"k": 38, "n": 39, "ci95": [0.87, 1.0]},
-}
+#: Conditions of the forward runs measured by the chain, which therefore cannot be evidence:
+#: condition key -> (the feature it fixes, the mechanism it stands for).
+CONDITIONED: dict[str, tuple[str, str]] = {"sonic_ins_lag_s": ("lag_sonic_ins_s", "sonic_ins_lag")}
+#: Cosine between a named cause's whitened fitted effect and another candidate's response
+#: subspace above which the data cannot tell them apart (the other reproduces at least 81 %
+#: of the effect's misfit reduction).
+AMBIGUITY_COSINE = 0.9
+#: Relative distance to a catalog bound (of the parameter's range) at which an estimate is "at bound".
+AT_BOUND = 1e-3
 #: Correlations listed in ``error_model`` (the largest in absolute value).
 N_LISTED_CORRELATIONS = 8
-#: Smallest held-out gain for a named cause (a cause explaining < 5 % of the held-out
-#: misfit is not named, whatever its p-value; as in the quadrotor diagnosis).
+#: Smallest held-out gain for a named cause by default (``diagnosis.min_gain``).
 MIN_GAIN = 0.05
-#: Flights needed before the empirical overdispersion of a feature is estimated.
-MIN_FLIGHTS_DISPERSION = 4
 #: Variants of a candidate that fit only some of its parameters, the others held at their
 #: "off" level: variant -> (candidate, fitted parameters). They come from the candidate's own
 #: probe runs (no run of their own). A mount misalignment is probed in roll, pitch and yaw,
@@ -149,7 +131,12 @@ def _vec(d: Mapping[str, Mapping[str, float | None]], key: str) -> np.ndarray:
 
 @dataclass
 class CampaignEvidence:
-    """Measured features, forward predictions and errors of all flights (arrays over flights x features)."""
+    """Measured features, forward predictions and errors of all flights (arrays over flights x features).
+
+    ``sigma`` is the sampling error of every residual; ``tau`` the model discrepancy per
+    feature (zero until :func:`diagnose` estimates it); ``total_sigma`` and :meth:`whitener`
+    combine both (module docstring).
+    """
 
     flights: list[str]
     y: np.ndarray
@@ -164,77 +151,82 @@ class CampaignEvidence:
     mechanism_of: dict[str, str] = field(default_factory=dict)
     correlation: ShrunkCorrelation | None = None
     n_seeds: int = 0
+    #: features left out of the evidence because a measured condition fixes them (:data:`CONDITIONED`)
+    conditioned: list[str] = field(default_factory=list)
+    tau: np.ndarray | None = None
     _white: Whitener | None = field(default=None, init=False, repr=False, compare=False)
+    _sampling_white: Whitener | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def corr(self) -> np.ndarray | None:
         """Shrunk feature correlation matrix (None: independent errors)."""
         return None if self.correlation is None else self.correlation.matrix
 
+    @property
+    def speed_ms(self) -> np.ndarray:
+        """Mean wind speed of every flight at the reference mast [m s-1]."""
+        return np.array([c.get("mean_speed_ms", np.nan) for c in self.conditions], dtype=float)
+
+    @property
+    def total_sigma(self) -> np.ndarray:
+        """:math:`\\sqrt{\\sigma_{if}^2 + \\tau_f^2}`: the residual error with the discrepancy [feature units]."""
+        if self.tau is None:
+            return self.sigma
+        return np.sqrt(self.sigma**2 + np.asarray(self.tau)[None, :] ** 2)
+
+    def set_discrepancy(self, tau: np.ndarray | None) -> None:
+        """Use ``tau`` (p,) [feature units] as the model discrepancy of every test (None: none)."""
+        self.tau = None if tau is None or not np.any(np.asarray(tau) > 0) else np.asarray(tau, dtype=float)
+        self._white = None
+
     def whitener(self) -> Whitener:
-        """Whitening by :attr:`corr` (inverse Cholesky factors kept)."""
+        """Whitening of residuals divided by :attr:`total_sigma` (per flight when a discrepancy is set)."""
         if self._white is None:
-            self._white = Whitener(self.corr)
+            if self.tau is None:
+                self._white = self.sampling_whitener()
+            else:
+                self._white = Whitener(flight_correlations(self.corr, self.sigma, self.tau)[1])
         return self._white
+
+    def sampling_whitener(self) -> Whitener:
+        """Whitening by :attr:`corr` alone: residuals divided by :attr:`sigma` (the goodness of fit)."""
+        if self._sampling_white is None:
+            self._sampling_white = Whitener(self.corr)
+        return self._sampling_white
 
 
 def _calibrated_errors(y: np.ndarray, measured_sigma: np.ndarray, runs: np.ndarray,
                        run_sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Residual errors: analytic errors scaled by the seed-to-seed scatter and the overdispersion.
+    """Sampling errors of the residuals: the forward runs' analytic errors scaled by the seeds' scatter.
 
     Parameters
     ----------
     y, measured_sigma : numpy.ndarray
-        Measured features and their analytic errors, (n_flights, n_features).
+        Measured features and their analytic errors, (n_flights, n_features): the measured
+        errors stand in only where the forward runs give none.
     runs, run_sigma : numpy.ndarray
         Baseline forward runs and their analytic errors, (n_flights, n_seeds, n_features).
 
     Returns
     -------
     sigma : numpy.ndarray
-        Error of a residual (see the module docstring).
+        Error of a residual, :math:`\\sqrt{1 + 1/n_{seeds}}\\,k_f\\,s_{if}` (module docstring).
     analytic : numpy.ndarray
-        The larger of the measured and mean forward analytic errors.
+        The analytic errors :math:`s_{if}`: the mean over the seeds of the forward runs'.
     scale : numpy.ndarray
-        Per-feature factor from analytic to residual error (k_f times the overdispersion).
+        Per-feature factor :math:`k_f` from analytic to seed scatter (1 with fewer than two seeds).
     """
     n_seeds = runs.shape[1]
-    baseline = np.nanmean(runs, axis=1)
-    analytic = np.nanmax(np.stack([measured_sigma, np.nanmean(run_sigma, axis=1)]), axis=0)
+    analytic = np.nanmean(run_sigma, axis=1)
+    analytic = np.where(np.isfinite(analytic) & (analytic > 0), analytic, measured_sigma)
     if n_seeds >= 2:
-        finite = np.isfinite(runs)
-        n_i = finite.sum(axis=1)  # (flights, features)
-        dev2 = np.where(finite, (runs - baseline[:, None, :]) ** 2, 0.0).sum(axis=1) / analytic**2
-        dof = np.where(n_i >= 2, n_i - 1, 0)
         with np.errstate(invalid="ignore", divide="ignore"):
-            scale = np.sqrt(np.nansum(np.where(dof > 0, dev2, np.nan), axis=0) / dof.sum(axis=0))
+            scale = seed_scale(runs / np.where(analytic > 0, analytic, np.nan)[:, None, :])
     else:
-        scale = np.ones(len(FEATURES))
-    scale = np.where(np.isfinite(scale), np.maximum(scale, K_MIN), 1.0)
+        scale = np.ones(y.shape[1])
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
     sigma = np.sqrt(1.0 + 1.0 / max(n_seeds, 1)) * scale[None, :] * analytic
-    # Empirical overdispersion (quasi-likelihood dispersion): where the measured-minus-
-    # predicted z-scores scatter more than 1 about a common effect, the errors are widened by
-    # that factor; it needs at least MIN_FLIGHTS_DISPERSION flights. The common effect is
-    # fitted in two shapes at once, z_i = a / sigma_i + b (least squares, n - 2 degrees of
-    # freedom): a constant in the feature's units (a sonic pitch adds its angle to the tilt
-    # difference at every wind speed) and a constant in error units (a downdraft that decays
-    # with wind speed as the errors do). With the mean z-score alone (b), hidden pitches of
-    # 3-8 degree widened the tilt errors 3-6 times, hid small pitches and biased large ones
-    # low (6.3 found as 5.0); with the weighted mean in units alone (a), a downdraft widened
-    # them 5.8 times and went unnamed (benchmarks/results/README.md).
-    dispersion = np.ones(y.shape[1])
-    for f in range(y.shape[1]):
-        ok = np.isfinite(y[:, f]) & np.isfinite(baseline[:, f]) & np.isfinite(sigma[:, f])
-        if ok.sum() < MIN_FLIGHTS_DISPERSION:
-            continue
-        z = (y[ok, f] - baseline[ok, f]) / sigma[ok, f]
-        design = np.column_stack([1.0 / sigma[ok, f], np.ones(ok.sum())])
-        coef, _, rank, _ = np.linalg.lstsq(design, z, rcond=None)
-        n_dof = int(ok.sum()) - int(rank)
-        if n_dof > 0:
-            dispersion[f] = float(np.sum((z - design @ coef) ** 2)) / n_dof
-    dispersion = np.maximum(dispersion, 1.0)
-    return sigma * np.sqrt(dispersion)[None, :], analytic, scale * np.sqrt(dispersion)
+    return sigma, analytic, scale
 
 
 def _probe_tables(ev: CampaignEvidence, forward: Mapping[str, Mapping[str, Any]]
@@ -308,11 +300,20 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
         warnings.simplefilter("ignore", RuntimeWarning)
         sigma, analytic, scale = _calibrated_errors(y, s_meas, runs, np.array([s[:n_seeds] for s in base_sig]))
         mean_runs = np.nanmean(runs, axis=1)
-    ev = CampaignEvidence(flights, y, sigma, analytic, scale, mean_runs, runs[:, 0, :],
-                          [dict(forward[f]["conditions"]) for f in flights],
-                          correlation=feature_correlation(runs, analytic), n_seeds=n_seeds)
+    conditions = [dict(forward[f]["conditions"]) for f in flights]
+    conditioned = [feat for key, (feat, _) in CONDITIONED.items()
+                   if flights and all(c.get(key) is not None for c in conditions)]
+    used_runs = runs.copy()
+    for feat in conditioned:  # a measured condition of the forward runs is not evidence
+        y[:, FEATURES.index(feat)] = np.nan
+        used_runs[:, :, FEATURES.index(feat)] = np.nan
+    ev = CampaignEvidence(flights, y, sigma, analytic, scale, mean_runs, runs[:, 0, :], conditions,
+                          correlation=feature_correlation(used_runs, analytic), n_seeds=n_seeds,
+                          conditioned=conditioned)
+    dropped = {CONDITIONED[key][1] for key in CONDITIONED if CONDITIONED[key][0] in conditioned}
     for cand, params in _probe_tables(ev, forward).items():
-        ev.models[cand] = _response_model(ev, cand, params)
+        if ev.mechanism_of[cand] not in dropped:
+            ev.models[cand] = _response_model(ev, cand, params)
     return ev
 
 
@@ -340,14 +341,29 @@ def feature_correlation(runs: np.ndarray, analytic: np.ndarray) -> ShrunkCorrela
     return shrunk_correlation(x.reshape(n_flights * n_seeds, n_feat), np.repeat(np.arange(n_flights), n_seeds))
 
 
-def error_model(ev: CampaignEvidence) -> dict[str, Any]:
-    """The ``error_model`` entry of ``diagnosis.json``: how the residual errors were obtained."""
+def error_model(ev: CampaignEvidence, result: DiagnosisResult | None = None) -> dict[str, Any]:
+    """The ``error_model`` entry of ``diagnosis.json``: how the residual errors and references were obtained.
+
+    Parameters
+    ----------
+    ev : CampaignEvidence
+        Output of :func:`assemble`.
+    result : DiagnosisResult, optional
+        The diagnosis: its discrepancy and bootstrap reference are described too.
+
+    Returns
+    -------
+    dict
+        Seeds, pooled degrees of freedom, shrinkage, the seed scale of every feature, the
+        discrepancy of every feature with its interval, the features left out as measured
+        conditions and the bootstrap's replicates and seed.
+    """
     out: dict[str, Any] = {
         "n_seeds": int(ev.n_seeds),
         "covariance": "shrunk correlation" if ev.correlation is not None else "diagonal",
         "shrinkage_target": "identity (Schaefer and Strimmer 2005, target D)",
-        "k_min": K_MIN,
-        "calibration": NULL_CALIBRATION,
+        "seed_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
+        "conditioned_features": list(ev.conditioned),
     }
     c = ev.correlation
     if c is not None:
@@ -361,7 +377,29 @@ def error_model(ev: CampaignEvidence) -> dict[str, Any]:
                                      for k in order],
             "correlation_matrix": [[round(float(v), 4) for v in row] for row in c.matrix],
         })
+    if result is not None:
+        d = result.discrepancy
+        if d is not None:
+            out["discrepancy"] = {
+                "method": "DerSimonian-Laird moments about a common offset (and a wind-speed trend from "
+                          f"{MIN_FLIGHTS_TREND} flights), 95 % Q-profile interval; added to the covariance of every "
+                          "candidate test",
+                "per_feature": {f: {"tau": _finite(d.tau[j]), "ci95": [_finite(d.low[j]), _finite(d.high[j])],
+                                    "q": _finite(d.q_statistic[j]), "dof": int(d.dof[j])}
+                                for j, f in enumerate(FEATURES) if d.dof[j] > 0},
+            }
+        ref = result.reference
+        out["reference"] = ({"method": "parametric bootstrap over seeds (every estimate repeated per replicate); "
+                                       "candidates by Westfall-Young min-p over each naming round",
+                             "replicates": ref.n_replicates, "seed": ref.seed}
+                            if ref is not None else
+                            {"method": "chi-square, Bonferroni over mechanisms (fewer than two seeds: no bootstrap)"})
     return out
+
+
+def _finite(x: float) -> float | None:
+    """A float for JSON (None for NaN or infinite)."""
+    return float(x) if np.isfinite(x) else None
 
 
 @dataclass(frozen=True)
@@ -405,6 +443,16 @@ class DiagnosisResult:
     #: significant candidates not named because their evidence is one feature of
     #: :data:`FEATURE_ALIASES`
     withheld: list[Withheld] = field(default_factory=list)
+    #: significant candidates not named: (candidate, its score, the reason)
+    not_identified: list[tuple[str, CandidateScore, str]] = field(default_factory=list)
+    #: per named cause: mechanism -> cosine of its response with the cause's effect (:func:`response_ambiguity`)
+    ambiguity_cosines: list[dict[str, float]] = field(default_factory=list)
+    #: the baseline's model discrepancy (used in every candidate test)
+    discrepancy: Discrepancy | None = None
+    #: bootstrap reference of the statistics (None with fewer than two seeds)
+    reference: NullReference | None = None
+    #: per named cause: the rise of the named set's held-out gain and its standard error
+    gain_rises: list[tuple[float, float]] = field(default_factory=list)
 
     def estimate(self, candidate: str, score: CandidateScore | None = None) -> dict[str, float]:
         """Fitted parameters of a candidate, including fixed ones (catalog names).
@@ -478,78 +526,225 @@ def simplest_variant(best: str, chi2_increase: Mapping[str, float], ev: Campaign
     return best
 
 
+def _at_bound(model: ResponseModel, theta: np.ndarray) -> list[str]:
+    """Parameters of a fit that sit at a catalog bound other than their "off" level."""
+    out = []
+    for par, value in zip(model.parameters, theta, strict=True):
+        span = par.upper - par.lower
+        for bound in (par.lower, par.upper):
+            if abs(value - bound) <= AT_BOUND * span and not np.isclose(bound, par.baseline_level):
+                out.append(par.name)
+    return out
+
+
+def _calibrated(scores: Mapping[str, CandidateScore], reference: NullReference | None, alpha: float,
+                divisors: Mapping[str, int]) -> dict[str, CandidateScore]:
+    """Scores with their p-values from the bootstrap reference (family-wise over ``scores``).
+
+    Without a reference (fewer than two seeds) the chi-square p-values of
+    :func:`~dronewind.diagnose.fitting.score_candidate` are Bonferroni-corrected with ``divisors``.
+    """
+    if reference is None:
+        return {c: dataclasses.replace(s, p_value=min(1.0, s.p_value * divisors[c]),
+                                       significant=bool(s.parameter_names and s.p_value * divisors[c] < alpha
+                                                        and s.gain > 0))
+                for c, s in scores.items()}
+    p_fw = familywise_p({c: s.lr_statistic for c, s in scores.items()}, reference.lr)
+    return {c: dataclasses.replace(s, p_value=p_fw[c],
+                                   significant=bool(s.parameter_names and p_fw[c] < alpha and s.gain > 0))
+            for c, s in scores.items()}
+
+
+def _gain_rise(score: CandidateScore, total_baseline: float) -> tuple[float, float]:
+    """Rise of the named set's held-out gain by a cause, and its standard error over flights.
+
+    The rise is :math:`\\sum_i d_i / \\sum_i \\chi^2_{i}(0)`, :math:`d_i` the drop of flight
+    :math:`i`'s held-out misfit in the round the cause is scored (against what the causes named
+    before it leave), :math:`\\chi^2_i(0)` the baseline's; its standard error is
+    :math:`\\sqrt{n}\\,\\mathrm{sd}(d) / \\sum_i \\chi^2_i(0)` (the flights as independent replicates).
+    """
+    d = np.asarray(score.heldout_chi2_baseline, dtype=float) - np.asarray(score.heldout_chi2, dtype=float)
+    if total_baseline <= 0 or d.size == 0:
+        return 0.0, float("inf")
+    se = float(np.sqrt(d.size) * np.std(d, ddof=1)) if d.size > 1 else float("inf")
+    return float(d.sum() / total_baseline), se / total_baseline
+
+
+def _stacked_white(ev: CampaignEvidence, effect: np.ndarray) -> np.ndarray:
+    """A feature change over all flights, divided by the total errors and whitened, as one vector."""
+    use = np.isfinite(ev.y) & np.isfinite(ev.total_sigma) & (ev.total_sigma > 0)
+    z = np.where(use, np.where(np.isfinite(effect), effect, 0.0) / np.where(use, ev.total_sigma, 1.0), np.nan)
+    w = ev.whitener()(z)
+    return np.where(np.isfinite(w), w, 0.0).ravel()
+
+
+def response_ambiguity(ev: CampaignEvidence, candidate: str, effect: np.ndarray,
+                       threshold: float = AMBIGUITY_COSINE) -> dict[str, float]:
+    """Mechanisms whose probe responses reproduce a fitted effect: the cause's ambiguity set.
+
+    Parameters
+    ----------
+    ev : CampaignEvidence
+        Evidence with its response models and errors.
+    candidate : str
+        The named candidate (its own mechanism is left out).
+    effect : numpy.ndarray
+        Its fitted effect on every flight's features (n_flights, p).
+    threshold : float
+        Smallest cosine listed.
+
+    Returns
+    -------
+    dict
+        Mechanism -> cosine of the angle between the whitened effect and the span of that
+        mechanism's whitened responses (each parameter's change at each probe level, over all
+        the campaign's flights), for the mechanisms at or above ``threshold``, largest first.
+        A cosine of 1 means the other mechanism can produce the same change of every feature
+        of every flight: the data cannot tell the two apart.
+    """
+    e = _stacked_white(ev, effect)
+    norm = float(np.linalg.norm(e))
+    if norm == 0:
+        return {}
+    own = ev.mechanism_of[candidate]
+    best: dict[str, float] = {}
+    idx = np.arange(len(ev.flights))
+    for cand, model in ev.models.items():
+        mech = ev.mechanism_of[cand]
+        if mech == own:
+            continue
+        cols = []
+        for k, par in enumerate(model.parameters):
+            for level in par.levels:
+                if np.isclose(level, par.baseline_level):
+                    continue
+                theta = model.baseline_theta()
+                theta[k] = level
+                cols.append(_stacked_white(ev, model.predict(theta, idx) - model.baseline))
+        if not cols:
+            continue
+        u, sv, _ = np.linalg.svd(np.column_stack(cols), full_matrices=False)
+        basis = u[:, sv > 1e-9 * max(float(sv.max(initial=0.0)), 1e-300)]
+        cosine = float(np.linalg.norm(basis.T @ e) / norm)
+        best[mech] = max(best.get(mech, 0.0), cosine)
+    return dict(sorted(((m, c) for m, c in best.items() if c >= threshold), key=lambda kv: -kv[1]))
+
+
 def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 3,
-             min_gain: float = MIN_GAIN) -> DiagnosisResult:
+             min_gain: float = MIN_GAIN, n_replicates: int = DEFAULT_REPLICATES, bootstrap_seed: int = 0,
+             progress: Any = None) -> DiagnosisResult:
     """Score every candidate; name the significant ones greedily (best gain first).
 
-    After a cause is named, its fitted effect is removed from the measured features and
-    the remaining candidates are scored again on what is left, so a second mechanism is
-    named only if it explains something the first does not. A significant candidate whose
-    evidence rests on one feature that an effect outside the catalog moves alike
-    (:data:`FEATURE_ALIASES`, :func:`single_feature_alias`) is withheld instead of named,
-    and the next one of the round is considered.
+    The baseline's model discrepancy is estimated first and carried into every test; every
+    statistic is referred to a parametric bootstrap over seeds (module docstring). After a
+    cause is named, its fitted effect is removed from the measured features and the remaining
+    candidates are scored again on what is left, so a second mechanism is named only if it
+    explains something the first does not, by more than that gain's uncertainty. A candidate
+    whose estimate sits at a catalog bound is not identified; one whose evidence rests on one
+    feature that an effect outside the catalog moves alike (:data:`FEATURE_ALIASES`) is
+    withheld; neither is named.
 
     Parameters
     ----------
     evidence : CampaignEvidence
         Output of :func:`assemble`.
     alpha : float
-        Family-wise false-alarm rate per naming round (Bonferroni over the mechanisms, a mechanism's share
-        split among its variants: :func:`n_tests`).
+        Family-wise false-alarm rate per naming round (bootstrap min-p over the round's candidates).
     max_causes : int
         Largest number of causes named.
     min_gain : float
         Smallest held-out gain of a named cause [1].
+    n_replicates : int
+        Bootstrap replicates of the reference distributions.
+    bootstrap_seed : int
+        Seed of the bootstrap (the diagnosis is reproducible).
+    progress : callable, optional
+        Called after each bootstrap replicate.
 
     Returns
     -------
     DiagnosisResult
-        Scores of the first round (the ranking), the named causes, the ambiguity sets and
-        the withheld candidates.
+        Scores of the first round (the ranking), the named causes, their ambiguity sets, the
+        candidates not identified or withheld, the discrepancy and the reference.
     """
     ev = evidence
     n = len(ev.flights)
     idx = np.arange(n)
+    disc = discrepancy(ev.y - ev.baseline, ev.sigma, ev.speed_ms)
+    ev.set_discrepancy(disc.tau_or_zero())
+    used = np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0)
+    reference = None
+    if ev.n_seeds >= 2 and n_replicates > 0 and ev.models:
+        reference = null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
+                                   truth_corr=None if ev.correlation is None else ev.correlation.sample,
+                                   tau=disc.tau_or_zero(), used=used, n_seeds=ev.n_seeds, speed_ms=ev.speed_ms,
+                                   models=ev.models, n_replicates=int(n_replicates), seed=int(bootstrap_seed),
+                                   progress=progress)
     white = ev.whitener()
-    base_chi2 = float(chi2(ev.y, ev.baseline, ev.sigma, white).sum())
-    tests = n_tests(ev)
-    first = {c: score_candidate(m, ev.y, ev.sigma, alpha=alpha, n_candidates=tests[c], corr=white)
-             for c, m in ev.models.items()}
-    groups = ambiguity_sets(list(first.values()), ev.y, ev.sigma, corr=white)
+    sig = ev.total_sigma
+    base_chi2 = float(chi2(ev.y, ev.baseline, sig, white).sum())
+    divisors = n_tests(ev)
+    first = _calibrated({c: score_candidate(m, ev.y, sig, alpha=alpha, corr=white) for c, m in ev.models.items()},
+                        reference, alpha, divisors)
+    total_baseline = float(next(iter(first.values())).heldout_chi2_baseline.sum()) if first else 0.0
     named: list[tuple[str, CandidateScore]] = []
     shares: list[dict[str, float]] = []
+    cosines: list[dict[str, float]] = []
+    rises: list[tuple[float, float]] = []
+    withheld: list[Withheld] = []
+    not_identified: list[tuple[str, CandidateScore, str]] = []
     y = ev.y.copy()
     scores = first
-    withheld: list[Withheld] = []
     while len(named) < max_causes:
         # a second cause from the ambiguity set of a named one would only split one effect
-        blocked = {ev.mechanism_of[k] for k, _ in named} | {ev.mechanism_of[w.candidate] for w in withheld}
-        for k, _ in named:
-            for group in groups:
-                if ev.mechanism_of[k] in {ev.mechanism_of.get(g, g) for g in group}:
-                    blocked |= {ev.mechanism_of.get(g, g) for g in group}
-        sig = [c for c, s in scores.items() if s.significant and s.gain >= min_gain
-               and ev.mechanism_of[c] not in blocked]
-        if not sig:
+        blocked = ({ev.mechanism_of[k] for k, _ in named} | {ev.mechanism_of[w.candidate] for w in withheld}
+                   | {m for c in cosines for m in c} | {ev.mechanism_of[c] for c, _, _ in not_identified})
+        sig_c = [c for c, s in scores.items() if s.significant and ev.mechanism_of[c] not in blocked]
+        if not sig_c:
             break
-        top = max(sig, key=lambda c: scores[c].gain)
-        best = simplest_variant(top, {c: scores[top].lr_statistic - scores[c].lr_statistic for c in sig}, ev, alpha)
+        top = max(sig_c, key=lambda c: scores[c].gain)
+        best = simplest_variant(top, {c: scores[top].lr_statistic - scores[c].lr_statistic for c in sig_c}, ev, alpha)
+        score = scores[best]
+        bound = _at_bound(ev.models[best], score.fit.theta)
+        rise, rise_se = _gain_rise(score, total_baseline)
+        if bound:
+            not_identified.append((best, score, f"at bound: not identified ({', '.join(bound)})"))
+            continue
+        if score.gain < min_gain:
+            not_identified.append((best, score, f"held-out gain {score.gain:.3f} below min_gain {min_gain:g}"))
+            continue
+        if named and not rise > rise_se:
+            not_identified.append((best, score, f"a further cause: it raises the held-out gain by {rise:.3f}, not "
+                                                f"more than that rise's uncertainty {rise_se:.3f}"))
+            continue
         model = ev.models[best]
-        effect = model.predict(scores[best].fit.theta, idx) - model.baseline
+        effect = model.predict(score.fit.theta, idx) - model.baseline
         after = y - np.where(np.isfinite(effect), effect, 0.0)
-        share = feature_shares(y, after, ev.baseline, ev.sigma)
+        share = feature_shares(y, after, ev.baseline, sig)
         if single_feature_alias(share) is not None:
             # its evidence is one feature that an effect outside the catalog moves alike:
             # not a cause the data can name (the misfit stays, and is reported as unexplained)
-            withheld.append(Withheld(best, scores[best], share))
+            withheld.append(Withheld(best, score, share))
             continue
-        named.append((best, scores[best]))
+        named.append((best, score))
         shares.append(share)
+        cosines.append(response_ambiguity(ev, best, effect))
+        rises.append((rise, rise_se))
         y = after
-        rest = {c: m for c, m in ev.models.items() if ev.mechanism_of[c] not in {ev.mechanism_of[k] for k, _ in named}}
-        scores = {c: score_candidate(m, y, ev.sigma, alpha=alpha, n_candidates=tests[c], corr=white)
-                  for c, m in rest.items()}
-    return DiagnosisResult(ev, base_chi2, first, named, groups, shares, withheld)
+        done = {ev.mechanism_of[k] for k, _ in named}
+        rest = {c: m for c, m in ev.models.items() if ev.mechanism_of[c] not in done}
+        scores = _calibrated({c: score_candidate(m, y, sig, alpha=alpha, corr=white) for c, m in rest.items()},
+                             _restricted(reference, rest), alpha, divisors)
+    groups = [[ev.mechanism_of[c], *cos] for (c, _), cos in zip(named, cosines, strict=True) if cos]
+    return DiagnosisResult(ev, base_chi2, first, named, groups, shares, withheld, not_identified, cosines, disc,
+                           reference, rises)
+
+
+def _restricted(reference: NullReference | None, candidates: Mapping[str, Any]) -> NullReference | None:
+    """The reference with only ``candidates``' likelihood-ratio replicates (the next round's family)."""
+    if reference is None:
+        return None
+    return dataclasses.replace(reference, lr={c: reference.lr[c] for c in candidates})
 
 
 def best_variants(result: DiagnosisResult) -> list[str]:
@@ -689,13 +884,15 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
         mech = ev.mechanism_of[cand]
         unc = s.uncertainty()
         est = result.estimate(cand)
+        bound = _at_bound(ev.models[cand], s.fit.theta)
         candidates.append({
             "mechanism": mech,
             "variant": cand if cand != mech else None,
             "estimate": est,
             "uncertainty": {k: unc.get(k, 0.0) for k in est},
             "gain": s.gain,
-            "significant": s.significant,
+            "significant": bool(s.significant and not bound),
+            "at_bound": bound,
             "p_value": s.p_value,
             "lr_statistic": s.lr_statistic,
             "n_parameters": len(s.parameter_names),
@@ -710,32 +907,59 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
     n_fitted = sum(len(s.parameter_names) for _, s in result.named)
     return {
         "campaign": campaign,
-        "goodness_of_fit": goodness_of_fit(ev, extended, n_fitted),
-        "unexplained": unexplained_features(ev, extended),
+        "goodness_of_fit": goodness_of_fit(ev, extended, n_fitted, result),
+        "unexplained": unexplained_features(ev, extended, result=result),
         "baseline": {"metrics": {**baseline_metrics(ev), "heldout_chi2": float(
-            next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")}},
+            next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")},
+            "goodness_of_fit": goodness_of_fit(ev, ev.baseline, 0, result, baseline=True)},
         "candidates": candidates,
         "named_causes": named,
         "named_estimates": {ev.mechanism_of[c]: {"estimate": result.estimate(c, s), "uncertainty": s.uncertainty(),
-                                                 "gain": s.gain,
+                                                 "gain": s.gain, "gain_rise": rise, "gain_rise_se": rise_se,
                                                  "evidence_share": {f: v for f, v in share.items() if v >= 0.05}}
-                            for (c, s), share in zip(result.named, result.shares, strict=True)},
-        "ambiguity_sets": [[ev.mechanism_of[c] for c in g] for g in result.ambiguity],
+                            for (c, s), share, (rise, rise_se) in zip(result.named, result.shares, result.gain_rises,
+                                                                      strict=True)},
+        "ambiguity_sets": [list(g) for g in result.ambiguity],
+        "ambiguity": [{"named": ev.mechanism_of[c], "mechanism": m, "cosine": cos}
+                      for (c, _), cosines in zip(result.named, result.ambiguity_cosines, strict=True)
+                      for m, cos in cosines.items()],
+        "not_identified": [{"mechanism": ev.mechanism_of[c], "variant": c if c != ev.mechanism_of[c] else None,
+                            "estimate": result.estimate(c, s), "p_value": s.p_value, "gain": s.gain, "reason": why}
+                           for c, s, why in result.not_identified],
         "caveats": caveats(named),
         "withheld": withheld_json(result),
+        "measured_conditions": measured_conditions(ev),
         "features": list(FEATURES),
         "flights": ev.flights,
         "sigma_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
-        "error_model": error_model(ev),
+        "error_model": error_model(ev, result),
         "method": "forward-model responses (simulated probes, common random numbers), bounded least squares "
-                  "whitened by the shrunk feature correlation of the baseline seeds, leave-one-flight-out gain, "
-                  "likelihood-ratio test at alpha=0.01 Bonferroni-corrected over mechanisms (a mechanism's share "
-                  "split among its variants), greedy naming; see dronewind.diagnose",
+                  "whitened by the shrunk feature correlation of the baseline seeds plus the model discrepancy, "
+                  "leave-one-flight-out gain, likelihood-ratio test referred to a parametric bootstrap over seeds "
+                  "(Westfall-Young min-p over each naming round's candidates at alpha), greedy naming while the "
+                  "held-out gain rises by more than its uncertainty; see dronewind.diagnose",
     }
 
 
-def goodness_of_fit(ev: CampaignEvidence, prediction: np.ndarray, n_parameters: int) -> dict[str, float]:
-    """Chi-square goodness of fit of a prediction (the baseline or the extended model).
+def measured_conditions(ev: CampaignEvidence) -> dict[str, dict[str, float]]:
+    """The conditions the chain measured per flight that the forward runs take as given (:data:`CONDITIONED`).
+
+    Returns
+    -------
+    dict
+        Flight -> condition key (e.g. ``sonic_ins_lag_s`` [s]) -> value; empty without such conditions.
+    """
+    out: dict[str, dict[str, float]] = {}
+    for flight, cond in zip(ev.flights, ev.conditions, strict=True):
+        values = {key: float(cond[key]) for key in CONDITIONED if cond.get(key) is not None}
+        if values:
+            out[flight] = values
+    return out
+
+
+def goodness_of_fit(ev: CampaignEvidence, prediction: np.ndarray, n_parameters: int,
+                    result: DiagnosisResult | None = None, baseline: bool = False) -> dict[str, Any]:
+    """Goodness of fit of a prediction (the baseline or the extended model) against the sampling error.
 
     Parameters
     ----------
@@ -745,31 +969,51 @@ def goodness_of_fit(ev: CampaignEvidence, prediction: np.ndarray, n_parameters: 
         Predicted features, (n_flights, n_features).
     n_parameters : int
         Parameters fitted to obtain the prediction (0 for the baseline).
+    result : DiagnosisResult, optional
+        The diagnosis: with its bootstrap reference the p-value is the share of replicates
+        (the named causes refitted on each) whose misfit is at least this one.
+    baseline : bool
+        The prediction is the baseline (its reference is the replicates' baseline misfit).
 
     Returns
     -------
     dict
-        ``chi2``, ``dof`` (finite residuals minus fitted parameters) and ``p_value``
-        (upper tail of the chi-square distribution).
+        ``chi2``, ``dof`` (finite residuals minus fitted parameters), ``chi2_per_dof``,
+        ``p_value`` (bootstrap, or the chi-square upper tail without a reference),
+        ``reference`` and ``reference_mean`` (the mean misfit a correct model gives).
 
     Notes
     -----
     .. math:: \\chi^2 = \\sum_i z_i^\\top R^{*-1} z_i, \\qquad
               z_{i,f} = \\frac{y_{i,f} - \\hat y_{i,f}}{\\sigma_{i,f}}
 
-    whitened by the shrunk feature correlation :math:`R^*` of the baseline seeds (module
-    docstring), so that correlated features sharing one misfit count once; with a correct
-    model it is :math:`\\chi^2`-distributed with ``dof`` degrees of freedom.
+    against the sampling error alone (no discrepancy): it answers whether the model, with the
+    named causes, reproduces the flights to within their sampling error. A small p-value says
+    it does not (model error: see ``unexplained``); a p-value near 1 says the misfit is smaller
+    than sampling error alone makes likely.
     """
-    per = chi2(ev.y, prediction, ev.sigma, ev.whitener())
+    per = chi2(ev.y, prediction, ev.sigma, ev.sampling_whitener())
     n = int(np.sum(np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0) & np.isfinite(prediction)))
     dof = max(n - int(n_parameters), 1)
     value = float(per.sum())
-    return {"chi2": value, "dof": dof, "p_value": float(scipy.stats.chi2.sf(value, dof))}
+    out: dict[str, Any] = {"chi2": value, "dof": dof, "chi2_per_dof": value / dof}
+    ref = None if result is None else result.reference
+    if ref is None:
+        out.update({"p_value": float(scipy.stats.chi2.sf(value, dof)), "reference": "chi-square"})
+        return out
+    if baseline or not result.named:  # type: ignore[union-attr]
+        reps = ref.gof
+    else:
+        idx = np.arange(len(ev.flights))
+        reps = ref.extended_gof([(ev.models[c], idx) for c, _ in result.named])  # type: ignore[union-attr]
+    out.update({"p_value": empirical_p(value, reps), "reference": "parametric bootstrap over seeds",
+                "reference_mean": float(np.mean(reps)), "replicates": int(reps.size)})
+    return out
 
 
-def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: float = 0.01) -> list[dict[str, Any]]:
-    """Features the prediction still misses: a mean offset or a trend with wind speed over flights.
+def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: float = 0.01,
+                         result: DiagnosisResult | None = None) -> list[dict[str, Any]]:
+    """Features the prediction still misses: an offset, a trend with wind speed, or a discrepancy.
 
     Parameters
     ----------
@@ -778,46 +1022,62 @@ def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: fl
     prediction : numpy.ndarray
         Predicted features (the model with the named causes), (n_flights, n_features).
     alpha : float
-        False-alarm rate over all features (Bonferroni over features and the two tests).
+        Family-wise false-alarm rate over the features' offset and trend tests, and (Bonferroni)
+        over their discrepancy tests.
+    result : DiagnosisResult, optional
+        The diagnosis: with its bootstrap reference the offset and trend tests are referred to
+        it (Westfall-Young min-p over all features and both tests); without, to the normal
+        distribution with a Bonferroni correction.
 
     Returns
     -------
     list of dict
-        One entry per missed feature: ``feature``, ``mean_z`` (mean normalised residual over
-        flights), ``slope_per_ms`` (residual against mean wind speed [feature unit per m s-1]),
-        ``p_mean``, ``p_slope`` and ``n_flights``. Empty when the prediction fits.
+        One entry per missed feature: ``feature``, ``mean_z`` (weighted mean residual over its
+        standard error), ``slope_per_ms`` (residual against mean wind speed [feature unit per
+        m s-1]), ``slope_z``, ``p_mean``, ``p_slope`` (family-wise), ``discrepancy_sd`` (the
+        model discrepancy [feature unit]) with ``discrepancy_ci95``, ``p_discrepancy`` and
+        ``n_flights``. Empty when the prediction fits.
 
     Notes
     -----
-    For each feature, with :math:`z_i` the normalised residuals of the :math:`n` flights,
-    :math:`\\sqrt{n}\\,\\bar z` is standard normal when the model is right (the errors include
-    the overdispersion about the flight mean, so a common offset is not absorbed by them);
-    the slope of :math:`z` against wind speed is tested by its t statistic. These are
-    per-feature (marginal) tests: each :math:`z_{i,f}` is standard normal whatever the
-    correlation between features, so they need no whitening (whitened components mix
-    features and could not be named); the correlation only makes the Bonferroni correction
-    over features conservative. This is where
-    model error that no catalog mechanism describes is reported, instead of a named cause.
+    The residuals' errors are the sampling error plus the discrepancy of the extended model
+    (:func:`dronewind.diagnose.calibration.discrepancy`, estimated about an offset and trend,
+    so neither is absorbed); the offset and trend statistics use these known variances
+    (:func:`dronewind.diagnose.calibration.offset_trend_z`). The discrepancy of a feature is
+    reported when its Q test (:math:`Q_f \\sim \\chi^2_{n-q}` without discrepancy) rejects at
+    ``alpha`` over the features. These are per-feature (marginal) tests, so each can be named;
+    this is where model error that no catalog mechanism describes is reported.
     """
-    speed = np.array([c.get("mean_speed_ms", np.nan) for c in ev.conditions], dtype=float)
+    resid = ev.y - prediction
+    disc = discrepancy(resid, ev.sigma, ev.speed_ms)
+    total = np.sqrt(ev.sigma**2 + disc.tau_or_zero()[None, :] ** 2)
+    mean_z, slope_z = offset_trend_z(resid, total, ev.speed_ms)
     slopes = wind_speed_slopes(ev, prediction)
-    n_tests = 2 * len(FEATURES)
+    ref = None if result is None else result.reference
+    names = [f"{kind}:{f}" for kind in ("mean", "slope") for f in FEATURES]
+    observed = dict(zip(names, np.abs(np.concatenate([mean_z, slope_z])), strict=True))
+    if ref is not None:
+        reps = dict(zip(names, np.concatenate([ref.mean_z, ref.slope_z], axis=1).T, strict=True))
+        family = [t for t in names if np.isfinite(observed[t])]
+        p = familywise_p(observed, reps, family)
+    else:
+        k = sum(np.isfinite(v) for v in observed.values())
+        p = {t: min(1.0, float(2.0 * scipy.stats.norm.sf(v)) * k) for t, v in observed.items() if np.isfinite(v)}
+    n_disc = max(int(np.sum(disc.dof > 0)), 1)
     out = []
     for j, feat in enumerate(FEATURES):
-        z = (ev.y[:, j] - prediction[:, j]) / ev.sigma[:, j]
-        ok = np.isfinite(z)
-        n = int(ok.sum())
+        n = int(np.sum(np.isfinite(resid[:, j]) & np.isfinite(ev.sigma[:, j])))
         if n < 2:
             continue
-        mean_z = float(np.mean(z[ok]))
-        p_mean = float(2.0 * scipy.stats.norm.sf(abs(mean_z) * np.sqrt(n)))
-        p_slope = 1.0
-        s_ok = ok & np.isfinite(speed)
-        if s_ok.sum() >= 3 and np.ptp(speed[s_ok]) > 0:
-            p_slope = float(scipy.stats.linregress(speed[s_ok], z[s_ok]).pvalue)
-        if min(p_mean, p_slope) < alpha / n_tests:
-            out.append({"feature": feat, "mean_z": mean_z, "slope_per_ms": slopes.get(feat, float("nan")),
-                        "p_mean": p_mean, "p_slope": p_slope, "n_flights": n})
+        p_mean, p_slope = p.get(f"mean:{feat}", 1.0), p.get(f"slope:{feat}", 1.0)
+        p_disc = (min(1.0, float(scipy.stats.chi2.sf(disc.q_statistic[j], disc.dof[j])) * n_disc)
+                  if disc.dof[j] > 0 else 1.0)
+        if min(p_mean, p_slope, p_disc) < alpha:
+            out.append({"feature": feat, "mean_z": _finite(mean_z[j]), "slope_per_ms": slopes.get(feat, float("nan")),
+                        "slope_z": _finite(slope_z[j]), "p_mean": p_mean, "p_slope": p_slope,
+                        "discrepancy_sd": _finite(disc.tau[j]),
+                        "discrepancy_ci95": [_finite(disc.low[j]), _finite(disc.high[j])],
+                        "p_discrepancy": p_disc, "n_flights": n})
     return out
 
 

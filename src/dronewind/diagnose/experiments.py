@@ -51,6 +51,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind.compare.chain import compute_l3
+from dronewind.diagnose.probes import resolved_seeds
 from dronewind.manifest import with_defaults
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
@@ -402,8 +403,8 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
             "window": {"start": f"{start}Z", "end": f"{end}Z"},
         })
         conditions[fid] = {"mean_speed_ms": float(speeds_ms[i % len(speeds_ms)]),
-                           "wind_from_deg": float(200 + 25 * i), "z_over_L": float(-0.2 + 0.1 * i if z_over_l is None
-                                                                              else z_over_l[i % len(z_over_l)]),
+                           "wind_from_deg": float((200 + 25 * i) % 360),
+                           "z_over_L": float(-0.2 + 0.1 * i if z_over_l is None else z_over_l[i % len(z_over_l)]),
                            "hover_height_m": 28.0}
     mechanisms = [] if truth.mechanism == "none" else [{"mechanism": truth.mechanism,
                                                         "parameters": dict(truth.parameters)}]
@@ -674,9 +675,9 @@ def campaign_evidence(truth: Draw, config: Mapping[str, Any], work_dir: str | Pa
     processing, diagnosis = settings["processing"], settings["diagnosis"]
     data = campaign_manifest(truth, **manifest_kw)
     measured, fwd = {}, {}
+    seeds = tuple(resolved_seeds(diagnosis["seeds"], len(data["payload_flights"])))
     for flight in data["payload_flights"]:
-        measured[flight["id"]], fwd[flight["id"]] = _process_flight(data, flight, Path(work_dir), processing,
-                                                                    tuple(diagnosis["seeds"]),
+        measured[flight["id"]], fwd[flight["id"]] = _process_flight(data, flight, Path(work_dir), processing, seeds,
                                                                     str(diagnosis["atmosphere"]))
     return {"name": data["name"], "measured": measured, "forward": fwd}
 
@@ -700,7 +701,8 @@ def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any]) ->
 
     diagnosis = with_defaults(config)["diagnosis"]
     result = dc.diagnose(dc.assemble(evidence["measured"], evidence["forward"]), alpha=float(diagnosis["alpha"]),
-                         max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]))
+                         max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]),
+                         n_replicates=int(diagnosis["bootstrap"]))
     out = dc.to_json(result, evidence["name"])
     out["atmosphere"] = str(diagnosis["atmosphere"])
     return out

@@ -419,12 +419,13 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
     """
     white = _whitener(corr)
     base_theta = model.baseline_theta()
-    base_chi2 = float(chi2(y[flights], model.predict(base_theta, flights), sigma[flights], white).sum())
+    base_chi2 = float(chi2(y[flights], model.predict(base_theta, flights), sigma[flights], white.subset(flights)).sum())
     if model.n_parameters == 0:
         return FitResult(base_theta, base_theta, base_chi2, base_chi2, True, "no parameters")
     yf, sf = y[flights], sigma[flights]
     mask = np.isfinite(yf) & np.isfinite(sf) & (sf > 0)
-    factors = [white.factor(m) if white.corr is not None and m.any() else None for m in mask]
+    factors = [white.factor(m, row) if white.corr is not None and m.any() else None
+               for row, m in zip(flights, mask, strict=True)]
 
     def residuals(theta: np.ndarray) -> np.ndarray:
         # a feature the forward model cannot produce at this flight counts as no misfit
@@ -508,8 +509,8 @@ def score_candidate(
         theta = fit_parameters(model, y, sigma, train, white).theta if model.n_parameters else base_theta
         one = np.array([i])
         prediction[i] = model.predict(theta, one)[0]
-        held[i] = chi2(y[one], prediction[i:i + 1], sigma[one], white)[0]
-        held_base[i] = chi2(y[one], model.predict(base_theta, one), sigma[one], white)[0]
+        held[i] = chi2(y[one], prediction[i:i + 1], sigma[one], white.subset(one))[0]
+        held_base[i] = chi2(y[one], model.predict(base_theta, one), sigma[one], white.subset(one))[0]
     total_base = float(held_base.sum())
     gain = 1.0 - float(held.sum()) / total_base if total_base > 0 else 0.0
     lr = max(fit.chi2_baseline - fit.chi2, 0.0)

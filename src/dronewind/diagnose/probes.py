@@ -13,7 +13,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 __all__ = ["CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS", "ATMOSPHERES", "Probe", "MECHANISM_BASELINES",
-           "PROBES", "fresh_seeds", "baseline_level", "BASELINE_PART", "probe_parts"]
+           "PROBES", "fresh_seeds", "baseline_level", "BASELINE_PART", "probe_parts", "SEED_DOF",
+           "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds"]
 
 
 #: Keys of ``processing`` that the chain up to L3 uses (what a forward run depends on).
@@ -122,6 +123,53 @@ def fresh_seeds(used: Sequence[int], n: int = 2) -> tuple[int, ...]:
         return historic
     start = (max(taken, default=0) // 101 + 1) * 101
     return tuple(start + 101 * k for k in range(n))
+
+
+#: Pooled degrees of freedom of the baseline seeds that the feature covariance is estimated
+#: with by default: with 15 features, 350 bring the Schäfer-Strimmer shrinkage intensity of
+#: a null campaign's correlation below 0.3 (measured: 0.28 with 89 seeds on 4 flights, 356
+#: degrees of freedom; 0.36 with 60 seeds, 236), so that real correlations between the
+#: features of one w series are kept rather than shrunk away.
+SEED_DOF = 350
+#: Fewest baseline seeds per flight (the seed scale of every feature then has at least 29
+#: degrees of freedom on one flight).
+MIN_SEEDS = 30
+#: Most baseline seeds per flight by default: campaigns of one to three flights stop here
+#: (89, 178 and 267 pooled degrees of freedom) instead of paying up to 351 runs per flight.
+MAX_SEEDS = 90
+
+
+def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS,
+                   maximum: int = MAX_SEEDS) -> list[int]:
+    """Baseline seeds of the forward model for a campaign of ``n_flights`` (``diagnosis.seeds: null``).
+
+    Parameters
+    ----------
+    n_flights : int
+        Payload flights whose seeds are pooled.
+    dof : int
+        Pooled degrees of freedom wanted, :math:`n_{flights}(n_{seeds} - 1)`.
+    minimum, maximum : int
+        Fewest and most seeds per flight.
+
+    Returns
+    -------
+    list of int
+        ``ceil(dof / n_flights) + 1`` seeds within ``[minimum, maximum]``, the multiples of 101
+        from 101.
+
+    Examples
+    --------
+    >>> len(baseline_seeds(1)), len(baseline_seeds(4)), len(baseline_seeds(6)), len(baseline_seeds(20))
+    (90, 89, 60, 30)
+    """
+    n = min(int(maximum), max(int(minimum), -(-int(dof) // max(int(n_flights), 1)) + 1))
+    return [101 * (k + 1) for k in range(n)]
+
+
+def resolved_seeds(seeds: Sequence[int] | None, n_flights: int, dof: int = SEED_DOF) -> list[int]:
+    """``diagnosis.seeds`` as a list: the given seeds, or :func:`baseline_seeds` when null."""
+    return [int(s) for s in seeds] if seeds else baseline_seeds(n_flights, dof)
 
 
 def baseline_level(mechanism: str, parameter: str) -> float:

@@ -53,52 +53,105 @@ def _named_summary(mechanism: str, entry: Mapping[str, Any]) -> str:
     return f"`{mechanism}` ({', '.join(parts)}; held-out gain {_fmt(entry['gain'], 2)})"
 
 
+def _gof_sentence(gof: Mapping[str, Any], what: str) -> str:
+    """One goodness-of-fit line, with what its p-value means."""
+    p = gof.get("p_value")
+    ref = gof.get("reference_mean")
+    meaning = ("the misfit is larger than sampling error makes likely: the model misses something (see below)"
+               if p is not None and p < 0.01 else
+               "the misfit is what sampling error alone makes likely")
+    ref_text = (f", a correct model gives {_fmt(ref)} on average ({gof.get('reference', 'reference')})"
+                if ref is not None else "")
+    return (f"**Goodness of fit** ({what}, against the sampling error alone): χ² = {_fmt(gof.get('chi2'))} for "
+            f"{gof.get('dof', '–')} residuals{ref_text}; p = {_fmt(p, 2)}: {meaning}.")
+
+
 def _fit_lines(diag: Mapping[str, Any]) -> list[str]:
-    """Goodness of fit of the model with the named causes, and what it still misses."""
+    """Goodness of fit of the model (with the named causes, if any), and what it still misses."""
     gof = diag.get("goodness_of_fit") or {}
+    named = diag.get("named_causes") or []
     out = []
     if gof:
-        out.append(f"**Goodness of fit** (model with the named causes): χ² = {_fmt(gof.get('chi2'))} for "
-                   f"{gof.get('dof', '–')} degrees of freedom, p = {_fmt(gof.get('p_value'), 2)}.")
+        out.append(_gof_sentence(gof, "forward model with the named causes" if named else
+                                 "forward model, no cause named"))
     missed = diag.get("unexplained")
     if missed:
-        out += ["", "**Unexplained residual:** the model with the named causes still misses these features "
-                "(model error that no catalog mechanism describes; not named as a cause):", "",
-                "| feature | mean z | slope vs U [per m/s] | p (mean) | p (slope) | flights |",
-                "|---|---|---|---|---|---|"]
-        out += [f"| {FEATURE_LABELS.get(m['feature'], m['feature'])} | {_fmt(m['mean_z'], 2)} | "
-                f"{_fmt(m['slope_per_ms'])} | {_fmt(m['p_mean'], 2)} | {_fmt(m['p_slope'], 2)} | {m['n_flights']} |"
-                for m in missed]
+        out += ["", "**Unexplained residual:** the model still misses these features (model error that no catalog "
+                "mechanism describes; not named as a cause). Offset and trend are family-wise bootstrap p-values; "
+                "the discrepancy is the scatter across flights beyond sampling error (95 % interval):", "",
+                "| feature | offset z | slope vs U [per m/s] | p (offset) | p (trend) | discrepancy sd (95 %) "
+                "| p (discrepancy) | flights |",
+                "|---|---|---|---|---|---|---|---|"]
+        for m in missed:
+            ci = m.get("discrepancy_ci95") or [None, None]
+            out.append(f"| {FEATURE_LABELS.get(m['feature'], m['feature'])} | {_fmt(m['mean_z'], 2)} | "
+                       f"{_fmt(m['slope_per_ms'])} | {_fmt(m['p_mean'], 2)} | {_fmt(m['p_slope'], 2)} | "
+                       f"{_fmt(m.get('discrepancy_sd'), 2)} ({_fmt(ci[0], 2)}–{_fmt(ci[1], 2)}) | "
+                       f"{_fmt(m.get('p_discrepancy'), 2)} | {m['n_flights']} |")
     elif missed is not None:
-        out.append("Nothing is left unexplained: no feature's mean residual or trend with wind speed is "
-                   "significant (Bonferroni over features).")
+        out.append("Nothing is left unexplained: no feature's offset, trend with wind speed or scatter across "
+                   "flights exceeds sampling error (family-wise over the features).")
+    return out
+
+
+def _error_model_lines(diag: Mapping[str, Any]) -> list[str]:
+    """The error model: seeds, shrinkage, discrepancy, reference distributions, measured conditions."""
+    em = diag.get("error_model") or {}
+    if not em:
+        return []
+    out = ["", "## Error model", "",
+           f"- baseline seeds per flight: {em.get('n_seeds', '–')} (pooled degrees of freedom {em.get('dof', '–')}); "
+           f"feature correlation shrunk toward the identity with intensity {_fmt(em.get('shrinkage_intensity'), 2)}",
+           f"- reference distributions: {(em.get('reference') or {}).get('method', '–')}"
+           + (f", {em['reference']['replicates']} replicates" if (em.get("reference") or {}).get("replicates")
+              else "")]
+    disc = (em.get("discrepancy") or {}).get("per_feature") or {}
+    nonzero = {f: d for f, d in disc.items() if d.get("tau")}
+    out.append("- model discrepancy (scatter across flights beyond sampling error, in every candidate test): "
+               + ("; ".join(f"{f} {_fmt(d['tau'], 2)} ({_fmt(d['ci95'][0], 2)}–{_fmt(d['ci95'][1], 2)})"
+                            for f, d in nonzero.items()) if nonzero else "none estimated above zero"))
+    cond = diag.get("measured_conditions") or {}
+    keys = sorted({k for values in cond.values() for k in values})
+    for key in keys:
+        out.append(f"- measured condition `{key}` (taken by the forward runs as measured, not evidence): "
+                   + ", ".join(f"{f} {_fmt(values.get(key))}" for f, values in cond.items()))
     return out
 
 
 def _candidate_lines(diag: Mapping[str, Any]) -> list[str]:
-    """The candidate table and the ambiguity sets of the report."""
+    """The candidate table, the candidates not identified and the ambiguity sets of the report."""
     lines: list[str] = []
     lines += ["", "## Candidates (fitted on all flights, scored leaving one flight out)", "",
-              "| mechanism | estimate | uncertainty | held-out gain | LR p-value | significant |",
+              "| mechanism | estimate | uncertainty | held-out gain | family-wise p | significant |",
               "|---|---|---|---|---|---|"]
     for c in diag.get("candidates") or []:
         est = ", ".join(f"{k} = {_fmt(v)}" for k, v in c["estimate"].items())
         unc = ", ".join(f"{k} ± {_fmt(v, 2)}" for k, v in c["uncertainty"].items())
+        sig = "at bound: not identified" if c.get("at_bound") else ("yes" if c["significant"] else "no")
         lines.append(f"| `{c['mechanism']}` | {est} | {unc} | {_fmt(c['gain'], 3)} | {_fmt(c['p_value'], 2)} "
-                     f"| {'yes' if c['significant'] else 'no'} |")
-    amb = diag.get("ambiguity_sets") or []
+                     f"| {sig} |")
+    nid = diag.get("not_identified") or []
+    if nid:
+        lines += ["", "**Significant but not named:** "
+                  + "; ".join(f"`{n['mechanism']}` ({', '.join(f'{k} = {_fmt(v)}' for k, v in n['estimate'].items())}):"
+                              f" {n['reason']}" for n in nid)]
     lines += ["", "## Ambiguity", ""]
     for c in diag.get("caveats") or []:
         lines += [f"**Caveat on `{c['mechanism']}`:** {c['alias']} (an effect outside the catalog; the data "
                   "alone cannot tell them apart).", ""]
     for w in diag.get("withheld") or []:
         est = ", ".join(f"{k} = {_fmt(v)}" for k, v in w["estimate"].items())
-        lines += [f"**Not named: `{w['mechanism']}`** ({est}, LR p-value {_fmt(w['p_value'], 2)}): "
+        lines += [f"**Not named: `{w['mechanism']}`** ({est}, family-wise p {_fmt(w['p_value'], 2)}): "
                   f"{100 * w['share']:.0f} % of the misfit it would remove is in `{w['feature']}`, and {w['alias']} "
                   "(an effect outside the catalog); that misfit is left unexplained.", ""]
-    lines.append("Mechanisms the data cannot tell apart (their fitted predictions differ by less than 2σ): "
-                 + "; ".join("{" + ", ".join(f"`{m}`" for m in g) + "}" for g in amb) if amb else
-                 "No two significant candidates predict the same features within their errors.")
+    amb = diag.get("ambiguity") or []
+    if amb:
+        lines.append("The data cannot tell these apart (the other mechanism's probe responses reproduce the named "
+                     "cause's fitted effect over all flights; cosine of the whitened responses): "
+                     + "; ".join(f"`{a['named']}` and `{a['mechanism']}` ({_fmt(a['cosine'], 3)})" for a in amb)
+                     + ". The named one fits best; the others are equally possible explanations.")
+    elif diag.get("named_causes"):
+        lines.append("No other mechanism's responses reproduce the named causes' effects (cosine below 0.9).")
     return lines
 
 
@@ -129,7 +182,7 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
     else:
         lines.append("**No mechanism is significant:** no catalog mechanism explains the measured drone–mast "
                      "differences better than the forward model without one.")
-    lines += ["", *_fit_lines(diag)]
+    lines += ["", *_fit_lines(diag), *_error_model_lines(diag)]
     lines += ["", "## What the baseline simulation gets wrong", "",
               "The forward model without any mechanism was run for every flight with the conditions measured "
               "by the reference mast (mean wind, direction, temperature, u*, Obukhov length) and the drone's hover "
@@ -168,8 +221,10 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
     for key in ("chi2", "chi2_per_feature", "sigma_w_ratio_rmse", "sigma_u_ratio_rmse", "sigma_v_ratio_rmse"):
         lines.append(f"| {key} | {_fmt(before.get(key))} | {_fmt(after.get(key))} |")
     lines += ["", "## Method", "", str(diag.get("method", "")),
-              "Significance: a candidate must lower the misfit of the fitted flights by more than the 1 − 0.01/M "
-              "quantile of χ² with k degrees of freedom (k parameters, M mechanisms tried) and lower the misfit of "
-              "flights left out of the fit. A second cause is named only if it is significant on what the first "
-              "leaves unexplained.", ""]
+              "Significance: a candidate's likelihood-ratio statistic (misfit drop on the fitted flights, with the "
+              "sampling covariance and the model discrepancy) is compared with its distribution under the model "
+              "without a cause, from a parametric bootstrap over seeds that repeats every estimate; the family-wise "
+              "p-value over the round's candidates (Westfall-Young min-p) must be below the false-alarm rate and "
+              "the held-out gain must reach diagnosis.min_gain. A further cause is named only if it raises the "
+              "held-out gain by more than that rise's uncertainty on what the causes before it leave.", ""]
     return "\n".join(lines) + "\n"

@@ -265,6 +265,11 @@ def _estimates(estimate: Mapping[str, Any], uncertainty: Mapping[str, Any] | Non
     return ", ".join(parts)
 
 
+def _z(value: Any) -> float:
+    """A z value of diagnosis.json as a float (NaN for null)."""
+    return float("nan") if value is None else float(value)
+
+
 def verdict_sentence(diag: Mapping[str, Any]) -> str:
     """The verdict of a diagnosis JSON in words: named causes with estimates and gains, or none; what remains.
 
@@ -284,8 +289,7 @@ def verdict_sentence(diag: Mapping[str, Any]) -> str:
     if not named and not cands and diag.get("note"):
         return f"Not diagnosed: {diag['note']}."
     if not named:
-        text = ("No mechanism is significant: the forward model without any mechanism explains the measured "
-                "drone-mast differences within their sampling errors.")
+        text = "No cause named: no catalog mechanism explains the measured drone-mast differences significantly."
     else:
         parts = []
         for name in named:
@@ -299,13 +303,16 @@ def verdict_sentence(diag: Mapping[str, Any]) -> str:
         text = f"Named cause{'s' if len(parts) > 1 else ''}: {'; '.join(parts)}."
     fit = diag.get("goodness_of_fit") or {}
     if isinstance(fit.get("p_value"), int | float):
-        text += (f" Goodness of fit of the model with the named causes: χ² = {fit.get('chi2', float('nan')):.1f} "
-                 f"for {fit.get('dof', '?')} degrees of freedom, p = {fit['p_value']:.2g}.")
+        model = "the model with the named causes" if named else "the forward model"
+        verdict = ("more than sampling error explains" if fit["p_value"] < 0.01 else
+                   "within what sampling error explains")
+        text += (f" The misfit of {model} is {verdict} (χ² = {fit.get('chi2', float('nan')):.1f} for "
+                 f"{fit.get('dof', '?')} residuals, p = {fit['p_value']:.2g}).")
     left = diag.get("unexplained")
     if isinstance(left, list):
         if left:
             text += " Still unexplained (model error no mechanism describes): " + flight_list(
-                [f"{u.get('feature')} (mean z {u.get('mean_z', float('nan')):+.1f})" for u in left]) + "."
+                [f"{u.get('feature')} (offset z {_z(u.get('mean_z')):+.1f})" for u in left]) + "."
         else:
             text += " Nothing remains unexplained."
     return text

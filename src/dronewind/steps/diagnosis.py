@@ -235,10 +235,12 @@ def extended_manifest(campaign_data: Mapping[str, Any], conditions: Mapping[str,
 def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path],
                       forward_files: Sequence[str | Path], output_json: str | Path,
                       output_manifest: str | Path, *, alpha: float, max_causes: int, min_gain: float,
-                      platform_files: Sequence[str | Path] = (), atmosphere: str = "model") -> Path:
+                      platform_files: Sequence[str | Path] = (), atmosphere: str = "model",
+                      bootstrap: int = 600) -> Path:
     """Fit and score every candidate, name causes; write diagnosis.json and the extended manifest.
 
-    ``alpha``, ``max_causes`` and ``min_gain`` are the ``diagnosis`` settings (see
+    ``alpha``, ``max_causes``, ``min_gain`` and ``bootstrap`` (replicates of the reference
+    distributions) are the ``diagnosis`` settings (see
     :func:`dronewind.diagnose.campaign.diagnose`); ``atmosphere`` (``diagnosis.atmosphere``)
     is recorded in diagnosis.json after checking that every forward file was run with it.
     ``platform_files``: the rigid-mount flights' platform-response results
@@ -259,7 +261,8 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
         atomic_write_text(output_manifest, yaml.safe_dump(extended_manifest(campaign.data, conditions, []),
                                                           sort_keys=False))
         return Path(output_json)
-    result = dc.diagnose(ev, alpha=float(alpha), max_causes=int(max_causes), min_gain=float(min_gain))
+    result = dc.diagnose(ev, alpha=float(alpha), max_causes=int(max_causes), min_gain=float(min_gain),
+                         n_replicates=int(bootstrap), progress=_replicate_counter(int(bootstrap)))
     out = dc.to_json(result, campaign.name)
     out["atmosphere"] = atmosphere
     out["baseline"]["residuals"] = dc.residual_table(ev)
@@ -276,6 +279,18 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
                       + yaml.safe_dump(extended_manifest(campaign.data, conditions, dc.named_mechanisms(result)),
                                        sort_keys=False))
     return write_json(output_json, _with_platform(out, platform_files))
+
+
+def _replicate_counter(total: int, every: int = 100) -> Any:
+    """A callback that logs the bootstrap's progress every ``every`` replicates."""
+    done = [0]
+
+    def tick() -> None:
+        done[0] += 1
+        if done[0] % every == 0 or done[0] == total:
+            LOG.info("bootstrap replicate %d/%d", done[0], total)
+
+    return tick
 
 
 def _check_atmosphere(forward_files: Sequence[str | Path], atmosphere: str) -> None:
