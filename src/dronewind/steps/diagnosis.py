@@ -211,6 +211,26 @@ def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str 
     return dc.assemble(measured, fwd)
 
 
+def _rerun_conditions(ev: dc.CampaignEvidence, forward_files: Sequence[str | Path]) -> dict[str, dict[str, Any]]:
+    """Each flight's conditions for the extended model's reruns.
+
+    A measured sonic-INS lag is replaced by the lag the forward runs simulated to reproduce it
+    (:func:`dronewind.diagnose.forward.simulated_sonic_ins_lag_s`), so that the reruns' chain
+    finds the measured lag as the forward runs' did.
+    """
+    simulated = {}
+    for path in forward_files:
+        f = json.loads(Path(path).read_text())
+        if f.get("simulated_sonic_ins_lag_s") is not None:
+            simulated[f["flight"]] = float(f["simulated_sonic_ins_lag_s"])
+    out = {}
+    for flight, cond in zip(ev.flights, ev.conditions, strict=True):
+        out[flight] = dict(cond)
+        if flight in simulated and "sonic_ins_lag_s" in cond:
+            out[flight]["sonic_ins_lag_s"] = simulated[flight]
+    return out
+
+
 def extended_manifest(campaign_data: Mapping[str, Any], conditions: Mapping[str, Mapping[str, Any]],
                       mechanisms: list[dict[str, Any]], seed: int = 101) -> dict[str, Any]:
     """The campaign as a virtual campaign: measured conditions per flight plus the named mechanisms."""
@@ -257,7 +277,7 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
                        "named_causes": [], "ambiguity_sets": [],
                        "note": f"{len(ev.flights)} usable flight(s): held-out scoring needs at least 2"}
         write_json(output_json, _with_platform(result_json, platform_files))
-        conditions = {f: c for f, c in zip(ev.flights, ev.conditions, strict=True)}
+        conditions = _rerun_conditions(ev, forward_files)
         atomic_write_text(output_manifest, yaml.safe_dump(extended_manifest(campaign.data, conditions, []),
                                                           sort_keys=False))
         return Path(output_json)
@@ -273,7 +293,7 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
     for cand in out["candidates"]:
         LOG.info("candidate %-20s gain %6.3f p %.2g significant %s estimate %s", cand["mechanism"], cand["gain"],
                  cand["p_value"], cand["significant"], cand["estimate"])
-    conditions = {f: c for f, c in zip(ev.flights, ev.conditions, strict=True)}
+    conditions = _rerun_conditions(ev, forward_files)
     atomic_write_text(output_manifest, "# The campaign as a virtual campaign: conditions estimated from the processed\n"
                       "# data, plus the mechanisms the diagnosis named, at their fitted values.\n"
                       + yaml.safe_dump(extended_manifest(campaign.data, conditions, dc.named_mechanisms(result)),
