@@ -98,33 +98,33 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
     # process_virtual_flight reads every simulated mast file as the reference's record: keep
     # only the reference sonic (the first) in the simulated view; the other heights do not
     # enter the diagnosis
-    data = copy.deepcopy(dict(data))
-    data["masts"] = [{**data["masts"][0], "sonics": data["masts"][0]["sonics"][:1]}]
+    view: dict[str, Any] = copy.deepcopy(dict(data))
+    view["masts"] = [{**view["masts"][0], "sonics": view["masts"][0]["sonics"][:1]}]
     seeds = tuple(int(s) for s in diagnosis["seeds"])
     lag = {key: processing[key] for key in forward.LAG_SETTINGS}
     measured: dict[str, Any] = {}
     fwd: dict[str, Any] = {}
     effects: dict[str, dict[str, Any]] = {e.label: {} for e in errors}
     stats: dict[str, dict[str, float]] = {}
-    for flight in data["payload_flights"]:
+    for flight in view["payload_flights"]:
         fid = flight["id"]
         work = Path(work_dir) / fid
         work.mkdir(parents=True, exist_ok=True)
         ctx = progress.item(f"flight {fid} simulated, processed and forward-run") if progress else _null()
         with ctx:
-            v = process_virtual_flight(data, flight, work, processing)
+            v = process_virtual_flight(view, flight, work, processing)
             stats[fid] = hover_statistics(v.l3)
-            measured[fid] = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3,
+            measured[fid] = features_to_dict(forward.measured_features(view, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3,
                                                                        **lag))
-            conditions = forward.forward_conditions(data, fid, v.l3, v.l2)
+            conditions = forward.forward_conditions(view, fid, v.l3, v.l2)
             record = forward.atmosphere_record(v.mast_l1, conditions) if diagnosis["atmosphere"] == "measured" else None
-            fwd[fid] = forward.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
+            fwd[fid] = forward.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
             for e in errors:
                 probe = probe_for(e)
-                run = forward.probe_runs(data, fid, conditions, processing, seeds=seeds, probes=(probe,),
+                run = forward.probe_runs(view, fid, conditions, processing, seeds=seeds, probes=(probe,),
                                          parts=[e.mechanism], atmosphere=record)
                 effects[e.label][fid] = run["probes"][0]["features"]["values"] if run["probes"] else None
-    return {"name": data["name"], "measured": measured, "forward": fwd, "effects": effects, "statistics": stats}
+    return {"name": view["name"], "measured": measured, "forward": fwd, "effects": effects, "statistics": stats}
 
 
 def hover_statistics(l3: Any) -> dict[str, float]:
