@@ -271,7 +271,7 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     config : mapping, optional
         Workflow configuration (its ``diagnosis`` settings).
     progress : Progress, optional
-        One item per 10 draws... counted per draw.
+        One item per draw.
 
     Returns
     -------
@@ -290,18 +290,17 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     rng = np.random.default_rng([int(seed), n_flights, len(label or "")])
     forward = {f: model.forward[f] for f in flights}
     hits = 0
-    for _ in range(draws):
-        xi = rng.standard_normal((len(flights), model.chol.shape[0])) @ model.chol.T
-        y = model.baseline[idx] + effect + model.noise_factor * model.sigma[idx] * xi
-        ev = dc.assemble(_measured(model, y, flights), forward)
-        result = dc.diagnose(ev, alpha=float(diagnosis["alpha"]), max_causes=int(diagnosis["max_causes"]),
-                             min_gain=float(diagnosis["min_gain"]))
-        out = dc.to_json(result, "plan")
-        out["atmosphere"] = str(diagnosis["atmosphere"])
-        hits += bool(judge(truth, out)["detected"])
-        if progress is not None:
-            with progress.item(f"{label or 'no error'} with {n_flights} flights"):
-                pass
+    for k in range(draws):
+        ctx = progress.item(f"{label or 'no error'}, {n_flights} flights, draw {k + 1}") if progress else _null()
+        with ctx:
+            xi = rng.standard_normal((len(flights), model.chol.shape[0])) @ model.chol.T
+            y = model.baseline[idx] + effect + model.noise_factor * model.sigma[idx] * xi
+            ev = dc.assemble(_measured(model, y, flights), forward)
+            result = dc.diagnose(ev, alpha=float(diagnosis["alpha"]), max_causes=int(diagnosis["max_causes"]),
+                                 min_gain=float(diagnosis["min_gain"]))
+            out = dc.to_json(result, "plan")
+            out["atmosphere"] = str(diagnosis["atmosphere"])
+            hits += bool(judge(truth, out)["detected"])
     return PowerResult(label or "none", n_flights, hits, draws)
 
 
