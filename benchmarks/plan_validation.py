@@ -12,7 +12,8 @@ the detection rate is the share of seeds in which the diagnosis names the error.
 (the issue's): achieved uncertainties within 20 % of the predicted ones (root mean square
 over the flights), detection rate within 10 points of the predicted power.
 
-Usage (about 15 min on 2 free cores with the defaults)::
+Usage (about 900 CPU-s with the defaults, 7-8 min on 2 free cores; the sling-load campaigns
+take 10-20 CPU-s each, the rigid-mount hovers under 1 CPU-s each)::
 
     PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/plan_validation.py --seeds 20 --workers 2 \\
         --out benchmarks/results/plan_validation.json
