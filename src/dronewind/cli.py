@@ -21,6 +21,7 @@ examples:
   dronewind validate-campaign config/campaigns/mosai2023.yaml
   dronewind check-cf results/mosai2023/netcdf/L1/s01_sonic.nc
   dronewind show-config config/config.yaml
+  dronewind plan config/plans/example_plan.yaml --out results/plans/example
 
 The whole workflow runs through Snakemake (see README.md):
   .venv/bin/snakemake --cores 2 --config campaign=/abs/path/campaign.yaml
@@ -162,6 +163,39 @@ def _show_config(args: argparse.Namespace) -> int:
     return 0
 
 
+def _plan_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("plan", type=Path, help="plan file (YAML, workflow/schemas/plan.schema.json)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder for the report page plan.md, plan.json, campaign.yaml and the figures "
+                             "(default: results/plans/<plan name>)")
+    parser.add_argument("--config", type=Path, action="append", default=[],
+                        help="workflow config file(s) whose processing and diagnosis settings the plan uses "
+                             "(default: the schema's defaults)")
+    parser.add_argument("--no-power", action="store_true",
+                        help="uncertainties, separation and manifest only (no simulation of the detection power)")
+
+
+def _plan(args: argparse.Namespace) -> int:
+    import logging
+
+    from dronewind.config import check_config
+    from dronewind.plan import load_plan, plan_campaign
+    from dronewind.plan.report import write_plan
+
+    logging.basicConfig(level=logging.INFO, format="%(message)s")  # progress of the power simulation
+    spec = load_plan(args.plan)
+    config: dict = {}
+    for path in args.config:
+        config = _merge(config, _read_config_file(path))
+    config = check_config({"campaign": "", "results_dir": "", **config}) if args.config else {}
+    result = plan_campaign(spec, config, simulate_power=not args.no_power)
+    out = args.out if args.out is not None else Path("results") / "plans" / spec.name
+    files = write_plan(result, out)
+    print(result.table())
+    print(f"written: {', '.join(str(p) for p in files)}")
+    return 0
+
+
 SUBCOMMANDS: list[Subcommand] = [
     Subcommand(
         "validate-campaign",
@@ -185,6 +219,21 @@ SUBCOMMANDS: list[Subcommand] = [
         "examples:\n  dronewind show-config\n  dronewind show-config config/config.yaml my_settings.yaml",
         _show_config_args,
         _show_config,
+    ),
+    Subcommand(
+        "plan",
+        "plan a validation campaign: hover duration, drone-mast separation, number of flights and wind range for "
+        "target uncertainties and detection powers, with a report page and a virtual-campaign manifest",
+        "examples:\n  dronewind plan config/plans/example_plan.yaml\n"
+        "  dronewind plan my_plan.yaml --out results/plans/mine --config config/config.yaml\n"
+        "  dronewind plan my_plan.yaml --no-power        # uncertainties, separation and manifest only\n\n"
+        "The plan file: site, conditions (wind_speed_ms at the hover height, wind_from_deg, stability as\n"
+        "obukhov_length_m or class, roughness_length_m, boundary_layer_height_m), platform (sling_load,\n"
+        "rigid_mount, quadrotor_fleet; max_hover_min), mast (heights_m, hover_height_m, hover_distance_m)\n"
+        "and targets (relative_uncertainty per quantity; detect: mechanisms with their sizes; power).\n"
+        "Schema: workflow/schemas/plan.schema.json; example: config/plans/example_plan.yaml.",
+        _plan_args,
+        _plan,
     ),
 ]
 

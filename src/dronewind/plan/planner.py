@@ -1,0 +1,250 @@
+"""Plan a drone-mast validation campaign: hover duration, separation, flights and wind range.
+
+:func:`plan_campaign` answers, for a :class:`~dronewind.plan.spec.PlanSpec`:
+
+* **hover duration**: the shortest hover whose predicted relative random uncertainties
+  (:mod:`dronewind.plan.uncertainty`, Ghirardelli et al. 2025, Eqs 10-13) meet every target
+  at the lowest planned wind speed (the uncertainties grow as the wind drops), at least the
+  chain's usable hover (``processing.hover.min_duration_s``) plus a margin; when the
+  platform's longest hover is too short at the lowest speed, the lowest speed is raised until
+  it is not (the wind range the flights should span);
+* **separation**: the largest drone-mast distance (:mod:`dronewind.plan.separation`);
+* **flights**: the smallest number whose detection power (:mod:`dronewind.plan.power`)
+  reaches the target for every error, their speeds spanning the wind range;
+* the manifest skeleton of the planned campaign (:mod:`dronewind.plan.manifest`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import tempfile
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from dronewind.core.progress import Progress
+from dronewind.manifest import with_defaults
+from dronewind.plan.manifest import flight_speeds, plan_manifest
+from dronewind.plan.power import PowerResult, draw_power, manifest_evidence, power_model
+from dronewind.plan.separation import along_wind_limit_m, separation_limit_m
+from dronewind.plan.spec import PlanSpec
+from dronewind.plan.uncertainty import DURATION_STEP_S, PointUncertainty, point_uncertainty
+
+__all__ = ["CampaignPlan", "plan_campaign", "plan_uncertainty", "HOVER_MARGIN_S"]
+
+#: Margin added to the chain's shortest usable hover [s]: the hover window found in the INS
+#: track is a few seconds shorter than the planned one (a planned 600 s gave 596 s).
+HOVER_MARGIN_S = 30.0
+
+log = logging.getLogger("dronewind")
+
+
+@dataclass
+class CampaignPlan:
+    """The plan's answer (:func:`plan_campaign`)."""
+
+    spec: PlanSpec
+    duration_s: float
+    speed_range_ms: tuple[float, float]
+    speeds_ms: list[float]
+    n_flights: int
+    separation_limit_m: float
+    along_wind_limit_m: float
+    distance_m: float
+    uncertainty: dict[str, dict[str, float]]
+    targets_met: dict[str, bool]
+    power: dict[str, PowerResult] = field(default_factory=dict)
+    false_alarm: PowerResult | None = None
+    power_curve: dict[str, list[PowerResult]] = field(default_factory=dict)
+    power_note: str = ""
+    notes: list[str] = field(default_factory=list)
+    manifest: dict[str, Any] = field(default_factory=dict)
+    points: dict[float, PointUncertainty] = field(default_factory=dict, repr=False)
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        """The plan as JSON-serialisable data."""
+        def pr(r: PowerResult) -> dict[str, Any]:
+            lo, hi = r.interval
+            return {"n_flights": r.n_flights, "detected": r.detected, "draws": r.draws, "power": r.power,
+                    "ci95": [lo, hi]}
+
+        return {
+            "name": self.spec.name, "platform": self.spec.platform,
+            "hover_duration_s": self.duration_s, "wind_range_ms": list(self.speed_range_ms),
+            "flight_speeds_ms": self.speeds_ms, "n_flights": self.n_flights,
+            "hover_height_m": self.spec.hover_height_m, "reference_height_m": self.spec.reference_height_m,
+            "separation_limit_cross_wind_m": self.separation_limit_m,
+            "separation_limit_along_wind_m": self.along_wind_limit_m, "planned_distance_m": self.distance_m,
+            "targets": self.spec.targets, "predicted_uncertainty": self.uncertainty, "targets_met": self.targets_met,
+            "power_target": self.spec.power,
+            "power": {k: pr(v) for k, v in self.power.items()},
+            "no_false_alarm": None if self.false_alarm is None else pr(self.false_alarm),
+            "power_curve": {k: [pr(r) for r in v] for k, v in self.power_curve.items()},
+            "power_method": self.power_note, "notes": self.notes, "seconds": self.seconds,
+        }
+
+    def table(self) -> str:
+        """The plan as a plain-text table."""
+        lines = [f"plan {self.spec.name} ({self.spec.platform})",
+                 f"  hover duration          {self.duration_s / 60:.1f} min ({self.duration_s:.0f} s)",
+                 f"  hover height            {self.spec.hover_height_m:g} m (mast sonic at "
+                 f"{self.spec.reference_height_m:g} m)",
+                 f"  largest separation      {self.separation_limit_m:.0f} m across the wind, "
+                 f"{self.along_wind_limit_m:.0f} m along it (planned {self.distance_m:.0f} m across)",
+                 f"  flights                 {self.n_flights} at "
+                 + ", ".join(f"{u:g}" for u in self.speeds_ms) + " m/s",
+                 f"  wind range              {self.speed_range_ms[0]:g}-{self.speed_range_ms[1]:g} m/s",
+                 "", f"  {'quantity':<10}{'target':>8}{'lowest U':>10}{'highest U':>11}  met"]
+        lo, hi = (f"{u:g}" for u in self.speed_range_ms)
+        for q in self.uncertainty[lo]:
+            target = self.spec.targets.get(q)
+            t = f"{target:.3f}" if target is not None else "-"
+            met = "" if target is None else ("yes" if self.targets_met[q] else "NO")
+            lines.append(f"  {q:<10}{t:>8}{self.uncertainty[lo][q]:>10.3f}{self.uncertainty[hi][q]:>11.3f}  {met}")
+        if self.power:
+            lines += ["", f"  {'error to detect':<26}{'power':>7}  {'95 % interval':<13}  target {self.spec.power:g}"]
+            for label, r in self.power.items():
+                lo_ci, hi_ci = r.interval
+                ok = "yes" if r.power >= self.spec.power else "NO"
+                lines.append(f"  {label:<26}{r.power:>7.2f}  {lo_ci:.2f}-{hi_ci:.2f}      {ok}  "
+                             f"({r.detected}/{r.draws} draws)")
+            if self.false_alarm is not None:
+                fa = 1.0 - self.false_alarm.power
+                lo_ci, hi_ci = self.false_alarm.interval
+                lines.append(f"  {'false alarm (no error)':<26}{fa:>7.2f}  {1 - hi_ci:.2f}-{1 - lo_ci:.2f}")
+        if self.power_note:
+            lines += ["", "  " + self.power_note]
+        lines += [f"  note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+def plan_uncertainty(spec: PlanSpec, speed_ms: float) -> PointUncertainty:
+    """The predicted uncertainty model at the plan's hover point and ``speed_ms``."""
+    return point_uncertainty(spec.hover_height_m, speed_ms, spec.wind_from_deg, spec.obukhov_length_m,
+                             spec.roughness_length_m, spec.boundary_layer_height_m, spec.theta_mean_k, seed=spec.seed)
+
+
+def _hover(spec: PlanSpec, min_hover_s: float) -> tuple[float, float, list[str]]:
+    """Hover duration [s] and lowest usable speed [m s-1] (module docstring) and notes."""
+    notes: list[str] = []
+    lo, hi = spec.speed_range_ms
+    floor = DURATION_STEP_S * math.ceil((min_hover_s + HOVER_MARGIN_S) / DURATION_STEP_S)
+    need_lo = plan_uncertainty(spec, lo).duration_for(spec.targets)
+    if need_lo <= spec.max_hover_s:
+        return max(need_lo, floor), lo, notes
+    if plan_uncertainty(spec, hi).duration_for(spec.targets) > spec.max_hover_s:
+        notes.append(f"the targets need more than the longest hover ({spec.max_hover_s / 60:g} min) even at "
+                     f"{hi:g} m/s: the plan flies the longest hover and the targets are not met")
+        return spec.max_hover_s, lo, notes
+    a, b = lo, hi  # bisection on the speed at which the longest hover just suffices
+    for _ in range(14):
+        mid = 0.5 * (a + b)
+        if plan_uncertainty(spec, mid).duration_for(spec.targets) > spec.max_hover_s:
+            a = mid
+        else:
+            b = mid
+    new_lo = math.ceil(b * 10) / 10
+    notes.append(f"below {new_lo:g} m/s the longest hover ({spec.max_hover_s / 60:g} min) does not meet the "
+                 f"targets: the flights should span {new_lo:g}-{hi:g} m/s")
+    return max(plan_uncertainty(spec, new_lo).duration_for(spec.targets), floor), new_lo, notes
+
+
+def plan_campaign(spec: PlanSpec, config: Mapping[str, Any] | None = None, work_dir: str | Path | None = None,
+                  simulate_power: bool = True) -> CampaignPlan:
+    """Plan the campaign (module docstring).
+
+    Parameters
+    ----------
+    spec : PlanSpec
+        The plan (:func:`dronewind.plan.spec.load_plan`).
+    config : mapping, optional
+        Workflow configuration (processing and diagnosis settings; defaults where missing).
+    work_dir : str or Path, optional
+        Folder for the simulated records (a temporary folder by default).
+    simulate_power : bool
+        Compute the detection power (the simulated null campaign and the Monte Carlo); when
+        false only the uncertainties, the separation and the skeleton.
+
+    Returns
+    -------
+    CampaignPlan
+    """
+    t_start = time.perf_counter()
+    cpu_start = time.process_time()
+    settings = with_defaults(dict(config or {}))
+    processing = settings["processing"]
+    duration, lowest, notes = _hover(spec, float(processing["hover"]["min_duration_s"]))
+    hi = spec.speed_range_ms[1]
+    points = {u: plan_uncertainty(spec, u) for u in sorted({lowest, hi})}
+    unc = {f"{u:g}": points[u].relative(duration) for u in points}
+    worst = {q: max(v[q] for v in unc.values()) for q in unc[f"{lowest:g}"]}
+    met = {q: worst[q] <= t * (1 + 1e-9) for q, t in spec.targets.items()}
+    dz = spec.hover_height_m - spec.reference_height_m
+    limit = separation_limit_m(spec.hover_height_m, lowest, spec.obukhov_length_m, spec.roughness_length_m,
+                               spec.min_correlation, spec.boundary_layer_height_m, dz)
+    along = along_wind_limit_m(limit, lowest, float(processing["drone_mast"]["max_lag_s"]))
+    distance = min(spec.hover_distance_m, limit)
+    if spec.hover_distance_m > limit:
+        notes.append(f"the planned distance {spec.hover_distance_m:g} m exceeds the separation limit "
+                     f"{limit:.0f} m: the skeleton hovers at the limit")
+    seconds = {"uncertainty_and_separation": time.perf_counter() - t_start}
+    plan = CampaignPlan(spec, duration, (lowest, hi), [], spec.max_flights, limit, along, distance, unc, met,
+                        notes=notes, points=points, seconds=seconds)
+    if spec.platform != "sling_load":
+        plan.power_note = (f"detection power not simulated: the campaign diagnosis (dronewind.diagnose.campaign) "
+                           f"models the sling-load payload; platform {spec.platform}")
+    if not (simulate_power and spec.detect and spec.platform == "sling_load"):
+        plan.n_flights = spec.max_flights
+        plan.speeds_ms = flight_speeds(lowest, hi, plan.n_flights)
+        plan.manifest = plan_manifest(spec, plan.n_flights, duration, plan.speeds_ms, distance)
+        return plan
+    _power(plan, settings, work_dir)
+    plan.seconds["total"] = time.perf_counter() - t_start
+    plan.seconds["total_cpu"] = time.process_time() - cpu_start
+    return plan
+
+
+def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path | None) -> None:
+    """Simulate the null campaign of ``max_flights``, then the power curve and the final power."""
+    spec = plan.spec
+    t0 = time.perf_counter()
+    speeds = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)
+    full = plan_manifest(spec, spec.max_flights, plan.duration_s, speeds, plan.distance_m, seed=spec.seed)
+    progress = Progress("plan flight", spec.max_flights, "done")
+    with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
+        evidence = manifest_evidence(full, settings, tmp, spec.detect, progress)
+    progress.finished()
+    model = power_model(evidence, spec.detect)
+    plan.seconds["simulation"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    labels = [e.label for e in spec.detect]
+    counts = list(range(1, spec.max_flights + 1))
+    draws_curve = min(spec.curve_draws, spec.draws)
+    progress = Progress("power draw", len(labels) * len(counts) * draws_curve + (len(labels) + 1) *
+                        (spec.draws - draws_curve), "diagnosed")
+    for label in labels:
+        plan.power_curve[label] = [draw_power(model, label, k, draws_curve, spec.seed, settings, progress)
+                                   for k in counts]
+    reached = [k for k in counts if all(plan.power_curve[lab][k - 1].power >= spec.power for lab in labels)]
+    n = reached[0] if reached else spec.max_flights
+    if not reached:
+        plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for every "
+                          "error: the plan flies the most and the power target is not met")
+    for label in labels:
+        more = draw_power(model, label, n, spec.draws - draws_curve, spec.seed + 1, settings, progress)
+        first = plan.power_curve[label][n - 1]
+        plan.power[label] = PowerResult(label, n, first.detected + more.detected, first.draws + more.draws)
+    plan.false_alarm = draw_power(model, None, n, spec.draws, spec.seed + 2, settings, progress)
+    progress.finished()
+    plan.seconds["power_draws"] = time.perf_counter() - t1
+    plan.n_flights = n
+    plan.speeds_ms = speeds[:n]
+    plan.speed_range_ms = (min(plan.speeds_ms), max(plan.speeds_ms)) if n > 1 else plan.speed_range_ms
+    plan.manifest = plan_manifest(spec, n, plan.duration_s, plan.speeds_ms, plan.distance_m)
+    plan.power_note = (f"power: {spec.draws} Monte-Carlo campaigns drawn from the diagnosis' response and error model "
+                       f"of one simulated {spec.max_flights}-flight campaign (noise factor "
+                       f"{model.noise_factor:.2f}), each diagnosed; 95 % Wilson intervals")
