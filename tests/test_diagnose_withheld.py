@@ -99,7 +99,8 @@ def test_genuine_noise_is_named(seed):
     assert diag["named_causes"] == ["sonic_noise"] and diag["withheld"] == []
     assert diag["named_estimates"]["sonic_noise"]["estimate"]["sigma_ms"] == pytest.approx(0.25, abs=0.05)
     share = diag["named_estimates"]["sonic_noise"]["evidence_share"]
-    assert 0.3 < share["ln_hf_u"] < 0.7 and 0.3 < share["ln_hf_w"] < 0.7
+    # both high-frequency ratios carry the evidence, neither enough to withhold it
+    assert 0.25 < share["ln_hf_u"] < dc.SINGLE_FEATURE_SHARE and 0.25 < share["ln_hf_w"] < dc.SINGLE_FEATURE_SHARE
 
 
 @pytest.mark.parametrize("seed", [21, 22, 23])
@@ -112,7 +113,7 @@ def test_an_hf_u_excess_alone_is_withheld_and_left_unexplained(seed):
     [w] = diag["withheld"]
     assert w["mechanism"] == "sonic_noise" and w["feature"] == "ln_hf_u"
     assert w["share"] >= dc.SINGLE_FEATURE_SHARE and "blockage" in w["alias"]
-    assert w["p_value"] < 1e-3 and w["estimate"]["sigma_ms"] > 0
+    assert w["p_value"] <= 1.0 / (REPLICATES + 1) + 1e-12 and w["estimate"]["sigma_ms"] > 0  # beyond every replicate
     assert "ln_hf_u" in {u["feature"] for u in diag["unexplained"]}
 
 

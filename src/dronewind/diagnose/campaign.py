@@ -41,7 +41,7 @@ Westfall-Young min-p over the candidates of a naming round, at the family-wise r
 
 Naming: a significant candidate is named when its held-out gain reaches ``diagnosis.min_gain``;
 a further cause only when it raises the held-out gain of the named set by more than that
-rise's uncertainty (from the flights' held-out misfits). A
+rise's uncertainty (from the flights' held-out misfits) and by ``diagnosis.min_gain``. A
 candidate whose estimate sits at a catalog bound is not identified and never named
 (``not_identified``). Ambiguity is computed from the probes' responses: a candidate whose
 whitened response over the campaign's flights reproduces a named cause's fitted effect (cosine
@@ -713,9 +713,12 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
         if score.gain < min_gain:
             not_identified.append((best, score, f"held-out gain {score.gain:.3f} below min_gain {min_gain:g}"))
             continue
-        if named and not rise > rise_se:
+        if named and not rise > max(rise_se, min_gain):
+            # the rise is a share of the campaign's baseline misfit: a further cause that removes
+            # a few per cent of it (what a first cause's interpolated response leaves) is not named
             not_identified.append((best, score, f"a further cause: it raises the held-out gain by {rise:.3f}, not "
-                                                f"more than that rise's uncertainty {rise_se:.3f}"))
+                                                f"more than that rise's uncertainty {rise_se:.3f} and min_gain "
+                                                f"{min_gain:g}"))
             continue
         model = ev.models[best]
         effect = model.predict(score.fit.theta, idx) - model.baseline
