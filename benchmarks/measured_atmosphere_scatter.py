@@ -8,8 +8,10 @@ ratio R of the seed variance, times 1 + 1/K, to the variance of measured minus p
 (1 when the diagnosis' errors are right) and its 95 % interval under R = 1
 (``dronewind.diagnose.atmosphere_scatter``)::
 
-    PYTHONPATH=src nice .venv/bin/python benchmarks/measured_atmosphere_scatter.py --realisations 48 --seeds 4 \\
-        --out benchmarks/results/measured_atmosphere_scatter.json
+    cd benchmarks && PYTHONPATH=../src:. nice ../.venv/bin/python measured_atmosphere_scatter.py \\
+        --realisations 100 --seeds 4 --out results/measured_atmosphere_scatter.json
+
+(about 280 CPU-s; 48 realisations by default)
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="JSON file to write")
     args = parser.parse_args()
     start = time.process_time()
-    out = {"command": "PYTHONPATH=src nice .venv/bin/python benchmarks/measured_atmosphere_scatter.py "
+    out = {"command": "cd benchmarks && PYTHONPATH=../src:. nice ../.venv/bin/python measured_atmosphere_scatter.py "
                       + " ".join(sys.argv[1:]),
            "commit": git_commit(Path(sc.__file__).parent), "machine": machine(),
            "realisations": args.realisations, "seeds_per_realisation": args.seeds, "hover_min": args.hover_min,
