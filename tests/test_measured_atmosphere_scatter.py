@@ -113,9 +113,9 @@ def _field_ratios(n: int, k: int, sampling: bool) -> np.ndarray:
 def test_field_seed_scatter_matches_independent_realisations():
     # 200 true 10-min fields at the mast and a drone 36 m away (w incoherent, u partly
     # coherent), each forward-run with 4 seeds from its mast record. The 99 % interval of R
-    # under R = 1 is 0.76-1.33 (F with 600 and 199 degrees of freedom). Measured: with the
-    # smoothed spectra 0.91 (sigma_u), 0.64 (sigma_w), 0.51 (pendulum-band w), 0.51 (0.5-1.5 Hz
-    # w); with the resampled spectra 0.97, 0.96, 0.96, 0.85.
+    # under R = 1 is 0.75-1.36 (F with 600 and 199 degrees of freedom). Measured: with the
+    # smoothed spectra 0.90 (sigma_u), 0.68 (sigma_w), 0.58 (pendulum-band w), 0.60 (0.5-1.5 Hz
+    # w); with the resampled spectra 1.03, 1.05, 0.86, 0.93.
     lo, hi = ratio_interval(200, 4, 0.99)
     resampled = _field_ratios(200, 4, True)
     assert np.all((resampled > lo) & (resampled < hi)), resampled
