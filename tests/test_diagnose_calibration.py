@@ -91,12 +91,12 @@ def test_familywise_min_p_holds_its_rate_over_independent_tests() -> None:
 
 def _campaign(rng: np.random.Generator, n_flights: int, n_seeds: int, corr: np.ndarray, effect: float,
               direction: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Seeds and a measurement from a known Gaussian model, plus ``effect`` analytic errors along ``direction``."""
+    """Seeds and a measurement from a known Gaussian model, plus ``effect`` along ``direction`` [feature units]."""
     p = corr.shape[0]
     chol = np.linalg.cholesky(corr)
     analytic = rng.uniform(0.5, 2.0, (n_flights, p))
     seeds = (rng.normal(size=(n_flights, n_seeds, p)) @ chol.T) * analytic[:, None, :]
-    y = (rng.normal(size=(n_flights, p)) @ chol.T) * analytic + effect * direction[None, :] * analytic
+    y = (rng.normal(size=(n_flights, p)) @ chol.T) * analytic + effect * direction[None, :]
     return y, seeds, analytic, seeds.mean(axis=1)
 
 
@@ -120,7 +120,7 @@ def test_bootstrap_reference_is_calibrated_on_a_known_gaussian_model() -> None:
         k = seed_scale(seeds / analytic[:, None, :])
         r_star = shrunk_correlation((seeds / analytic[:, None, :]).reshape(-1, p), np.repeat(np.arange(n), n_seeds))
         sigma = np.sqrt(1 + 1 / n_seeds) * k[None, :] * analytic
-        resp = np.stack([base, base + 2.0 * direction * analytic], axis=1)
+        resp = np.stack([base, base + 2.0 * direction[None, :]], axis=1)
         model = ResponseModel("m", base, [ParameterResponse("a", np.array([0.0, 2.0]), resp, 0.0, -5.0, 5.0)])
         tau = discrepancy(y - base, sigma).tau_or_zero()
         total, fcorr = flight_correlations(r_star.matrix, sigma, tau)

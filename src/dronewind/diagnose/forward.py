@@ -28,9 +28,14 @@ simulated field at the mast sonic, so the simulated mast sees the measured reali
 hover height by the model's height dependence, set the spectral amplitudes at every point
 (:func:`dronewind.simulate.payload.measured_constraint`; Rinker 2018 for the constrained
 generation, Kaimal et al. 1972 for the height scaling). The hover point then gets the part of
-the record coherent at its separation plus an unconstrained remainder drawn by the seed, and
-the baseline seeds vary only that remainder (and the instruments), which is the sampling
-error of a feature given the mast. With ``model`` the turbulence is the similarity model's
+the record coherent at its separation plus an unconstrained remainder drawn by the seed. The
+record's smoothed spectra are one estimate of the true spectra: each seed draws them again
+from their sampling distribution given the record
+(:func:`dronewind.simulate.atmosphere.spectral_sampling_factors`), so that the baseline seeds
+vary the remainder, the mast record's spectral sampling error and the instruments, and their
+scatter is that of a feature across independent atmospheres
+(``tests/test_measured_atmosphere_scatter.py``,
+``benchmarks/results/measured_atmosphere_scatter.json``). With ``model`` the turbulence is the similarity model's
 at the measured mean conditions (mean wind, direction, u*, L). A mechanism acting on the
 mast's record (:data:`RECORD_INVERSES`) is probed by undoing it on the record; with the
 atmosphere defined by the mast, a drone w gain g and a mast w attenuation 1/g then predict the
@@ -752,10 +757,13 @@ def probe_runs(
     Every part gives the same numbers alone as in a run of the whole flight: the probes'
     true state is the first seed's, simulated again when the baseline is not in the part.
 
-    With a measured atmosphere the baseline seeds differ only in the part of the field not
+    With a measured atmosphere the baseline seeds differ in the part of the field not
     determined by the record (the hover point's incoherent part, the instruments' noise,
-    the payload's motion), so their scatter is the sampling error of the features given
-    the mast. A probe of a mechanism that acts on the reference mast's record
+    the payload's motion) and in the record's spectra, drawn again per seed from their
+    sampling distribution, so their scatter is the sampling error of the features across
+    independent atmospheres, not only given the mast. The probes take the first seed's
+    spectra as well as its remainder (common random numbers: the draws depend on the seed
+    and the frequencies only). A probe of a mechanism that acts on the reference mast's record
     (:data:`RECORD_INVERSES`) reads the record through that mechanism: the atmosphere is the
     record with the mechanism undone (the true wind the mast would have measured), and the
     forward mast then measures it with the mechanism, i.e. the measured record again. Such

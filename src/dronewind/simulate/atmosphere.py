@@ -40,7 +40,9 @@ the model's spectral level at every point (times the model's height ratio
 S_model(z_point, f)/S_model(z_record, f), Kaimal et al. 1972), so another spectral shape or
 isotropy measured at the record's point carries to the others; the latents of the record
 are solved with those amplitudes (Rinker 2018, Eq. 6), so the record is still reproduced
-at its point.
+at its point. With ``spectral_sampling`` the smoothed spectra are drawn again from their
+sampling distribution given the record (:func:`spectral_sampling_factors`), so that fields
+of different seeds differ also by what the record's spectra got wrong by chance.
 
 Frames: points and outputs are ENU (x east, y north, z up above ground). Internally the
 fluctuations live in the wind frame (u along the mean wind, v to its left, w up). The
@@ -111,6 +113,7 @@ __all__ = [
     "mean_wind_trend",
     "constraint_from_record",
     "ConstraintLatents",
+    "spectral_sampling_factors",
 ]
 
 CP_DRY_JKGK = 1004.0
@@ -885,7 +888,8 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
                        rng: np.random.Generator | None = None, theta_mean_k: float = 293.15,
                        boundary_layer_height_m: float = 1000.0,
                        constraint: ConstraintLatents | None = None,
-                       amplitudes: str = "model") -> FieldSpec:
+                       amplitudes: str = "model",
+                       spectral_sampling: np.random.Generator | None = None) -> FieldSpec:
     """Fourier coefficients of u, v, w, theta at the points (the core generator).
 
     Parameters
@@ -913,6 +917,11 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
         constraint record's smoothed spectra carried to each point's height by the model's
         height ratio (:func:`_measured_spectra`; needs a constraint). The u-w and w-theta
         coherencies are then rescaled so that the fluxes stay -u*^2 and w'theta'.
+    spectral_sampling : numpy.random.Generator, optional
+        With ``amplitudes="constraint"``: draw the record's smoothed spectra again from their
+        sampling distribution (:func:`spectral_sampling_factors`), so that the field's
+        unconstrained remainder carries the record's spectral sampling error; the record is
+        still reproduced at its point. Not drawn by default (and ignored for model amplitudes).
 
     Returns
     -------
@@ -967,7 +976,8 @@ def field_coefficients(points_enu_m: np.ndarray, period_s: float, fs_max_hz: flo
         n_c = min(int(constraint["n_freq"]) - 1, fpos.size)
         coefficients = np.asarray(constraint["coefficients"])[:, :n_c]
         if amplitudes == "constraint":
-            spectra = _measured_spectra(spectra, coefficients, fpos, df, constraint.get("noise_power"))
+            spectra = _measured_spectra(spectra, coefficients, fpos, df, constraint.get("noise_power"),
+                                        sampling=spectral_sampling)
         latents = _constraint_latents(coefficients, pts[0], fpos, adv, e_u, spectra.amplitude[0], spectra.rho_uw[0],
                                       spectra.rho_wt[0])
         offset = np.asarray(constraint.get("offset", offset), float)
@@ -1192,18 +1202,81 @@ def _constraint_latents(coefficients: np.ndarray, point_enu_m: np.ndarray, fpos_
 MEASURED_BINS_PER_DECADE = 10
 
 
+def _log_bins(freq_hz: np.ndarray, bins_per_decade: int) -> tuple[np.ndarray, np.ndarray]:
+    """Log-frequency bin of every frequency (0, 1, ... from the lowest) and the number of frequencies per bin."""
+    idx = np.floor(np.log10(freq_hz) * bins_per_decade).astype(np.int64)
+    _, inverse, counts = np.unique(idx, return_inverse=True, return_counts=True)
+    return inverse, counts
+
+
 def _log_binned_mean(values: np.ndarray, freq_hz: np.ndarray, bins_per_decade: int) -> np.ndarray:
     """Mean of ``values`` over log-frequency bins, given to every frequency of its bin."""
-    idx = np.floor(np.log10(freq_hz) * bins_per_decade).astype(np.int64)
-    _, inverse = np.unique(idx, return_inverse=True)
-    sums = np.bincount(inverse, weights=values)
-    counts = np.bincount(inverse)
-    return (sums / counts)[inverse]
+    inverse, counts = _log_bins(freq_hz, bins_per_decade)
+    return (np.bincount(inverse, weights=values) / counts)[inverse]
+
+
+def spectral_sampling_factors(counts: np.ndarray, rng: np.random.Generator, n_components: int = 4) -> np.ndarray:
+    r"""Random factors on a log-bin-smoothed periodogram: its sampling error, drawn again.
+
+    A bin of a smoothed spectrum is the mean of ``n`` periodogram ordinates of one record, so
+    it is that record's estimate of the spectrum, in error by a chi-square variate with 2n
+    degrees of freedom over 2n (Bendat and Piersol 2010, Sect. 8.5.4). The field of a
+    measured atmosphere (:func:`field_coefficients` with a constraint and
+    ``amplitudes="constraint"``) gives the hover point a remainder drawn with the smoothed
+    spectrum; across seeds that remainder scatters as a sensor sampling the smoothed
+    spectrum, not as one sampling the true spectrum of which the record's is one estimate.
+    The factors multiply each bin's level by a Gamma variate of mean 1 and variance
+
+    .. math:: v(n) = \frac{n - 1}{n^2},
+
+    the variance that a bootstrap resample of the bin's n ordinates gives its mean, relative
+    to its square, in expectation for chi-square ordinates (Efron and Tibshirani 1993,
+    Sect. 5.2: the plug-in variance (n - 1)/n of an ordinate, over n). A bin of one ordinate
+    (the lowest frequencies) holds the record's own coefficient, which already carries its
+    sampling error into the remainder's amplitude: v(1) = 0. For many ordinates
+    v(n) -> 1/n, the chi-square sampling variance of the bin, which a log band power of the
+    drone minus the mast's needs; for a power summed over bins (a variance) the variance
+    given the record, :math:`\hat S^2 n (1 + v (n + 1))` per bin with
+    :math:`E[\hat S^2] = S^2 (1 + 1/n)`, then exceeds the :math:`2 n S^2` of two independent
+    records by at most 31 % in a bin (n = 2), 9 % at n = 10. Measured on the full chain
+    (``benchmarks/results/measured_atmosphere_scatter.json``: 100 virtual 12-min flights, 4
+    seeds each; 95 % interval of the ratio under a right scatter 0.73-1.40), the seed
+    variance (times 1 + 1/K) over the variance of measured minus predicted, without these
+    factors and with them: ln sigma ratio u 0.95 and 1.00, v 0.72 and 0.83, w 0.81 and 1.00;
+    drone S_w/S_u 0.77 and 1.10; pendulum-band w power 0.75 and 1.05; high-frequency u 0.79
+    and 1.12, w 1.01 and 1.42. The mean-wind features (speed ratio 0.79, tilt difference
+    0.59), made of the lowest frequencies, do not change.
+
+    Parameters
+    ----------
+    counts : numpy.ndarray
+        Number of periodogram ordinates in each bin (:func:`_log_bins`).
+    rng : numpy.random.Generator
+        Random generator (one draw per component and bin, in that order, whatever the counts).
+    n_components : int
+        Number of spectra (u, v, w, theta), each with its own draws.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n_components, n_bins) positive factors, mean 1 (exactly 1 for a bin of one ordinate).
+
+    References
+    ----------
+    Bendat, J. S. and Piersol, A. G. (2010), Random Data, 4th ed., Wiley, Sect. 8.5.4.
+    Efron, B. and Tibshirani, R. J. (1993), An Introduction to the Bootstrap, Chapman & Hall.
+    """
+    n = np.asarray(counts, float)
+    var = (n - 1.0) / n**2
+    shape = np.where(var > 0, 1.0 / np.maximum(var, 1e-300), 1.0)
+    draws = rng.standard_gamma(np.broadcast_to(shape, (n_components, n.size)))
+    return np.where(var > 0, draws * var, 1.0)
 
 
 def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz: np.ndarray, df_hz: float,
                       noise_power: np.ndarray | None = None,
-                      bins_per_decade: int = MEASURED_BINS_PER_DECADE) -> _PointSpectra:
+                      bins_per_decade: int = MEASURED_BINS_PER_DECADE,
+                      sampling: np.random.Generator | None = None) -> _PointSpectra:
     """The points' spectra with the amplitudes of a measured record (the constraint, point 0).
 
     Parameters
@@ -1222,6 +1295,10 @@ def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz:
         default.
     bins_per_decade : int
         Log-frequency bins per decade of the smoothing.
+    sampling : numpy.random.Generator, optional
+        Draw the smoothed spectra again from their sampling distribution given the record
+        (each bin times :func:`spectral_sampling_factors`, the same factor at every point);
+        the smoothed spectra themselves by default.
 
     Returns
     -------
@@ -1251,6 +1328,10 @@ def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz:
     n_c = coefficients.shape[1]
     f_c = fpos_hz[:n_c]
     top = f_c >= f_c[-1] * 10 ** (-1.0 / bins_per_decade)
+    inverse, counts = _log_bins(f_c, bins_per_decade)
+    # drawn for every component whether the record has it or not, so that a seed's factors
+    # depend on the frequencies only (the probes of a seed share them: common random numbers)
+    factors = np.ones((4, counts.size)) if sampling is None else spectral_sampling_factors(counts, sampling)
     amp = spectra.amplitude.copy()
     for i in range(4):
         if not np.all(np.isfinite(coefficients[i])):
@@ -1259,8 +1340,8 @@ def _measured_spectra(spectra: _PointSpectra, coefficients: np.ndarray, fpos_hz:
         if noise_power is not None:
             power = np.maximum(power - float(noise_power[i]), 0.1 * power)
         ratio = power / np.maximum(spectra.amplitude[0, i, :n_c] ** 2, 1e-300)
-        r = np.full(fpos_hz.size, float(np.mean(ratio[top])))
-        r[:n_c] = _log_binned_mean(ratio, f_c, bins_per_decade)
+        r = np.full(fpos_hz.size, float(np.mean(ratio[top])) * factors[i, -1])
+        r[:n_c] = _log_binned_mean(ratio, f_c, bins_per_decade) * factors[i, inverse]
         amp[:, i] *= np.sqrt(r)[None, :]
     rho_uw = np.empty_like(spectra.rho_uw)
     rho_wt = np.empty_like(spectra.rho_wt)

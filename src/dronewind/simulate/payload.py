@@ -111,7 +111,7 @@ _Z_GROUND_M = 0.5  # payload height while on the ground [m]
 _MOUNTS = {"upside_down": np.eye(3), "upright": np.diag([1.0, -1.0, -1.0])}
 # random streams (fixed purpose numbers so that switching one mechanism leaves the others' draws)
 _STREAM = {"turbulence": 0, "motion": 1, "ins_noise": 2, "sonic_noise": 3, "noise_mechanism": 4,
-           "sonic_defects": 5, "ins_defects": 6, "mast": 100}
+           "sonic_defects": 5, "ins_defects": 6, "spectral_sampling": 7, "mast": 100}
 
 
 def body_to_ned(roll_deg: np.ndarray | float, pitch_deg: np.ndarray | float,
@@ -412,13 +412,20 @@ def _field_points(cond: PayloadFlightConditions) -> _FieldPoints:
 
 def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _FieldPoints, fs_sonic_hz: float,
                 fs_mast_hz: float, rng: np.random.Generator,
-                atmosphere: xr.Dataset | None = None) -> tuple[atm.FieldSpec, dict[str, Any]]:
+                atmosphere: xr.Dataset | None = None,
+                sampling: np.random.Generator | None = None) -> tuple[atm.FieldSpec, dict[str, Any]]:
     """Fourier coefficients of the field at all points over the flight and mast span (Taylor delays padded).
 
     With ``atmosphere`` (the reference mast sonic's measured record, L1 names) the field is
     constrained by that record at the reference sonic's position and takes its spectral
     amplitudes (:func:`measured_constraint`); the second return value describes the record
-    used (empty without one).
+    used (empty without one). With ``sampling`` (the seed's own stream) those amplitudes are
+    the record's smoothed spectra drawn again from their sampling distribution
+    (:func:`dronewind.simulate.atmosphere.spectral_sampling_factors`): the seeds of a forward
+    flight then resample the record's spectral sampling error as well as the remainder of
+    the field that the record leaves free, while the record itself is reproduced at the
+    mast by every seed. The draws depend on the seed and the field's frequencies only, so
+    the probes of a seed (and a record read through a mechanism) share them.
     """
     points = field.points_enu_m
     e_u0, _ = atm.wind_frame_unit_vectors(cond["wind_from_deg"])
@@ -446,7 +453,7 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
                                   cond["wind_from_deg"], cond["z_ref_m"], cond["obukhov_length_m"],
                                   cond["roughness_length_m"], rng, cond["theta_mean_k"],
                                   cond["boundary_layer_height_m"], con,
-                                  "model" if con is None else "constraint")
+                                  "model" if con is None else "constraint", sampling)
     # the campaign's turbulence model (simulation.atmosphere) shapes a model field only: a field
     # constrained by a measured record takes that record's spectra
     return (_turbulence_model(cond, field, spec) if con is None else spec), info
@@ -1152,7 +1159,8 @@ def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadF
     fs_s, fs_m = p["sonic_rate_hz"], settings["mast"]["rate_hz"]
     clock = _flight_clock(data, settings, cond, fs_s, fs_m)
     field = _field_points(cond)  # turbulence at the mast sonics (first) and the hover point
-    spec, info = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"), atmosphere)
+    spec, info = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"), atmosphere,
+                             streams("spectral_sampling"))
     air = _air_at_payload(cond, clock, field, spec, fs_s)
     # what depends on the seed's streams but not on the hover point (the jitter; the field at
     # the masts, which comes first in the field's construction) is the same for the truths of
