@@ -50,12 +50,11 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_common import git_commit, machine  # noqa: E402
-
-from dronewind.diagnose.experiments import (  # noqa: E402
-    Draw, diagnose_evidence, judge, measured_campaign_evidence, wilson_interval)
-from dronewind.manifest import default_config  # noqa: E402
 from tests.worlds import WorldSettings, stratified_world_draws, write_campaign  # noqa: E402
+
+from bench_common import git_commit, machine  # noqa: E402
+from dronewind.diagnose.experiments import Draw, diagnose_evidence, judge, measured_campaign_evidence, wilson_interval  # noqa: E402
+from dronewind.manifest import default_config  # noqa: E402
 
 #: Targets the rates are read against (reported, never tuned to).
 TARGETS = {"nothing_named_null_and_model_error": (">=", 0.90), "named_right_in_tolerance": (">=", 0.85),

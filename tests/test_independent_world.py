@@ -19,8 +19,7 @@ from dronewind.diagnose.experiments import Draw, diagnose_evidence, judge, measu
 from dronewind.manifest import default_config, load_campaign
 from dronewind.mast.chain import compute_mast_l1
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
-from tests.worlds import WorldSettings, write_campaign
-from tests.worlds import pendulum, turbulence
+from tests.worlds import WorldSettings, pendulum, turbulence, write_campaign
 
 
 def test_mann_box_variances_and_inertial_slope() -> None:
@@ -38,6 +37,27 @@ def test_mann_box_variances_and_inertial_slope() -> None:
     band = (k > 4 / 17.7) & (k < np.pi / 4)
     slope = np.polyfit(np.log(k[band]), np.log(spec[band]), 1)[0]
     assert slope == pytest.approx(-5 / 3, abs=0.2)     # 2 decades of a 1-realisation spectrum
+
+
+def test_sensor_between_nodes_keeps_small_scale_power() -> None:
+    """A sensor halfway between the box's crosswind and vertical nodes sees the 1.5-3 Hz power
+    of one on a node within 25 % (plain trilinear weights keep about a quarter: measured 0.22
+    on this box), averaged over six places each."""
+    from scipy.signal import welch
+
+    uvw = turbulence.mann_box(17.7, 3.9, 1.0, (4096, 16, 12), (0.5, 4.0, 4.0), seed=3)
+    low, high = turbulence.split_box(uvw, 0.5, 8.0)
+    field = turbulence.WindField(low, high, (0.5, 4.0, 4.0), 6.0, 32.0, 0.0, 5.0, 270.0, 30.0, 0.4, 0.05, math.inf)
+    t = np.arange(0.0, 380.0, 1 / 32)
+    power = {}
+    for kind, offsets, up in (("node", (0, 4, 8, 12, -4, -8), 30.0), ("mid", (2, 6, 10, 14, -2, -6), 32.0)):
+        bands = []
+        for north in offsets:     # wind from the west: north is crosswind
+            u = field.turbulence(t, np.zeros_like(t), np.full_like(t, float(north)), np.full_like(t, up))[:, 0]
+            f, p = welch(u, fs=32, nperseg=1024)
+            bands.append(p[(f > 1.5) & (f < 3)].mean())
+        power[kind] = float(np.mean(bands))
+    assert power["mid"] / power["node"] == pytest.approx(1.0, abs=0.25)
 
 
 def test_log_profile_and_stability() -> None:

@@ -17,7 +17,12 @@ the project's simulator, is tested against a campaign it did not write.
 * :mod:`.campaign`: truths (null, catalog mechanisms, model errors) and the campaign writer.
 """
 
-from tests.worlds.campaign import (HIDDEN_MECHANISMS, WORLD_MODEL_ERRORS, WorldSettings, stratified_world_draws,
-                                   write_campaign)
+from tests.worlds.campaign import (
+                                   HIDDEN_MECHANISMS,
+                                   WORLD_MODEL_ERRORS,
+                                   WorldSettings,
+                                   stratified_world_draws,
+                                   write_campaign,
+)
 
 __all__ = ["HIDDEN_MECHANISMS", "WORLD_MODEL_ERRORS", "WorldSettings", "stratified_world_draws", "write_campaign"]

@@ -75,10 +75,18 @@ def mann_length_m(z_m: float, zeta: float) -> float:
 class WindField:
     """A Mann box carried by a mean wind past fixed and moving points (east, north, up from the mast foot).
 
+    The box is split along the wind into scales longer and shorter than twice the
+    crosswind spacing (:func:`split_box`). Between grid nodes the long scales, coherent
+    over a spacing, are interpolated linearly; the short ones, nearly incoherent from node to
+    node, with the bilinear weights divided by the root of their sum of squares, which keeps
+    their variance (plain linear weights would average incoherent nodes and take up to half
+    the small-scale energy from a sensor between nodes, but none from one on a node).
+
     Attributes
     ----------
-    uvw : numpy.ndarray
-        (3, nx, ny, nz) turbulence [m s-1]: along the initial mean wind, to its left, up.
+    uvw_low, uvw_high : numpy.ndarray
+        (3, nx, ny, nz) turbulence [m s-1] (along the initial mean wind, to its left, up),
+        its long and short scales.
     dxyz_m : tuple of float
         Box spacing [m].
     z_bottom_m : float
@@ -100,7 +108,8 @@ class WindField:
         length; the v' part, uncorrelated with w' in the Mann model, the rest of its variance).
     """
 
-    uvw: np.ndarray
+    uvw_low: np.ndarray
+    uvw_high: np.ndarray
     dxyz_m: tuple[float, float, float]
     z_bottom_m: float
     y_centre_m: float
@@ -131,11 +140,21 @@ class WindField:
         along = east_m * ex[0] + north_m * ex[1]
         cross = east_m * ey[0] + north_m * ey[1]
         dx, dy, dz = self.dxyz_m
-        coords = np.stack([(self.x_offset_m + self.speed_ms * t_s - along) / dx,
-                           (self.y_centre_m + cross) / dy,
-                           (np.asarray(up_m) - self.z_bottom_m) / dz])
-        return np.stack([map_coordinates(self.uvw[c], coords, order=1, mode="grid-wrap") for c in range(3)],
-                        axis=-1)
+        xi = (self.x_offset_m + self.speed_ms * t_s - along) / dx
+        eta = (self.y_centre_m + cross) / dy
+        zeta = (np.asarray(up_m) - self.z_bottom_m) / dz
+        coords = np.stack([xi, eta, zeta])
+        out = np.stack([map_coordinates(self.uvw_low[c], coords, order=1, mode="grid-wrap") for c in range(3)],
+                       axis=-1)
+        e0, z0 = np.floor(eta), np.floor(zeta)
+        fy, fz = eta - e0, zeta - z0
+        corners = [(0, 0, (1 - fy) * (1 - fz)), (1, 0, fy * (1 - fz)), (0, 1, (1 - fy) * fz), (1, 1, fy * fz)]
+        norm = np.sqrt(sum(w * w for _, _, w in corners))
+        for iy, iz, w in corners:
+            at = np.stack([xi, e0 + iy, z0 + iz])
+            for c in range(3):
+                out[:, c] += w / norm * map_coordinates(self.uvw_high[c], at, order=1, mode="grid-wrap")
+        return out
 
     def sample(self, t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, up_m: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -185,6 +204,15 @@ def mann_box(length_scale_m: float, gamma: float, sigma_u_ms: float, nxyz: tuple
     uvw = np.asarray(field.uvw, dtype=np.float32)
     uvw -= uvw.mean(axis=(1, 2, 3), keepdims=True)
     return uvw * np.float32(sigma_u_ms / float(uvw[0].std()))
+
+
+def split_box(uvw: np.ndarray, dx_m: float, cutoff_wavelength_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """The box's along-wind scales longer and shorter than ``cutoff_wavelength_m`` (a sharp
+    spectral cut along x; the two parts add up to the box)."""
+    k = np.fft.rfftfreq(uvw.shape[1], d=dx_m)
+    low = np.fft.irfft(np.fft.rfft(uvw, axis=1) * (k < 1.0 / cutoff_wavelength_m)[None, :, None, None],
+                       n=uvw.shape[1], axis=1).astype(np.float32)
+    return low, (uvw - low).astype(np.float32)
 
 
 def heat_gains(ustar_ms: float, obukhov_m: float, theta_k: float, sigma_w_ms: float, sigma_v_ms: float
