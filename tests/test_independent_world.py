@@ -3,7 +3,7 @@
 Fast checks (no marker, about 20 CPU-s together): the Mann box's variances and inertial
 slope, the pendulum's period, the written files read back by dronewind's readers, the
 sonic-INS lag found where it was put. Slow (``-m slow``): one null and one hidden-mechanism
-campaign of three 10-minute hovers diagnosed in-process and judged.
+campaign of three 11-minute hovers diagnosed in-process and judged.
 """
 
 from __future__ import annotations
@@ -39,25 +39,18 @@ def test_mann_box_variances_and_inertial_slope() -> None:
     assert slope == pytest.approx(-5 / 3, abs=0.2)     # 2 decades of a 1-realisation spectrum
 
 
-def test_sensor_between_nodes_keeps_small_scale_power() -> None:
-    """A sensor halfway between the box's crosswind and vertical nodes sees the 1.5-3 Hz power
-    of one on a node within 25 % (plain trilinear weights keep about a quarter: measured 0.22
-    on this box), averaged over six places each."""
-    from scipy.signal import welch
-
-    uvw = turbulence.mann_box(17.7, 3.9, 1.0, (4096, 16, 12), (0.5, 4.0, 4.0), seed=3)
-    low, high = turbulence.split_box(uvw, 0.5, 8.0)
-    field = turbulence.WindField(low, high, (0.5, 4.0, 4.0), 6.0, 32.0, 0.0, 5.0, 270.0, 30.0, 0.4, 0.05, math.inf)
-    t = np.arange(0.0, 380.0, 1 / 32)
-    power = {}
-    for kind, offsets, up in (("node", (0, 4, 8, 12, -4, -8), 30.0), ("mid", (2, 6, 10, 14, -2, -6), 32.0)):
-        bands = []
-        for north in offsets:     # wind from the west: north is crosswind
-            u = field.turbulence(t, np.zeros_like(t), np.full_like(t, float(north)), np.full_like(t, up))[:, 0]
-            f, p = welch(u, fs=32, nperseg=1024)
-            bands.append(p[(f > 1.5) & (f < 3)].mean())
-        power[kind] = float(np.mean(bands))
-    assert power["mid"] / power["node"] == pytest.approx(1.0, abs=0.25)
+def test_turbulence_from_the_nearest_node() -> None:
+    """Across and up the wind a sensor gets its nearest node's series (no averaging of
+    partly incoherent nodes, which would take small-scale energy from it); along the wind the
+    box is carried at the mean speed (Taylor): a point 10 m downwind sees the series 2 s later."""
+    uvw = turbulence.mann_box(17.7, 3.9, 1.0, (2048, 16, 12), (0.5, 4.0, 4.0), seed=3)
+    field = turbulence.WindField(uvw, (0.5, 4.0, 4.0), 6.0, 32.0, 20.0, 5.0, 270.0, 30.0, 0.4, 0.05, math.inf)
+    t = np.arange(0.0, 150.0, 0.1)
+    zero = np.zeros_like(t)
+    on_node = field.turbulence(t, zero, zero, np.full_like(t, 30.0))
+    np.testing.assert_array_equal(field.turbulence(t, zero, zero + 1.9, np.full_like(t, 31.9)), on_node)
+    downwind = field.turbulence(t + 2.0, zero + 10.0, zero, np.full_like(t, 30.0))   # wind from the west
+    np.testing.assert_allclose(downwind, on_node, atol=1e-5)
 
 
 def test_log_profile_and_stability() -> None:
@@ -161,7 +154,7 @@ def test_sonic_ins_lag_applied_as_declared(short_campaign, tmp_path) -> None:
 
 
 def _judged_draw(truth: Draw, folder) -> dict:
-    settings = WorldSettings(n_flights=3, hover_s=600.0)
+    settings = WorldSettings(n_flights=3, hover_s=660.0)   # the chain needs 600 s of detected hover
     manifest = write_campaign(truth, folder, settings)
     config = default_config()
     return judge(truth, diagnose_evidence(measured_campaign_evidence(manifest, config), config))

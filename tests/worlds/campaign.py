@@ -210,8 +210,7 @@ def build_field(cond: dict[str, float], settings: WorldSettings, world: dict[str
     uvw = turbulence.mann_box(turbulence.mann_length_m(z, cond["zeta"]), world.get("gamma", 3.9), sig_u, nxyz,
                               dxyz, seed)
     a, b = turbulence.heat_gains(ustar, ell, cond["theta_k"], float(uvw[2].std()), float(uvw[1].std()))
-    low, high = turbulence.split_box(uvw, dx, 2 * dxyz[1])
-    return turbulence.WindField(uvw_low=low, uvw_high=high, dxyz_m=dxyz, z_bottom_m=6.0, y_centre_m=32.0,
+    return turbulence.WindField(uvw=uvw, dxyz_m=dxyz, z_bottom_m=6.0, y_centre_m=32.0,
                                 x_offset_m=abs(cond["along_m"]) + 50.0, speed_ms=cond["speed_ms"],
                                 wind_from_deg=cond["wind_from_deg"], z_ref_m=z, ustar_ms=ustar, z0_m=cond["z0_m"],
                                 obukhov_m=ell, speed_trend_ms_per_s=world.get("speed_trend_ms_per_h", 0.0) / 3600,
@@ -247,8 +246,15 @@ def _write_flight(folder: Path, fid: str, cond: dict[str, float], start: np.date
     hook[:, 1] += set_en[1]
     hook[:, 2] += hook_up
     frac = (np.arange(line.n_segments) + 0.5) / line.n_segments
-    wind_p, _ = wf.sample(tf, hook[:, 0], hook[:, 1], hook[:, 2] - line.length_m)
-    wind_l = np.stack([wf.sample(tf, hook[:, 0], hook[:, 1], hook[:, 2] - f * line.length_m)[0]
+    def nominal(east: np.ndarray, north: np.ndarray, up: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """Turbulence place of a moving point: its along-wind place, the set point across, ``up``."""
+        along = (east - set_en[0]) * ex[0] + (north - set_en[1]) * ex[1]
+        return set_en[0] + along * ex[0], set_en[1] + along * ex[1], up
+
+    wind_p, _ = wf.sample(tf, hook[:, 0], hook[:, 1], hook[:, 2] - line.length_m,
+                          nominal(hook[:, 0], hook[:, 1], cond["payload_height_m"]))
+    wind_l = np.stack([wf.sample(tf, hook[:, 0], hook[:, 1], hook[:, 2] - f * line.length_m,
+                                 nominal(hook[:, 0], hook[:, 1], hook_up - f * line.length_m))[0]
                        for f in frac], axis=1)
     heading = np.radians(cond["wind_from_deg"] + 1.0 * np.sin(2 * np.pi * tf / 97.0))   # drone faces the wind
     ts_state = np.arange(tf[0], tf[-1] - 0.5, 1.0 / STATE_HZ)
@@ -267,7 +273,8 @@ def _write_flight(folder: Path, fid: str, cond: dict[str, float], start: np.date
     n_s = int((t_b - t_a) * SONIC_HZ)
     t_s = t_a + np.arange(n_s) / SONIC_HZ
     pos, vel, axes = payload_at(t_s)
-    wind, theta = wf.sample(t_s, pos[:, 0], pos[:, 1], pos[:, 2])
+    wind, theta = wf.sample(t_s, pos[:, 0], pos[:, 1], pos[:, 2],
+                            nominal(pos[:, 0], pos[:, 1], cond["payload_height_m"]))
     rel_enu = wind - vel
     v_body = np.einsum("nji,nj->ni", axes, rel_enu)                     # axes^T rel: body components
     mount = np.eye(3) if fid_mount(fid) == "upside_down" else np.diag([1.0, -1.0, -1.0])
