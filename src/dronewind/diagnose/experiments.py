@@ -61,7 +61,8 @@ __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Dra
            "diagnose_evidence", "AMBIGUOUS_WITH", "CHAIN_LAG_OFFSET_S",
            "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
            "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS",
-           "CAVEATED_MODEL_ERRORS", "model_error_draw", "VirtualFlight", "process_virtual_flight"]
+           "CAVEATED_MODEL_ERRORS", "model_error_draw", "VirtualFlight", "process_virtual_flight",
+           "measured_campaign_evidence"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
 #: as a distance from the parameter's centre (:data:`HIDDEN_CENTRES`, else 0), on a random
@@ -706,3 +707,72 @@ def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any]) ->
     out = dc.to_json(result, evidence["name"])
     out["atmosphere"] = str(diagnosis["atmosphere"])
     return out
+
+
+def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, Any]) -> dict[str, Any]:
+    """The diagnosis' input for a measured campaign (a manifest without ``simulation:``), in this process.
+
+    Each payload flight goes through the workflow's chain in the rules' order, as
+    :func:`process_virtual_flight` does for a simulated one but from the campaign's files:
+    payload L1 and L2, the reference mast sonic's L1 (once per sonic, from all its files)
+    and L2, L3; then its residual features, forward conditions, atmosphere record
+    (``diagnosis.atmosphere: measured``) and forward probes, each on the one-flight view of
+    the manifest (:func:`dronewind.manifest.payload_flight_manifest`), as the per-flight
+    diagnosis rules read it. Flights whose L2 is marked unusable are left out, as the
+    campaign diagnosis leaves them out (their ids in ``unusable``).
+
+    Parameters
+    ----------
+    manifest_path : str or Path
+        Campaign manifest of measured data (its files must exist).
+    config : mapping
+        Workflow configuration, possibly partial (:func:`dronewind.manifest.with_defaults`).
+
+    Returns
+    -------
+    dict
+        ``name``, ``measured`` (flight -> features), ``forward`` (flight -> forward runs),
+        ``unusable`` (flight ids left out): the input of :func:`diagnose_evidence`.
+
+    Raises
+    ------
+    ManifestError
+        The manifest is invalid or declares a ``simulation:`` section.
+    """
+    from dronewind.diagnose import forward
+    from dronewind.diagnose.features import features_to_dict
+    from dronewind.errors import ManifestError
+    from dronewind.manifest import load_campaign, payload_flight_manifest
+
+    campaign = load_campaign(manifest_path)
+    if campaign.simulated:
+        raise ManifestError(campaign.path, "simulation", "a measured campaign is expected (no simulation: section)")
+    settings = with_defaults(config)
+    processing, diagnosis = settings["processing"], settings["diagnosis"]
+    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    root, sonics = campaign.data_root, campaign.mast_sonics()
+    altitude_m = float(campaign.data["site"]["altitude_m"])
+    mast_l1: dict[str, xr.Dataset] = {}
+    measured: dict[str, Any] = {}
+    fwd: dict[str, Any] = {}
+    unusable: list[str] = []
+    for flight in campaign.payload_flights:
+        fid, ref = flight["id"], flight["reference"]
+        view = payload_flight_manifest(campaign.data, fid)
+        s1, i1 = compute_payload_l1(root / flight["sonic"]["file"], root / flight["ins"]["file"],
+                                    processing["despike"])
+        l2 = compute_payload_l2(s1, i1, flight, altitude_m, **lag)
+        if ref not in mast_l1:
+            mast_l1[ref] = compute_mast_l1(campaign.mast_files(ref), sonics[ref], processing["despike"])
+        m2 = compute_mast_l2(mast_l1[ref], l2, fid, processing["drone_mast"])
+        l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
+        if not int(l2.attrs.get("usable", 1)):
+            unusable.append(fid)
+            continue
+        measured[fid] = features_to_dict(forward.measured_features(view, fid, s1, i1, l2, l3, **lag))
+        conditions = forward.forward_conditions(view, fid, l3, l2)
+        record = (forward.atmosphere_record(mast_l1[ref], conditions)
+                  if str(diagnosis["atmosphere"]) == "measured" else None)
+        fwd[fid] = forward.probe_runs(view, fid, conditions, processing, seeds=tuple(diagnosis["seeds"]),
+                                      atmosphere=record)
+    return {"name": campaign.name, "measured": measured, "forward": fwd, "unusable": unusable}
