@@ -756,6 +756,7 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
     measured: dict[str, Any] = {}
     fwd: dict[str, Any] = {}
     unusable: list[str] = []
+    seeds = tuple(resolved_seeds(diagnosis["seeds"], len(campaign.payload_flights)))
     for flight in campaign.payload_flights:
         fid, ref = flight["id"], flight["reference"]
         view = payload_flight_manifest(campaign.data, fid)
@@ -773,6 +774,6 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
         conditions = forward.forward_conditions(view, fid, l3, l2)
         record = (forward.atmosphere_record(mast_l1[ref], conditions)
                   if str(diagnosis["atmosphere"]) == "measured" else None)
-        fwd[fid] = forward.probe_runs(view, fid, conditions, processing, seeds=tuple(diagnosis["seeds"]),
+        fwd[fid] = forward.probe_runs(view, fid, conditions, processing, seeds=seeds,
                                       atmosphere=record)
     return {"name": campaign.name, "measured": measured, "forward": fwd, "unusable": unusable}
