@@ -675,7 +675,7 @@ CASES: list[tuple[str, Callable[[Path, dict], None], str, str, tuple[str, ...]]]
      r"value", ()),
     ("sonic_header_only", f_sonic_header_only, "error", r"sonic\.csv: no data lines after the header", ()),
     ("sonic_before_gnss_time", f_sonic_before_gnss_time, "error",
-     r"sonic\.csv: all 640 sonic rows precede the INS's stable valid GNSS time: the sonic's logger time ends 20\.0 s "
+     r"sonic\.csv: all \d+ sonic rows precede the INS's stable valid GNSS time: the sonic's logger time ends 20\.0 s "
      r"before it", ()),
     ("ins_yaw_empty", f_ins_yaw_empty, "error", r"ins\.csv:2: 33816 of 33816 data lines corrupt .*33816 bad yaw_deg "
      r"fields", ()),

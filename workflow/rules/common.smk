@@ -13,7 +13,12 @@ from snakemake.utils import min_version, validate
 
 from dronewind.config import check_config
 from dronewind.core.attribution import attribution
-from dronewind.diagnose.probes import CHAIN_SETTINGS, fresh_seeds, probe_parts, resolved_seeds
+from dronewind.diagnose.probes import (
+    CHAIN_SETTINGS,
+    fresh_seeds,
+    probe_parts,
+    resolved_seeds,
+)
 from dronewind.figures.labels import (
     BLOCK_FIGURE,
     QUAD_FIGURES,
@@ -275,9 +280,11 @@ def payload_file(kind):
 
 def payload_format(kind):
     """Params function: the declared format of a payload flight's sonic or INS file (None: the contract CSV)."""
+
     def declared(wc):
         fmt = CAMPAIGN.payload_flight(wc.flight)[kind].get("format")
         return None if fmt in (None, "contract_csv", {"name": "contract_csv"}) else fmt
+
     return declared
 
 

@@ -632,7 +632,7 @@ def response_ambiguity(ev: CampaignEvidence, candidate: str, effect: np.ndarray,
 
 def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 3,
              min_gain: float = MIN_GAIN, n_replicates: int = DEFAULT_REPLICATES, bootstrap_seed: int = 0,
-             progress: Any = None) -> DiagnosisResult:
+             progress: Any = None, reference: NullReference | None = None) -> DiagnosisResult:
     """Score every candidate; name the significant ones greedily (best gain first).
 
     The baseline's model discrepancy is estimated first and carried into every test; every
@@ -660,6 +660,11 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
         Seed of the bootstrap (the diagnosis is reproducible).
     progress : callable, optional
         Called after each bootstrap replicate.
+    reference : NullReference, optional
+        A bootstrap reference made for evidence with the same forward runs (seeds, errors,
+        candidates), e.g. by an earlier call's result (``DiagnosisResult.reference``), used
+        instead of drawing one: Monte-Carlo studies of one planned campaign draw many
+        measurements against one set of forward runs.
 
     Returns
     -------
@@ -673,8 +678,7 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
     disc = discrepancy(ev.y - ev.baseline, ev.sigma, ev.speed_ms)
     ev.set_discrepancy(disc.tau_or_zero())
     used = np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0)
-    reference = None
-    if ev.n_seeds >= 2 and n_replicates > 0 and ev.models:
+    if reference is None and ev.n_seeds >= 2 and n_replicates > 0 and ev.models:
         reference = null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
                                    truth_corr=None if ev.correlation is None else ev.correlation.sample,
                                    tau=disc.tau_or_zero(), used=used, n_seeds=ev.n_seeds, speed_ms=ev.speed_ms,

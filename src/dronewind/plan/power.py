@@ -92,6 +92,7 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
     from dronewind.diagnose import forward
     from dronewind.diagnose.experiments import process_virtual_flight
     from dronewind.diagnose.features import features_to_dict
+    from dronewind.diagnose.probes import resolved_seeds
 
     settings = with_defaults(config)
     processing, diagnosis = settings["processing"], settings["diagnosis"]
@@ -100,7 +101,7 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
     # enter the diagnosis
     view: dict[str, Any] = copy.deepcopy(dict(data))
     view["masts"] = [{**view["masts"][0], "sonics": view["masts"][0]["sonics"][:1]}]
-    seeds = tuple(int(s) for s in diagnosis["seeds"])
+    seeds = tuple(resolved_seeds(diagnosis["seeds"], len(view["payload_flights"])))
     lag = {key: processing[key] for key in forward.LAG_SETTINGS}
     measured: dict[str, Any] = {}
     fwd: dict[str, Any] = {}
@@ -290,6 +291,7 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     rng = np.random.default_rng([int(seed), n_flights, len(label or "")])
     forward = {f: model.forward[f] for f in flights}
     hits = 0
+    reference = None  # the draws share the forward runs: one bootstrap reference serves them all
     for k in range(draws):
         ctx = progress.item(f"{label or 'no error'}, {n_flights} flights, draw {k + 1}") if progress else _null()
         with ctx:
@@ -297,7 +299,9 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
             y = model.baseline[idx] + effect + model.noise_factor * model.sigma[idx] * xi
             ev = dc.assemble(_measured(model, y, flights), forward)
             result = dc.diagnose(ev, alpha=float(diagnosis["alpha"]), max_causes=int(diagnosis["max_causes"]),
-                                 min_gain=float(diagnosis["min_gain"]))
+                                 min_gain=float(diagnosis["min_gain"]), n_replicates=int(diagnosis["bootstrap"]),
+                                 reference=reference)
+            reference = result.reference
             out = dc.to_json(result, "plan")
             out["atmosphere"] = str(diagnosis["atmosphere"])
             hits += bool(judge(truth, out)["detected"])
