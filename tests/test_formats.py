@@ -392,3 +392,22 @@ def test_readme_has_a_valid_example_of_every_format(tmp_path):
         path = tmp_path / f"example{k}.yaml"
         path.write_text(yaml.safe_dump(example, sort_keys=False))
         load_campaign(path, check_files=False)
+
+
+def test_a_damaged_file_of_a_record_is_a_warning_a_record_of_damaged_files_an_error(tmp_path):
+    """A mast record of two TOA5 files, one with its field-name line damaged (an SD card's torn
+    header): the run goes on without that file (its reader leaves it out), with a warning naming
+    it; with both files damaged the record's format cannot be right and the check stops the run."""
+    good = tmp_path / "a.dat"
+    bad = tmp_path / "b.dat"
+    good.write_bytes(TOA5_EXCERPT.read_bytes())
+    lines = TOA5_EXCERPT.read_text().splitlines(keepends=True)
+    lines[1] = lines[1].replace('"Uz"', '"U?"')
+    bad.write_text("".join(lines))
+    manifest = write_manifest(tmp_path, masts=mast({**CSAT, "files": ["a.dat", "b.dat"]}))
+    warnings = check_campaign_formats(load_campaign(manifest))
+    assert len(warnings) == 1 and f"{bad}:2: field-name line without Uz" in warnings[0]
+    manifest = write_manifest(tmp_path, masts=mast({**CSAT, "files": ["b.dat"]}))
+    with pytest.raises(ManifestError) as info:
+        check_campaign_formats(load_campaign(manifest))
+    assert f"{bad}:2: field-name line without Uz" in str(info.value)

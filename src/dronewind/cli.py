@@ -56,7 +56,8 @@ def _validate_campaign(args: argparse.Namespace) -> int:
         raise InputError(args.manifest, f"not a text (YAML) file: {exc.reason} at byte {exc.start}") from exc
     if not args.no_files:
         # every file's first lines against its declared format (a measured campaign)
-        check_campaign_formats(campaign)
+        for warning in check_campaign_formats(campaign):
+            print(f"warning: {warning}")
     kind = "virtual (simulated)" if campaign.simulated else "measured"
     print(
         f"{campaign.path}: valid {kind} campaign {campaign.name!r}: "

@@ -57,7 +57,7 @@ from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS, rigid_layout
 from dronewind.quadrotor.columns import DATAFLASH_MAGIC, QUADROTOR_COLUMNS, QUADROTOR_QUANTITIES
 
 __all__ = ["ULOG_MAGIC", "CONTRACT_HEADERS", "describe_content", "check_file_format", "format_problems",
-           "check_campaign_formats"]
+           "check_campaign_formats", "damaged_files"]
 
 #: First bytes of a PX4 ULog file ("ULog" 01 12 35, then the version byte).
 ULOG_MAGIC = b"ULog\x01\x12\x35"
@@ -297,7 +297,11 @@ def _records(campaign: Campaign) -> list[tuple[str, str, dict[str, Any], list[Pa
 
 
 def format_problems(campaign: Campaign) -> list[tuple[str, str]]:
-    """Every file of a measured campaign that does not match its declared format.
+    """Every record of a measured campaign whose files do not match its declared format.
+
+    A record some of whose files match its format and some not is not a misdeclared format but
+    a record with damaged files: the reader leaves those out, counted and named
+    (:func:`damaged_files`); it is not a problem here.
 
     Parameters
     ----------
@@ -308,21 +312,40 @@ def format_problems(campaign: Campaign) -> list[tuple[str, str]]:
     -------
     list of (str, str)
         ``(key path of the record's format, "<file>:<line>: <found>, expected <what>")``;
-        one entry per record (its first file that fails).
+        one entry per record none of whose files matches (its first file's problem).
     """
-    problems: list[tuple[str, str]] = []
+    return [(key, failed[0]) for key, failed, n_files in _file_checks(campaign) if failed and len(failed) == n_files]
+
+
+def damaged_files(campaign: Campaign) -> list[tuple[str, str]]:
+    """Files that fail their declared format in a record whose other files match it.
+
+    Returns
+    -------
+    list of (str, str)
+        ``(key path of the record's format, "<file>:<line>: <found>, expected <what>")`` per
+        damaged file: the run goes on without it (the record's reader leaves it out and says so).
+    """
+    return [(key, what) for key, failed, n_files in _file_checks(campaign) if len(failed) < n_files
+            for what in failed]
+
+
+def _file_checks(campaign: Campaign) -> list[tuple[str, list[str], int]]:
+    """Per record: its format's key path, the problems of its failing files, its number of files."""
+    out = []
     for key, kind, fmt, files in _records(campaign):
+        failed = []
         for f in files:
             try:
                 check_file_format(f, fmt, kind, f"{key}.format")
             except InputError as exc:
-                problems.append((f"{key}.format", str(exc)))
-                break
-    return problems
+                failed.append(str(exc))
+        out.append((f"{key}.format", failed, len(files)))
+    return out
 
 
-def check_campaign_formats(campaign: Campaign) -> None:
-    """Raise when a file of a measured campaign does not match its declared format.
+def check_campaign_formats(campaign: Campaign) -> list[str]:
+    """Raise when a record of a measured campaign does not match its declared format.
 
     A virtual campaign (``simulation:``) is skipped: the simulator writes its files in the
     contract formats.
@@ -337,12 +360,18 @@ def check_campaign_formats(campaign: Campaign) -> None:
     ManifestError
         Naming the manifest, the record's ``format`` key path and ``<file>:<line>: <found>,
         expected <what>``; every problem is listed.
+
+    Returns
+    -------
+    list of str
+        One warning per damaged file of a record whose other files match (:func:`damaged_files`).
     """
     if campaign.simulated:
-        return
+        return []
     problems = format_problems(campaign)
     if problems:
         key, what = problems[0]
         if len(problems) > 1:
             what += "\n" + "\n".join(f"  also [{k}]: {w}" for k, w in problems[1:])
         raise ManifestError(campaign.path, key, what)
+    return [f"[{key}] damaged file left out of its record: {what}" for key, what in damaged_files(campaign)]

@@ -57,8 +57,10 @@ if CAMPAIGN.simulated:
     validate_simulation(CAMPAIGN.data)
 else:
     # a measured campaign's files are read in their declared formats: each file's first
-    # lines are checked against its format before any job (names the file and line)
-    check_campaign_formats(CAMPAIGN)
+    # lines are checked against its format before any job (names the file and line); a damaged
+    # file of a record whose other files are fine is left out by its reader, with a warning
+    for _warning in check_campaign_formats(CAMPAIGN):
+        logger.warning(_warning)
 RESULTS = Path(config["results_dir"]) / CAMPAIGN.name
 # A virtual campaign's raw files are written by the simulator under results/<name>/L0/;
 # a measured campaign's raw files are where its manifest says.

@@ -93,6 +93,13 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
     from dronewind.diagnose.features import binned_spectra, features_to_dict
 
     sonic, ins, l2, l3 = _load_flight(sonic_l1, ins_l1, drone_l2, l3_file)
+    if "mast" not in [str(s) for s in np.asarray(l3["sensor"].values).astype(str)]:
+        # no usable reference over the flight (its mast record unreadable or not covering the
+        # hover): no drone-mast feature to compare, so the flight is left out of the diagnosis
+        reason = str(l3.attrs.get("reference_unusable_reason") or "no reference mast sonic in the L3")
+        LOG.warning("flight %s: left out of the diagnosis: %s", flight_id, reason)
+        return write_json(output, {"flight": flight_id, "features": None, "conditions": None, "usable": 0,
+                                   "reason": reason})
     feats = forward.measured_features(campaign, flight_id, sonic, ins, l2, l3, sonic_ins_lag=sonic_ins_lag,
                                       hover=hover, max_missing_fraction=max_missing_fraction)
     conditions = forward.forward_conditions(campaign, flight_id, l3, l2)
@@ -143,6 +150,9 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
     from dronewind.diagnose import forward
 
     measured = json.loads(Path(measured_json).read_text())
+    if measured.get("conditions") is None:  # a flight left out of the diagnosis (measured_features)
+        return write_json(output, {"flight": flight_id, "usable": 0, "reason": measured.get("reason", ""),
+                                   "atmosphere": atmosphere})
     record = _atmosphere(mast_l1, atmosphere, measured["conditions"])
     runs = forward.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds),
                               parts=None if part is None else [part], atmosphere=record)
@@ -191,7 +201,10 @@ def merge_forward_parts(part_files: Sequence[str | Path], output: str | Path) ->
     """
     from dronewind.diagnose import forward
 
-    return write_json(output, forward.merge_probe_runs([json.loads(Path(f).read_text()) for f in part_files]))
+    parts = [json.loads(Path(f).read_text()) for f in part_files]
+    if any(p.get("usable", 1) == 0 and "baseline" not in p and "probes" not in p for p in parts):
+        return write_json(output, parts[0])  # a flight left out of the diagnosis: its placeholder
+    return write_json(output, forward.merge_probe_runs(parts))
 
 
 def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str | Path]) -> dc.CampaignEvidence:
