@@ -481,6 +481,23 @@ def _ulog_full(path: Path) -> Any:
     return read_quadrotor_ulog(path)
 
 
+# ArduPilot DataFlash -----------------------------------------------------------------
+
+
+def _dataflash_samples(folder: Path) -> dict[str, bytes]:
+    real = next(iter(sorted((SHARED / "ardupilot_dataflash").glob("*.bin"))), None)
+    if real is None:
+        return {}
+    with open(real, "rb") as fh:
+        return {"real_head": fh.read(400_000)}
+
+
+def _dataflash_full(path: Path) -> Any:
+    from dronewind.quadrotor.ardupilot import read_quadrotor_ardupilot
+
+    return read_quadrotor_ardupilot(path)
+
+
 _TEXT_OPS = tuple(o for o in OPS if not o.startswith("gzip"))
 _SONIC_KINDS = {"rpi_time_us": "int", "u_ms": "float", "v_ms": "float", "w_ms": "float", "t_sonic_c": "float"}
 
@@ -511,6 +528,7 @@ READERS: list[Reader] = [
     Reader("quadrotor_csv", "q01.csv", 1, False, _quad_samples, _quad_rows, _quad_full, _TEXT_OPS),
     Reader("tower_reference", "reference.csv", 1, False, _tower_samples, _tower_rows, _tower_full, _TEXT_OPS),
     Reader("px4_ulog", "log.ulg", 0, False, _ulog_samples, None, _ulog_full, BINARY_OPS),
+    Reader("ardupilot_bin", "log.bin", 0, False, _dataflash_samples, None, _dataflash_full, BINARY_OPS),
 ]
 
 
