@@ -54,7 +54,7 @@ import scipy.stats
 import xarray as xr
 
 from dronewind.core.reuse import read_only
-from dronewind.diagnose.campaign import CampaignEvidence, assemble, simplest_variant
+from dronewind.diagnose.campaign import AT_BOUND, CampaignEvidence, assemble, simplest_variant
 from dronewind.diagnose.campaign import n_tests as campaign_n_tests
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.fitting import ParameterResponse, bounded_least_squares
@@ -470,6 +470,16 @@ def _group_table(pe: PublishedEvidence, combo: Sequence[str], theta: np.ndarray)
     return rows
 
 
+def _at_bound(pe: PublishedEvidence, score: PublishedScore) -> bool:
+    """Whether a parameter of ``score``'s fit sits at a catalog bound other than its "off" level."""
+    for par, value in zip(_combo_parameters(pe, score.combo), score.theta, strict=True):
+        span = par.upper - par.lower
+        for bound in (par.lower, par.upper):
+            if abs(value - bound) <= AT_BOUND * span and not np.isclose(bound, par.baseline_level):
+                return True
+    return False
+
+
 def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], alpha: float,
                  tests: Mapping[str, int], max_causes: int
                  ) -> tuple[tuple[str, ...], PublishedScore | None, list[PublishedScore]]:
@@ -497,6 +507,9 @@ def _name_causes(pe: PublishedEvidence, singles: Mapping[str, PublishedScore], a
         # then decides) and for the best three rejected tries (reported): not for the others
         tries = [singles[c] for c in options] if not named else \
             [score_combo(pe, (*named, c), named, alpha, tests[c], heldout=None) for c in options]
+        for s in tries:  # an estimate at a catalog bound is not identified: never named (campaign rule)
+            if s.significant and _at_bound(pe, s):
+                s.significant = False
         ok = [s for s in tries if s.significant and (current is None or s.gain > 0)]
         if not ok:
             rejected = sorted(tries, key=lambda s: s.p_value)
