@@ -41,11 +41,11 @@ import pytest
 import xarray as xr
 import yaml
 
-from dronewind.compare.chain import compute_l3, compute_l4
+from dronewind.compare.chain import compute_l3, compute_l4, reference_unusable_l3
 from dronewind.core import spectra
 from dronewind.errors import DronewindError, InputError, ManifestError
 from dronewind.manifest import default_config, load_campaign
-from dronewind.mast.chain import compute_mast_l1, flight_reference, reference_unusable_l3
+from dronewind.mast.chain import compute_mast_l1, flight_reference
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 from dronewind.steps.lock import LOCK_NAME, ResultsLockedError, acquire_results_lock, lock_owner, release_results_lock
 from dronewind.steps.payload import simulate_payload, simulation_manifest

@@ -21,7 +21,7 @@ from dronewind.core import rotation as rot
 from dronewind.core.angles import rad2deg
 from dronewind.errors import ProcessingError
 
-__all__ = ["planar_fits", "compute_l3", "compute_drone_l3", "compute_l4", "period_time"]
+__all__ = ["planar_fits", "compute_l3", "compute_drone_l3", "compute_l4", "period_time", "reference_unusable_l3"]
 
 #: Global attributes of the L3 that each L4 keeps.
 _L4_ATTRS = ("lag_sonic_ins_s", "lag_drone_mast_s", "drone_usable", "drone_unusable_reason", "reference")
@@ -219,3 +219,36 @@ def compute_l4(l3: xr.Dataset, sensor: str, spectra: Mapping[str, Any], quadrant
         if key in l3.attrs:
             ds.attrs[key] = l3.attrs[key]
     return period_time(ds, l3["time"].values)
+
+
+def reference_unusable_l3(drone_l2: xr.Dataset, flight: Mapping[str, Any], rotation: str,
+                          reason: str) -> xr.Dataset:
+    """The drone-only L3 of a flight whose reference mast cannot be used, marked ``usable = 0``.
+
+    The same L3 as a flight without a reference (:func:`dronewind.compare.chain.compute_drone_l3`:
+    the drone in streamline coordinates at its L2 rate), so its L4 is the drone's; attrs
+    ``drone_usable`` = 0 and ``drone_unusable_reason`` (the drone's own reason, if any, then
+    ``reason``), ``reference_unusable_reason`` = ``reason``.
+
+    Parameters
+    ----------
+    drone_l2 : xarray.Dataset
+        L2 of the drone.
+    flight : mapping
+        Payload flight entry of the manifest.
+    rotation : str
+        ``processing.rotation``.
+    reason : str
+        Why the reference cannot be used (:func:`flight_reference`).
+
+    Returns
+    -------
+    xarray.Dataset
+    """
+    ds = compute_drone_l3(drone_l2, flight, rotation)
+    own = str(ds.attrs.get("drone_unusable_reason", ""))
+    ds.attrs["drone_usable"] = 0
+    ds.attrs["drone_unusable_reason"] = f"{own}; {reason}" if own else reason
+    ds.attrs["reference_unusable_reason"] = reason
+    ds.attrs["processing_log"] = (str(ds.attrs.get("processing_log", "")) + f"\nl3: drone only: {reason}").strip()
+    return ds

@@ -23,7 +23,7 @@ from dronewind.manifest import record_format
 from dronewind.mast import ameriflux, delimited, toa5
 
 __all__ = ["record_planar_fit", "compute_mast_l1", "window_coverage", "compute_mast_l2", "flight_reference",
-           "reference_unusable_l3", "unreadable_mast_l1", "unusable_mast_l2"]
+           "unreadable_mast_l1", "unusable_mast_l2"]
 
 
 def record_planar_fit(ds: xr.Dataset) -> dict[str, float | int | str]:
@@ -198,7 +198,7 @@ def flight_reference(
 
     A mast record that cannot be read, or whose valid data do not cover the flight's
     window, does not stop the flight: the flight goes on as one without a reference
-    (drone-only L3 and L4, :func:`reference_unusable_l3`) with ``usable = 0`` and this
+    (drone-only L3 and L4, :func:`dronewind.compare.chain.reference_unusable_l3`) with ``usable = 0`` and this
     reason, and the campaign's other flights are unaffected.
 
     Parameters
@@ -228,41 +228,6 @@ def flight_reference(
         if left_out:
             reason += f"; file(s) of the record left out as unreadable: {'; '.join(left_out)}"
         return None, reason
-
-
-def reference_unusable_l3(drone_l2: xr.Dataset, flight: Mapping[str, Any], rotation: str,
-                          reason: str) -> xr.Dataset:
-    """The drone-only L3 of a flight whose reference mast cannot be used, marked ``usable = 0``.
-
-    The same L3 as a flight without a reference (:func:`dronewind.compare.chain.compute_drone_l3`:
-    the drone in streamline coordinates at its L2 rate), so its L4 is the drone's; attrs
-    ``drone_usable`` = 0 and ``drone_unusable_reason`` (the drone's own reason, if any, then
-    ``reason``), ``reference_unusable_reason`` = ``reason``.
-
-    Parameters
-    ----------
-    drone_l2 : xarray.Dataset
-        L2 of the drone.
-    flight : mapping
-        Payload flight entry of the manifest.
-    rotation : str
-        ``processing.rotation``.
-    reason : str
-        Why the reference cannot be used (:func:`flight_reference`).
-
-    Returns
-    -------
-    xarray.Dataset
-    """
-    from dronewind.compare.chain import compute_drone_l3  # scipy: only the L3 steps
-
-    ds = compute_drone_l3(drone_l2, flight, rotation)
-    own = str(ds.attrs.get("drone_unusable_reason", ""))
-    ds.attrs["drone_usable"] = 0
-    ds.attrs["drone_unusable_reason"] = f"{own}; {reason}" if own else reason
-    ds.attrs["reference_unusable_reason"] = reason
-    ds.attrs["processing_log"] = (str(ds.attrs.get("processing_log", "")) + f"\nl3: drone only: {reason}").strip()
-    return ds
 
 
 def unreadable_mast_l1(error: InputError, sonic: Mapping[str, Any]) -> xr.Dataset:

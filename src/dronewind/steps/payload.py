@@ -39,7 +39,6 @@ from dronewind.manifest import confined_path
 from dronewind.mast.chain import (
     compute_mast_l1,
     flight_reference,
-    reference_unusable_l3,
     unreadable_mast_l1,
     unusable_mast_l2,
 )
@@ -491,7 +490,10 @@ def l3(drone_l2_file: str | Path, mast_l2_file: str | Path, output: str | Path, 
     """
     drone = track_from_cf(strip_cf(open_product(drone_l2_file)))
     mast = strip_cf(open_product(mast_l2_file))
-    from dronewind.compare.chain import compute_l3  # scipy.signal and scipy.stats: only the L3 and L4 jobs
+    from dronewind.compare.chain import (  # scipy.signal and scipy.stats: only the L3 and L4 jobs
+        compute_l3,
+        reference_unusable_l3,
+    )
 
     reason = mast.attrs.get("reference_unusable_reason")
     if reason is not None:  # the reference cannot be used: the drone-only L3, as for a flight without one
