@@ -77,7 +77,7 @@ def main() -> None:
             blocks, windows = pd.concat(blocks, ignore_index=True), pd.concat(windows, ignore_index=True)
             t_read = time.perf_counter() - t0
             t0 = time.perf_counter()
-            res = validation.seed001_tables(blocks, windows)
+            res = validation.wetz2021_tables(blocks, windows)
             t_cal = time.perf_counter() - t0
             print(f"{label}: read + windows {t_read:.1f} s ({len(windows)} windows), "
                   f"calibration + validation {t_cal:.1f} s")

@@ -20,7 +20,7 @@ import pandas as pd
 import pytest
 
 from dronewind.diagnose import quadrotor as dq
-from dronewind.quadrotor.drag import RHO_KGM3, SEED001_AERO, speed_from_tilt
+from dronewind.quadrotor.drag import RHO_KGM3, WETZ2021_AERO, speed_from_tilt
 
 UAVS = ("q01", "q02", "q03")
 FLIGHTS = tuple(f"d{k // 4 + 1}f{k + 1}" for k in range(8))
@@ -29,7 +29,7 @@ TILT_GRID = np.radians(np.linspace(0.0, 25.0, 25001))
 
 def _tilt_for(speed_ms: np.ndarray, rho: float) -> np.ndarray:
     """Tilt [rad] at which the drag balance gives ``speed_ms`` (fine grid, monotonic law)."""
-    v = speed_from_tilt(TILT_GRID, SEED001_AERO["cd0a0_m2"], SEED001_AERO["cp_m2_per_rad"], rho_kgm3=rho)
+    v = speed_from_tilt(TILT_GRID, WETZ2021_AERO["cd0a0_m2"], WETZ2021_AERO["cp_m2_per_rad"], rho_kgm3=rho)
     return np.interp(speed_ms, v, TILT_GRID)
 
 

@@ -297,11 +297,11 @@ def test_fleet_speed_ranges_recover_regime():
     assert not t.loc[2, "converged"]  # no window above 12 m/s: flagged, not fitted
 
 
-def test_seed001_tables_generic_flight_ids():
+def test_wetz2021_tables_generic_flight_ids():
     """Flight ids without numbers: one scenario, validation on the calibration flights."""
     blocks, windows = _synthetic_fleet(31, [1.0, -1.0], [5.0, -3.0], n_windows=6)
     windows["flight"] = ["run_" + "abcdef"[i % 6] for i in range(len(windows))]
-    res = validation.seed001_tables(blocks, windows)
+    res = validation.wetz2021_tables(blocks, windows)
     assert not res["independent_validation"] and list(res["scenarios"]) == ["a_all"]
     t = res["calibration_table"]
     assert list(t.columns[:5]) == ["uav", "pitch_offset_deg", "yaw_offset_deg", "rmse_ms", "bias_ms"]

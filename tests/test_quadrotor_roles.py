@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from dronewind.quadrotor.drag import RHO_KGM3
-from dronewind.quadrotor.validation import seed001_tables
+from dronewind.quadrotor.validation import wetz2021_tables
 from tests.test_diagnose_quadrotor_days import BASE, FLIGHTS, RELEVEL, UAVS, _two_days, _windows
 
 
@@ -24,7 +24,7 @@ def test_calibration_flights_only_fit_the_calibration():
     blocks, windows = _windows(11, _two_days, lambda f: RHO_KGM3, log_density=False)
     day1 = [f for f in FLIGHTS if f.startswith("d1")]
     day2 = [f for f in FLIGHTS if f.startswith("d2")]
-    res = seed001_tables(blocks, _full(windows), calibration=day1, validation=day2)
+    res = wetz2021_tables(blocks, _full(windows), calibration=day1, validation=day2)
     assert res["validation"] == day2 and res["independent_validation"]
     assert res["scenarios"] == {"a_calibration": day1}
     off = res["universal_offsets"].set_index("uav")["pitch_offset_deg"]
@@ -32,7 +32,7 @@ def test_calibration_flights_only_fit_the_calibration():
     err = np.array([off[u] - BASE[u] for u in UAVS])
     assert np.ptp(err) < 0.3
     # calibrated on both days, the UAV-to-UAV differences lie between the days' (half the re-levelling)
-    both = seed001_tables(blocks, _full(windows), calibration=FLIGHTS, validation=day2)
+    both = wetz2021_tables(blocks, _full(windows), calibration=FLIGHTS, validation=day2)
     off_all = both["universal_offsets"].set_index("uav")["pitch_offset_deg"]
     err_all = np.array([off_all[u] - BASE[u] - RELEVEL[u] / 2 for u in UAVS])
     assert np.ptp(err_all) < 0.3
@@ -52,12 +52,12 @@ def test_two_day_campaign_of_delimited_records_through_the_workflow(tmp_path):
 
     import yaml
 
-    from dronewind.quadrotor.drag import SEED001_AERO, speed_from_tilt
+    from dronewind.quadrotor.drag import WETZ2021_AERO, speed_from_tilt
 
     root = Path(__file__).resolve().parents[1]
     rng = np.random.default_rng(5)
     grid = np.radians(np.linspace(0, 25, 25001))
-    v = speed_from_tilt(grid, SEED001_AERO["cd0a0_m2"], SEED001_AERO["cp_m2_per_rad"])
+    v = speed_from_tilt(grid, WETZ2021_AERO["cd0a0_m2"], WETZ2021_AERO["cp_m2_per_rad"])
     fmt = {"name": "delimited", "time": {"column": "time", "kind": "iso"}, "altitude_m": 1265.0,
            "variables": {"roll": {"column": "roll", "unit": "degree"}, "pitch": {"column": "pitch", "unit": "degree"},
                          "ref_speed": {"column": "tower_speed", "unit": "m/s"},

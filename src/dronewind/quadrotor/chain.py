@@ -245,7 +245,7 @@ def window_predictions(main: Mapping[str, Any], blocks: pd.DataFrame, windows: p
     Parameters
     ----------
     main : mapping
-        :func:`dronewind.quadrotor.validation.seed001_tables` result of the window length
+        :func:`dronewind.quadrotor.validation.wetz2021_tables` result of the window length
         of the contract table.
     blocks, windows : pandas.DataFrame
         Its blocks and windows.
@@ -314,7 +314,7 @@ def calibration_summary(main: Mapping[str, Any], window_s: float, n_windows: Map
     Parameters
     ----------
     main : mapping
-        :func:`dronewind.quadrotor.validation.seed001_tables` result of the contract table.
+        :func:`dronewind.quadrotor.validation.wetz2021_tables` result of the contract table.
     window_s : float
         Its window length [s].
     n_windows : mapping
@@ -381,14 +381,14 @@ def compute_quadrotor_tables(blocks10: pd.DataFrame, windows10: pd.DataFrame, bl
     InputError
         When a window length has fewer than 3 windows (nothing to calibrate).
     """
-    from dronewind.quadrotor.validation import seed001_tables  # scipy.optimize/stats: only where used
+    from dronewind.quadrotor.validation import wetz2021_tables  # scipy.optimize/stats: only where used
 
     split: dict[str, Any] = {}
     if roles and "validation" in roles.values():
         split = {"calibration": [f for f, r in roles.items() if r != "validation"],
                  "validation": [f for f, r in roles.items() if r == "validation"]}
-    res10 = seed001_tables(blocks10, windows10, **split) if len(windows10) >= 3 else None
-    res2 = seed001_tables(blocks2, windows2, **split) if len(windows2) >= 3 else None
+    res10 = wetz2021_tables(blocks10, windows10, **split) if len(windows10) >= 3 else None
+    res2 = wetz2021_tables(blocks2, windows2, **split) if len(windows2) >= 3 else None
     if res10 is None and res2 is None:
         raise InputError("quadrotor windows", f"{len(windows10)} 10-min and {len(windows2)} 2-min windows; at least 3 "
                                               "are needed to calibrate (see quadrotor_problems.csv)")

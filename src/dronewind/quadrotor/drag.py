@@ -50,7 +50,7 @@ from dronewind.core.constants import GRAVITY_MS2
 from dronewind.errors import InputError
 
 __all__ = [
-    "RHO_KGM3", "MASS_KG", "SEED001_AERO", "SEED002_RANGES", "MIN_DRAG_AREA_M2", "DragLaw",
+    "RHO_KGM3", "MASS_KG", "WETZ2021_AERO", "SEED002_RANGES", "MIN_DRAG_AREA_M2", "DragLaw",
     "rotation_body_to_ned", "drag_area_m2", "speed_from_tilt", "tilt_from_attitude",
     "body_accelerations_ms2", "body_axis_relative_air",
 ]
@@ -60,7 +60,7 @@ RHO_KGM3: float = 1.2
 #: Take-off mass of the Holybro QAV250 quadrotor, Wetz et al. (2021), Table 1 [kg].
 MASS_KG: float = 0.65
 #: Universal aerodynamic parameters of Wetz et al. (2021), Eq. 18 (slope on the tilt, see module doc).
-SEED001_AERO: dict[str, float] = {"cd0a0_m2": 0.03, "cp_m2_per_rad": -0.047}
+WETZ2021_AERO: dict[str, float] = {"cd0a0_m2": 0.03, "cp_m2_per_rad": -0.047}
 #: Floor of the drag area [m2] (see :func:`speed_from_tilt`).
 MIN_DRAG_AREA_M2: float = 1e-4
 #: Longitudinal speed-range coefficients of Kistner et al. (2024), Table 2: (upper edge [m s-1], b_x, c_x);
@@ -100,8 +100,8 @@ class DragLaw:
     """
 
     law: str = "rayleigh"
-    cd0a0_m2: float = SEED001_AERO["cd0a0_m2"]
-    cp_m2_per_rad: float = SEED001_AERO["cp_m2_per_rad"]
+    cd0a0_m2: float = WETZ2021_AERO["cd0a0_m2"]
+    cp_m2_per_rad: float = WETZ2021_AERO["cp_m2_per_rad"]
     edges_ms: tuple[float, ...] = tuple(SEED002_RANGES["edges_ms"])  # type: ignore[arg-type]
     b_x: tuple[float, ...] = tuple(SEED002_RANGES["b_x"])  # type: ignore[arg-type]
     c_x: tuple[float, ...] = tuple(SEED002_RANGES["c_x"])  # type: ignore[arg-type]

@@ -4,7 +4,7 @@ r"""Validation of the calibrated fleet: the tables of Wetz et al. (2021) and the
 * :func:`accuracy_table`: bias and RMS deviation per UAV (Tables 2, 3, C1, C2);
 * :func:`seed001_scenarios` and :func:`calibration_scenarios`: calibration scenarios a-d
   validated on the second week (Sect. 5.3, Tables E1-E2);
-* :func:`seed001_tables`: every table of Sect. 5 from one set of windows;
+* :func:`wetz2021_tables`: every table of Sect. 5 from one set of windows;
 * :func:`calibration_table`: ``tables/quadrotor_calibration.csv`` of the data contract.
 
 References
@@ -36,7 +36,7 @@ from dronewind.quadrotor.windows import WindowArrays, select_windows
 
 __all__ = [
     "predict_windows", "accuracy_table", "flight_number", "seed001_scenarios", "calibration_scenarios",
-    "seed001_tables", "calibration_table",
+    "wetz2021_tables", "calibration_table",
 ]
 
 def predict_windows(blocks: pd.DataFrame, windows: pd.DataFrame, params: pd.DataFrame,
@@ -201,7 +201,7 @@ def calibration_scenarios(blocks: pd.DataFrame, windows: pd.DataFrame, aero: Map
     return pd.concat(parts, axis=1)
 
 
-def seed001_tables(blocks: pd.DataFrame, windows: pd.DataFrame, method: str = "tilt",
+def wetz2021_tables(blocks: pd.DataFrame, windows: pd.DataFrame, method: str = "tilt",
                    scenarios: Mapping[str, Sequence[str]] | None = None,
                    validation: Sequence[str] | None = None,
                    calibration: Sequence[str] | None = None) -> dict[str, Any]:
