@@ -203,6 +203,6 @@ def published_forward_job(setup: tuple[dict[str, Any], dict[str, Any], dict[str,
     from dronewind.steps.published import published_forward
 
     data, config, processing = setup
-    published_forward(REPO / "config" / "published" / "seed000_samurai_s.yaml", out,
+    published_forward(REPO / "config" / "published" / "ghirardelli2025_samurai_s.yaml", out,
                       campaign=payload_flight_manifest(data, flight, atmosphere=True), flight_id=flight,
                       processing=processing, seeds=config["diagnosis"]["seeds"])

@@ -42,7 +42,7 @@ from bench_common import (
     published_forward_job,
 )
 
-PUBLISHED = REPO / "config" / "published" / "seed000_samurai_s.yaml"
+PUBLISHED = REPO / "config" / "published" / "ghirardelli2025_samurai_s.yaml"
 
 
 def parent(rule: str, jobs: list[str], results: Path | None) -> list[dict[str, Any]]:

@@ -1,7 +1,7 @@
 """CPU time of the published-numbers forward runs, sample by sample, in one process (any code version).
 
 Runs :func:`dronewind.steps.published.published_forward` for every stationary sample of the
-default published file (``config/published/seed000_samurai_s.yaml``) with the default
+default published file (``config/published/ghirardelli2025_samurai_s.yaml``) with the default
 configuration, then :func:`dronewind.steps.published.published_diagnosis` on them, and reports
 the CPU seconds of each step (``time.process_time``, this process only: the forward runs are
 in-process). With ``PYTHONPATH`` set to an older source tree it measures that version, so a
@@ -34,7 +34,7 @@ from dronewind.diagnose.published import load_published
 from dronewind.manifest import default_config, load_campaign, payload_flight_manifest
 from dronewind.steps.published import published_diagnosis, published_forward
 
-PUBLISHED = REPO / "config" / "published" / "seed000_samurai_s.yaml"
+PUBLISHED = REPO / "config" / "published" / "ghirardelli2025_samurai_s.yaml"
 
 
 def main() -> None:

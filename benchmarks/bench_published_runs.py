@@ -42,7 +42,7 @@ from bench_common import (
     published_forward_job,
 )
 
-PUBLISHED = Path(__file__).resolve().parents[1] / "config" / "published" / "seed000_samurai_s.yaml"
+PUBLISHED = Path(__file__).resolve().parents[1] / "config" / "published" / "ghirardelli2025_samurai_s.yaml"
 #: Steps timed inside a forward run (module, function).
 STEPS = (("dronewind.simulate.payload", "_truth"), ("dronewind.simulate.payload", "payload_records"),
          ("dronewind.diagnose.forward", "compute_ins_l1"), ("dronewind.diagnose.forward", "compute_sonic_l1"),

@@ -1,6 +1,6 @@
 """Throughput of the quadrotor chain: simulate the default fleet campaign, read, window,
-calibrate and validate (seed 001 Tables 2, 3, C1, C2), and the wind-tunnel campaign
-(seed 002).
+calibrate and validate (Wetz et al. 2021 Tables 2, 3, C1, C2), and the wind-tunnel campaign
+(Kistner et al. 2024).
 
 Run from the repository root::
 

@@ -40,7 +40,7 @@ from typing import Any
 from bench_common import git_commit, load_runs, print_and_write
 from dronewind.diagnose import published as dp
 
-PUBLISHED = Path(__file__).resolve().parents[1] / "config" / "published" / "seed000_samurai_s.yaml"
+PUBLISHED = Path(__file__).resolve().parents[1] / "config" / "published" / "ghirardelli2025_samurai_s.yaml"
 
 
 def first_seeds(k: int) -> Callable[[dict[str, Any]], int]:

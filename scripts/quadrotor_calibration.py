@@ -1,4 +1,4 @@
-"""Snakemake script: quadrotor fleet calibration and tables (seed 001 Sect. 5)."""
+"""Snakemake script: quadrotor fleet calibration and tables (Wetz et al. 2021 Sect. 5)."""
 
 from dronewind.steps.preload import delegate
 

@@ -1,4 +1,4 @@
-"""Snakemake script: quadrotor figures (seed 001 Figs 3-9) from stored tables and L2 files."""
+"""Snakemake script: quadrotor figures (Wetz et al. 2021 Figs 3-9) from stored tables and L2 files."""
 
 from dronewind.steps.preload import delegate
 

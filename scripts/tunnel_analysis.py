@@ -1,4 +1,4 @@
-"""Snakemake script: wind-tunnel analysis tables (seed 002)."""
+"""Snakemake script: wind-tunnel analysis tables (Kistner et al. 2024)."""
 
 from dronewind.steps.preload import delegate
 

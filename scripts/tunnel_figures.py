@@ -1,4 +1,4 @@
-"""Snakemake script: wind-tunnel figures (seed 002 Figs 4-7, 9) from the stored tables."""
+"""Snakemake script: wind-tunnel figures (Kistner et al. 2024 Figs 4-7, 9) from the stored tables."""
 
 from dronewind.steps.preload import delegate
 

@@ -1,4 +1,4 @@
-"""Snakemake script: simulate the wind-tunnel programme (seed 002)."""
+"""Snakemake script: simulate the wind-tunnel programme (Kistner et al. 2024)."""
 
 from dronewind.steps.preload import delegate
 

@@ -80,7 +80,7 @@ def test_block_statistics_recover_known_moments(detrending):
         row = blk.block_stats_row(l4, "tower", "m10")
         c = b["cov"]
         ustar = (c[0, 2] ** 2 + c[1, 2] ** 2) ** 0.25
-        ell = -(ustar**3) * T0_K / (KARMAN * GRAVITY_MS2 * c[2, 3])  # seed 000 Eq. 9
+        ell = -(ustar**3) * T0_K / (KARMAN * GRAVITY_MS2 * c[2, 3])  # Ghirardelli et al. (2025) Eq. 9
         expected = {"U_ms": b["U"], "wind_from_deg": b["wind_from"], "sigma_u_ms": np.sqrt(c[0, 0]),
                     "sigma_v_ms": np.sqrt(c[1, 1]), "sigma_w_ms": np.sqrt(c[2, 2]), "ustar_ms": ustar,
                     "uw_m2s2": c[0, 2], "wT_Kms": c[2, 3], "L_m": ell, "zeta": HEIGHT_M / ell, "height_m": HEIGHT_M}

@@ -49,12 +49,12 @@ def _draw(seed: int, kind: str) -> tuple[dict, list | None]:
     offsets = {u: (0.0, 0.0) for u in UAVS}
     regime = None
     if kind in ("offsets", "both"):
-        # seed 001 reports pitch offsets within +-4.3 degree and yaw offsets of -2..22 degree;
+        # Wetz et al. (2021) reports pitch offsets within +-4.3 degree and yaw offsets of -2..22 degree;
         # at least 1 degree / 5 degree away from zero so that every UAV has something to find
         offsets = {u: (float(rng.choice([-1, 1]) * rng.uniform(1.0, 4.0)),
                        float(rng.choice([-1, 1]) * rng.uniform(5.0, 20.0))) for u in UAVS}
     if kind in ("regime", "both"):
-        # continuous two-range power law (seed 002 Table 2 form) with a kink at a random edge:
+        # continuous two-range power law (Kistner et al. 2024 Table 2 form) with a kink at a random edge:
         # steeper below the edge (b1 0.8-0.95) than above (b2 0.4-0.5)
         edge = float(rng.uniform(4.5, 6.5))
         b1, c1, b2 = float(rng.uniform(0.8, 0.95)), float(rng.uniform(6.5, 7.5)), float(rng.uniform(0.4, 0.5))
@@ -118,7 +118,7 @@ def test_hidden_causes_are_named_and_recovered(tmp_path, seed, kind):
             # the UAV-to-UAV differences are identified (measured < 0.2 degree)
             err = err - err.mean()
         # 12 two-minute windows per UAV; measured |error| < 0.1 degree (pitch) and 0.6 degree
-        # (yaw) over these draws; tolerances 0.5 and 3 degree (seed 001: offsets up to 4.3 deg)
+        # (yaw) over these draws; tolerances 0.5 and 3 degree (Wetz et al. 2021: offsets up to 4.3 deg)
         assert np.max(np.abs(err)) < 0.5
         est = _cand(res, "yaw_offset")["estimate"]
         assert max(abs((est[u] - offsets[u][1] + 180) % 360 - 180) for u in UAVS) < 3.0
@@ -138,7 +138,7 @@ def test_hidden_causes_are_named_and_recovered(tmp_path, seed, kind):
 
 def test_regime_and_common_pitch_offset_are_confounded(tmp_path):
     """With per-UAV offsets present, a drag regime is largely absorbed by the common part of the
-    offsets plus the refitted single law (seed 001 Sect. 5.2 notes c_d0A0 and the offsets trade
+    offsets plus the refitted single law (Wetz et al. 2021 Sect. 5.2 notes c_d0A0 and the offsets trade
     off): the diagnosis must not claim it, and the offsets absorb a common shift."""
     offsets, regime, res = _diagnose(tmp_path, 13, "both")
     assert "drag_regime" not in res["named_causes"]
@@ -188,7 +188,7 @@ def _tunnel(tmp_path: Path, lag_s: float, seed: int) -> Path:
 
 @pytest.mark.parametrize("lag_s,seed", [(0.4, 21), (0.15, 22), (0.0, 23)])
 def test_tunnel_response_lag_recovered_or_not_named(tmp_path, lag_s, seed):
-    """Hidden first-order attitude lag in the tunnel's gusts and steps (seed 002 Sect. 4):
+    """Hidden first-order attitude lag in the tunnel's gusts and steps (Kistner et al. 2024 Sect. 4):
     recovered within 0.05 s and named when it matters; not named when absent (measured over
     seeds 21-25: 0.4 s -> 0.395 s, gain 0.29; 0.15 s -> 0.128-0.138 s, gain 0.048-0.054,
     named in 1 of 2; 0.0 s -> 0.022 s, gain 0.00). The attitude noise (0.25 degree) dominates

@@ -23,7 +23,7 @@ def test_range_mask():
 
 
 def test_instrument_limits_documented():
-    assert INSTRUMENT_LIMITS["rmyoung_81000"]["speed_ms"] == (0.0, 40.0)  # seed 000 Table 2
+    assert INSTRUMENT_LIMITS["rmyoung_81000"]["speed_ms"] == (0.0, 40.0)  # Ghirardelli et al. (2025) Table 2
     assert INSTRUMENT_LIMITS["rmyoung_81000"]["t_sonic_c"] == (-50.0, 50.0)
     assert INSTRUMENT_LIMITS["csat3"]["uz_ms"] == (-8.0, 8.0)
     assert INSTRUMENT_LIMITS["csat3"]["ux_ms"] == (-65.0, 65.0)

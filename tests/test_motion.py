@@ -1,4 +1,4 @@
-"""Known-answer tests of dronewind.payload.motion (seed 000, Sect. 3.1, Eqs. 1-2, Appendix A).
+"""Known-answer tests of dronewind.payload.motion (Ghirardelli et al. 2025, Sect. 3.1, Eqs. 1-2, Appendix A).
 
 Synthetic truth: an earth-frame wind (sum of seeded random sinusoids with a Kaimal-like
 spectrum, evaluable at any time) seen by a sonic swinging as an 18 m pendulum (0.117 Hz)
@@ -126,7 +126,7 @@ def test_rotation_matrix_matches_scipy_and_is_orthonormal():
 
 
 def test_rotation_matrix_equals_appendix_a_product():
-    """R = [R3(phi) R2(theta) R1(psi)]^T written out as in seed 000, Appendix A."""
+    """R = [R3(phi) R2(theta) R1(psi)]^T written out as in Ghirardelli et al. (2025), Appendix A."""
     phi, th, psi = np.deg2rad([12.0, -7.0, 233.0])
     r1 = np.array([[np.cos(psi), np.sin(psi), 0], [-np.sin(psi), np.cos(psi), 0], [0, 0, 1]])
     r2 = np.array([[np.cos(th), 0, -np.sin(th)], [0, 1, 0], [np.sin(th), 0, np.cos(th)]])

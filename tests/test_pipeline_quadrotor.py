@@ -38,7 +38,7 @@ OFFSETS = {"q01": (1.5, 8.0), "q02": (-2.0, -4.0), "q03": (0.5, 15.0)}
 CONTRACT = ["uav", "pitch_offset_deg", "yaw_offset_deg", "rmse_ms", "bias_ms"]
 
 #: 20-min flights hold one 10-min window per UAV: the contract table uses 2-min windows
-#: (seed 001 App. C).
+#: (Wetz et al. 2021 App. C).
 EXTRA_CONFIG = """quadrotor:
   calibration_window_s: 120
 """
@@ -140,7 +140,7 @@ def test_diagnosis_json_and_tunnel_causes(run):
     assert not {"pitch_offset", "yaw_offset", "drag_regime"} & {
         c["mechanism"] for c in diag["candidates"] if c["source"] == "field" and c["significant"]}
     # the tunnel's lateral law differs from the longitudinal one, and Table 2 has three
-    # speed ranges (seed 002): both named on steps the calibration did not use
+    # speed ranges (Kistner et al. 2024): both named on steps the calibration did not use
     assert {"sideslip", "drag_regime"} <= set(diag["named_causes"])
     side = next(c for c in diag["candidates"] if c["mechanism"] == "sideslip")
     assert side["gain"] > 0.5 and side["estimate"]["c_y"] == pytest.approx(5.6, abs=0.3)

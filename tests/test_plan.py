@@ -135,7 +135,7 @@ def test_paper_metric_against_ghirardelli_table4():
     paper calls unclear and sees in the drone's data only."""
     from dronewind.diagnose.published_file import load_published
 
-    pub = load_published(ROOT / "config" / "published" / "seed000_samurai_s.yaml")
+    pub = load_published(ROOT / "config" / "published" / "ghirardelli2025_samurai_s.yaml")
     metrics = {}
     for flight, row in pub["table4"].items():
         z, zeta = float(row["payload_height_m"]), float(row["zeta"])

@@ -23,7 +23,7 @@ from dronewind.errors import InputError
 from dronewind.manifest import load_campaign
 
 ROOT = Path(__file__).resolve().parents[1]
-PUBLISHED = ROOT / "config" / "published" / "seed000_samurai_s.yaml"
+PUBLISHED = ROOT / "config" / "published" / "ghirardelli2025_samurai_s.yaml"
 DEFAULT_CAMPAIGN = ROOT / "config" / "campaigns" / "mosai2023.yaml"
 
 

@@ -1,6 +1,6 @@
 """Known-answer tests of the quadrotor chain (dronewind.quadrotor: drag, wind, hover, windows, calibration,
-validation; seed 001 Sects. 4-5, seed 002 Eq. 1), closed loops against the simulator's independent forward
-physics (dronewind.simulate.airframe)."""
+validation; Wetz et al. (2021) Sects. 4-5, Kistner et al. (2024) Eq. 1), closed loops against the
+simulator's independent forward physics (dronewind.simulate.airframe)."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def test_speed_tilt_roundtrip_exact():
     v = np.linspace(-16, 16, 321)
     tilt = airframe.rayleigh_tilt_rad(v, 0.03, -0.047)
     assert np.max(np.abs(drag.speed_from_tilt(tilt, 0.03, -0.047) - v)) < 1e-9
-    # seed 001, Eq. 18 as read here: about 11 degrees of tilt at 10 m/s
+    # Wetz et al. (2021), Eq. 18 as read here: about 11 degrees of tilt at 10 m/s
     assert 9.0 < np.degrees(airframe.rayleigh_tilt_rad(10.0, 0.03, -0.047)) < 13.0
 
 
@@ -68,7 +68,7 @@ def test_wind_from_attitude_inverts_forward_model_exactly(weathervane):
 
 
 def test_body_axis_inverse_exact_inside_ranges():
-    """Seed 002 Eq. 1 with Table 2: forward (tunnel simulator) then inverse, exact."""
+    """Kistner et al. (2024) Eq. 1 with Table 2: forward (tunnel simulator) then inverse, exact."""
     truth = airframe.AirframeDrag(law="body_axis")  # the simulator's Table 2
     law = drag.DragLaw(law="body_axis")  # the chain's Table 2
     rng = np.random.default_rng(4)
@@ -271,9 +271,9 @@ def test_accuracy_table_known_answer():
     assert t.loc["a", "rmse_dir_deg"] == pytest.approx(np.sqrt(12.5))
 
 
-def test_seed001_scenarios():
+def test_wetz2021_scenarios():
     ids = ["f01", "f18", "f31", "f37", "f38", "f56", "f73"]
-    scen, val = validation.seed001_scenarios(ids)
+    scen, val = validation.wetz2021_scenarios(ids)
     assert scen["b_first_week"] == ["f01", "f18", "f31", "f37"]
     assert scen["c_flight31"] == ["f31"] and scen["d_flights31_56"] == ["f31", "f56"]
     assert val == ["f38", "f56", "f73"]

@@ -14,7 +14,7 @@ so the comparison isolates the statistics.
 Measured (2026-11-22, 96 gold blocks): with block-mean fluctuations dronewind = MetPy to
 1.4e-12 relative (w'T', L; MetPy's one-pass mean(wT) - mean(w) mean(T) loses digits at
 T = 294 K) and 2e-16 for u*, sigma_w, TKE. With the linear detrending of the L4 chain
-(seed 000 Sect. 4.4) the median |relative difference| vs MetPy's block mean is u* 1.0 %,
+(Ghirardelli et al. 2025 Sect. 4.4) the median |relative difference| vs MetPy's block mean is u* 1.0 %,
 sigma_w 0.05 % (max 1.9 %), w'T' 3 %, L 4.5 %, TKE 6 %: the trend removed is real
 sub-record low-frequency variance, mostly in u.
 """

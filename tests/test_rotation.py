@@ -1,5 +1,5 @@
 """Known-answer tests of dronewind.core.rotation (McMillen 1988; Wilczak et al. 2001;
-seed 000, Sect. 4.4)."""
+Ghirardelli et al. (2025), Sect. 4.4)."""
 
 from __future__ import annotations
 
@@ -203,7 +203,7 @@ def test_block_means_of_a_long_record_recover_the_plane():
 
 
 @pytest.mark.parametrize("sigma_v, sigma_w, vw", [
-    (1.2, 1.3, 0.019),   # Table 5, s7 drone: sigma_w > sigma_v (seed 000); gamma = -4.3 deg
+    (1.2, 1.3, 0.019),   # Table 5, s7 drone: sigma_w > sigma_v (Ghirardelli et al. 2025); gamma = -4.3 deg
     (1.2, 1.3, -0.019),
     (1.0, 0.7, 0.05),    # the usual case sigma_v > sigma_w
     (0.6, 1.1, 0.20),

@@ -1,4 +1,4 @@
-"""Known-answer tests for dronewind.core.scales (seed 000, Sect. 4.3, Eqs 14-17)."""
+"""Known-answer tests for dronewind.core.scales (Ghirardelli et al. 2025, Sect. 4.3, Eqs 14-17)."""
 
 from __future__ import annotations
 

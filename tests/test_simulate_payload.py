@@ -1,7 +1,7 @@
 """Tests of the virtual SAMURAI-S flight (dronewind.simulate.payload, settings, mast, writers).
 
 A short flight (400-500 s hover) under s07-like conditions (10.4 m/s from 304 deg at 60 m,
-z/L = 0.1, seed 000 Table 4) keeps every run well under a second. Each mechanism test
+z/L = 0.1, Ghirardelli et al. (2025) Table 4) keeps every run well under a second. Each mechanism test
 compares the raw files with and without the mechanism at the same seed: the simulator
 uses separate random streams, so rows, defects and noise draws are identical and only
 the mechanism's effect differs.
@@ -470,7 +470,7 @@ def test_default_campaign_table4():
     assert settings["mechanisms"] == []
     flights = {f["id"]: f for f in data["payload_flights"]}
     assert list(flights) == [f"s{i:02d}" for i in range(1, 11)]
-    table4 = {  # start, duration min, dir, height, speed, zeta (seed 000, Table 4)
+    table4 = {  # start, duration min, dir, height, speed, zeta (Ghirardelli et al. 2025, Table 4)
         "s01": ("2023-08-21T14:05:32", 28.0, 97, 28, 3.1, -0.46),
         "s04": ("2023-12-07T15:08:09", 17.8, 277, 57, 0.6, 1.25),
         "s07": ("2023-12-13T07:53:37", 15.3, 304, 49, 10.4, 0.1),

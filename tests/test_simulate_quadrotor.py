@@ -60,7 +60,7 @@ def test_files_follow_the_contract_and_are_deterministic(tmp_path):
     assert ref.attrs["sampling_interval_s"] == 60.0 and ref.sizes["height"] == 10
     mask, info = hover.hover_segment(ds)
     assert abs(info["alt_m"] - SITE_ALT - 20.0) < 0.5
-    # hover accuracy of seed 001 Sect. 4.3 is what the simulator was set to
+    # hover accuracy of Wetz et al. (2021) Sect. 4.3 is what the simulator was set to
     assert 0.12 < info["sigma_h_m"] < 0.26 and 0.5 < info["sigma_v_m"] < 1.2
 
 
@@ -136,7 +136,7 @@ def test_with_atmosphere_simulate_wind(tmp_path):
 
 
 def test_drag_regime_tilt_inverts_power_law():
-    """drag_regime truth (seed 002 Table 2 form): c * (g sin(tilt))^b returns the speed."""
+    """drag_regime truth (Kistner et al. 2024 Table 2 form): c * (g sin(tilt))^b returns the speed."""
     from dronewind.simulate.airframe import regime_tilt
 
     regime = [{"min_speed_ms": 0.0, "max_speed_ms": 4.0, "b": 0.784, "c": 6.338},

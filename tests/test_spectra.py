@@ -1,4 +1,4 @@
-"""Known-answer tests for dronewind.core.spectra (seed 000, Eqs 4-8, Sects. 4.1 and 4.4)."""
+"""Known-answer tests for dronewind.core.spectra (Ghirardelli et al. 2025, Eqs 4-8, Sects. 4.1 and 4.4)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Known-answer tests for dronewind.core.stats (seed 000, Sect. 4.1, Eq. 9, Table 4-5)."""
+"""Known-answer tests for dronewind.core.stats (Ghirardelli et al. 2025, Sect. 4.1, Eq. 9, Table 4-5)."""
 
 from __future__ import annotations
 
@@ -112,7 +112,7 @@ def test_obukhov_length_hand_computed() -> None:
 
 
 def test_published_stability_consistent_with_table5() -> None:
-    """Seed 000: Table 4 zeta vs Table 5 fluxes (rounded to 0.1), mast sensor.
+    """Ghirardelli et al. (2025): Table 4 zeta vs Table 5 fluxes (rounded to 0.1), mast sensor.
 
     s7 (60 m, zeta = 0.1, u'w' = -0.5, w'T' printed as 0.0): zeta and u* imply a
     buoyancy flux that must round to 0.0 (|w'T'| < 0.05 K m/s); December, ~280 K.

@@ -1,5 +1,5 @@
 """Known-answer tests of dronewind.payload.sync (sonic-INS lag, L2 builder) and
-dronewind.compare.align (FIR decimation, drone-mast lag, L3 builder); seed 000, Sects. 3.2-3.3 and 4.4.
+dronewind.compare.align (FIR decimation, drone-mast lag, L3 builder); Ghirardelli et al. (2025), Sects. 3.2-3.3 and 4.4.
 
 Synthetic truth as in test_motion.py (duplicated here so each test file stands alone): a
 wind made of seeded random sinusoids and a sonic on an 18 m pendulum (0.117 Hz) with yaw
@@ -188,7 +188,7 @@ _LAG_CASES = [0.0, -0.125] + list(np.round(np.random.default_rng(42).uniform(-1.
 @pytest.mark.parametrize("lag_true", _LAG_CASES)
 def test_payload_l2_recovers_known_lag(lag_true):
     """Known sonic-INS lag (0, -4 steps and three seeded random values) is found within one
-    step (1/32 s) for a 20-min hover (seed 000's flights last 10-28 min).
+    step (1/32 s) for a 20-min hover (Ghirardelli et al. 2025's flights last 10-28 min).
 
     The minimum-TKE estimator has a sampling error of its own: the turbulence correlates by
     chance with the lag-error signal. Measured over 10 seeds (noise-free, true lag 0): 5-min

@@ -1,4 +1,4 @@
-"""Tests for dronewind.tables (Tables 4 and 5 of seed 000 from stored L4 products)."""
+"""Tests for dronewind.tables (Tables 4 and 5 of Ghirardelli et al. (2025) from stored L4 products)."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ def _l4(root: Path, flight: str, sensor: str):
 
 
 def test_stability_class_known_answers() -> None:
-    # seed 000 Table 4 values and how its text describes them (s1 unstable, s7 stable)
+    # Ghirardelli et al. (2025) Table 4 values and how its text describes them (s1 unstable, s7 stable)
     assert tables.stability_class(-0.46) == "unstable"
     assert tables.stability_class(0.01) == "near-neutral"
     assert tables.stability_class(0.1) == "stable"

@@ -1,4 +1,4 @@
-"""Tunnel metrics of seed 002 on synthetic signals with known answers, and a small campaign."""
+"""Tunnel metrics of Kistner et al. (2024) on synthetic signals with known answers, and a small campaign."""
 
 from __future__ import annotations
 
@@ -63,7 +63,7 @@ def test_step_metrics_known_90_percent_time():
 
 def test_turbulence_metrics_find_the_uas_cutoff():
     """A UAS that low-passes at 1 Hz (first order) and adds noise: f_max near 1 Hz, the
-    variance bias disappears when the CTA is cut at f_max (seed 002, Sect. 4)."""
+    variance bias disappears when the CTA is cut at f_max (Kistner et al. 2024, Sect. 4)."""
     rng = np.random.default_rng(3)
     fs_c, fs_u, n = 100.0, 10.0, 60_000
     cta = 10 + von_karman_series(n, fs_c, 1.2, 1.5, 10.0, rng)
@@ -105,14 +105,14 @@ def test_campaign_recovers_truth(small_campaign):
     cal = res["calibration"]
     x = cal[cal["axis"] == "x"].reset_index(drop=True)
     law = AirframeDrag(law="body_axis")
-    # inside the ranges the fitted laws reproduce seed 002 Table 2 (the simulator's truth)
+    # inside the ranges the fitted laws reproduce Kistner et al. (2024) Table 2 (the simulator's truth)
     # within 0.3 m/s; the lowest range has only the 2 and 4 m/s steps, and the truth jumps
     # at 4 m/s, so it is checked at 2 m/s only
     for j, (lo, hi) in enumerate([(2.0, 2.0), (5.0, 11.0), (13.0, 16.0)]):
         u = np.linspace(lo, hi, 10)
         a = (u / law.c_x[j]) ** (1 / law.b_x[j])
         assert np.max(np.abs(x.loc[j, "c"] * a ** x.loc[j, "b"] - u)) < 0.3
-    # speed RMSE at AoS 0 (seed 002: below 0.4 m/s)
+    # speed RMSE at AoS 0 (Kistner et al. 2024: below 0.4 m/s)
     side = res["sideslip"]
     assert side.loc[side["aos_deg"].eq(0.0) & side["speed_bin_ms"].isna(), "rmse_ms"].iloc[0] < 0.4
     port = res["portability"].set_index("uas")

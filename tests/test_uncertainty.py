@@ -1,4 +1,4 @@
-"""Tests for dronewind.core.uncertainty (seed 000, Sect. 4.2, Eqs 10-13) incl. Monte Carlo."""
+"""Tests for dronewind.core.uncertainty (Ghirardelli et al. 2025, Sect. 4.2, Eqs 10-13) incl. Monte Carlo."""
 
 from __future__ import annotations
 

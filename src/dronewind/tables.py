@@ -12,7 +12,7 @@ readable, NaN as an empty field), ``.md`` (Markdown, rounded for reading) and ``
 
 References
 ----------
-.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Table 4 (summary of the samples) and
+.. [1] Ghirardelli et al. (2025), Table 4 (summary of the samples) and
    Table 5 (mean and turbulent flow statistics, drone vs mast).
 """
 

@@ -377,7 +377,7 @@ SIMULATION = simulation_manifest(CAMPAIGN.data) if CAMPAIGN.simulated else None
 
 
 # ----------------------------------------------------------------------------- quadrotor and tunnel
-# (SWUF-3D fleet flights, seed 001, and the wind tunnel, seed 002; rules in quadrotor.smk and tunnel.smk)
+# (SWUF-3D fleet flights, Wetz et al. (2021), and the wind tunnel, Kistner et al. (2024); rules in quadrotor.smk and tunnel.smk)
 # Settings: the top-level `quadrotor:` section (defaults in the schema). Per-flight rules get
 # what they read of their flight's manifest entry (the windows: the entry; L1 and L2, one job
 # for all the flight's UAVs: the UAV ids) and the site as params, never the manifest file.
@@ -454,7 +454,7 @@ def quad_nc(level, flight_id):
 
 
 def quad_timeseries_flight():
-    """The quadrotor flight shown as time series (seed 001 Fig. 7): the one with most UAVs."""
+    """The quadrotor flight shown as time series (Wetz et al. 2021 Fig. 7): the one with most UAVs."""
     return max(QUAD_FLIGHTS, key=lambda f: (len(quad_uavs(f)), -QUAD_FLIGHTS.index(f)))
 
 

@@ -1,4 +1,4 @@
-# L1 -> L2 for the payload: hover window, sonic-INS lag, motion correction (seed 000, Sect. 3).
+# L1 -> L2 for the payload: hover window, sonic-INS lag, motion correction (Ghirardelli et al. 2025, Sect. 3).
 
 
 rule payload_l2:

@@ -1,4 +1,4 @@
-# SWUF-3D quadrotor fleet (seed 001): L1 of a flight's UAVs, averaging windows per flight,
+# SWUF-3D quadrotor fleet (Wetz et al. 2021): L1 of a flight's UAVs, averaging windows per flight,
 # campaign calibration and tables, calibrated L2 wind of a flight's UAVs, diagnosis of the
 # single-law model, figures. Per-flight rules take what they read of the flight's manifest
 # entry as params (never the manifest file), so a change to one flight reruns only that
@@ -70,7 +70,7 @@ for _qf in QUAD_FLIGHTS:
 
 
 rule quadrotor_windows:
-    """Seed 001 Sect. 5 and App. C: 10-min and 2-min windows of a flight's UAVs with the tower."""
+    """Wetz et al. (2021) Sect. 5 and App. C: 10-min and 2-min windows of a flight's UAVs with the tower."""
     input:
         l1=lambda wc: quad_nc("L1", wc.qflight),
         reference=lambda wc: quad_raw(wc.qflight)[1],
@@ -94,7 +94,7 @@ rule quadrotor_windows:
 
 
 rule quadrotor_calibration:
-    """Seed 001 Sect. 5: calibrations, Tables 2, 3, C1, C2 and the contract table."""
+    """Wetz et al. (2021) Sect. 5: calibrations, Tables 2, 3, C1, C2 and the contract table."""
     input:
         windows=quad_windows("windows"),
         blocks=quad_windows("blocks"),
@@ -170,7 +170,7 @@ rule quadrotor_diagnosis:
 
 
 rule quadrotor_figures:
-    """Seed 001 Figs 3-9, drawn from the stored tables and L2 files."""
+    """Wetz et al. (2021) Figs 3-9, drawn from the stored tables and L2 files."""
     input:
         tables=[str(RESULTS / "tables" / f"{t}.csv") for t in QUAD_TABLES],
         summary=QUAD_DIR / "calibration.json",

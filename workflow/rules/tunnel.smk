@@ -1,4 +1,4 @@
-# Wind-tunnel calibration and verification of the quadrotors (seed 002): simulate (virtual
+# Wind-tunnel calibration and verification of the quadrotors (Kistner et al. 2024): simulate (virtual
 # campaigns with `simulation.tunnel`), analyse into tables, figures.
 from dronewind.tunnel import TUNNEL_TABLES
 
@@ -32,7 +32,7 @@ if TUNNEL_RUNS is not None and TUNNEL_SIMULATED:
 if TUNNEL_RUNS is not None:
 
     rule tunnel_analysis:
-        """Seed 002: calibration per speed range, sideslip, portability, gusts, steps, turbulence."""
+        """Kistner et al. (2024): calibration per speed range, sideslip, portability, gusts, steps, turbulence."""
         input:
             runs=TUNNEL_RUNS,
         output:
@@ -50,7 +50,7 @@ if TUNNEL_RUNS is not None:
             "../../scripts/tunnel_analysis.py"
 
     rule tunnel_figures:
-        """Seed 002 Figs 4-7 and 9, drawn from the stored tunnel tables."""
+        """Kistner et al. (2024) Figs 4-7 and 9, drawn from the stored tunnel tables."""
         input:
             [str(RESULTS / "tables" / f"tunnel_{t}.csv") for t in TUNNEL_TABLES],
         output:

@@ -20,7 +20,7 @@ sensor) raises :class:`~dronewind.errors.InputError`.
 
 References
 ----------
-.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Sects. 4.1-4.4, Eqs 4-17, Tables 4-5.
+.. [1] Ghirardelli et al. (2025), Sects. 4.1-4.4, Eqs 4-17, Tables 4-5.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ m s-1), and NaN with a reason where it does not.
 
 References
 ----------
-.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Sect. 4.3, Eqs 14-17.
+.. [1] Ghirardelli et al. (2025), Sect. 4.3, Eqs 14-17.
 .. [2] Kaimal, J. C. and Finnigan, J. J.: Atmospheric Boundary Layer Flows, 1994.
 """
 

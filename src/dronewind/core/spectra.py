@@ -14,7 +14,7 @@ allowed through ``window``).
 
 References
 ----------
-.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Eqs 4-8, Sects. 4.1, 4.4, Figs 6, 9, 11, 15.
+.. [1] Ghirardelli et al. (2025), Eqs 4-8, Sects. 4.1, 4.4, Figs 6, 9, 11, 15.
 .. [2] Welch, P.: IEEE Trans. Audio Electroacoust. 15, 70-73, 1967.
 .. [3] Kaimal, J. C., Wyngaard, J. C., Izumi, Y., Cote, O. R.: Q. J. R. Meteorol. Soc. 98,
    563-589, 1972 (starting values of the fits).

@@ -13,7 +13,7 @@ number count and report missing samples first (see :func:`dronewind.compare.l4.f
 References
 ----------
 .. [1] Ghirardelli, M., Kral, S. T., Cheynet, E., Reuder, J., et al.: SAMURAI-S,
-   Ghirardelli et al. (2025) of this project (``../shared/papers/000_*.txt``), Sects. 4.1-4.4.
+   Ghirardelli et al. (2025) of this project, Sects. 4.1-4.4.
 .. [2] Kaimal, J. C. and Finnigan, J. J.: Atmospheric Boundary Layer Flows, Oxford
    University Press, 1994.
 """

@@ -32,7 +32,7 @@ bracket). The two agree only when :math:`\overline{v'w'}^2 = u_*^4`.
 
 References
 ----------
-.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Sect. 4.2, Eqs 10-13; Sect. 5.3.
+.. [1] Ghirardelli et al. (2025), Sect. 4.2, Eqs 10-13; Sect. 5.3.
 .. [2] Lumley, J. L. and Panofsky, H. A.: The Structure of Atmospheric Turbulence, 1964.
 .. [3] Stiperski, I. and Rotach, M. W.: Boundary-Layer Meteorol. 159, 97-121, 2016.
 """

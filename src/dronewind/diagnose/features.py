@@ -28,7 +28,7 @@ corr_wres_pitch_rate   corr(w_drone - w_mast, pitch rate)                       
 corr_wres_roll_rate    corr(w_drone - w_mast, roll rate)                          attitude_lag
 =====================  ========================================================  ===========
 
-Sampling errors follow Lumley and Panofsky as in seed 000, Eqs 10-13: the relative
+Sampling errors follow Lumley and Panofsky as in Ghirardelli et al. (2025), Eqs 10-13: the relative
 random error of a variance over an averaging time :math:`\tau` is
 :math:`\epsilon = 2\sqrt{T/\tau}` for a Gaussian series of integral time scale
 :math:`T`; means, spectral band powers (Welch degrees of freedom) and correlations
@@ -223,7 +223,7 @@ def _sensor_series(l3: xr.Dataset, time_scales: bool = True) -> _SensorSeries:
 
 
 def _moment_features(s: _SensorSeries, out: _Features) -> None:
-    """ln sigma ratios of u, v, w and the ln mean-speed ratio (seed 000, Eqs 10-13 errors)."""
+    """ln sigma ratios of u, v, w and the ln mean-speed ratio (Ghirardelli et al. 2025, Eqs 10-13 errors)."""
     sig, tscale, mean_u, tau_s = s.sigma_ms, s.time_scale_s, s.mean_u_ms, s.tau_s
     for c in ("u", "v", "w"):
         out.set(f"ln_sigma_ratio_{c}", float(np.log(sig["drone"][c] / sig["mast"][c])),
@@ -267,7 +267,7 @@ def _spectral_features(s: _SensorSeries, fr_band: tuple[float, float], min_speed
     dof = spectra.welch_dof(spectra.segment_length(s.n))
     for x in ("drone", "mast"):
         name = f"sw_su_{x}"
-        # As in L4 (seed 000, Sect. 4.1): the ratio of the log-bin-smoothed spectra, averaged
+        # As in L4 (Ghirardelli et al. 2025, Sect. 4.1): the ratio of the log-bin-smoothed spectra, averaged
         # over the band. The mean of raw Welch-bin ratios would be biased: with ~8 degrees
         # of freedom per raw bin, E[X/Y] of two chi-square estimates is 8/6 times the true
         # ratio (about 1.8 instead of 4/3).
@@ -368,7 +368,7 @@ def flight_features(
     lag_step_s : float
         Step of the lag search [s] (its resolution enters the lag errors).
     fr_band : tuple of float
-        Reduced-frequency band of the isotropy ratios (seed 000, Sect. 4.1).
+        Reduced-frequency band of the isotropy ratios (Ghirardelli et al. 2025, Sect. 4.1).
     min_speed_ms : float
         Isotropy ratios only above this mean speed [m s-1].
     features : collection of str, optional
@@ -430,7 +430,7 @@ def binned_spectra(l3: xr.Dataset, n_bins: int = 60) -> dict[str, list[float]]:
         L3 flight dataset (``u_ms``, ``w_ms`` over ``(sensor, time)``, attr
         ``sampling_rate_hz``).
     n_bins : int
-        Logarithmic bins (seed 000 smooths over 100; 60 keep the JSON small).
+        Logarithmic bins (Ghirardelli et al. 2025 smooths over 100; 60 keep the JSON small).
 
     Returns
     -------

@@ -26,7 +26,7 @@ from sampling noise. This module is the statistics on top of those tables:
 
 Misfit: :math:`\chi^2 = \sum_i z_i^\top R^{-1} z_i` with
 :math:`z_{if} = (y_{if} - \hat y_{if}) / s_{if}`, :math:`s_{if}` the residual standard
-error of feature :math:`f` of flight :math:`i` (seed 000, Eqs 10-13 for variance-type
+error of feature :math:`f` of flight :math:`i` (Ghirardelli et al. 2025, Eqs 10-13 for variance-type
 features, calibrated by the baseline seeds; see :mod:`dronewind.diagnose.campaign`) and
 :math:`R` the feature correlation matrix (:mod:`dronewind.diagnose.covariance`; the
 identity when ``corr`` is None, which is the sum of squared z-scores). Every function that

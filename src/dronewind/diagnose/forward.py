@@ -132,7 +132,7 @@ def mast_surface_layer(l3: xr.Dataset) -> SurfaceLayer:
     -------
     SurfaceLayer
         From the samples where u, v, w and theta_v are all finite; the friction velocity is
-        at least 0.02 m s-1, the Obukhov length (seed 000, Eq. 9) infinite beyond 1e5 m and
+        at least 0.02 m s-1, the Obukhov length (Ghirardelli et al. 2025, Eq. 9) infinite beyond 1e5 m and
         limited to :math:`|z/L| \\le 5`.
     """
     from dronewind.core import stats

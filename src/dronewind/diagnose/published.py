@@ -1,6 +1,6 @@
 r"""The paper's measured numbers as data: which mechanisms reproduce the published SAMURAI-S results.
 
-The published validation (seed 000) gives no raw records, only numbers: the conditions of
+The published validation (Ghirardelli et al. 2025) gives no raw records, only numbers: the conditions of
 the ten samples (Table 4), the drone and mast statistics of s1 and s7 (Table 5) and a few
 quantitative statements (Sect. 5.2 and 6: the drone's :math:`\sigma_w` too high and the
 excess rising about linearly with wind speed; the drone's
@@ -21,7 +21,7 @@ module treats those numbers as a measured data set and runs the diagnosis on the
    A maximum over noisy samples is biased upward; the prediction of an extreme is
    therefore the Monte-Carlo expectation of the extreme of the predicted per-sample values
    with their realisation scatter (fixed draws, so the fit stays deterministic and smooth).
-3. Errors: the realisation-to-realisation scatter of each feature (seed 000, Eqs 10-13,
+3. Errors: the realisation-to-realisation scatter of each feature (Ghirardelli et al. 2025, Eqs 10-13,
    calibrated by the forward model's baseline seeds, :mod:`dronewind.diagnose.campaign`),
    combined with the printing resolution of the paper (uniform rounding,
    :math:`0.1/\sqrt{12}` for Table 5).
@@ -37,7 +37,7 @@ parameters, and which ones the numbers cannot tell apart.
 
 References
 ----------
-Ghirardelli, M., Kral, S. T., Cheynet, E., and Reuder, J.: SAMURAI-S (seed 000),
+Ghirardelli, M., Kral, S. T., Cheynet, E., and Reuder, J.: SAMURAI-S (Ghirardelli et al. 2025),
 Tables 4 and 5, Sect. 5.2 and 6.
 """
 
@@ -729,7 +729,7 @@ def _md_introduction(result: Mapping[str, Any], published: Mapping[str, Any]) ->
     """Title and what was compared."""
     src = published["source"]
     return ["# The paper's numbers: what the baseline simulation gets wrong, and which mechanism fixes it", "",
-            f"Source: {src['citation'].strip()} (`{src.get('file', '')}`): Table 4 (conditions), Table 5 "
+            f"Source: {src['citation'].strip()}: Table 4 (conditions), Table 5 "
             "(s1, s7), Sect. 5.2 and 6 (claims). The forward model was run at the Table 4 conditions of the "
             f"stationary samples {', '.join(result['flights'])} and processed like measured data; every catalog "
             "mechanism was fitted to the published numbers and scored by leaving one group of numbers out "

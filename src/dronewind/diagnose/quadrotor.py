@@ -1,24 +1,24 @@
-r"""Diagnosis of the quasi-steady single-law quadrotor model (SWUF-3D, seeds 001 and 002).
+r"""Diagnosis of the quasi-steady single-law quadrotor model (SWUF-3D, Wetz et al. (2021) and Kistner et al. (2024)).
 
 The baseline is the model the fleet is usually flown with: one drag law for every UAV
-(seed 001, Eqs 12-18, :math:`c_{d,0}A_0` and :math:`c_p` fitted), no per-UAV
+(Wetz et al. 2021, Eqs 12-18, :math:`c_{d,0}A_0` and :math:`c_p` fitted), no per-UAV
 misalignment, a quasi-steady attitude (no response lag) and, in the tunnel, the
 longitudinal drag law applied in every direction. Candidate extensions, each a mechanism of
 DESIGN.md (``dronewind.mechanisms``) except ``sideslip``:
 
 ``pitch_offset`` (field)
-    one pitch offset per UAV (logged minus true), seed 001 Sect. 5.2;
+    one pitch offset per UAV (logged minus true), Wetz et al. (2021) Sect. 5.2;
 ``yaw_offset`` (field)
-    one heading offset per UAV, seed 001 Sect. 5.4 (scored on the direction);
+    one heading offset per UAV, Wetz et al. (2021) Sect. 5.4 (scored on the direction);
 ``drag_regime`` (field and tunnel)
-    power laws :math:`V = c_k a^{b_k}` per speed range instead of one law (seed 002, Eq. 1,
+    power laws :math:`V = c_k a^{b_k}` per speed range instead of one law (Kistner et al. 2024, Eq. 1,
     Table 2), :math:`a = g\sin\gamma`;
 ``response_lag`` (tunnel)
-    the attitude follows the air speed through a first-order lag :math:`\tau` (seed 002,
+    the attitude follows the air speed through a first-order lag :math:`\tau` (Kistner et al. 2024,
     Sect. 4: gusts and steps); invisible in 2-min and 10-min means, so it is tested on the
     tunnel's gust and step runs;
 ``sideslip`` (tunnel)
-    separate lateral coefficients :math:`(b_y, c_y)` (seed 002, Eq. 1) instead of the
+    separate lateral coefficients :math:`(b_y, c_y)` (Kistner et al. 2024, Eq. 1) instead of the
     longitudinal law at every angle of sideslip;
 ``flight_pitch_offset`` (field, scored after the naming rounds)
     one pitch offset per flight and UAV instead of per UAV: an IMU re-levelled between days
@@ -47,8 +47,8 @@ scored again against the extended model, until none is significant.
 
 References
 ----------
-.. [1] Wetz et al. (SWUF-3D), seed 001, Sects. 4-5, Eqs. 12-18.
-.. [2] Wind-tunnel calibration of the SWUF-3D quadrotors, seed 002, Eq. 1, Table 2, Sect. 4.
+.. [1] Wetz et al. (SWUF-3D), Wetz et al. (2021), Sects. 4-5, Eqs. 12-18.
+.. [2] Wind-tunnel calibration of the SWUF-3D quadrotors, Kistner et al. (2024), Eq. 1, Table 2, Sect. 4.
 """
 
 from __future__ import annotations
@@ -79,7 +79,7 @@ __all__ = ["FieldData", "field_data", "fit_field", "predict_field", "score_field
 
 FIELD_CANDIDATES = ("pitch_offset", "yaw_offset", "drag_regime")
 #: Windows below this reference speed carry little direction information: the weather vane turns
-#: the nose only while the roll exceeds 1 degree (seed 001 Sect. 5.4), i.e. heading errors of tens of
+#: the nose only while the roll exceeds 1 degree (Wetz et al. 2021 Sect. 5.4), i.e. heading errors of tens of
 #: degrees persist at 2-3 m/s.
 MIN_DIRECTION_SPEED_MS = 3.5
 
@@ -219,7 +219,7 @@ def regime_speed(accel_ms2: np.ndarray | float, edges_ms: Sequence[float], b: Se
 
     Notes
     -----
-    Seed 002, Eq. 1 and Table 2: :math:`V = c_k a^{b_k}`; range :math:`k` is the number of
+    Kistner et al. (2024), Eq. 1 and Table 2: :math:`V = c_k a^{b_k}`; range :math:`k` is the number of
     thresholds :math:`a_j = (e_j/c_j)^{1/b_j}` that :math:`a` exceeds (range :math:`j` ends
     where its own law reaches its upper edge), as in
     :func:`dronewind.quadrotor.drag.body_axis_relative_air`.
@@ -241,7 +241,7 @@ class FieldModel:
 
     pitch: bool = False
     yaw: bool = False
-    regime_edges: tuple[float, ...] | None = None  # None: rayleigh law (seed 001 Eq. 17)
+    regime_edges: tuple[float, ...] | None = None  # None: rayleigh law (Wetz et al. 2021 Eq. 17)
     flight_pitch: bool = False  # one pitch offset per flight and UAV (replaces the per-UAV one)
     density: bool = False  # the logged air density in the drag balance
     units: tuple[str, ...] = ()  # flight/uav of the per-flight offsets
@@ -359,7 +359,7 @@ def predict_field(data: FieldData, fit: FieldFit) -> tuple[np.ndarray, np.ndarra
 
 
 def _heading(data: FieldData, yaw_deg: np.ndarray | None) -> np.ndarray:
-    """Window wind direction from the corrected heading (weather vane, seed 001 Sect. 5.4).
+    """Window wind direction from the corrected heading (weather vane, Wetz et al. (2021) Sect. 5.4).
 
     The heading does not depend on the pitch offset or the drag law, so the direction
     metric separates ``yaw_offset`` from the speed candidates.
@@ -396,7 +396,7 @@ def fit_field(data: FieldData, model: FieldModel) -> FieldFit:
     the reference (the sign rules out the mirror solution of the tilt, as in
     :func:`dronewind.quadrotor.calibration.calibrate_universal`), with a sparse Jacobian pattern (a
     window depends on the law and on its own UAV's offset only). Yaw: speed-weighted
-    circular mean of heading minus reference direction per UAV (seed 001 Sect. 5.4, as
+    circular mean of heading minus reference direction per UAV (Wetz et al. 2021 Sect. 5.4, as
     :func:`dronewind.quadrotor.calibration.calibrate_yaw_offsets`), over windows above
     :data:`MIN_DIRECTION_SPEED_MS`. The window direction is the circular mean of the
     corrected heading (weather vane), as in :func:`dronewind.quadrotor.validation.predict_windows`.
@@ -717,7 +717,7 @@ def _lag_pred(run: Mapping[str, Any], distance_m: float, tau_s: float) -> np.nda
     """UAS speed predicted from the CTA: advected over ``distance_m`` (delay d/V), then lagged."""
     v = run["v_cta"]
     y = first_order_lag(v, tau_s, run["fs_cta"])
-    # the UAS sees the flow distance/V earlier than the CTA (seed 002 Fig. 1 geometry)
+    # the UAS sees the flow distance/V earlier than the CTA (Kistner et al. 2024 Fig. 1 geometry)
     t_adv = run["t_cta"] - distance_m / np.maximum(v, 0.5)
     order = np.argsort(t_adv, kind="stable")
     return np.interp(run["t_uas"], t_adv[order], y[order])
@@ -828,7 +828,7 @@ def _sideslip_candidate(index: pd.DataFrame, law: DragLaw,
 
 def tunnel_candidates(runs_file: str | Path, alpha: float = 0.01, min_gain: float = 0.05,
                       advection_distance_m: float | None = 2.5) -> dict[str, Any]:
-    r"""Tunnel candidates ``response_lag``, ``drag_regime`` and ``sideslip`` (seed 002) with held-out gains.
+    r"""Tunnel candidates ``response_lag``, ``drag_regime`` and ``sideslip`` (Kistner et al. 2024) with held-out gains.
 
     Parameters
     ----------
@@ -837,7 +837,7 @@ def tunnel_candidates(runs_file: str | Path, alpha: float = 0.01, min_gain: floa
     alpha, min_gain : float
         As in :func:`score_field_candidates` (Bonferroni over the three candidates).
     advection_distance_m : float or None
-        Distance from the UAS to the CTA along the flow [m] (seed 002 Fig. 1: UAS 2.5 m
+        Distance from the UAS to the CTA along the flow [m] (Kistner et al. 2024 Fig. 1: UAS 2.5 m
         and CTA 5 m downstream of the grid); ``None`` fits it too, which lets a pure delay
         absorb about half of a lag (the two are nearly collinear in gusts at one speed).
 
@@ -852,7 +852,7 @@ def tunnel_candidates(runs_file: str | Path, alpha: float = 0.01, min_gain: floa
       (delay :math:`d/V`, the UAS hovers upstream of the CTA); the candidate adds a
       first-order lag :math:`\tau`; leave-one-run-out over the gust and step runs, RMSE of
       the UAS time series; the paired test is over gust/step repetitions.
-    * ``drag_regime``: one power law (no speed ranges) against seed 002's three ranges
+    * ``drag_regime``: one power law (no speed ranges) against Kistner et al. (2024)'s three ranges
       (edges 4 and 12 m/s), both calibrated on the calibration runs; held out: the
       AoS-0 sideslip and the portability runs (per-step RMSE).
     * ``sideslip``: the longitudinal law of the middle range applied laterally against the

@@ -26,7 +26,7 @@ The figures by topic: :mod:`~dronewind.figures.synchronisation` (Fig. 4),
 
 References
 ----------
-.. [1] Ghirardelli et al. (2025) (``../shared/papers/000_*.txt``), Figs 4, 7-16 and B1-B2 with their
+.. [1] Ghirardelli et al. (2025), Figs 4, 7-16 and B1-B2 with their
    captions; Sects. 3.3, 4 and 5, Appendix B.
 """
 

@@ -19,7 +19,7 @@ PathLike = str | Path
 #: Markers of the reference heights, lowest first (Ghirardelli et al. (2025): circles 30 m, triangles 60 m).
 HEIGHT_MARKERS = ("o", "^", "s", "D", "v", "P")
 
-#: The three papers the project follows (``../shared/papers/000_*``, ``001_*``, ``002_*``), cited by
+#: The three papers the project follows, cited by
 #: authors and year in captions and reports.
 PAPERS = {
     "000": "Ghirardelli et al. (2025)",

@@ -14,8 +14,8 @@ silently.
 
 References
 ----------
-.. [1] Wetz et al. (2021) (``../shared/papers/001_*.txt``), Figs 3-9 with their captions.
-.. [2] Kistner et al. (2024) (``../shared/papers/002_*.txt``), Figs 4-7 and 9 with their captions.
+.. [1] Wetz et al. (2021), Figs 3-9 with their captions.
+.. [2] Kistner et al. (2024), Figs 4-7 and 9 with their captions.
 """
 
 from __future__ import annotations

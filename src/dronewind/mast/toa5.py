@@ -851,7 +851,7 @@ def mast_l1(
 
     References
     ----------
-    Seed 000, Sect. 3.2 and 4.4 (same filtering for the mast sonics).
+    Ghirardelli et al. (2025), Sect. 3.2 and 4.4 (same filtering for the mast sonics).
     """
     files = _expand_paths(paths)
     log: list[str] = []

@@ -7,7 +7,7 @@ L0 formats (``../shared/DESIGN.md``, "Payload sonic file" and "INS file")::
 
 Both files are stamped by the logger's clock (``rpi_time_us``, not UTC). The INS also logs
 GNSS UTC, so the logger clock is converted to UTC by a robust straight-line fit
-``utc = a + b * rpi_time`` over the INS rows with a stable valid GNSS time (seed 000,
+``utc = a + b * rpi_time`` over the INS rows with a stable valid GNSS time (Ghirardelli et al. 2025,
 Sect. 3.2), which is then applied to the sonic.
 
 Bad input policy (every removal is counted in ``ds.attrs["n_*"]`` and described in
@@ -788,7 +788,7 @@ def fit_logger_clock(
 
     References
     ----------
-    Seed 000, Sect. 3.2 (sonic stamped by the logger clock, INS stamped in UTC).
+    Ghirardelli et al. (2025), Sect. 3.2 (sonic stamped by the logger clock, INS stamped in UTC).
     """
     r = np.asarray(rpi_time_us, dtype=np.int64)
     u = np.asarray(utc).astype("datetime64[ns]")
@@ -1173,7 +1173,7 @@ def ins_l1(
 
     References
     ----------
-    Seed 000, Sect. 3.2.
+    Ghirardelli et al. (2025), Sect. 3.2.
     """
     ins = _fresh(ins_table) if ins_table is not None else _load_ins(
         ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)
@@ -1465,14 +1465,14 @@ def payload_sonic_l1(
 
     Notes
     -----
-    Range limits: RM Young 81000 (seed 000, Table 2) speed
+    Range limits: RM Young 81000 (Ghirardelli et al. 2025, Table 2) speed
     :math:`\\sqrt{u^2+v^2+w^2} \\le 40` m/s, sonic temperature -50..50 degC. Each of u, v,
     w and T is despiked separately (:func:`dronewind.core.filtering.despike_moving_mad`) after
     range-flagged and missing samples are removed; a spike in any flags the sample.
 
     References
     ----------
-    Seed 000, Sect. 3.2.
+    Ghirardelli et al. (2025), Sect. 3.2.
     """
     ins = _fresh(ins_table) if ins_table is not None else _load_ins(
         ins_path, min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction)

@@ -16,9 +16,9 @@ tables that use the results are in :mod:`dronewind.quadrotor.validation`.
 References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
-   (``../shared/papers/001_*.txt``), Sect. 5, Eqs. 12-18.
+  , Sect. 5, Eqs. 12-18.
 .. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
-   (``../shared/papers/002_*.txt``), Sect. 3.1, Eq. 1, Table 2.
+  , Sect. 3.1, Eq. 1, Table 2.
 .. [3] Branch, M. A., Coleman, T. F., Li, Y.: A subspace, interior, and conjugate
    gradient method for large-scale bound-constrained minimization problems, SIAM J.
    Sci. Comput. 21, 1-23, 1999 (scipy.optimize.least_squares, method 'trf').

@@ -16,7 +16,7 @@ and write what they return:
 References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
-   (``../shared/papers/001_*.txt``), Sects. 4-6, Tables 2, 3, C1, C2, Figs 3-9.
+  , Sects. 4-6, Tables 2, 3, C1, C2, Figs 3-9.
 """
 
 from __future__ import annotations

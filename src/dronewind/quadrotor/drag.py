@@ -34,9 +34,9 @@ Two drag laws are implemented:
 References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
-   (``../shared/papers/001_*.txt``), Sects. 4-5, Eqs. 9-18, Table 1, D1.
+  , Sects. 4-5, Eqs. 9-18, Table 1, D1.
 .. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
-   (``../shared/papers/002_*.txt``), Eqs. 1-2, Table 2.
+  , Eqs. 1-2, Table 2.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from dronewind.core.constants import GRAVITY_MS2
 from dronewind.errors import InputError
 
 __all__ = [
-    "RHO_KGM3", "MASS_KG", "WETZ2021_AERO", "SEED002_RANGES", "MIN_DRAG_AREA_M2", "DragLaw",
+    "RHO_KGM3", "MASS_KG", "WETZ2021_AERO", "KISTNER2024_RANGES", "MIN_DRAG_AREA_M2", "DragLaw",
     "rotation_body_to_ned", "drag_area_m2", "speed_from_tilt", "tilt_from_attitude",
     "body_accelerations_ms2", "body_axis_relative_air",
 ]
@@ -65,7 +65,7 @@ WETZ2021_AERO: dict[str, float] = {"cd0a0_m2": 0.03, "cp_m2_per_rad": -0.047}
 MIN_DRAG_AREA_M2: float = 1e-4
 #: Longitudinal speed-range coefficients of Kistner et al. (2024), Table 2: (upper edge [m s-1], b_x, c_x);
 #: lateral (b_y, c_y) = (0.860, 5.600).
-SEED002_RANGES: dict[str, object] = {
+KISTNER2024_RANGES: dict[str, object] = {
     "edges_ms": [4.0, 12.0],
     "b_x": [0.784, 0.882, 0.635],
     "c_x": [6.338, 7.604, 8.600],
@@ -102,11 +102,11 @@ class DragLaw:
     law: str = "rayleigh"
     cd0a0_m2: float = WETZ2021_AERO["cd0a0_m2"]
     cp_m2_per_rad: float = WETZ2021_AERO["cp_m2_per_rad"]
-    edges_ms: tuple[float, ...] = tuple(SEED002_RANGES["edges_ms"])  # type: ignore[arg-type]
-    b_x: tuple[float, ...] = tuple(SEED002_RANGES["b_x"])  # type: ignore[arg-type]
-    c_x: tuple[float, ...] = tuple(SEED002_RANGES["c_x"])  # type: ignore[arg-type]
-    b_y: float = float(SEED002_RANGES["b_y"])  # type: ignore[arg-type]
-    c_y: float = float(SEED002_RANGES["c_y"])  # type: ignore[arg-type]
+    edges_ms: tuple[float, ...] = tuple(KISTNER2024_RANGES["edges_ms"])  # type: ignore[arg-type]
+    b_x: tuple[float, ...] = tuple(KISTNER2024_RANGES["b_x"])  # type: ignore[arg-type]
+    c_x: tuple[float, ...] = tuple(KISTNER2024_RANGES["c_x"])  # type: ignore[arg-type]
+    b_y: float = float(KISTNER2024_RANGES["b_y"])  # type: ignore[arg-type]
+    c_y: float = float(KISTNER2024_RANGES["c_y"])  # type: ignore[arg-type]
     mass_kg: float = MASS_KG
     rho_kgm3: float = RHO_KGM3
 

@@ -8,7 +8,7 @@ a UAV that never hovers raises :class:`dronewind.errors.InputError` naming it.
 References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
-   (``../shared/papers/001_*.txt``), Sect. 4.3.
+  , Sect. 4.3.
 """
 
 from __future__ import annotations

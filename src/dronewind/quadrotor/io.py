@@ -31,7 +31,7 @@ References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F.: Distributed wind measurements with multiple
    quadrotor UAVs in the atmospheric boundary layer (SWUF-3D), Wetz et al. (2021)
-   (``../shared/papers/001_*.txt``), Sects. 2-5.
+  , Sects. 2-5.
 .. [2] PX4 ULog file format, https://docs.px4.io/main/en/dev_log/ulog_file_format.html
 """
 

@@ -2,7 +2,7 @@ r"""Validation of the calibrated fleet: the tables of Wetz et al. (2021) and the
 
 * :func:`predict_windows`: calibrated UAV wind speed and direction per window;
 * :func:`accuracy_table`: bias and RMS deviation per UAV (Tables 2, 3, C1, C2);
-* :func:`seed001_scenarios` and :func:`calibration_scenarios`: calibration scenarios a-d
+* :func:`wetz2021_scenarios` and :func:`calibration_scenarios`: calibration scenarios a-d
   validated on the second week (Sect. 5.3, Tables E1-E2);
 * :func:`wetz2021_tables`: every table of Sect. 5 from one set of windows;
 * :func:`calibration_table`: ``tables/quadrotor_calibration.csv`` of the data contract.
@@ -10,9 +10,9 @@ r"""Validation of the calibrated fleet: the tables of Wetz et al. (2021) and the
 References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
-   (``../shared/papers/001_*.txt``), Sect. 5, Tables 2, 3, C1, C2, E1, E2.
+  , Sect. 5, Tables 2, 3, C1, C2, E1, E2.
 .. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
-   (``../shared/papers/002_*.txt``), Eq. 3.
+  , Eq. 3.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from dronewind.quadrotor.drag import MASS_KG, RHO_KGM3, DragLaw
 from dronewind.quadrotor.windows import WindowArrays, select_windows
 
 __all__ = [
-    "predict_windows", "accuracy_table", "flight_number", "seed001_scenarios", "calibration_scenarios",
+    "predict_windows", "accuracy_table", "flight_number", "wetz2021_scenarios", "calibration_scenarios",
     "wetz2021_tables", "calibration_table",
 ]
 
@@ -139,7 +139,7 @@ def flight_number(flight_id: str) -> int:
     return int(m.group(1))
 
 
-def seed001_scenarios(flight_ids: Iterable[str]) -> tuple[dict[str, list[str]], list[str]]:
+def wetz2021_scenarios(flight_ids: Iterable[str]) -> tuple[dict[str, list[str]], list[str]]:
     r"""Calibration scenarios a-d and validation flights of Wetz et al. (2021), Sect. 5.3.
 
     Parameters
@@ -178,7 +178,7 @@ def calibration_scenarios(blocks: pd.DataFrame, windows: pd.DataFrame, aero: Map
     aero : mapping
         Common aerodynamic parameters (Eq. 18 or :func:`~dronewind.quadrotor.calibration.calibrate_universal`).
     scenarios : mapping
-        Scenario name to calibration flight ids (:func:`seed001_scenarios`).
+        Scenario name to calibration flight ids (:func:`wetz2021_scenarios`).
     validation : sequence of str
         Validation flight ids.
     method : str
@@ -216,7 +216,7 @@ def wetz2021_tables(blocks: pd.DataFrame, windows: pd.DataFrame, method: str = "
     method : str
         See :func:`dronewind.quadrotor.wind.wind_from_attitude`.
     scenarios, validation : optional
-        Default :func:`seed001_scenarios` of the flights present. Flight ids without a
+        Default :func:`wetz2021_scenarios` of the flights present. Flight ids without a
         number, or no second-week flight, give one scenario ``a_all`` validated on the
         calibration flights themselves (flag ``independent_validation`` False).
     calibration : sequence of str, optional
@@ -243,7 +243,7 @@ def wetz2021_tables(blocks: pd.DataFrame, windows: pd.DataFrame, method: str = "
     flights = sorted(windows["flight"].astype(str).unique())
     try:
         flights = sorted(flights, key=flight_number)
-        s, v = seed001_scenarios(flights)
+        s, v = wetz2021_scenarios(flights)
     except InputError:
         s, v = {"a_all": flights}, []
     fit_b, fit_w = blocks, windows

@@ -15,9 +15,9 @@ writes a minus sign because its relative-velocity vector is defined the other wa
 References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
-   (``../shared/papers/001_*.txt``), Sects. 4-6, Eqs. 12-17.
+  , Sects. 4-6, Eqs. 12-17.
 .. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
-   (``../shared/papers/002_*.txt``), Eqs. 1-2.
+  , Eqs. 1-2.
 """
 
 from __future__ import annotations

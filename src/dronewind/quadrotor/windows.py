@@ -11,7 +11,7 @@ model evaluations of the calibrations.
 References
 ----------
 .. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
-   (``../shared/papers/001_*.txt``), Sects. 4.3, 5, Appendix C.
+  , Sects. 4.3, 5, Appendix C.
 """
 
 from __future__ import annotations

@@ -5,11 +5,11 @@ tunnel (:mod:`dronewind.simulate.tunnel`) need the attitude a quadrotor takes in
 relative air velocity. The thrust of a vehicle that holds its position balances gravity
 and the aerodynamic drag, so the vehicle leans into the wind:
 
-* ``rayleigh`` drag (seed 001, Eqs. 12-17): :math:`m g \sin\gamma = \tfrac{\rho}{2}
+* ``rayleigh`` drag (Wetz et al. 2021, Eqs. 12-17): :math:`m g \sin\gamma = \tfrac{\rho}{2}
   (c_{d,0}A_0 + c_p\gamma) V^2`, solved for the tilt :math:`\gamma`
   (:func:`rayleigh_tilt_rad`), or a power law per speed range,
-  :math:`g\sin\gamma = (V/c_k)^{1/b_k}` (seed 002, Table 2 form; :func:`regime_tilt`);
-* body-axis drag (seed 002, Eq. 1): wind accelerations along body x and y from the air
+  :math:`g\sin\gamma = (V/c_k)^{1/b_k}` (Kistner et al. 2024, Table 2 form; :func:`regime_tilt`);
+* body-axis drag (Kistner et al. 2024, Eq. 1): wind accelerations along body x and y from the air
   velocity in the heading frame, solved for roll and pitch (:func:`attitude_from_relative_air`);
 * the lean direction and the heading give roll and pitch (:func:`attitude_from_tilt`); in
   weather-vane mode the heading turns into the wind (:func:`weathervane_heading_deg`).
@@ -21,10 +21,10 @@ independent model. Gravity is :data:`dronewind.core.constants.GRAVITY_MS2`.
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001
-   (``../shared/papers/001_*.txt``), Sects. 2, 4.2, Eqs. 9-18, D1.
-.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
-   (``../shared/papers/002_*.txt``), Eqs. 1-2, Table 2.
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021)
+  , Sects. 2, 4.2, Eqs. 9-18, D1.
+.. [2] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
+  , Eqs. 1-2, Table 2.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ from dronewind.errors import InputError, ProcessingError
 __all__ = ["TABLE2_COEFFICIENTS", "AirframeDrag", "rayleigh_tilt_rad", "regime_tilt", "attitude_from_tilt",
            "attitude_from_relative_air", "weathervane_heading_deg"]
 
-#: Speed-range coefficients of seed 002, Table 2 (the simulated UAS's default truth):
+#: Speed-range coefficients of Kistner et al. (2024), Table 2 (the simulated UAS's default truth):
 #: upper edges of the longitudinal ranges [m s-1], ``b_x`` [-], ``c_x`` [m s-1 (m s-2)^-b]
 #: per range, lateral ``b_y``, ``c_y``.
 TABLE2_COEFFICIENTS: dict[str, Any] = {
@@ -60,12 +60,12 @@ class AirframeDrag:
     Parameters
     ----------
     law : {"rayleigh", "body_axis"}
-        Seed 001 Eqs. 12-17 or seed 002 Eq. 1 with speed ranges.
+        Wetz et al. (2021) Eqs. 12-17 or Kistner et al. (2024) Eq. 1 with speed ranges.
     cd0a0_m2 : float
-        :math:`c_{d,0}A_0` [m2] (rayleigh; seed 001, Eq. 18: 0.03).
+        :math:`c_{d,0}A_0` [m2] (rayleigh; Wetz et al. (2021), Eq. 18: 0.03).
     cp_m2_per_rad : float
         :math:`c_p` [m2 rad-1], slope of the drag area on the tilt magnitude (rayleigh;
-        seed 001, Eq. 18 read on the tilt: -0.047).
+        Wetz et al. (2021), Eq. 18 read on the tilt: -0.047).
     edges_ms : tuple of float
         Upper edges of the longitudinal speed ranges [m s-1] (body_axis); ranges
         (-inf, e1], (e1, e2), [e2, inf).
@@ -114,7 +114,7 @@ class AirframeDrag:
 
 def rayleigh_tilt_rad(speed_ms: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: float,
                       mass_kg: float = 0.65, rho_kgm3: float = 1.2) -> np.ndarray:
-    r"""Tilt at which the thrust balances the drag of a relative air speed (seed 001, Eqs. 12-17).
+    r"""Tilt at which the thrust balances the drag of a relative air speed (Wetz et al. 2021, Eqs. 12-17).
 
     Parameters
     ----------
@@ -172,7 +172,7 @@ def rayleigh_tilt_rad(speed_ms: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: floa
 
 
 def regime_tilt(speed_ms: np.ndarray, regime: list[Mapping]) -> np.ndarray:
-    r"""Tilt from a piecewise power drag law (seed 002, Eq. 1 and Table 2, inverted).
+    r"""Tilt from a piecewise power drag law (Kistner et al. 2024, Eq. 1 and Table 2, inverted).
 
     Parameters
     ----------
@@ -227,7 +227,7 @@ def attitude_from_tilt(tilt_rad: np.ndarray, lean_rel_rad: np.ndarray) -> tuple[
     -----
     The upward thrust axis of a body with roll :math:`\phi` and pitch :math:`\theta` is
     :math:`(-\sin\theta\cos\phi,\ \sin\phi,\ \cos\theta\cos\phi)` in the heading frame
-    (forward, right, up; third column of seed 001, Eq. D1); setting its horizontal part to
+    (forward, right, up; third column of Wetz et al. (2021), Eq. D1); setting its horizontal part to
     :math:`\sin\gamma\,(\cos\beta, \sin\beta)` gives
 
     .. math:: \sin\phi = \sin\gamma\sin\beta,\qquad
@@ -254,7 +254,7 @@ def attitude_from_relative_air(air_fwd_ms: np.ndarray, air_right_ms: np.ndarray,
         Horizontal air velocity relative to the UAS in the heading frame [m s-1]
         (a head wind has ``air_fwd_ms < 0``).
     law : AirframeDrag
-        ``body_axis`` coefficients (seed 002, Eq. 1, Table 2).
+        ``body_axis`` coefficients (Kistner et al. 2024, Eq. 1, Table 2).
     drag_scale : float
         Factor on the drag force of this UAS (portability, Sect. 3.2.1).
     n_iter : int
@@ -268,7 +268,7 @@ def attitude_from_relative_air(air_fwd_ms: np.ndarray, air_right_ms: np.ndarray,
     -----
     Inverts :math:`(a_f, a_r) = R(\phi,\theta,0)_{1:2,1:2}(u, v)` with
     :math:`u = \operatorname{sgn}a_x\,c_x|a_x|^{b_x}`, :math:`a_x = g\sin\theta`,
-    :math:`a_y = -g\cos\theta\sin\phi` (seed 002, Eqs. 1-2), iterating
+    :math:`a_y = -g\cos\theta\sin\phi` (Kistner et al. 2024, Eqs. 1-2), iterating
     :math:`v = a_r/\cos\phi`, :math:`u = (a_f - \sin\theta\sin\phi\,v)/\cos\theta`; the
     range :math:`k` is chosen by the head-wind speed :math:`-u`. Converges because the
     coupling terms are second order in the (small) angles.
@@ -283,7 +283,7 @@ def attitude_from_relative_air(air_fwd_ms: np.ndarray, air_right_ms: np.ndarray,
     for _ in range(n_iter):
         v = ar / np.cos(phi)
         u = (af - np.sin(th) * np.sin(phi) * v) / np.cos(th)
-        head = -u  # ranges (-inf, e1], (e1, e2), [e2, inf) as in seed 002, Table 2
+        head = -u  # ranges (-inf, e1], (e1, e2), [e2, inf) as in Kistner et al. (2024), Table 2
         k = (head > edges[0]).astype(int) + np.sum(head[..., None] >= edges[1:], axis=-1)
         fx = _inverse_power(u, bx[k], cx[k]) * drag_scale
         th = np.arcsin(np.clip(fx / g, -0.95, 0.95))
@@ -296,7 +296,7 @@ def weathervane_heading_deg(from_deg: np.ndarray, tilt_rad: np.ndarray, tau_s: f
                             fs_hz: float, psi0_deg: float) -> np.ndarray:
     """Heading that turns towards ``from_deg`` (first order) while |roll| > min_roll_deg.
 
-    PX4's weather-vane mode (seed 001, Sect. 2): the nose turns into the wind only while
+    PX4's weather-vane mode (Wetz et al. 2021, Sect. 2): the nose turns into the wind only while
     the roll exceeds a threshold (1 degree), i.e. while the wind is off the nose.
 
     Parameters

@@ -15,7 +15,7 @@ The field is a stationary Gaussian process built in the frequency domain
   stable, down in unstable air);
 * coherencies between u and w and between w and theta with Kaimal-type cospectral
   shape (-7/3 inertial slope), scaled so that u'w' = -u*^2 and
-  w'theta' = -u*^3 theta/(kappa g L) (seed 000, Eq. 9 inverted), u'theta' =
+  w'theta' = -u*^3 theta/(kappa g L) (Ghirardelli et al. 2025, Eq. 9 inverted), u'theta' =
   rho_uw rho_wtheta (u and theta conditionally independent given w);
 * spatial coherence of each component decaying exponentially with separation and
   frequency (IEC 61400-1 Ed. 3 Annex B exponential model, with pyconturb's "iec3d"
@@ -64,7 +64,7 @@ Rinker, J. M. (2018), PyConTurb, J. Phys.: Conf. Ser. 1037, 062032.
 Burton, T., Jenkins, N., Sharpe, D. and Bossanyi, E. (2011), Wind Energy Handbook, 2nd ed.,
 Wiley, Sect. 2.6.3 (von Karman spectra); IEC 61400-1 Ed. 2 (1999), Annex B.
 Hogstrom, U., Hunt, J. C. R. and Smedman, A.-S. (2002), Bound.-Layer Meteor. 103, 101-124.
-Seed 000: SAMURAI-S (sling-load sonic), Eq. 9 (Obukhov length).
+Ghirardelli et al. (2025): SAMURAI-S (sling-load sonic), Eq. 9 (Obukhov length).
 
 Departures from this model, for truths the diagnosis' forward model does not know
 (``simulation.atmosphere`` settings, :mod:`dronewind.simulate`): :func:`reshape_field`
@@ -298,14 +298,14 @@ def theta_profile(z_m: np.ndarray | float, z_ref_m: float, theta_ref_k: float,
 
     Notes
     -----
-    With :math:`\\theta_* = u_*^2\\theta/(\\kappa g L)` (from seed 000, Eq. 9):
+    With :math:`\\theta_* = u_*^2\\theta/(\\kappa g L)` (from Ghirardelli et al. (2025), Eq. 9):
 
     .. math:: T(z) = T_r + \\frac{\\theta_*}{\\kappa}[\\ln(z/z_r) - \\psi_h(z/L) + \\psi_h(z_r/L)]
               - \\frac{g}{c_p}(z - z_r)
 
     References
     ----------
-    Kaimal and Finnigan (1994), Eq. 1.30; seed 000, Eq. 9.
+    Kaimal and Finnigan (1994), Eq. 1.30; Ghirardelli et al. (2025), Eq. 9.
     """
     z = np.maximum(np.asarray(z_m, dtype=float), 0.1)
     theta_star = friction_velocity_ms**2 * theta_ref_k / (KARMAN * GRAVITY_MS2 * obukhov_length_m)
@@ -353,7 +353,7 @@ def turbulence_sigmas(friction_velocity_ms: float, z_m: float, obukhov_length_m:
     References
     ----------
     Panofsky et al. (1977); Panofsky and Dutton (1984), Ch. 7; Kaimal and Finnigan
-    (1994), Eqs 1.33-1.35; seed 000, Eq. 9.
+    (1994), Eqs 1.33-1.35; Ghirardelli et al. (2025), Eq. 9.
     """
     ustar = float(friction_velocity_ms)
     zeta = z_m / obukhov_length_m

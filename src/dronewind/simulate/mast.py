@@ -1,4 +1,4 @@
-"""Measurement model of a mast CSAT3 sonic (seed 000, Sect. 4: 10 Hz, 30 m and 60 m).
+"""Measurement model of a mast CSAT3 sonic (Ghirardelli et al. 2025, Sect. 4: 10 Hz, 30 m and 60 m).
 
 Takes the true ENU wind and sonic temperature at the sensor and returns what the
 logger writes to TOA5: CSAT3 components ``Ux, Uy, Uz`` for the sensor's azimuth

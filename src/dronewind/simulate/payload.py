@@ -1,6 +1,6 @@
 """Virtual SAMURAI-S flight: sling-load payload, INS, sonic, and the mast sonics.
 
-Physics (seed 000, Sects 2-3):
+Physics (Ghirardelli et al. 2025, Sects 2-3):
 
 * Flight plan: payload on the ground (held) for ``ground_before_s``, vertical ascent at
   ``ascent_rate_ms``, hover from ``hover_margin_s`` before the hover window to
@@ -130,7 +130,7 @@ def body_to_ned(roll_deg: np.ndarray | float, pitch_deg: np.ndarray | float,
 
     Notes
     -----
-    Seed 000, Appendix A; written independently of the processing chain's
+    Ghirardelli et al. (2025), Appendix A; written independently of the processing chain's
     ``dronewind.payload.motion`` (the simulator must not use it).
     """
     f, t, p = (deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
@@ -149,7 +149,7 @@ def body_to_ned(roll_deg: np.ndarray | float, pitch_deg: np.ndarray | float,
 
 
 def pendulum_period_s(length_m: float) -> float:
-    """Small-amplitude period of a simple pendulum, T = 2 pi sqrt(l/g) (seed 000, Sect. 2.3).
+    """Small-amplitude period of a simple pendulum, T = 2 pi sqrt(l/g) (Ghirardelli et al. 2025, Sect. 2.3).
 
     Parameters
     ----------
@@ -690,7 +690,7 @@ def _jitter(p: Mapping[str, float], rng: np.random.Generator, n: int, fs_hz: flo
     """The drone's hover and attitude jitter: low-passed noise drawn from ``rng`` (the motion stream).
 
     Drawn in the order hover jitter along, across and vertical, then roll, pitch and yaw
-    jitter (seed 000, Sect. 2.3). It depends on the stream, the settings of
+    jitter (Ghirardelli et al. 2025, Sect. 2.3). It depends on the stream, the settings of
     :data:`_JITTER_KEYS`, ``n`` and ``fs_hz`` only, not on the air: the truths of one seed
     at other hover heights (``height_offset``) draw the same (:func:`_truth`).
     """
@@ -708,7 +708,7 @@ def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e
               fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Payload position: linearised pendulum under a jittering drone, forced by the turbulent drag.
 
-    Seed 000, Sect. 2.3 (see the module docstring); the drone's hover jitter is ``jitter``'s.
+    Ghirardelli et al. (2025), Sect. 2.3 (see the module docstring); the drone's hover jitter is ``jitter``'s.
 
     Returns
     -------
@@ -753,7 +753,7 @@ def _slope_at_knots(spline: CubicSpline) -> np.ndarray:
 
 def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, spec: atm.FieldSpec,
                     jitter: _Jitter, fs_hz: float) -> _Motion:
-    """Pendulum path and attitude (seed 000, Sect. 2.3).
+    """Pendulum path and attitude (Ghirardelli et al. 2025, Sect. 2.3).
 
     Roll: the drone banks into lateral gusts (0.5 s lag) plus jitter; pitch: trim plus
     jitter; yaw weathervanes to the direction the relative air comes from (first order)
@@ -799,7 +799,7 @@ def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, v_bod
 
     The exact inverse of the correction V_wind = R V_body + V_ins, V_body = M V_sensor,
     with the ``mount_misalignment``, ``w_gain`` and ``sonic_noise`` mechanisms, white
-    noise and the sensor's resolution (seed 000, Table 2). ``v_body`` is the air in the
+    noise and the sensor's resolution (Ghirardelli et al. 2025, Table 2). ``v_body`` is the air in the
     body frame (:func:`_air_in_body`).
 
     Returns
@@ -916,7 +916,7 @@ _INS_NOISE_KEYS: tuple[str, ...] = ("ins_noise_time_s", "ins_velocity_noise_ms",
 
 
 def _ins_noise(p: Mapping[str, Any], n: int, rng: np.random.Generator, fs_hz: float) -> tuple[np.ndarray, ...]:
-    """Gauss-Markov errors of the Table 3 accuracies (seed 000) for ``n`` INS rows.
+    """Gauss-Markov errors of the Table 3 accuracies (Ghirardelli et al. 2025) for ``n`` INS rows.
 
     ``rng`` (the INS-noise stream) is drawn in the order vel N, E, D, roll, pitch, yaw,
     position E, N, up; the arrays are returned in that order, read-only. They depend on the
@@ -1321,7 +1321,7 @@ def simulate_payload_flight(campaign: CampaignLike, manifest_dir: Path, flight_i
 
     References
     ----------
-    Seed 000, Sects 2.3, 3.1-3.2, 4, Tables 2-4 and Appendix A.
+    Ghirardelli et al. (2025), Sects 2.3, 3.1-3.2, 4, Tables 2-4 and Appendix A.
     """
     records, _ = payload_records(campaign, flight_id)  # raises before anything is written
     return [write_record(Path(out_dir) / rec.source, rec) for rec in records]

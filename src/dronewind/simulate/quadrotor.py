@@ -1,4 +1,4 @@
-r"""Virtual SWUF-3D quadrotor fleet flights and the tower reference (seed 001).
+r"""Virtual SWUF-3D quadrotor fleet flights and the tower reference (Wetz et al. 2021).
 
 Forward model of a hovering quadrotor (its physics in :mod:`dronewind.simulate.airframe`,
 independent of the processing chain's inversion in :mod:`dronewind.quadrotor`):
@@ -8,12 +8,12 @@ independent of the processing chain's inversion in :mod:`dronewind.quadrotor`):
    air velocity relative to the vehicle;
 2. ``response_lag``: the attitude follows that relative velocity through a first-order
    lag with time constant ``tau_s`` (the quasi-steady inverse model ignores inertia);
-3. the drag balance gives the tilt (seed 001, Eqs. 12-17, ``rayleigh``; or, with the
-   ``drag_regime`` mechanism, a power law per speed range as in seed 002, Table 2:
+3. the drag balance gives the tilt (Wetz et al. 2021, Eqs. 12-17, ``rayleigh``; or, with the
+   ``drag_regime`` mechanism, a power law per speed range as in Kistner et al. (2024), Table 2:
    :math:`a = (U/c_k)^{1/b_k}`, :math:`\sin\gamma = a/g`), leaning into the wind;
 4. weather-vane mode: the heading turns towards the (lagged) relative wind direction
    with time constant ``weathervane.tau_s``, but only while the roll exceeds
-   ``weathervane.min_roll_deg`` (PX4's threshold, seed 001 Sect. 2: 1 degree);
+   ``weathervane.min_roll_deg`` (PX4's threshold, Wetz et al. (2021) Sect. 2: 1 degree);
    roll and pitch follow from tilt and lean direction relative to the nose;
 5. logged attitude = true + ``pitch_offset``/``yaw_offset`` (logged minus true) + white
    noise; the hover position wanders (Ornstein-Uhlenbeck, standard deviations of seed
@@ -40,8 +40,8 @@ Settings (manifest ``simulation:`` section):
 
 References
 ----------
-.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), seed 001, Sects. 2-5, Tables E1-E2.
-.. [2] Wind-tunnel calibration of the SWUF-3D quadrotors, seed 002, Eq. 1, Table 2.
+.. [1] Wetz, T., Wildmann, N., Beyrich, F. (SWUF-3D), Wetz et al. (2021), Sects. 2-5, Tables E1-E2.
+.. [2] Wind-tunnel calibration of the SWUF-3D quadrotors, Kistner et al. (2024), Eq. 1, Table 2.
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ def hover_wander(rng: np.random.Generator, n: int, position_sd_m: tuple[float, f
     n : int
         Number of samples.
     position_sd_m : (float, float)
-        Standard deviation of horizontal (per axis) and vertical wander [m] (seed 001,
+        Standard deviation of horizontal (per axis) and vertical wander [m] (Wetz et al. 2021,
         Sect. 4.3: 0.19 m and 0.85 m).
     position_timescale_s : float
         Time scale of the wander [s].
@@ -251,7 +251,7 @@ def simulate_uav_log(wind_east_ms: np.ndarray, wind_north_ms: np.ndarray, fs_hz:
     rng : numpy.random.Generator
         Random source (position wander and noise).
     law : AirframeDrag, optional
-        ``rayleigh`` drag law (seed 001, Eqs. 12-17); default Eq. 18.
+        ``rayleigh`` drag law (Wetz et al. 2021, Eqs. 12-17); default Eq. 18.
     regime : list of mapping, optional
         ``drag_regime`` table; replaces ``law`` (see
         :func:`dronewind.simulate.airframe.regime_tilt`).

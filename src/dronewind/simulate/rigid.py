@@ -42,7 +42,7 @@ Model
   :math:`a = V_{wind} - V_{platform}` projected on the body's forward and right axes and
   :math:`k` = ``tilt_deg_per_ms``, plus Ornstein-Uhlenbeck wander; yaw = heading + wander.
 * Sonic: the mount matrix M (sensor-to-body, each sensor axis named as a body direction)
-  and the body-to-NED rotation :math:`R(\phi, \theta, \psi)` (seed 000, Appendix A). The
+  and the body-to-NED rotation :math:`R(\phi, \theta, \psi)` (Ghirardelli et al. 2025, Appendix A). The
   sonic measures the air relative to itself in its own frame,
 
   .. math:: V_{sensor} = (R M)^{\mathsf T} \left(V_{wind} - G\, V_{platform}\right), \qquad

@@ -48,7 +48,7 @@ __all__ = [
 
 #: name: (default, lower, upper, unit). Ranges are physical plausibility limits.
 #: The attitude defaults (yaw follows the relative wind with 15 s, 3 deg yaw / 1 deg pitch /
-#: 0.5 deg roll jitter on 0.5 s) were tuned so that the TKE-vs-sonic-lag curve of seed 000,
+#: 0.5 deg roll jitter on 0.5 s) were tuned so that the TKE-vs-sonic-lag curve of Ghirardelli et al. (2025),
 #: Fig. 4 is reproduced without any mechanism: minimum at -0.125 s, +5-11 % at +-1 s (s01,
 #: s07). A faster weathervane (3 s) biased the TKE minimum beyond -1 s, because a heading
 #: that follows the wind direction correlates the attitude with the wind.
@@ -80,8 +80,8 @@ TURBULENCE_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
 SPECTRA = ("kaimal", "von_karman")
 
 PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
-    "pendulum_length_m": (18.0, 0.0, 100.0, "m"),          # seed 000, Sect. 2.2
-    "mass_kg": (4.0, 0.0, 25.0, "kg"),                     # seed 000, Sect. 2.1
+    "pendulum_length_m": (18.0, 0.0, 100.0, "m"),          # Ghirardelli et al. (2025), Sect. 2.2
+    "mass_kg": (4.0, 0.0, 25.0, "kg"),                     # Ghirardelli et al. (2025), Sect. 2.1
     "drag_area_m2": (0.06, 0.0, 2.0, "m2"),                # C_d A of frame, vane, sonic (assumed)
     "min_damping_ratio": (0.03, 0.0, 1.0, "1"),
     "drone_mass_kg": (20.0, 1.0, 25.0, "kg"),              # D130 + payload, Sect. 2.1
@@ -127,7 +127,7 @@ PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
 }
 
 MAST_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
-    "rate_hz": (10.0, 1.0, 60.0, "Hz"),                    # seed 000, Sect. 4
+    "rate_hz": (10.0, 1.0, 60.0, "Hz"),                    # Ghirardelli et al. (2025), Sect. 4
     "margin_s": (120.0, 0.0, 3600.0, "s"),
     "noise_ms": (0.01, 0.0, 1.0, "m s-1"),
     "temperature_noise_k": (0.01, 0.0, 1.0, "K"),
@@ -687,7 +687,7 @@ def _hover_offset_enu_m(cond: Mapping[str, Any], where: str, wind_from_deg: floa
             raise InputError(f"{where}.hover_offset_enu_m", f"expected [east_m, north_m], got {off!r}")
         return [_number(v, f"{where}.hover_offset_enu_m", -2000, 2000, "m") for v in off]
     # default: 35 m to the right of the mast looking downwind and 10 m upwind (assumed;
-    # seed 000, Fig. 7 shows hovering a few tens of metres from the tower)
+    # Ghirardelli et al. (2025), Fig. 7 shows hovering a few tens of metres from the tower)
     a = math.radians(wind_from_deg)
     e_u = (-math.sin(a), -math.cos(a))
     e_right = (e_u[1], -e_u[0])

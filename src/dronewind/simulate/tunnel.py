@@ -1,10 +1,10 @@
-r"""Virtual wind-tunnel campaign of the SWUF-3D quadrotors (seed 002).
+r"""Virtual wind-tunnel campaign of the SWUF-3D quadrotors (Kistner et al. 2024).
 
 A UAS hovers 2.5 m downstream of an active grid; a constant-temperature anemometer (CTA)
 at 5 m measures the reference speed. The simulator writes, for each run, the CTA signal
 and the UAS attitude log, plus an index of the runs. The flow blows towards north
 (wind from 180 degree); a UAS at angle of sideslip (AoS) :math:`\beta` has yaw
-:math:`180^\circ + \beta` (weather-vane mode off, seed 002 Sect. 3.2.2).
+:math:`180^\circ + \beta` (weather-vane mode off, Kistner et al. (2024) Sect. 3.2.2).
 
 File formats (all CSV, header line, ``.`` decimal separator; times in seconds from the
 start of the run, on one clock shared by the CTA and the UAS):
@@ -33,20 +33,20 @@ GNSS, so no velocity columns)::
 Forward model: the flow at the UAS is the CTA flow advected over 2.5 m (the UAS is
 upstream of the CTA) plus a slow positional drift (optical-flow hold, Sect. 2.1); the
 attitude follows the relative air through a first-order lag ``response_lag_s`` and the
-body-axis drag law of seed 002, Eq. 1 (default coefficients: Table 2, per speed range)
+body-axis drag law of Kistner et al. (2024), Eq. 1 (default coefficients: Table 2, per speed range)
 inverted by fixed-point iteration (:func:`dronewind.simulate.airframe.attitude_from_relative_air`);
 logged attitude = true + per-UAS offsets + white vibration noise ``attitude_noise_deg``
 (the noise floor that limits the resolvable turbulence, Sect. 4); the UAS log is a block average to ``fs_uas_hz``.
 
-Gusts: IEC 61400-1 extreme operating gust (seed 002, Eq. 4, duration 10.5 s); velocity
+Gusts: IEC 61400-1 extreme operating gust (Kistner et al. 2024, Eq. 4, duration 10.5 s); velocity
 steps: a tanh ramp with 10-90 % time ``step_rise_s`` (Sect. 3.2.4, 40 s repetitions);
 statistical turbulence: a Gaussian process with a von Karman spectrum of length scale
 ``turbulence_length_m`` and intensity ``ti_percent`` (Sect. 3.2.5, Table A4).
 
 References
 ----------
-.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, seed 002
-   (``../shared/papers/002_*.txt``), Sects. 2-3, Eqs. 1-17, Tables 2, A1-A4.
+.. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
+  , Sects. 2-3, Eqs. 1-17, Tables 2, A1-A4.
 .. [2] IEC 61400-1:2019, Wind energy generation systems - Part 1: Design requirements.
 """
 
@@ -106,7 +106,7 @@ TUNNEL_DEFAULTS: dict[str, Any] = {
 
 
 def iec_gust(t_s: np.ndarray, v0_ms: float, vg_ms: float, duration_s: float = 10.5) -> np.ndarray:
-    r"""IEC extreme operating gust (seed 002, Eq. 4).
+    r"""IEC extreme operating gust (Kistner et al. 2024, Eq. 4).
 
     Parameters
     ----------
@@ -115,7 +115,7 @@ def iec_gust(t_s: np.ndarray, v0_ms: float, vg_ms: float, duration_s: float = 10
     v0_ms, vg_ms : float
         Initial speed and gust speed [m s-1].
     duration_s : float
-        Gust duration :math:`T = 2T_{peak}` [s] (10.5 s in seed 002).
+        Gust duration :math:`T = 2T_{peak}` [s] (10.5 s in Kistner et al. (2024)).
 
     Returns
     -------
@@ -137,7 +137,7 @@ def iec_gust(t_s: np.ndarray, v0_ms: float, vg_ms: float, duration_s: float = 10
 
 def step_series(t_s: np.ndarray, v_low_ms: float, v_high_ms: float, t_up_s: float, t_down_s: float,
                 rise_s: float) -> np.ndarray:
-    r"""Up and down velocity step with a tanh ramp (seed 002, Sect. 3.2.4).
+    r"""Up and down velocity step with a tanh ramp (Kistner et al. 2024, Sect. 3.2.4).
 
     Parameters
     ----------
@@ -283,7 +283,7 @@ def _calibration_runs(out: Path, cfg: dict, law: AirframeDrag, rng: np.random.Ge
 
 def _sideslip_runs(out: Path, cfg: dict, law: AirframeDrag, rng: np.random.Generator, rows: list,
                    fs: float) -> list[Path]:
-    """Stepped runs of the calibration UAS at each angle of sideslip (seed 002, Sect. 3.2.2)."""
+    """Stepped runs of the calibration UAS at each angle of sideslip (Kistner et al. 2024, Sect. 3.2.2)."""
     c = cfg["sideslip"]
     paths = []
     for i, aos in enumerate(c["aos_deg"]):
@@ -384,7 +384,7 @@ def tunnel_settings(settings: dict | None) -> dict[str, Any]:
 
 
 def simulate_tunnel(settings: dict, out_dir: Path, seed: int) -> list[Path]:
-    """Write a virtual wind-tunnel campaign (seed 002): CTA signals, UAS logs and ``runs.csv``.
+    """Write a virtual wind-tunnel campaign (Kistner et al. 2024): CTA signals, UAS logs and ``runs.csv``.
 
     Parameters
     ----------

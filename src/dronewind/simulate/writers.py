@@ -97,7 +97,7 @@ def payload_sonic_record(source: str | Path, rpi_time_us: np.ndarray, u_ms: np.n
     t_sonic_c : numpy.ndarray
         Sonic temperature [degree C].
     decimals : int
-        Decimals written (the RM Young 81000 resolution is 0.01, seed 000 Table 2).
+        Decimals written (the RM Young 81000 resolution is 0.01, Ghirardelli et al. (2025) Table 2).
 
     Returns
     -------
@@ -151,7 +151,7 @@ def ins_record(source: str | Path, rpi_time_us: np.ndarray, utc: np.ndarray, tim
     vel_n_ms, vel_e_ms, vel_d_ms : numpy.ndarray
         Velocity of the sonic's measurement volume, NED [m s-1] (4 decimals).
     roll_deg, pitch_deg, yaw_deg : numpy.ndarray
-        Euler angles [degree] (seed 000, Appendix A; 4 decimals).
+        Euler angles [degree] (Ghirardelli et al. 2025, Appendix A; 4 decimals).
 
     Returns
     -------

@@ -18,7 +18,7 @@ the tables of Kistner et al. (2024):
 References
 ----------
 .. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
-   (``../shared/papers/002_*.txt``), Sects. 3-4, Eqs. 1-17, Table 2, Figs. 4-10.
+  , Sects. 3-4, Eqs. 1-17, Table 2, Figs. 4-10.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ r"""Calibration of the quadrotor drag law in the wind tunnel and its accuracy on
 References
 ----------
 .. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
-   (``../shared/papers/002_*.txt``), Sects. 3.1-3.2.2, Eq. 1, Table 2, Figs. 4-5.
+  , Sects. 3.1-3.2.2, Eq. 1, Table 2, Figs. 4-5.
 """
 
 from __future__ import annotations

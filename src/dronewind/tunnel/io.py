@@ -7,7 +7,7 @@ UAS attitude log (``time_s,roll_deg,pitch_deg,yaw_deg``) on one clock.
 References
 ----------
 .. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
-   (``../shared/papers/002_*.txt``), Sect. 2.
+  , Sect. 2.
 """
 
 from __future__ import annotations

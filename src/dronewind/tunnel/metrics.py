@@ -10,7 +10,7 @@ r"""Metrics of Kistner et al. (2024) on a pair of speed series (UAS and CTA): RM
 References
 ----------
 .. [1] Wind-tunnel calibration and verification of the SWUF-3D quadrotors, Kistner et al. (2024)
-   (``../shared/papers/002_*.txt``), Sects. 3.2-4, Eqs. 3-17, Figs. 6-10.
+  , Sects. 3.2-4, Eqs. 3-17, Figs. 6-10.
 """
 
 from __future__ import annotations
