@@ -13,6 +13,8 @@ STAMP := $(VENV)/.installed
 # the start-up hook of the preloaded jobs (src/dronewind/steps/handoff.py) in .venv's site-packages
 HOOK := $(VENV)/.preload_hook
 CORES ?= 2
+# the data folder of the real records (dronewind.datasets; `python -m dronewind.datasets fetch` fills it)
+export DRONEWIND_DATA ?= $(abspath ../shared/data)
 # pytest-xdist workers of `make test` (tests sharing a session or module fixture stay on one worker: tests/conftest.py)
 TEST_WORKERS ?= 2
 

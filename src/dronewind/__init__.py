@@ -1,9 +1,10 @@
 """dronewind: validation of drone-borne wind and turbulence against mast sonics.
 
-The library is organised one module per physical topic (see ../shared/DESIGN.md):
-``io`` (readers), ``filtering``, ``sync``, ``motion``, ``rotation``, ``stats``,
-``spectra``, ``uncertainty``, ``scales``, ``quadrotor``, ``tunnel``, ``simulate``,
-``mechanisms``, ``diagnose``, ``cf`` (the one NetCDF writer) and ``figures``.
+The library is a core of kernels (``core``) with one package per instrument system above it
+(``payload``, ``mast``, ``quadrotor``, ``tunnel``), the drone-mast comparison (``compare``),
+the virtual campaign (``simulate``), the diagnosis (``diagnose``), figures, tables and the
+workflow steps on top; the real records are reached through ``datasets``. Design, data
+levels and data contract: docs/design.md and docs/data-contract.md.
 """
 
 __all__ = ["__version__", "open_product"]
