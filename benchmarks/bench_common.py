@@ -25,6 +25,18 @@ def git_commit(folder: Path = REPO) -> str:
     return proc.stdout.strip() or "unknown"
 
 
+#: Folder of the current result of each study (``<study>.json``, one file per study).
+RESULTS = REPO / "benchmarks" / "results"
+
+
+def command_line() -> str:
+    """This process's command line, as it would be typed from the repository root."""
+    import shlex
+    import sys
+
+    return shlex.join(["python", *sys.argv])
+
+
 def machine() -> dict[str, Any]:
     """The processor model, its number of cores and the interpreter: where a benchmark ran.
 
@@ -53,8 +65,9 @@ def machine() -> dict[str, Any]:
 def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
     """Print ``result`` as JSON and write the same text to ``out`` (its folder created) when given.
 
-    A dictionary result gets the machine it was measured on (:func:`machine`): CPU seconds
-    are only comparable on the same processor.
+    A dictionary result gets the command that made it (``command``, this process's arguments)
+    and the machine it was measured on (:func:`machine`): CPU seconds are only comparable on the
+    same processor.
 
     Parameters
     ----------
@@ -65,6 +78,8 @@ def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
     indent : int
         JSON indentation.
     """
+    if isinstance(result, dict) and "command" not in result:
+        result = {"command": command_line(), **result}
     if isinstance(result, dict) and "machine" not in result:
         result = {**result, "machine": machine()}
     text = json.dumps(result, indent=indent)
@@ -100,8 +115,8 @@ def cpu_s_with_children() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
-def finished_run_parser(doc: str | None, results_help: str = "a finished run's results/<campaign> folder"
-                        ) -> argparse.ArgumentParser:
+def finished_run_parser(doc: str | None, results_help: str = "a finished run's results/<campaign> folder",
+                        default_out: Path | None = None) -> argparse.ArgumentParser:
     """Command line of a benchmark on a finished run: the results folder (positional) and ``--out``.
 
     Parameters
@@ -118,7 +133,8 @@ def finished_run_parser(doc: str | None, results_help: str = "a finished run's r
     """
     parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("results", type=Path, help=results_help)
-    parser.add_argument("--out", type=Path, help="JSON file to write")
+    parser.add_argument("--out", type=Path, default=default_out,
+                        help=f"JSON file to write (default: {default_out})" if default_out else "JSON file to write")
     return parser
 
 

@@ -76,7 +76,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--n", type=int, default=3000, help="write-then-read cycles per mode")
     parser.add_argument("--busy", type=int, default=3, help="CPU-bound processes running beside it")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
+    parser.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "fork_lock.json",
+        help="JSON file to write")
     args = parser.parse_args()
     result = {"runs": [run_mode(locking, args.n, args.busy) for locking in (True, False)]}
     print_and_write(result, args.out)
