@@ -2,7 +2,8 @@
 
 Each record is a folder of files (e.g. ``fluxpart_csat3_toa5/``) inside one *data folder*.
 The registry (``data_registry.txt`` beside this module) lists every file with its size,
-sha256 and, where an upstream copy with the same bytes exists, its download URL;
+sha256, its download URL where an upstream copy with the same bytes exists, and its kind (data,
+or a licence or notes file that is checked only when present);
 :data:`RECORDS` gives each record's description, upstream source and licence.
 
 The data folder is, in order of precedence:
@@ -68,6 +69,7 @@ class RegistryFile:
     size: int
     sha256: str
     url: str | None
+    needed: bool  # a data file (needed); False for licence and notes (checked when present)
 
 
 #: The records, by folder name.
@@ -120,10 +122,11 @@ def registry() -> dict[str, RegistryFile]:
         if not line.strip() or line.startswith("#"):
             continue
         parts = line.split()
-        if len(parts) != 4 or len(parts[2]) != 64 or not parts[1].isdigit():
-            raise InputError(f"{_REGISTRY_FILE}:{lineno}", "expected 'path size sha256 url' (url '-' for none)")
-        path, size, sha, url = parts
-        files[path] = RegistryFile(path, int(size), sha, None if url == "-" else url)
+        if len(parts) != 5 or len(parts[2]) != 64 or not parts[1].isdigit() or parts[4] not in ("data", "doc"):
+            raise InputError(f"{_REGISTRY_FILE}:{lineno}",
+                             "expected 'path size sha256 url kind' (url '-' for none, kind data or doc)")
+        path, size, sha, url, kind = parts
+        files[path] = RegistryFile(path, int(size), sha, None if url == "-" else url, kind == "data")
     return files
 
 
@@ -140,9 +143,10 @@ def files_of(name: str) -> list[RegistryFile]:
 
 
 def is_present(name: str, folder: Path | None = None) -> bool:
-    """Whether every file of record ``name`` exists in the data folder (sizes checked, not hashes)."""
+    """Whether every data file of record ``name`` is in the data folder (sizes checked, not hashes)."""
     root = data_dir() if folder is None else Path(folder)
-    return all((root / f.path).is_file() and (root / f.path).stat().st_size == f.size for f in files_of(name))
+    return all((root / f.path).is_file() and (root / f.path).stat().st_size == f.size
+               for f in files_of(name) if f.needed)
 
 
 def _sha256(path: Path) -> str:
@@ -167,18 +171,22 @@ def _verified(path: Path, size: int, sha: str, mtime_ns: int) -> None:
 
 
 def check_record(name: str, folder: Path | None = None) -> Path:
-    """Check every file of record ``name`` (present, size, sha256) and return the record's folder.
+    """Check the files of record ``name`` (data files present; size and sha256 of every file present).
+
+    Returns the record's folder.
 
     Raises
     ------
     FileNotFoundError
-        A file is missing; the message names the file, the data folder and the fetch command.
+        A data file is missing; the message names the file, the data folder and the fetch command.
     InputError
         A file's size or sha256 differs from the registry (names the file, expected and got).
     """
     root = data_dir() if folder is None else Path(folder)
     for f in files_of(name):
         path = root / f.path
+        if not path.is_file() and not f.needed:
+            continue
         if not path.is_file():
             raise FileNotFoundError(
                 f"{path}: file of record {name!r} missing from the data folder {root} "
@@ -195,8 +203,9 @@ def get_record(name: str) -> Path:
 def fetch(names: list[str] | None = None, folder: Path | None = None) -> list[Path]:
     """Download the missing files of the given records (all by default) and check every file.
 
-    Files without a download URL must be placed in the data folder by hand (the error says
-    where they come from). Returns the records' folders.
+    pooch downloads each missing file that has a URL and checks its sha256. Data files without
+    a URL must be placed in the data folder by hand: the error lists them with the record's
+    source and licence. Returns the records' folders.
     """
     import pooch
 
@@ -204,16 +213,21 @@ def fetch(names: list[str] | None = None, folder: Path | None = None) -> list[Pa
     out = []
     for name in names or sorted(RECORDS):
         rec = _record(name)
+        by_hand = []
         for f in files_of(name):
             path = root / f.path
             if path.is_file():
                 continue
-            if f.url is None:
-                raise FileNotFoundError(
-                    f"{path}: file of record {name!r} has no download URL; place it there by hand "
-                    f"(source: {rec.source}; licence: {rec.licence})")
-            pooch.retrieve(f.url, known_hash=f"sha256:{f.sha256}", fname=path.name,
-                           path=path.parent, progressbar=False)
+            if f.url is not None:
+                pooch.retrieve(f.url, known_hash=f"sha256:{f.sha256}", fname=path.name,
+                               path=path.parent, progressbar=False)
+            elif f.needed:
+                by_hand.append(path)
+        if by_hand:
+            raise FileNotFoundError(
+                f"record {name!r}: {len(by_hand)} file(s) without a download URL must be placed by hand "
+                f"({', '.join(str(p) for p in by_hand[:3])}{' ...' if len(by_hand) > 3 else ''}); "
+                f"source: {rec.source}; licence: {rec.licence}")
         out.append(check_record(name, root))
     return out
 
