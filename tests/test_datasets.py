@@ -41,9 +41,9 @@ def test_checksum_mismatch_names_file_expected_and_found(monkeypatch, tmp_path):
     got = hashlib.sha256(b"x" * first.size).hexdigest()
     with pytest.raises(InputError) as err:
         datasets.get_record("fluxpart_csat3_toa5")
-    assert str(err.value) == (f"{tmp_path / first.path}: sha256 {got}, expected {first.sha256} (registry of "
-                              "dronewind.datasets); the file is not the registered record: replace it "
-                              "(python -m dronewind.datasets fetch)")
+    assert str(err.value) == (f"{tmp_path / first.path}: file of record 'fluxpart_csat3_toa5': sha256 {got}, "
+                              f"expected {first.sha256} (registry of dronewind.datasets); replace the file "
+                              "(python -m dronewind.datasets fetch fluxpart_csat3_toa5)")
 
 
 def test_manifest_data_root_registry(monkeypatch, tmp_path):

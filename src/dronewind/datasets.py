@@ -158,16 +158,16 @@ def _sha256(path: Path) -> str:
 
 
 @cache
-def _verified(path: Path, size: int, sha: str, mtime_ns: int) -> None:
-    """Check one file against the registry (remembered per process for an unchanged file)."""
+def _verified(name: str, path: Path, size: int, sha: str, mtime_ns: int) -> None:
+    """Check one file of record ``name`` against the registry (remembered per process for an unchanged file)."""
     got_size = path.stat().st_size
     if got_size != size:
-        raise InputError(path, f"size {got_size} bytes, expected {size} (registry of dronewind.datasets); "
-                         f"replace the file ({FETCH_COMMAND})")
+        raise InputError(path, f"file of record {name!r}: size {got_size} bytes, expected {size} (registry of "
+                         f"dronewind.datasets); replace the file ({FETCH_COMMAND} {name})")
     got = _sha256(path)
     if got != sha:
-        raise InputError(path, f"sha256 {got}, expected {sha} (registry of dronewind.datasets); "
-                         f"the file is not the registered record: replace it ({FETCH_COMMAND})")
+        raise InputError(path, f"file of record {name!r}: sha256 {got}, expected {sha} (registry of "
+                         f"dronewind.datasets); replace the file ({FETCH_COMMAND} {name})")
 
 
 def check_record(name: str, folder: Path | None = None) -> Path:
@@ -191,7 +191,7 @@ def check_record(name: str, folder: Path | None = None) -> Path:
             raise FileNotFoundError(
                 f"{path}: file of record {name!r} missing from the data folder {root} "
                 f"(set {ENV_VAR} to the folder holding the records, or run `{FETCH_COMMAND} {name}`)")
-        _verified(path, f.size, f.sha256, path.stat().st_mtime_ns)
+        _verified(name, path, f.size, f.sha256, path.stat().st_mtime_ns)
     return root / name
 
 
