@@ -71,5 +71,5 @@ def test_licence_and_notes_files_are_optional(monkeypatch, tmp_path, real_record
             shutil.copy(source / f.path.split("/", 1)[1], tmp_path / f.path)
     assert datasets.is_present("px4_ulog") and datasets.get_record("px4_ulog") == tmp_path / "px4_ulog"
     (tmp_path / "px4_ulog" / "LICENSE.md").write_text("not the licence")
-    with pytest.raises(InputError, match="LICENSE.md: size"):
+    with pytest.raises(InputError, match="LICENSE.md: file of record .px4_ulog.: size 15 bytes, expected 1492"):
         datasets.get_record("px4_ulog")
