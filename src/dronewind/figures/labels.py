@@ -69,8 +69,8 @@ def figure_captions() -> dict[str, str]:
         f"drone (blue) and mast (orange), for the detailed flights; the means are in the legend (after {P000}, "
         "Fig. 10).",
         "fig11_temperature_spectra": "Frequency-weighted sonic-temperature spectrum f S_theta (log-log) and "
-        "co-spectra f Re(S_w theta) and f Re(S_u theta) (linear y), drone (blue) and mast (orange) (after seed "
-        "000, Fig. 11).",
+        "co-spectra f Re(S_w theta) and f Re(S_u theta) (linear y), drone (blue) and mast (orange) (after "
+        f"{P000}, Fig. 11).",
         "fig12_mean_and_sigma": "Drone versus mast mean wind speed and standard deviations of u, v, w, one colour "
         "per flight, one marker per reference height (lowest first: circles, triangles, squares); dashed: "
         f"1:1 (after {P000}, Fig. 12).",
