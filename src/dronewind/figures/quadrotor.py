@@ -170,7 +170,10 @@ def _fig6_direction(val: pd.DataFrame, path: Path, note: str) -> Path:
     fig, ax = _figure()
     _scatter_by_uav(ax, val, "ref_from_deg", "uav_from_deg")
     ax.plot([0, 360], [0, 360], color="0.5", lw=0.8, ls="--", label="1:1")
-    ax.set(xlim=(0, 360), ylim=(0, 360), xlabel="tower wind direction (°)",
+    ticks = np.arange(0, 361, 90)
+    ax.set_xticks(ticks)
+    ax.set_yticks(ticks)
+    ax.set(xlim=(-12, 372), ylim=(-12, 372), xlabel="tower wind direction (°)",
            ylabel="UAV wind direction (corrected yaw) (°)",
            title="wind direction with yaw offsets\n"
                  f"{agreement(val['ref_from_deg'], val['uav_from_deg'], unit='°', circular=True)}")
