@@ -45,6 +45,8 @@ ISOTROPY = 4.0 / 3.0
 SW_SU_FACTOR = 2.0
 #: A sonic-INS (sonic-platform) lag above this [s] is flagged: one logger's clocks agree to a few samples.
 LAG_LIMIT_S = 0.5
+#: A spectral slope further than this from -5/3 is flagged.
+SLOPE_TOLERANCE = 1.0
 #: Band of the spectral slope and of <S_w/S_u> in f z/U.
 SLOPE_BAND = (2.0, 10.0)
 
@@ -195,7 +197,8 @@ def plausibility_flags(products: L4Products, lags: Mapping[str, float] | None = 
     list of str
         ``<flight> <sensor>: <what> = <value>, <why implausible>``. A spectral ratio
         :math:`\\langle S_w/S_u\\rangle` further than a factor :data:`SW_SU_FACTOR` from the
-        isotropic 4/3, and a sonic-INS lag above :data:`LAG_LIMIT_S`.
+        isotropic 4/3, a spectral slope further than :data:`SLOPE_TOLERANCE` from -5/3 and a
+        sonic-INS lag above :data:`LAG_LIMIT_S`.
     """
     lo, hi = ISOTROPY / SW_SU_FACTOR, ISOTROPY * SW_SU_FACTOR
     out = []
@@ -206,6 +209,12 @@ def plausibility_flags(products: L4Products, lags: Mapping[str, float] | None = 
                 out.append(f"{flight} {sensor}: ⟨S_w/S_u⟩ = {ratio:.2f}, far from isotropy (4/3 in the inertial "
                            f"subrange; flagged outside {lo:.2f}-{hi:.2f}): the vertical (or streamwise) "
                            "component is damped, amplified or noisy at these frequencies.")
+            for comp in ("u", "w"):
+                slope = spectral_slope(ds, comp)
+                if np.isfinite(slope) and abs(slope + 5.0 / 3.0) > SLOPE_TOLERANCE:
+                    out.append(f"{flight} {sensor}: spectral slope of S_{comp} = {slope:+.2f} over 2 < f z/U < 10, "
+                               f"more than {SLOPE_TOLERANCE:g} from the −5/3 of an inertial subrange: noise, "
+                               "aliasing or damping at these frequencies.")
         drone = prod.get("drone")
         lag = float(drone.attrs.get("lag_sonic_ins_s", math.nan)) if drone is not None else math.nan
         lag = (lags or {}).get(flight, lag) if not np.isfinite(lag) else lag

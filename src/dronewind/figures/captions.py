@@ -411,5 +411,5 @@ def block_captions(tables_dir: PathLike) -> dict[str, str]:
         f"Block statistics of {flight_list(sonics)}, {block} blocks aligned to UTC, {span}: mean wind speed U, "
         f"wind-from direction, σ_w, friction velocity u*, kinematic heat flux w'T', stability z/L and the "
         f"inertial-subrange ratio S_w/S_u (tables/block_stats.csv; streamline coordinates per block, "
-        f"statistics as for the mast sonics of a flight, after {P000}, Sect. 4). {int(usable.sum())} of "
+        f"the same statistics as of every sonic record). {int(usable.sum())} of "
         f"{len(table)} blocks usable; the others are listed under the axes with their reason.")}

@@ -165,6 +165,12 @@ _WORDS = {"rmse": "RMSE", "uav": "UAV", "sigma": "σ", "n": "number of", "utc": 
 _BOOLEAN_NAMES = ("usable", "significant", "named", "converged", "identified", "held_out")
 
 
+#: Whole column names with a reading of their own.
+_NAMES = {"Sw_Su": "S_w/S_u", "Sv_Su": "S_v/S_u", "lag_sonic_ins": "lag sonic–INS", "lag_drone_mast": "lag drone–mast",
+          "sigma_u": "σ_u", "sigma_v": "σ_v", "sigma_w": "σ_w", "sigma_T": "σ_T", "n_windows": "windows",
+          "n_windows_validation": "validation windows", "wind_from": "wind from", "L": "Obukhov length L"}
+
+
 def column_label(name: str) -> str:
     """A CSV column name as a header for reading: words, and the unit of its suffix in brackets.
 
@@ -176,7 +182,9 @@ def column_label(name: str) -> str:
         if name.endswith(suffix) and len(name) > len(suffix):
             name, unit = name[: -len(suffix)], text
             break
-    if name in _WORDS:
+    if name in _NAMES:
+        words = _NAMES[name]
+    elif name in _WORDS:
         words = _WORDS[name]
     else:
         words = " ".join(_WORDS.get(w, _WORDS.get(w.lower(), w)) for w in name.split("_"))
@@ -326,6 +334,13 @@ def front_page_numbers(results: Path) -> dict[str, Any]:
             "misfit": misfit_rows(diag) if diag is not None else [], "products": products}
 
 
+def _r2_decimals(r2: float) -> int:
+    """Decimals that tell R² from 1 (3 at least): 0.9995 reads 0.9995, never 1.000."""
+    if not np.isfinite(r2) or r2 >= 1.0 or 1.0 - r2 >= 0.001:
+        return 3
+    return min(6, 1 - math.floor(math.log10(1.0 - r2)))
+
+
 def _validation_section(numbers: Mapping[str, Any]) -> str:
     """The answer first: drone against mast per statistic, with uncertainties."""
     from dronewind.compare.validation import STATISTICS
@@ -340,7 +355,7 @@ def _validation_section(numbers: Mapping[str, Any]) -> str:
         unit = f" ({r['unit']})" if r["unit"] else ""
         cells = [f"{r['label']}{unit}", str(r["n"]), _pm(r["bias"], r["bias_se"], dec),
                  _pm(r["rmse"], r["rmse_se"], dec), _number(r["sampling_rms"], dec),
-                 _pm(r["slope"], r["slope_se"], 2), _number(r["r2"], 3)]
+                 _pm(r["slope"], r["slope_se"], 2), _number(r["r2"], _r2_decimals(r["r2"]))]
         body.append("<tr>" + "".join(f"<td{' class=dw-text' if i == 0 else ''}>{html.escape(c)}</td>"
                                      for i, c in enumerate(cells)) + "</tr>")
     n_max = max(r["n"] for r in rows)
@@ -362,7 +377,7 @@ def _flags_section(numbers: Mapping[str, Any]) -> str:
     if not flags:
         return ""
     return ("<h2>Implausible values</h2><div class='dw-flag'><p>Stored values no correct record gives; the "
-            "numbers above include them as measured:</p><ul>"
+            "statistics on this page include them as measured:</p><ul>"
             + "".join(f"<li>{html.escape(f)}</li>" for f in flags) + "</ul></div>")
 
 
@@ -455,9 +470,9 @@ def _platform_section(diag: Mapping[str, Any]) -> str:
             f"<p>Uncertainties: weighted least squares over the segments, weights from the turbulence's sampling "
             f"error of each segment mean and the segment-to-segment scatter beyond it.{extra} Assumption: "
             f"{html.escape(str(first.get('assumption', '')))}.</p>"
-            "<p>Segments (time from the record's start [s], speed [m s⁻¹], course [°]):</p>"
-            "<table><thead><tr><th>flight</th><th>kind</th><th>time [s]</th><th>speed [m s⁻¹]</th><th>course [°]</th>"
-            f"</tr></thead><tbody>{''.join(seg_rows)}</tbody></table>")
+            f"<details><summary>The {len(seg_rows)} segments (time from the record's start, speed, course)</summary>"
+            "<table><thead><tr><th>flight</th><th>kind</th><th>time (s)</th><th>speed (m s⁻¹)</th><th>course (°)</th>"
+            f"</tr></thead><tbody>{''.join(seg_rows)}</tbody></table></details>")
 
 
 def _published_section(diag: Mapping[str, Any]) -> str:
@@ -556,18 +571,25 @@ def _drone_only_section(products: Mapping[str, Any]) -> str:
     head = "".join(f"<th>{html.escape(labels[k])}</th>" for k in labels)
     body = "".join("<tr><td class='dw-text'>" + html.escape(str(r["flight"])) + "</td>" + "".join(
         f"<td>{_number(float(r[s.key]), s.decimals)}</td>" for s in STATISTICS) + "</tr>" for _, r in frame.iterrows())
+    from dronewind.figures.statistics import drone_spectra_png
+
+    png = drone_spectra_png(alone)
+    figure = (f"<figure><img alt='drone spectra' src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>"
+              "<figcaption>Frequency-weighted spectra f S_u, f S_v, f S_w of the drone (L4), log-log; shaded: the "
+              "band 2 &lt; f z/ū &lt; 10 of the spectral ratio and slopes; dashed: the f^(−2/3) of an inertial "
+              "subrange.</figcaption></figure>" if png else "")
     return ("<h2>Drone statistics (no reference sonic)</h2><p>No mast sonic was recorded with these flights, so "
             "nothing is compared; the drone's own statistics over the analysed record:</p>"
             f"<div class='dw-scroll'><table><thead><tr><th class='dw-text'>flight</th>{head}</tr></thead>"
-            f"<tbody>{body}</tbody></table></div>")
+            f"<tbody>{body}</tbody></table></div>{figure}")
 
 
 def _references(results: Path, diag: Mapping[str, Any] | None) -> str:
     """The papers this campaign's page cites: the drone papers only where drone records are shown."""
     keys = []
-    if (results / "netcdf" / "L4").is_dir() or diag is not None or (results / "published").is_dir():
+    if any((results / "netcdf" / "L4").glob("*_drone.nc")) or diag is not None or (results / "published").is_dir():
         keys.append("000")
-    if (results / "tables" / "quadrotor_calibration.csv").exists():
+    if (results / "tables" / "quadrotor_calibration.csv").exists() or any((results / "tables").glob("autopilot*")):
         keys.append("001")
     if (results / "tables" / "tunnel_calibration.csv").exists():
         keys.append("002")
