@@ -8,10 +8,9 @@ import re
 import subprocess
 from pathlib import Path
 
-import pytest
-
 import numpy as np
 import pandas as pd
+import pytest
 
 from dronewind.compare.validation import plausibility_flags, validation_rows
 from dronewind.core.products import load_l4_products
@@ -200,3 +199,23 @@ def test_validation_rows_and_flags(tmp_path: Path) -> None:
     flags = plausibility_flags({"x1": {"drone": drone}})
     assert any("⟨S_w/S_u⟩ = 0.42, far from isotropy" in f for f in flags)
     assert any("lag = -0.60 s" in f for f in flags)
+
+
+def test_tower_and_autopilot_pages(tmp_path: Path) -> None:
+    """A campaign without drone records: its own statistics, no "site ?", no drone paper cited."""
+    root = tmp_path / "results" / "tower"
+    (root / "tables").mkdir(parents=True)
+    (root / "campaign.json").write_text(json.dumps({"campaign": "tower", "manifest_content": {
+        "site": {"latitude": 38.1, "longitude": -121.6}, "masts": [{"id": "t", "sonics": [{"id": "csat3"}]}]}}))
+    pd.DataFrame({"record": ["t", "t"], "sensor": ["csat3", "csat3"], "height_m": [7.11, 7.11],
+                  "start_utc": ["2012-06-07T12:45:00Z", "2012-06-07T13:00:00Z"],
+                  "end_utc": ["2012-06-07T13:00:00Z", "2012-06-07T13:15:00Z"], "U_ms": [1.47943, 1.57144],
+                  "Sw_Su": [0.41, 1.3], "usable": [True, False],
+                  "reason": ["", "missing fraction 0.9999 > processing.max_missing_fraction 0.02"]}).to_csv(
+        root / "tables" / "block_stats.csv", index=False)
+    report_pages(root, root / "report", {}, [])
+    page = (root / "report" / "summary.html").read_text()
+    assert "site ?" not in page and "1 mast sonic." in page
+    assert "Ghirardelli" not in page and "Wetz" not in page and "Kistner" not in page
+    assert "<td>1.48</td>" in page and "<td>yes</td>" in page and "<td>no</td>" in page
+    assert "far from isotropy" in page and "csat3 2012-06-07T12:45:00Z (0.41)" in page

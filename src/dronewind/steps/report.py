@@ -155,11 +155,13 @@ def markdown_html(text: str, heading_offset: int = 1) -> str:
 
 #: Units of a column name's suffix, as written on a page (the CSVs keep the names).
 _UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
-    ("_m2s2", "m² s⁻²"), ("_Kms", "K m s⁻¹"), ("_ms", "m s⁻¹"), ("_deg", "°"), ("_min", "min"), ("_hz", "Hz"),
+    ("_m2s2", "m² s⁻²"), ("_Kms", "K m s⁻¹"), ("_kgm3", "kg m⁻³"),
+    ("_ms", "m s⁻¹"), ("_deg", "°"), ("_min", "min"), ("_hz", "Hz"),
     ("_Hz", "Hz"), ("_k", "K"), ("_K", "K"), ("_s", "s"), ("_m", "m"), ("_c", "°C"), ("_pa", "Pa"),
 )
 #: Column names read as words on a page.
-_WORDS = {"rmse": "RMSE", "uav": "UAV", "sigma": "σ", "n": "number of", "utc": "(UTC)", "tke": "TKE",
+_WORDS = {"ekf": "EKF", "rho": "ρ", "corr": "correlation",
+          "rmse": "RMSE", "uav": "UAV", "sigma": "σ", "n": "number of", "utc": "(UTC)", "tke": "TKE",
           "zeta": "ζ", "ustar": "u*", "u_star": "u*", "uw": "u'w'", "wt": "w'θ'", "vw": "v'w'"}
 #: Columns whose values are yes/no however the CSV writes them.
 _BOOLEAN_NAMES = ("usable", "significant", "named", "converged", "identified", "held_out")
@@ -550,6 +552,7 @@ def _campaign_line(record: Mapping[str, Any]) -> str:
     content = record.get("manifest_content") or {}
     counts = [(len(content.get("payload_flights") or []), "payload flight"),
               (len(content.get("quadrotor_flights") or []), "quadrotor flight"),
+              (len(content.get("autopilot_flights") or []), "autopilot flight"),
               (sum(len(m.get("sonics") or []) for m in content.get("masts") or []), "mast sonic")]
     what = ", ".join(f"{n} {word}{'s' if n != 1 else ''}" for n, word in counts if n) or "no records"
     site = (content.get("site") or {}).get("name")
@@ -582,6 +585,56 @@ def _drone_only_section(products: Mapping[str, Any]) -> str:
             "nothing is compared; the drone's own statistics over the analysed record:</p>"
             f"<div class='dw-scroll'><table><thead><tr><th class='dw-text'>flight</th>{head}</tr></thead>"
             f"<tbody>{body}</tbody></table></div>{figure}")
+
+
+def _png_figure(path: Path, caption: str) -> str:
+    """A PNG embedded in the page (a data URI: the page stays one file that works anywhere)."""
+    if not path.is_file():
+        return ""
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    return (f"<figure><img alt='{html.escape(path.stem)}' src='data:image/png;base64,{data}'>"
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
+#: Columns of the block table on the front page (all of them in the table page and the CSV).
+BLOCK_COLUMNS = ("record", "sensor", "height_m", "start_utc", "U_ms", "wind_from_deg", "sigma_u_ms", "sigma_v_ms",
+                 "sigma_w_ms", "ustar_ms", "wT_Kms", "zeta", "Sw_Su", "usable", "reason")
+
+
+def _blocks_section(blocks: Path, figures: Mapping[str, str], captions: Mapping[str, str]) -> str:
+    """Tower and mast records in blocks: the statistics of every block, the block figure, implausible blocks."""
+    from dronewind.compare.validation import ISOTROPY, SW_SU_FACTOR
+
+    table = pd.read_csv(blocks)
+    usable = table["usable"].astype(str).str.lower().isin(("true", "1"))
+    lo, hi = ISOTROPY / SW_SU_FACTOR, ISOTROPY * SW_SU_FACTOR
+    ratio = pd.to_numeric(table.get("Sw_Su"), errors="coerce") if "Sw_Su" in table else pd.Series(dtype=float)
+    odd = table[usable & ratio.notna() & ((ratio < lo) | (ratio > hi))] if len(ratio) else table.iloc[0:0]
+    flags = ("<div class='dw-flag'><p>Implausible values: ⟨S_w/S_u⟩ far from isotropy (4/3 in the inertial "
+             f"subrange; flagged outside {lo:.2f}-{hi:.2f}) in {len(odd)} usable block(s): "
+             + html.escape(", ".join(f"{r.sensor} {r.start_utc} ({r.Sw_Su:.2f})" for r in odd.itertuples()))
+             + ".</p></div>" if len(odd) else "")
+    shown = table[[c for c in BLOCK_COLUMNS if c in table.columns]]
+    from dronewind.figures.labels import BLOCK_FIGURE
+
+    figure = (_png_figure(Path(figures[BLOCK_FIGURE]), captions.get(BLOCK_FIGURE, ""))
+              if BLOCK_FIGURE in figures else "")
+    return (f"<h2>Tower and mast records in blocks</h2><p>{len(table)} blocks of "
+            f"{table.groupby(['record', 'sensor']).ngroups} sonic(s), {int(usable.sum())} usable (the others with "
+            "their reason); every column in the table page <code>block_stats</code> and in "
+            "<code>tables/block_stats.csv</code>. No drone was flown: these are the reference's own statistics.</p>"
+            + flags + frame_html(shown) + figure)
+
+
+def _autopilot_section(table: Path, figures_dir: Path, out: Path) -> str:
+    """Autopilot logs: the tilt wind against the autopilot's own EKF wind (no anemometer to compare with)."""
+    items = sorted(figures_dir.glob("autopilot_ekf_wind_*.png"))
+    figs = "".join(_png_figure(p, f"Tilt wind (Wetz et al. 2021, Eqs 12-18) against the autopilot's EKF wind, "
+                                  f"flight {p.stem.removeprefix('autopilot_ekf_wind_')}.") for p in items[:3])
+    return ("<h2>Autopilot logs: the wind from the tilt against the autopilot's EKF wind</h2><p>No anemometer flew "
+            "with these logs: the wind from the airframe's tilt (a drag law not calibrated for this airframe) is "
+            "compared with the wind the autopilot's filter estimates, itself a slowly varying state, not a "
+            "measurement. Bias and RMSE are tilt minus EKF.</p>" + csv_html(table) + figs)
 
 
 def _references(results: Path, diag: Mapping[str, Any] | None) -> str:
@@ -623,11 +676,9 @@ def _summary(results: Path, campaign: str, figures: Mapping[str, str], captions:
     if (stats := results / "tables" / "flight_stats.csv").exists():
         parts.append("<h2>Flight statistics (drone and mast)</h2>" + csv_html(stats))
     if (blocks := results / "tables" / "block_stats.csv").exists():
-        table = pd.read_csv(blocks)
-        usable = table["usable"].astype(str).str.lower().isin(("true", "1"))
-        parts.append(f"<h2>Tower and mast records in blocks</h2><p>{len(table)} blocks of "
-                     f"{table.groupby(['record', 'sensor']).ngroups} sonic(s), {int(usable.sum())} usable; every "
-                     "block in the table page <code>block_stats</code> (tables/block_stats.csv).</p>")
+        parts.append(_blocks_section(blocks, figures, captions))
+    if (autopilot := results / "tables" / "autopilot_ekf_wind.csv").exists():
+        parts.append(_autopilot_section(autopilot, results / "figures", out))
     parts.append(_figure_section(figures, captions, out))
     parts.append(_references(results, diag) + "</div>")
     return "\n".join(p for p in parts if p) + "\n"
