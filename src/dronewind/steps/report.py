@@ -608,8 +608,9 @@ def _blocks_section(blocks: Path, figures: Mapping[str, str], captions: Mapping[
     table = pd.read_csv(blocks)
     usable = table["usable"].astype(str).str.lower().isin(("true", "1"))
     lo, hi = ISOTROPY / SW_SU_FACTOR, ISOTROPY * SW_SU_FACTOR
-    ratio = pd.to_numeric(table.get("Sw_Su"), errors="coerce") if "Sw_Su" in table else pd.Series(dtype=float)
-    odd = table[usable & ratio.notna() & ((ratio < lo) | (ratio > hi))] if len(ratio) else table.iloc[0:0]
+    ratio = (pd.to_numeric(table["Sw_Su"], errors="coerce") if "Sw_Su" in table.columns
+             else pd.Series(np.nan, index=table.index))
+    odd = table[usable & ratio.notna() & ((ratio < lo) | (ratio > hi))]
     flags = ("<div class='dw-flag'><p>Implausible values: ⟨S_w/S_u⟩ far from isotropy (4/3 in the inertial "
              f"subrange; flagged outside {lo:.2f}-{hi:.2f}) in {len(odd)} usable block(s): "
              + html.escape(", ".join(f"{r.sensor} {r.start_utc} ({r.Sw_Su:.2f})" for r in odd.itertuples()))
