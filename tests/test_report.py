@@ -219,3 +219,23 @@ def test_tower_and_autopilot_pages(tmp_path: Path) -> None:
     assert "Ghirardelli" not in page and "Wetz" not in page and "Kistner" not in page
     assert "<td>1.48</td>" in page and "<td>yes</td>" in page and "<td>no</td>" in page
     assert "far from isotropy" in page and "csat3 2012-06-07T12:45:00Z (0.41)" in page
+
+
+@pytest.mark.slow
+def test_workflow_front_page_report_md_and_json_agree(small_campaign_run) -> None:
+    """In a workflow run the three state the same verdict and misfit numbers, written from diagnosis.json."""
+    *_, results = small_campaign_run
+    diag = json.loads((results / "diagnosis.json").read_text())
+    md = (results / "diagnosis" / "report.md").read_text().replace("**", "")
+    page = html.unescape(re.sub(r"<[^>]+>", "", (results / "report" / "summary.html").read_text()))
+    v = verdict(diag)
+    for sentence in v.sentences():
+        assert sentence in page, sentence
+    assert v.headline.split(":")[0] in md
+    if v.fit:
+        assert v.fit.split(": ", 1)[1] in md  # the same goodness-of-fit sentence after its label
+    for _key, _label, base, after in front_page_numbers(results)["misfit"]:
+        assert f"{base:.3g}" in page and f"{base:.3g}" in md
+        if after is not None:
+            assert f"{after:.3g}" in page and f"{after:.3g}" in md
+    assert "Drone against mast" in page and "javascript:" not in page
