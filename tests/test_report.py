@@ -239,3 +239,14 @@ def test_workflow_front_page_report_md_and_json_agree(small_campaign_run) -> Non
         if after is not None:
             assert f"{after:.3g}" in page and f"{after:.3g}" in md
     assert "Drone against mast" in page and "javascript:" not in page
+
+
+def test_validation_table_files(tmp_path: Path) -> None:
+    from dronewind.steps.report import write_validation_table
+
+    root = write_products(tmp_path / "products")
+    csv, md = write_validation_table(sorted((root / "netcdf" / "L4").glob("*.nc")), tmp_path / "validation")
+    table = pd.read_csv(csv)
+    rows = {r["statistic"]: r for r in validation_rows(load_l4_products(sorted((root / "netcdf" / "L4").glob("*.nc"))))}
+    assert table.set_index("statistic").loc["sigma_w_ms", "rmse"] == rows["sigma_w_ms"]["rmse"]  # full precision
+    assert "| σ_w (m s⁻¹) | 3 |" in md.read_text()

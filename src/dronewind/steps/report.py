@@ -49,7 +49,7 @@ from dronewind.figures.labels import PAPERS, REFERENCES, REPORT_TABLES
 from dronewind.steps.common import LOG
 
 __all__ = ["REPORT_TABLES", "column_decimals", "column_label", "csv_html", "frame_html", "front_page_numbers",
-           "markdown_html", "report_pages", "table_page"]
+           "markdown_html", "report_pages", "table_page", "write_validation_table"]
 
 _STYLE = """<style>
 .dw-report { font-family: system-ui, sans-serif; font-size: 14px; line-height: 1.45; color: #111; }
@@ -372,6 +372,48 @@ def _validation_section(numbers: Mapping[str, Any]) -> str:
             "<div class='dw-scroll'><table><thead><tr><th class='dw-text'>statistic</th><th>flights</th>"
             "<th>bias ± s.e.</th><th>RMSE ± s.e.</th><th>sampling error alone (RMS)</th><th>slope ± s.e.</th>"
             f"<th>R²</th></tr></thead><tbody>{''.join(body)}</tbody></table></div>")
+
+
+def write_validation_table(l4_files: Sequence[str | Path], out_stem: str | Path) -> list[Path]:
+    """The validation answer as ``<out_stem>.csv`` (full precision) and ``.md`` (rounded for reading).
+
+    The same rows as the front page's first table
+    (:func:`dronewind.compare.validation.validation_rows`), for a rule that writes them beside
+    the other tables (``tables/validation.csv``).
+
+    Parameters
+    ----------
+    l4_files : sequence of path
+        The campaign's L4 files (``<flight>_drone.nc``, ``<flight>_mast.nc``).
+    out_stem : str or Path
+        Output path without suffix.
+
+    Returns
+    -------
+    list of Path
+        The CSV and the Markdown file.
+    """
+    from dronewind.compare.validation import STATISTICS, validation_rows
+
+    rows = validation_rows(load_l4_products(list(l4_files)))
+    frame = pd.DataFrame(rows)
+    stem = Path(out_stem)
+    csv = atomic_write_text(stem.with_name(stem.name + ".csv"),
+                            frame.to_csv(index=False, na_rep="", lineterminator="\n"))
+    decimals = {st.key: st.decimals for st in STATISTICS}
+    lines = ["Drone against mast: bias and RMSE of drone − mast ± standard error over the flights, RMS difference "
+             "from sampling error alone (Ghirardelli et al. 2025, Eqs 10-13), slope of drone on mast ± standard "
+             "error, R².",
+             "", "| statistic | flights | bias | RMSE | sampling error (RMS) | slope | R² |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        dec = decimals[r["statistic"]]
+        unit = f" ({r['unit']})" if r["unit"] else ""
+        lines.append(f"| {r['label']}{unit} | {r['n']} | {_pm(r['bias'], r['bias_se'], dec)} | "
+                     f"{_pm(r['rmse'], r['rmse_se'], dec)} | {_number(r['sampling_rms'], dec)} | "
+                     f"{_pm(r['slope'], r['slope_se'], 2)} | {_number(r['r2'], _r2_decimals(r['r2']))} |")
+    md = atomic_write_text(stem.with_name(stem.name + ".md"), "\n".join(lines) + "\n")
+    return [csv, md]
 
 
 def _flags_section(numbers: Mapping[str, Any]) -> str:
