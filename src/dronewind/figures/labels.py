@@ -123,6 +123,7 @@ TUNNEL_FIGURES: dict[str, str] = {
 
 #: Tables shown in the report: name -> (title, source file relative to ``results/<name>/``).
 REPORT_TABLES: dict[str, tuple[str, str]] = {
+    "validation": ("Drone against mast: bias, RMSE and slope per statistic", "tables/validation.md"),
     "table4_flights": ("Table 4: the payload flights", "tables/table4_flights.md"),
     "table5_statistics": ("Table 5: mean and turbulent statistics, drone and mast", "tables/table5_statistics.md"),
     "flight_stats": ("Flight statistics, drone and mast (flight_stats.csv)", "tables/flight_stats.csv"),
