@@ -116,3 +116,38 @@ def test_show_config_bad_input(bad_inputs, tmp_path):
     typo.write_text("processing:\n  rotatoin: double\n")
     assert_one_line_error(run_cli("show-config", str(typo)), "show-config",
                           "processing.rotatoin is not a setting: did you mean 'rotation'?")
+
+
+# ----------------------------------------------------------------------------- dronewind run
+
+
+def test_run_wraps_snakemake_then_the_report(tmp_path):
+    proc = run_cli("run", "--show", "--cores", "1", "mosai2023", "-n")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 1  # a dry run writes no report
+    assert "snakemake --cores 1 -n --config campaign=" in lines[0]
+    assert lines[0].rstrip(")").endswith("config/campaigns/mosai2023.yaml")
+
+    manifest = Path(__file__).resolve().parents[1] / "config" / "campaigns" / "mosai2023.yaml"
+    proc = run_cli("run", "--show", str(manifest), "--config", "processing={despike: {n_mad: 5}}",
+                   "results_dir=/tmp/r")
+    assert proc.returncode == 0, proc.stderr
+    run, report = proc.stdout.splitlines()
+    # one --config option holding the campaign and the user's settings (Snakemake keeps only the last one)
+    assert run.count("--config") == 1 and "'processing={despike: {n_mad: 5}}' results_dir=/tmp/r" in run
+    assert "--report /tmp/r/mosai2023/report.html --config campaign=" in report
+
+
+def test_run_help_and_unknown_campaign():
+    proc = run_cli("run", "--help")
+    assert proc.returncode == 0 and "dronewind run mosai2023" in proc.stdout and "--dry-run" in proc.stdout
+    proc = run_cli("run", "--show", "no_such_campaign")
+    assert proc.returncode == 1
+    assert "no such manifest file, nor a campaign of config/campaigns/" in proc.stderr and "mosai2023" in proc.stderr
+
+
+@pytest.mark.slow
+def test_run_dry_run_through_snakemake():
+    proc = run_cli("run", "--cores", "1", "mosai2023", "--dry-run", "--quiet", "rules")
+    assert proc.returncode == 0, proc.stderr[-2000:]

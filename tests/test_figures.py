@@ -223,9 +223,101 @@ class _Spy:
         return save
 
 
+def _fleet_tables(tmp: Path) -> Path:
+    """Quadrotor and tunnel tables of a small synthetic fleet (the columns the figures read), in ``tmp``."""
+    import json
+
+    import pandas as pd
+
+    rng = np.random.default_rng(3)
+    n = 60
+    ref = rng.uniform(1.0, 11.0, n)
+    direction = rng.uniform(20.0, 340.0, n)
+    win = pd.DataFrame({
+        "uav": [f"q{k % 6 + 1:02d}" for k in range(n)], "flight": [f"f{k % 8 + 1:02d}" for k in range(n)],
+        "ref_speed_ms": ref, "speed_individual_ms": ref + rng.normal(0, 0.2, n),
+        "uav_speed_ms": ref + rng.normal(0, 0.3, n),
+        "tilt_deg": 2.0 + 1.5 * ref + rng.normal(0, 0.5, n), "validation": [k % 3 == 0 for k in range(n)],
+        "ref_from_deg": direction, "uav_from_deg": direction + rng.normal(0, 5, n),
+        "var_ref_1min_m2s2": rng.uniform(0.05, 1.0, n), "var_uav_1min_m2s2": rng.uniform(0.05, 1.0, n)})
+    win["validation"] = win["validation"].astype(int)
+    heights = np.arange(10.0, 100.0, 10.0)
+    prof = pd.concat([pd.DataFrame({"flight": f, "height_m": heights, "ref_height_m": heights,
+                                    "uav_speed_ms": 4 + 0.03 * heights + rng.normal(0, 0.2, heights.size),
+                                    "ref_speed_ms": 4 + 0.03 * heights, "rmse_ms": 0.2}) for f in ("f01", "f02")])
+    tables = tmp / "tables"
+    tables.mkdir(parents=True)
+    win.to_csv(tables / "quadrotor_windows.csv", index=False)
+    prof.to_csv(tables / "quadrotor_profiles.csv", index=False)
+    pd.DataFrame({"flight": ["f03"], "uav": ["q02"], "reason": ["log cut short"]}).to_csv(
+        tables / "quadrotor_problems.csv", index=False)
+    (tmp / "calibration.json").write_text(json.dumps({
+        "regression_curve": {"tilt_deg": [0.0, 10.0, 20.0], "speed_ms": [0.0, 6.0, 11.0]},
+        "aero": {"cd0a0_m2": 0.0123, "cp_m2_per_rad": 0.0456}, "calibration_window_s": 600}))
+    speeds = np.arange(2.0, 17.0, 2.0)
+    pd.concat([pd.DataFrame({"aos_deg": a, "speed_bin_ms": speeds, "rmse_ms": rng.uniform(0.0, 0.2, speeds.size)})
+               for a in (0.0, 30.0, 90.0)]).to_csv(tables / "tunnel_sideslip.csv", index=False)
+    pd.concat([pd.DataFrame({"kind": "portability", "uas": u, "cta_ms": speeds,
+                             "error_ms": rng.normal(0, 0.2, speeds.size)}) for u in ("u06", "u31")]).to_csv(
+        tables / "tunnel_steps_accuracy.csv", index=False)
+    pd.DataFrame({"v0_set_ms": [6.0, 8.0], "vg_set_ms": [4.0, 5.0], "rmse_v0_ms": [0.1, 0.2],
+                  "rmse_vp_ms": [0.3, 0.4]}).to_csv(tables / "tunnel_gust_summary.csv", index=False)
+    pd.DataFrame({"v0_set_ms": [5.0], "vdu_set_ms": [7.0], "rmse_v_high_ms": [0.2], "rmse_v_low_ms": [0.1],
+                  "rmse_dv_up_ms": [0.3], "rmse_dv_down_ms": [0.25]}).to_csv(tables / "tunnel_step_summary.csv",
+                                                                             index=False)
+    pd.DataFrame({"var_cta_full": [1.2, 0.6, 2.0], "var_cta_cut_fmax": [1.0, 0.5, 1.7],
+                  "var_uas": [0.95, 0.52, 1.65]}).to_csv(tables / "tunnel_turbulence.csv", index=False)
+    return tables
+
+
 @pytest.fixture(scope="module")
-def saved_figures(drawn_figures: tuple[Path, dict, list[str]], tmp_path_factory) -> dict:
-    """Every campaign figure of the products fixture (:func:`drawn_figures`) and the diagnosis figures."""
+def fleet_figures(tmp_path_factory) -> dict:
+    """The quadrotor (Wetz et al. 2021) and tunnel (Kistner et al. 2024) figures of a small synthetic fleet."""
+    from dronewind.figures import quadrotor, style
+
+    tmp = tmp_path_factory.mktemp("fleet")
+    tables = _fleet_tables(tmp)
+    spy = _Spy()
+    mp = pytest.MonkeyPatch()
+    mp.setattr(quadrotor, "save_figure", spy.wrap(style.save_figure))
+    try:
+        out = tmp / "figures"
+        win = quadrotor.pd.read_csv(tables / "quadrotor_windows.csv", dtype={"uav": str, "flight": str})
+        prof = quadrotor.pd.read_csv(tables / "quadrotor_profiles.csv", dtype={"flight": str})
+        summary = __import__("json").loads((tmp / "calibration.json").read_text())
+        quadrotor._fig3_individual(win, "600-s windows", out / "quadrotor_fig3_individual.png", "")
+        quadrotor._fig4_regression(win, summary, out / "quadrotor_fig4_regression.png", "")
+        quadrotor._fig5_validation(win, out / "quadrotor_fig5_validation.png", "")
+        quadrotor._fig6_direction(win, out / "quadrotor_fig6_direction.png", "")
+        quadrotor._fig8_profiles(prof, out / "quadrotor_fig8_profiles.png", "left out: 1 UAV log")
+        quadrotor._fig9_variance(win, out / "quadrotor_fig9_variance.png")
+        quadrotor.tunnel_figures(tables, [out / f"{name}.png" for name in quadrotor.TUNNEL_FIGURES])
+    finally:
+        mp.undo()
+    for name in spy.figures:  # the vector copy beside every PNG
+        assert (out / f"{name}.png").is_file() and (out / f"{name}.pdf").is_file(), name
+    return spy.figures
+
+
+def test_fleet_figures_standard(fleet_figures: dict, tmp_path: Path) -> None:
+    """Vector copies, stated agreement at the precision that is real, each legend label once."""
+    from dronewind.figures.quadrotor import agreement
+
+    assert {"quadrotor_fig3_individual", "quadrotor_fig8_profiles", "tunnel_fig4_sideslip",
+            "tunnel_fig9_variance"} <= set(fleet_figures)
+    for name, fig in fleet_figures.items():
+        for leg in [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None] + list(fig.legends):
+            labels = [t.get_text() for t in leg.get_texts()]
+            assert len(labels) == len(set(labels)), (name, labels)
+    title = fleet_figures["quadrotor_fig3_individual"].axes[0].get_title()
+    assert re.search(r"RMSE = 0\.[12]\d m", title) and "R² = 0.99" in title and "n = 60" in title
+    assert "RMSE = 0.0030 m" in agreement([1.0, 2.0, 3.0], [1.003, 2.003, 3.003], "m")  # never "0.000"
+    assert "R² = 1" not in agreement([1.0, 2.0, 3.0, 4.0], [1.0001, 2.0, 3.0, 4.0])
+
+
+@pytest.fixture(scope="module")
+def saved_figures(drawn_figures: tuple[Path, dict, list[str]], fleet_figures: dict, tmp_path_factory) -> dict:
+    """Every figure: the campaign's (:func:`drawn_figures`), the diagnosis, quadrotor and tunnel figures."""
     from dronewind.figures import style
 
     spy = _Spy()
@@ -240,7 +332,7 @@ def saved_figures(drawn_figures: tuple[Path, dict, list[str]], tmp_path_factory)
         diagnosis.spectra_figure(ev, {f: _binned(1.0) for f in ev.flights}, model, diag, out)
     finally:
         mp.undo()
-    return {**drawn_figures[1], **spy.figures}
+    return {**drawn_figures[1], **spy.figures, **fleet_figures}
 
 
 def _data_points(ax) -> np.ndarray:

@@ -23,7 +23,9 @@ examples:
   dronewind show-config config/config.yaml
   dronewind plan config/plans/example_plan.yaml --out results/plans/example
 
-The whole workflow runs through Snakemake (see README.md):
+  dronewind run my_campaign.yaml                 # the whole workflow, then the HTML report
+
+`dronewind run` wraps Snakemake (see README.md); the same by hand:
   .venv/bin/snakemake --cores 2 --config campaign=/abs/path/campaign.yaml
 """
 
@@ -197,7 +199,116 @@ def _plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--cores", type=int, default=os.cpu_count() or 1,
+                        help="CPU cores Snakemake may use (default: all of this machine's, here %(default)s)")
+    parser.add_argument("--no-report", action="store_true",
+                        help="do not write the self-contained HTML report after the run")
+    parser.add_argument("--report-file", type=Path, default=None,
+                        help="the HTML report to write (default: results/<campaign name>/report.html)")
+    parser.add_argument("--directory", type=Path, default=None,
+                        help="the dronewind project (the folder with the Snakefile; default: the current folder "
+                             "if it has one, else the project this dronewind is installed from)")
+    parser.add_argument("--show", action="store_true", help="print the Snakemake commands without running them")
+    parser.add_argument("campaign",
+                        help="campaign manifest (YAML), or the name of one in config/campaigns/ (e.g. mosai2023)")
+    parser.add_argument("snakemake_args", nargs=argparse.REMAINDER, metavar="...",
+                        help="anything after the campaign goes to Snakemake as it is (e.g. --dry-run, "
+                             "--config processing={...}, a target file)")
+
+
+def _project_dir(given: Path | None) -> Path:
+    """The folder with the workflow's Snakefile."""
+    candidates = [given] if given is not None else [Path.cwd(), Path(__file__).resolve().parents[2]]
+    for folder in candidates:
+        if (folder / "Snakefile").is_file():
+            return folder.resolve()
+    raise InputError(str(candidates[0]), "no Snakefile here: run from the dronewind project or give --directory")
+
+
+def _campaign_manifest(campaign: str, project: Path) -> Path:
+    """The manifest a ``run`` names: a file, or ``config/campaigns/<name>.yaml`` of the project."""
+    path = Path(campaign)
+    if path.is_file():
+        return path.resolve()
+    named = project / "config" / "campaigns" / f"{campaign}.yaml"
+    if named.is_file():
+        return named
+    known = sorted(p.stem for p in (project / "config" / "campaigns").glob("*.yaml"))
+    raise InputError(campaign, f"no such manifest file, nor a campaign of config/campaigns/ ({', '.join(known)})")
+
+
+def _snakemake_exe() -> str:
+    import shutil
+
+    beside = Path(sys.executable).with_name("snakemake")
+    found = str(beside) if beside.is_file() else shutil.which("snakemake")
+    if not found:
+        raise InputError("snakemake", "the snakemake executable is neither beside this Python nor on PATH "
+                         "(make venv installs it)")
+    return found
+
+
+def run_commands(args: argparse.Namespace) -> tuple[Path, list[list[str]]]:
+    """The project folder and the Snakemake command lines of ``dronewind run`` (the workflow, then the report)."""
+    import yaml
+
+    project = _project_dir(args.directory)
+    manifest = _campaign_manifest(args.campaign, project)
+    name = (yaml.safe_load(manifest.read_text("utf-8")) or {}).get("name") or manifest.stem
+    extra = list(args.snakemake_args)
+    if extra[:1] == ["--"]:
+        extra = extra[1:]
+    exe = _snakemake_exe()
+    config = [f"campaign={manifest}"]
+    if "--config" in extra:  # one --config option (Snakemake keeps only the last one given)
+        at = extra.index("--config") + 1
+        while at < len(extra) and not extra[at].startswith("-"):
+            config.append(extra.pop(at))
+        extra.remove("--config")
+    commands = [[exe, "--cores", str(args.cores), *extra, "--config", *config]]
+    dry = any(a in ("-n", "--dry-run", "--dryrun") for a in extra)
+    if not args.no_report and not dry:
+        root = next((c.split("=", 1)[1] for c in config if c.startswith("results_dir=")), "results")
+        report = args.report_file if args.report_file is not None else Path(root) / str(name) / "report.html"
+        commands.append([exe, "--report", str(report), "--config", *config])
+    return project, commands
+
+
+def _run(args: argparse.Namespace) -> int:
+    import shlex
+    import subprocess
+
+    project, commands = run_commands(args)
+    for cmd in commands:
+        print(f"(cd {shlex.quote(str(project))} && {shlex.join(cmd)})", flush=True)
+        if args.show:
+            continue
+        status = subprocess.run(cmd, cwd=project, check=False).returncode
+        if status:
+            print(f"dronewind run: snakemake stopped with status {status}", file=sys.stderr)
+            return status
+    if not args.show and len(commands) > 1:
+        report = Path(commands[1][2])
+        front = project / report.parent / "report" / "summary.html"
+        print(f"the answer: {project / report} and its front page {front}")
+    return 0
+
+
 SUBCOMMANDS: list[Subcommand] = [
+    Subcommand(
+        "run",
+        "run the whole workflow on a campaign (Snakemake), then write its self-contained HTML report",
+        "examples:\n  dronewind run mosai2023                      # the embedded default campaign\n"
+        "  dronewind run /data/my_campaign.yaml --cores 4\n"
+        "  dronewind run my_campaign.yaml --dry-run    # what would run (Snakemake's -n)\n"
+        "  dronewind run my_campaign.yaml --config \"processing={despike: {n_mad: 5}}\"\n"
+        "  dronewind run --show my_campaign.yaml       # print the Snakemake commands only\n\n"
+        "Options before the campaign are dronewind's; everything after it goes to Snakemake. The results are\n"
+        "in results/<campaign name>/ (front page: report/summary.html; report: report.html).",
+        _run_args,
+        _run,
+    ),
     Subcommand(
         "validate-campaign",
         "validate a campaign manifest (schema, ids, windows, files and their declared formats)",

@@ -149,6 +149,16 @@ def _fmt(value: Any, decimals: int) -> str:
     return "0" + text[2:] if text.startswith("-0") and float(text) == 0 else text  # no "-0.00"
 
 
+def _derived(value: float, significant: int = 12) -> float:
+    """A number computed from a stored one (e.g. minutes from seconds), rounded to the precision that is real.
+
+    ``1680.3 / 60`` is ``28.004999999999995`` in binary floating point; the stored seconds hold
+    no more than 12 significant digits, so the CSV gets ``28.005``. Stored values themselves
+    are written unchanged (their shortest round-trip representation).
+    """
+    return float(f"{value:.{significant}g}") if math.isfinite(value) else value
+
+
 def _tex_escape(text: str) -> str:
     """Escape LaTeX special characters character by character (no double escaping)."""
     table = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
@@ -227,7 +237,7 @@ def _table4_row(flight: str, prod: Mapping[str, Any], stability_bounds: tuple[fl
         "flight": flight,
         "reference": str(ref.attrs.get("reference", "")) if ref is not None else "",
         "start_utc": _start_utc(ref),
-        "duration_min": stored_scalar(ref, "duration_s") / 60.0,
+        "duration_min": _derived(stored_scalar(ref, "duration_s") / 60.0),
         "payload_height_m": stored_scalar(drone, "height_m"),
         "reference_height_m": stored_scalar(mast, "height_m"),
         "wind_from_deg": stored_scalar(mast, "wind_from_deg"),
@@ -236,7 +246,7 @@ def _table4_row(flight: str, prod: Mapping[str, Any], stability_bounds: tuple[fl
         "stability_class": stability_class(zeta, stability_bounds),
         "lag_sonic_ins_s": lag_si,
         "lag_drone_mast_s": lag_dm,
-        "usable": int(usable),
+        "usable": bool(usable),
         "unusable_reason": reason,
     }
 

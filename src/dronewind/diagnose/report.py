@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from dronewind.core.verdict import misfit_rows, verdict
 from dronewind.diagnose.features import FEATURES
 
 __all__ = ["markdown", "FEATURE_LABELS"]
@@ -53,27 +54,11 @@ def _named_summary(mechanism: str, entry: Mapping[str, Any]) -> str:
     return f"`{mechanism}` ({', '.join(parts)}; held-out gain {_fmt(entry['gain'], 2)})"
 
 
-def _gof_sentence(gof: Mapping[str, Any], what: str) -> str:
-    """One goodness-of-fit line, with what its p-value means."""
-    p = gof.get("p_value")
-    ref = gof.get("reference_mean")
-    meaning = ("the misfit is larger than sampling error makes likely: the model misses something (see below)"
-               if p is not None and p < 0.01 else
-               "the misfit is what sampling error alone makes likely")
-    ref_text = (f", a correct model gives {_fmt(ref)} on average ({gof.get('reference', 'reference')})"
-                if ref is not None else "")
-    return (f"**Goodness of fit** ({what}, against the sampling error alone): χ² = {_fmt(gof.get('chi2'))} for "
-            f"{gof.get('dof', '–')} residuals{ref_text}; p = {_fmt(p, 2)}: {meaning}.")
-
-
 def _fit_lines(diag: Mapping[str, Any]) -> list[str]:
-    """Goodness of fit of the model (with the named causes, if any), and what it still misses."""
-    gof = diag.get("goodness_of_fit") or {}
-    named = diag.get("named_causes") or []
-    out = []
-    if gof:
-        out.append(_gof_sentence(gof, "forward model with the named causes" if named else
-                                 "forward model, no cause named"))
+    """Goodness of fit of the fitted model (:func:`dronewind.core.verdict.verdict`), and what it still misses."""
+    v = verdict(diag)
+    head, _, rest = v.fit.partition(":")
+    out = [f"**{head}:**{rest}"] if v.fit else []
     missed = diag.get("unexplained")
     if missed:
         out += ["", "**Unexplained residual:** the model still misses these features (model error that no catalog "
@@ -85,12 +70,12 @@ def _fit_lines(diag: Mapping[str, Any]) -> list[str]:
         for m in missed:
             ci = m.get("discrepancy_ci95") or [None, None]
             out.append(f"| {FEATURE_LABELS.get(m['feature'], m['feature'])} | {_fmt(m['mean_z'], 2)} | "
-                       f"{_fmt(m['slope_per_ms'])} | {_fmt(m['p_mean'], 2)} | {_fmt(m['p_slope'], 2)} | "
+                       f"{_fmt(m['slope_per_ms'])} | {_fmt(m.get('p_mean'), 2)} | {_fmt(m.get('p_slope'), 2)} | "
                        f"{_fmt(m.get('discrepancy_sd'), 2)} ({_fmt(ci[0], 2)}–{_fmt(ci[1], 2)}) | "
-                       f"{_fmt(m.get('p_discrepancy'), 2)} | {m['n_flights']} |")
+                       f"{_fmt(m.get('p_discrepancy'), 2)} | {m.get('n_flights', '–')} |")
     elif missed is not None:
-        out.append("Nothing is left unexplained: no feature's offset, trend with wind speed or scatter across "
-                   "flights exceeds sampling error (family-wise over the features).")
+        out += ["", "**Nothing remains unexplained:** no feature's offset, trend with wind speed or scatter across "
+                "flights exceeds sampling error (family-wise over the features)."]
     return out
 
 
@@ -136,22 +121,19 @@ def _candidate_lines(diag: Mapping[str, Any]) -> list[str]:
                   + "; ".join(f"`{n['mechanism']}` ({', '.join(f'{k} = {_fmt(v)}' for k, v in n['estimate'].items())}):"
                               f" {n['reason']}" for n in nid)]
     lines += ["", "## Ambiguity", ""]
-    for c in diag.get("caveats") or []:
-        lines += [f"**Caveat on `{c['mechanism']}`:** {c['alias']} (an effect outside the catalog; the data "
-                  "alone cannot tell them apart).", ""]
+    for c in verdict(diag).caveats:
+        lines += [c, ""]
     for w in diag.get("withheld") or []:
         est = ", ".join(f"{k} = {_fmt(v)}" for k, v in w["estimate"].items())
         lines += [f"**Not named: `{w['mechanism']}`** ({est}, family-wise p {_fmt(w['p_value'], 2)}): "
                   f"{100 * w['share']:.0f} % of the misfit it would remove is in `{w['feature']}`, and {w['alias']} "
                   "(an effect outside the catalog); that misfit is left unexplained.", ""]
-    amb = diag.get("ambiguity") or []
-    if amb:
-        lines.append("The data cannot tell these apart (the other mechanism's probe responses reproduce the named "
-                     "cause's fitted effect over all flights; cosine of the whitened responses): "
-                     + "; ".join(f"`{a['named']}` and `{a['mechanism']}` ({_fmt(a['cosine'], 3)})" for a in amb)
-                     + ". The named one fits best; the others are equally possible explanations.")
-    elif diag.get("named_causes"):
+    if diag.get("named_causes") and not diag.get("ambiguity"):
         lines.append("No other mechanism's responses reproduce the named causes' effects (cosine below 0.9).")
+    elif diag.get("ambiguity"):
+        lines.append("Cosine of the whitened probe responses of each equally possible explanation and the named "
+                     "cause: " + "; ".join(f"`{a['named']}` and `{a['mechanism']}` ({_fmt(a['cosine'], 3)})"
+                                           for a in diag["ambiguity"]) + ".")
     return lines
 
 
@@ -174,14 +156,11 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
         Markdown text.
     """
     lines = [f"# Diagnosis of campaign {diag.get('campaign')}", ""]
-    named = diag.get("named_causes") or []
-    if diag.get("note"):
-        lines += [f"**No diagnosis:** {diag['note']}", ""]
-    if named:
-        lines.append("**Named cause(s):** " + ", ".join(_named_summary(m, diag["named_estimates"][m]) for m in named))
-    else:
-        lines.append("**No mechanism is significant:** no catalog mechanism explains the measured drone–mast "
-                     "differences better than the forward model without one.")
+    head = verdict(diag).headline
+    if diag.get("note") and not head.startswith("Not diagnosed"):
+        lines += [f"**Note:** {diag['note']}", ""]
+    label, _, rest = head.partition(":")
+    lines.append(f"**{label}:**{rest}")
     lines += ["", *_fit_lines(diag), *_error_model_lines(diag)]
     lines += ["", "## What the baseline simulation gets wrong", "",
               "The forward model without any mechanism was run for every flight with the conditions measured "
@@ -189,7 +168,7 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
               "height, position and window, and processed exactly like the data. Residual = measured − "
               "predicted; z = residual / sampling error (Ghirardelli et al. 2025, Eqs 10-13, scaled by the "
               "spread of the forward model's seeds).", ""]
-    metrics = (diag.get("baseline") or {}).get("metrics") or {}
+    metrics = (diag.get("baseline") or {}).get("metrics") or {}  # the numbers of diagnosis.json, never recomputed
     lines += [f"- misfit χ² = {_fmt(metrics.get('chi2'))} over {metrics.get('n_features_used', '–')} features "
               f"(χ²/feature = {_fmt(metrics.get('chi2_per_feature'))}; ≈ 1 when the model is right)",
               f"- RMSE of σw drone/mast ratio, measured vs predicted: {_fmt(metrics.get('sigma_w_ratio_rmse'))}", ""]
@@ -217,9 +196,10 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
     else:
         lines.append("Nothing was added; the rerun below repeats the baseline with new seeds (a check of the "
                      "sampling errors):")
-    lines += ["", "| metric | baseline | extended model (rerun) |", "|---|---|---|"]
-    for key in ("chi2", "chi2_per_feature", "sigma_w_ratio_rmse", "sigma_u_ratio_rmse", "sigma_v_ratio_rmse"):
-        lines.append(f"| {key} | {_fmt(before.get(key))} | {_fmt(after.get(key))} |")
+    lines += ["", "| metric | baseline | extended model (as fitted) | extended model rerun with new seeds (a check) |",
+              "|---|---|---|---|"]
+    for key, label, base, fitted in misfit_rows(diag):
+        lines.append(f"| {label} | {_fmt(base)} | {_fmt(fitted)} | {_fmt(after.get(key))} |")
     lines += ["", "## Method", "", str(diag.get("method", "")),
               "Significance: a candidate's likelihood-ratio statistic (misfit drop on the fitted flights, with the "
               "sampling covariance and the model discrepancy) is compared with its distribution under the model "

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,7 @@ import pandas as pd
 
 from dronewind.core.products import L4Products, drone_usable, load_l4_products, stored_scalar
 from dronewind.core.qc import STATUS_FLAG_MEANINGS
+from dronewind.core.verdict import verdict_sentence
 from dronewind.figures.labels import HEIGHT_MARKERS, PAPERS, PathLike
 from dronewind.tables import default_detail_flights
 
@@ -256,68 +257,6 @@ def campaign_captions(results_dir: PathLike) -> dict[str, str]:
 # ----------------------------------------------------------------------------- diagnosis
 
 
-def _estimates(estimate: Mapping[str, Any], uncertainty: Mapping[str, Any] | None = None) -> str:
-    parts = []
-    for key, value in estimate.items():
-        if isinstance(value, int | float):
-            err = (uncertainty or {}).get(key)
-            parts.append(f"{key} = {value:.3g}" + (f" ± {err:.2g}" if isinstance(err, int | float) else ""))
-    return ", ".join(parts)
-
-
-def _z(value: Any) -> float:
-    """A z value of diagnosis.json as a float (NaN for null)."""
-    return float("nan") if value is None else float(value)
-
-
-def verdict_sentence(diag: Mapping[str, Any]) -> str:
-    """The verdict of a diagnosis JSON in words: named causes with estimates and gains, or none; what remains.
-
-    Parameters
-    ----------
-    diag : mapping
-        ``diagnosis.json`` (or the published-numbers diagnosis): ``named_causes``,
-        ``named_estimates`` (``estimate``, ``uncertainty``, ``gain`` per cause), ``candidates``
-        and, when present, ``goodness_of_fit`` and ``unexplained``.
-
-    Returns
-    -------
-    str
-    """
-    named = list(diag.get("named_causes") or [])
-    cands = {c["mechanism"]: c for c in reversed(diag.get("candidates") or [])}
-    if not named and not cands and diag.get("note"):
-        return f"Not diagnosed: {diag['note']}."
-    if not named:
-        text = "No cause named: no catalog mechanism explains the measured drone-mast differences significantly."
-    else:
-        parts = []
-        for name in named:
-            entry = (diag.get("named_estimates") or {}).get(name) or {}
-            cand = cands.get(name, {})
-            est = entry.get("estimate", cand.get("estimate") or {})
-            gain = entry.get("gain", cand.get("gain"))
-            details = [d for d in (_estimates(est, entry.get("uncertainty", cand.get("uncertainty"))),
-                                   f"held-out gain {gain:.2f}" if isinstance(gain, int | float) else "") if d]
-            parts.append(f"{name} ({'; '.join(details)})" if details else name)
-        text = f"Named cause{'s' if len(parts) > 1 else ''}: {'; '.join(parts)}."
-    fit = diag.get("goodness_of_fit") or {}
-    if isinstance(fit.get("p_value"), int | float):
-        model = "the model with the named causes" if named else "the forward model"
-        verdict = ("more than sampling error explains" if fit["p_value"] < 0.01 else
-                   "within what sampling error explains")
-        text += (f" The misfit of {model} is {verdict} (χ² = {fit.get('chi2', float('nan')):.1f} for "
-                 f"{fit.get('dof', '?')} residuals, p = {fit['p_value']:.2g}).")
-    left = diag.get("unexplained")
-    if isinstance(left, list):
-        if left:
-            text += " Still unexplained (model error no mechanism describes): " + flight_list(
-                [f"{u.get('feature')} (offset z {_z(u.get('mean_z')):+.1f})" for u in left]) + "."
-        else:
-            text += " Nothing remains unexplained."
-    return text
-
-
 def diagnosis_captions(diagnosis_json: PathLike, n_spectra_flights: int = 3) -> dict[str, str]:
     """Captions of ``diagnosis_residuals`` and ``diagnosis_spectra`` from ``diagnosis.json``.
 
@@ -472,5 +411,5 @@ def block_captions(tables_dir: PathLike) -> dict[str, str]:
         f"Block statistics of {flight_list(sonics)}, {block} blocks aligned to UTC, {span}: mean wind speed U, "
         f"wind-from direction, σ_w, friction velocity u*, kinematic heat flux w'T', stability z/L and the "
         f"inertial-subrange ratio S_w/S_u (tables/block_stats.csv; streamline coordinates per block, "
-        f"statistics as for the mast sonics of a flight, after {P000}, Sect. 4). {int(usable.sum())} of "
+        f"the same statistics as of every sonic record). {int(usable.sum())} of "
         f"{len(table)} blocks usable; the others are listed under the axes with their reason.")}

@@ -69,8 +69,8 @@ def figure_captions() -> dict[str, str]:
         f"drone (blue) and mast (orange), for the detailed flights; the means are in the legend (after {P000}, "
         "Fig. 10).",
         "fig11_temperature_spectra": "Frequency-weighted sonic-temperature spectrum f S_theta (log-log) and "
-        "co-spectra f Re(S_w theta) and f Re(S_u theta) (linear y), drone (blue) and mast (orange) (after seed "
-        "000, Fig. 11).",
+        "co-spectra f Re(S_w theta) and f Re(S_u theta) (linear y), drone (blue) and mast (orange) (after "
+        f"{P000}, Fig. 11).",
         "fig12_mean_and_sigma": "Drone versus mast mean wind speed and standard deviations of u, v, w, one colour "
         "per flight, one marker per reference height (lowest first: circles, triangles, squares); dashed: "
         f"1:1 (after {P000}, Fig. 12).",
@@ -123,6 +123,7 @@ TUNNEL_FIGURES: dict[str, str] = {
 
 #: Tables shown in the report: name -> (title, source file relative to ``results/<name>/``).
 REPORT_TABLES: dict[str, tuple[str, str]] = {
+    "validation": ("Drone against mast: bias, RMSE and slope per statistic", "tables/validation.md"),
     "table4_flights": ("Table 4: the payload flights", "tables/table4_flights.md"),
     "table5_statistics": ("Table 5: mean and turbulent statistics, drone and mast", "tables/table5_statistics.md"),
     "flight_stats": ("Flight statistics, drone and mast (flight_stats.csv)", "tables/flight_stats.csv"),

@@ -7,8 +7,11 @@ universal law evaluated on a tilt grid), the L2 NetCDF files of one flight and i
 reference CSV. Presentation-only arithmetic: absolute values of stored per-step errors
 (Fig. 5 of Kistner et al. (2024), one step's RMSE) and the 1:1 lines.
 
-Output: one PNG per figure, fixed size and resolution, no time stamp in the metadata
-(deterministic bytes for identical inputs), written atomically; Agg canvas, no pyplot state.
+Output: one PNG per figure and its vector copy (PDF) beside it, drawn and saved like the
+payload figures (:mod:`dronewind.figures.style`: fixed size and resolution, no time stamp in
+the metadata, written atomically; Agg canvas, no pyplot state). Legends stand outside the
+axes, each label once; figures of several panels carry panel letters; the scatter figures
+state n, bias, RMSE and R² of the points drawn, at the precision that is real.
 Windows and UAVs that could not be used are named in a note on the figure, never dropped
 silently.
 
@@ -21,8 +24,6 @@ References
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -32,38 +33,76 @@ import pandas as pd
 
 from dronewind.errors import InputError
 from dronewind.figures.labels import QUAD_FIGURES, TUNNEL_FIGURES
+from dronewind.figures.style import add_notes, new_figure, panel_letters, save_figure
 
 __all__ = ["QUAD_FIGURES", "TUNNEL_FIGURES", "quadrotor_figures", "tunnel_figures"]
 
-DPI = 110
+#: Width of the figures [inch] (the legend, outside the axes on the right, included).
+WIDTH_IN = 6.4
 
-def _figure(width_in: float = 6.0, height_in: float = 4.5) -> tuple[Any, Any]:
-    from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+def _figure(width_in: float = WIDTH_IN, height_in: float = 4.5) -> tuple[Any, Any]:
+    fig = new_figure(width_in, height_in)
     return fig, fig.add_subplot()
 
 
 def _save(fig: Any, path: str | Path, note: str = "") -> Path:
-    """Write a PNG atomically without a time stamp; ``note`` goes onto the figure and into metadata."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    """Write the PNG and its vector copy (PDF) atomically without time stamps (:func:`save_figure`).
 
-    FigureCanvasAgg(fig)
-    if note:
-        fig.text(0.01, 0.005, note, fontsize=7, color="0.3", ha="left", va="bottom", wrap=True)
+    ``note`` (what was left out and why) goes below the axes and into the metadata; a
+    figure of several panels gets its panel letters first.
+    """
+    panel_letters(fig)
+    notes = add_notes(fig, [note] if note else [])
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(handle)
-    try:
-        fig.savefig(tmp, format="png", dpi=DPI, metadata={"Software": None, "Title": target.stem,
-                                                          "Description": note or "none skipped"})
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
+    return save_figure(fig, target.with_suffix(""), notes)[0]
+
+
+def _legend(ax: Any, **kwargs: Any) -> None:
+    """The legend outside the axes on the right (never over data), each label once."""
+    seen: dict[str, Any] = {}
+    for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+        if label and not label.startswith("_"):
+            seen.setdefault(label, handle)
+    if seen:
+        ax.legend(list(seen.values()), list(seen), loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+                  frameon=False, fontsize=kwargs.get("fontsize", 7), ncol=1 if len(seen) <= 14 else 2)
+
+
+def _decimals_of(value: float, significant: int = 2) -> int:
+    """Decimals that show ``value`` to ``significant`` digits (at least 2: never a bare 0.0 for a small value)."""
+    if not np.isfinite(value) or value == 0:
+        return 2
+    return max(2, significant - 1 - int(np.floor(np.log10(abs(value)))))
+
+
+def agreement(x: np.ndarray | pd.Series, y: np.ndarray | pd.Series, unit: str = "m s$^{-1}$",
+              circular: bool = False) -> str:
+    """"n = .., bias = .., RMSE = .. <unit>, R² = .." of y against x, at the precision that is real.
+
+    Presentation of the plotted points only (no stored statistic is replaced). A value is
+    written to two significant digits, so a small RMSE reads "0.0031", never "0.000"; R² shows
+    enough decimals to tell it from 1. ``circular``: differences wrapped to ±180 (directions),
+    no R².
+    """
+    xs, ys = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    ok = np.isfinite(xs) & np.isfinite(ys)
+    n = int(ok.sum())
+    if n == 0:
+        return "no points"
+    d = ys[ok] - xs[ok]
+    if circular:
+        d = (d + 180.0) % 360.0 - 180.0
+    bias, rmse = float(d.mean()), float(np.sqrt(np.mean(d**2)))
+    text = (f"n = {n}, bias = {bias:.{_decimals_of(bias)}f}, RMSE = {rmse:.{_decimals_of(rmse)}f} {unit}")
+    if not circular and n >= 3:
+        ss = float(((ys[ok] - ys[ok].mean()) ** 2).sum())
+        r = float(np.corrcoef(xs[ok], ys[ok])[0, 1]) if ss > 0 and np.ptp(xs[ok]) > 0 else float("nan")
+        if np.isfinite(r):
+            r2 = r * r
+            dec = max(2, _decimals_of(1.0 - r2, 1) if r2 < 1 else 4)
+            text += f", R² = {r2:.{dec}f}"
+    return text
 
 
 def _one_to_one(ax: Any, x: np.ndarray | pd.Series, y: np.ndarray | pd.Series) -> None:
@@ -92,8 +131,9 @@ def _fig3_individual(win: pd.DataFrame, label: str, path: Path, note: str) -> Pa
     _scatter_by_uav(ax, win, "ref_speed_ms", "speed_individual_ms")
     _one_to_one(ax, win["ref_speed_ms"], win["speed_individual_ms"])
     ax.set(xlabel="tower wind speed (m s$^{-1}$)", ylabel="UAV wind speed (m s$^{-1}$)",
-           title=f"individual calibration, {win['flight'].nunique()} flights, {label}")
-    ax.legend(fontsize=7, ncol=2)
+           title=f"individual calibration, {win['flight'].nunique()} flights, {label}\n"
+                 f"{agreement(win['ref_speed_ms'], win['speed_individual_ms'])}")
+    _legend(ax)
     return _save(fig, path, note)
 
 
@@ -108,7 +148,7 @@ def _fig4_regression(win: pd.DataFrame, summary: dict[str, Any], path: Path, ski
                 label=f"c_d0A0 = {aero.get('cd0a0_m2', np.nan):.4f} m2, c_p = {aero.get('cp_m2_per_rad', np.nan):.4f}")
     ax.set(xlabel="tilt, offset-corrected (°)", ylabel="tower wind speed (m s$^{-1}$)",
            title="universal regression (Wetz et al. (2021), Eq. 18 form)")
-    ax.legend(fontsize=7, ncol=2)
+    _legend(ax)
     note = skipped if summary.get("converged", True) else "calibration NOT converged; " + skipped
     return _save(fig, path, note)
 
@@ -119,8 +159,9 @@ def _fig5_validation(val: pd.DataFrame, path: Path, note: str) -> Path:
     _scatter_by_uav(ax, val, "ref_speed_ms", "uav_speed_ms")
     _one_to_one(ax, val["ref_speed_ms"], val["uav_speed_ms"])
     ax.set(xlabel="tower wind speed (m s$^{-1}$)", ylabel="UAV wind speed (m s$^{-1}$)",
-           title=f"validation flights ({val['flight'].nunique()}), universal law + pitch offsets")
-    ax.legend(fontsize=7, ncol=2)
+           title=f"validation flights ({val['flight'].nunique()}), universal law + pitch offsets\n"
+                 f"{agreement(val['ref_speed_ms'], val['uav_speed_ms'])}")
+    _legend(ax)
     return _save(fig, path, note)
 
 
@@ -128,22 +169,26 @@ def _fig6_direction(val: pd.DataFrame, path: Path, note: str) -> Path:
     """Wetz et al. (2021), Fig. 6: wind direction from the corrected heading against the tower."""
     fig, ax = _figure()
     _scatter_by_uav(ax, val, "ref_from_deg", "uav_from_deg")
-    ax.plot([0, 360], [0, 360], color="0.5", lw=0.8, ls="--")
-    ax.set(xlim=(0, 360), ylim=(0, 360), xlabel="tower wind direction (°)",
-           ylabel="UAV wind direction (corrected yaw) (°)", title="wind direction with yaw offsets")
-    ax.legend(fontsize=7, ncol=2)
+    ax.plot([0, 360], [0, 360], color="0.5", lw=0.8, ls="--", label="1:1")
+    ticks = np.arange(0, 361, 90)
+    ax.set_xticks(ticks)
+    ax.set_yticks(ticks)
+    ax.set(xlim=(-12, 372), ylim=(-12, 372), xlabel="tower wind direction (°)",
+           ylabel="UAV wind direction (corrected yaw) (°)",
+           title="wind direction with yaw offsets\n"
+                 f"{agreement(val['ref_from_deg'], val['uav_from_deg'], unit='°', circular=True)}")
+    _legend(ax)
     return _save(fig, path, note)
 
 
 def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path, path: Path) -> Path:
     """Wetz et al. (2021), Fig. 7: 1 Hz wind of the UAVs of one flight (L2 files) and the tower's 1-min means."""
     from matplotlib.dates import DateFormatter
-    from matplotlib.figure import Figure
 
     from dronewind.core.products import open_product
     from dronewind.quadrotor.io import read_tower_reference
 
-    fig = Figure(figsize=(7.5, 6.0), layout="constrained")
+    fig = new_figure(7.5, 6.0)
     ax_one, ax = fig.subplots(2, 1, sharex=True)
     flight, notes = "", []
     try:
@@ -173,11 +218,12 @@ def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path,
                         lw=1.2, label=f"tower {float(ref['height_m'].values[k]):g} m (1-min means)")
         t = np.concatenate([d["time"].values for _, d in series])
         ax.set_xlim(t.min(), t.max())
-        ax_one.legend(fontsize=7)
-    ax_one.set(ylabel="wind speed (m s$^{-1}$)", title=f"flight {flight}: (a) highest UAV vs tower, (b) all UAVs")
+        _legend(ax_one)
+    ax_one.set(ylabel="wind speed (m s$^{-1}$)", title=f"flight {flight}: the highest UAV and the tower")
+    ax.set_title("all UAVs of the flight")
     ax.set(xlabel="time (UTC)", ylabel="wind speed (m s$^{-1}$)")
     ax.xaxis.set_major_formatter(DateFormatter("%H:%M"))
-    ax.legend(fontsize=7, ncol=4)
+    _legend(ax)
     return _save(fig, path, "; ".join(notes))
 
 
@@ -191,7 +237,7 @@ def _fig8_profiles(prof: pd.DataFrame, path: Path, note: str) -> Path:
                     label=f"UAVs, flight {flight}")
         ax.plot(g["ref_speed_ms"], g["ref_height_m"], "k" + style, marker="s", ms=4, label=f"tower, flight {flight}")
     ax.set(xlabel="wind speed (m s$^{-1}$)", ylabel="height (m)", title="profiles (error bars: UAV RMSE, Sect. 5.3)")
-    ax.legend(fontsize=7)
+    _legend(ax)
     return _save(fig, path, note)
 
 
@@ -203,12 +249,13 @@ def _fig9_variance(win: pd.DataFrame, path: Path) -> Path:
         _scatter_by_uav(ax, win[ok], "var_ref_1min_m2s2", "var_uav_1min_m2s2")
         _one_to_one(ax, win.loc[ok, "var_ref_1min_m2s2"], win.loc[ok, "var_uav_1min_m2s2"])
         note = f"{int((~ok).sum())} window(s) without a variance" if (~ok).any() else ""
+        stats = "\n" + agreement(win.loc[ok, "var_ref_1min_m2s2"], win.loc[ok, "var_uav_1min_m2s2"], "m$^2$ s$^{-2}$")
     else:
-        note = "no tower variance stored"
+        note, stats = "no tower variance stored", ""
     ax.set(xlabel="tower variance of 1-min means (m$^2$ s$^{-2}$)",
            ylabel="UAV variance of 1-min means (m$^2$ s$^{-2}$)",
-           title="wind-speed variance per window")
-    ax.legend(fontsize=7, ncol=2)
+           title="wind-speed variance per window" + stats)
+    _legend(ax)
     return _save(fig, path, note)
 
 
@@ -272,7 +319,7 @@ def _tunnel_fig4_sideslip(side: pd.DataFrame, path: Path) -> Path:
         s = side[side["speed_bin_ms"].notna()]
         for aos, g in s.groupby("aos_deg"):
             ax.plot(g["speed_bin_ms"], g["rmse_ms"], "o-", ms=3, label=f"AoS {aos:g}°")
-        ax.legend(fontsize=7)
+        _legend(ax)
     else:
         note = "no sideslip runs"
     ax.set(xlabel="CTA wind speed (m s$^{-1}$)", ylabel="RMSE of the UAS speed (m s$^{-1}$)", title="angle of sideslip")
@@ -288,7 +335,7 @@ def _tunnel_fig5_portability(acc: pd.DataFrame, path: Path) -> Path:
         g = g.sort_values("cta_ms")
         ax.plot(g["cta_ms"], np.abs(g["error_ms"]), "o-", ms=3, label=str(uas))
     if len(po):
-        ax.legend(fontsize=7)
+        _legend(ax)
     ax.set(xlabel="CTA wind speed (m s$^{-1}$)", ylabel="|UAS - CTA| per step (m s$^{-1}$)",
            title="portability of the calibration")
     return _save(fig, path, note)
@@ -304,7 +351,7 @@ def _tunnel_fig6_gusts(gs: pd.DataFrame, path: Path) -> Path:
         ax.plot(x, gs["rmse_v0_ms"], "o-", label="V0")
         ax.plot(x, gs["rmse_vp_ms"], "s-", label="Vp")
         ax.set_xticks(x, lab, rotation=45, fontsize=7)
-        ax.legend(fontsize=7)
+        _legend(ax)
     ax.set(xlabel="preset V0 / Vg (m s$^{-1}$)", ylabel="RMSE (m s$^{-1}$)", title="IEC gusts")
     return _save(fig, path, note)
 
@@ -320,7 +367,7 @@ def _tunnel_fig7_steps(ss: pd.DataFrame, path: Path) -> Path:
                               ("rmse_dv_up_ms", "^-", "dV_u"), ("rmse_dv_down_ms", "v-", "dV_d")):
             ax.plot(x, ss[col], mk, label=name)
         ax.set_xticks(x, lab, fontsize=7)
-        ax.legend(fontsize=7)
+        _legend(ax)
     ax.set(xlabel="preset V_l + dV (m s$^{-1}$)", ylabel="RMSE (m s$^{-1}$)", title="velocity steps")
     return _save(fig, path, note)
 
@@ -333,8 +380,12 @@ def _tunnel_fig9_variance(tb: pd.DataFrame, path: Path) -> Path:
         ax.plot(tb["var_cta_full"], tb["var_uas"], "ko", ms=4, label="CTA at its own rate")
         ax.plot(tb["var_cta_cut_fmax"], tb["var_uas"], "ro", ms=4, label="CTA cut at the UAS's f_max")
         _one_to_one(ax, np.r_[tb["var_cta_full"], tb["var_cta_cut_fmax"]], tb["var_uas"])
-        ax.legend(fontsize=7)
-    ax.set(xlabel="CTA variance (m$^2$ s$^{-2}$)", ylabel="UAS variance (m$^2$ s$^{-2}$)", title="turbulence variance")
+        _legend(ax)
+        stats = "\ncut bandwidth: " + agreement(tb["var_cta_cut_fmax"], tb["var_uas"], "m$^2$ s$^{-2}$")
+    else:
+        stats = ""
+    ax.set(xlabel="CTA variance (m$^2$ s$^{-2}$)", ylabel="UAS variance (m$^2$ s$^{-2}$)",
+           title="turbulence variance" + stats)
     return _save(fig, path, note)
 
 

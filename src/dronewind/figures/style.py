@@ -35,6 +35,7 @@ __all__ = [
     "DPI", "DRONE_COLOUR", "HEIGHT_MARKERS", "LOG_MINOR_SUBS", "MAST_COLOUR", "PAPERS", "REFERENCES",
     "SENSOR_COLOURS", "UNIT_KMS", "UNIT_M2S2", "UNIT_MS", "UNUSABLE_COLOUR", "PathLike", "add_notes",
     "chosen_flights", "figure_legend", "flight_colours", "legend", "log_axes", "minutes", "new_figure", "no_data",
+    "panel_letters",
     "place_labels", "save_figure", "start_label", "status_text",
 ]
 
@@ -180,6 +181,19 @@ def legend(ax: Axes, **kwargs: Any) -> None:
         kwargs.pop("ncol", None)
         ax.legend(handles, labels, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(handles),
                   borderaxespad=0.2, frameon=False, columnspacing=1.0, handlelength=1.5, **kwargs)
+
+
+def panel_letters(fig: Figure, fontsize: float = 9.0) -> None:
+    """Letter the panels (a), (b), ... at the top left, outside the axes, when a figure has more than one.
+
+    Axes without a visible frame (legend or colour-bar holders) are not lettered.
+    """
+    axes = [ax for ax in fig.axes if ax.get_visible() and ax.axison and ax.get_label() != "<colorbar>"]
+    if len(axes) < 2:
+        return
+    for k, ax in enumerate(axes):
+        ax.annotate(f"({chr(ord('a') + k)})", xy=(0.0, 1.0), xycoords="axes fraction", xytext=(-4, 4),
+                    textcoords="offset points", ha="right", va="bottom", fontsize=fontsize, fontweight="bold")
 
 
 def figure_legend(fig: Figure) -> None:
