@@ -32,7 +32,7 @@ FUNCTIONS = ("butter", "design_antialias_fir", "cholesky", "coherence", "digest"
              "_evaluate", "forward_probes")
 #: Designs remembered per setting (module, function), reported when this version has them.
 REMEMBERED = (("dronewind.simulate.payload", "_butter_sos"), ("dronewind.compare.align", "_antialias_taps"),
-              ("dronewind.simulate.atmosphere", "_coherence_factor"))
+              ("dronewind.simulate.spectral_model", "_coherence_factor"))
 
 
 def main() -> None:

@@ -7,7 +7,7 @@ atmospheres of the same conditions, the residuals scatter as the seeds do. With
 ``diagnosis.atmosphere: measured`` the forward runs are built from the reference mast's
 record (:func:`dronewind.simulate.payload.measured_constraint`), so the seeds must also
 resample what that record got wrong by chance, its spectral sampling error
-(:func:`dronewind.simulate.atmosphere.spectral_sampling_factors`).
+(:func:`dronewind.simulate.constraint.spectral_sampling_factors`).
 
 :func:`realisation_scatter` measures it with the project's own simulator: N virtual flights
 of one campaign's conditions with different campaign seeds (the "true" atmospheres), each

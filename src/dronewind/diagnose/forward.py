@@ -31,7 +31,7 @@ generation, Kaimal et al. 1972 for the height scaling). The hover point then get
 the record coherent at its separation plus an unconstrained remainder drawn by the seed. The
 record's smoothed spectra are one estimate of the true spectra: each seed draws them again
 from their sampling distribution given the record
-(:func:`dronewind.simulate.atmosphere.spectral_sampling_factors`), so that the baseline seeds
+(:func:`dronewind.simulate.constraint.spectral_sampling_factors`), so that the baseline seeds
 vary the remainder, the mast record's spectral sampling error and the instruments, and their
 scatter is that of a feature across independent atmospheres
 (``tests/test_measured_atmosphere_scatter.py``,
@@ -104,7 +104,7 @@ LOG = logging.getLogger("dronewind")
 
 
 def _psi_m(zeta: float) -> float:
-    from dronewind.simulate.atmosphere import psi_m
+    from dronewind.core.surface_layer import psi_m
 
     return float(psi_m(zeta))
 

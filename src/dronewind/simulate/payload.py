@@ -48,8 +48,8 @@ Physics (Ghirardelli et al. 2025, Sects 2-3):
 The turbulent field comes from :mod:`dronewind.simulate.atmosphere` at the mast sonics
 (generated first, so they do not depend on the payload's position) and at the hover
 point, with the campaign's turbulence model (``simulation.atmosphere``: spectral shape
-and sigma factors, :func:`~dronewind.simulate.atmosphere.reshape_field`; mean-wind
-trends about the hover-window centre, :func:`~dronewind.simulate.atmosphere.mean_wind_trend`)
+and sigma factors, :func:`~dronewind.simulate.departures.reshape_field`; mean-wind
+trends about the hover-window centre, :func:`~dronewind.simulate.departures.mean_wind_trend`)
 seen alike by the payload and the masts. During ascent and descent the payload sees the hover point's fluctuations with
 the mean wind of its current height (an approximation: only hover data are analysed);
 the payload's own swing (about a metre) is not used to re-sample the field.
@@ -72,6 +72,7 @@ import xarray as xr
 from scipy import signal
 from scipy.interpolate import CubicSpline
 
+from dronewind.core import surface_layer
 from dronewind.core.angles import deg2rad, rad2deg
 from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
@@ -80,6 +81,7 @@ from dronewind.core.reuse import reused
 from dronewind.core.timeseries import unwrap_rad
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
+from dronewind.simulate import constraint, departures, spectral_model
 from dronewind.simulate.mast import mast_measurement
 from dronewind.simulate.settings import (
     CampaignLike,
@@ -421,19 +423,19 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
     amplitudes (:func:`measured_constraint`); the second return value describes the record
     used (empty without one). With ``sampling`` (the seed's own stream) those amplitudes are
     the record's smoothed spectra drawn again from their sampling distribution
-    (:func:`dronewind.simulate.atmosphere.spectral_sampling_factors`): the seeds of a forward
+    (:func:`dronewind.simulate.constraint.spectral_sampling_factors`): the seeds of a forward
     flight then resample the record's spectral sampling error as well as the remainder of
     the field that the record leaves free, while the record itself is reproduced at the
     mast by every seed. The draws depend on the seed and the field's frequencies only, so
     the probes of a seed (and a record read through a mechanism) share them.
     """
     points = field.points_enu_m
-    e_u0, _ = atm.wind_frame_unit_vectors(cond["wind_from_deg"])
+    e_u0, _ = spectral_model.wind_frame_unit_vectors(cond["wind_from_deg"])
     s_down = points[:, :2] @ e_u0
     pad = (s_down.max() - s_down.min()) / max(cond["mean_speed_ms"], 0.5)  # Taylor delays must not wrap
     period = math.ceil((clock.span_s + pad) / clock.period_unit_s) * clock.period_unit_s
     fs_max = max(fs_sonic_hz, fs_mast_hz)
-    con: atm.ConstraintLatents | None = None
+    con: constraint.ConstraintLatents | None = None
     info: dict[str, Any] = {}
     if atmosphere is not None:
         ref = field.mast_ids.index(cond["reference"])
@@ -461,7 +463,7 @@ def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _Fiel
 
 def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np.ndarray, period_s: float,
                         fs_hz: float, wind_from_deg: float, hover_duration_s: float
-                        ) -> tuple[atm.ConstraintLatents, dict[str, Any]]:
+                        ) -> tuple[constraint.ConstraintLatents, dict[str, Any]]:
     """The reference mast's measured record as the constraint of a flight's field.
 
     Parameters
@@ -470,7 +472,7 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
         The reference sonic's measured record: ``u_east_ms``, ``v_north_ms``, ``w_up_ms``
         (and ``t_sonic_k``) on a datetime64 ``time`` axis (a mast L1 or L2); optional
         attributes ``noise_ms`` and ``temperature_noise_k``: its white measurement noise,
-        removed from its spectra (:func:`dronewind.simulate.atmosphere.constraint_from_record`).
+        removed from its spectra (:func:`dronewind.simulate.constraint.constraint_from_record`).
     clock : _FlightClock
         The flight's time axes (field time 0 is ``clock.field_t0``).
     point_enu_m : numpy.ndarray
@@ -483,7 +485,7 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
         Mean wind direction of the field [degree].
     hover_duration_s : float
         Length of the hover window [s]: the record's means are taken over it
-        (:func:`dronewind.simulate.atmosphere.constraint_from_record`).
+        (:func:`dronewind.simulate.constraint.constraint_from_record`).
 
     Returns
     -------
@@ -539,7 +541,7 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
     ds = xr.Dataset(data, coords={"time_s": ("time", grid)},
                     attrs={"height_m": float(point_enu_m[2]), "x_m": float(point_enu_m[0]),
                            "y_m": float(point_enu_m[1])})
-    con = atm.constraint_from_record(ds, period_s, fs_hz, wind_from_deg, mean_window_s=hover,
+    con = constraint.constraint_from_record(ds, period_s, fs_hz, wind_from_deg, mean_window_s=hover,
                                      noise_ms=float(record.attrs.get("noise_ms", 0.0)),
                                      temperature_noise_k=float(record.attrs.get("temperature_noise_k", 0.0)))
     covered = max(0.0, min(hi, grid[-1]) - max(lo, 0.0))
@@ -573,7 +575,7 @@ def check_atmosphere_record(record: xr.Dataset, where: str) -> None:
 def _turbulence_model(cond: PayloadFlightConditions, field: _FieldPoints, spec: atm.FieldSpec) -> atm.FieldSpec:
     """The campaign's spectral shape and sigma factors (``simulation.atmosphere``) on the field."""
     tm = cond["turbulence"]
-    return atm.reshape_field(spec, field.points_enu_m[:, 2], tm["spectrum"],
+    return departures.reshape_field(spec, field.points_enu_m[:, 2], tm["spectrum"],
                              (tm["sigma_u_factor"], tm["sigma_v_factor"], tm["sigma_w_factor"]),
                              tm["length_scale_factor"])
 
@@ -583,7 +585,7 @@ def _with_trend(cond: PayloadFlightConditions, clock: _FlightClock, spec: atm.Fi
     """Synthesised series of some points with the campaign's mean-wind trends, zero at the hover-window centre."""
     tm = cond["turbulence"]
     centre = clock.hover_start_field_s + 0.5 * cond["duration_s"]
-    return atm.mean_wind_trend(series, spec.mean_enu[points], t_field_s - centre, cond["mean_speed_ms"],
+    return departures.mean_wind_trend(series, spec.mean_enu[points], t_field_s - centre, cond["mean_speed_ms"],
                                tm["speed_trend_ms_per_h"], tm["direction_trend_deg_per_h"])
 
 
@@ -629,14 +631,14 @@ def _air_at_payload(cond: PayloadFlightConditions, clock: _FlightClock, field: _
     z_pay_nom = _nominal_height_m(t, clock.timeline, z_hover, fs_hz)
     airborne = np.clip((z_pay_nom - _Z_GROUND_M) / 2.0, 0.0, 1.0)  # ramps in over the first 2 m
     # mean wind at the current height replaces the hover point's mean
-    mean_h = atm.mean_speed_profile(z_hover, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
-    mean_z = atm.mean_speed_profile(z_pay_nom, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
+    mean_h = surface_layer.mean_speed_profile(z_hover, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
+    mean_z = surface_layer.mean_speed_profile(z_pay_nom, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
     e_u, e_v = spec.e_u, spec.e_v
     wind_e = air[0] + (mean_z - mean_h) * e_u[0]
     wind_n = air[1] + (mean_z - mean_h) * e_u[1]
     wind_up = air[2].copy()
     theta_h = float(spec.theta_mean_k[-1])
-    theta = air[3] + atm.theta_profile(z_pay_nom, z_hover, theta_h, ustar, cond["obukhov_length_m"]) - theta_h
+    theta = air[3] + surface_layer.theta_profile(z_pay_nom, z_hover, theta_h, ustar, cond["obukhov_length_m"]) - theta_h
     u_fl = (air[0] - spec.mean_enu[-1, 0]) * e_u[0] + (air[1] - spec.mean_enu[-1, 1]) * e_u[1]
     v_fl = (air[0] - spec.mean_enu[-1, 0]) * e_v[0] + (air[1] - spec.mean_enu[-1, 1]) * e_v[1]
     return _AirAtPayload(t, z_pay_nom, airborne, float(mean_h), wind_e, wind_n, wind_up, theta, u_fl, v_fl)
