@@ -160,9 +160,10 @@ def main() -> None:
     unwrapped: list[np.ndarray] = []
     splines: list[Any] = []
     restores = [
-        _collect(("dronewind.core.timeseries", "dronewind.payload.io"), "median_of_steps", steps, np.array),
-        _collect(("dronewind.core.timeseries", "dronewind.payload.io", "dronewind.payload.sync",
-                  "dronewind.payload.motion", "dronewind.diagnose.features", "dronewind.simulate.payload"),
+        _collect(("dronewind.core.timeseries", "dronewind.payload.sonic"), "median_of_steps", steps, np.array),
+        _collect(("dronewind.core.timeseries", "dronewind.payload.ins", "dronewind.payload.lag_search",
+                  "dronewind.payload.l2", "dronewind.payload.motion", "dronewind.diagnose.features",
+                  "dronewind.simulate.payload"),
                  "unwrap_rad", unwrapped, np.array),
         _collect(("dronewind.simulate.payload",), "_slope_at_knots", splines, lambda s: s),
     ]

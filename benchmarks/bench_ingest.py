@@ -60,7 +60,9 @@ def write_flight(folder: Path, duration_s: float = 1200.0) -> tuple[Path, Path, 
 
 
 def bench_payload() -> None:
-    from dronewind.payload.io import ins_l1, payload_sonic_l1, read_sonic_csv
+    from dronewind.payload.ins import ins_l1
+    from dronewind.payload.reader import read_sonic_csv
+    from dronewind.payload.sonic import payload_sonic_l1
 
     with tempfile.TemporaryDirectory() as tmp:
         sonic, ins, n_s, n_i = write_flight(Path(tmp))
@@ -135,7 +137,8 @@ if __name__ == "__main__":
         import xarray as xr
 
         import dronewind.mast.toa5  # noqa: F401  (imports before measuring)
-        import dronewind.payload.io  # noqa: F401
+        import dronewind.payload.ins  # noqa: F401
+        import dronewind.payload.sonic  # noqa: F401
 
         xr.Dataset({"x": ("t", np.zeros(2))})  # xarray's lazy one-time setup, not measured
 

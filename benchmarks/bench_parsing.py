@@ -19,7 +19,7 @@ Inputs:
 Measured (best of ``--repeat`` runs, seconds and rows per second):
 
 * ``parse``: text to column arrays with the corrupt lines separated
-  (``dronewind.payload.io._parse_csv``; for TOA5 ``read_toa5``, which is only that);
+  (``dronewind.payload.reader._parse_csv``; for TOA5 ``read_toa5``, which is only that);
 * ``read``: the public readers ``read_sonic_csv`` / ``read_ins_csv`` (parse plus duplicate
   removal and sorting by logger time) and ``read_quadrotor_csv`` (parse, sorting and
   duplicate removal by time, the Dataset); for the gold files ``parse`` is the reader's
@@ -126,22 +126,23 @@ def write_quadrotor_log(folder: Path, duration_s: float = 1800.0) -> Path:
 def run(repeat: int, toa5_files: list[Path] | None, tmp: Path) -> dict[str, Any]:
     """Time every parser; return the results dict."""
     from dronewind.mast.toa5 import read_toa5
-    from dronewind.payload import io as pio
+    from dronewind.payload import columns, reader
 
     sonic, ins = write_flight(tmp)
     kinds_s = {"rpi_time_us": "int", "u_ms": "float", "v_ms": "float", "w_ms": "float", "t_sonic_c": "float"}
-    kinds_i = {c: "float" for c in pio.INS_COLUMNS}
+    kinds_i = {c: "float" for c in columns.INS_COLUMNS}
     kinds_i.update(rpi_time_us="int", utc="utc", time_valid="flag", ekf_valid="int")
     n_s, n_i = n_data_lines(sonic, 1), n_data_lines(ins, 1)
     out: dict[str, Any] = {}
     out["sonic_csv"] = {
-        "parse": entry(n_s, best_time(lambda: pio._parse_csv(sonic, pio.SONIC_COLUMNS, kinds_s, 0.05), repeat),
+        "parse": entry(n_s, best_time(lambda: reader._parse_csv(sonic, columns.SONIC_COLUMNS, kinds_s, 0.05), repeat),
                        [sonic]),
-        "read": entry(n_s, best_time(lambda: pio.read_sonic_csv(sonic), repeat), [sonic]),
+        "read": entry(n_s, best_time(lambda: reader.read_sonic_csv(sonic), repeat), [sonic]),
     }
     out["ins_csv"] = {
-        "parse": entry(n_i, best_time(lambda: pio._parse_csv(ins, pio.INS_COLUMNS, kinds_i, 0.05), repeat), [ins]),
-        "read": entry(n_i, best_time(lambda: pio.read_ins_csv(ins), repeat), [ins]),
+        "parse": entry(n_i, best_time(lambda: reader._parse_csv(ins, columns.INS_COLUMNS, kinds_i, 0.05), repeat),
+                       [ins]),
+        "read": entry(n_i, best_time(lambda: reader.read_ins_csv(ins), repeat), [ins]),
     }
     if not toa5_files:
         toa5_files = [write_toa5_file(tmp)]

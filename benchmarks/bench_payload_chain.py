@@ -16,7 +16,7 @@ import xarray as xr
 
 from dronewind.compare import align
 from dronewind.core import rotation
-from dronewind.payload import motion, sync
+from dronewind.payload import l2, lag_search, motion
 
 FS = 32.0
 DURATION_S = 20 * 60.0
@@ -50,14 +50,15 @@ def main() -> None:
     vel = np.stack([np.sin(w * ti), np.cos(w * ti), 0.05 * np.sin(2 * w * ti)], axis=-1)
     print(f"flight: {DURATION_S / 60:.0f} min at {FS:g} Hz = {n} sonic samples; INS {ti.size} samples at 50 Hz")
 
-    t = _best(lambda: sync.tke_vs_lag(ts, sonic, ti, att, vel, "upside_down"))
+    t = _best(lambda: lag_search.tke_vs_lag(ts, sonic, ti, att, vel, "upside_down"))
     _report("lag search (129 lags)", t, n)
-    t = _best(lambda: sync.tke_vs_lag(ts, sonic, ti, att, vel, "upside_down", lever_arm_m=(0.1, 0.2, 0.5)))
+    t = _best(lambda: lag_search.tke_vs_lag(ts, sonic, ti, att, vel, "upside_down", lever_arm_m=(0.1, 0.2, 0.5)))
     _report("lag search + lever arm", t, n)
 
     def direct():  # reference: interpolate, correct and take variances lag by lag
         for lag in np.arange(-64, 65) / 32.0:
-            q = sync.interpolate_ins(ti, {"r": att[:, 0], "p": att[:, 1], "yaw_deg": att[:, 2], "v": vel}, ts + lag)
+            attitude = {"r": att[:, 0], "p": att[:, 1], "yaw_deg": att[:, 2], "v": vel}
+            q = lag_search.interpolate_ins(ti, attitude, ts + lag)
             u = motion.motion_correct(sonic[:, 0], sonic[:, 1], sonic[:, 2], q["r"], q["p"], q["yaw_deg"],
                                       q["v"][:, 0], q["v"][:, 1], q["v"][:, 2], "upside_down")
             0.5 * sum(np.var(c) for c in u)
@@ -65,7 +66,7 @@ def main() -> None:
     t = _best(direct, repeat=1)
     _report("lag search, direct loop (reference)", t, n)
 
-    ins_s = sync.interpolate_ins(ti, {"r": att[:, 0], "p": att[:, 1], "yaw_deg": att[:, 2], "v": vel}, ts)
+    ins_s = lag_search.interpolate_ins(ti, {"r": att[:, 0], "p": att[:, 1], "yaw_deg": att[:, 2], "v": vel}, ts)
     t = _best(lambda: motion.motion_correct(sonic[:, 0], sonic[:, 1], sonic[:, 2], ins_s["r"], ins_s["p"],
                                             ins_s["yaw_deg"], ins_s["v"][:, 0], ins_s["v"][:, 1], ins_s["v"][:, 2],
                                             "upright"))
@@ -102,7 +103,7 @@ def main() -> None:
                          "lat_deg": ("time", np.full(ti.size, 43.1)), "lon_deg": ("time", np.full(ti.size, 0.36)),
                          "alt_m": ("time", np.full(ti.size, 633.0))},
                         coords={"time": T0 + np.round(ti * 1e9).astype("timedelta64[ns]")})
-    t = _best(lambda: sync.payload_l2(sonic_l1, ins_l1, "upside_down"), repeat=3)
+    t = _best(lambda: l2.payload_l2(sonic_l1, ins_l1, "upside_down"), repeat=3)
     _report("L2 builder (payload_l2, whole)", t, n)
 
 

@@ -3,7 +3,7 @@
 A forward run keys the products it may reuse (:class:`dronewind.diagnose.forward.ForwardCache`)
 by the digest of each record the simulator makes (:func:`dronewind.core.raw.content_digest`),
 and its readers look for repeated time stamps in every INS and sonic record
-(``dronewind.payload.io._repeated``). On the default campaign's first flight's in-memory
+(``dronewind.payload.reader._repeated``). On the default campaign's first flight's in-memory
 records this measures, per record:
 
 - the digest: SHA-256 of the arrays in place against BLAKE2b of a copy (the earlier one);
@@ -29,7 +29,7 @@ import pandas as pd
 from bench_common import DEFAULT_CAMPAIGN, git_commit, print_and_write
 from dronewind.core.raw import content_digest
 from dronewind.manifest import load_campaign
-from dronewind.payload.io import _repeated
+from dronewind.payload.reader import _repeated
 from dronewind.simulate.payload import payload_records
 
 

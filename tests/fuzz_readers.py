@@ -387,7 +387,7 @@ def _ins_samples(folder: Path) -> dict[str, bytes]:
 
 def _payload_rows(expected: tuple[str, ...], kinds: dict[str, str]) -> Callable[[Path], Any]:
     def rows(path: Path) -> tuple[dict[int, tuple], dict[str, int]]:
-        from dronewind.payload.io import _parse_csv
+        from dronewind.payload.reader import _parse_csv
 
         table = _parse_csv(path, expected, kinds, 0.05)
         out = {int(ln) - 1: _key([table.columns[c][i] for c in expected]) for i, ln in enumerate(table.line_no)}
@@ -397,13 +397,13 @@ def _payload_rows(expected: tuple[str, ...], kinds: dict[str, str]) -> Callable[
 
 
 def _sonic_full(path: Path) -> Any:
-    from dronewind.payload.io import read_sonic_csv
+    from dronewind.payload.reader import read_sonic_csv
 
     return read_sonic_csv(path)
 
 
 def _ins_full(path: Path) -> Any:
-    from dronewind.payload.io import read_ins_csv
+    from dronewind.payload.reader import read_ins_csv
 
     return read_ins_csv(path)
 

@@ -20,7 +20,7 @@ from dronewind.diagnose import forward
 from dronewind.errors import InputError
 from dronewind.manifest import default_config
 from dronewind.mechanisms import get_mechanism
-from dronewind.payload.io import read_sonic_csv
+from dronewind.payload.reader import read_sonic_csv
 from dronewind.simulate import atmosphere
 from dronewind.simulate.payload import payload_records, payload_truth
 from tests.test_simulate_payload import _campaign as _unit_campaign

@@ -139,8 +139,8 @@ def test_ins_positions_on_the_shared_wgs84_tangent_plane(base):
 
 
 def test_written_files_read_by_the_chain_readers(base):
-    """The L1 readers (dronewind.payload.io, dronewind.mast.toa5) accept the files."""
-    io_payload = importlib.import_module("dronewind.payload.io")
+    """The L1 readers (dronewind.payload.sonic, dronewind.mast.toa5) accept the files."""
+    io_payload = importlib.import_module("dronewind.payload.sonic")
     io_toa5 = importlib.import_module("dronewind.mast.toa5")
     l1 = io_payload.payload_sonic_l1(base["files"][0], base["files"][1])
     assert l1.attrs["n_duplicates"] > 0 and l1.attrs["n_out_of_range"] > 0
@@ -154,8 +154,8 @@ def test_chain_finds_the_gnss_time_and_the_sonic_ins_lag(tmp_path, base):
     time (not at the blink), and the TKE-minimising lag moves by the flight's processing lag
     and by the mechanism's lag_s (within one step of the 1/32 s search grid, 1.5 steps for
     the sum of two grid roundings)."""
-    io_payload = importlib.import_module("dronewind.payload.io")
-    sync = importlib.import_module("dronewind.payload.sync")
+    io_payload = importlib.import_module("dronewind.payload.ins")
+    l2 = importlib.import_module("dronewind.payload.l2")
     ins = base["ins"].sort_values("rpi_time_us")
     first_stable = ins.utc[ins.time_valid == 1].iloc[-1]
     tv = ins.drop_duplicates().time_valid.to_numpy()
@@ -167,7 +167,7 @@ def test_chain_finds_the_gnss_time_and_the_sonic_ins_lag(tmp_path, base):
     def lag_of(run):
         s = io_payload.payload_sonic_l1(run["files"][0], run["files"][1])
         i = io_payload.ins_l1(run["files"][1])
-        return sync.payload_l2(s, i, "upside_down").attrs["lag_sonic_ins_s"]
+        return l2.payload_l2(s, i, "upside_down").attrs["lag_sonic_ins_s"]
 
     no_lag = _campaign()
     no_lag["simulation"]["payload"].update(sonic_ins_lag_low_s=0.0, sonic_ins_lag_high_s=0.0)

@@ -662,7 +662,7 @@ def align_drone_mast(
     Parameters
     ----------
     drone_l2 : xarray.Dataset
-        Payload L2 (:func:`dronewind.payload.sync.payload_l2`): ``u_east_ms``,
+        Payload L2 (:func:`dronewind.payload.l2.payload_l2`): ``u_east_ms``,
         ``v_north_ms``, ``w_up_ms`` [m s-1], ``t_sonic_k`` [K] on ``time`` (UTC).
     mast_l2 : xarray.Dataset
         Mast sonic in east/north/up with the same variable names, 10 or 20 Hz, NaN

@@ -97,7 +97,7 @@ __all__ = ["Probe", "PROBES", "MECHANISM_BASELINES", "CHAIN_SETTINGS", "LAG_SETT
            "simulated_sonic_ins_lag_s"]
 
 if TYPE_CHECKING:
-    from dronewind.payload.io import InsTable
+    from dronewind.payload.ins import InsTable
     from dronewind.simulate.payload import PayloadTruth
 
 LOG = logging.getLogger("dronewind")
@@ -321,7 +321,7 @@ def lag_halves(sonic_l1: xr.Dataset, ins_l1: xr.Dataset, l2: xr.Dataset, flight:
     """Sonic-INS lags found on the first and the second half of the hover window [s].
 
     The lag search of the flight's L2 on each half of its hover window (the same sonic
-    segment and INS, :func:`dronewind.payload.sync.payload_l2` with ``lag_halves``): read
+    segment and INS, :func:`dronewind.payload.l2.payload_l2` with ``lag_halves``): read
     from ``l2``'s attributes when it was made with them, else found by a lag-only pass.
 
     Parameters
@@ -420,7 +420,7 @@ class ForwardCache:
         value = make()
         if not self.frozen:
             # handed out to every later run: read-only, so that no run can change another's inputs
-            # (the L2 takes views of the L1 where it windows it, dronewind.payload.sync)
+            # (the L2 takes views of the L1 where it windows it, dronewind.payload.l2)
             entries.append((key, read_only(value)))
         return value
 
@@ -463,7 +463,7 @@ def _same_column(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def _clock_settings(ins_table: InsTable, ins_src: str | Path | RawRecord) -> str:
-    """What the sonic L1 takes from the INS (:func:`dronewind.payload.io.payload_sonic_l1`), as text.
+    """What the sonic L1 takes from the INS (:func:`dronewind.payload.sonic.payload_sonic_l1`), as text.
 
     The logger-clock fit, the stable-time row, the parsing's log and counts and the source
     name: not the INS's values.

@@ -295,7 +295,7 @@ def motion_correct(
     """Earth-frame wind (east, north, up) from the payload sonic and the INS.
 
     All series must already be on one time base (synchronised, see
-    :func:`dronewind.payload.sync.find_sonic_ins_lag`).
+    :func:`dronewind.payload.lag_search.find_sonic_ins_lag`).
 
     Parameters
     ----------
