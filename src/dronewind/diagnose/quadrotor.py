@@ -65,10 +65,10 @@ import scipy.optimize
 import scipy.sparse
 import scipy.stats
 
-from dronewind.core.constants import GRAVITY_MS2
+from dronewind.core.constants import AIR_DENSITY_KGM3, GRAVITY_MS2
 from dronewind.errors import InputError
 from dronewind.quadrotor.calibration import BOUNDS
-from dronewind.quadrotor.drag import RHO_KGM3, DragLaw, speed_from_tilt, tilt_from_attitude
+from dronewind.quadrotor.drag import DragLaw, speed_from_tilt, tilt_from_attitude
 from dronewind.quadrotor.wind import wind_from_attitude
 from dronewind.simulate.common import first_order_lag
 from dronewind.tunnel.calibration import calibrate_tunnel, stepped_accuracy, uas_offsets
@@ -326,7 +326,7 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
     if model.density:
         # V scales as rho**-1/2 (Wetz et al. 2021, Eq. 12); blocks without a logged density keep the law's
         rho = cast(np.ndarray, data.rho)
-        vrel = vrel * np.sqrt(RHO_KGM3 / np.where(np.isfinite(rho), rho, RHO_KGM3))
+        vrel = vrel * np.sqrt(AIR_DENSITY_KGM3 / np.where(np.isfinite(rho), rho, AIR_DENSITY_KGM3))
     wn = -vrel * cos_lean + data.vn
     we = -vrel * sin_lean + data.ve
     sp = np.hypot(wn, we)

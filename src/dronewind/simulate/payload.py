@@ -74,7 +74,7 @@ from scipy.interpolate import CubicSpline
 
 from dronewind.core import surface_layer
 from dronewind.core.angles import deg2rad, rad2deg
-from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
+from dronewind.core.constants import AIR_DENSITY_KGM3, GRAVITY_MS2, ZERO_CELSIUS_K
 from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
 from dronewind.core.raw import RawRecord, content_digest
 from dronewind.core.reuse import reused
@@ -94,7 +94,6 @@ from dronewind.simulate.settings import (
 from dronewind.simulate.writers import ins_record, payload_sonic_record, toa5_record, write_record
 
 __all__ = [
-    "AIR_DENSITY_KGM3",
     "body_to_ned",
     "pendulum_period_s",
     "flight_timeline",
@@ -107,7 +106,6 @@ __all__ = [
     "atmosphere_digest",
 ]
 
-AIR_DENSITY_KGM3 = 1.2
 _G = GRAVITY_MS2
 _Z_GROUND_M = 0.5  # payload height while on the ground [m]
 _MOUNTS = {"upside_down": np.eye(3), "upright": np.diag([1.0, -1.0, -1.0])}
