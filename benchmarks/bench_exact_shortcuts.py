@@ -10,7 +10,7 @@ the same bits:
 - :func:`dronewind.core.timeseries.unwrap_rad` (the INS yaw, the L2's attitude, the simulated
   payload's heading) against ``np.unwrap``; a logged yaw that wraps at +/-180 degree takes
   numpy's path after the shortcut's check;
-- ``dronewind.simulate.payload._slope_at_knots`` (the payload's velocity on its own time axis)
+- ``dronewind.simulate.payload_motion._slope_at_knots`` (the payload's velocity on its own time axis)
   against evaluating the motion's spline there;
 
 and of session 33:
@@ -154,7 +154,7 @@ def main() -> None:
     preload_as_server()
     from dronewind.core import angles, reuse, spectra, stats
     from dronewind.core.timeseries import median_of_steps, unwrap_rad
-    from dronewind.simulate.payload import _slope_at_knots
+    from dronewind.simulate.payload_motion import _slope_at_knots
 
     steps: list[np.ndarray] = []
     unwrapped: list[np.ndarray] = []
@@ -163,9 +163,9 @@ def main() -> None:
         _collect(("dronewind.core.timeseries", "dronewind.payload.sonic"), "median_of_steps", steps, np.array),
         _collect(("dronewind.core.timeseries", "dronewind.payload.ins", "dronewind.payload.lag_search",
                   "dronewind.payload.l2", "dronewind.payload.motion", "dronewind.diagnose.features",
-                  "dronewind.simulate.payload"),
+                  "dronewind.simulate.payload_motion"),
                  "unwrap_rad", unwrapped, np.array),
-        _collect(("dronewind.simulate.payload",), "_slope_at_knots", splines, lambda s: s),
+        _collect(("dronewind.simulate.payload_motion",), "_slope_at_knots", splines, lambda s: s),
     ]
     users = tuple(name for name in sorted(sys.modules) if name.startswith("dronewind."))
     collected: dict[str, list[Any]] = {}

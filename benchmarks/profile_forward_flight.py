@@ -31,7 +31,7 @@ FUNCTIONS = ("butter", "design_antialias_fir", "cholesky", "coherence", "digest"
              "duplicated", "_interp_finite", "_ins_truth", "_sonic_sensor_frame", "move_median", "_raw_fft",
              "_evaluate", "forward_probes")
 #: Designs remembered per setting (module, function), reported when this version has them.
-REMEMBERED = (("dronewind.simulate.payload", "_butter_sos"), ("dronewind.compare.align", "_antialias_taps"),
+REMEMBERED = (("dronewind.simulate.payload_motion", "_butter_sos"), ("dronewind.compare.align", "_antialias_taps"),
               ("dronewind.simulate.spectral_model", "_coherence_factor"))
 
 

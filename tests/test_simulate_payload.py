@@ -23,7 +23,8 @@ from scipy import signal
 
 from dronewind.core.geo import local_tangent_plane_m
 from dronewind.errors import InputError
-from dronewind.simulate.payload import body_to_ned, pendulum_period_s, simulate_payload_flight
+from dronewind.simulate.payload import simulate_payload_flight
+from dronewind.simulate.payload_motion import body_to_ned, pendulum_period_s
 from dronewind.simulate.settings import flight_seed, resolve_payload_flight, validate_simulation
 from dronewind.simulate.writers import INS_HEADER, SONIC_HEADER
 
@@ -500,7 +501,7 @@ def test_lowpass_noise_with_the_remembered_filter_equals_a_fresh_design():
     of a filter designed anew for the call, again on a second call."""
     from scipy import signal
 
-    from dronewind.simulate.payload import _lowpass_noise
+    from dronewind.simulate.payload_motion import _lowpass_noise
 
     n, fs_hz, time_s, sigma = 4000, 20.0, 3.0, 0.2
     for _ in range(2):
@@ -516,7 +517,7 @@ def test_slope_at_knots_is_the_splines_derivative_there_bit_for_bit(seed):
     """The payload's velocity read from the spline's coefficients is scipy's evaluation at the knots."""
     from scipy.interpolate import CubicSpline
 
-    from dronewind.simulate.payload import _slope_at_knots
+    from dronewind.simulate.payload_motion import _slope_at_knots
 
     rng = np.random.default_rng(seed)
     n = int(rng.integers(4, 3000))

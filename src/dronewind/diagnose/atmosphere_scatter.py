@@ -5,7 +5,7 @@ baseline seeds) from the seeds' scatter (:mod:`dronewind.diagnose.campaign`:
 :math:`(1 + 1/K)` times the seed variance). That is right only if, across independent true
 atmospheres of the same conditions, the residuals scatter as the seeds do. With
 ``diagnosis.atmosphere: measured`` the forward runs are built from the reference mast's
-record (:func:`dronewind.simulate.payload.measured_constraint`), so the seeds must also
+record (:func:`dronewind.simulate.payload_wind.measured_constraint`), so the seeds must also
 resample what that record got wrong by chance, its spectral sampling error
 (:func:`dronewind.simulate.constraint.spectral_sampling_factors`).
 

@@ -26,7 +26,7 @@ measured: its record over the flight (:func:`atmosphere_record`, the mast L1) co
 simulated field at the mast sonic, so the simulated mast sees the measured realisation
 (trend and low frequencies included), and the record's smoothed spectra, carried to the
 hover height by the model's height dependence, set the spectral amplitudes at every point
-(:func:`dronewind.simulate.payload.measured_constraint`; Rinker 2018 for the constrained
+(:func:`dronewind.simulate.payload_wind.measured_constraint`; Rinker 2018 for the constrained
 generation, Kaimal et al. 1972 for the height scaling). The hover point then gets the part of
 the record coherent at its separation plus an unconstrained remainder drawn by the seed. The
 record's smoothed spectra are one estimate of the true spectra: each seed draws them again
@@ -589,7 +589,7 @@ def run_forward(
     atmosphere : xarray.Dataset, optional
         The reference mast's measured record (:func:`atmosphere_record`): the field is
         constrained by it and takes its spectra
-        (:func:`dronewind.simulate.payload.measured_constraint`); the model field by default.
+        (:func:`dronewind.simulate.payload_wind.measured_constraint`); the model field by default.
     lag_drift : bool
         Compute the ``lag_drift_s`` feature (:func:`process_forward_flight`).
     features : collection of str, optional
@@ -1084,7 +1084,7 @@ def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: st
     xarray.Dataset
         Those variables within :data:`ATMOSPHERE_MARGIN_S` of the hover window (a shorter
         record is cut again by the simulator, which mirrors it where the forward flight's
-        span reaches beyond it, :func:`dronewind.simulate.payload.measured_constraint`),
+        span reaches beyond it, :func:`dronewind.simulate.payload_wind.measured_constraint`),
         with attributes ``noise_ms`` and ``temperature_noise_k``: the white noise of the
         forward model's CSAT3 (``simulation.mast`` defaults), which the record holds and
         the forward mast does not add again (:func:`forward_manifest`).
@@ -1094,7 +1094,7 @@ def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: st
     InputError
         Variables or the time axis missing.
     """
-    from dronewind.simulate.payload import check_atmosphere_record
+    from dronewind.simulate.payload_wind import check_atmosphere_record
     from dronewind.simulate.settings import MAST_DEFAULTS
 
     check_atmosphere_record(mast, where)

@@ -89,7 +89,7 @@ from dronewind.errors import InputError
 from dronewind.mechanisms import validate_parameters
 from dronewind.simulate.atmosphere import simulate_wind
 from dronewind.simulate.common import ornstein_uhlenbeck
-from dronewind.simulate.payload import body_to_ned
+from dronewind.simulate.payload_motion import body_to_ned
 
 __all__ = ["RigidSettings", "RigidRecord", "mount_matrix", "platform_gains", "sensor_reading",
            "survey_setpoints", "position_hold_error", "simulate_rigid_record", "RIGID_FORMAT"]
