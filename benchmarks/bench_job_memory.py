@@ -45,11 +45,11 @@ _M_TOP_PAD, _MADV_POPULATE_WRITE = -2, 23
 
 def traced(setup: tuple[dict[str, Any], dict[str, Any], dict[str, Any]], sample: str) -> dict[str, Any]:
     """Memory held after each run and the runs' peaks, by kind; what is held once all runs are made."""
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, probe_runs
 
     runs: list[tuple[str, float, float]] = []
     at_end: dict[str, Any] = {}
-    run_forward, progress = forward.run_forward, forward.Progress
+    run_forward, progress = forward.run_forward, probe_runs.Progress
 
     def counted(manifest: dict[str, Any], *args: Any, **kwargs: Any) -> Any:
         tracemalloc.reset_peak()
@@ -66,14 +66,16 @@ def traced(setup: tuple[dict[str, Any], dict[str, Any], dict[str, Any]], sample:
             at_end["snapshot"] = tracemalloc.take_snapshot()
             super().finished()
 
-    forward.run_forward, forward.Progress = counted, Finished
+    forward.run_forward = probe_runs.run_forward = counted
+    probe_runs.Progress = Finished
     tracemalloc.start(25)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             published_forward_job(setup, sample, Path(tmp) / "forward.json")
     finally:
         tracemalloc.stop()
-        forward.run_forward, forward.Progress = run_forward, progress
+        forward.run_forward = probe_runs.run_forward = run_forward
+        probe_runs.Progress = progress
     holders: collections.Counter[str] = collections.Counter()
     for stat in at_end["snapshot"].statistics("traceback"):
         frames = [f for f in stat.traceback if "src/dronewind" in f.filename][::-1][:3]

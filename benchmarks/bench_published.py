@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 from bench_common import DEFAULT_CAMPAIGN, REPO, git_commit, print_and_write
-from dronewind.diagnose import forward
+from dronewind.diagnose import forward, probes
 from dronewind.diagnose.published import load_published
 from dronewind.manifest import default_config, load_campaign, payload_flight_manifest
 from dronewind.steps.published import published_diagnosis, published_forward
@@ -49,7 +49,7 @@ def main() -> None:
         fit_only(args.forward, args.work, args.repeat, args.out)
         return
     config = default_config()
-    processing = {key: config["processing"][key] for key in forward.CHAIN_SETTINGS}
+    processing = {key: config["processing"][key] for key in probes.CHAIN_SETTINGS}
     seeds = config["diagnosis"]["seeds"]
     data = load_campaign(DEFAULT_CAMPAIGN).data
     samples = load_published(PUBLISHED)["stationary_flights"]

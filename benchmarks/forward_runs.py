@@ -1,6 +1,6 @@
 """Forward-model runs of one default-campaign flight at the conditions of a finished run (any code version).
 
-Runs :func:`dronewind.diagnose.forward.probe_runs` with the default settings on the one-flight
+Runs :func:`dronewind.diagnose.probe_runs.probe_runs` with the default settings on the one-flight
 view of the default manifest, at the conditions stored in the flight's
 ``diagnosis/measured/<flight>.json``, and writes the runs as JSON; with ``PYTHONPATH`` set to an
 older source tree it runs that version's forward model (see compare_forward_runs.py). Example::
@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 
 from bench_common import default_forward_setup
-from dronewind.diagnose import forward
+from dronewind.diagnose import probe_runs
 from dronewind.manifest import payload_flight_manifest
 
 
@@ -26,7 +26,7 @@ def main() -> None:
     args = parser.parse_args()
     data, config, processing = default_forward_setup()
     conditions = json.loads(args.measured.read_text())["conditions"]
-    runs = forward.probe_runs(payload_flight_manifest(data, args.flight), args.flight, conditions, processing,
+    runs = probe_runs.probe_runs(payload_flight_manifest(data, args.flight), args.flight, conditions, processing,
                               seeds=tuple(config["diagnosis"]["seeds"]))
     args.out.write_text(json.dumps(runs, default=str))
 

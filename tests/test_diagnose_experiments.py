@@ -169,8 +169,7 @@ def test_a_model_error_named_as_its_caveated_alias_is_flagged_not_excused():
 
 
 def test_extended_reruns_get_seeds_the_baseline_never_ran():
-    from dronewind.diagnose.forward import fresh_seeds
-    from dronewind.diagnose.probes import resolved_seeds
+    from dronewind.diagnose.probes import fresh_seeds, resolved_seeds
     from dronewind.manifest import default_config
 
     baseline = resolved_seeds(default_config()["diagnosis"]["seeds"], 4)

@@ -8,7 +8,7 @@ excess rising about linearly with wind speed; the drone's
 module treats those numbers as a measured data set and runs the diagnosis on them:
 
 1. The forward model is run at the Table 4 conditions of every stationary sample
-   (baseline seeds and every catalog probe, :func:`dronewind.diagnose.forward.probe_runs`),
+   (baseline seeds and every catalog probe, :func:`dronewind.diagnose.probe_runs.probe_runs`),
    exactly as for a measured campaign.
 2. The *observations* are grouped:
 
@@ -229,7 +229,7 @@ def build_evidence(published: Mapping[str, Any], forward: Mapping[str, Mapping[s
     published : mapping
         Output of :func:`load_published`.
     forward : mapping
-        Flight id -> output of :func:`~dronewind.diagnose.forward.probe_runs` at the
+        Flight id -> output of :func:`~dronewind.diagnose.probe_runs.probe_runs` at the
         Table 4 conditions (:func:`table4_conditions`).
     seed : int
         Seed of the fixed standard-normal draws for the expected extremes.
