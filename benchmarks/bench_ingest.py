@@ -84,7 +84,7 @@ def bench_payload() -> None:
 
 
 def bench_toa5() -> None:
-    from dronewind.mast.toa5 import mast_l1
+    from dronewind.mast.level1 import mast_l1
 
     files = sorted((SHARED / "fluxpart_csat3_toa5").glob("TOA5_*.dat"))
     with tempfile.TemporaryDirectory() as tmp:

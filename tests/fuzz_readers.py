@@ -280,7 +280,7 @@ def _toa5_rows(path: Path) -> tuple[dict[int, tuple], dict[str, int]]:
 
 
 def _toa5_full(path: Path) -> Any:
-    from dronewind.mast.toa5 import mast_l1
+    from dronewind.mast.level1 import mast_l1
 
     return mast_l1(path, azimuth_deg=200.0, height_m=3.0, sensor_id="csat")
 

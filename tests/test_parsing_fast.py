@@ -19,7 +19,8 @@ import pandas as pd
 import pytest
 
 from dronewind.core import textscan
-from dronewind.mast import ameriflux, toa5
+from dronewind.mast import ameriflux, level1, toa5
+from dronewind.mast.columns import REQUIRED_TOA5_COLUMNS
 from dronewind.payload import columns, reader
 from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
 
@@ -294,7 +295,7 @@ def toa5_file(folder: Path, n: int = 600, kelvin: bool = False, nan_every: int =
 @pytest.mark.skipif(not SHARED.is_dir(), reason="real fluxpart TOA5 files not present")
 def test_real_toa5_files_take_the_fast_path_and_agree(monkeypatch: pytest.MonkeyPatch) -> None:
     for f in sorted(SHARED.glob("*.dat")):
-        assert toa5._toa5_fast(f, toa5.REQUIRED_TOA5_COLUMNS) is not None
+        assert toa5._toa5_fast(f, REQUIRED_TOA5_COLUMNS) is not None
         assert assert_toa5_same(monkeypatch, f) == "ok"
 
 
@@ -325,9 +326,9 @@ def test_toa5_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest
     edits, fast_expected = TOA5_DEFECTS[name]
     path = edit_lines(toa5_file(tmp_path), edits)
     if name != "nul":
-        assert (toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is not None) == fast_expected
+        assert (toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is not None) == fast_expected
     else:
-        assert toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is None  # csv.reader's error left to it
+        assert toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is None  # csv.reader's error left to it
     assert_toa5_same(monkeypatch, path)
 
 
@@ -349,12 +350,12 @@ def test_toa5_variants_same_result(variant: str, tmp_path: Path, monkeypatch: py
     path.write_bytes(text)
     assert assert_toa5_same(monkeypatch, path) == ("error" if variant.startswith("header") else "ok")
     if variant in ("crlf", "bom", "kelvin", "nan_values"):
-        assert toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is not None
+        assert toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is not None
     if variant == "kelvin":  # the whole mast chain (units from the header) agrees too
-        fast = toa5.mast_l1(path, 218.0, 30.0, "m30")
+        fast = level1.mast_l1(path, 218.0, 30.0, "m30")
         with monkeypatch.context() as m:
             m.setattr(toa5, "_toa5_fast", lambda *a: None)
-            careful = toa5.mast_l1(path, 218.0, 30.0, "m30")
+            careful = level1.mast_l1(path, 218.0, 30.0, "m30")
         assert fast.identical(careful)
         assert float(np.nanmedian(fast["t_sonic_k"])) == pytest.approx(293.15, abs=0.2)
 

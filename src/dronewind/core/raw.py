@@ -8,7 +8,7 @@ file's reader would have parsed from the text the simulator's writer prints (the
 rounding, the same rows in the same order with their defects, ``NaT`` for an empty UTC
 field, ``NaN`` for a ``"NAN"``). The chain's L0 readers
 (:func:`dronewind.payload.reader.read_sonic_csv`, :func:`dronewind.payload.reader.read_ins_csv`,
-:func:`dronewind.mast.toa5.mast_l1`) accept either a path or a record and then run the
+:func:`dronewind.mast.level1.mast_l1`) accept either a path or a record and then run the
 same cleaning, QC and clock steps, so the L1 of a record equals the L1 of the file the
 simulator would have written (tested by a round trip through the files).
 
