@@ -25,7 +25,8 @@ import yaml
 
 from dronewind.quadrotor import validation
 from dronewind.quadrotor import windows as qw
-from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
+from dronewind.quadrotor.io import read_quadrotor
+from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.simulate.quadrotor import log_profile_wind, simulate_quadrotor_flight
 from dronewind.simulate.tunnel import simulate_tunnel
 from dronewind.tunnel.analysis import analyse_tunnel

@@ -450,7 +450,7 @@ def _tower_samples(folder: Path) -> dict[str, bytes]:
 
 
 def _tower_rows(path: Path) -> tuple[dict[int, tuple], dict[str, int]]:
-    from dronewind.quadrotor.io import _reference_rows
+    from dronewind.quadrotor.reference import _reference_rows
 
     long, counts = _reference_rows(path, 0.05)
     rows = {int(r.line) - 1: _key([r.time, r.height_m, r.wind_speed_ms, r.wind_from_deg])
@@ -459,7 +459,7 @@ def _tower_rows(path: Path) -> tuple[dict[int, tuple], dict[str, int]]:
 
 
 def _tower_full(path: Path) -> Any:
-    from dronewind.quadrotor.io import read_tower_reference
+    from dronewind.quadrotor.reference import read_tower_reference
 
     return read_tower_reference(path)
 
@@ -476,7 +476,7 @@ def _ulog_samples(folder: Path) -> dict[str, bytes]:
 
 
 def _ulog_full(path: Path) -> Any:
-    from dronewind.quadrotor.io import read_quadrotor_ulog
+    from dronewind.quadrotor.ulog import read_quadrotor_ulog
 
     return read_quadrotor_ulog(path)
 

@@ -9,13 +9,9 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.quadrotor.io import (
-    QUADROTOR_COLUMNS,
-    quaternion_to_euler_deg,
-    read_quadrotor,
-    read_quadrotor_csv,
-    read_tower_reference,
-)
+from dronewind.quadrotor.io import QUADROTOR_COLUMNS, read_quadrotor, read_quadrotor_csv
+from dronewind.quadrotor.reference import read_tower_reference
+from dronewind.quadrotor.ulog import quaternion_to_euler_deg
 
 ULOG_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "px4_ulog"
 HEADER = ",".join(QUADROTOR_COLUMNS)

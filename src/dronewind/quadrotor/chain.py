@@ -160,7 +160,7 @@ def compute_flight_windows(logs: Mapping[str, xr.Dataset], reference: xr.Dataset
     logs : mapping
         UAV id -> quadrotor log (library names, :func:`dronewind.quadrotor.io.read_quadrotor`).
     reference : xarray.Dataset
-        Tower reference of the flight (:func:`dronewind.quadrotor.io.read_tower_reference`).
+        Tower reference of the flight (:func:`dronewind.quadrotor.reference.read_tower_reference`).
     flight_id : str
         Flight id.
     site_altitude_m : float

@@ -43,7 +43,8 @@ from dronewind.errors import InputError, ProcessingError
 from dronewind.manifest import confined_path
 from dronewind.quadrotor import chain
 from dronewind.quadrotor.chain import QUAD_TABLES
-from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
+from dronewind.quadrotor.io import read_quadrotor
+from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.steps.common import LOG, open_product
 from dronewind.tunnel import TUNNEL_TABLES
 
