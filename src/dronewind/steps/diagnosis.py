@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from dronewind.core.cf import atomic_write_text, strip_cf, track_from_cf
+from dronewind.core.cf import atomic_write_text
+from dronewind.core.cf_names import strip_cf, track_from_cf
 from dronewind.core.products import open_product
 from dronewind.core.yamltext import load_yaml
 from dronewind.diagnose import campaign as dc
