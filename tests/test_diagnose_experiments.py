@@ -10,13 +10,8 @@ import pytest
 
 from dronewind.diagnose import experiments as ex
 from dronewind.mechanisms import get_mechanism
-from dronewind.simulate.settings import (
-    MAST_DEFAULTS,
-    PAYLOAD_DEFAULTS,
-    SPECTRA,
-    TURBULENCE_DEFAULTS,
-    validate_simulation,
-)
+from dronewind.simulate.defaults import MAST_DEFAULTS, PAYLOAD_DEFAULTS, SPECTRA, TURBULENCE_DEFAULTS
+from dronewind.simulate.settings import validate_simulation
 
 
 def test_hidden_ranges_are_inside_the_catalog_ranges_and_signed_ones_cover_both_sides():

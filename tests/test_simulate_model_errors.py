@@ -22,9 +22,10 @@ from dronewind.core import surface_layer
 from dronewind.diagnose.experiments import Draw, campaign_manifest
 from dronewind.errors import InputError
 from dronewind.simulate import departures, spectral_model
+from dronewind.simulate.defaults import MAST_DEFAULTS, SPECTRA, TURBULENCE_DEFAULTS
 from dronewind.simulate.mast import DISTORTION_KEYS, flow_distortion
 from dronewind.simulate.payload import payload_records, payload_truth
-from dronewind.simulate.settings import MAST_DEFAULTS, SPECTRA, TURBULENCE_DEFAULTS, validate_simulation
+from dronewind.simulate.settings import validate_simulation
 
 HOVER_S = 1800.0
 SPEED_MS, FROM_DEG, Z_REF_M, Z_HOVER_M, ZETA = 6.0, 200.0, 30.0, 28.0, -0.2

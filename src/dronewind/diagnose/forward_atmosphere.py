@@ -123,8 +123,8 @@ def atmosphere_record(mast: xr.Dataset, conditions: Mapping[str, Any], where: st
     InputError
         Variables or the time axis missing.
     """
+    from dronewind.simulate.defaults import MAST_DEFAULTS
     from dronewind.simulate.payload_wind import check_atmosphere_record
-    from dronewind.simulate.settings import MAST_DEFAULTS
 
     check_atmosphere_record(mast, where)
     names = [v for v in ATMOSPHERE_VARIABLES if v in mast]

@@ -242,13 +242,13 @@ def simulated_sonic_ins_lag_s(campaign_data: Mapping[str, Any], flight_id: str, 
     -------
     lag_s : float or None
         The processing lag to simulate [s], within the settings' range
-        (:data:`dronewind.simulate.settings.SONIC_INS_LAG_RANGE_S`); None when the conditions
+        (:data:`dronewind.simulate.defaults.SONIC_INS_LAG_RANGE_S`); None when the conditions
         carry no lag. The measured lag itself when the lag search fails on the simulated flight.
     truth : PayloadTruth or None
         The seed's true state (None when the conditions carry no lag and none was given).
     """
+    from dronewind.simulate.defaults import SONIC_INS_LAG_RANGE_S
     from dronewind.simulate.payload import payload_records
-    from dronewind.simulate.settings import SONIC_INS_LAG_RANGE_S
 
     if conditions.get("sonic_ins_lag_s") is None:
         return None, truth
