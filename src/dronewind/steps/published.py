@@ -130,6 +130,7 @@ def published_report(published_file: str | Path, diagnosis_json: str | Path, rer
                      figure_pdf: str | Path) -> list[Path]:
     """Markdown report, before/after numbers (JSON) and the figure of the published-numbers diagnosis."""
     from dronewind.diagnose import published as dp
+    from dronewind.diagnose import published_markdown
 
     pub = dp.load_published(published_file)
     diag = json.loads(Path(diagnosis_json).read_text())
@@ -139,7 +140,7 @@ def published_report(published_file: str | Path, diagnosis_json: str | Path, rer
         reruns[r["flight"]] = r
     summary = dp.rerun_summary(reruns, pub)
     write_json(output_json, summary)
-    atomic_write_text(output_md, dp.markdown(diag, summary, pub))
+    atomic_write_text(output_md, published_markdown.markdown(diag, summary, pub))
     _figure(summary, pub, Path(figure_png), Path(figure_pdf))
     return [Path(output_md), Path(output_json), Path(figure_png), Path(figure_pdf)]
 
