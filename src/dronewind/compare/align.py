@@ -115,9 +115,8 @@ def _antialias_taps(fs_in_hz: float, decimate: int, passband_edge_hz: float | No
     """:func:`design_antialias_fir`'s design, made once per setting (read-only taps).
 
     Every L3 alignment needs the taps and a forward run makes one alignment per probe: a
-    flight's 36 designs (firwin and three response checks) of the same taps took 1.3 % of
-    its forward runs' profiled time (``benchmarks/results/profile_forward_s02_s26_before.json``).
-    The same arguments give the same taps.
+    flight's 36 designs (firwin and three response checks) of the same taps are a noticeable
+    part of its forward runs' time. The same arguments give the same taps.
     """
     if decimate < 1 or int(decimate) != decimate:
         raise InputError("decimate", f"expected a positive integer, got {decimate!r}")

@@ -675,8 +675,8 @@ def check_compliance_files(paths: Sequence[str | Path], remember: bool = True) -
         NetCDF files.
     remember : bool
         Remember the checker's whole-file metadata scans for each file
-        (:func:`dronewind.core.compliance.remember_scans`; the same reports at 0.45 of the CPU
-        on a default run's 488 files, ``benchmarks/results/compliance_s27.json``); False runs
+        (:func:`dronewind.core.compliance.remember_scans`; the same reports at about half the
+        CPU time); False runs
         the checker as installed.
 
     Returns

@@ -35,8 +35,7 @@ def content_digest(arrays: Mapping[str, object], prefix: str = "") -> str:
 
     Equal digests mean equal names and bit-identical arrays (object arrays by their
     ``repr``). The arrays' memory is hashed in place, without a copy; with the processors'
-    SHA instructions that is about twice as fast as BLAKE2b of a copy
-    (``benchmarks/results/record_checks_s26.json``). It keys what is remembered across runs
+    SHA instructions that is about twice as fast as BLAKE2b of a copy. It keys what is remembered across runs
     and processes: the measured atmosphere of a true state and the simulated field's
     coherence factors (within one forward flight, products and steps are found by comparing
     their inputs instead: :mod:`dronewind.core.reuse`).

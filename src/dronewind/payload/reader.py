@@ -443,8 +443,8 @@ def _repeated(t: np.ndarray) -> np.ndarray:
     A log whose stamps already increase strictly (every well-formed one) has none: that is
     checked in one pass. Otherwise integer stamps are compared in sorted order (a stable
     sort of an almost sorted column is a few merges), which marks the same rows as pandas'
-    hashing at a fifth of its cost for an INS record (0.8 against 3.9 ms for 94,000 rows,
-    ``benchmarks/results/record_checks_s26.json``); a forward run reads its INS and sonic
+    hashing at a fifth of its cost for an INS record (0.8 against 3.9 ms for 94,000 rows);
+    a forward run reads its INS and sonic
     records, with their logged repeats and swaps, this way in every probe. Other dtypes go
     to pandas.
     """

@@ -597,10 +597,8 @@ def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: Simu
     truth: the payload, defect and mast settings, the times and, for the sonic, the flight's
     processing lag. A record with a mechanism on
     the instrument (a probe level, an extended model) is read by one run only: it is measured
-    and not kept, which would hold every probe's records as long as the truth (with them and
-    each run's products kept until the next run, a published-numbers job of sample s05 held
-    168.5 MB once its runs were made, 74.9 MB without: ``benchmarks/bench_job_memory.py``,
-    ``results/job_memory_s31_{start,new}.json``).
+    and not kept, which would hold every probe's records as long as the truth (with them,
+    a published-numbers job holds about twice the memory once its runs are made).
     """
     if any(name in cond["mechanisms"] for name in INSTRUMENT_MECHANISMS[instrument]):
         return measure()

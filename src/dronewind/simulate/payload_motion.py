@@ -106,8 +106,7 @@ def _butter_sos(order: int, cutoff_hz: float, fs_hz: float) -> np.ndarray:
     """Butterworth low-pass sections (read-only), designed once per order, cut-off and rate.
 
     A flight's noise streams use a few filters again and again (every forward run draws
-    the INS errors anew): a flight's forward runs designed 3 filters 240 times, 2 % of
-    their profiled time (``benchmarks/results/profile_forward_s02_s26_before.json``). The
+    the INS errors anew): a flight's forward runs would design 3 filters 240 times. The
     same arguments give the same sections, so nothing else changes.
     """
     sos = signal.butter(order, cutoff_hz, fs=fs_hz, output="sos")
@@ -228,9 +227,8 @@ def _slope_at_knots(spline: CubicSpline) -> np.ndarray:
     :math:`0 + c_{1,i} + c_{2,i} \cdot 0 \cdot 2 + c_{3,i} \cdot 0 \cdot 3 = c_{1,i}` (``0.0 +``
     keeps the sign of a zero as that sum does); the last knot, the end of the last interval,
     is evaluated. The payload's velocity on its own grid (the motion's time axis) is taken
-    five times per truth: over the 46 calls of sample s01's published-numbers forward job,
-    1.4 against 66.8 ms (``benchmarks/bench_exact_shortcuts.py``,
-    ``results/exact_shortcuts_s32.json``).
+    five times per truth, at a small fraction of the cost of the spline's general
+    evaluation.
     """
     out = np.empty(spline.x.size)
     out[:-1] = 0.0 + spline.c[-2]

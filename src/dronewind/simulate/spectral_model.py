@@ -370,9 +370,8 @@ def _coherence_factor(key: _CoherenceKey) -> np.ndarray:
     """Cholesky factor (n_f, n_p, n_p) of the coherence matrices of one set of points (read-only).
 
     Remembered by content: the baseline seeds and the measurement probes of a forward flight
-    share the points and the wind, so their fields use the same factors. For flight s02 the
-    coherences and factorisations of its 40 fields took 2.7 % of the forward runs' profiled
-    time; 20 are now made, 20 reused (``benchmarks/results/profile_forward_s02_s26_*.json``).
+    share the points and the wind, so their fields use the same factors: of a flight's 40
+    fields, half are made and half reused.
     Equal arguments give the same factor, so the draws do not change.
     """
     n_p = key.separation_m.shape[0]
