@@ -1,9 +1,11 @@
 """dronewind: validation of drone-borne wind and turbulence against mast sonics.
 
-The library is organised one module per physical topic (see ../shared/DESIGN.md):
-``io`` (readers), ``filtering``, ``sync``, ``motion``, ``rotation``, ``stats``,
-``spectra``, ``uncertainty``, ``scales``, ``quadrotor``, ``tunnel``, ``simulate``,
-``mechanisms``, ``diagnose``, ``cf`` (the one NetCDF writer) and ``figures``.
+The library is organised in packages per system and layer (see ``docs/design.md``):
+``core`` (physics and numerics shared by every chain: surface-layer similarity, filtering,
+rotation, statistics, spectra, uncertainty, scales, constants, the one NetCDF writer ``cf``),
+the processing chains ``payload``, ``mast``, ``quadrotor``, ``tunnel`` and ``compare``, the
+virtual campaign ``simulate``, the catalog ``mechanisms``, ``diagnose``, ``plan``,
+``figures`` and ``tables``, and the workflow steps ``steps``.
 """
 
 __all__ = ["__version__", "open_product"]

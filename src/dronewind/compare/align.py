@@ -12,7 +12,7 @@ returns both sensors aligned, on a common 8 Hz base and in streamline coordinate
 4. wind direction and rotation into streamline coordinates per sensor
    (:mod:`dronewind.core.rotation`).
 
-Sign convention (DESIGN.md): ``lag_drone_mast_s`` is the time ADDED to the drone's stamps
+Sign convention (``docs/data-contract.md``): ``lag_drone_mast_s`` is the time ADDED to the drone's stamps
 to align them with the mast; it is positive when the drone sees a structure first (drone
 upwind of the mast).
 

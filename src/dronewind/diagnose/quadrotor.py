@@ -145,7 +145,7 @@ def _as_mechanisms(candidates: Sequence[Mapping[str, Any]]) -> list[dict[str, An
 def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.DataFrame | None,
                        runs_file: str | Path | None = None, alpha: float = 0.01, min_gain: float = 0.05,
                        k_folds: int = 5, block_s: float = 10.0) -> dict[str, Any]:
-    """The ``quadrotor_diagnosis.json`` structure (as ``diagnosis.json`` of DESIGN.md).
+    """The ``quadrotor_diagnosis.json`` structure (as ``diagnosis.json`` of ``docs/data-contract.md``).
 
     Parameters
     ----------

@@ -11,7 +11,7 @@ vertical wind W [m/s], horizontal wind U [m/s], cross wind V [m/s], sonic temper
 [degC], H2O signal [V] (0 V = 0, 5 V = 1000 mmol m-3) and CO2 signal [V] (0 V = 10,
 5 V = 25 mmol m-3). ``DDD`` is the day of year and ``HHMM`` the start of the half hour
 ("G1040000 = 10 Hz data from midnight 0000 to 0030 on day of year 104"). The 96 files in
-``../shared/data/ameriflux_gold_openpath`` (days 104 and 181) hold 17999 rows (93 files)
+``ameriflux_gold_openpath`` (days 104 and 181) hold 17999 rows (93 files)
 or 17998 rows (3 files: G1040500, G1041330, G1810430), not 18000: the sample times are not logged, so rows are
 assumed to start at the half hour at 10 Hz and the shortfall is counted
 (``n_missing_rows``), position unknown. Neither the year nor the time zone is stated;

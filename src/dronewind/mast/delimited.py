@@ -11,7 +11,7 @@ Sensor frame to east/north/up (``axes.convention``), after the mount (``upside_d
 the sensor hangs head down, :math:`(u, v, w) \to (u, -v, -w)`):
 
 * ``enu``: u east, v north, w up;
-* ``csat3``: :func:`dronewind.mast.level1.csat3_to_enu` with ``azimuth_deg`` (DESIGN.md
+* ``csat3``: :func:`dronewind.mast.level1.csat3_to_enu` with ``azimuth_deg`` (``docs/data-contract.md``
   "Frames and signs");
 * ``gill``: :func:`dronewind.mast.ameriflux.gill_to_enu` with ``north_azimuth_deg`` (u
   towards the sensor's N spar, v towards its W);

@@ -58,7 +58,7 @@ def csat3_to_enu(
 
     Notes
     -----
-    DESIGN.md, "Frames and signs", with :math:`\\alpha` the azimuth:
+    ``docs/data-contract.md``, "Frames and signs", with :math:`\\alpha` the azimuth:
 
     .. math::
 

@@ -1,6 +1,6 @@
 r"""Sling-load payload files in one's own layout: a manifest's column mapping to the contract tables.
 
-The payload chain reads a sonic file and an INS file that share a logger clock (DESIGN.md
+The payload chain reads a sonic file and an INS file that share a logger clock (``docs/data-contract.md``
 "Payload sonic file" and "INS file"). Files logged otherwise are declared in the manifest
 with ``format: {name: delimited, ...}``, the mapping of :mod:`dronewind.core.delimited`
 (layout, per-variable column, scale, offset and unit) extended to what the payload needs,

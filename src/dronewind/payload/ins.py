@@ -320,7 +320,7 @@ def ins_l1(
     Parameters
     ----------
     ins_path : str, Path or RawRecord
-        INS CSV (DESIGN.md "INS file") or its in-memory record.
+        INS CSV (``docs/data-contract.md`` "INS file") or its in-memory record.
     min_stable_s : float, optional
         A stable valid GNSS time starts at the first row from which ``time_valid`` stays 1
         for at least this long [s]; default 10 s. Earlier rows are discarded (counted in

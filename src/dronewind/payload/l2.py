@@ -686,7 +686,7 @@ def payload_l2(
         ``vel_e_ms``, ``vel_d_ms`` [m s-1], ``lat_deg``, ``lon_deg`` [degree], ``alt_m`` [m],
         optionally ``ekf_valid`` (0 = invalid, treated as missing).
     mount : {"upside_down", "upright"}
-        Sonic mount (DESIGN.md).
+        Sonic mount (``docs/data-contract.md``).
     lever_arm_m : (x, y, z) [m], optional
         INS reference point relative to the sonic, body frame; None = INS outputs at the
         sonic (Ghirardelli et al. (2025), Sect. 3.2).

@@ -23,7 +23,7 @@ L2 (:func:`rigid_l2`):
    :func:`dronewind.payload.lag_search.tke_vs_lag`) with its step at the sampling interval
    (1/fs) and its range in seconds (``max_lag_s``), after checking the segment holds the
    samples the search needs (:func:`lag_search_min_samples`);
-4. motion correction (Ghirardelli et al. (2025), Eqs. 1-2 with DESIGN.md's sign):
+4. motion correction (Ghirardelli et al. (2025), Eqs. 1-2 with the data contract's sign):
    :math:`V_{wind} = R(\phi, \theta, \psi)\, M\, V_{sensor} + V_{platform}` (minus the
    lever-arm term :math:`R\,(\omega \times r)` when ``lever_arm_m`` is given), M the mount's
    sensor-to-body matrix (:func:`mount_matrix_of`);
@@ -149,7 +149,7 @@ def rigid_mount(sonic: Mapping[str, Any], where: str = "sonic") -> RigidMount:
     ----------
     sonic : mapping
         ``axes`` or ``matrix``; optional ``misalignment_deg`` (roll, pitch, yaw [degree]:
-        the true sensor-to-body matrix is ``M @ R(roll, pitch, yaw)``, DESIGN.md
+        the true sensor-to-body matrix is ``M @ R(roll, pitch, yaw)``, ``docs/data-contract.md``
         ``mount_misalignment``) and ``lever_arm_m`` (x, y, z [m], body frame).
     where : str
         Key path for messages.

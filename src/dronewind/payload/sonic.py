@@ -241,7 +241,7 @@ def payload_sonic_l1(
     Parameters
     ----------
     sonic_path : str, Path or RawRecord
-        Sonic CSV (DESIGN.md "Payload sonic file") or its in-memory record.
+        Sonic CSV (``docs/data-contract.md`` "Payload sonic file") or its in-memory record.
     ins_path : str, Path or RawRecord
         INS CSV of the same flight (shares the logger clock) or its in-memory record.
     min_stable_s, clock_jump_tol_s, relation_jump_tol_s, max_corrupt_fraction : float

@@ -7,7 +7,7 @@ weather-vane mode (the nose is yawed into the wind), its yaw measures the direct
 This module holds the physics the processing chain inverts (attitude to air speed); the
 wind itself is assembled in :mod:`dronewind.quadrotor.wind`.
 
-Conventions (``../shared/DESIGN.md``): roll :math:`\phi`, pitch :math:`\theta`, yaw
+Conventions (``docs/data-contract.md``): roll :math:`\phi`, pitch :math:`\theta`, yaw
 :math:`\psi` in degrees as logged (PX4: pitch negative nose-down, yaw clockwise from true
 north); body-to-NED rotation :math:`R(\phi,\theta,\psi)` of Wetz et al. (2021), Eq. D1. A quadrotor
 facing into the wind leans nose-down, so its *tilt* :math:`\gamma = -\theta > 0`.

@@ -97,7 +97,7 @@ PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
     "logger_clock_offset_s": (-5400.0, -1e9, 1e9, "s"),    # RPi clock minus UTC at log start
     "logger_clock_drift_ppm": (0.0, -500.0, 500.0, "ppm"),
     # the sonic-INS processing lag of each flight (the time to add to the sonic's clock to
-    # align it with the INS, DESIGN.md's lag_sonic_ins_s), drawn uniformly in [low, high]
+    # align it with the INS, the data contract's lag_sonic_ins_s), drawn uniformly in [low, high]
     # from the flight's seed (:func:`processing_lag_s`): the lags of minimum TKE of the
     # ten validation flights lie between -0.185 s and 0 s (Ghirardelli et al. 2025, Sect.
     # 3.3, Fig. 4); low = high fixes every flight's lag (0 and 0: none)

@@ -170,7 +170,7 @@ def _sonic_stamps_us(cond: PayloadFlightConditions, t_s: np.ndarray) -> np.ndarr
     and the ``sonic_ins_lag`` and ``clock_drift`` mechanisms.
 
     A sample of true time t is stamped t - lag: the chain adds lag to the sonic's clock to
-    align it with the INS (DESIGN.md's ``lag_sonic_ins_s``).
+    align it with the INS (the data contract's ``lag_sonic_ins_s``).
     """
     mech, log_t0 = cond["mechanisms"], t_s[0]
     t_stamp = t_s - cond["sonic_ins_lag_s"]

@@ -231,7 +231,7 @@ def processing_lag_s(seed: int, low_s: float, high_s: float) -> float:
     Returns
     -------
     float
-        Lag [s] (time to add to the sonic's clock to align it with the INS, DESIGN.md's
+        Lag [s] (time to add to the sonic's clock to align it with the INS, the data contract's
         ``lag_sonic_ins_s``), rounded to 1 microsecond (the logger's stamp resolution).
 
     Examples
