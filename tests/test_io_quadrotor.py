@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.quadrotor.io import QUADROTOR_COLUMNS, read_quadrotor, read_quadrotor_csv
+from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
+from dronewind.quadrotor.io import read_quadrotor, read_quadrotor_csv
 from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.quadrotor.ulog import quaternion_to_euler_deg
 

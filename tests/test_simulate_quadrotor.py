@@ -14,7 +14,8 @@ from dronewind.errors import InputError
 from dronewind.quadrotor import calibration as cal
 from dronewind.quadrotor import hover, validation, wind
 from dronewind.quadrotor import windows as qw
-from dronewind.quadrotor.io import QUADROTOR_COLUMNS, read_quadrotor
+from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
+from dronewind.quadrotor.io import read_quadrotor
 from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.simulate.quadrotor import (
     log_profile_wind,

@@ -37,11 +37,9 @@ import xarray as xr
 from dronewind.core import textscan
 from dronewind.core.rowfaults import split_csv_line, split_csv_lines, text_lines
 from dronewind.errors import InputError
-from dronewind.quadrotor.columns import QUADROTOR_COLUMNS, REFERENCE_COLUMNS
+from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
 
 __all__ = [
-    "QUADROTOR_COLUMNS",
-    "REFERENCE_COLUMNS",
     "parse_time_utc",
     "read_quadrotor",
     "read_quadrotor_csv",
