@@ -118,8 +118,8 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
             measured[fid] = features_to_dict(forward.measured_features(view, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3,
                                                                        **lag))
             conditions = forward_conditions.forward_conditions(view, fid, v.l3, v.l2)
-            measured = diagnosis["atmosphere"] == "measured"
-            record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if measured else None
+            from_mast = diagnosis["atmosphere"] == "measured"
+            record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if from_mast else None
             fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
             for e in errors:
                 probe = probe_for(e)
