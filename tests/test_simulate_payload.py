@@ -155,19 +155,20 @@ def test_chain_finds_the_gnss_time_and_the_sonic_ins_lag(tmp_path, base):
     time (not at the blink), and the TKE-minimising lag moves by the flight's processing lag
     and by the mechanism's lag_s (within one step of the 1/32 s search grid, 1.5 steps for
     the sum of two grid roundings)."""
-    io_payload = importlib.import_module("dronewind.payload.ins")
+    ins_l1 = importlib.import_module("dronewind.payload.ins").ins_l1
+    payload_sonic_l1 = importlib.import_module("dronewind.payload.sonic").payload_sonic_l1
     l2 = importlib.import_module("dronewind.payload.l2")
     ins = base["ins"].sort_values("rpi_time_us")
     first_stable = ins.utc[ins.time_valid == 1].iloc[-1]
     tv = ins.drop_duplicates().time_valid.to_numpy()
     settle = ins.drop_duplicates().utc.to_numpy()[np.flatnonzero(np.diff(tv) == 1)[-1] + 1]
-    l1_ins = io_payload.ins_l1(base["files"][1])
+    l1_ins = ins_l1(base["files"][1])
     assert pd.Timestamp(l1_ins.time.values[0]) == pd.Timestamp(settle[:-1])
     assert first_stable > settle
 
     def lag_of(run):
-        s = io_payload.payload_sonic_l1(run["files"][0], run["files"][1])
-        i = io_payload.ins_l1(run["files"][1])
+        s = payload_sonic_l1(run["files"][0], run["files"][1])
+        i = ins_l1(run["files"][1])
         return l2.payload_l2(s, i, "upside_down").attrs["lag_sonic_ins_s"]
 
     no_lag = _campaign()
