@@ -206,8 +206,8 @@ def test_constraint_from_real_csat3_record():
     folder = DATA / "fluxpart_csat3_toa5"
     if not folder.is_dir():
         pytest.skip(f"real CSAT3 data not found at {folder}")
-    toa5 = importlib.import_module("dronewind.mast.level1")
-    l1 = toa5.mast_l1(sorted(folder.glob("TOA5_*1245.dat")), azimuth_deg=0.0, height_m=7.11, sensor_id="fluxpart")
+    level1 = importlib.import_module("dronewind.mast.level1")
+    l1 = level1.mast_l1(sorted(folder.glob("TOA5_*1245.dat")), azimuth_deg=0.0, height_m=7.11, sensor_id="fluxpart")
     l1.attrs["height_m"] = 7.11
     ds = simulate_wind(np.array([[0.0, 0.0, 7.11], [0.0, 1.0, 7.11]]), 600.0, 10.0, 3.0, 200.0, 7.11, -20.0,
                        seed=1, constraint=l1)

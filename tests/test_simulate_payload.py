@@ -140,7 +140,7 @@ def test_ins_positions_on_the_shared_wgs84_tangent_plane(base):
 
 
 def test_written_files_read_by_the_chain_readers(base):
-    """The L1 readers (dronewind.payload.sonic, dronewind.mast.toa5) accept the files."""
+    """The L1 readers (dronewind.payload.sonic, dronewind.mast.level1) accept the files."""
     io_payload = importlib.import_module("dronewind.payload.sonic")
     io_toa5 = importlib.import_module("dronewind.mast.level1")
     l1 = io_payload.payload_sonic_l1(base["files"][0], base["files"][1])
