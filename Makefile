@@ -13,10 +13,12 @@ STAMP := $(VENV)/.installed
 # the start-up hook of the preloaded jobs (src/dronewind/steps/handoff.py) in .venv's site-packages
 HOOK := $(VENV)/.preload_hook
 CORES ?= 2
+# the data folder of the real records (dronewind.datasets; `python -m dronewind.datasets fetch` fills it)
+export DRONEWIND_DATA ?= $(abspath ../shared/data)
 # pytest-xdist workers of `make test` (tests sharing a session or module fixture stay on one worker: tests/conftest.py)
 TEST_WORKERS ?= 2
 
-.PHONY: run test venv lint bench clean
+.PHONY: run test venv lint bench validate clean
 
 $(STAMP): envs/requirements.txt envs/constraints.txt pyproject.toml
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
@@ -45,8 +47,14 @@ lint: $(STAMP)
 	$(BIN)/snakemake --lint
 	$(BIN)/snakefmt --check Snakefile workflow/rules
 
+# timing suite of single stages (pytest-benchmark, benchmarks/test_bench_*.py, about 2 min); results in .benchmarks/
 bench: $(STAMP)
-	$(BIN)/python benchmarks/run_all.py
+	$(BIN)/python -m pytest benchmarks -p no:cacheprovider -n 0 --benchmark-enable --benchmark-only --benchmark-autosave \
+	    --benchmark-columns=min,median,rounds --benchmark-sort=name
+
+# validation studies, each writing benchmarks/results/<study>.json (hours in all): make validate STUDY=<study>
+validate: $(STAMP)
+	$(BIN)/python benchmarks/validate.py $(STUDY)
 
 clean:
 	rm -rf results .snakemake

@@ -7,7 +7,6 @@ import argparse
 import json
 import resource
 import subprocess
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +22,18 @@ def git_commit(folder: Path = REPO) -> str:
     source tree a benchmark ran when ``PYTHONPATH`` points at another worktree."""
     proc = subprocess.run(["git", "rev-parse", "HEAD"], cwd=folder, capture_output=True, text=True, check=False)
     return proc.stdout.strip() or "unknown"
+
+
+#: Folder of the current result of each study (``<study>.json``, one file per study).
+RESULTS = REPO / "benchmarks" / "results"
+
+
+def command_line() -> str:
+    """This process's command line, as it would be typed from the repository root."""
+    import shlex
+    import sys
+
+    return shlex.join(["python", *sys.argv])
 
 
 def machine() -> dict[str, Any]:
@@ -53,8 +64,9 @@ def machine() -> dict[str, Any]:
 def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
     """Print ``result`` as JSON and write the same text to ``out`` (its folder created) when given.
 
-    A dictionary result gets the machine it was measured on (:func:`machine`): CPU seconds
-    are only comparable on the same processor.
+    A dictionary result gets the command that made it (``command``, this process's arguments)
+    and the machine it was measured on (:func:`machine`): CPU seconds are only comparable on the
+    same processor.
 
     Parameters
     ----------
@@ -65,6 +77,8 @@ def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
     indent : int
         JSON indentation.
     """
+    if isinstance(result, dict) and "command" not in result:
+        result = {"command": command_line(), **result}
     if isinstance(result, dict) and "machine" not in result:
         result = {**result, "machine": machine()}
     text = json.dumps(result, indent=indent)
@@ -100,8 +114,8 @@ def cpu_s_with_children() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
-def finished_run_parser(doc: str | None, results_help: str = "a finished run's results/<campaign> folder"
-                        ) -> argparse.ArgumentParser:
+def finished_run_parser(doc: str | None, results_help: str = "a finished run's results/<campaign> folder",
+                        default_out: Path | None = None) -> argparse.ArgumentParser:
     """Command line of a benchmark on a finished run: the results folder (positional) and ``--out``.
 
     Parameters
@@ -118,91 +132,6 @@ def finished_run_parser(doc: str | None, results_help: str = "a finished run's r
     """
     parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("results", type=Path, help=results_help)
-    parser.add_argument("--out", type=Path, help="JSON file to write")
+    parser.add_argument("--out", type=Path, default=default_out,
+                        help=f"JSON file to write (default: {default_out})" if default_out else "JSON file to write")
     return parser
-
-
-def load_runs(folder: Path) -> dict[str, dict[str, Any]]:
-    """The JSON files of a finished run's per-flight folder (forward runs, reruns), by their ``flight``.
-
-    Raises
-    ------
-    SystemExit
-        The folder holds no JSON file.
-    """
-    runs = {}
-    for path in sorted(Path(folder).glob("*.json")):
-        run = json.loads(path.read_text())
-        runs[run["flight"]] = run
-    if not runs:
-        raise SystemExit(f"{folder}: no run files")
-    return runs
-
-
-def preload_as_server(keep_freed: bool = True) -> bool:
-    """In this process, what the workflow's preloaded server does before it forks jobs.
-
-    Imports the libraries (:func:`dronewind.steps.preload.preload_libraries`) on one thread,
-    freezes the collector's objects and, with ``keep_freed``, keeps freed memory
-    (:func:`dronewind.steps.handoff.keep_freed_memory`). Returns whether that setting was taken.
-    """
-    import gc
-    import os
-
-    from dronewind.steps.preload import ONE_THREAD_ENV, preload_libraries
-
-    os.environ.update(ONE_THREAD_ENV)
-    preload_libraries()
-    gc.collect()
-    gc.freeze()
-    if not keep_freed:
-        return False
-    from dronewind.steps.handoff import keep_freed_memory
-
-    return keep_freed_memory()
-
-
-def forked_job(job: Callable[[], None]) -> dict[str, Any]:
-    """Run ``job()`` in a child forked from this process, as the server runs a job; its usage.
-
-    The child runs the job once (logging below warnings) and exits without cleanup. Returns
-    its ``user_s``, ``sys_s``, ``minor_faults`` and ``max_rss_mb`` as ``wait4`` reports them.
-
-    Raises
-    ------
-    RuntimeError
-        The job failed in the child.
-    """
-    import os
-
-    pid = os.fork()
-    if pid == 0:
-        import logging
-
-        code = 0
-        try:
-            logging.disable(logging.INFO)
-            job()
-        except BaseException:  # noqa: BLE001 (reported through the exit status)
-            import traceback
-
-            traceback.print_exc()
-            code = 1
-        os._exit(code)
-    _, status, usage = os.wait4(pid, 0)
-    if status != 0:
-        raise RuntimeError(f"forked job failed (status {status})")
-    return {"user_s": round(usage.ru_utime, 3), "sys_s": round(usage.ru_stime, 3), "minor_faults": usage.ru_minflt,
-            "max_rss_mb": round(usage.ru_maxrss / 1024, 1)}
-
-
-def published_forward_job(setup: tuple[dict[str, Any], dict[str, Any], dict[str, Any]], flight: str,
-                          out: Path) -> None:
-    """The workflow's ``published_forward`` job of one sample (default published file and settings) to ``out``."""
-    from dronewind.manifest import payload_flight_manifest
-    from dronewind.steps.published import published_forward
-
-    data, config, processing = setup
-    published_forward(REPO / "config" / "published" / "ghirardelli2025_samurai_s.yaml", out,
-                      campaign=payload_flight_manifest(data, flight, atmosphere=True), flight_id=flight,
-                      processing=processing, seeds=config["diagnosis"]["seeds"])

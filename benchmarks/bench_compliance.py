@@ -26,7 +26,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from bench_common import cpu_s_with_children, finished_run_parser, git_commit, print_and_write
+from bench_common import RESULTS, cpu_s_with_children, finished_run_parser, git_commit, print_and_write
 from dronewind.core import cf
 
 
@@ -38,7 +38,7 @@ def timed_check(files: list[Path], **kwargs: bool) -> tuple[dict[Path, tuple[boo
 
 
 def main() -> None:
-    parser = finished_run_parser(__doc__)
+    parser = finished_run_parser(__doc__, default_out=RESULTS / "compliance.json")
     parser.add_argument("--every", type=int, default=20, help="check every n-th NetCDF file (default 20)")
     parser.add_argument("--compare", action="store_true",
                         help="also check without the remembered scans and compare every report")

@@ -1,4 +1,4 @@
-"""Cost and block statistics of the tower records: the dronewind workflow, then EC-PeT (issue 12, item 7).
+"""Cost and block statistics of the tower records: the dronewind workflow, then EC-PeT.
 
 A benchmark, not a timed test. For each record (``gold``: the AmeriFlux open-path gold files,
 96 half-hours of a Gill WindMaster Pro at 10 Hz; ``fluxpart``: 2 x 15 min of a CSAT3 at 20 Hz):
@@ -68,10 +68,11 @@ import numpy as np
 import pandas as pd
 
 from bench_common import print_and_write
+from dronewind import datasets
 
 ROOT = Path(__file__).resolve().parents[1]
-GOLD_DIR = ROOT.parent / "shared" / "data" / "ameriflux_gold_openpath"
-FLUXPART_DIR = ROOT.parent / "shared" / "data" / "fluxpart_csat3_toa5"
+GOLD_DIR = datasets.data_dir() / "ameriflux_gold_openpath"  # the real records (dronewind.datasets)
+FLUXPART_DIR = datasets.data_dir() / "fluxpart_csat3_toa5"
 
 #: The two records: shipped campaign, extra config files, block length and sampling rate.
 RECORDS: dict[str, dict[str, Any]] = {
@@ -469,7 +470,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--records", nargs="+", choices=sorted(RECORDS), default=["gold", "fluxpart"])
     ap.add_argument("--cores", type=int, default=1, help="snakemake --cores (default 1)")
-    ap.add_argument("--out", type=Path, help="write the results as JSON here")
+    ap.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "ecpet_compare.json",
+        help="write the results as JSON here")
     ap.add_argument(
         "--ecpet-python",
         default=sys.executable,

@@ -3,7 +3,7 @@
 One process writes a small NetCDF file atomically (:func:`dronewind.core.cf.write_netcdf`'s
 temporary file and rename) and reads it back (:func:`dronewind.core.products.open_product`),
 over and over, while a second thread of the same process starts short subprocesses, as the
-test session's background threads start Snakemake runs and poll SLURM. A child holds a copy
+test run's background threads start Snakemake runs and poll SLURM. A child holds a copy
 of every open descriptor, and so HDF5's lock on the file being written, until it closes them
 before exec; on a busy machine that takes long enough for the read to find the file locked
 ("NetCDF: HDF error"). Each mode runs in a fresh interpreter (HDF5 reads
@@ -76,7 +76,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--n", type=int, default=3000, help="write-then-read cycles per mode")
     parser.add_argument("--busy", type=int, default=3, help="CPU-bound processes running beside it")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
+    parser.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "fork_lock.json",
+        help="JSON file to write")
     args = parser.parse_args()
     result = {"runs": [run_mode(locking, args.n, args.busy) for locking in (True, False)]}
     print_and_write(result, args.out)

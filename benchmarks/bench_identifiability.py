@@ -50,7 +50,9 @@ def run_case(name: str) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--case", action="append", choices=sorted(CASES), help="run only these cases (repeatable)")
-    parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
+    parser.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "hidden_identifiability.json",
+        help="JSON file to write")
     args = parser.parse_args()
     commit = git_commit()
     results = []

@@ -160,7 +160,9 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--days", type=int, nargs="+", default=[3, 10, 30], help="record lengths [days] (default 3 10 30)")
     ap.add_argument("--workers", type=int, default=1, help="dask tasks at once (default 1)")
-    ap.add_argument("--out", type=Path, help="write the results as JSON here")
+    ap.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "long_record.json",
+        help="write the results as JSON here")
     ap.add_argument("--tmp", type=Path, help="folder for the temporary files (default: the system's)")
     ap.add_argument("--toa5-dir", type=Path, help="reuse the daily files of an earlier run (python "
                     "benchmarks/bench_long_record.py --generate N --out-dir DIR) instead of generating them")

@@ -1,4 +1,4 @@
-"""Wall time of whole workflow runs and their CPU time per stage (issue 14's targets).
+"""Wall time of whole workflow runs and their CPU time per stage.
 
 Two runs, each into a fresh results folder, on the cores given (default 2):
 
@@ -114,9 +114,10 @@ def main() -> None:
     parser.add_argument("kind", choices=["default", "measured6"], help="which run")
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--config", nargs="*", default=[], help="extra --config KEY=VALUE pairs")
-    parser.add_argument("--out", type=Path, help="write the result as JSON")
+    parser.add_argument("--out", type=Path, help="JSON file to write (default: benchmarks/results/run_<kind>.json)")
     parser.add_argument("--keep", type=Path, help="run into this new folder and keep it (default: a temporary one)")
     args = parser.parse_args()
+    args.out = args.out or Path(__file__).resolve().parent / "results" / f"run_{args.kind}.json"
     result = {**run(args.kind, args.cores, args.config, args.keep), "commit": git_commit()}
     print_and_write(result, args.out)
 

@@ -62,7 +62,9 @@ def child_cpu(cmd: list[str], env: dict[str, str]) -> tuple[float, float, str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeat", type=int, default=5, help="runs of each measurement (least CPU reported)")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
+    parser.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "snakemake_start.json",
+        help="JSON file to write")
     args = parser.parse_args()
     env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
     script = snakefile_imports() + f"\nimport json, sys\nprint(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))"

@@ -33,7 +33,9 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=4, help="K baseline seeds per realisation (default 4)")
     parser.add_argument("--hover-min", type=float, default=12.0, help="hover length [min] (default 12)")
     parser.add_argument("--speed", type=float, default=5.5, help="mean wind speed [m/s] (default 5.5)")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
+    parser.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "measured_atmosphere_scatter.json",
+        help="JSON file to write")
     args = parser.parse_args()
     start = time.process_time()
     out = {"command": "cd benchmarks && PYTHONPATH=../src:. nice ../.venv/bin/python measured_atmosphere_scatter.py "

@@ -38,7 +38,9 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=10, help="seeds 1..N per configuration (default 10)")
     parser.add_argument("--results", type=Path, default=REPO / "results" / "mosai2023",
                         help="results folder of a finished default run")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
+    parser.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "mechanism_scatter.json",
+        help="JSON file to write")
     args = parser.parse_args()
     data, _, processing = default_forward_setup()
     measured = json.loads((args.results / "diagnosis" / "measured" / f"{args.flight}.json").read_text())

@@ -29,7 +29,9 @@ def main() -> None:
     parser.add_argument("flights", nargs="+", help="payload flight ids of the default campaign")
     parser.add_argument("--results", type=Path, default=REPO / "results" / "mosai2023",
                         help="results folder of a finished default run")
-    parser.add_argument("--out", type=Path, help="JSON file to write")
+    parser.add_argument("--out", type=Path,
+        default=Path(__file__).resolve().parent / "results" / "pitch_response.json",
+        help="JSON file to write")
     args = parser.parse_args()
     data, config, processing = default_forward_setup()
     probe = probes.Probe("mount_misalignment", "mount_misalignment", "pitch_deg", LEVELS_DEG)

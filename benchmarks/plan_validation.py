@@ -9,7 +9,7 @@ forward-run and diagnosed in full for ``--seeds`` campaign seeds with the error 
 (:func:`dronewind.plan.power.simulated_detection`): the achieved relative uncertainty of each
 statistic is its scatter over the seeds (per flight, relative to its mean over the seeds),
 the detection rate is the share of seeds in which the diagnosis names the error. Criteria
-(the issue's): achieved uncertainties within 20 % of the predicted ones (root mean square
+(of the planner): achieved uncertainties within 20 % of the predicted ones (root mean square
 over the flights), detection rate within 10 points of the predicted power.
 
 Usage (about 900 CPU-s with the defaults, 7-8 min on 2 free cores; the sling-load campaigns
@@ -159,7 +159,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--draws", type=int, default=60, help="Monte-Carlo draws of the predicted power")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--plans", nargs="*", default=list(PLANS))
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/plan_validation.json"))
+    parser.add_argument("--out", type=Path,
+                        default=Path(__file__).resolve().parent / "results" / "plan_validation.json")
     parser.add_argument("--rigid-only", action="store_true", help="only the rigid-mount plan (uncertainties)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)

@@ -3,7 +3,7 @@
 Loaded with ``-p pytest_timeline`` (``benchmarks`` on ``PYTHONPATH``); writes to
 ``$DRONEWIND_TIMELINE_DIR/timeline-<worker>.jsonl`` (``main`` without pytest-xdist). The CPU
 is the process's own and that of the children it waited for (workflow runs, the compliance
-checker), from ``getrusage``; a test's module- or session-scoped fixture is counted in the
+checker), from ``getrusage``; a test's module- or suite-wide fixture is counted in the
 first test that uses it.
 """
 

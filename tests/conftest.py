@@ -44,11 +44,45 @@ if _HDF5_LOCKING is None:
 else:
     os.environ["HDF5_USE_FILE_LOCKING"] = _HDF5_LOCKING
 
+from dronewind import datasets  # noqa: E402
 from dronewind.core.cf import atomic_write_text  # noqa: E402
 from tests.small_campaign import SHORT_HOVER, write_small_campaign  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
+
+
+# --- the real records (dronewind.datasets): found in the data folder, skipped where absent ---
+
+def record_path(name: str, *parts: str) -> Path:
+    """Where record ``name`` (or a file of it) lies in the data folder, whether present or not."""
+    return datasets.data_dir().joinpath(name, *parts)
+
+
+def record_skip_reason(name: str) -> str | None:
+    """Why the tests of record ``name`` skip (``None`` when every file of it is in the data folder)."""
+    if datasets.is_present(name):
+        return None
+    return (f"real record {name!r} not in the data folder {datasets.data_dir()} "
+            f"(set {datasets.ENV_VAR}, or fetch it: python -m dronewind.datasets fetch {name})")
+
+
+def needs_record(*names: str) -> pytest.MarkDecorator:
+    """Mark: skip unless every named record is in the data folder (the message names the fetch command)."""
+    reasons = [r for r in map(record_skip_reason, names) if r]
+    return pytest.mark.skipif(bool(reasons), reason="; ".join(reasons) or "records present")
+
+
+@pytest.fixture(scope="session")
+def real_record():
+    """``real_record(name) -> Path``: the folder of a real record, its files checked against the
+    registry's sha256; skips the test with the fetch command where the record is absent."""
+    def get(name: str) -> Path:
+        reason = record_skip_reason(name)
+        if reason:
+            pytest.skip(reason)
+        return datasets.get_record(name)
+    return get
 
 
 def pytest_report_header(config) -> str:

@@ -26,9 +26,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dronewind import datasets
+
 REPO = Path(__file__).resolve().parents[1]
 EXCERPTS = REPO / "tests" / "data" / "io_excerpts"
-SHARED = REPO.parent / "shared" / "data"  # the real records beside the checkout (read-only; excerpts only)
+SHARED = datasets.data_dir()  # the real records (dronewind.datasets; read-only; excerpts only)
 
 # ----------------------------------------------------------------------------- faults
 

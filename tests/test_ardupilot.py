@@ -8,7 +8,7 @@ leap seconds, the attitude, the EKF core chosen, the rows whose EKF wind is stil
 the air density of the logged pressure and temperature, and an EKF wind equal to the drag
 balance of the logged tilt (Wetz et al. 2021, Eqs. 12-18) so that tilt minus EKF is zero.
 
-The real log (``../shared/data/ardupilot_dataflash``, GPL-3.0, read where it lies) is
+The real log (record ``ardupilot_dataflash`` of :mod:`dronewind.datasets`, GPL-3.0, read where it lies) is
 checked for what it holds: 1632 attitude rows at 10 Hz from 06:02:40 UTC on 2023-03-28 (the
 time in its original file name), the EKF wind set after take-off, and the numbers of the
 comparison reported in README.
@@ -32,10 +32,11 @@ from dronewind.quadrotor import ardupilot as ap
 from dronewind.quadrotor.drag import DragLaw, speed_from_tilt
 from dronewind.quadrotor.ekf_wind import air_density_kgm3, compare_with_ekf, tilt_and_ekf_wind
 from dronewind.quadrotor.io import read_quadrotor
+from tests.conftest import needs_record, record_path
 
 ROOT = Path(__file__).resolve().parents[1]
-REAL = ROOT.parent / "shared" / "data" / "ardupilot_dataflash" / "finse_2023-03-28_0602.bin"
-needs_real = pytest.mark.skipif(not REAL.is_file(), reason=f"real log {REAL} absent (../shared/data not here)")
+REAL = record_path("ardupilot_dataflash", "finse_2023-03-28_0602.bin")
+needs_real = needs_record("ardupilot_dataflash")
 
 # ----------------------------------------------------------------------------- a DataFlash writer
 

@@ -2,7 +2,7 @@
 
 Real bytes: the TOA5 and AmeriFlux gold excerpts in tests/data/io_excerpts (CC0, MIT); the
 full records, the PX4 logs and the drone-mounted sonic (GPL-3, read in place, never copied)
-from ../shared/data, skipped when absent.
+from the data folder of dronewind.datasets, skipped when absent.
 """
 
 from __future__ import annotations
@@ -23,17 +23,17 @@ from dronewind.formats import check_campaign_formats, check_file_format
 from dronewind.manifest import load_campaign
 from dronewind.mast import ameriflux, chain, level1, toa5
 from dronewind.mast.delimited import sensor_to_enu
+from tests.conftest import needs_record, record_path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 EXCERPTS = HERE / "data" / "io_excerpts"
 TOA5_EXCERPT = EXCERPTS / "TOA5_6843.ts_Above_2012_06_07_1245_excerpt.dat"
 GOLD_EXCERPT = EXCERPTS / "G1040000.RAW.gz"
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
-GOLD = DATA / "ameriflux_gold_openpath"
-FLUXPART = DATA / "fluxpart_csat3_toa5"
-ULOG = DATA / "px4_ulog" / "sample_log_small.ulg"
-NMT = DATA / "nmt_uas_sonic" / "level0.csv"
+GOLD = record_path("ameriflux_gold_openpath")
+FLUXPART = record_path("fluxpart_csat3_toa5")
+ULOG = record_path("px4_ulog", "sample_log_small.ulg")
+NMT = record_path("nmt_uas_sonic", "level0.csv")
 DESPIKE = {"window_s": 10.0, "n_mad": 7.0}
 CSAT = {"id": "m7", "height_m": 7.11, "azimuth_deg": 218.0, "model": "CSAT3"}
 GILL = {"id": "g2", "height_m": 2.0, "azimuth_deg": 240.0, "model": "Gill WindMaster Pro"}
@@ -100,7 +100,7 @@ def test_every_format_validates_on_real_or_tiny_files(tmp_path, capsys):
     assert "valid measured campaign 'formats': 4 mast sonic(s), 1 payload flight(s)" in capsys.readouterr().out
 
 
-@pytest.mark.skipif(not ULOG.is_file(), reason=f"PX4 sample log not in {ULOG.parent}")
+@needs_record("px4_ulog")
 def test_a_ulog_record_validates_and_a_csv_declared_ulog_does_not(tmp_path):
     (tmp_path / "ref.csv").write_text(REFERENCE_CSV)
     manifest = write_manifest(tmp_path, quadrotor_flights=[{"id": "f01", "reference": "ref.csv", "uavs": [
@@ -240,7 +240,7 @@ def test_gill_record_through_compute_mast_l1_is_the_ameriflux_reader():
     assert ds.attrs["sensor_id"] == "g2" and ds.attrs["height_m"] == 2.0
 
 
-@pytest.mark.skipif(not GOLD.is_dir(), reason=f"AmeriFlux gold files not in {GOLD}")
+@needs_record("ameriflux_gold_openpath")
 def test_gill_record_of_two_half_hours_on_one_grid():
     files = [GOLD / "G1040030.RAW.gz", GOLD / "G1040000.RAW.gz"]  # out of order on purpose
     fmt = {"name": "gill_raw", "north_azimuth_deg": 60.0, "year": 2004}
@@ -268,7 +268,7 @@ def test_toa5_as_delimited_text_is_the_toa5_reader():
     assert ds.attrs["sampling_rate_hz"] == ref.attrs["sampling_rate_hz"] == 20.0
 
 
-@pytest.mark.skipif(not FLUXPART.is_dir(), reason=f"fluxpart CSAT3 record not in {FLUXPART}")
+@needs_record("fluxpart_csat3_toa5")
 def test_full_fluxpart_record_as_delimited_text_is_the_toa5_reader():
     files = sorted(FLUXPART.glob("TOA5_*.dat"))
     ref = level1.mast_l1(files, azimuth_deg=218.0, height_m=7.11, sensor_id="m7")
@@ -322,7 +322,7 @@ def test_axis_conventions_agree_on_one_wind():
     np.testing.assert_allclose(np.ravel(got), [e, n, up], atol=1e-12)
 
 
-@pytest.mark.skipif(not NMT.is_file(), reason=f"drone-mounted sonic record not in {NMT.parent}")
+@needs_record("nmt_uas_sonic")
 def test_iso_times_with_a_zone_against_the_utc_column_of_a_real_record():
     """nmt_uas_sonic/level0.csv (read in place): local times with -07:00 and a UTC column give the same instants."""
     variables = {k: {"column": c, "unit": "m/s"} for k, c in (("u", "Um"), ("v", "Vm"), ("w", "Wm"))}

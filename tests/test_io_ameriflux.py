@@ -11,9 +11,10 @@ import pytest
 
 from dronewind.errors import InputError
 from dronewind.mast.ameriflux import gill_to_enu, read_ameriflux_gold, read_ameriflux_gold_blocks
+from tests.conftest import needs_record, record_path
 
 HERE = Path(__file__).resolve().parent
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "ameriflux_gold_openpath"
+SHARED = record_path("ameriflux_gold_openpath")
 EXCERPT = HERE / "data" / "io_excerpts" / "G1040000.RAW.gz"
 
 
@@ -96,7 +97,7 @@ def test_blocks_are_lazy_and_ordered(tmp_path):
     assert starts == ["2000-04-13T08:00", "2000-04-13T08:30", "2000-06-29T08:30"]
 
 
-@pytest.mark.skipif(not SHARED.is_dir(), reason=f"AmeriFlux gold files not found at {SHARED}")
+@needs_record("ameriflux_gold_openpath")
 def test_all_96_real_files_parse():
     files = sorted(SHARED.glob("G*.RAW.gz"))
     assert len(files) == 96

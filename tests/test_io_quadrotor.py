@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import struct
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,8 +12,9 @@ from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
 from dronewind.quadrotor.io import read_quadrotor, read_quadrotor_csv
 from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.quadrotor.ulog import quaternion_to_euler_deg
+from tests.conftest import needs_record, record_path
 
-ULOG_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "px4_ulog"
+ULOG_DIR = record_path("px4_ulog")
 HEADER = ",".join(QUADROTOR_COLUMNS)
 
 
@@ -67,7 +67,7 @@ def test_quaternion_to_euler_known_answers():
     assert np.allclose([r[0], p[0], y[0]], [0, -10, 0], atol=1e-9)
 
 
-@pytest.mark.skipif(not ULOG_DIR.is_dir(), reason="PX4 sample logs not in ../shared/data/px4_ulog")
+@needs_record("px4_ulog")
 def test_ulog_samples():
     small = read_quadrotor(ULOG_DIR / "sample_log_small.ulg")
     assert small.attrs["utc_valid"] == 1

@@ -10,9 +10,10 @@ import pytest
 from dronewind.errors import InputError
 from dronewind.mast.level1 import csat3_to_enu, mast_l1
 from dronewind.mast.toa5 import read_toa5
+from tests.conftest import needs_record, record_path
 
 HERE = Path(__file__).resolve().parent
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "fluxpart_csat3_toa5"
+SHARED = record_path("fluxpart_csat3_toa5")
 EXCERPT = HERE / "data" / "io_excerpts" / "TOA5_6843.ts_Above_2012_06_07_1245_excerpt.dat"
 
 HEADER = [
@@ -61,7 +62,7 @@ def synthetic_rows(n: int = 600, fs_hz: float = 10.0, start_record: int = 100,
 def test_csat3_to_enu(alpha, ux, uy, east, north):
     e, n = csat3_to_enu(np.array([ux]), np.array([uy]), alpha)
     np.testing.assert_allclose([e[0], n[0]], [east, north], atol=1e-12)
-    # wind-from direction (DESIGN.md): alpha - atan2(Uy, Ux)
+    # wind-from direction (docs/data-contract.md): alpha - atan2(Uy, Ux)
     if ux or uy:
         wd = (alpha - np.degrees(np.arctan2(uy, ux))) % 360
         np.testing.assert_allclose(np.degrees(np.arctan2(-e[0], -n[0])) % 360, wd, atol=1e-9)
@@ -182,7 +183,7 @@ def test_excerpt_of_real_toa5():
     np.testing.assert_allclose(ds.t_sonic_k.values[0], 27.65771 + 273.15)
 
 
-@pytest.mark.skipif(not SHARED.is_dir(), reason=f"real TOA5 files not found at {SHARED}")
+@needs_record("fluxpart_csat3_toa5")
 def test_real_fluxpart_files():
     files = sorted(SHARED.glob("TOA5_*.dat"))
     assert len(files) == 2

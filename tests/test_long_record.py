@@ -25,11 +25,12 @@ from dronewind.core.qc import QC_SPIKE
 from dronewind.errors import InputError
 from dronewind.mast import level1
 from dronewind.simulate.writers import write_toa5
+from tests.conftest import needs_record, record_path
 
 FS_HZ = 10.0
 SONIC = {"id": "m10", "height_m": 10.0, "azimuth_deg": 218.0}
 PROCESSING = {"block_s": 1800.0, "despike": {"window_s": 10.0, "n_mad": 7.0}}
-FLUXPART = Path(__file__).resolve().parents[2] / "shared" / "data" / "fluxpart_csat3_toa5"
+FLUXPART = record_path("fluxpart_csat3_toa5")
 
 
 def _series(rng: np.random.Generator, n: int, mean: float, sigma: float, phi: float = 0.95) -> np.ndarray:
@@ -154,7 +155,7 @@ def test_overlapping_files_rejected(tmp_path):
         long_record.process_long_record([files[0], repeated], tmp_path / "out", SONIC, PROCESSING)
 
 
-@pytest.mark.skipif(len(list(FLUXPART.glob("*.dat"))) != 2, reason="shared fluxpart TOA5 files not present")
+@needs_record("fluxpart_csat3_toa5")
 def test_real_fluxpart_through_the_driver_matches_numpy(tmp_path):
     """The two real 15-min CSAT3 files (20 Hz) in 15-min blocks through the driver, against an independent
     numpy computation on the same despiked samples (np.interp gap fill, double rotation and block-mean

@@ -10,22 +10,16 @@ import pytest
 from dronewind.errors import InputError
 from dronewind.mechanisms import CATALOG, get_mechanism, mechanisms_for, validate_parameters
 
-DESIGN = Path(__file__).resolve().parents[2] / "shared" / "DESIGN.md"
+CONTRACT = Path(__file__).resolve().parents[1] / "docs" / "data-contract.md"
 PAYLOAD = {"sonic_ins_lag", "clock_drift", "mount_misalignment", "heading_bias", "attitude_lag",
            "lever_arm", "w_gain", "sonic_noise", "height_offset", "downwash"}
 
 
-def test_catalog_matches_design_table():
-    """Every mechanism of the DESIGN.md table is in the catalog with the same parameters."""
-    if not DESIGN.is_file():
-        pytest.skip(f"DESIGN.md not found at {DESIGN}")
-    text = DESIGN.read_text().split("## Mechanisms", 1)[1]
+def test_catalog_matches_data_contract_table():
+    """Every mechanism of the table in docs/data-contract.md is in the catalog with the same parameters."""
+    text = CONTRACT.read_text(encoding="utf-8").split("## Mechanisms", 1)[1].split("\n## ", 1)[0]
     rows = re.findall(r"^\| `([a-z_]+)` \| ([^|]*)\|", text, flags=re.M)
     assert len(rows) >= 16
-    # the entry DESIGN.md announces below its table ("To be added to the catalog"), until it joins it
-    added = re.search(r"To be added to the catalog[^`]*`([a-z_]+)`, parameters\s+([a-z_]+),\s*([a-z_]+)", text)
-    if added and added.group(1) not in {r[0] for r in rows}:
-        rows.append((added.group(1), f"{added.group(2)}, {added.group(3)}"))
     for name, params in rows:
         mech = get_mechanism(name)
         expected = [p.strip() for p in params.split(",") if p.strip()]

@@ -3,7 +3,7 @@
 Synthetic truth: an earth-frame wind (sum of seeded random sinusoids with a Kaimal-like
 spectrum, evaluable at any time) seen by a sonic swinging as an 18 m pendulum (0.117 Hz)
 with periodic roll, pitch and yaw (yaw crossing +/-180 deg). The sonic reading is
-forward-modelled with the DESIGN.md contract (the inverse of the correction):
+forward-modelled with the data contract (docs/data-contract.md) (the inverse of the correction):
 ``V_body = R^T (W - V_sonic)``, ``V_sensor = M^T V_body``, ``V_ins = V_sonic + R (omega x r)``.
 The rotation matrix of the forward model comes from scipy.spatial.transform (independent of
 the code under test) and the body rates from a finite difference of R (independent of the
@@ -165,7 +165,7 @@ def test_sign_of_vertical_for_each_mount(mount, w_up_expected):
 
 def test_sign_of_platform_velocity():
     """Still air, payload flying north at 2 m/s heading north: the sonic sees -2 m/s
-    forward; the corrected wind is zero (DESIGN.md: V_wind = R V_body + V_ins)."""
+    forward; the corrected wind is zero (docs/data-contract.md: V_wind = R V_body + V_ins)."""
     z = np.zeros(1)
     u, v, w = motion.motion_correct(z - 2.0, z, z, z, z, z, z + 2.0, z, z, "upside_down")
     np.testing.assert_allclose([u[0], v[0], w[0]], 0.0, atol=1e-15)

@@ -23,8 +23,9 @@ from dronewind.mast import ameriflux, level1, toa5
 from dronewind.mast.columns import REQUIRED_TOA5_COLUMNS
 from dronewind.payload import columns, reader
 from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
+from tests.conftest import needs_record, record_path
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "fluxpart_csat3_toa5"
+SHARED = record_path("fluxpart_csat3_toa5")
 SONIC_KINDS = {"rpi_time_us": "int", "u_ms": "float", "v_ms": "float", "w_ms": "float", "t_sonic_c": "float"}
 INS_KINDS = {**{c: "float" for c in columns.INS_COLUMNS}, "rpi_time_us": "int", "utc": "utc", "time_valid": "flag",
              "ekf_valid": "int"}  # fmt: skip
@@ -292,7 +293,7 @@ def toa5_file(folder: Path, n: int = 600, kelvin: bool = False, nan_every: int =
     return path
 
 
-@pytest.mark.skipif(not SHARED.is_dir(), reason="real fluxpart TOA5 files not present")
+@needs_record("fluxpart_csat3_toa5")
 def test_real_toa5_files_take_the_fast_path_and_agree(monkeypatch: pytest.MonkeyPatch) -> None:
     for f in sorted(SHARED.glob("*.dat")):
         assert toa5._toa5_fast(f, REQUIRED_TOA5_COLUMNS) is not None
@@ -385,7 +386,7 @@ def test_fixed_width_times_rejects_what_it_cannot_vouch_for() -> None:
 
 # ----------------------------------------------------------------------------- AmeriFlux gold
 
-GOLD = Path(__file__).resolve().parents[2] / "shared" / "data" / "ameriflux_gold_openpath"
+GOLD = record_path("ameriflux_gold_openpath")
 
 
 def gold_both(monkeypatch: pytest.MonkeyPatch, path: Path, **kw: Any) -> tuple[Any, Any]:
@@ -421,7 +422,7 @@ def gold_file(tmp_path: Path, seed: int = 0, n: int = 600, crlf: bool = True) ->
     return path
 
 
-@pytest.mark.skipif(len(list(GOLD.glob("G*.RAW.gz"))) != 96, reason="the 96 AmeriFlux gold files not present")
+@needs_record("ameriflux_gold_openpath")
 def test_real_gold_files_take_the_fast_path_and_agree(monkeypatch: pytest.MonkeyPatch) -> None:
     import gzip
 

@@ -1,4 +1,4 @@
-"""The real rigid-mount record (DJI M600 Pro with a sonic, ../shared/data/nmt_uas_sonic) through the workflow.
+"""The real rigid-mount record (DJI M600 Pro with a sonic, record nmt_uas_sonic) through the workflow.
 
 The record is GPL-3.0: it is read where it lies (the shipped campaign's ``data_root``), never
 copied. Measured on it (processing defaults: altitude band +/-5 m, horizontal speed <= 3 m/s,
@@ -22,12 +22,13 @@ import pandas as pd
 import pytest
 
 from dronewind.core.products import open_product
+from tests.conftest import needs_record, record_path
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data" / "nmt_uas_sonic" / "level0.csv"
+DATA = record_path("nmt_uas_sonic", "level0.csv")
 CAMPAIGN = ROOT / "config" / "campaigns" / "real_nmt_uas.yaml"
 
-pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"real record {DATA} absent (../shared/data not here)")
+pytestmark = needs_record("nmt_uas_sonic")
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,6 @@
 """Real records: dronewind statistics vs MetPy (independent implementation) and L4 on real data.
 
-Data (../shared/data, skipped if absent):
+Data (the records of :mod:`dronewind.datasets`, through the ``real_record`` fixture; skipped if absent):
 * ``ameriflux_gold_openpath``: 96 half-hours, Gill WindMaster Pro at 2 m, 10 Hz
   (read by :func:`dronewind.io.read_ameriflux_gold`);
 * ``fluxpart_csat3_toa5``: CSAT3, 20 Hz, 2 x 15 min on 7 June 2012, tower 7.11 m
@@ -21,14 +21,9 @@ sub-record low-frequency variance, mostly in u.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
-GOLD = DATA / "ameriflux_gold_openpath"
-FLUXPART = DATA / "fluxpart_csat3_toa5"
 FLUXPART_HEIGHT_M = 7.11  # heights.csv, tower height valid 2012-05-07 .. 2012-06-13
 
 mpcalc = pytest.importorskip("metpy.calc", reason="MetPy is the independent implementation")
@@ -70,11 +65,10 @@ def _dronewind(u, v, w, t, method):
 
 
 @pytest.fixture(scope="module")
-def gold_blocks():
-    if not GOLD.is_dir():
-        pytest.skip(f"{GOLD} missing")
+def gold_blocks(real_record):
+    gold = real_record("ameriflux_gold_openpath")
     blocks, unusable = [], []
-    for ds in ameriflux.read_ameriflux_gold_blocks([GOLD]):
+    for ds in ameriflux.read_ameriflux_gold_blocks([gold]):
         prepared = _prepare(ds["u_east_ms"].values, ds["v_north_ms"].values, ds["w_up_ms"].values,
                             ds["t_sonic_k"].values)
         if prepared is None:
@@ -165,10 +159,8 @@ def test_gold_l4_subset_no_silent_numbers(gold_blocks) -> None:
 
 
 @pytest.fixture(scope="module")
-def fluxpart():
-    files = sorted(FLUXPART.glob("TOA5_*.dat")) if FLUXPART.is_dir() else []
-    if len(files) != 2:
-        pytest.skip(f"{FLUXPART} missing or not 2 TOA5 files")
+def fluxpart(real_record):
+    files = sorted(real_record("fluxpart_csat3_toa5").glob("TOA5_*.dat"))
     # the CSAT3 azimuth is not documented; 0 is used: after double rotation the
     # streamline components do not depend on it
     ds = level1.mast_l1(files, azimuth_deg=0.0, height_m=FLUXPART_HEIGHT_M, sensor_id="fluxpart")

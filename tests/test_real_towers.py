@@ -1,4 +1,4 @@
-"""The shipped tower campaigns on the real records of ../shared/data, through the workflow.
+"""The shipped tower campaigns on the real records (dronewind.datasets), through the workflow.
 
 * ``config/campaigns/real_ameriflux_gold.yaml``: the 96 AmeriFlux open-path gold half-hours
   (Gill WindMaster Pro, 10 Hz) in the default 30-min blocks;
@@ -30,17 +30,15 @@ import pytest
 from dronewind.compare.blocks import BLOCK_STATS_COLUMNS
 from dronewind.core.cf import check_compliance
 from dronewind.core.products import open_product
+from tests.conftest import needs_record, record_path
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data"
-GOLD = DATA / "ameriflux_gold_openpath"
-FLUXPART = DATA / "fluxpart_csat3_toa5"
+GOLD = record_path("ameriflux_gold_openpath")
+FLUXPART = record_path("fluxpart_csat3_toa5")
 BIN = Path(sys.executable).parent
 
-needs_gold = pytest.mark.skipif(len(list(GOLD.glob("G*.RAW.gz"))) != 96,
-                                reason=f"the 96 AmeriFlux gold files are not in {GOLD} (../shared/data not here)")
-needs_fluxpart = pytest.mark.skipif(len(list(FLUXPART.glob("TOA5_*.dat"))) != 2,
-                                    reason=f"the fluxpart TOA5 files are not in {FLUXPART} (../shared/data not here)")
+needs_gold = needs_record("ameriflux_gold_openpath")
+needs_fluxpart = needs_record("fluxpart_csat3_toa5")
 
 
 def _run(out: Path, campaign: str, *extra: str) -> Path:

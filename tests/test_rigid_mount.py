@@ -27,7 +27,7 @@ def _record(path, *, n=6000, lag_s=0.3, speed_ms=1.5, alt_jump_at=None, seed=1):
 
     The platform flies slow legs with a swinging yaw and attitude; the sonic's clock is late by
     ``lag_s`` (its sample stamped t measured the air at t - lag_s), so the time to add to the
-    sonic's clock (DESIGN.md ``lag_sonic_ins_s``) is -lag_s.
+    sonic's clock (docs/data-contract.md ``lag_sonic_ins_s``) is -lag_s.
     """
     rng = np.random.default_rng(seed)
     t = np.arange(n) / FS

@@ -3,8 +3,6 @@ Ghirardelli et al. (2025), Sect. 4.4)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 import pytest
@@ -156,17 +154,13 @@ def test_rotate_by_name():
         rotation.rotate(np.array([1.0, np.nan]), np.zeros(2), np.zeros(2))
 
 
-_CSAT = Path(__file__).resolve().parents[2] / "shared" / "data" / "fluxpart_csat3_toa5" / \
-    "TOA5_6843.ts_Above_2012_06_07_1300.dat"
-
-
-@pytest.mark.skipif(not _CSAT.exists(), reason=f"real CSAT3 record not found at {_CSAT}")
-def test_rotations_on_real_csat3_record():
+def test_rotations_on_real_csat3_record(real_record):
     """Real 20 Hz CSAT3 record (fluxpart, CC0): double rotation zeroes mean v and w, triple
     also v'w'; the result does not depend on the sensor's heading (input pre-rotated by
     an arbitrary yaw gives the same streamline series to 1e-10 m/s); the rotation
     conserves the wind speed of every sample."""
-    df = pd.read_csv(_CSAT, skiprows=[0, 2, 3], na_values=["NAN"])
+    csat = real_record("fluxpart_csat3_toa5") / "TOA5_6843.ts_Above_2012_06_07_1300.dat"
+    df = pd.read_csv(csat, skiprows=[0, 2, 3], na_values=["NAN"])
     x = df[["Ux", "Uy", "Uz"]].to_numpy(float)
     x = x[np.all(np.isfinite(x), axis=1)]
     u, v, w, ang = rotation.double_rotation(*x.T)

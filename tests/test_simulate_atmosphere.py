@@ -10,7 +10,6 @@ correct generator fails with probability < 1e-4 while a 10 % bias in sigma^2 is 
 from __future__ import annotations
 
 import importlib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,8 +21,6 @@ from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate import spectral_model
 from dronewind.simulate.atmosphere import simulate_wind
-
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
 
 def _wind_frame(ds: xr.Dataset, wind_from_deg: float, p: int = 0):
@@ -201,11 +198,9 @@ def test_constraint_reproduced_at_its_point():
     assert abs(np.corrcoef(free.w_up_ms[1].values, _fourier_lowpass(con.w_up_ms.values, n_keep)[::2])[0, 1]) < 0.1
 
 
-def test_constraint_from_real_csat3_record():
+def test_constraint_from_real_csat3_record(real_record):
     """A measured CSAT3 record (fluxpart, 20 Hz) read by dronewind.mast.toa5 constrains the field."""
-    folder = DATA / "fluxpart_csat3_toa5"
-    if not folder.is_dir():
-        pytest.skip(f"real CSAT3 data not found at {folder}")
+    folder = real_record("fluxpart_csat3_toa5")
     level1 = importlib.import_module("dronewind.mast.level1")
     l1 = level1.mast_l1(sorted(folder.glob("TOA5_*1245.dat")), azimuth_deg=0.0, height_m=7.11, sensor_id="fluxpart")
     l1.attrs["height_m"] = 7.11

@@ -184,20 +184,20 @@ def test_chain_finds_the_gnss_time_and_the_sonic_ins_lag(tmp_path, base):
 
 
 def test_mast_signs_and_reference_wind(base):
-    """CSAT3 components decode (DESIGN.md) to the set speed and direction at 60 m."""
+    """CSAT3 components decode (docs/data-contract.md) to the set speed and direction at 60 m."""
     m = base["masts"]["mast60"].dropna()
     a = math.radians(230.5)
     ue = -m.Ux * math.sin(a) + m.Uy * math.cos(a)
     un = -m.Ux * math.cos(a) - m.Uy * math.sin(a)
     assert math.degrees(math.atan2(-ue.mean(), -un.mean())) % 360 == pytest.approx(304, abs=3)
     assert float(np.hypot(ue.mean(), un.mean())) == pytest.approx(10.4, rel=0.08)
-    # wind-from direction formula of DESIGN.md
+    # wind-from direction formula of docs/data-contract.md
     assert float(np.mean((230.5 - np.degrees(np.arctan2(m.Uy, m.Ux))) % 360)) == pytest.approx(304, abs=5)
     assert m.Ts.mean() == pytest.approx(277.0 - 273.15 - 0.3, abs=1.0)
 
 
 def _wind_from_files(run) -> dict:
-    """Independent motion correction (DESIGN.md): V_wind = R M V_sensor + V_ins (NED)."""
+    """Independent motion correction (docs/data-contract.md): V_wind = R M V_sensor + V_ins (NED)."""
     s = run["sonic"].drop_duplicates().sort_values("rpi_time_us")
     s = s[_good(s, ["u_ms", "v_ms", "w_ms", "t_sonic_c"], 40)]
     i = run["ins"].drop_duplicates().sort_values("rpi_time_us")

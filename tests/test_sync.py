@@ -3,12 +3,10 @@ dronewind.compare.align (FIR decimation, drone-mast lag, L3 builder); Ghirardell
 
 Synthetic truth as in test_motion.py (duplicated here so each test file stands alone): a
 wind made of seeded random sinusoids and a sonic on an 18 m pendulum (0.117 Hz) with yaw
-crossing +/-180 deg. The L1 datasets are forward-modelled with the DESIGN.md contract.
+crossing +/-180 deg. The L1 datasets are forward-modelled with the data contract (docs/data-contract.md).
 """
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -465,17 +463,13 @@ def test_align_bridges_mast_gaps_and_rejects_short_overlap():
 
 # ------------------------------------------------------------------ real CSAT3 record
 
-_CSAT = Path(__file__).resolve().parents[2] / "shared" / "data" / "fluxpart_csat3_toa5" / \
-    "TOA5_6843.ts_Above_2012_06_07_1245.dat"
-
-
-@pytest.mark.skipif(not _CSAT.exists(), reason=f"real CSAT3 record not found at {_CSAT}")
 @pytest.mark.parametrize("lag_true", [1.7, -4.2])
-def test_align_real_csat3_record_with_shifted_copy(lag_true):
+def test_align_real_csat3_record_with_shifted_copy(lag_true, real_record):
     """Real 20 Hz turbulence (fluxpart CSAT3, 15 min, CC0) as the mast; the 'drone' is the
     same record seen lag_true earlier, re-sampled at 32 Hz with 0.1 m/s independent noise.
     The lag is recovered within 10 ms (measured ~1 ms); real turbulence, synthetic shift."""
-    df = pd.read_csv(_CSAT, skiprows=[0, 2, 3], na_values=["NAN"])
+    csat = real_record("fluxpart_csat3_toa5") / "TOA5_6843.ts_Above_2012_06_07_1245.dat"
+    df = pd.read_csv(csat, skiprows=[0, 2, 3], na_values=["NAN"])
     t_m = pd.to_datetime(df["TIMESTAMP"], format="ISO8601").to_numpy().astype("datetime64[ns]")
     sec_m = (t_m - t_m[0]).astype(np.int64) / 1e9
     cols = {"u_east_ms": "Ux", "v_north_ms": "Uy", "w_up_ms": "Uz"}

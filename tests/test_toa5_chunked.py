@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from dronewind.mast import columns, toa5
+from tests.conftest import needs_record
 from tests.test_io_toa5 import EXCERPT, SHARED, synthetic_rows, write_toa5
 
 
@@ -41,7 +42,7 @@ def test_real_excerpt_identical(monkeypatch):
     _assert_same(EXCERPT, monkeypatch)
 
 
-@pytest.mark.skipif(not SHARED.is_dir(), reason="shared fluxpart data not present")
+@needs_record("fluxpart_csat3_toa5")
 def test_real_fluxpart_file_identical(monkeypatch):
     _assert_same(sorted(SHARED.glob("*.dat"))[0], monkeypatch)
 

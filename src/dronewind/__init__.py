@@ -1,11 +1,10 @@
 """dronewind: validation of drone-borne wind and turbulence against mast sonics.
 
-The library is organised in packages per system and layer (see ``docs/design.md``):
-``core`` (physics and numerics shared by every chain: surface-layer similarity, filtering,
-rotation, statistics, spectra, uncertainty, scales, constants, the one NetCDF writer ``cf``),
-the processing chains ``payload``, ``mast``, ``quadrotor``, ``tunnel`` and ``compare``, the
-virtual campaign ``simulate``, the catalog ``mechanisms``, ``diagnose``, ``plan``,
-``figures`` and ``tables``, and the workflow steps ``steps``.
+The library is a core of kernels (``core``) with one package per instrument system above it
+(``payload``, ``mast``, ``quadrotor``, ``tunnel``), the drone-mast comparison (``compare``),
+the virtual campaign (``simulate``), the diagnosis (``diagnose``), figures, tables and the
+workflow steps on top; the real records are reached through ``datasets``. Design, data
+levels and data contract: docs/design.md and docs/data-contract.md.
 """
 
 __all__ = ["__version__", "open_product"]

@@ -218,7 +218,8 @@ class Campaign:
     @property
     def data_root(self) -> Path:
         """Folder the data paths of a measured campaign refer to: ``data_root`` (absolute or
-        relative to the manifest), else the manifest's folder."""
+        relative to the manifest; ``registry``: the data folder of :mod:`dronewind.datasets`,
+        ``$DRONEWIND_DATA``), else the manifest's folder."""
         return _data_root(self.path, self.data)
 
     @property
@@ -295,9 +296,17 @@ class Campaign:
         return list(dict.fromkeys(files))
 
 
+#: ``data_root`` value naming the data folder of the record registry (:func:`dronewind.datasets.data_dir`).
+REGISTRY_DATA_ROOT = "registry"
+
+
 def _data_root(path: Path, data: Mapping[str, Any]) -> Path:
     """The folder data paths are relative to (see :attr:`Campaign.data_root`)."""
     root = data.get("data_root")
+    if root == REGISTRY_DATA_ROOT:
+        from dronewind.datasets import data_dir
+
+        return data_dir()
     return path.parent if not root else (path.parent / str(root)).resolve()
 
 
@@ -476,6 +485,9 @@ def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> lis
         return problems
     root = _data_root(path, data)
     if check_files and not root.is_dir():
+        if data.get("data_root") == REGISTRY_DATA_ROOT:
+            return [("data_root", f"data folder of the record registry {root} does not exist; set DRONEWIND_DATA "
+                     "to the folder holding the records, or fetch them (python -m dronewind.datasets fetch)")]
         return [("data_root", f"folder {data.get('data_root')!r} ({root}) does not exist; expected the folder the "
                  "data paths are relative to")]
     sonic_ids: dict[str, str] = {}

@@ -5,8 +5,7 @@ A truth is a :class:`dronewind.diagnose.experiments.Draw` (so that
 sizes of :data:`dronewind.diagnose.experiments.HIDDEN_RANGES` (both sides where the
 parameter has two), nothing, or a model error of this world (``model_error`` holds its
 settings under ``"world"``). The mechanisms act inside this world's physics with the
-catalog's meaning and signs (DESIGN.md, "Mechanisms" and "Details that readers must
-handle"):
+catalog's meaning and signs (docs/data-contract.md, "Mechanisms" and "Frames and signs"):
 
 * ``sonic_ins_lag`` lag_s: a sonic sample taken at t is stamped t - lag_s on the logger
   clock (lag_s is what must be added to the sonic's clock to align it with the INS);

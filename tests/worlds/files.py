@@ -1,4 +1,4 @@
-"""The contract's L0 files (DESIGN.md, "Data contract"), written by the world's own code."""
+"""The contract's L0 files (docs/data-contract.md, "Raw formats"), written by the world's own code."""
 
 from __future__ import annotations
 

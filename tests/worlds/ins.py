@@ -13,7 +13,7 @@ those attitude errors.
   Optimal Estimation, Sect. 3.8), horizontal and vertical;
 * position: a Gauss-Markov error (GNSS multipath and atmosphere) plus white noise;
 * GNSS time: invalid at start-up, blinking valid for a moment, then valid for good
-  (DESIGN.md, "Details that readers must handle"); the filter valid after its own start-up.
+  (docs/data-contract.md, "Payload INS"); the filter valid after its own start-up.
 """
 
 from __future__ import annotations
