@@ -98,9 +98,9 @@ def default_forward_setup() -> tuple[dict[str, Any], dict[str, Any], dict[str, A
     config : dict
         :func:`dronewind.manifest.default_config`.
     processing : dict
-        Its ``processing`` settings of :data:`dronewind.diagnose.forward.CHAIN_SETTINGS`.
+        Its ``processing`` settings of :data:`dronewind.diagnose.probes.CHAIN_SETTINGS`.
     """
-    from dronewind.diagnose.forward import CHAIN_SETTINGS
+    from dronewind.diagnose.probes import CHAIN_SETTINGS
     from dronewind.manifest import default_config, load_campaign
 
     config = default_config()

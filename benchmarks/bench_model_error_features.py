@@ -37,11 +37,11 @@ REPO = Path(__file__).resolve().parents[1]
 
 def measured(data: dict[str, Any], processing: dict[str, Any], work: Path) -> dict[str, dict[str, Any]]:
     """Measured features of every flight of a hidden-effect campaign (experiments.process_virtual_flight, no probes)."""
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, probes
     from dronewind.diagnose.features import features_to_dict
 
     out = {}
-    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     for flight in data["payload_flights"]:
         fid = flight["id"]
         v = ex.process_virtual_flight(data, flight, work, processing)

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from bench_common import REPO, default_forward_setup, git_commit, print_and_write
-from dronewind.diagnose import forward
+from dronewind.diagnose import forward, forward_conditions
 from dronewind.diagnose.features import FEATURES, features_to_dict
 from dronewind.manifest import payload_flight_manifest
 
@@ -51,7 +51,7 @@ def main() -> None:
         mech = None if label == "baseline" else _mechanism(label)
         rows = []
         for seed in out["seeds"]:
-            manifest = forward.forward_manifest(view, args.flight, measured["conditions"], mech, seed, False)
+            manifest = forward_conditions.forward_manifest(view, args.flight, measured["conditions"], mech, seed, False)
             feats, _ = forward.run_forward(manifest, args.flight, processing)
             rows.append(features_to_dict(feats)["values"])
         values = {f: np.array([np.nan if r[f] is None else r[f] for r in rows], dtype=float) for f in FEATURES}

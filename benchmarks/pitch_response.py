@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from bench_common import REPO, default_forward_setup, git_commit, print_and_write
-from dronewind.diagnose import forward
+from dronewind.diagnose import forward, probe_runs, probes
 from dronewind.diagnose.features import FEATURES
 from dronewind.manifest import payload_flight_manifest
 
@@ -34,11 +34,11 @@ def main() -> None:
         help="JSON file to write")
     args = parser.parse_args()
     data, config, processing = default_forward_setup()
-    probe = forward.Probe("mount_misalignment", "mount_misalignment", "pitch_deg", LEVELS_DEG)
+    probe = probes.Probe("mount_misalignment", "mount_misalignment", "pitch_deg", LEVELS_DEG)
     out: dict = {"commit": git_commit(Path(forward.__file__).parent), "levels_deg": list(LEVELS_DEG), "flights": {}}
     for flight in args.flights:
         conditions = json.loads((args.results / "diagnosis" / "measured" / f"{flight}.json").read_text())["conditions"]
-        runs = forward.probe_runs(payload_flight_manifest(data, flight), flight, conditions, processing,
+        runs = probe_runs.probe_runs(payload_flight_manifest(data, flight), flight, conditions, processing,
                                   seeds=(int(config["diagnosis"]["seeds"][0]),), probes=(probe,))
         base = runs["baseline"][0]["values"]
         change = {f: [None if r["features"]["values"][f] is None or base[f] is None

@@ -8,18 +8,19 @@ from conftest import FLIGHT, cpu_round
 
 
 def _chain_settings(setup):
-    from dronewind.diagnose.forward import CHAIN_SETTINGS
+    from dronewind.diagnose.probes import CHAIN_SETTINGS
 
     return {key: setup["processing"][key] for key in CHAIN_SETTINGS}
 
 
 def test_forward_run(benchmark, measured_json, setup):
     """One forward run: the flight simulated at its measured conditions and processed to its features."""
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_conditions
     from dronewind.manifest import payload_flight_manifest
 
     conditions = json.loads(measured_json.read_text())["conditions"]
-    manifest = forward.forward_manifest(payload_flight_manifest(setup["data"], FLIGHT), FLIGHT, conditions, None, 1)
+    flight = payload_flight_manifest(setup["data"], FLIGHT)
+    manifest = forward_conditions.forward_manifest(flight, FLIGHT, conditions, None, 1)
     _, cpu = cpu_round(benchmark, forward.run_forward, manifest, FLIGHT, _chain_settings(setup), rounds=3)
     benchmark.extra_info.update(runs_per_cpu_min=round(60.0 / cpu, 1))
 

@@ -11,10 +11,10 @@ def _sizes(files) -> int:
 
 def test_toa5_mast_sonic(benchmark, real_record):
     """Campbell TOA5: the two 15-min CSAT3 files of the fluxpart record (20 Hz) to mast L1."""
-    from dronewind.mast import toa5
+    from dronewind.mast import level1
 
     files = sorted(real_record("fluxpart_csat3_toa5").glob("TOA5_*.dat"))
-    ds, cpu = cpu_round(benchmark, toa5.mast_l1, files, azimuth_deg=0.0, height_m=7.11, sensor_id="fluxpart",
+    ds, cpu = cpu_round(benchmark, level1.mast_l1, files, azimuth_deg=0.0, height_m=7.11, sensor_id="fluxpart",
                         rounds=5)
     n = ds.sizes["time"]
     benchmark.extra_info.update(rows=n, rows_per_cpu_s=round(n / cpu), mb_per_cpu_s=round(_sizes(files) / 1e6 / cpu, 2))

@@ -15,7 +15,8 @@ def fleet_windows(setup, tmp_path_factory):
     import pandas as pd
 
     from dronewind.quadrotor import windows as qw
-    from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
+    from dronewind.quadrotor.io import read_quadrotor
+    from dronewind.quadrotor.reference import read_tower_reference
     from dronewind.simulate.quadrotor import simulate_quadrotor_flight
 
     data = setup["data"]

@@ -282,7 +282,7 @@ def _toa5_rows(path: Path) -> tuple[dict[int, tuple], dict[str, int]]:
 
 
 def _toa5_full(path: Path) -> Any:
-    from dronewind.mast.toa5 import mast_l1
+    from dronewind.mast.level1 import mast_l1
 
     return mast_l1(path, azimuth_deg=200.0, height_m=3.0, sensor_id="csat")
 
@@ -389,7 +389,7 @@ def _ins_samples(folder: Path) -> dict[str, bytes]:
 
 def _payload_rows(expected: tuple[str, ...], kinds: dict[str, str]) -> Callable[[Path], Any]:
     def rows(path: Path) -> tuple[dict[int, tuple], dict[str, int]]:
-        from dronewind.payload.io import _parse_csv
+        from dronewind.payload.reader import _parse_csv
 
         table = _parse_csv(path, expected, kinds, 0.05)
         out = {int(ln) - 1: _key([table.columns[c][i] for c in expected]) for i, ln in enumerate(table.line_no)}
@@ -399,13 +399,13 @@ def _payload_rows(expected: tuple[str, ...], kinds: dict[str, str]) -> Callable[
 
 
 def _sonic_full(path: Path) -> Any:
-    from dronewind.payload.io import read_sonic_csv
+    from dronewind.payload.reader import read_sonic_csv
 
     return read_sonic_csv(path)
 
 
 def _ins_full(path: Path) -> Any:
-    from dronewind.payload.io import read_ins_csv
+    from dronewind.payload.reader import read_ins_csv
 
     return read_ins_csv(path)
 
@@ -452,7 +452,7 @@ def _tower_samples(folder: Path) -> dict[str, bytes]:
 
 
 def _tower_rows(path: Path) -> tuple[dict[int, tuple], dict[str, int]]:
-    from dronewind.quadrotor.io import _reference_rows
+    from dronewind.quadrotor.reference import _reference_rows
 
     long, counts = _reference_rows(path, 0.05)
     rows = {int(r.line) - 1: _key([r.time, r.height_m, r.wind_speed_ms, r.wind_from_deg])
@@ -461,7 +461,7 @@ def _tower_rows(path: Path) -> tuple[dict[int, tuple], dict[str, int]]:
 
 
 def _tower_full(path: Path) -> Any:
-    from dronewind.quadrotor.io import read_tower_reference
+    from dronewind.quadrotor.reference import read_tower_reference
 
     return read_tower_reference(path)
 
@@ -478,7 +478,7 @@ def _ulog_samples(folder: Path) -> dict[str, bytes]:
 
 
 def _ulog_full(path: Path) -> Any:
-    from dronewind.quadrotor.io import read_quadrotor_ulog
+    from dronewind.quadrotor.ulog import read_quadrotor_ulog
 
     return read_quadrotor_ulog(path)
 

@@ -10,15 +10,8 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from dronewind.core.cf import (
-    check_compliance,
-    check_compliance_files,
-    config_hash,
-    strip_cf,
-    track_from_cf,
-    track_to_cf,
-    write_netcdf,
-)
+from dronewind.core.cf import check_compliance, check_compliance_files, config_hash, write_netcdf
+from dronewind.core.cf_names import strip_cf, track_from_cf, track_to_cf
 
 
 def sample_dataset(n: int = 200) -> xr.Dataset:

@@ -10,13 +10,8 @@ import pytest
 
 from dronewind.diagnose import experiments as ex
 from dronewind.mechanisms import get_mechanism
-from dronewind.simulate.settings import (
-    MAST_DEFAULTS,
-    PAYLOAD_DEFAULTS,
-    SPECTRA,
-    TURBULENCE_DEFAULTS,
-    validate_simulation,
-)
+from dronewind.simulate.defaults import MAST_DEFAULTS, PAYLOAD_DEFAULTS, SPECTRA, TURBULENCE_DEFAULTS
+from dronewind.simulate.settings import validate_simulation
 
 
 def test_hidden_ranges_are_inside_the_catalog_ranges_and_signed_ones_cover_both_sides():
@@ -169,8 +164,7 @@ def test_a_model_error_named_as_its_caveated_alias_is_flagged_not_excused():
 
 
 def test_extended_reruns_get_seeds_the_baseline_never_ran():
-    from dronewind.diagnose.forward import fresh_seeds
-    from dronewind.diagnose.probes import resolved_seeds
+    from dronewind.diagnose.probes import fresh_seeds, resolved_seeds
     from dronewind.manifest import default_config
 
     baseline = resolved_seeds(default_config()["diagnosis"]["seeds"], 4)

@@ -97,7 +97,7 @@ def test_parameter_response_validates_levels():
 def test_signed_parameters_are_probed_on_both_sides_and_bounded_by_the_catalog():
     """Every parameter that can take either sign about its baseline is probed on both sides,
     so an even response is never extrapolated across the baseline."""
-    from dronewind.diagnose.forward import PROBES, baseline_level
+    from dronewind.diagnose.probes import PROBES, baseline_level
     from dronewind.mechanisms import get_mechanism
 
     for probe in PROBES:

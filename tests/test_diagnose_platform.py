@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dronewind.diagnose import commanded_segments, platform_lag
+from dronewind.diagnose import platform_commanded as pc
 from dronewind.diagnose.platform import band_power_after, diagnose_platform, pooled_estimate
 from dronewind.errors import InputError
 from dronewind.payload import rigid
@@ -133,7 +135,6 @@ def test_constant_gain_passes_band_constancy(tmp_path):
 
 # ----------------------------------------------------------------------------- commanded motion
 
-from dronewind.diagnose import platform_commanded as pc  # noqa: E402
 
 
 def _survey(tmp_path, gains, seed, **kw):
@@ -219,17 +220,17 @@ def test_segments_and_turnaround_lag_on_a_noiseless_track():
     v = np.zeros((t.size, 3))
     v[:, 0] = np.convolve(np.where((t // 50) % 2 == 0, 3.0, -3.0), np.ones(20) / 20, mode="same")
     v[:, 1] = 0.01 * np.sin(t)
-    segs = pc.commanded_segments(t, v)
+    segs = commanded_segments.commanded_segments(t, v)
     legs = [sg for sg in segs if sg.kind == "leg"]
     assert len(legs) == 12 and len([sg for sg in segs if sg.kind == "turnaround"]) == 11
     assert {round(sg.course_deg) % 360 for sg in legs} == {90, 270}
     # set points, where logged, are used instead of the track (here the same motion: the same segments)
-    from_setpoints = pc.commanded_segments(t, v + 0.3, setpoint_vel_enu=v)
+    from_setpoints = commanded_segments.commanded_segments(t, v + 0.3, setpoint_vel_enu=v)
     assert [(sg.kind, sg.start, sg.stop) for sg in from_setpoints] == [(sg.kind, sg.start, sg.stop) for sg in segs]
     assert {sg.source for sg in from_setpoints} == {"setpoint"}
     for lag in (0.0, 0.6, -0.6):
         reading = -np.stack([np.interp(t + lag, t, v[:, j]) for j in range(3)], axis=-1)
-        res = pc.turnaround_lag(t, reading, v, segs)
+        res = platform_lag.turnaround_lag(t, reading, v, segs)
         assert res["lag_s"] == pytest.approx(lag, abs=0.021)
     with pytest.raises(InputError, match="finite"):
-        pc.commanded_segments(t, np.full_like(v, np.nan))
+        commanded_segments.commanded_segments(t, np.full_like(v, np.nan))

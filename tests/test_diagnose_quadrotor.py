@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from dronewind.diagnose import quadrotor as dq
+from dronewind.diagnose import quadrotor_field, quadrotor_tunnel
 from dronewind.errors import InputError
 from dronewind.quadrotor import windows as qw
 from dronewind.simulate.quadrotor import log_profile_wind, simulate_quadrotor_flight
@@ -90,7 +91,7 @@ def _regime_error(est: dict, regime: list, speeds_ms: np.ndarray = CHECK_SPEEDS_
     for u in speeds_ms:
         r = next(r for r in regime if r["min_speed_ms"] <= u < r["max_speed_ms"])
         a = (u / r["c"]) ** (1 / r["b"])
-        v = dq.regime_speed(a, edges, [c["b"] for c in coef], [c["c"] for c in coef])
+        v = quadrotor_field.regime_speed(a, edges, [c["b"] for c in coef], [c["c"] for c in coef])
         err.append(abs(float(v) - u))
     return max(err)
 
@@ -158,9 +159,9 @@ def test_null_case_names_nothing(tmp_path):
 
 def test_regime_speed_known_answer():
     # one range: V = c a^b; two ranges switch where range 0 reaches its edge (5 m/s)
-    assert dq.regime_speed(4.0, [], [0.5], [6.0]) == pytest.approx(12.0)
+    assert quadrotor_field.regime_speed(4.0, [], [0.5], [6.0]) == pytest.approx(12.0)
     a_edge = (5.0 / 7.0) ** (1 / 0.8)
-    v = dq.regime_speed(np.array([0.5 * a_edge, 2 * a_edge]), [5.0], [0.8, 0.5], [7.0, 6.0])
+    v = quadrotor_field.regime_speed(np.array([0.5 * a_edge, 2 * a_edge]), [5.0], [0.8, 0.5], [7.0, 6.0])
     assert v[0] == pytest.approx(7.0 * (0.5 * a_edge) ** 0.8)
     assert v[1] == pytest.approx(6.0 * (2 * a_edge) ** 0.5)
 
@@ -171,7 +172,7 @@ def test_too_few_windows_is_a_named_error():
     w = pd.DataFrame({"window_key": ["a"], "uav": ["q01"], "flight": ["f1"], "ref_speed_ms": [3.0],
                       "ref_from_deg": [200.0]})
     with pytest.raises(InputError, match="at least 3"):
-        dq.field_data(pd.DataFrame(columns=["window_key"]), w)
+        quadrotor_field.field_data(pd.DataFrame(columns=["window_key"]), w)
 
 
 def _tunnel(tmp_path: Path, lag_s: float, seed: int) -> Path:
@@ -193,7 +194,7 @@ def test_tunnel_response_lag_recovered_or_not_named(tmp_path, lag_s, seed):
     seeds 21-25: 0.4 s -> 0.395 s, gain 0.29; 0.15 s -> 0.128-0.138 s, gain 0.048-0.054,
     named in 1 of 2; 0.0 s -> 0.022 s, gain 0.00). The attitude noise (0.25 degree) dominates
     the series RMSE, so a 0.15-s lag gains only ~5 % and sits at the naming threshold."""
-    res = dq.tunnel_candidates(_tunnel(tmp_path, lag_s, seed))
+    res = quadrotor_tunnel.tunnel_candidates(_tunnel(tmp_path, lag_s, seed))
     lag = next(c for c in res["candidates"] if c["mechanism"] == "response_lag")
     assert lag["estimate"]["tau_s"] == pytest.approx(lag_s, abs=0.05)
     if lag_s >= 0.4:

@@ -19,8 +19,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from dronewind.core.constants import AIR_DENSITY_KGM3, WETZ2021_AERO
 from dronewind.diagnose import quadrotor as dq
-from dronewind.quadrotor.drag import RHO_KGM3, WETZ2021_AERO, speed_from_tilt
+from dronewind.quadrotor.drag import speed_from_tilt
 
 UAVS = ("q01", "q02", "q03")
 FLIGHTS = tuple(f"d{k // 4 + 1}f{k + 1}" for k in range(8))
@@ -68,7 +69,7 @@ def _two_days(flight: str, uav: str) -> float:
 
 
 def test_relevelled_imus_give_per_flight_offsets():
-    blocks, windows = _windows(7, _two_days, lambda f: RHO_KGM3, log_density=False)
+    blocks, windows = _windows(7, _two_days, lambda f: AIR_DENSITY_KGM3, log_density=False)
     res = dq.diagnose_quadrotor("days", blocks, windows, block_s=10.0)
     cand = _cand(res, "flight_pitch_offset")
     assert cand is not None and cand["significant"], cand
@@ -83,7 +84,7 @@ def test_relevelled_imus_give_per_flight_offsets():
 
 
 def test_one_levelling_names_no_per_flight_offsets():
-    blocks, windows = _windows(8, lambda f, u: BASE[u], lambda f: RHO_KGM3, log_density=False)
+    blocks, windows = _windows(8, lambda f, u: BASE[u], lambda f: AIR_DENSITY_KGM3, log_density=False)
     res = dq.diagnose_quadrotor("one day", blocks, windows, block_s=10.0)
     assert "pitch_offset" in res["named_causes"]
     cand = _cand(res, "flight_pitch_offset")

@@ -21,7 +21,7 @@ from dronewind.core.delimited import delimited_layout, read_delimited
 from dronewind.errors import InputError, ManifestError
 from dronewind.formats import check_campaign_formats, check_file_format
 from dronewind.manifest import load_campaign
-from dronewind.mast import ameriflux, chain, toa5
+from dronewind.mast import ameriflux, chain, level1, toa5
 from dronewind.mast.delimited import sensor_to_enu
 from tests.conftest import needs_record, record_path
 
@@ -271,7 +271,7 @@ def test_toa5_as_delimited_text_is_the_toa5_reader():
 @needs_record("fluxpart_csat3_toa5")
 def test_full_fluxpart_record_as_delimited_text_is_the_toa5_reader():
     files = sorted(FLUXPART.glob("TOA5_*.dat"))
-    ref = toa5.mast_l1(files, azimuth_deg=218.0, height_m=7.11, sensor_id="m7")
+    ref = level1.mast_l1(files, azimuth_deg=218.0, height_m=7.11, sensor_id="m7")
     ds = chain.compute_mast_l1(files, {**CSAT, "format": TOA5_AS_DELIMITED}, DESPIKE)
     assert ds.sizes["time"] == ref.sizes["time"] > 30000
     assert np.array_equal(ds["time"].values, ref["time"].values)

@@ -133,7 +133,7 @@ def test_constraint_amplitudes_need_a_constraint():
 def forward_flight(tmp_path_factory):
     """One simulated flight processed to L3, its forward conditions and the mast L1."""
     from dronewind.diagnose import experiments as ex
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward_conditions
     from dronewind.manifest import with_defaults
 
     work = Path(tmp_path_factory.mktemp("atmosphere"))
@@ -141,7 +141,7 @@ def forward_flight(tmp_path_factory):
     data = ex.campaign_manifest(ex.Draw("none", {}, 7), n_flights=2, hover_min=6.0)
     flight = data["payload_flights"][1]
     v = ex.process_virtual_flight(data, flight, work, proc)
-    cond = forward.forward_conditions(data, flight["id"], v.l3, v.l2)
+    cond = forward_conditions.forward_conditions(data, flight["id"], v.l3, v.l2)
     return data, flight["id"], proc, cond, v.mast_l1, v.l2
 
 
@@ -159,11 +159,11 @@ def _hover_differences(measured: xr.Dataset, simulated: xr.Dataset, l2: xr.Datas
 
 
 def test_forward_mast_reproduces_the_measured_record(forward_flight):
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions
 
     data, fid, proc, cond, m1, l2 = forward_flight
-    record = forward.atmosphere_record(m1, cond)
-    _, products = forward.run_forward(forward.forward_manifest(data, fid, cond, None, 101, True), fid, proc,
+    record = forward_atmosphere.atmosphere_record(m1, cond)
+    _, products = forward.run_forward(forward_conditions.forward_manifest(data, fid, cond, None, 101, True), fid, proc,
                                       atmosphere=record)
     diff = _hover_differences(m1, products["l1"]["mast"], l2)
     for var, d in diff.items():
@@ -179,13 +179,14 @@ def test_forward_mast_reproduces_the_measured_record(forward_flight):
 
 
 def test_mast_attenuation_probe_reads_the_record_through_the_mechanism(forward_flight):
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions
 
     data, fid, proc, cond, m1, l2 = forward_flight
     params = {"gain": 0.85}
-    record = forward.RECORD_INVERSES["mast_w_attenuation"](forward.atmosphere_record(m1, cond), params)
+    measured = forward_atmosphere.atmosphere_record(m1, cond)
+    record = forward_atmosphere.RECORD_INVERSES["mast_w_attenuation"](measured, params)
     mech = [{"mechanism": "mast_w_attenuation", "parameters": params}]
-    _, products = forward.run_forward(forward.forward_manifest(data, fid, cond, mech, 101, True), fid, proc,
+    _, products = forward.run_forward(forward_conditions.forward_manifest(data, fid, cond, mech, 101, True), fid, proc,
                                       atmosphere=record)
     diff = _hover_differences(m1, products["l1"]["mast"], l2)
     # the true w at the mast is the record's w / 0.85; the attenuating mast measures the record
@@ -194,15 +195,15 @@ def test_mast_attenuation_probe_reads_the_record_through_the_mechanism(forward_f
 
 
 def test_atmosphere_record_needs_the_hover_window(forward_flight):
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions
 
     data, fid, proc, cond, m1, l2 = forward_flight
     short = m1.sel(time=slice(l2["time"].values[0] + np.timedelta64(60, "s"), None))
     with pytest.raises(InputError, match="hover window"):
-        forward.run_forward(forward.forward_manifest(data, fid, cond, None, 101, True), fid, proc,
-                            atmosphere=forward.atmosphere_record(short, cond))
+        forward.run_forward(forward_conditions.forward_manifest(data, fid, cond, None, 101, True), fid, proc,
+                            atmosphere=forward_atmosphere.atmosphere_record(short, cond))
     with pytest.raises(InputError, match="missing variable"):
-        forward.atmosphere_record(m1.drop_vars("w_up_ms"), cond)
+        forward_atmosphere.atmosphere_record(m1.drop_vars("w_up_ms"), cond)
 
 
 def test_forward_step_names_a_bad_setting(tmp_path):

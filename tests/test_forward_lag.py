@@ -4,7 +4,7 @@ Every flight has a processing lag of its own (Ghirardelli et al. 2025, Fig. 4; t
 simulator's per-flight draw). The chain finds it by its lag search; the forward model takes
 the lag found as a condition (``sonic_ins_lag_s`` of :func:`forward_conditions`) and
 simulates the flight with the processing lag that makes its own chain find it again
-(:func:`dronewind.diagnose.forward.simulated_sonic_ins_lag_s`). Known answers: a flight
+(:func:`dronewind.diagnose.probe_runs.simulated_sonic_ins_lag_s`). Known answers: a flight
 simulated with a set processing lag, processed like measured data.
 """
 
@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import pytest
 
-from dronewind.diagnose import forward
+from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs
+from dronewind.diagnose.forward_conditions import forward_manifest
+from dronewind.diagnose.probes import PROBES, probe_parts
 from dronewind.simulate.payload import payload_records
 from dronewind.simulate.settings import resolve_payload_flight
 from tests.test_forward_memory import _campaign, _processing
@@ -30,8 +32,8 @@ def _measured(lag_s: float = LAG_S) -> tuple[dict, dict, object]:
     camp["simulation"]["payload_flights"]["f1"]["sonic_ins_lag_s"] = lag_s
     records, _ = payload_records(camp, "f1")
     _, products = forward.process_forward_flight(camp, "f1", records, _processing())
-    conditions = forward.forward_conditions(camp, "f1", products["l3"], products["l2"])
-    return camp, conditions, forward.atmosphere_record(products["l1"]["mast"], conditions)
+    conditions = forward_conditions.forward_conditions(camp, "f1", products["l3"], products["l2"])
+    return camp, conditions, forward_atmosphere.atmosphere_record(products["l1"]["mast"], conditions)
 
 
 @pytest.fixture(scope="module")
@@ -53,9 +55,9 @@ def test_the_conditions_carry_the_lag_the_chain_found(measured):
 def test_forward_manifest_simulates_the_conditions_lag_or_none():
     camp = _campaign()
     conditions = dict(camp["simulation"]["payload_flights"]["f1"])
-    assert resolve_payload_flight(forward.forward_manifest(camp, "f1", conditions), "f1")["sonic_ins_lag_s"] == 0.0
+    assert resolve_payload_flight(forward_manifest(camp, "f1", conditions), "f1")["sonic_ins_lag_s"] == 0.0
     conditions["sonic_ins_lag_s"] = -0.125
-    assert resolve_payload_flight(forward.forward_manifest(camp, "f1", conditions), "f1")["sonic_ins_lag_s"] == -0.125
+    assert resolve_payload_flight(forward_manifest(camp, "f1", conditions), "f1")["sonic_ins_lag_s"] == -0.125
 
 
 def test_forward_runs_find_the_measured_lag_and_probes_add_to_it(measured):
@@ -66,8 +68,8 @@ def test_forward_runs_find_the_measured_lag_and_probes_add_to_it(measured):
     sonic_ins_lag probe of +0.3 s moves the lag found by 0.3 s (1.5 steps for two
     roundings); the lag drift of the halves is found."""
     camp, conditions, record = measured
-    probes = tuple(p for p in forward.PROBES if p.mechanism == "sonic_ins_lag")
-    runs = forward.probe_runs(camp, "f1", conditions, _processing(), seeds=(0, 1), probes=probes, atmosphere=record)
+    probes = tuple(p for p in PROBES if p.mechanism == "sonic_ins_lag")
+    runs = probe_runs.probe_runs(camp, "f1", conditions, _processing(), seeds=(0, 1), probes=probes, atmosphere=record)
     lag_m = conditions["sonic_ins_lag_s"]
     found = [b["values"]["lag_sonic_ins_s"] for b in runs["baseline"]]
     assert found[0] == pytest.approx(lag_m, abs=1e-9)
@@ -84,8 +86,8 @@ def test_the_lag_drift_does_not_see_a_constant_lag():
     0 and -0.125 s (4 steps): the same drift, the lag moved by the 4 steps."""
     camp = _campaign()
     conditions = dict(camp["simulation"]["payload_flights"]["f1"])
-    none, products = forward.run_forward(forward.forward_manifest(camp, "f1", conditions), "f1", _processing())
-    lagged, _ = forward.run_forward(forward.forward_manifest(camp, "f1", {**conditions, "sonic_ins_lag_s": -0.125}),
+    none, products = forward.run_forward(forward_manifest(camp, "f1", conditions), "f1", _processing())
+    lagged, _ = forward.run_forward(forward_manifest(camp, "f1", {**conditions, "sonic_ins_lag_s": -0.125}),
                                     "f1", _processing(), truth=products["truth"])
     assert lagged.values["lag_sonic_ins_s"] - none.values["lag_sonic_ins_s"] == pytest.approx(-0.125, abs=1e-9)
     assert lagged.values["lag_drift_s"] == pytest.approx(none.values["lag_drift_s"], abs=1e-9)
@@ -95,13 +97,13 @@ def test_parts_with_the_lag_condition_merge_into_the_whole_flight(measured):
     """Each part finds the same simulated lag on its own (the first seed's flight), so the
     per-mechanism jobs merge, bit for bit, into one job's runs."""
     camp, conditions, record = measured
-    probes = tuple(p for p in forward.PROBES if p.mechanism in ("w_gain", "height_offset", "attitude_lag"))
+    probes = tuple(p for p in PROBES if p.mechanism in ("w_gain", "height_offset", "attitude_lag"))
     proc = _processing()
-    whole = forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, atmosphere=record)
-    parts = [forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, parts=[name],
+    whole = probe_runs.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, atmosphere=record)
+    parts = [probe_runs.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, parts=[name],
                                 atmosphere=record)
-             for name in reversed(forward.probe_parts(probes))]
-    merged = forward.merge_probe_runs(parts, probes)
+             for name in reversed(probe_parts(probes))]
+    merged = probe_runs.merge_probe_runs(parts, probes)
     for key in ("reused_products", "reused_steps"):
         whole.pop(key), merged.pop(key)
     assert merged == whole

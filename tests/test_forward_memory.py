@@ -16,11 +16,12 @@ import pytest
 
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import StepStore, reusing
-from dronewind.diagnose import forward
+from dronewind.diagnose import forward, forward_atmosphere, probe_runs
+from dronewind.diagnose.probes import PROBES, probe_parts
 from dronewind.errors import InputError
 from dronewind.manifest import default_config
 from dronewind.mechanisms import get_mechanism
-from dronewind.payload.io import read_sonic_csv
+from dronewind.payload.reader import read_sonic_csv
 from dronewind.simulate import atmosphere
 from dronewind.simulate.payload import payload_records, payload_truth
 from tests.test_simulate_payload import _campaign as _unit_campaign
@@ -194,12 +195,12 @@ def test_shares_truth_admits_measurement_mechanisms_only():
     def mech(*names):
         return [{"mechanism": n, "parameters": {}} for n in names]
 
-    assert forward.shares_truth([], measured=True)
-    assert forward.shares_truth(mech(*MEASUREMENT_STAGE), measured=False)
-    assert not forward.shares_truth(mech("w_gain", "height_offset"), measured=False)
-    for name in forward.RECORD_INVERSES:
-        assert forward.shares_truth(mech(name), measured=False)  # the model field has no record
-        assert not forward.shares_truth(mech("w_gain", name), measured=True)
+    assert probe_runs.shares_truth([], measured=True)
+    assert probe_runs.shares_truth(mech(*MEASUREMENT_STAGE), measured=False)
+    assert not probe_runs.shares_truth(mech("w_gain", "height_offset"), measured=False)
+    for name in forward_atmosphere.RECORD_INVERSES:
+        assert probe_runs.shares_truth(mech(name), measured=False)  # the model field has no record
+        assert not probe_runs.shares_truth(mech("w_gain", name), measured=True)
 
 
 def test_a_record_with_other_columns_is_named():
@@ -219,7 +220,7 @@ def _measured_mast(camp: dict, conditions: dict):
     sonic = next(s for m in camp["masts"] for s in m["sonics"] if s["id"] == camp["payload_flights"][0]["reference"])
     mast = [r for r in records[2:] if sonic["id"] in r.source]
     m1 = compute_mast_l1(mast, sonic, _processing()["despike"])
-    return forward.atmosphere_record(m1, conditions)
+    return forward_atmosphere.atmosphere_record(m1, conditions)
 
 
 @pytest.mark.parametrize("atmosphere", ["model", "measured"])
@@ -232,19 +233,19 @@ def test_parts_run_apart_merge_into_the_whole_flight(atmosphere):
     camp = _campaign()
     conditions = camp["simulation"]["payload_flights"]["f1"]
     record = _measured_mast(camp, conditions) if atmosphere == "measured" else None
-    probes = tuple(p for p in forward.PROBES if p.mechanism in ("w_gain", "height_offset", "mast_w_attenuation"))
+    probes = tuple(p for p in PROBES if p.mechanism in ("w_gain", "height_offset", "mast_w_attenuation"))
     proc = _processing()
-    whole = forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, atmosphere=record)
+    whole = probe_runs.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, atmosphere=record)
     assert whole["atmosphere"] == atmosphere
-    parts = [forward.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, parts=[name],
+    parts = [probe_runs.probe_runs(camp, "f1", conditions, proc, seeds=(0, 1), probes=probes, parts=[name],
                                 atmosphere=record)
-             for name in reversed(forward.probe_parts(probes))]
-    merged = forward.merge_probe_runs(parts, probes)
+             for name in reversed(probe_parts(probes))]
+    merged = probe_runs.merge_probe_runs(parts, probes)
     for key in ("reused_products", "reused_steps"):
         whole.pop(key), merged.pop(key)
     assert merged == whole
     with pytest.raises(InputError, match="expected each of"):
-        forward.merge_probe_runs(parts[1:], probes)
+        probe_runs.merge_probe_runs(parts[1:], probes)
     # the diagnosis takes the errors from the baseline seeds: a probe carries values only
     assert all(v is not None for b in whole["baseline"] for k, v in b["sigma"].items() if b["values"][k] is not None)
     assert any(v is not None for r in whole["probes"] for v in r["features"]["values"].values())
@@ -265,21 +266,21 @@ def test_runs_without_the_lag_drift_differ_only_in_that_feature():
         if key != "lag_drift_s":
             assert without.values[key] == pytest.approx(value, nan_ok=True, rel=0, abs=0), key
     conditions = camp["simulation"]["payload_flights"]["f1"]
-    probes = tuple(p for p in forward.PROBES if p.mechanism == "w_gain")
-    parts = [forward.probe_runs(_campaign(), "f1", conditions, proc, seeds=(0,), probes=probes, parts=[name],
+    probes = tuple(p for p in PROBES if p.mechanism == "w_gain")
+    parts = [probe_runs.probe_runs(_campaign(), "f1", conditions, proc, seeds=(0,), probes=probes, parts=[name],
                                 lag_drift=name == "w_gain")
-             for name in forward.probe_parts(probes)]
+             for name in probe_parts(probes)]
     assert [p["lag_drift"] for p in parts] == [False, True]
     with pytest.raises(InputError, match="disagree on lag_drift"):
-        forward.merge_probe_runs(parts, probes)
+        probe_runs.merge_probe_runs(parts, probes)
     # nor parts of different feature sets (the published numbers' runs compute six)
-    parts = [forward.probe_runs(_campaign(), "f1", conditions, proc, seeds=(0,), probes=probes, parts=[name],
+    parts = [probe_runs.probe_runs(_campaign(), "f1", conditions, proc, seeds=(0,), probes=probes, parts=[name],
                                 features=("sw_su_drone",) if name == "w_gain" else None)
-             for name in forward.probe_parts(probes)]
+             for name in probe_parts(probes)]
     assert parts[1]["features"] == ["sw_su_drone"]
     assert parts[1]["probes"][0]["features"]["reasons"]["ln_sigma_ratio_w"] == "not requested"
     with pytest.raises(InputError, match="disagree on features"):
-        forward.merge_probe_runs(parts, probes)
+        probe_runs.merge_probe_runs(parts, probes)
 
 
 def test_ins_probes_share_the_baseline_ins_noise_and_give_fresh_records():

@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from dronewind.diagnose import forward
+from dronewind.diagnose import probes
 from dronewind.diagnose.experiments import Draw, diagnose_evidence, judge, measured_campaign_evidence
 from dronewind.manifest import default_config, load_campaign
 from dronewind.mast.chain import compute_mast_l1
@@ -134,7 +134,7 @@ def _l2_lag_s(folder, manifest) -> float:
     proc = default_config()["processing"]
     flight = campaign.payload_flights[0]
     s1, i1 = compute_payload_l1(folder / flight["sonic"]["file"], folder / flight["ins"]["file"], proc["despike"])
-    lag = {k: proc[k] for k in forward.LAG_SETTINGS}
+    lag = {k: proc[k] for k in probes.LAG_SETTINGS}
     lag["hover"] = {**lag["hover"], "min_duration_s": 120.0}
     return float(compute_payload_l2(s1, i1, flight, float(campaign.data["site"]["altitude_m"]), **lag
                                     ).attrs["lag_sonic_ins_s"])

@@ -1,4 +1,4 @@
-"""Tests of the payload sonic / INS readers (dronewind.payload.io) on synthetic files."""
+"""Tests of the payload sonic / INS readers (dronewind.payload.reader, .clock, .ins, .sonic) on synthetic files."""
 
 from __future__ import annotations
 
@@ -8,14 +8,10 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.payload.io import (
-    ClockJumpError,
-    fit_logger_clock,
-    ins_l1,
-    payload_sonic_l1,
-    read_ins_csv,
-    read_sonic_csv,
-)
+from dronewind.payload.clock import fit_logger_clock
+from dronewind.payload.ins import ins_l1
+from dronewind.payload.reader import ClockJumpError, read_ins_csv, read_sonic_csv
+from dronewind.payload.sonic import payload_sonic_l1
 
 RPI0_US = 1_234_567_890  # logger clock at the start of the synthetic flight [us]
 UTC0 = np.datetime64("2023-08-21T14:05:00.000000", "ns")
@@ -426,7 +422,7 @@ def test_repeated_stamps_marked_as_pandas_marks_them(dtype):
     other dtypes through pandas)."""
     import pandas as pd
 
-    from dronewind.payload.io import _repeated
+    from dronewind.payload.reader import _repeated
 
     rng = np.random.default_rng(11)
     for _ in range(400):

@@ -8,13 +8,10 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.quadrotor.io import (
-    QUADROTOR_COLUMNS,
-    quaternion_to_euler_deg,
-    read_quadrotor,
-    read_quadrotor_csv,
-    read_tower_reference,
-)
+from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
+from dronewind.quadrotor.io import read_quadrotor, read_quadrotor_csv
+from dronewind.quadrotor.reference import read_tower_reference
+from dronewind.quadrotor.ulog import quaternion_to_euler_deg
 from tests.conftest import needs_record, record_path
 
 ULOG_DIR = record_path("px4_ulog")

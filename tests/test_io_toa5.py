@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from dronewind.errors import InputError
-from dronewind.mast.toa5 import csat3_to_enu, mast_l1, read_toa5
+from dronewind.mast.level1 import csat3_to_enu, mast_l1
+from dronewind.mast.toa5 import read_toa5
 from tests.conftest import needs_record, record_path
 
 HERE = Path(__file__).resolve().parent

@@ -23,7 +23,7 @@ import xarray as xr
 from dronewind.compare import blocks, long_record
 from dronewind.core.qc import QC_SPIKE
 from dronewind.errors import InputError
-from dronewind.mast import toa5
+from dronewind.mast import level1
 from dronewind.simulate.writers import write_toa5
 from tests.conftest import needs_record, record_path
 
@@ -71,7 +71,7 @@ def record(tmp_path_factory):
     files = write_record(folder / "raw")
     result = long_record.process_long_record(files[::-1], folder / "out", SONIC, PROCESSING, record="tower",
                                              n_workers=2)
-    whole = toa5.mast_l1(files, azimuth_deg=SONIC["azimuth_deg"], height_m=SONIC["height_m"], sensor_id="m10")
+    whole = level1.mast_l1(files, azimuth_deg=SONIC["azimuth_deg"], height_m=SONIC["height_m"], sensor_id="m10")
     return files, result, whole
 
 
@@ -92,7 +92,7 @@ def test_file_l1_equals_concatenated_l1(record):
 def test_without_context_the_boundary_spike_is_missed(record):
     """The test above can fail: processing each file alone (no context) misses the boundary spikes."""
     files, _, whole = record
-    alone = toa5.mast_l1(files[0], azimuth_deg=SONIC["azimuth_deg"], height_m=SONIC["height_m"], sensor_id="m10")
+    alone = level1.mast_l1(files[0], azimuth_deg=SONIC["azimuth_deg"], height_m=SONIC["height_m"], sensor_id="m10")
     assert not alone["qc_mast"].values[-1] & QC_SPIKE
     assert alone["qc_mast"].values[-1] != whole["qc_mast"].values[alone.sizes["time"] - 1]
 

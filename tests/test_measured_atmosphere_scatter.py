@@ -19,11 +19,12 @@ from scipy import signal
 
 from dronewind.diagnose.atmosphere_scatter import ratio_interval, realisation_scatter, scatter_ratios
 from dronewind.simulate import atmosphere as atm
+from dronewind.simulate import constraint, spectral_model
 
 
 def test_factors_have_mean_one_and_the_bootstrap_variance_of_a_bin_mean():
     counts = np.array([1, 2, 5, 40])
-    draws = np.stack([atm.spectral_sampling_factors(counts, np.random.default_rng(s)) for s in range(4000)])
+    draws = np.stack([constraint.spectral_sampling_factors(counts, np.random.default_rng(s)) for s in range(4000)])
     assert np.all(draws[:, :, 0] == 1.0)  # one ordinate: the record's own coefficient, no factor
     assert draws.shape == (4000, 4, 4) and np.all(draws > 0)
     n = counts[1:]
@@ -33,12 +34,12 @@ def test_factors_have_mean_one_and_the_bootstrap_variance_of_a_bin_mean():
     assert np.allclose(flat.mean(axis=0), 1.0, atol=0.008)
     assert np.allclose(flat.var(axis=0), (n - 1) / n**2, rtol=0.10)
     # the same generator state, the same factors (a seed's probes share them)
-    a = atm.spectral_sampling_factors(counts, np.random.default_rng(7))
-    assert np.array_equal(a, atm.spectral_sampling_factors(counts, np.random.default_rng(7)))
+    a = constraint.spectral_sampling_factors(counts, np.random.default_rng(7))
+    assert np.array_equal(a, constraint.spectral_sampling_factors(counts, np.random.default_rng(7)))
 
 
 FS_HZ, PERIOD_S, SPEED_MS, FROM_DEG, Z_REF_M, L_M = 4.0, 600.0, 5.5, 200.0, 30.0, -150.0
-_E_U, _E_V = atm.wind_frame_unit_vectors(FROM_DEG)
+_E_U, _E_V = spectral_model.wind_frame_unit_vectors(FROM_DEG)
 MAST = np.array([0.0, 0.0, 30.0])
 DRONE = np.array([*(-35.0 * _E_V - 10.0 * _E_U), 28.0])  # 35 m across the wind, 10 m upwind, 2 m lower
 N_SAMPLES = int(PERIOD_S * FS_HZ)
@@ -51,15 +52,15 @@ def _truth(i: int) -> np.ndarray:
     return atm.synthesize(spec, FS_HZ, n_samples=N_SAMPLES)
 
 
-def _constraint(mast: np.ndarray, w_gain: float = 1.0) -> atm.ConstraintLatents:
+def _constraint(mast: np.ndarray, w_gain: float = 1.0) -> constraint.ConstraintLatents:
     names = ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k")
     rec = xr.Dataset({k: ("time", mast[j] * (w_gain if k == "w_up_ms" else 1.0)) for j, k in enumerate(names)},
                      coords={"time_s": ("time", np.arange(N_SAMPLES) / FS_HZ)},
                      attrs={"height_m": float(MAST[2]), "x_m": 0.0, "y_m": 0.0})
-    return atm.constraint_from_record(rec, PERIOD_S, FS_HZ, FROM_DEG)
+    return constraint.constraint_from_record(rec, PERIOD_S, FS_HZ, FROM_DEG)
 
 
-def _forward(con: atm.ConstraintLatents, seed: tuple[int, ...], points: np.ndarray = DRONE[None],
+def _forward(con: constraint.ConstraintLatents, seed: tuple[int, ...], points: np.ndarray = DRONE[None],
              sampling: bool = True) -> atm.FieldSpec:
     return atm.field_coefficients(points, PERIOD_S, FS_HZ, SPEED_MS, FROM_DEG, Z_REF_M, L_M, 0.05,
                                   np.random.default_rng([*seed, 2]), constraint=con, amplitudes="constraint",

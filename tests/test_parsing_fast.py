@@ -19,14 +19,15 @@ import pandas as pd
 import pytest
 
 from dronewind.core import textscan
-from dronewind.mast import ameriflux, toa5
-from dronewind.payload import io as pio
+from dronewind.mast import ameriflux, level1, toa5
+from dronewind.mast.columns import REQUIRED_TOA5_COLUMNS
+from dronewind.payload import columns, reader
 from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
 from tests.conftest import needs_record, record_path
 
 SHARED = record_path("fluxpart_csat3_toa5")
 SONIC_KINDS = {"rpi_time_us": "int", "u_ms": "float", "v_ms": "float", "w_ms": "float", "t_sonic_c": "float"}
-INS_KINDS = {**{c: "float" for c in pio.INS_COLUMNS}, "rpi_time_us": "int", "utc": "utc", "time_valid": "flag",
+INS_KINDS = {**{c: "float" for c in columns.INS_COLUMNS}, "rpi_time_us": "int", "utc": "utc", "time_valid": "flag",
              "ekf_valid": "int"}  # fmt: skip
 
 
@@ -50,16 +51,16 @@ def assert_same_arrays(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> No
 
 def payload_both(monkeypatch: pytest.MonkeyPatch, path: Path, ins: bool) -> tuple[Any, Any]:
     """Outcome of the reader with and without the fast path."""
-    expected, kinds = (pio.INS_COLUMNS, INS_KINDS) if ins else (pio.SONIC_COLUMNS, SONIC_KINDS)
+    expected, kinds = (columns.INS_COLUMNS, INS_KINDS) if ins else (columns.SONIC_COLUMNS, SONIC_KINDS)
 
     def run() -> Any:
-        table = pio._parse_csv(path, expected, kinds, 0.05)
-        reader = pio.read_ins_csv(path) if ins else pio.read_sonic_csv(path)
-        return table, reader
+        table = reader._parse_csv(path, expected, kinds, 0.05)
+        read = reader.read_ins_csv(path) if ins else reader.read_sonic_csv(path)
+        return table, read
 
     fast = outcome(run)
     with monkeypatch.context() as m:
-        m.setattr(pio, "_rows_fast", lambda *a: None)
+        m.setattr(reader, "_rows_fast", lambda *a: None)
         careful = outcome(run)
     return fast, careful
 
@@ -121,8 +122,8 @@ def edit_lines(path: Path, edits: dict[int, bytes | None], insert: dict[int, byt
 
 def test_clean_payload_files_take_the_fast_path_and_agree(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     sonic, ins = sonic_file(tmp_path), ins_file(tmp_path)
-    assert pio._rows_fast(sonic, pio.SONIC_COLUMNS, SONIC_KINDS) is not None
-    assert pio._rows_fast(ins, pio.INS_COLUMNS, INS_KINDS) is not None
+    assert reader._rows_fast(sonic, columns.SONIC_COLUMNS, SONIC_KINDS) is not None
+    assert reader._rows_fast(ins, columns.INS_COLUMNS, INS_KINDS) is not None
     assert assert_payload_same(monkeypatch, sonic, ins=False) == "ok"
     assert assert_payload_same(monkeypatch, ins, ins=True) == "ok"
 
@@ -152,7 +153,7 @@ def test_sonic_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytes
     edits, insert, fast_expected = SONIC_DEFECTS[name]
     path = edit_lines(sonic_file(tmp_path), {k + 1: v for k, v in edits.items()},
                       {k + 1: v for k, v in insert.items()})  # fmt: skip
-    assert (pio._rows_fast(path, pio.SONIC_COLUMNS, SONIC_KINDS) is not None) == fast_expected
+    assert (reader._rows_fast(path, columns.SONIC_COLUMNS, SONIC_KINDS) is not None) == fast_expected
     assert_payload_same(monkeypatch, path, ins=False)
 
 
@@ -185,7 +186,7 @@ def test_sonic_text_variants_same_result(variant: str, tmp_path: Path, monkeypat
         text = b""
     path.write_bytes(text)
     expect_fast = variant in ("bom", "two_boms", "crlf", "no_final_newline")
-    assert (pio._rows_fast(path, pio.SONIC_COLUMNS, SONIC_KINDS) is not None) == expect_fast
+    assert (reader._rows_fast(path, columns.SONIC_COLUMNS, SONIC_KINDS) is not None) == expect_fast
     assert_payload_same(monkeypatch, path, ins=False)
 
 
@@ -214,7 +215,7 @@ INS_DEFECTS: dict[str, tuple[dict[int, bytes | None], bool]] = {
 def test_ins_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     edits, fast_expected = INS_DEFECTS[name]
     path = edit_lines(ins_file(tmp_path), edits)
-    assert (pio._rows_fast(path, pio.INS_COLUMNS, INS_KINDS) is not None) == fast_expected
+    assert (reader._rows_fast(path, columns.INS_COLUMNS, INS_KINDS) is not None) == fast_expected
     assert_payload_same(monkeypatch, path, ins=True)
 
 
@@ -223,12 +224,12 @@ def test_ins_leap_day_and_year_edges_same_times(tmp_path: Path, monkeypatch: pyt
     stamps = ["2024-02-29T23:59:59.999999Z", "2023-12-31T23:59:59.000001Z", "2000-02-29T00:00:00.000000Z",
               "1900-03-01T12:00:00.500000Z", "2100-02-28T01:02:03.040506Z", "2199-12-31T23:59:59.999999Z",
               "2023-04-30T10:00:00.000000Z", "2023-04-31T10:00:00.000000Z", "1900-02-29T00:00:00.000000Z"]
-    head = ",".join(pio.INS_COLUMNS)
+    head = ",".join(columns.INS_COLUMNS)
     lines = [f"{5_000_000_000 + 20_000 * i},{s},1,1,43.1,0.36,600,0.1,0.1,0,1,1,170" for i, s in enumerate(stamps)]
     lines += [f"{5_000_000_000 + 20_000 * i},,0,1,43.1,0.36,600,0.1,0.1,0,1,1,170" for i in range(9, 300)]
     path = tmp_path / "ins.csv"
     path.write_text(head + "\n" + "\n".join(lines) + "\n")
-    rows = pio._rows_fast(path, pio.INS_COLUMNS, INS_KINDS)
+    rows = reader._rows_fast(path, columns.INS_COLUMNS, INS_KINDS)
     assert rows is not None
     assert rows.cols["utc"][0] == np.datetime64("2024-02-29T23:59:59.999999", "ns")
     assert rows.bad[[7, 8]].all() and not rows.bad[:7].any()
@@ -295,7 +296,7 @@ def toa5_file(folder: Path, n: int = 600, kelvin: bool = False, nan_every: int =
 @needs_record("fluxpart_csat3_toa5")
 def test_real_toa5_files_take_the_fast_path_and_agree(monkeypatch: pytest.MonkeyPatch) -> None:
     for f in sorted(SHARED.glob("*.dat")):
-        assert toa5._toa5_fast(f, toa5.REQUIRED_TOA5_COLUMNS) is not None
+        assert toa5._toa5_fast(f, REQUIRED_TOA5_COLUMNS) is not None
         assert assert_toa5_same(monkeypatch, f) == "ok"
 
 
@@ -326,9 +327,9 @@ def test_toa5_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest
     edits, fast_expected = TOA5_DEFECTS[name]
     path = edit_lines(toa5_file(tmp_path), edits)
     if name != "nul":
-        assert (toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is not None) == fast_expected
+        assert (toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is not None) == fast_expected
     else:
-        assert toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is None  # csv.reader's error left to it
+        assert toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is None  # csv.reader's error left to it
     assert_toa5_same(monkeypatch, path)
 
 
@@ -350,12 +351,12 @@ def test_toa5_variants_same_result(variant: str, tmp_path: Path, monkeypatch: py
     path.write_bytes(text)
     assert assert_toa5_same(monkeypatch, path) == ("error" if variant.startswith("header") else "ok")
     if variant in ("crlf", "bom", "kelvin", "nan_values"):
-        assert toa5._toa5_fast(path, toa5.REQUIRED_TOA5_COLUMNS) is not None
+        assert toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is not None
     if variant == "kelvin":  # the whole mast chain (units from the header) agrees too
-        fast = toa5.mast_l1(path, 218.0, 30.0, "m30")
+        fast = level1.mast_l1(path, 218.0, 30.0, "m30")
         with monkeypatch.context() as m:
             m.setattr(toa5, "_toa5_fast", lambda *a: None)
-            careful = toa5.mast_l1(path, 218.0, 30.0, "m30")
+            careful = level1.mast_l1(path, 218.0, 30.0, "m30")
         assert fast.identical(careful)
         assert float(np.nanmedian(fast["t_sonic_k"])) == pytest.approx(293.15, abs=0.2)
 

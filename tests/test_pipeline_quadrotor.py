@@ -23,7 +23,8 @@ import pandas as pd
 import pytest
 import yaml
 
-from dronewind.core.cf import check_compliance_files, strip_cf, track_from_cf
+from dronewind.core.cf import check_compliance_files
+from dronewind.core.cf_names import strip_cf, track_from_cf
 from dronewind.errors import InputError, ProcessingError
 from dronewind.manifest import default_config, load_campaign
 from dronewind.quadrotor import chain

@@ -88,7 +88,8 @@ def test_predicted_uncertainty_matches_the_scatter_of_independent_hovers():
     10 %, so 35 % is 3.4 standard errors; the exponential fit of the time scale is a few % short
     of the autocorrelation's integral (measured 4-8 %)."""
     from dronewind.core.uncertainty import product_series
-    from dronewind.simulate.atmosphere import simulate_wind, wind_frame_unit_vectors
+    from dronewind.simulate.atmosphere import simulate_wind
+    from dronewind.simulate.spectral_model import wind_frame_unit_vectors
 
     z, speed, ell, z0, tau = 30.0, 4.0, -100.0, 0.1, 600.0
     pred = point_uncertainty(z, speed, 250.0, ell, z0, seed=3).relative(tau)

@@ -180,7 +180,7 @@ def test_file_steps_write_diagnosis_rerun_report_and_figure(tmp_path):
     """published_diagnosis -> published_rerun (real forward model, one sample) -> published_report."""
     import json
 
-    from dronewind.diagnose.forward import CHAIN_SETTINGS
+    from dronewind.diagnose.probes import CHAIN_SETTINGS
     from dronewind.manifest import default_config, payload_flight_manifest
     from dronewind.steps.published import published_diagnosis, published_report, published_rerun
 

@@ -10,6 +10,7 @@ import pytest
 import xarray as xr
 
 from dronewind.core import constants
+from dronewind.core.constants import KISTNER2024_RANGES
 from dronewind.errors import InputError
 from dronewind.quadrotor import calibration as cal
 from dronewind.quadrotor import drag, hover, validation, wind
@@ -230,9 +231,9 @@ def test_calibration_with_noise_null_case_and_table():
 @pytest.mark.parametrize("seed", [11, 12, 13])
 def test_speed_range_calibration_recovers_random_drag_regime(seed):
     rng = np.random.default_rng(seed)
-    b = np.array([0.784, 0.882, 0.635]) * rng.uniform(0.9, 1.1, 3)
-    c = np.array([6.338, 7.604, 8.600]) * rng.uniform(0.9, 1.1, 3)
-    edges = np.array([4.0, 12.0])
+    b = np.array(KISTNER2024_RANGES["b_x"]) * rng.uniform(0.9, 1.1, 3)
+    c = np.array(KISTNER2024_RANGES["c_x"]) * rng.uniform(0.9, 1.1, 3)
+    edges = np.array(KISTNER2024_RANGES["edges_ms"])
     # calibration steps as in the tunnel: 2..18 m/s, 3 repetitions, 100 samples per step
     # (none on an edge, where the hidden law is discontinuous)
     ref = np.repeat(np.setdiff1d(np.arange(2.0, 18.1, 1.0), edges), 3)

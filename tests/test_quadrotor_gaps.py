@@ -17,7 +17,8 @@ import pytest
 from dronewind.errors import InputError
 from dronewind.quadrotor.chain import compute_flight_windows
 from dronewind.quadrotor.delimited import read_quadrotor_delimited, reference_from_record
-from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
+from dronewind.quadrotor.io import read_quadrotor
+from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.quadrotor.windows import flight_windows, flight_windows_with_gaps
 
 START = np.datetime64("2021-06-01T08:00:00", "s")

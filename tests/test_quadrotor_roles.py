@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from dronewind.quadrotor.drag import RHO_KGM3
+from dronewind.core.constants import AIR_DENSITY_KGM3
 from dronewind.quadrotor.validation import wetz2021_tables
 from tests.test_diagnose_quadrotor_days import BASE, FLIGHTS, RELEVEL, UAVS, _two_days, _windows
 
@@ -21,7 +21,7 @@ def _full(windows: pd.DataFrame) -> pd.DataFrame:
 
 
 def test_calibration_flights_only_fit_the_calibration():
-    blocks, windows = _windows(11, _two_days, lambda f: RHO_KGM3, log_density=False)
+    blocks, windows = _windows(11, _two_days, lambda f: AIR_DENSITY_KGM3, log_density=False)
     day1 = [f for f in FLIGHTS if f.startswith("d1")]
     day2 = [f for f in FLIGHTS if f.startswith("d2")]
     res = wetz2021_tables(blocks, _full(windows), calibration=day1, validation=day2)
@@ -52,7 +52,8 @@ def test_two_day_campaign_of_delimited_records_through_the_workflow(tmp_path):
 
     import yaml
 
-    from dronewind.quadrotor.drag import WETZ2021_AERO, speed_from_tilt
+    from dronewind.core.constants import WETZ2021_AERO
+    from dronewind.quadrotor.drag import speed_from_tilt
 
     root = Path(__file__).resolve().parents[1]
     rng = np.random.default_rng(5)

@@ -29,7 +29,7 @@ FLUXPART_HEIGHT_M = 7.11  # heights.csv, tower height valid 2012-05-07 .. 2012-0
 mpcalc = pytest.importorskip("metpy.calc", reason="MetPy is the independent implementation")
 from dronewind.compare import l4  # noqa: E402
 from dronewind.core import filtering, rotation, stats  # noqa: E402
-from dronewind.mast import ameriflux, toa5  # noqa: E402
+from dronewind.mast import ameriflux, level1  # noqa: E402
 
 
 def _prepare(u_e, v_n, w_up, t_k):
@@ -163,7 +163,7 @@ def fluxpart(real_record):
     files = sorted(real_record("fluxpart_csat3_toa5").glob("TOA5_*.dat"))
     # the CSAT3 azimuth is not documented; 0 is used: after double rotation the
     # streamline components do not depend on it
-    ds = toa5.mast_l1(files, azimuth_deg=0.0, height_m=FLUXPART_HEIGHT_M, sensor_id="fluxpart")
+    ds = level1.mast_l1(files, azimuth_deg=0.0, height_m=FLUXPART_HEIGHT_M, sensor_id="fluxpart")
     return ds
 
 

@@ -169,10 +169,10 @@ def _nothing():
 def test_forward_products_are_read_only_and_windows_are_views_of_them():
     """A product stored in a flight's ForwardCache (an L1 dataset) is read-only for every later
     run: its variables' arrays, a data array's too, and views of them, such as the L2's window
-    of an L1 (dronewind.payload.sync._kept: a slice where the kept samples are one run)."""
+    of an L1 (dronewind.payload.l2._kept: a slice where the kept samples are one run)."""
     import xarray as xr
 
-    from dronewind.payload.sync import _kept
+    from dronewind.payload.l2 import _kept
 
     ds = xr.Dataset({"u": ("time", np.arange(6.0)), "flag": ("time", np.zeros(6, dtype=np.int8))},
                     coords={"time": np.arange(6)})

@@ -16,23 +16,25 @@ import pytest
 import xarray as xr
 from scipy import signal
 
+from dronewind.core import surface_layer
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
+from dronewind.simulate import spectral_model
 from dronewind.simulate.atmosphere import simulate_wind
 
 
 def _wind_frame(ds: xr.Dataset, wind_from_deg: float, p: int = 0):
-    e_u, e_v = atm.wind_frame_unit_vectors(wind_from_deg)
+    e_u, e_v = spectral_model.wind_frame_unit_vectors(wind_from_deg)
     ue, vn = ds.u_east_ms[p].values, ds.v_north_ms[p].values
     return ue * e_u[0] + vn * e_u[1], ue * e_v[0] + vn * e_v[1], ds.w_up_ms[p].values, ds.theta_v_k[p].values
 
 
 def _discrete_power(z, speed, ustar, L, T, fs, theta=293.15):
     """S_k df per component, exactly as the generator scales them."""
-    sig = atm.turbulence_sigmas(ustar, z, L, 1000.0, theta)
-    par = atm.spectral_parameters(sig, ustar, z / L)
+    sig = surface_layer.turbulence_sigmas(ustar, z, L, 1000.0, theta)
+    par = spectral_model.spectral_parameters(sig, ustar, z / L)
     f = np.arange(1, int(np.ceil(T * fs / 2))) / T
-    spec = atm.component_spectra(f, z, speed, sig, par)
+    spec = spectral_model.component_spectra(f, z, speed, sig, par)
     out = {}
     for c in ("u", "v", "w", "theta"):
         out[c] = spec[f"S_{c}"] / T
@@ -92,7 +94,7 @@ def test_coherence_decays_with_separation_and_frequency():
     f, c5 = signal.coherence(v[0], v[1], fs, nperseg=512)
     _, c20 = signal.coherence(v[0], v[2], fs, nperseg=512)
     band = (f > 0.03) & (f < 0.15)
-    model5 = atm.coherence(f[band], np.array(5.0), U, z, "v") ** 2
+    model5 = spectral_model.coherence(f[band], np.array(5.0), U, z, "v") ** 2
     # 56 segments: coherence estimates scatter ~0.05 per bin, the band mean much less
     assert abs(np.mean(c5[band]) - np.mean(model5)) < 0.08, (np.mean(c5[band]), np.mean(model5))
     assert np.mean(c20[band]) < np.mean(c5[band]) - 0.2
@@ -141,18 +143,19 @@ def test_taylor_advection_delay():
 
 
 def test_profiles_and_similarity():
-    ustar = atm.friction_velocity(8.0, 60.0, 0.3, np.inf)
-    assert atm.mean_speed_profile(60.0, ustar, 0.3, np.inf) == pytest.approx(8.0)
+    ustar = surface_layer.friction_velocity(8.0, 60.0, 0.3, np.inf)
+    assert surface_layer.mean_speed_profile(60.0, ustar, 0.3, np.inf) == pytest.approx(8.0)
     assert ustar == pytest.approx(0.4 * 8.0 / np.log(60 / 0.3))
     # unstable air mixes more: larger u* for the same speed; stable less
-    assert atm.friction_velocity(8.0, 60.0, 0.3, -50.0) > ustar > atm.friction_velocity(8.0, 60.0, 0.3, 50.0)
-    s = atm.turbulence_sigmas(0.5, 30.0, np.inf)
+    u_unstable = surface_layer.friction_velocity(8.0, 60.0, 0.3, -50.0)
+    assert u_unstable > ustar > surface_layer.friction_velocity(8.0, 60.0, 0.3, 50.0)
+    s = surface_layer.turbulence_sigmas(0.5, 30.0, np.inf)
     assert s["sigma_u_ms"] / 0.5 == pytest.approx(2.39) and s["sigma_w_ms"] / 0.5 == pytest.approx(1.25)
-    par = atm.spectral_parameters(s, 0.5, 0.0)
+    par = spectral_model.spectral_parameters(s, 0.5, 0.0)
     assert par["b_w"] == pytest.approx(5.45, abs=0.1)  # Kaimal et al. (1972): 5.3
     # stable peak at higher reduced frequency (smaller b) than neutral
-    st = atm.turbulence_sigmas(0.5, 30.0, 30.0)
-    assert atm.spectral_parameters(st, 0.5, 1.0)["b_u"] < par["b_u"]
+    st = surface_layer.turbulence_sigmas(0.5, 30.0, 30.0)
+    assert spectral_model.spectral_parameters(st, 0.5, 1.0)["b_u"] < par["b_u"]
 
 
 def test_same_seed_same_field_and_prefix_independence():
@@ -198,8 +201,8 @@ def test_constraint_reproduced_at_its_point():
 def test_constraint_from_real_csat3_record(real_record):
     """A measured CSAT3 record (fluxpart, 20 Hz) read by dronewind.mast.toa5 constrains the field."""
     folder = real_record("fluxpart_csat3_toa5")
-    toa5 = importlib.import_module("dronewind.mast.toa5")
-    l1 = toa5.mast_l1(sorted(folder.glob("TOA5_*1245.dat")), azimuth_deg=0.0, height_m=7.11, sensor_id="fluxpart")
+    level1 = importlib.import_module("dronewind.mast.level1")
+    l1 = level1.mast_l1(sorted(folder.glob("TOA5_*1245.dat")), azimuth_deg=0.0, height_m=7.11, sensor_id="fluxpart")
     l1.attrs["height_m"] = 7.11
     ds = simulate_wind(np.array([[0.0, 0.0, 7.11], [0.0, 1.0, 7.11]]), 600.0, 10.0, 3.0, 200.0, 7.11, -20.0,
                        seed=1, constraint=l1)
@@ -232,7 +235,7 @@ def test_bad_inputs_named(kwargs, where):
 def test_coherence_factor_remembered_by_content():
     """Equal points and wind in new arrays find the remembered Cholesky factor, which
     equals a fresh factorisation; other points get their own."""
-    from dronewind.simulate.atmosphere import _coherence_factor, _CoherenceKey, coherence
+    from dronewind.simulate.spectral_model import _coherence_factor, _CoherenceKey, coherence
 
     f = np.linspace(0.001, 10.0, 500)
     pts = np.array([[0.0, 0.0, 30.0], [5.0, 0.0, 30.0], [0.0, 3.0, 60.0]])

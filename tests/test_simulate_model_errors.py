@@ -18,12 +18,14 @@ import numpy as np
 import pytest
 from scipy import signal
 
+from dronewind.core import surface_layer
 from dronewind.diagnose.experiments import Draw, campaign_manifest
 from dronewind.errors import InputError
-from dronewind.simulate import atmosphere as atm
+from dronewind.simulate import departures, spectral_model
+from dronewind.simulate.defaults import MAST_DEFAULTS, SPECTRA, TURBULENCE_DEFAULTS
 from dronewind.simulate.mast import DISTORTION_KEYS, flow_distortion
 from dronewind.simulate.payload import payload_records, payload_truth
-from dronewind.simulate.settings import MAST_DEFAULTS, SPECTRA, TURBULENCE_DEFAULTS, validate_simulation
+from dronewind.simulate.settings import validate_simulation
 
 HOVER_S = 1800.0
 SPEED_MS, FROM_DEG, Z_REF_M, Z_HOVER_M, ZETA = 6.0, 200.0, 30.0, 28.0, -0.2
@@ -66,11 +68,11 @@ def _mast(truth) -> np.ndarray:
 
 
 OBUKHOV_M = Z_REF_M / ZETA
-USTAR_MS = atm.friction_velocity(SPEED_MS, Z_REF_M, 0.1, OBUKHOV_M)
+USTAR_MS = surface_layer.friction_velocity(SPEED_MS, Z_REF_M, 0.1, OBUKHOV_M)
 
 
 def _similarity_sigmas() -> dict[str, float]:
-    return atm.turbulence_sigmas(USTAR_MS, Z_HOVER_M, OBUKHOV_M, 1000.0, 288.15)
+    return surface_layer.turbulence_sigmas(USTAR_MS, Z_HOVER_M, OBUKHOV_M, 1000.0, 288.15)
 
 
 def test_defaults_spelled_out_give_bit_identical_records():
@@ -104,7 +106,7 @@ def test_sigma_w_factor_scales_w_at_drone_and_mast_and_nothing_else(base):
 
 def test_sigma_u_and_v_factors_scale_their_components_only(base):
     t = _truth({"sigma_u_factor": 0.7, "sigma_v_factor": 1.3})
-    e_u, e_v = atm.wind_frame_unit_vectors(FROM_DEG)
+    e_u, e_v = spectral_model.wind_frame_unit_vectors(FROM_DEG)
     for get in (_drone, _mast):
         new, old = get(t), get(base)
         np.testing.assert_array_equal(new[2], old[2])
@@ -117,8 +119,10 @@ def test_von_karman_shape_has_the_variance_and_inertial_level_of_kaimal_and_anot
     sig = _similarity_sigmas()
     ustar, zeta = USTAR_MS, Z_HOVER_M / OBUKHOV_M
     f = np.logspace(-6, 3, 200_000)
-    kaimal = atm.component_spectra(f, Z_HOVER_M, SPEED_MS, sig, atm.spectral_parameters(sig, ustar, zeta))
-    vk = atm.von_karman_spectra(f, SPEED_MS, sig, atm.von_karman_length_scales(sig, ustar, zeta, Z_HOVER_M))
+    params = spectral_model.spectral_parameters(sig, ustar, zeta)
+    kaimal = spectral_model.component_spectra(f, Z_HOVER_M, SPEED_MS, sig, params)
+    lengths_m = departures.von_karman_length_scales(sig, ustar, zeta, Z_HOVER_M)
+    vk = departures.von_karman_spectra(f, SPEED_MS, sig, lengths_m)
     high = (f > 20) & (f < 200)
     peaks = {}
     for c in "uvw":
@@ -152,7 +156,7 @@ def test_von_karman_field_keeps_the_inertial_slope_and_length_factor_moves_the_p
             # -5/3 between 0.5 Hz and 0.4 fs; 0.1 covers the scatter of a Welch estimate of
             # ~14 segments over this decade and a half
             assert _slope(get(vk)[comp], rate, 0.5, 0.4 * rate) == pytest.approx(-5 / 3, abs=0.1)
-    e_u, _ = atm.wind_frame_unit_vectors(FROM_DEG)
+    e_u, _ = spectral_model.wind_frame_unit_vectors(FROM_DEG)
     stretched = _truth({"length_scale_factor": 2.0})
     for get, rate in ((_drone, fs), (_mast, 10.0)):
         ratio = _log_centroid_hz(e_u @ get(stretched)[:2], rate) / _log_centroid_hz(e_u @ get(base)[:2], rate)

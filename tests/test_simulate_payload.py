@@ -23,7 +23,8 @@ from scipy import signal
 
 from dronewind.core.geo import local_tangent_plane_m
 from dronewind.errors import InputError
-from dronewind.simulate.payload import body_to_ned, pendulum_period_s, simulate_payload_flight
+from dronewind.simulate.payload import simulate_payload_flight
+from dronewind.simulate.payload_motion import body_to_ned, pendulum_period_s
 from dronewind.simulate.settings import flight_seed, resolve_payload_flight, validate_simulation
 from dronewind.simulate.writers import INS_HEADER, SONIC_HEADER
 
@@ -139,9 +140,9 @@ def test_ins_positions_on_the_shared_wgs84_tangent_plane(base):
 
 
 def test_written_files_read_by_the_chain_readers(base):
-    """The L1 readers (dronewind.payload.io, dronewind.mast.toa5) accept the files."""
-    io_payload = importlib.import_module("dronewind.payload.io")
-    io_toa5 = importlib.import_module("dronewind.mast.toa5")
+    """The L1 readers (dronewind.payload.sonic, dronewind.mast.level1) accept the files."""
+    io_payload = importlib.import_module("dronewind.payload.sonic")
+    io_toa5 = importlib.import_module("dronewind.mast.level1")
     l1 = io_payload.payload_sonic_l1(base["files"][0], base["files"][1])
     assert l1.attrs["n_duplicates"] > 0 and l1.attrs["n_out_of_range"] > 0
     mast = io_toa5.mast_l1([base["files"][3]], 230.5, 60.0, "mast60")
@@ -154,20 +155,21 @@ def test_chain_finds_the_gnss_time_and_the_sonic_ins_lag(tmp_path, base):
     time (not at the blink), and the TKE-minimising lag moves by the flight's processing lag
     and by the mechanism's lag_s (within one step of the 1/32 s search grid, 1.5 steps for
     the sum of two grid roundings)."""
-    io_payload = importlib.import_module("dronewind.payload.io")
-    sync = importlib.import_module("dronewind.payload.sync")
+    ins_l1 = importlib.import_module("dronewind.payload.ins").ins_l1
+    payload_sonic_l1 = importlib.import_module("dronewind.payload.sonic").payload_sonic_l1
+    l2 = importlib.import_module("dronewind.payload.l2")
     ins = base["ins"].sort_values("rpi_time_us")
     first_stable = ins.utc[ins.time_valid == 1].iloc[-1]
     tv = ins.drop_duplicates().time_valid.to_numpy()
     settle = ins.drop_duplicates().utc.to_numpy()[np.flatnonzero(np.diff(tv) == 1)[-1] + 1]
-    l1_ins = io_payload.ins_l1(base["files"][1])
+    l1_ins = ins_l1(base["files"][1])
     assert pd.Timestamp(l1_ins.time.values[0]) == pd.Timestamp(settle[:-1])
     assert first_stable > settle
 
     def lag_of(run):
-        s = io_payload.payload_sonic_l1(run["files"][0], run["files"][1])
-        i = io_payload.ins_l1(run["files"][1])
-        return sync.payload_l2(s, i, "upside_down").attrs["lag_sonic_ins_s"]
+        s = payload_sonic_l1(run["files"][0], run["files"][1])
+        i = ins_l1(run["files"][1])
+        return l2.payload_l2(s, i, "upside_down").attrs["lag_sonic_ins_s"]
 
     no_lag = _campaign()
     no_lag["simulation"]["payload"].update(sonic_ins_lag_low_s=0.0, sonic_ins_lag_high_s=0.0)
@@ -500,7 +502,7 @@ def test_lowpass_noise_with_the_remembered_filter_equals_a_fresh_design():
     of a filter designed anew for the call, again on a second call."""
     from scipy import signal
 
-    from dronewind.simulate.payload import _lowpass_noise
+    from dronewind.simulate.payload_motion import _lowpass_noise
 
     n, fs_hz, time_s, sigma = 4000, 20.0, 3.0, 0.2
     for _ in range(2):
@@ -516,7 +518,7 @@ def test_slope_at_knots_is_the_splines_derivative_there_bit_for_bit(seed):
     """The payload's velocity read from the spline's coefficients is scipy's evaluation at the knots."""
     from scipy.interpolate import CubicSpline
 
-    from dronewind.simulate.payload import _slope_at_knots
+    from dronewind.simulate.payload_motion import _slope_at_knots
 
     rng = np.random.default_rng(seed)
     n = int(rng.integers(4, 3000))

@@ -12,9 +12,11 @@ import pytest
 from dronewind.core import constants
 from dronewind.errors import InputError
 from dronewind.quadrotor import calibration as cal
-from dronewind.quadrotor import drag, hover, validation, wind
+from dronewind.quadrotor import hover, validation, wind
 from dronewind.quadrotor import windows as qw
-from dronewind.quadrotor.io import QUADROTOR_COLUMNS, read_quadrotor, read_tower_reference
+from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
+from dronewind.quadrotor.io import read_quadrotor
+from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.simulate.quadrotor import (
     log_profile_wind,
     quadrotor_mechanisms,
@@ -109,7 +111,7 @@ def test_end_to_end_recovers_hidden_offsets(tmp_path):
             blocks.append(b)
             windows.append(w)
     blocks, windows = pd.concat(blocks), pd.concat(windows, ignore_index=True)
-    po = cal.calibrate_pitch_offsets(blocks, windows, drag.WETZ2021_AERO)
+    po = cal.calibrate_pitch_offsets(blocks, windows, constants.WETZ2021_AERO)
     yo = cal.calibrate_yaw_offsets(blocks, windows)
     true_p = np.array([v[0] for v in offsets.values()])
     true_y = np.array([v[1] for v in offsets.values()])
@@ -130,7 +132,7 @@ def test_with_atmosphere_simulate_wind(tmp_path):
     ref = read_tower_reference(paths[-1])
     b, w = qw.flight_windows(ds, ref, SITE_ALT, "f31", "q01", window_s=120)
     pred = validation.predict_windows(b, w, pd.DataFrame({"uav": ["q01"], "pitch_offset_deg": [0.0]}),
-                             aero=drag.WETZ2021_AERO)
+                             aero=constants.WETZ2021_AERO)
     # no offsets, true drag law: the UAV agrees with the tower within turbulence sampling
     assert np.all(np.abs(pred["error_ms"]) < 1.0)
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from dronewind.core.cf import atomic_write_text
-from dronewind.diagnose.forward import probe_parts
+from dronewind.diagnose.probes import probe_parts
 from tests.conftest import SLURM_RUN, is_xdist_worker, shared_tmp, wait_for_file
 from tests.small_campaign import SHORT_HOVER, SMALL_SEEDS, write_small_campaign
 

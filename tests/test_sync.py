@@ -1,4 +1,4 @@
-"""Known-answer tests of dronewind.payload.sync (sonic-INS lag, L2 builder) and
+"""Known-answer tests of dronewind.payload.lag_search and .l2 (sonic-INS lag, L2 builder) and
 dronewind.compare.align (FIR decimation, drone-mast lag, L3 builder); Ghirardelli et al. (2025), Sects. 3.2-3.3 and 4.4.
 
 Synthetic truth as in test_motion.py (duplicated here so each test file stands alone): a
@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from dronewind.compare import align
 from dronewind.core import rotation
 from dronewind.errors import InputError
-from dronewind.payload import motion, sync
+from dronewind.payload import l2, lag_search, motion
 
 G = 9.80665
 L_PEND_M = 18.0
@@ -139,7 +139,7 @@ def test_tke_curve_equals_brute_force(lever):
     sonic, ins = fl.l1(0.3, "upright", lever)
     ts, s, ti, att, vel = _arrays(sonic, ins)
     sel = (ts > 40) & (ts < 150)
-    lag, tke, n = sync.tke_vs_lag(ts[sel], s[sel], ti, att, vel, "upright", lever, 1.0, 1 / 32)
+    lag, tke, n = lag_search.tke_vs_lag(ts[sel], s[sel], ti, att, vel, "upright", lever, 1.0, 1 / 32)
     assert lag.size == 65 and n == sel.sum()
     rates = motion.body_rates_from_euler(att[:, 0], att[:, 1], att[:, 2], ti) if lever else None
     brute = []
@@ -147,7 +147,7 @@ def test_tke_curve_equals_brute_force(lever):
         keys = {"r": att[:, 0], "p": att[:, 1], "yaw_deg": att[:, 2], "v": vel}
         if lever:
             keys["w"] = rates
-        q = sync.interpolate_ins(ti, keys, ts[sel] + lg)
+        q = lag_search.interpolate_ins(ti, keys, ts[sel] + lg)
         u = np.stack(motion.motion_correct(s[sel, 0], s[sel, 1], s[sel, 2], q["r"], q["p"], q["yaw_deg"],
                                            q["v"][:, 0], q["v"][:, 1], q["v"][:, 2], "upright", lever,
                                            body_rates_rad_s=q.get("w")), axis=-1)
@@ -162,7 +162,7 @@ def test_tke_at_true_lag_equals_true_tke():
     sonic, ins = fl.l1(0.25, "upside_down", noise_ms=0.0)
     ts, s, ti, att, vel = _arrays(sonic, ins)
     sel = (ts > 60) & (ts < 230)
-    lag, tke, _ = sync.tke_vs_lag(ts[sel], s[sel], ti, att, vel, "upside_down")
+    lag, tke, _ = lag_search.tke_vs_lag(ts[sel], s[sel], ti, att, vel, "upside_down")
     tke_true = 0.5 * fl.wind_enu(ts[sel] + 0.25).var(axis=0).sum()
     assert tke[np.argmin(np.abs(lag - 0.25))] == pytest.approx(tke_true, rel=1e-5)
     assert tke.min() > 0.99 * tke_true
@@ -172,7 +172,7 @@ def test_full_search_has_129_lags():
     fl = Flight(seed=2, duration_s=200.0)
     sonic, ins = fl.l1(0.0)
     ts, s, ti, att, vel = _arrays(sonic, ins)
-    lag, tke, _ = sync.tke_vs_lag(ts[200:-200], s[200:-200], ti, att, vel, "upside_down")
+    lag, tke, _ = lag_search.tke_vs_lag(ts[200:-200], s[200:-200], ti, att, vel, "upside_down")
     assert lag.size == 129 and lag[0] == -2.0 and lag[-1] == 2.0
     np.testing.assert_allclose(np.diff(lag), 1 / 32)
 
@@ -194,7 +194,7 @@ def test_payload_l2_recovers_known_lag(lag_true):
     on-grid lags and -0.13..-0.43 step for the off-grid ones."""
     fl = Flight(seed=7, duration_s=1320.0)
     sonic, ins = fl.l1(lag_true, "upside_down")
-    ds = sync.payload_l2(sonic, ins, "upside_down")
+    ds = l2.payload_l2(sonic, ins, "upside_down")
     assert abs(ds.attrs["lag_sonic_ins_s"] - lag_true) <= 1 / 32 + 1e-12
     assert ds.attrs["usable"] == 1, ds.attrs["unusable_reason"]
     # the TKE curve is a reverse bell with its minimum at the lag found
@@ -214,14 +214,14 @@ def test_payload_l2_wind_matches_truth_and_sign_of_lag():
     lag_true = -0.1875
     lever = (0.2, -0.1, 0.6)
     sonic, ins = fl.l1(lag_true, "upright", lever=lever, noise_ms=0.0)
-    ds_search = sync.payload_l2(sonic, ins, "upright", lever_arm_m=lever, min_hover_s=200.0)
+    ds_search = l2.payload_l2(sonic, ins, "upright", lever_arm_m=lever, min_hover_s=200.0)
     lag_found = ds_search.attrs["lag_sonic_ins_s"]
     assert lag_found < 0 and abs(lag_found - lag_true) <= 3 / 32  # 5-min hover: +/-3 steps
     sonic_shifted = sonic.assign_coords(time=sonic.time + np.timedelta64(375_000_000, "ns"))
-    ds_shift = sync.payload_l2(sonic_shifted, ins, "upright", lever_arm_m=lever, min_hover_s=200.0)
+    ds_shift = l2.payload_l2(sonic_shifted, ins, "upright", lever_arm_m=lever, min_hover_s=200.0)
     assert ds_shift.attrs["lag_sonic_ins_s"] - lag_found == pytest.approx(-0.375, abs=1 / 32 + 1e-12)
 
-    ds = sync.payload_l2(sonic, ins, "upright", lever_arm_m=lever, min_hover_s=200.0, fixed_lag_s=lag_true,
+    ds = l2.payload_l2(sonic, ins, "upright", lever_arm_m=lever, min_hover_s=200.0, fixed_lag_s=lag_true,
                          site_altitude_m=603.0)
     assert ds.attrs["lag_sonic_ins_s"] == lag_true and ds.attrs["lag_tke_min_s"] == lag_found
     assert ds.attrs["height_m"] == pytest.approx(27.0)
@@ -242,7 +242,7 @@ def test_payload_l2_jittered_sonic_and_lever_arm():
     fl = Flight(seed=9)
     lag_true = 0.4321
     sonic, ins = fl.l1(lag_true, "upright", lever=(0.0, 0.5, 1.0), jitter_s=0.004, seed=3)
-    ds = sync.payload_l2(sonic, ins, "upright", lever_arm_m=(0.0, 0.5, 1.0), min_hover_s=200.0)
+    ds = l2.payload_l2(sonic, ins, "upright", lever_arm_m=(0.0, 0.5, 1.0), min_hover_s=200.0)
     assert abs(ds.attrs["lag_sonic_ins_s"] - lag_true) <= 1 / 32
 
 
@@ -255,7 +255,7 @@ def test_payload_l2_gap_filling_and_unusable():
     s1 = sonic.copy(deep=True)
     idx = rng.choice(n, n // 100, replace=False)
     s1["u_sensor_ms"].values[idx] = np.nan
-    ds = sync.payload_l2(s1, ins, "upside_down", min_hover_s=200.0)
+    ds = l2.payload_l2(s1, ins, "upside_down", min_hover_s=200.0)
     assert ds.attrs["usable"] == 1
     assert 0 < ds.attrs["n_sonic_filled"] <= n // 100
     assert np.isfinite(ds.u_east_ms).all()
@@ -268,7 +268,7 @@ def test_payload_l2_gap_filling_and_unusable():
     s3 = sonic.copy(deep=True)
     idx = rng.choice(n, 3 * n // 100, replace=False)
     s3["w_sensor_ms"].values[idx] = np.nan
-    ds = sync.payload_l2(s3, ins, "upside_down", min_hover_s=200.0)
+    ds = l2.payload_l2(s3, ins, "upside_down", min_hover_s=200.0)
     assert ds.attrs["usable"] == 0 and "missing" in ds.attrs["unusable_reason"]
     assert ds.sizes["time"] > 0 and np.isnan(ds.w_up_ms).any()
     assert abs(ds.attrs["lag_sonic_ins_s"]) <= 1 / 32
@@ -276,13 +276,13 @@ def test_payload_l2_gap_filling_and_unusable():
     i1 = ins.copy(deep=True)
     i1["ekf_valid"].values[10000:10078] = 0
     i1["roll_deg"].values[12000:12010] = np.nan
-    ds = sync.payload_l2(sonic, i1, "upside_down", min_hover_s=200.0)
+    ds = l2.payload_l2(sonic, i1, "upside_down", min_hover_s=200.0)
     assert ds.attrs["usable"] == 1 and ds.attrs["n_ins_filled"] == 88 and ds.attrs["n_ins_filled_in_hover"] == 88
     i1["ekf_valid"].values[8000:8800] = 0
-    ds = sync.payload_l2(sonic, i1, "upside_down", min_hover_s=200.0)
+    ds = l2.payload_l2(sonic, i1, "upside_down", min_hover_s=200.0)
     assert ds.attrs["usable"] == 0 and "INS" in ds.attrs["unusable_reason"]
     # short hover -> unusable with reason
-    ds = sync.payload_l2(sonic, ins, "upside_down")
+    ds = l2.payload_l2(sonic, ins, "upside_down")
     assert ds.attrs["usable"] == 0 and "hover" in ds.attrs["unusable_reason"]
 
 
@@ -290,9 +290,9 @@ def test_payload_l2_bad_input():
     fl = Flight(seed=10, duration_s=200.0)
     sonic, ins = fl.l1(0.0)
     with pytest.raises(InputError, match="t_sonic_k"):
-        sync.payload_l2(sonic.drop_vars("t_sonic_k"), ins, "upside_down")
+        l2.payload_l2(sonic.drop_vars("t_sonic_k"), ins, "upside_down")
     with pytest.raises(InputError, match="mount"):
-        sync.payload_l2(sonic, ins, "sideways")
+        l2.payload_l2(sonic, ins, "sideways")
 
 
 # ------------------------------------------------------------------ FIR

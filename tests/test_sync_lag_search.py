@@ -1,7 +1,7 @@
 """The sonic-INS lag search by short real FFTs against the full FFT convolution it replaces.
 
-:func:`dronewind.payload.sync.lag_correlations` correlates only the lags searched, with FFTs
-of a fast length just above the record (:func:`~dronewind.payload.sync.fast_fft_length`) and
+:func:`dronewind.payload.lag_search.lag_correlations` correlates only the lags searched, with FFTs
+of a fast length just above the record (:func:`~dronewind.payload.lag_search.fast_fft_length`) and
 the sum over the three components taken on the spectra. The reference below is the earlier
 evaluation, :func:`scipy.signal.fftconvolve` of the twelve column pairs in ``valid`` mode:
 both must give the same TKE curve (to float rounding) and the same lag, on synthetic signals
@@ -18,7 +18,7 @@ import scipy.fft
 import scipy.signal
 
 from dronewind.manifest import default_config
-from dronewind.payload import chain, sync
+from dronewind.payload import chain, lag_search
 from dronewind.simulate.payload import payload_records
 from tests.test_simulate_payload import _campaign
 from tests.test_sync import Flight, _arrays
@@ -41,7 +41,7 @@ def _tke_fftconvolve(rot: np.ndarray, v_sonic: np.ndarray, b: np.ndarray, n: int
 
 @pytest.mark.parametrize("n", [1, 2, 7, 16, 97, 1000, 38401, 65537, 10 ** 6 + 1])
 def test_fast_fft_length_is_scipys(n):
-    assert sync.fast_fft_length(n) == scipy.fft.next_fast_len(n, real=True)
+    assert lag_search.fast_fft_length(n) == scipy.fft.next_fast_len(n, real=True)
 
 
 def test_lag_correlations_equal_direct_sums():
@@ -50,9 +50,9 @@ def test_lag_correlations_equal_direct_sums():
     x = rng.normal(size=(n + n_lags - 1, 4, 3))
     y = rng.normal(size=(n, 3))
     direct = np.array([[np.sum(x[j:j + n, g, :] * y) for g in range(4)] for j in range(n_lags)])
-    np.testing.assert_allclose(sync.lag_correlations(x, y, n_lags), direct, rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(lag_search.lag_correlations(x, y, n_lags), direct, rtol=1e-10, atol=1e-10)
     with pytest.raises(ValueError, match="expected long_series"):
-        sync.lag_correlations(x[:-1], y, n_lags)
+        lag_search.lag_correlations(x[:-1], y, n_lags)
 
 
 @pytest.mark.parametrize(("lag_true", "lever"), [(0.0, None), (0.3125, None), (-0.75, (0.3, 0.2, -0.8)),
@@ -62,12 +62,13 @@ def test_same_curve_and_lag_as_fftconvolve_on_known_lags(lag_true, lever, monkey
     sonic, ins = fl.l1(lag_true, "upside_down", lever)
     ts, s, ti, att, vel = _arrays(sonic, ins)
     sel = (ts > 40) & (ts < 260)
-    lag_new, tke_new, _ = sync.tke_vs_lag(ts[sel], s[sel], ti, att, vel, "upside_down", lever)
-    monkeypatch.setattr(sync, "_mean_tke_per_lag", _tke_fftconvolve)
-    lag_old, tke_old, _ = sync.tke_vs_lag(ts[sel], s[sel], ti, att, vel, "upside_down", lever)
+    lag_new, tke_new, _ = lag_search.tke_vs_lag(ts[sel], s[sel], ti, att, vel, "upside_down", lever)
+    monkeypatch.setattr(lag_search, "_mean_tke_per_lag", _tke_fftconvolve)
+    lag_old, tke_old, _ = lag_search.tke_vs_lag(ts[sel], s[sel], ti, att, vel, "upside_down", lever)
     np.testing.assert_array_equal(lag_new, lag_old)
     np.testing.assert_allclose(tke_new, tke_old, rtol=1e-10)
-    found_new, found_old = sync.find_sonic_ins_lag(lag_new, tke_new), sync.find_sonic_ins_lag(lag_old, tke_old)
+    found_new = lag_search.find_sonic_ins_lag(lag_new, tke_new)
+    found_old = lag_search.find_sonic_ins_lag(lag_old, tke_old)
     assert found_new == found_old
     # the estimator's own sampling error on a 220 s segment: up to 3 steps (see test_sync)
     assert abs(found_new[0] - lag_true) <= 3.0 / 32 + 1e-12
@@ -92,7 +93,7 @@ def test_same_lag_and_wind_as_fftconvolve_on_a_simulated_flight(monkeypatch):
                                         max_missing_fraction=proc["max_missing_fraction"])
 
     new = l2()
-    monkeypatch.setattr(sync, "_mean_tke_per_lag", _tke_fftconvolve)
+    monkeypatch.setattr(lag_search, "_mean_tke_per_lag", _tke_fftconvolve)
     old = l2()
     assert new.attrs["lag_sonic_ins_s"] == old.attrs["lag_sonic_ins_s"]
     assert new.attrs["lag_sonic_ins_s"] > 0.0  # the sonic's clock is behind: time is added to it
@@ -151,20 +152,20 @@ def test_whole_curve_from_the_halves_equals_its_own_correlation(lag_true, lever,
     ts, s, ti, att, vel = _arrays(sonic, ins)
     sel = (ts > 40) & (ts < 260)
     split = 40 + split_fraction * 220
-    lags, whole, n, _ = sync._tke_curves(ts[sel], s[sel], ti, att, vel, "upside_down", lever, 2.0, 1 / 32, None)
-    lags_s, whole_s, n_s, halves = sync._tke_curves(ts[sel], s[sel], ti, att, vel, "upside_down", lever, 2.0,
+    lags, whole, n, _ = lag_search._tke_curves(ts[sel], s[sel], ti, att, vel, "upside_down", lever, 2.0, 1 / 32, None)
+    lags_s, whole_s, n_s, halves = lag_search._tke_curves(ts[sel], s[sel], ti, att, vel, "upside_down", lever, 2.0,
                                                     1 / 32, None, split)
     assert n_s == n and np.array_equal(lags_s, lags) and all(h is not None for h in halves)
     np.testing.assert_allclose(whole_s, whole, rtol=0, atol=1e-12 * np.max(np.abs(whole)))
-    assert sync.find_sonic_ins_lag(lags_s, whole_s) == sync.find_sonic_ins_lag(lags, whole)
-    assert abs(sync.find_sonic_ins_lag(lags, whole)[0] - lag_true) <= 3.0 / 32 + 1e-12
+    assert lag_search.find_sonic_ins_lag(lags_s, whole_s) == lag_search.find_sonic_ins_lag(lags, whole)
+    assert abs(lag_search.find_sonic_ins_lag(lags, whole)[0] - lag_true) <= 3.0 / 32 + 1e-12
     # each half: its own samples' curve
     n_half = 64
     t_grid = ts[sel]
     t0 = t_grid[np.flatnonzero(t_grid >= ti[0] + 2.0 - 1e-9)[0]]
     k = int(np.ceil((split - t0) * 32 - 1e-9))
-    b = sync._sonic_body_on_grid(ts[sel], s[sel], t0 + np.arange(n) / 32, "upside_down", None)
-    rot, v = sync._ins_on_extended_grid(ti, att, vel, t0 + np.arange(-n_half, n + n_half) / 32, lever)
+    b = lag_search._sonic_body_on_grid(ts[sel], s[sel], t0 + np.arange(n) / 32, "upside_down", None)
+    rot, v = lag_search._ins_on_extended_grid(ti, att, vel, t0 + np.arange(-n_half, n + n_half) / 32, lever)
     for (lo, hi), half in zip(((0, k), (k, n)), halves, strict=True):
         ref = _tke_fftconvolve(rot[lo:hi + 2 * n_half], v[lo:hi + 2 * n_half], b[lo:hi], hi - lo, n_half)
         np.testing.assert_allclose(half, ref, rtol=1e-10)

@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from dronewind.mast import toa5
+from dronewind.mast import columns, toa5
 from tests.conftest import needs_record
 from tests.test_io_toa5 import EXCERPT, SHARED, synthetic_rows, write_toa5
 
@@ -20,7 +20,7 @@ def _row_by_row(path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[pd.DataFra
 
 
 def _assert_same(path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    fast = toa5._read_toa5_chunked(Path(path), toa5.REQUIRED_TOA5_COLUMNS)
+    fast = toa5._read_toa5_chunked(Path(path), columns.REQUIRED_TOA5_COLUMNS)
     assert fast is not None, f"{path}: clean file, the C-parser path should take it"
     slow = _row_by_row(Path(path), monkeypatch)
     pd.testing.assert_frame_equal(fast[0], slow[0], check_exact=True)
@@ -64,7 +64,7 @@ def test_damaged_file_declined_and_read_row_by_row(tmp_path, monkeypatch, damage
     else:
         rows[5] = rows[5].replace(rows[5].split(",")[1], "12a", 1)
     p = write_toa5(tmp_path / "d.dat", rows)
-    assert toa5._read_toa5_chunked(p, toa5.REQUIRED_TOA5_COLUMNS) is None
+    assert toa5._read_toa5_chunked(p, columns.REQUIRED_TOA5_COLUMNS) is None
     frame, info = toa5.read_toa5(p)
     assert frame.equals(_row_by_row(p, monkeypatch)[0])
     assert info["n_corrupt_lines"] + info["n_nonnumeric"] == 1
@@ -76,7 +76,7 @@ def test_number_text_that_may_round_differently_is_declined(tmp_path, monkeypatc
     rows = synthetic_rows(400)
     rows[7] = rows[7].replace(rows[7].split(",")[2], text, 1)
     p = write_toa5(tmp_path / "e.dat", rows)
-    assert toa5._read_toa5_chunked(p, toa5.REQUIRED_TOA5_COLUMNS) is None
+    assert toa5._read_toa5_chunked(p, columns.REQUIRED_TOA5_COLUMNS) is None
     frame, info = toa5.read_toa5(p)
     assert frame.equals(_row_by_row(p, monkeypatch)[0]) and info["n_nonnumeric"] == 0
 

@@ -11,7 +11,7 @@ looks like), instead of failing in a job later.
 What is checked, per format:
 
 * ``toa5``: plain text; line 1 starts with the field ``TOA5``; line 2 names at least
-  :data:`dronewind.mast.toa5.REQUIRED_TOA5_COLUMNS`; lines 3 and 4 have as many fields; the
+  :data:`dronewind.mast.columns.REQUIRED_TOA5_COLUMNS`; lines 3 and 4 have as many fields; the
   first data row has as many fields, a TIMESTAMP that parses and an integer RECORD;
 * ``gill_raw``: the file name ``G<DDD><HHMM>.RAW[.gz]``; gzip or plain as declared; the
   declared numeric columns hold numbers and the fields after them are empty;

@@ -1,6 +1,6 @@
 """Campaign manifests and workflow settings: loading, validation and defaults before any job runs.
 
-A manifest (YAML, format in ../shared/DESIGN.md "Campaign manifest") is validated in three
+A manifest (YAML, format in ``docs/data-contract.md`` "Campaign manifest") is validated in three
 passes and every problem is reported with the manifest file, the key path and what was
 expected:
 
@@ -392,7 +392,7 @@ def data_paths(data: Mapping[str, Any]) -> list[tuple[str, str]]:
     return out
 
 
-#: The format of a record that declares none: the contract format of its kind (DESIGN.md).
+#: The format of a record that declares none: the contract format of its kind (``docs/data-contract.md``).
 DEFAULT_FORMATS: dict[str, str] = {"mast_sonic": "toa5", "payload_sonic": "contract_csv",
                                    "payload_ins": "contract_csv", "quadrotor_uav": "contract_csv",
                                    "autopilot_log": "ardupilot_bin"}

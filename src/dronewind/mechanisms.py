@@ -1,4 +1,4 @@
-r"""The catalog of discrepancy mechanisms (DESIGN.md, "Mechanisms").
+r"""The catalog of discrepancy mechanisms (``docs/data-contract.md``, "Mechanisms").
 
 A *mechanism* is a named physical or instrumental cause that makes a measured (or
 simulated) record differ from the truth. The simulator switches mechanisms on in its
@@ -110,13 +110,13 @@ class Mechanism:
     Attributes
     ----------
     name : str
-        Catalog name (DESIGN.md).
+        Catalog name (``docs/data-contract.md``).
     parameters : tuple of Parameter
         Its parameters (empty for ``none``).
     platforms : tuple of str
         Platforms it acts on (subset of :data:`PLATFORMS`).
     meaning : str
-        One-line meaning, as in DESIGN.md.
+        One-line meaning, as in ``docs/data-contract.md``.
     """
 
     name: str
@@ -263,7 +263,7 @@ _ENTRIES: tuple[Mechanism, ...] = (
     ),
 )
 
-#: Read-only mapping name -> :class:`Mechanism` (the DESIGN.md catalog).
+#: Read-only mapping name -> :class:`Mechanism` (the catalog of ``docs/data-contract.md``).
 CATALOG: Mapping[str, Mechanism] = MappingProxyType({m.name: m for m in _ENTRIES})
 
 

@@ -1,7 +1,7 @@
 # What the simulation gets wrong: features per flight, forward-model probes per flight,
 # the campaign diagnosis, the extended model rerun per flight, and the report. The forward
 # runs read the reference mast's L1: with diagnosis.atmosphere: measured it is their
-# atmosphere (dronewind.diagnose.forward.atmosphere_record).
+# atmosphere (dronewind.diagnose.forward_atmosphere.atmosphere_record).
 
 
 rule diagnose_measured:

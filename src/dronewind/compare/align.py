@@ -12,7 +12,7 @@ returns both sensors aligned, on a common 8 Hz base and in streamline coordinate
 4. wind direction and rotation into streamline coordinates per sensor
    (:mod:`dronewind.core.rotation`).
 
-Sign convention (DESIGN.md): ``lag_drone_mast_s`` is the time ADDED to the drone's stamps
+Sign convention (``docs/data-contract.md``): ``lag_drone_mast_s`` is the time ADDED to the drone's stamps
 to align them with the mast; it is positive when the drone sees a structure first (drone
 upwind of the mast).
 
@@ -115,9 +115,8 @@ def _antialias_taps(fs_in_hz: float, decimate: int, passband_edge_hz: float | No
     """:func:`design_antialias_fir`'s design, made once per setting (read-only taps).
 
     Every L3 alignment needs the taps and a forward run makes one alignment per probe: a
-    flight's 36 designs (firwin and three response checks) of the same taps took 1.3 % of
-    its forward runs' profiled time (``benchmarks/results/profile_forward_s02_s26_before.json``).
-    The same arguments give the same taps.
+    flight's 36 designs (firwin and three response checks) of the same taps are a noticeable
+    part of its forward runs' time. The same arguments give the same taps.
     """
     if decimate < 1 or int(decimate) != decimate:
         raise InputError("decimate", f"expected a positive integer, got {decimate!r}")
@@ -662,7 +661,7 @@ def align_drone_mast(
     Parameters
     ----------
     drone_l2 : xarray.Dataset
-        Payload L2 (:func:`dronewind.payload.sync.payload_l2`): ``u_east_ms``,
+        Payload L2 (:func:`dronewind.payload.l2.payload_l2`): ``u_east_ms``,
         ``v_north_ms``, ``w_up_ms`` [m s-1], ``t_sonic_k`` [K] on ``time`` (UTC).
     mast_l2 : xarray.Dataset
         Mast sonic in east/north/up with the same variable names, 10 or 20 Hz, NaN

@@ -22,7 +22,7 @@ flight's mast sensor:
    length scales as a flight's mast sensor (Ghirardelli et al. (2025), Sects. 4.1-4.4).
 
 :func:`block_stats_row` turns a block's L4 into a row of ``tables/block_stats.csv``
-(DESIGN.md, "Outputs that other tools read"). ``usable`` is False, with the reason naming
+(``docs/data-contract.md``, "Outputs that other tools read"). ``usable`` is False, with the reason naming
 the criterion and its numbers, when the coverage fails or the L4 velocity or temperature
 statistics could not be computed (e.g. too few samples). The flight L4 has no
 stationarity test, so neither do the blocks.
@@ -66,7 +66,7 @@ __all__ = [
     "utc_text",
 ]
 
-#: Columns of ``tables/block_stats.csv``: the contract of DESIGN.md, then ``missing_fraction``.
+#: Columns of ``tables/block_stats.csv``: the contract of ``docs/data-contract.md``, then ``missing_fraction``.
 BLOCK_STATS_COLUMNS: tuple[str, ...] = (
     "record", "sensor", "height_m", "start_utc", "end_utc", "U_ms", "wind_from_deg", "sigma_u_ms", "sigma_v_ms",
     "sigma_w_ms", "ustar_ms", "uw_m2s2", "wT_Kms", "L_m", "zeta", "Sw_Su", "usable", "reason", "missing_fraction",

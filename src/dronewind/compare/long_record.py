@@ -7,7 +7,7 @@ at a time), so the peak memory is that of ``n_workers`` files, whatever the leng
 
 1. **Scan** (:func:`scan_files`): the first and last rows of each file give its time span
    and sampling rate; files are ordered by their first time stamp.
-2. **L1 per file** (:func:`file_l1`): :func:`dronewind.mast.toa5.mast_l1` on the file with
+2. **L1 per file** (:func:`file_l1`): :func:`dronewind.mast.level1.mast_l1` on the file with
    *context*: the last rows of the previous file and the first rows of the next one,
    copied byte for byte into small TOA5 files. The result is cut to the file's
    *partition*: from its first time stamp to the next file's first time stamp. The L1 of
@@ -68,7 +68,7 @@ from dronewind.core.cf import atomic_write_text, write_netcdf
 from dronewind.core.progress import Progress
 from dronewind.errors import DronewindError, InputError
 from dronewind.manifest import default_config
-from dronewind.mast import toa5
+from dronewind.mast import level1, toa5
 
 __all__ = ["RecordFile", "FileL1", "LongRecordResult", "context_rows", "scan_files", "file_l1", "file_blocks",
            "process_long_record"]
@@ -337,7 +337,7 @@ def file_l1(scanned: list[RecordFile], k: int, sonic: Mapping[str, Any], despike
             head, rows = _head_lines(nxt.path, n)
             sources.append(_write_piece(Path(tmp), f"{nxt.path.stem}.first{n}.dat", head, rows))
             note.append(f"first {n} rows of {nxt.path.name}")
-        ds = toa5.mast_l1(sources, azimuth_deg=float(sonic["azimuth_deg"]), height_m=float(sonic["height_m"]),
+        ds = level1.mast_l1(sources, azimuth_deg=float(sonic["azimuth_deg"]), height_m=float(sonic["height_m"]),
                           sensor_id=str(sonic["id"]), despike_window_s=window_s,
                           despike_n_mad=float(despike["n_mad"]))
     t = ds["time"].values

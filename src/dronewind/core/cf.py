@@ -26,9 +26,8 @@ Every NetCDF file of the workflow goes through :func:`write_netcdf`. It
 * writes to a temporary file in the destination folder and renames it into place, so an
   interrupted run never leaves a half-written file that Snakemake would take as done.
 
-It also holds the renaming between the library's variable names and the CF names of the
-products (:func:`track_to_cf`, :func:`track_from_cf`, :func:`strip_cf`), used by every
-chain that reads a product back.
+The renaming between the library's variable names and the CF names of the products, used
+by every chain that reads a product back, is :mod:`dronewind.core.cf_names`.
 
 Reproducibility: the data are bit-identical for identical inputs and configuration. The
 only time-dependent attribute is ``date_created``; set the environment variable
@@ -676,8 +675,8 @@ def check_compliance_files(paths: Sequence[str | Path], remember: bool = True) -
         NetCDF files.
     remember : bool
         Remember the checker's whole-file metadata scans for each file
-        (:func:`dronewind.core.compliance.remember_scans`; the same reports at 0.45 of the CPU
-        on a default run's 488 files, ``benchmarks/results/compliance_s27.json``); False runs
+        (:func:`dronewind.core.compliance.remember_scans`; the same reports at about half the
+        CPU time); False runs
         the checker as installed.
 
     Returns
@@ -748,70 +747,4 @@ def split_standard(ds: xr.Dataset, group: str) -> tuple[xr.Dataset, dict[str, xr
 
 # ----------------------------------------------------------------------------- library names <-> CF names
 
-#: GNSS track of a moving platform: library name -> CF H.5 name.
-_TRACK_NAMES = (("lat_deg", "precise_lat"), ("lon_deg", "precise_lon"), ("alt_m", "altitude"))
-#: Scalar station coordinates added by :func:`write_netcdf` (removed by :func:`strip_cf`).
-_STATION_COORDS = ("station", "lat", "lon", "alt")
 
-
-def track_to_cf(ds: xr.Dataset) -> xr.Dataset:
-    """GNSS track of a hovering platform as CF H.5 ``precise_lat/precise_lon(time)`` and ``altitude``.
-
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        Dataset with the library's ``lat_deg``, ``lon_deg``, ``alt_m`` (any of them).
-
-    Returns
-    -------
-    xarray.Dataset
-        Renamed, with CF attributes added to the existing ones.
-    """
-    out = ds.rename({k: v for k, v in _TRACK_NAMES if k in ds.variables})
-    if "precise_lat" in out:
-        out["precise_lat"].attrs.update(standard_name="latitude", units="degrees_north",
-                                        long_name="GNSS latitude of the platform")
-    if "precise_lon" in out:
-        out["precise_lon"].attrs.update(standard_name="longitude", units="degrees_east",
-                                        long_name="GNSS longitude of the platform")
-    if "altitude" in out:
-        out["altitude"].attrs.update(standard_name="altitude", units="m", positive="up",
-                                     long_name="GNSS altitude above mean sea level")
-    return out
-
-
-def track_from_cf(ds: xr.Dataset) -> xr.Dataset:
-    """Inverse of :func:`track_to_cf`: the GNSS track back under the library's names.
-
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        A product read back (``precise_lat``, ``precise_lon``, ``altitude``).
-
-    Returns
-    -------
-    xarray.Dataset
-        With ``lat_deg``, ``lon_deg``, ``alt_m``.
-    """
-    return ds.rename({cf: lib for lib, cf in _TRACK_NAMES if cf in ds.variables})
-
-
-def strip_cf(ds: xr.Dataset) -> xr.Dataset:
-    """Drop the writer's station coordinates so that a product read back can be processed and re-written.
-
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        A product read back (see :func:`dronewind.core.products.open_product`).
-
-    Returns
-    -------
-    xarray.Dataset
-        Without ``station``, ``lat``, ``lon``, ``alt`` and without ``coordinates`` attributes
-        or encodings (they are re-derived on writing).
-    """
-    out = ds.drop_vars([c for c in _STATION_COORDS if c in ds.variables])
-    for var in out.variables.values():
-        var.attrs.pop("coordinates", None)
-        var.encoding.pop("coordinates", None)
-    return out

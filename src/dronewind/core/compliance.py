@@ -13,15 +13,13 @@ The checker's CF suite answers questions about a file's structure (which variabl
 auxiliary coordinates, which are geophysical, which are the latitude, longitude, vertical
 and time axes, the feature type of a variable) from scratch every time a check asks: on a
 product of this workflow, ``get_auxiliary_coordinate_variables`` alone runs hundreds of
-times per file, each a scan over every variable and its attributes. Remembered, the
-checker takes 0.27 instead of 0.62 CPU-s a file on a default run's 488 files
-(``benchmarks/results/compliance_s27.json``). They are pure functions of the open, read-only file (and a
-variable name), so :func:`remember_scans` wraps them in the checker's utility module with a
+times per file, each a scan over every variable and its attributes; remembered, they take
+the checker about half its time per file. They are pure functions of the open, read-only
+file (and a variable name), so :func:`remember_scans` wraps them in the checker's utility module with a
 memo that lives for one file (:meth:`ScanMemo.clear` before the next) and hands every caller
 its own deep copy of the answer, so no check can change what another one sees. Every check
-still runs and reports as before: the reports of all 488 NetCDF files of a default run are
-the same with and without the memo, apart from their time stamps
-(``benchmarks/bench_compliance.py --compare``).
+still runs and reports: the reports of the NetCDF files of a default run are the same with
+and without the memo, apart from their time stamps.
 
 With ``--plain`` the checker runs without the memo. The checker orders some messages of a
 report by iterating sets of variable names, so the order changes with Python's string

@@ -7,8 +7,8 @@ far more than the simulation itself, so the simulator can hand the chain a
 file's reader would have parsed from the text the simulator's writer prints (the same
 rounding, the same rows in the same order with their defects, ``NaT`` for an empty UTC
 field, ``NaN`` for a ``"NAN"``). The chain's L0 readers
-(:func:`dronewind.payload.io.read_sonic_csv`, :func:`dronewind.payload.io.read_ins_csv`,
-:func:`dronewind.mast.toa5.mast_l1`) accept either a path or a record and then run the
+(:func:`dronewind.payload.reader.read_sonic_csv`, :func:`dronewind.payload.reader.read_ins_csv`,
+:func:`dronewind.mast.level1.mast_l1`) accept either a path or a record and then run the
 same cleaning, QC and clock steps, so the L1 of a record equals the L1 of the file the
 simulator would have written (tested by a round trip through the files).
 
@@ -35,8 +35,7 @@ def content_digest(arrays: Mapping[str, object], prefix: str = "") -> str:
 
     Equal digests mean equal names and bit-identical arrays (object arrays by their
     ``repr``). The arrays' memory is hashed in place, without a copy; with the processors'
-    SHA instructions that is about twice as fast as BLAKE2b of a copy
-    (``benchmarks/results/record_checks_s26.json``). It keys what is remembered across runs
+    SHA instructions that is about twice as fast as BLAKE2b of a copy. It keys what is remembered across runs
     and processes: the measured atmosphere of a true state and the simulated field's
     coherence factors (within one forward flight, products and steps are found by comparing
     their inputs instead: :mod:`dronewind.core.reuse`).

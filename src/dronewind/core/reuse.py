@@ -39,9 +39,7 @@ T = TypeVar("T")
 _UINTS: dict[int, type[np.unsignedinteger[Any]]] = {1: np.uint8, 2: np.uint16, 4: np.uint32, 8: np.uint64}
 #: Rows compared first: two different records of a flight's runs mostly differ there already
 #: (a probe's noise, a shifted clock), so they are told apart without reading them whole;
-#: equal ones are then compared whole. The first 371 comparisons of sample s01's
-#: published-numbers forward job: 3.20 -> 1.17 ms (``benchmarks/bench_exact_shortcuts.py``,
-#: ``results/exact_shortcuts_s33.json``).
+#: equal ones are then compared whole.
 _LEADING_ROWS = 64
 
 

@@ -185,9 +185,8 @@ def _stft_design(nperseg: int, noverlap: int, fs_hz: float, window: str) -> scip
 
     ``csd`` designs it anew at every call: the window and its PSD scale (a Python ``sum``
     over the window's samples). The design depends on the settings only, and the transform
-    keeps no state between calls but such derived constants. Over the 112 spectra of sample
-    s01's published-numbers forward job, 158.2 -> 73.3 ms (``benchmarks/bench_exact_shortcuts.py``,
-    ``results/exact_shortcuts_s33.json``).
+    keeps no state between calls but such derived constants, so designing it once per
+    setting halves the cost of a forward run's spectra.
     """
     win = scipy.signal.get_window(window, nperseg)
     return scipy.signal.ShortTimeFFT(win, nperseg - noverlap, fs_hz, fft_mode="onesided", mfft=nperseg,

@@ -73,7 +73,7 @@ def detrend(x: np.ndarray, axis: int = -1) -> np.ndarray:
     :math:`\tau_k = k - (n-1)/2` and :math:`\alpha = \bar x` there, which is the solution
     ``scipy.signal.detrend(type="linear")`` finds with a singular-value decomposition
     (the same to within 2e-15 of the series' largest magnitude, tested) at a quarter to a
-    ninth of its cost (``benchmarks/bench_detrend_fir.py``): the forward model detrends
+    ninth of its cost: the forward model detrends
     every series of every run.
     """
     arr = np.asarray(x, dtype=float)

@@ -166,9 +166,8 @@ def median_of_steps(steps: np.ndarray) -> float:
     fewer than :math:`n/2` above, both middle elements of the sorted steps equal :math:`c`,
     so the median is :math:`c`; otherwise (or with a NaN step) ``np.median`` of all steps is
     taken. Two counting passes replace a selection, whose cost varies with the steps' order
-    (up to 10.8 ms for 92,000 INS steps): over the 160 calls of sample s01's published-numbers
-    forward job, 19.5 against 93.9 ms (``benchmarks/bench_exact_shortcuts.py``,
-    ``results/exact_shortcuts_s32.json``).
+    (up to 10.8 ms for 92,000 INS steps), at about a fifth of its cost on a forward run's
+    series.
     """
     n = steps.size
     if n == 0:
@@ -201,8 +200,7 @@ def unwrap_rad(phase_rad: np.ndarray) -> np.ndarray:
     is the series plus 0.0 after its first sample; that is returned after one check of the
     steps instead of numpy's passes over the series. Otherwise (or with a NaN) numpy's
     function is called, after the check: a logged yaw that wraps at +/-180 degree costs 4 %
-    more. Over the 65 calls of sample s01's published-numbers forward job, 17.2 against
-    82.5 ms (``benchmarks/bench_exact_shortcuts.py``, ``results/exact_shortcuts_s32.json``).
+    more; on a forward run's series the check costs about a fifth of numpy's passes.
     """
     p = np.asarray(phase_rad, dtype=float)
     if p.ndim == 1 and p.size > 1:

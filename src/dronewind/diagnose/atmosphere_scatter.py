@@ -5,14 +5,14 @@ baseline seeds) from the seeds' scatter (:mod:`dronewind.diagnose.campaign`:
 :math:`(1 + 1/K)` times the seed variance). That is right only if, across independent true
 atmospheres of the same conditions, the residuals scatter as the seeds do. With
 ``diagnosis.atmosphere: measured`` the forward runs are built from the reference mast's
-record (:func:`dronewind.simulate.payload.measured_constraint`), so the seeds must also
+record (:func:`dronewind.simulate.payload_wind.measured_constraint`), so the seeds must also
 resample what that record got wrong by chance, its spectral sampling error
-(:func:`dronewind.simulate.atmosphere.spectral_sampling_factors`).
+(:func:`dronewind.simulate.constraint.spectral_sampling_factors`).
 
 :func:`realisation_scatter` measures it with the project's own simulator: N virtual flights
 of one campaign's conditions with different campaign seeds (the "true" atmospheres), each
 processed as measured (:func:`dronewind.diagnose.experiments.process_virtual_flight`) and
-forward-run with K baseline seeds of its own (:func:`dronewind.diagnose.forward.probe_runs`,
+forward-run with K baseline seeds of its own (:func:`dronewind.diagnose.probe_runs.probe_runs`,
 as :func:`dronewind.diagnose.experiments._process_flight` does); per feature, the ratio
 
 .. math:: R = \\frac{(1 + 1/K)\\,\\overline{s^2_{seeds}}}{\\mathrm{var}_i(y_i - \\bar b_i)}
@@ -116,12 +116,12 @@ def realisation_scatter(n_realisations: int, n_seeds: int, features: Sequence[st
         (per realisation) and :func:`scatter_ratios`.
     """
     from dronewind.diagnose import experiments as ex
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
     from dronewind.diagnose.features import features_to_dict
     from dronewind.manifest import with_defaults
 
     processing = with_defaults({})["processing"]
-    lag = {k: processing[k] for k in forward.LAG_SETTINGS}
+    lag = {k: processing[k] for k in probes.LAG_SETTINGS}
     names = list(features)
     measured, baseline, seeds_used = [], [], []
 
@@ -133,10 +133,10 @@ def realisation_scatter(n_realisations: int, n_seeds: int, features: Sequence[st
             fid = flight["id"]
             v = ex.process_virtual_flight(copy.deepcopy(data), flight, Path(folder) / f"r{i}", processing)
             found = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
-            conditions = forward.forward_conditions(data, fid, v.l3, v.l2)
-            record = forward.atmosphere_record(v.mast_l1, conditions)
+            conditions = forward_conditions.forward_conditions(data, fid, v.l3, v.l2)
+            record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions)
             seeds = tuple(int(5000 + 37 * (first_seed + i) + k) for k in range(n_seeds))
-            runs = forward.probe_runs(data, fid, conditions, processing, seeds=seeds, parts=[forward.BASELINE_PART],
+            runs = probe_runs.probe_runs(data, fid, conditions, processing, seeds=seeds, parts=[probes.BASELINE_PART],
                                       atmosphere=record, lag_drift="lag_drift_s" in names, features=names)
             measured.append([_value(found["values"].get(f)) for f in names])
             baseline.append([[_value(run["values"].get(f)) for f in names] for run in runs["baseline"]])

@@ -87,7 +87,7 @@ from dronewind.diagnose.fitting import (
     chi2,
     score_candidate,
 )
-from dronewind.diagnose.forward import baseline_level
+from dronewind.diagnose.probes import baseline_level
 from dronewind.mechanisms import get_mechanism
 
 __all__ = ["CampaignEvidence", "assemble", "CONDITIONED", "AMBIGUITY_COSINE", "response_ambiguity",

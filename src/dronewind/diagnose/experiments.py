@@ -22,7 +22,7 @@ Three kinds of truth:
   flights' processing lags plus the hidden one (:func:`judge`);
 * a *model error* (:data:`MODEL_ERRORS`): physics the forward model does not have and no
   catalog mechanism describes. The forward model runs the simulator with its defaults
-  (:func:`dronewind.diagnose.forward.forward_manifest` drops the campaign's
+  (:func:`dronewind.diagnose.forward_conditions.forward_manifest` drops the campaign's
   ``simulation:`` section): an 18 m sling with damping ratio at least 0.03, Kaimal
   spectra with similarity sigmas, a stationary mean wind and an undisturbed mast sonic.
   The truth changes one of these through the ``simulation:`` section (format in
@@ -175,7 +175,7 @@ AMBIGUOUS_WITH: dict[str, set[str]] = {
 }
 #: Further ambiguities of the measured atmosphere (``diagnosis.atmosphere: measured``): the
 #: atmosphere is the mast's record, so a mast under-reading w by g looks exactly like a drone
-#: over-reading it by 1/g (:data:`dronewind.diagnose.forward.RECORD_INVERSES`); with the model
+#: over-reading it by 1/g (:data:`dronewind.diagnose.forward_atmosphere.RECORD_INVERSES`); with the model
 #: atmosphere the mast's own isotropy (S_w/S_u against 4/3) separates them.
 AMBIGUOUS_WITH_MEASURED_ATMOSPHERE: dict[str, set[str]] = {
     "w_gain": {"mast_w_attenuation"},
@@ -429,7 +429,7 @@ def campaign_manifest(truth: Draw, name: str = "hidden", n_flights: int = 4, hov
 #: standard deviation, range -0.173 to -0.026 s) over the 60 flights of the null draws of
 #: seeds 7-21 (:func:`campaign_manifest`). The payload's attitude follows the wind, so a
 #: shift of the INS against the sonic also removes part of the wind's variance
-#: (:func:`dronewind.diagnose.forward.simulated_sonic_ins_lag_s`).
+#: (:func:`dronewind.diagnose.probe_runs.simulated_sonic_ins_lag_s`).
 CHAIN_LAG_OFFSET_S = -0.092
 
 
@@ -439,7 +439,7 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any], campaign: Mapping[str, Any]
     Every flight of a hidden-effect campaign has a sonic-INS processing lag of its own (the
     simulator's per-flight draw, :func:`dronewind.simulate.settings.processing_lag_s`),
     which the chain finds and corrects, and on which the forward model is conditioned
-    (:func:`dronewind.diagnose.forward.forward_conditions`): a lag is then a measured
+    (:func:`dronewind.diagnose.forward_conditions.forward_conditions`): a lag is then a measured
     condition, not a cause. A hidden ``sonic_ins_lag`` adds to that lag, so it is judged
     right when the diagnosis names no cause and, on every flight, the lag the chain measured
     (``diagnosis["measured_conditions"][flight]["sonic_ins_lag_s"]``) equals the flight's
@@ -578,17 +578,17 @@ def process_virtual_flight(data: Mapping[str, Any], flight: Mapping[str, Any], w
     work : Path
         Folder for the raw files.
     processing : mapping
-        ``processing`` settings (at least :data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+        ``processing`` settings (at least :data:`dronewind.diagnose.probes.CHAIN_SETTINGS`).
 
     Returns
     -------
     VirtualFlight
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import probes
     from dronewind.simulate.payload import simulate_payload_flight
 
     fid = flight["id"]
-    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     paths = simulate_payload_flight(copy.deepcopy(dict(data)), work, fid, work)
     s1, i1 = compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"], processing["despike"])
     l2 = compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), **lag)
@@ -612,18 +612,18 @@ def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Pa
     measured : dict
         Residual features of the flight (:func:`~dronewind.diagnose.features.features_to_dict`).
     forward_runs : dict
-        :func:`dronewind.diagnose.forward.probe_runs` of the flight.
+        :func:`dronewind.diagnose.probe_runs.probe_runs` of the flight.
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
     from dronewind.diagnose.features import features_to_dict
 
     fid = flight["id"]
-    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     v = process_virtual_flight(data, flight, work, processing)
     measured = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
-    conditions = forward.forward_conditions(data, fid, v.l3, v.l2)
-    record = forward.atmosphere_record(v.mast_l1, conditions) if atmosphere == "measured" else None
-    return measured, forward.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
+    conditions = forward_conditions.forward_conditions(data, fid, v.l3, v.l2)
+    record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if atmosphere == "measured" else None
+    return measured, probe_runs.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
 
 
 def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path, **manifest_kw: Any
@@ -739,7 +739,7 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
     ManifestError
         The manifest is invalid or declares a ``simulation:`` section.
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
     from dronewind.diagnose.features import features_to_dict
     from dronewind.errors import ManifestError
     from dronewind.manifest import load_campaign, payload_flight_manifest
@@ -749,7 +749,7 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
         raise ManifestError(campaign.path, "simulation", "a measured campaign is expected (no simulation: section)")
     settings = with_defaults(config)
     processing, diagnosis = settings["processing"], settings["diagnosis"]
-    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     root, sonics = campaign.data_root, campaign.mast_sonics()
     altitude_m = float(campaign.data["site"]["altitude_m"])
     mast_l1: dict[str, xr.Dataset] = {}
@@ -771,9 +771,9 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
             unusable.append(fid)
             continue
         measured[fid] = features_to_dict(forward.measured_features(view, fid, s1, i1, l2, l3, **lag))
-        conditions = forward.forward_conditions(view, fid, l3, l2)
-        record = (forward.atmosphere_record(mast_l1[ref], conditions)
+        conditions = forward_conditions.forward_conditions(view, fid, l3, l2)
+        record = (forward_atmosphere.atmosphere_record(mast_l1[ref], conditions)
                   if str(diagnosis["atmosphere"]) == "measured" else None)
-        fwd[fid] = forward.probe_runs(view, fid, conditions, processing, seeds=seeds,
+        fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds,
                                       atmosphere=record)
     return {"name": campaign.name, "measured": measured, "forward": fwd, "unusable": unusable}

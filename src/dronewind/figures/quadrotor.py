@@ -186,7 +186,7 @@ def _fig7_timeseries(l2_files: Sequence[str | Path], reference_file: str | Path,
     from matplotlib.dates import DateFormatter
 
     from dronewind.core.products import open_product
-    from dronewind.quadrotor.io import read_tower_reference
+    from dronewind.quadrotor.reference import read_tower_reference
 
     fig = new_figure(7.5, 6.0)
     ax_one, ax = fig.subplots(2, 1, sharex=True)

@@ -11,7 +11,7 @@ vertical wind W [m/s], horizontal wind U [m/s], cross wind V [m/s], sonic temper
 [degC], H2O signal [V] (0 V = 0, 5 V = 1000 mmol m-3) and CO2 signal [V] (0 V = 10,
 5 V = 25 mmol m-3). ``DDD`` is the day of year and ``HHMM`` the start of the half hour
 ("G1040000 = 10 Hz data from midnight 0000 to 0030 on day of year 104"). The 96 files in
-``../shared/data/ameriflux_gold_openpath`` (days 104 and 181) hold 17999 rows (93 files)
+``ameriflux_gold_openpath`` (days 104 and 181) hold 17999 rows (93 files)
 or 17998 rows (3 files: G1040500, G1041330, G1810430), not 18000: the sample times are not logged, so rows are
 assumed to start at the half hour at 10 Hz and the shortfall is counted
 (``n_missing_rows``), position unknown. Neither the year nor the time zone is stated;
@@ -64,7 +64,8 @@ from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_att
 from dronewind.core.rowfaults import gunzip_readable, text_lines
 from dronewind.errors import InputError
 from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS
-from dronewind.mast.toa5 import UNREADABLE_PREFIX, _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
+from dronewind.mast.level1 import _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
+from dronewind.mast.toa5 import UNREADABLE_PREFIX
 
 __all__ = [
     "AMERIFLUX_GOLD_COLUMNS",
@@ -511,7 +512,7 @@ def mast_l1_gill(
     Each file is read by :func:`read_ameriflux_gold` (its QC, its frame conversion); the
     blocks are concatenated in time order on the regular 10 Hz grid (absent samples inserted
     as missing, gaps longer than ``max_gap_s`` kept as breaks), with the variables and
-    attributes of the mast L1 of :func:`dronewind.mast.toa5.mast_l1`.
+    attributes of the mast L1 of :func:`dronewind.mast.level1.mast_l1`.
 
     Parameters
     ----------
@@ -563,7 +564,7 @@ def mast_l1_gill(
                 columns=tuple(spec.get("columns", AMERIFLUX_GOLD_COLUMNS)),
                 gzipped=None if compression == "auto" else compression == "gzip",
                 despike_window_s=despike_window_s, despike_n_mad=despike_n_mad)
-        except InputError as exc:  # left out if others can be read (see dronewind.mast.toa5._read_files)
+        except InputError as exc:  # left out if others can be read (see dronewind.mast.level1._read_files)
             if len(files) == 1:
                 raise
             errors.append(exc)

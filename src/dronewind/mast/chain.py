@@ -20,7 +20,7 @@ from dronewind.core import rotation as rot
 from dronewind.core.raw import RawRecord
 from dronewind.errors import DronewindError, InputError
 from dronewind.manifest import record_format
-from dronewind.mast import ameriflux, delimited, toa5
+from dronewind.mast import ameriflux, delimited, level1, toa5
 
 __all__ = ["record_planar_fit", "compute_mast_l1", "window_coverage", "compute_mast_l2", "flight_reference",
            "unreadable_mast_l1", "unusable_mast_l2"]
@@ -56,7 +56,7 @@ def compute_mast_l1(files: Sequence[str | Path | RawRecord], sonic: Mapping[str,
     """Mast sonic L1 dataset from the sonic's files in their declared format, with the planar fit of the record.
 
     The reader is chosen by the sonic's ``format`` (absent: ``toa5``, the contract format):
-    ``toa5`` -> :func:`dronewind.mast.toa5.mast_l1`, ``gill_raw`` ->
+    ``toa5`` -> :func:`dronewind.mast.level1.mast_l1`, ``gill_raw`` ->
     :func:`dronewind.mast.ameriflux.mast_l1_gill`, ``delimited`` ->
     :func:`dronewind.mast.delimited.mast_l1_delimited`. All three give the same variables
     (``u_east_ms``, ``v_north_ms``, ``w_up_ms``, ``t_sonic_k``, ``qc_mast``) on a regular
@@ -89,7 +89,7 @@ def compute_mast_l1(files: Sequence[str | Path | RawRecord], sonic: Mapping[str,
     name = fmt["name"]
     window_s, n_mad = float(despike["window_s"]), float(despike["n_mad"])
     if name == "toa5":
-        ds = toa5.mast_l1(files, azimuth_deg=float(sonic["azimuth_deg"]), height_m=float(sonic["height_m"]),
+        ds = level1.mast_l1(files, azimuth_deg=float(sonic["azimuth_deg"]), height_m=float(sonic["height_m"]),
                           sensor_id=str(sonic["id"]), despike_window_s=window_s, despike_n_mad=n_mad)
     elif name in ("gill_raw", "delimited"):
         paths = [f for f in files if not isinstance(f, RawRecord)]

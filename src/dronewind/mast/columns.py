@@ -3,7 +3,7 @@
 The raw-format checks that run at every Snakemake start (:mod:`dronewind.formats`) need the
 column names, not the readers, which import xarray (a few tenths of a CPU-second at each
 start, i.e. once per job on a cluster). The readers (:mod:`dronewind.mast.toa5`,
-:mod:`dronewind.mast.ameriflux`) re-export these names.
+:mod:`dronewind.mast.ameriflux`) use these names.
 """
 
 from __future__ import annotations

@@ -4,14 +4,14 @@ A sonic whose files no dedicated reader knows is declared in the manifest with
 ``format: {name: delimited, ...}`` (README "Input formats"; the mapping is read by
 :mod:`dronewind.core.delimited`): the time column and its zone or epoch, each variable's
 column, scale, offset and unit, the sensor's axis convention and mount, the range limits.
-The result is the mast L1 dataset of :func:`dronewind.mast.toa5.mast_l1`: the same variables,
+The result is the mast L1 dataset of :func:`dronewind.mast.level1.mast_l1`: the same variables,
 grid, QC bits and attributes, so that the rest of the chain cannot tell the readers apart.
 
 Sensor frame to east/north/up (``axes.convention``), after the mount (``upside_down``:
 the sensor hangs head down, :math:`(u, v, w) \to (u, -v, -w)`):
 
 * ``enu``: u east, v north, w up;
-* ``csat3``: :func:`dronewind.mast.toa5.csat3_to_enu` with ``azimuth_deg`` (DESIGN.md
+* ``csat3``: :func:`dronewind.mast.level1.csat3_to_enu` with ``azimuth_deg`` (``docs/data-contract.md``
   "Frames and signs");
 * ``gill``: :func:`dronewind.mast.ameriflux.gill_to_enu` with ``north_azimuth_deg`` (u
   towards the sensor's N spar, v towards its W);
@@ -38,7 +38,8 @@ from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, rang
 from dronewind.core.qc import QC_DIAG, QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.errors import InputError
 from dronewind.mast.ameriflux import gill_to_enu
-from dronewind.mast.toa5 import UNREADABLE_PREFIX, _Grid, _on_grid, _regular_grid, csat3_to_enu
+from dronewind.mast.level1 import _Grid, _on_grid, _regular_grid, csat3_to_enu
+from dronewind.mast.toa5 import UNREADABLE_PREFIX
 
 __all__ = ["sensor_to_enu", "limits_for", "mast_l1_delimited"]
 
@@ -127,7 +128,7 @@ def _read(files: list[Path], layout: DelimitedLayout, max_corrupt_fraction: floa
     for k, f in enumerate(files):
         try:
             table = read_delimited(f, layout, max_corrupt_fraction)
-        except InputError as exc:  # left out if others can be read (see dronewind.mast.toa5._read_files)
+        except InputError as exc:  # left out if others can be read (see dronewind.mast.level1._read_files)
             if len(files) == 1:
                 raise
             errors.append(exc)
@@ -197,7 +198,7 @@ def _qc(raw: dict[str, np.ndarray], speed: np.ndarray, grid: _Grid, limits: Mapp
 
 def _dataset(raw: dict[str, np.ndarray], enu: tuple[np.ndarray, np.ndarray, np.ndarray], qc: np.ndarray,
              time: np.ndarray, convention: str) -> xr.Dataset:
-    """The mast L1 variables (as :func:`dronewind.mast.toa5.mast_l1`), the sensor components as logged."""
+    """The mast L1 variables (as :func:`dronewind.mast.level1.mast_l1`), the sensor components as logged."""
     nanf = np.where(qc != 0, np.nan, 1.0)
     data = {
         "u_east_ms": ("time", enu[0] * nanf, variable_attrs("m s-1", "eastward_wind")),
@@ -241,7 +242,7 @@ def mast_l1_delimited(
     max_corrupt_fraction : float
         Largest tolerated fraction of corrupt rows per file [1].
     max_gap_s : float
-        Longer gaps are breaks of the time axis (as :func:`dronewind.mast.toa5.mast_l1`) [s].
+        Longer gaps are breaks of the time axis (as :func:`dronewind.mast.level1.mast_l1`) [s].
     where : str
         Key path of the mapping in the manifest (for messages).
 

@@ -19,8 +19,9 @@ import xarray as xr
 
 from dronewind.core.raw import RawRecord
 from dronewind.manifest import parse_utc
-from dronewind.payload import io as io_payload
-from dronewind.payload import sync
+from dronewind.payload import l2
+from dronewind.payload.ins import InsTable, ins_l1, load_ins_table
+from dronewind.payload.sonic import payload_sonic_l1
 
 __all__ = ["flight_window", "compute_ins_l1", "compute_sonic_l1", "compute_payload_l1", "compute_payload_l2"]
 
@@ -44,7 +45,7 @@ def flight_window(flight: Mapping[str, Any]) -> tuple[np.datetime64, np.datetime
     return parse_utc(window["start"]), parse_utc(window["end"])
 
 
-def compute_ins_l1(ins_file: str | Path | RawRecord) -> tuple[io_payload.InsTable, xr.Dataset]:
+def compute_ins_l1(ins_file: str | Path | RawRecord) -> tuple[InsTable, xr.Dataset]:
     """The parsed INS (with the logger-clock fit) and the INS L1 of one flight.
 
     Parameters
@@ -54,24 +55,24 @@ def compute_ins_l1(ins_file: str | Path | RawRecord) -> tuple[io_payload.InsTabl
 
     Returns
     -------
-    table : dronewind.payload.io.InsTable
+    table : dronewind.payload.ins.InsTable
         Parsed rows and the clock fit (for :func:`compute_sonic_l1`).
     ins : xarray.Dataset
         L1 INS.
     """
-    table = io_payload.load_ins_table(ins_file)
-    return table, io_payload.ins_l1(ins_file, ins_table=table)
+    table = load_ins_table(ins_file)
+    return table, ins_l1(ins_file, ins_table=table)
 
 
 def compute_sonic_l1(sonic_file: str | Path | RawRecord, ins_file: str | Path | RawRecord,
-                     ins_table: io_payload.InsTable, despike: Mapping[str, Any]) -> xr.Dataset:
+                     ins_table: InsTable, despike: Mapping[str, Any]) -> xr.Dataset:
     """Payload sonic L1: the logger clock to UTC through the INS's clock fit, QC and despiking.
 
     Parameters
     ----------
     sonic_file, ins_file : str, Path or RawRecord
         Raw payload sonic and INS CSV files of one flight, or their in-memory records.
-    ins_table : dronewind.payload.io.InsTable
+    ins_table : dronewind.payload.ins.InsTable
         The parsed INS of :func:`compute_ins_l1`.
     despike : mapping
         ``processing.despike``: ``window_s`` [s] and ``n_mad`` of the moving-MAD despiking.
@@ -81,7 +82,7 @@ def compute_sonic_l1(sonic_file: str | Path | RawRecord, ins_file: str | Path | 
     xarray.Dataset
         L1 payload sonic (sensor frame, UTC).
     """
-    return io_payload.payload_sonic_l1(
+    return payload_sonic_l1(
         sonic_file, ins_file, despike_window_s=float(despike["window_s"]),
         despike_n_mad=float(despike["n_mad"]), ins_table=ins_table,
     )
@@ -90,7 +91,7 @@ def compute_sonic_l1(sonic_file: str | Path | RawRecord, ins_file: str | Path | 
 def compute_payload_l1(
     sonic_file: str | Path | RawRecord, ins_file: str | Path | RawRecord, despike: Mapping[str, Any]
 ) -> tuple[xr.Dataset, xr.Dataset]:
-    """Payload sonic and INS L1 datasets (library names; see :mod:`dronewind.payload.io`).
+    """Payload sonic and INS L1 datasets (library names; :mod:`dronewind.payload.ins`, :mod:`dronewind.payload.sonic`).
 
     The INS file is parsed once, for the logger-clock fit and for the INS L1 (Ghirardelli et al. (2025),
     Sect. 3.2): :func:`compute_ins_l1`, then :func:`compute_sonic_l1`.
@@ -130,7 +131,7 @@ def compute_payload_l2(
     lag_only: bool = False,
     lag_halves: bool = False,
 ) -> xr.Dataset:
-    """Payload L2: hover window, sonic-INS lag, motion correction (see :func:`dronewind.payload.sync.payload_l2`).
+    """Payload L2: hover window, sonic-INS lag, motion correction (see :func:`dronewind.payload.l2.payload_l2`).
 
     Parameters
     ----------
@@ -155,7 +156,7 @@ def compute_payload_l2(
         (for the lags of the hover's halves, :func:`dronewind.diagnose.forward.lag_halves`).
     lag_halves : bool
         Also find the lag on each half of the hover window (attrs ``lag_first_half_s``,
-        ``lag_second_half_s``; :func:`dronewind.payload.sync.payload_l2`).
+        ``lag_second_half_s``; :func:`dronewind.payload.l2.payload_l2`).
 
     Returns
     -------
@@ -165,7 +166,7 @@ def compute_payload_l2(
         GNSS position and the sonic against its range (:mod:`dronewind.payload.checks`); a
         failed check sets ``usable = 0`` with the reason.
     """
-    ds = sync.payload_l2(
+    ds = l2.payload_l2(
         sonic, ins, mount=flight["sonic"].get("mount", "upside_down"),
         max_lag_s=float(sonic_ins_lag["max_lag_s"]), lag_step_s=float(sonic_ins_lag["step_s"]),
         window=flight_window(flight), max_missing_fraction=float(max_missing_fraction),

@@ -2,7 +2,7 @@
 
 A file in the right format may still hold the wrong numbers: an altitude in feet, INS
 velocities in km/h, a sonic logging in cm/s. Each check here compares a quantity with an
-independent one and returns a reason when they disagree; :func:`dronewind.payload.sync.payload_l2`
+independent one and returns a reason when they disagree; :func:`dronewind.payload.l2.payload_l2`
 marks the flight unusable with that reason (``usable = 0``, ``unusable_reason``), never
 silently. Every check also returns its numbers for the processing log.
 

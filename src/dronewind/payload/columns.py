@@ -3,7 +3,7 @@
 The raw-format checks that run at every Snakemake start (:mod:`dronewind.formats`) need the
 column names and the rigid-mount layout check, not the readers, which import xarray and the
 chain (a few tenths of a CPU-second at each start, i.e. once per job on a cluster). The
-readers (:mod:`dronewind.payload.io`, :mod:`dronewind.payload.rigid`) re-export these names.
+readers (:mod:`dronewind.payload.reader`, :mod:`dronewind.payload.rigid`) use these names.
 """
 
 from __future__ import annotations

@@ -1,11 +1,11 @@
 r"""Sling-load payload files in one's own layout: a manifest's column mapping to the contract tables.
 
-The payload chain reads a sonic file and an INS file that share a logger clock (DESIGN.md
+The payload chain reads a sonic file and an INS file that share a logger clock (``docs/data-contract.md``
 "Payload sonic file" and "INS file"). Files logged otherwise are declared in the manifest
 with ``format: {name: delimited, ...}``, the mapping of :mod:`dronewind.core.delimited`
 (layout, per-variable column, scale, offset and unit) extended to what the payload needs,
 and converted here to the contract's columns as an in-memory record
-(:class:`dronewind.core.raw.RawRecord`), which :mod:`dronewind.payload.io` then cleans,
+(:class:`dronewind.core.raw.RawRecord`), which :mod:`dronewind.payload.reader` then cleans,
 checks and turns into L1 exactly as it does a contract file:
 
 * the **logger clock** shared by the two files (``time``): ``kind`` ``clock_s``,

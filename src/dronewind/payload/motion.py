@@ -1,6 +1,6 @@
 """Motion correction of the payload sonic: body frame -> earth frame (east, north, up).
 
-Frames and signs follow ../shared/DESIGN.md ("Frames and signs"):
+Frames and signs follow ``docs/data-contract.md`` ("Frames and signs"):
 
 * body frame b1 forward, b2 right, b3 down, origin at the sonic's measurement volume;
 * INS Euler angles roll phi, pitch theta, yaw psi (degrees, yaw clockwise from true
@@ -12,7 +12,7 @@ Frames and signs follow ../shared/DESIGN.md ("Frames and signs"):
 * INS velocity (NED) is the velocity of the sonic's measurement volume (or of a point at a
   lever arm from it, see :func:`motion_correct`);
 * wind NED = R V_body + V_sonic (Ghirardelli et al. (2025), Eq. 1, with the sign of its relative velocity
-  vector flipped as explained in DESIGN.md), then east = V_E, north = V_N, up = -V_D
+  vector flipped as explained in ``docs/data-contract.md``), then east = V_E, north = V_N, up = -V_D
   (Ghirardelli et al. (2025), Eq. 2).
 
 All functions are vectorised over time (leading axis ``n``).
@@ -41,7 +41,7 @@ __all__ = [
     "motion_correct",
 ]
 
-#: Mount names and their sensor-to-body matrices (DESIGN.md, "Frames and signs").
+#: Mount names and their sensor-to-body matrices (``docs/data-contract.md``, "Frames and signs").
 MOUNTS: dict[str, np.ndarray] = {
     "upside_down": np.eye(3),
     "upright": np.diag([1.0, -1.0, -1.0]),
@@ -106,7 +106,7 @@ def rotation_matrix_body_to_ned(
 
 
 def mount_matrix(mount: str) -> np.ndarray:
-    """Sensor-to-body matrix of a named sonic mount (DESIGN.md, "Frames and signs").
+    """Sensor-to-body matrix of a named sonic mount (``docs/data-contract.md``, "Frames and signs").
 
     Parameters
     ----------
@@ -140,7 +140,7 @@ def sensor_to_body_matrix(mount: str, misalignment_deg: Sequence[float] | None =
     misalignment_deg : (roll, pitch, yaw) [degree], optional
         Misalignment angles: the true sensor-to-body rotation is
         ``M_mount @ R(roll, pitch, yaw)`` with R as in :func:`rotation_matrix_body_to_ned`
-        (DESIGN.md, mechanism ``mount_misalignment``). None means perfectly aligned.
+        (``docs/data-contract.md``, mechanism ``mount_misalignment``). None means perfectly aligned.
 
     Returns
     -------
@@ -245,7 +245,7 @@ def lever_arm_velocity_ned(rot_body_to_ned: np.ndarray, body_rates_rad_s: np.nda
         (n, 3) body angular rates (p, q, r) [rad s-1].
     lever_arm_m : (x, y, z) [m]
         Body-frame position of the INS reference point relative to the sonic's
-        measurement volume (DESIGN.md, mechanism ``lever_arm``).
+        measurement volume (``docs/data-contract.md``, mechanism ``lever_arm``).
 
     Returns
     -------
@@ -295,7 +295,7 @@ def motion_correct(
     """Earth-frame wind (east, north, up) from the payload sonic and the INS.
 
     All series must already be on one time base (synchronised, see
-    :func:`dronewind.payload.sync.find_sonic_ins_lag`).
+    :func:`dronewind.payload.lag_search.find_sonic_ins_lag`).
 
     Parameters
     ----------
@@ -325,7 +325,7 @@ def motion_correct(
 
     Notes
     -----
-    Ghirardelli et al. (2025), Eqs. 1 and 2 with the DESIGN.md sign convention:
+    Ghirardelli et al. (2025), Eqs. 1 and 2 with the sign convention of ``docs/data-contract.md``:
 
     .. math::
 

@@ -20,10 +20,10 @@ L2 (:func:`rigid_l2`):
    and one that flies slow legs both pass; the longest segment is processed, every run
    that is rejected is counted with the criterion it failed;
 3. the sonic-platform lag of minimum TKE (Ghirardelli et al. (2025), Sect. 3.3, Eq. 3;
-   :func:`dronewind.payload.sync.tke_vs_lag`) with its step at the sampling interval
+   :func:`dronewind.payload.lag_search.tke_vs_lag`) with its step at the sampling interval
    (1/fs) and its range in seconds (``max_lag_s``), after checking the segment holds the
    samples the search needs (:func:`lag_search_min_samples`);
-4. motion correction (Ghirardelli et al. (2025), Eqs. 1-2 with DESIGN.md's sign):
+4. motion correction (Ghirardelli et al. (2025), Eqs. 1-2 with the data contract's sign):
    :math:`V_{wind} = R(\phi, \theta, \psi)\, M\, V_{sensor} + V_{platform}` (minus the
    lever-arm term :math:`R\,(\omega \times r)` when ``lever_arm_m`` is given), M the mount's
    sensor-to-body matrix (:func:`mount_matrix_of`);
@@ -31,7 +31,7 @@ L2 (:func:`rigid_l2`):
    against the GNSS position, sonic range).
 
 The L2 has the variables and attributes of the sling-load L2
-(:func:`dronewind.payload.sync.payload_l2`), so L3 and L4 read both alike; it adds the
+(:func:`dronewind.payload.l2.payload_l2`), so L3 and L4 read both alike; it adds the
 platform velocity (``platform_vel_*_ms``) and the segment selection (``steady_*``).
 Every rejection names the criterion and the numbers that failed it.
 """
@@ -55,7 +55,7 @@ from dronewind.core.delimited import read_delimited
 from dronewind.core.qc import QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, time_ns, unwrap_rad
 from dronewind.errors import InputError
-from dronewind.payload import checks, motion, sync
+from dronewind.payload import checks, l2, lag_search, motion
 from dronewind.payload.columns import RIGID_QUANTITIES, rigid_layout
 
 __all__ = ["RIGID_QUANTITIES", "BODY_DIRECTIONS", "RigidMount", "mount_matrix_of", "rigid_mount", "rigid_layout",
@@ -149,7 +149,7 @@ def rigid_mount(sonic: Mapping[str, Any], where: str = "sonic") -> RigidMount:
     ----------
     sonic : mapping
         ``axes`` or ``matrix``; optional ``misalignment_deg`` (roll, pitch, yaw [degree]:
-        the true sensor-to-body matrix is ``M @ R(roll, pitch, yaw)``, DESIGN.md
+        the true sensor-to-body matrix is ``M @ R(roll, pitch, yaw)``, ``docs/data-contract.md``
         ``mount_misalignment``) and ``lever_arm_m`` (x, y, z [m], body frame).
     where : str
         Key path for messages.
@@ -431,7 +431,7 @@ def lag_search_min_samples(max_lag_s: float, fs_hz: float) -> tuple[int, int]:
         Half-width in steps (``round(max_lag_s * fs_hz)``).
     n_min : int
         Fewest samples of the segment: ``8 n_half + 16``, the rule of
-        :func:`dronewind.payload.sync.tke_vs_lag` (the TKE of every lag averages at least
+        :func:`dronewind.payload.lag_search.tke_vs_lag` (the TKE of every lag averages at least
         four times the search width).
     """
     n_half = int(round(max_lag_s * fs_hz))
@@ -489,7 +489,7 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
     -------
     xarray.Dataset
         The variables and attributes of the sling-load L2
-        (:func:`dronewind.payload.sync.payload_l2`) plus ``platform_vel_e_ms``,
+        (:func:`dronewind.payload.l2.payload_l2`) plus ``platform_vel_e_ms``,
         ``platform_vel_n_ms``, ``platform_vel_u_ms`` and the attributes ``platform``,
         ``steady_*``.
 
@@ -540,9 +540,9 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
     att = np.stack([plat["roll_deg"], plat["pitch_deg"], plat["yaw_deg"]], axis=-1)
     vel = np.stack([plat["vel_n_ms"], plat["vel_e_ms"], plat["vel_d_ms"]], axis=-1)
     step = 1.0 / fs
-    lag_grid, tke, n_tke = sync.tke_vs_lag(t[idx], body, t[lo:hi], att[lo:hi], vel[lo:hi], "upside_down",
+    lag_grid, tke, n_tke = lag_search.tke_vs_lag(t[idx], body, t[lo:hi], att[lo:hi], vel[lo:hi], "upside_down",
                                            lever_arm_m=mount.lever_arm_m, max_lag_s=n_half * step, lag_step_s=step)
-    lag, at_edge = sync.find_sonic_ins_lag(lag_grid, tke)
+    lag, at_edge = lag_search.find_sonic_ins_lag(lag_grid, tke)
     log.append(f"sync: lag of minimum TKE {lag:+.3f} s (search +/-{n_half * step:g} s in steps of {step:.4g} s = "
                f"1/fs, {n_tke} samples); TKE {float(np.min(tke)):.3f} m2 s-2 at the minimum, "
                f"{float(tke[n_half]):.3f} at lag 0")
@@ -553,7 +553,7 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
     keys: dict[str, np.ndarray] = dict(plat)
     if mount.lever_arm_m is not None:
         keys["rates"] = motion.body_rates_from_euler(plat["roll_deg"], plat["pitch_deg"], plat["yaw_deg"], t)
-    p = sync.interpolate_ins(t, keys, t_al[keep])
+    p = lag_search.interpolate_ins(t, keys, t_al[keep])
     b = body[keep]
     u_e, v_n, w_u = motion.motion_correct(b[:, 0], b[:, 1], b[:, 2], p["roll_deg"], p["pitch_deg"], p["yaw_deg"],
                                           p["vel_n_ms"], p["vel_e_ms"], p["vel_d_ms"], "upside_down",
@@ -576,7 +576,7 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
             reasons.append(r.reason)
     time_out = (t_ns[idx][keep] + int(round(lag * _NS))).astype("datetime64[ns]")
     dims = ("time",)
-    ds = sync.l2_variables(time_out, (u_e, v_n, w_u), filled["t_sonic_k"][keep],
+    ds = l2.l2_variables(time_out, (u_e, v_n, w_u), filled["t_sonic_k"][keep],
                            {**p, "yaw_deg": np.mod(p["yaw_deg"], 360.0)}, lag_grid, tke, clock="platform")
     for name, values, direction in (("platform_vel_e_ms", p["vel_e_ms"], "east"),
                                     ("platform_vel_n_ms", p["vel_n_ms"], "north"),

@@ -5,7 +5,7 @@ Main path (:func:`campaign_power`), per plan:
 1. The planned campaign without any error is simulated, processed and forward-run in this
    process (:func:`manifest_evidence`: the in-process path of
    :mod:`dronewind.diagnose.experiments`, :func:`~dronewind.diagnose.experiments.process_virtual_flight`
-   and :func:`dronewind.diagnose.forward.probe_runs`, for a given manifest). This gives, per
+   and :func:`dronewind.diagnose.probe_runs.probe_runs`, for a given manifest). This gives, per
    flight, the forward model's baseline seeds and probes (the diagnosis' linearised
    response) and, through :func:`dronewind.diagnose.campaign.assemble`, its error model: the
    residual errors :math:`\sigma_{i,f}` and the shrunk feature correlation :math:`R^*`.
@@ -89,7 +89,7 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
         ``name``, ``measured`` and ``forward`` as :func:`~dronewind.diagnose.experiments.campaign_evidence`,
         and ``effects``: error label -> flight -> features (values) of the error's run.
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
     from dronewind.diagnose.experiments import process_virtual_flight
     from dronewind.diagnose.features import features_to_dict
     from dronewind.diagnose.probes import resolved_seeds
@@ -102,7 +102,7 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
     view: dict[str, Any] = copy.deepcopy(dict(data))
     view["masts"] = [{**view["masts"][0], "sonics": view["masts"][0]["sonics"][:1]}]
     seeds = tuple(resolved_seeds(diagnosis["seeds"], len(view["payload_flights"])))
-    lag = {key: processing[key] for key in forward.LAG_SETTINGS}
+    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     measured: dict[str, Any] = {}
     fwd: dict[str, Any] = {}
     effects: dict[str, dict[str, Any]] = {e.label: {} for e in errors}
@@ -117,12 +117,13 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
             stats[fid] = hover_statistics(v.l3)
             measured[fid] = features_to_dict(forward.measured_features(view, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3,
                                                                        **lag))
-            conditions = forward.forward_conditions(view, fid, v.l3, v.l2)
-            record = forward.atmosphere_record(v.mast_l1, conditions) if diagnosis["atmosphere"] == "measured" else None
-            fwd[fid] = forward.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
+            conditions = forward_conditions.forward_conditions(view, fid, v.l3, v.l2)
+            from_mast = diagnosis["atmosphere"] == "measured"
+            record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if from_mast else None
+            fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
             for e in errors:
                 probe = probe_for(e)
-                run = forward.probe_runs(view, fid, conditions, processing, seeds=seeds, probes=(probe,),
+                run = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, probes=(probe,),
                                          parts=[e.mechanism], atmosphere=record)
                 effects[e.label][fid] = run["probes"][0]["features"]["values"] if run["probes"] else None
     return {"name": view["name"], "measured": measured, "forward": fwd, "effects": effects, "statistics": stats}

@@ -3,10 +3,10 @@ r"""How far from the mast the drone may hover: the separation limit from the sim
 The drone's series is put on the mast's clock by the peak of the cross-correlation of the
 horizontal wind fluctuations (:func:`dronewind.compare.align.align_drone_mast`, Ghirardelli
 et al. 2025, Sect. 4.4), so the two points must see correlated turbulence. The forward
-simulation's spatial coherence (:func:`dronewind.simulate.atmosphere.coherence`, IEC 61400-1
+simulation's spatial coherence (:func:`dronewind.simulate.spectral_model.coherence`, IEC 61400-1
 Ed. 3 Annex B exponential model, effective separation
 :math:`\Delta = \sqrt{\Delta_{lat}^2 + \Delta_z^2 + (0.5\Delta_{along})^2}`, Pielke and
-Panofsky 1970) and its spectra (:func:`~dronewind.simulate.atmosphere.component_spectra`,
+Panofsky 1970) and its spectra (:func:`~dronewind.simulate.spectral_model.component_spectra`,
 Kaimal et al. 1972) give the largest correlation the two series reach over lags (the Taylor
 delay :math:`\Delta_{along}/U` is only a phase):
 
@@ -62,13 +62,8 @@ def series_correlation(separation_m: float, height_m: float, speed_ms: float, ob
     float
         :math:`\\rho` in [0, 1].
     """
-    from dronewind.simulate.atmosphere import (
-        coherence,
-        component_spectra,
-        friction_velocity,
-        spectral_parameters,
-        turbulence_sigmas,
-    )
+    from dronewind.core.surface_layer import friction_velocity, turbulence_sigmas
+    from dronewind.simulate.spectral_model import coherence, component_spectra, spectral_parameters
 
     ustar = friction_velocity(speed_ms, height_m, roughness_length_m, obukhov_length_m)
     sig = turbulence_sigmas(ustar, height_m, obukhov_length_m, boundary_layer_height_m)

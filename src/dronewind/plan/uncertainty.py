@@ -148,7 +148,8 @@ def point_uncertainty(height_m: float, speed_ms: float, wind_from_deg: float, ob
     point of :func:`dronewind.simulate.atmosphere.simulate_wind` (Kaimal et al. 1972 spectra,
     similarity sigmas), RECORD_S long at RECORD_FS_HZ.
     """
-    from dronewind.simulate.atmosphere import simulate_wind, wind_frame_unit_vectors
+    from dronewind.simulate.atmosphere import simulate_wind
+    from dronewind.simulate.spectral_model import wind_frame_unit_vectors
 
     ds = simulate_wind(np.array([[0.0, 0.0, float(height_m)]]), RECORD_S, RECORD_FS_HZ, float(speed_ms),
                        float(wind_from_deg), float(height_m), float(obukhov_length_m), float(roughness_length_m),

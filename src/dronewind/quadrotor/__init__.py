@@ -2,7 +2,8 @@
 
 Modules, in the order the data flow through them:
 
-* :mod:`~dronewind.quadrotor.io`: readers of the UAV logs (CSV or PX4 ULog) and the tower reference;
+* :mod:`~dronewind.quadrotor.io`: readers of the UAV logs (CSV, and every format through ``read_quadrotor``),
+  :mod:`~dronewind.quadrotor.ulog` (PX4 ULog) and :mod:`~dronewind.quadrotor.reference` (the tower reference);
 * :mod:`~dronewind.quadrotor.drag`: the drag balance (Wetz et al. 2021, Eqs 9-18, Kistner et al. 2024, Eq. 1),
   attitude geometry;
 * :mod:`~dronewind.quadrotor.wind`: wind from the attitude (the inversion), calibrated wind series of a UAV;

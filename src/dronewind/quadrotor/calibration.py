@@ -33,9 +33,9 @@ import numpy as np
 import pandas as pd
 import scipy.optimize
 
-from dronewind.core.constants import GRAVITY_MS2
+from dronewind.core.constants import AIR_DENSITY_KGM3, GRAVITY_MS2, WETZ2021_MASS_KG
 from dronewind.errors import InputError
-from dronewind.quadrotor.drag import MASS_KG, RHO_KGM3, DragLaw, tilt_from_attitude
+from dronewind.quadrotor.drag import DragLaw, tilt_from_attitude
 from dronewind.quadrotor.windows import WindowArrays, circular_mean_deg, select_windows
 
 __all__ = [
@@ -79,7 +79,7 @@ def _solve(fun, x0, lo, hi, where: str, jac_sparsity: np.ndarray | None = None):
 
 def calibrate_individual(blocks: pd.DataFrame, windows: pd.DataFrame,
                          flights: Iterable[str] | None = None, method: str = "tilt",
-                         mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3,
+                         mass_kg: float = WETZ2021_MASS_KG, rho_kgm3: float = AIR_DENSITY_KGM3,
                          bounds: Mapping[str, tuple[float, float]] | None = None) -> pd.DataFrame:
     r"""Calibrate :math:`c_{d,0}A_0`, :math:`c_p` and :math:`\Delta\theta` per UAV (Wetz et al. (2021), Sect. 5.1).
 
@@ -143,7 +143,7 @@ def calibrate_individual(blocks: pd.DataFrame, windows: pd.DataFrame,
 
 def calibrate_universal(blocks: pd.DataFrame, windows: pd.DataFrame,
                         flights: Iterable[str] | None = None, method: str = "tilt",
-                        mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3,
+                        mass_kg: float = WETZ2021_MASS_KG, rho_kgm3: float = AIR_DENSITY_KGM3,
                         bounds: Mapping[str, tuple[float, float]] | None = None) -> tuple[dict, pd.DataFrame]:
     r"""Common aerodynamic parameters with per-UAV pitch offsets (Wetz et al. (2021), Sect. 5.2, Eq. 18).
 
@@ -215,7 +215,7 @@ def calibrate_universal(blocks: pd.DataFrame, windows: pd.DataFrame,
 
 def calibrate_pitch_offsets(blocks: pd.DataFrame, windows: pd.DataFrame, aero: Mapping,
                             flights: Iterable[str] | None = None, method: str = "tilt",
-                            mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3,
+                            mass_kg: float = WETZ2021_MASS_KG, rho_kgm3: float = AIR_DENSITY_KGM3,
                             bounds: tuple[float, float] = BOUNDS["pitch_offset_deg"]) -> pd.DataFrame:
     r"""Per-UAV pitch offset with fixed aerodynamic parameters (Wetz et al. (2021), Sect. 5.3).
 

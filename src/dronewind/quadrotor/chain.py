@@ -60,9 +60,9 @@ _PROBLEM_COLUMNS = ["flight", "uav", "file", "window_s", "error"]
 def uav_track_to_cf(ds: xr.Dataset) -> xr.Dataset:
     """GNSS track of a hovering UAV as CF H.5 ``precise_lat/precise_lon`` (time) and ``altitude``.
 
-    Unlike :func:`dronewind.core.cf.track_to_cf`, the track variables get exactly the CF
+    Unlike :func:`dronewind.core.cf_names.track_to_cf`, the track variables get exactly the CF
     attributes (the reader's other attributes are dropped), as the quadrotor products always
-    had; :func:`dronewind.core.cf.track_from_cf` reads them back.
+    had; :func:`dronewind.core.cf_names.track_from_cf` reads them back.
     """
     rename = {k: v for k, v in (("lat_deg", "precise_lat"), ("lon_deg", "precise_lon"), ("alt_m", "altitude"))
               if k in ds.variables}
@@ -160,7 +160,7 @@ def compute_flight_windows(logs: Mapping[str, xr.Dataset], reference: xr.Dataset
     logs : mapping
         UAV id -> quadrotor log (library names, :func:`dronewind.quadrotor.io.read_quadrotor`).
     reference : xarray.Dataset
-        Tower reference of the flight (:func:`dronewind.quadrotor.io.read_tower_reference`).
+        Tower reference of the flight (:func:`dronewind.quadrotor.reference.read_tower_reference`).
     flight_id : str
         Flight id.
     site_altitude_m : float

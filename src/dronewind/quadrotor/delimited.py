@@ -141,7 +141,7 @@ def reference_from_record(ds: xr.Dataset, height_m: float) -> xr.Dataset:
     Returns
     -------
     xarray.Dataset
-        As :func:`dronewind.quadrotor.io.read_tower_reference`: ``wind_speed_ms``,
+        As :func:`dronewind.quadrotor.reference.read_tower_reference`: ``wind_speed_ms``,
         ``wind_from_deg`` on (``time``, ``height``), ``sampling_interval_s``; times whose
         speed is missing are left out (counted in ``n_nonfinite``).
 

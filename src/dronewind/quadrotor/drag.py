@@ -7,7 +7,7 @@ weather-vane mode (the nose is yawed into the wind), its yaw measures the direct
 This module holds the physics the processing chain inverts (attitude to air speed); the
 wind itself is assembled in :mod:`dronewind.quadrotor.wind`.
 
-Conventions (``../shared/DESIGN.md``): roll :math:`\phi`, pitch :math:`\theta`, yaw
+Conventions (``docs/data-contract.md``): roll :math:`\phi`, pitch :math:`\theta`, yaw
 :math:`\psi` in degrees as logged (PX4: pitch negative nose-down, yaw clockwise from true
 north); body-to-NED rotation :math:`R(\phi,\theta,\psi)` of Wetz et al. (2021), Eq. D1. A quadrotor
 facing into the wind leans nose-down, so its *tilt* :math:`\gamma = -\theta > 0`.
@@ -46,32 +46,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dronewind.core.constants import GRAVITY_MS2
+from dronewind.core.constants import (
+    AIR_DENSITY_KGM3,
+    GRAVITY_MS2,
+    KISTNER2024_RANGES,
+    WETZ2021_AERO,
+    WETZ2021_MASS_KG,
+)
 from dronewind.errors import InputError
 
 __all__ = [
-    "RHO_KGM3", "MASS_KG", "WETZ2021_AERO", "KISTNER2024_RANGES", "MIN_DRAG_AREA_M2", "DragLaw",
+    "MIN_DRAG_AREA_M2", "DragLaw",
     "rotation_body_to_ned", "drag_area_m2", "speed_from_tilt", "tilt_from_attitude",
     "body_accelerations_ms2", "body_axis_relative_air",
 ]
 
-#: Air density assumed constant in Wetz et al. (2021), Sect. 4.2 [kg m-3].
-RHO_KGM3: float = 1.2
-#: Take-off mass of the Holybro QAV250 quadrotor, Wetz et al. (2021), Table 1 [kg].
-MASS_KG: float = 0.65
-#: Universal aerodynamic parameters of Wetz et al. (2021), Eq. 18 (slope on the tilt, see module doc).
-WETZ2021_AERO: dict[str, float] = {"cd0a0_m2": 0.03, "cp_m2_per_rad": -0.047}
 #: Floor of the drag area [m2] (see :func:`speed_from_tilt`).
 MIN_DRAG_AREA_M2: float = 1e-4
-#: Longitudinal speed-range coefficients of Kistner et al. (2024), Table 2: (upper edge [m s-1], b_x, c_x);
-#: lateral (b_y, c_y) = (0.860, 5.600).
-KISTNER2024_RANGES: dict[str, object] = {
-    "edges_ms": [4.0, 12.0],
-    "b_x": [0.784, 0.882, 0.635],
-    "c_x": [6.338, 7.604, 8.600],
-    "b_y": 0.860,
-    "c_y": 5.600,
-}
 
 
 @dataclass(frozen=True)
@@ -102,13 +93,13 @@ class DragLaw:
     law: str = "rayleigh"
     cd0a0_m2: float = WETZ2021_AERO["cd0a0_m2"]
     cp_m2_per_rad: float = WETZ2021_AERO["cp_m2_per_rad"]
-    edges_ms: tuple[float, ...] = tuple(KISTNER2024_RANGES["edges_ms"])  # type: ignore[arg-type]
-    b_x: tuple[float, ...] = tuple(KISTNER2024_RANGES["b_x"])  # type: ignore[arg-type]
-    c_x: tuple[float, ...] = tuple(KISTNER2024_RANGES["c_x"])  # type: ignore[arg-type]
-    b_y: float = float(KISTNER2024_RANGES["b_y"])  # type: ignore[arg-type]
-    c_y: float = float(KISTNER2024_RANGES["c_y"])  # type: ignore[arg-type]
-    mass_kg: float = MASS_KG
-    rho_kgm3: float = RHO_KGM3
+    edges_ms: tuple[float, ...] = tuple(KISTNER2024_RANGES["edges_ms"])
+    b_x: tuple[float, ...] = tuple(KISTNER2024_RANGES["b_x"])
+    c_x: tuple[float, ...] = tuple(KISTNER2024_RANGES["c_x"])
+    b_y: float = float(KISTNER2024_RANGES["b_y"])
+    c_y: float = float(KISTNER2024_RANGES["c_y"])
+    mass_kg: float = WETZ2021_MASS_KG
+    rho_kgm3: float = AIR_DENSITY_KGM3
 
     def __post_init__(self) -> None:
         if self.law not in ("rayleigh", "body_axis"):
@@ -201,7 +192,7 @@ def drag_area_m2(tilt_rad: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: float) ->
 
 
 def speed_from_tilt(tilt_rad: np.ndarray, cd0a0_m2: float, cp_m2_per_rad: float,
-                    mass_kg: float = MASS_KG, rho_kgm3: float = RHO_KGM3) -> np.ndarray:
+                    mass_kg: float = WETZ2021_MASS_KG, rho_kgm3: float = AIR_DENSITY_KGM3) -> np.ndarray:
     r"""Wind speed from tilt by the drag balance (Wetz et al. (2021), Eqs. 12-17).
 
     Parameters

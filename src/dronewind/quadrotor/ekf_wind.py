@@ -39,17 +39,13 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from dronewind.core.constants import ZERO_CELSIUS_K
+from dronewind.core.constants import R_DRY_AIR_JKGK, ZERO_CELSIUS_K
 from dronewind.errors import InputError
 from dronewind.quadrotor.drag import DragLaw, tilt_from_attitude
 from dronewind.quadrotor.wind import wind_from_attitude
 
-__all__ = ["R_DRY_AIR_JKGK", "air_density_kgm3", "airborne_segment", "tilt_and_ekf_wind", "compare_with_ekf",
+__all__ = ["air_density_kgm3", "airborne_segment", "tilt_and_ekf_wind", "compare_with_ekf",
            "COMPARISON_COLUMNS"]
-
-#: Specific gas constant of dry air [J kg-1 K-1].
-R_DRY_AIR_JKGK: float = 287.05
-
 
 def air_density_kgm3(pressure_pa: np.ndarray | float, temperature_degc: np.ndarray | float) -> np.ndarray:
     r"""Density of dry air by the ideal gas law, :math:`\rho = p / (R_d T)`.

@@ -1,26 +1,15 @@
-r"""Readers for quadrotor (SWUF-3D) flight logs and the tower reference.
+r"""Reader of quadrotor (SWUF-3D) flight logs: the quadrotor CSV, and every log format through :func:`read_quadrotor`.
 
-Three L0 formats of the data contract (``../shared/DESIGN.md``, "Quadrotor file" and
-"Tower reference") are read here (and, through :func:`read_quadrotor`, ArduPilot DataFlash
-logs, :mod:`dronewind.quadrotor.ardupilot`, and delimited text by a column mapping,
-:mod:`dronewind.quadrotor.delimited`):
+The quadrotor CSV of the data contract (``docs/data-contract.md``, "Quadrotor file"), at
+10 Hz or more::
 
-* quadrotor CSV, at 10 Hz or more::
+    time_utc,roll_deg,pitch_deg,yaw_deg,vel_n_ms,vel_e_ms,vel_d_ms,lat_deg,lon_deg,alt_m
 
-      time_utc,roll_deg,pitch_deg,yaw_deg,vel_n_ms,vel_e_ms,vel_d_ms,lat_deg,lon_deg,alt_m
-
-  ``time_utc`` is ISO 8601 UTC with a trailing ``Z``, with or without fractional seconds;
-* PX4 ULog (``.ulg``), read with :mod:`pyulog`: attitude from the ``vehicle_attitude``
-  quaternion, velocity (NED) and position from ``vehicle_global_position`` (if logged)
-  or ``vehicle_local_position`` (NED position relative to ``ref_lat``/``ref_lon``/
-  ``ref_alt``); UTC from the GNSS receiver (``vehicle_gps_position`` or ``sensor_gps``,
-  field ``time_utc_usec``);
-* tower reference CSV (1 Hz or 1-min means)::
-
-      time_utc,height_m,wind_speed_ms,wind_from_deg
-
-  in long form (one row per time and height) or wide form (``time_utc`` plus one
-  ``wind_speed_ms_<h>m`` and one ``wind_from_deg_<h>m`` column per height ``h``).
+``time_utc`` is ISO 8601 UTC with a trailing ``Z``, with or without fractional seconds.
+:func:`read_quadrotor` reads it and, by format, PX4 ULog (:mod:`dronewind.quadrotor.ulog`),
+ArduPilot DataFlash logs (:mod:`dronewind.quadrotor.ardupilot`) and delimited text by a
+column mapping (:mod:`dronewind.quadrotor.delimited`); the tower reference is read by
+:mod:`dronewind.quadrotor.reference`.
 
 Every reader returns an :class:`xarray.Dataset` with a ``time`` dimension
 (``datetime64[ns]``, naive, meaning UTC), CF attributes, removed-sample counts ``n_*`` and a
@@ -32,7 +21,6 @@ References
 .. [1] Wetz, T., Wildmann, N., Beyrich, F.: Distributed wind measurements with multiple
    quadrotor UAVs in the atmospheric boundary layer (SWUF-3D), Wetz et al. (2021)
   , Sects. 2-5.
-.. [2] PX4 ULog file format, https://docs.px4.io/main/en/dev_log/ulog_file_format.html
 """
 
 from __future__ import annotations
@@ -47,22 +35,15 @@ import pandas as pd
 import xarray as xr
 
 from dronewind.core import textscan
-from dronewind.core.geo import from_local_tangent_plane
 from dronewind.core.rowfaults import split_csv_line, split_csv_lines, text_lines
 from dronewind.errors import InputError
-from dronewind.quadrotor.columns import QUADROTOR_COLUMNS, REFERENCE_COLUMNS
+from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
 
 __all__ = [
-    "QUADROTOR_COLUMNS",
-    "REFERENCE_COLUMNS",
     "parse_time_utc",
-    "quaternion_to_euler_deg",
     "read_quadrotor",
     "read_quadrotor_csv",
-    "read_quadrotor_ulog",
-    "read_tower_reference",
 ]
-
 
 
 _ISO_Z = re.compile(r"^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,9})?Z$")
@@ -431,198 +412,6 @@ def _quadrotor_columns_fast(path: Path) -> tuple[np.ndarray, dict[str, np.ndarra
     return time, columns, 0
 
 
-def quaternion_to_euler_deg(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r"""Convert PX4 attitude quaternions (body to NED, Hamilton, ``[w, x, y, z]``) to Euler angles.
-
-    Parameters
-    ----------
-    q : numpy.ndarray, shape (n, 4)
-        Quaternion components ``q[0]`` (scalar) to ``q[3]``.
-
-    Returns
-    -------
-    roll_deg, pitch_deg, yaw_deg : numpy.ndarray
-        Z-Y-X (yaw, pitch, roll) Euler angles [degree]; yaw in (-180, 180], clockwise
-        from north.
-
-    Notes
-    -----
-    The rotation matrix is that of Wetz et al. (2021), Eq. D1, so that
-
-    .. math::
-        \phi = \operatorname{atan2}(2(q_0q_1+q_2q_3),\,1-2(q_1^2+q_2^2)),\quad
-        \theta = \arcsin(2(q_0q_2-q_3q_1)),\quad
-        \psi = \operatorname{atan2}(2(q_0q_3+q_1q_2),\,1-2(q_2^2+q_3^2)).
-
-    The quaternion is normalised first.
-    """
-    q = np.asarray(q, dtype=float)
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    q0, q1, q2, q3 = q.T
-    roll = np.arctan2(2 * (q0 * q1 + q2 * q3), 1 - 2 * (q1**2 + q2**2))
-    pitch = np.arcsin(np.clip(2 * (q0 * q2 - q3 * q1), -1.0, 1.0))
-    yaw = np.arctan2(2 * (q0 * q3 + q1 * q2), 1 - 2 * (q2**2 + q3**2))
-    return np.degrees(roll), np.degrees(pitch), np.degrees(yaw)
-
-
-def _topic(ulog: Any, name: str) -> dict[str, np.ndarray] | None:
-    """Fields of the first instance of a ULog topic, or None."""
-    for d in ulog.data_list:
-        if d.name == name and d.multi_id == 0:
-            return d.data
-    return None
-
-
-def _open_ulog(path: Path) -> Any:
-    """Parse a ULog file with :mod:`pyulog` (errors name the file)."""
-    from pyulog import ULog  # imported here: only needed for .ulg files
-
-    if not path.is_file():
-        raise InputError(path, "ULog file not found")
-    try:
-        return ULog(str(path))
-    except Exception as exc:  # pyulog raises plain exceptions on corrupt files
-        raise InputError(path, f"not a readable PX4 ULog file ({exc})") from exc
-
-
-def _ulog_attitude(ulog: Any, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Boot-time stamps [us] and roll, pitch, yaw [degree] of ``vehicle_attitude``."""
-    att = _topic(ulog, "vehicle_attitude")
-    if att is None or len(att["timestamp"]) == 0:
-        raise InputError(f"{path} [vehicle_attitude]",
-                         "the log holds no vehicle_attitude topic; attitude is needed to "
-                         "measure wind from the quadrotor's tilt (Wetz et al. (2021), Sect. 4.2)")
-    t_us = att["timestamp"].astype(np.int64)
-    q = np.column_stack([att[f"q[{i}]"] for i in range(4)])
-    roll, pitch, yaw = quaternion_to_euler_deg(q)
-    return t_us, roll, pitch, yaw
-
-
-def _ulog_utc_offset_us(ulog: Any, utc_start: str | None, log: list[str]) -> tuple[int, int]:
-    """UTC minus boot time [us] (median over GNSS fixes) and whether it is a real UTC (1/0)."""
-    for name in ("vehicle_gps_position", "sensor_gps"):
-        gps = _topic(ulog, name)
-        if gps is not None and "time_utc_usec" in gps:
-            good = gps["time_utc_usec"] > 0
-            if good.any():
-                offset = int(np.median(gps["time_utc_usec"][good].astype(np.int64)
-                                       - gps["timestamp"][good].astype(np.int64)))
-                log.append(f"utc: from {name}.time_utc_usec ({int(good.sum())} fixes)")
-                return offset, 1
-    if utc_start is not None:
-        origin = parse_time_utc([utc_start], "utc_start")[0]
-        log.append(f"utc: no GNSS time in log; origin set to {utc_start}")
-        return int(origin.astype("datetime64[us]").astype(np.int64)), 1
-    log.append("utc: no GNSS time in log and no utc_start; times are boot time "
-               "counted from 1970-01-01 (utc_valid = 0)")
-    return 0, 0
-
-
-def _interp_at(t_us: np.ndarray, src_t: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Linear interpolation of a topic field to the attitude times (NaN outside its span)."""
-    src_t = src_t.astype(np.int64)
-    return np.interp(t_us, src_t, values.astype(float), left=np.nan, right=np.nan)
-
-
-def _ulog_track(ulog: Any, t_us: np.ndarray) -> tuple[dict[str, np.ndarray], str]:
-    """GNSS/EKF velocity (NED) and position at the attitude times, and where they came from.
-
-    Local NED position is converted to latitude/longitude with a local flat-earth
-    approximation about (``ref_lat``, ``ref_lon``) (error < 1 mm over a few hundred
-    metres); altitude is ``ref_alt - z``.
-    """
-    nan = np.full(t_us.size, np.nan)
-    tr = {k: nan.copy() for k in ("vel_n_ms", "vel_e_ms", "vel_d_ms", "lat_deg", "lon_deg", "alt_m")}
-    source = "none"
-    lpos = _topic(ulog, "vehicle_local_position")
-    gpos = _topic(ulog, "vehicle_global_position")
-    if lpos is not None and len(lpos["timestamp"]):
-        for key, field in (("vel_n_ms", "vx"), ("vel_e_ms", "vy"), ("vel_d_ms", "vz")):
-            tr[key] = _interp_at(t_us, lpos["timestamp"], lpos[field])
-        ref_lat = float(np.median(lpos["ref_lat"]))
-        ref_lon = float(np.median(lpos["ref_lon"]))
-        ref_alt = float(np.median(lpos["ref_alt"]))
-        x_n, y_e, z_d = (_interp_at(t_us, lpos["timestamp"], lpos[k]) for k in ("x", "y", "z"))
-        tr["lat_deg"], tr["lon_deg"] = from_local_tangent_plane(y_e, x_n, ref_lat, ref_lon)
-        tr["alt_m"] = ref_alt - z_d
-        source = "vehicle_local_position"
-    if gpos is not None and len(gpos["timestamp"]):
-        for key, field in (("lat_deg", "lat"), ("lon_deg", "lon"), ("alt_m", "alt")):
-            tr[key] = _interp_at(t_us, gpos["timestamp"], gpos[field])
-        source = "vehicle_global_position" + ("+local velocity" if lpos is not None else "")
-        if lpos is None and "vel_n" in gpos:
-            for key, field in (("vel_n_ms", "vel_n"), ("vel_e_ms", "vel_e"), ("vel_d_ms", "vel_d")):
-                tr[key] = _interp_at(t_us, gpos["timestamp"], gpos[field])
-    lpos_global = lpos is not None and "xy_global" in lpos and bool(np.any(lpos["xy_global"]))
-    if gpos is None and not lpos_global:
-        source = _ulog_receiver_position(ulog, t_us, tr, source)
-    return tr, source
-
-
-def _ulog_receiver_position(ulog: Any, t_us: np.ndarray, track: dict[str, np.ndarray], source: str) -> str:
-    """Position from the raw GNSS receiver (lat/lon in 1e-7 degree, alt in mm above MSL), if it
-    has a fix: for a local frame without a global reference. Updates ``track``; returns the source."""
-    for name in ("vehicle_gps_position", "sensor_gps"):
-        gps = _topic(ulog, name)
-        if gps is not None and "lat" in gps and np.any(gps["lat"] != 0):
-            fix = gps["lat"] != 0
-            track["lat_deg"] = _interp_at(t_us, gps["timestamp"][fix], gps["lat"][fix] * 1e-7)
-            track["lon_deg"] = _interp_at(t_us, gps["timestamp"][fix], gps["lon"][fix] * 1e-7)
-            track["alt_m"] = _interp_at(t_us, gps["timestamp"][fix], gps["alt"][fix] * 1e-3)
-            return f"{name} position + {source} velocity"
-    return source
-
-
-def read_quadrotor_ulog(path: str | Path, utc_start: str | None = None) -> xr.Dataset:
-    """Read a PX4 ULog file into the quadrotor dataset (same layout as the CSV reader).
-
-    Parameters
-    ----------
-    path : str or Path
-        ``.ulg`` file.
-    utc_start : str, optional
-        ISO 8601 UTC time of the log's boot-time origin, used only if the log holds no
-        GNSS UTC time (bench logs). Without either, times count from 1970-01-01 and
-        ``attrs['utc_valid'] = 0``.
-
-    Returns
-    -------
-    xarray.Dataset
-        As :func:`read_quadrotor_csv`, at the ``vehicle_attitude`` time stamps. Velocity
-        and position are linearly interpolated from their topics to those times (NaN
-        outside their time span). attrs: ``utc_valid`` (0/1), ``utc_offset_us``,
-        ``position_source``, ``n_position_missing`` (attitude samples without position).
-
-    Raises
-    ------
-    InputError
-        Unreadable file, or no ``vehicle_attitude`` topic.
-
-    Notes
-    -----
-    UTC is the median offset between the GNSS receiver's ``time_utc_usec`` and boot
-    time. Position: ``vehicle_global_position`` if logged, else ``vehicle_local_position``
-    about its reference point, else the raw receiver (see :func:`_ulog_track`).
-    """
-    path = Path(path)
-    ulog = _open_ulog(path)
-    log = [f"read: ULog {path.name} ({len(ulog.data_list)} topics)"]
-    t_us, roll, pitch, yaw = _ulog_attitude(ulog, path)
-    utc_offset_us, utc_valid = _ulog_utc_offset_us(ulog, utc_start, log)
-    track, source = _ulog_track(ulog, t_us)
-    n_pos_missing = int(np.sum(~np.isfinite(track["lat_deg"]) | ~np.isfinite(track["vel_n_ms"])))
-    log.append(f"position: from {source}; {n_pos_missing} attitude samples without "
-               "position or velocity (NaN)")
-    time = (t_us + utc_offset_us).astype("datetime64[us]").astype("datetime64[ns]")
-    data = {"roll_deg": roll, "pitch_deg": pitch, "yaw_deg": yaw, **track}
-    ds = xr.Dataset({k: ("time", data[k]) for k in QUADROTOR_COLUMNS[1:]}, coords={"time": time})
-    ds = _sort_dedupe(ds, log)
-    ds.attrs.update({"utc_valid": utc_valid, "utc_offset_us": utc_offset_us,
-                     "position_source": source, "n_position_missing": n_pos_missing,
-                     "n_nonfinite": 0})
-    return _finish(ds, path, log)
-
-
 def read_quadrotor(path: str | Path, fmt: str | Mapping[str, Any] | None = None) -> xr.Dataset:
     """Read a quadrotor log: contract CSV, PX4 ULog or ArduPilot DataFlash (by format or file suffix).
 
@@ -653,6 +442,8 @@ def read_quadrotor(path: str | Path, fmt: str | Mapping[str, Any] | None = None)
     if name == "contract_csv":
         return read_quadrotor_csv(path)
     if name == "ulog":
+        from dronewind.quadrotor.ulog import read_quadrotor_ulog
+
         return read_quadrotor_ulog(path)
     if name == "ardupilot_bin":
         from dronewind.quadrotor.ardupilot import read_quadrotor_ardupilot
@@ -669,170 +460,3 @@ def read_quadrotor(path: str | Path, fmt: str | Mapping[str, Any] | None = None)
                            "or delimited")
 
 
-_WIDE = re.compile(r"^(wind_speed_ms|wind_from_deg)_(\d+(?:\.\d+)?)m?$")
-
-
-def _reference_long_form(df: pd.DataFrame, time: np.ndarray, line_no: np.ndarray) -> pd.DataFrame:
-    """Long-form reference rows: ``time``, ``height_m``, ``wind_speed_ms``, ``wind_from_deg``, ``line``."""
-    return pd.DataFrame({
-        "time": time,
-        "height_m": _numbers(df["height_m"]),
-        "wind_speed_ms": _numbers(df["wind_speed_ms"]),
-        "wind_from_deg": _numbers(df["wind_from_deg"]),
-        "line": line_no,
-    })
-
-
-def _numbers(s: pd.Series) -> np.ndarray:
-    """float64 of text fields (stripped; not a number -> NaN)."""
-    return pd.to_numeric(s.astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
-
-
-def _reference_wide_to_long(df: pd.DataFrame, time: np.ndarray, line_no: np.ndarray, path: Path) -> pd.DataFrame:
-    """Wide-form reference (``wind_speed_ms_<h>m``, ``wind_from_deg_<h>m``) as long-form rows."""
-    cols = {c: m for c in df.columns if (m := _WIDE.match(c))}
-    heights = sorted({float(m.group(2)) for m in cols.values()})
-    if not heights:
-        raise InputError(path, "neither long form (time_utc,height_m,wind_speed_ms,"
-                               "wind_from_deg) nor wide form (wind_speed_ms_<h>m, "
-                               "wind_from_deg_<h>m columns)")
-    parts = []
-    for h in heights:
-        sp = [c for c, m in cols.items() if m.group(1) == "wind_speed_ms" and float(m.group(2)) == h]
-        di = [c for c, m in cols.items() if m.group(1) == "wind_from_deg" and float(m.group(2)) == h]
-        if not sp:
-            raise InputError(path, f"wide form: no wind_speed_ms column for height {h:g} m")
-        parts.append(pd.DataFrame({
-            "time": time, "height_m": h,
-            "wind_speed_ms": _numbers(df[sp[0]]),
-            "wind_from_deg": _numbers(df[di[0]]) if di else np.nan,
-            "line": line_no,
-        }))
-    return pd.concat(parts, ignore_index=True)
-
-
-def _reference_value_problems(long: pd.DataFrame) -> tuple[np.ndarray, list[str]]:
-    """Rows with a bad height, speed or direction: their mask and ``"<line>: <what>"`` (a row's first problem)."""
-    checks = [
-        (~np.isfinite(long["height_m"]) | (long["height_m"] < 0), "height_m must be a number >= 0 (m above ground)"),
-        (long["wind_speed_ms"] < 0, "wind_speed_ms must be >= 0"),
-        ((long["wind_from_deg"] < 0) | (long["wind_from_deg"] > 360), "wind_from_deg must be within [0, 360]"),
-    ]
-    wrong = np.zeros(len(long), dtype=bool)
-    what = np.full(len(long), "", dtype=object)
-    for mask, text in checks:
-        m = mask.to_numpy(dtype=bool) & ~wrong
-        what[m] = text
-        wrong |= m
-    lines = long["line"].to_numpy()
-    return wrong, [f"{int(lines[i])}: {what[i]}" for i in np.flatnonzero(wrong)]
-
-
-def _reference_rows(path: Path, max_corrupt_fraction: float = 0.05) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """The good long-form rows of a tower reference with their file lines, and counts.
-
-    A line is corrupt when it has another number of fields than the header or a time stamp
-    that is not ISO 8601 UTC with a trailing ``Z``; a (time, height) row when its height is
-    not a number >= 0, its speed negative or its direction outside [0, 360].
-
-    Returns
-    -------
-    long : pandas.DataFrame
-        ``time``, ``height_m``, ``wind_speed_ms``, ``wind_from_deg``, ``line``.
-    counts : dict
-        ``form``, ``n_lines``, ``n_corrupt_lines`` (lines and rows), ``_log``.
-
-    Raises
-    ------
-    InputError
-        See :func:`read_tower_reference`.
-    """
-    header, frame, time, line_no, bad, n_lines = _csv_rows(path, "tower reference not found")
-    if {"height_m", "wind_speed_ms", "wind_from_deg"} <= set(header):
-        form, long = "long", _reference_long_form(frame, time, line_no)
-    else:
-        form, long = "wide", _reference_wide_to_long(frame, time, line_no, path)
-    wrong, bad_values = _reference_value_problems(long)
-    long = long.loc[~wrong]
-    bad = sorted(bad + bad_values, key=lambda b: int(b.split(":", 1)[0]))
-    _corrupt_check(path, bad, n_lines, max_corrupt_fraction, "another number of fields than the header, a "
-                   "time_utc that is not ISO 8601 UTC with a trailing 'Z', or a height, speed or direction out "
-                   "of range")
-    if long.empty:
-        raise InputError(path, "no data rows")
-    return long.reset_index(drop=True), {"form": form, "n_lines": n_lines, "n_corrupt_lines": len(bad),
-                                         "_log": _corrupt_log(path, bad, n_lines)}
-
-
-def _reference_grid(long: pd.DataFrame) -> xr.Dataset:
-    """Long-form rows on a (time, height) grid with CF attributes."""
-    ds = long.drop(columns="line").set_index(["time", "height_m"]).to_xarray()
-    ds = ds.rename({"height_m": "height"}).sortby("time").sortby("height")
-    ds = ds.assign_coords(height_m=("height", ds["height"].to_numpy().astype(float)))
-    ds = ds.drop_vars("height")
-    ds["wind_speed_ms"].attrs.update({"units": "m s-1", "standard_name": "wind_speed"})
-    ds["wind_from_deg"].attrs.update({"units": "degree",
-                                      "standard_name": "wind_from_direction"})
-    ds["height_m"].attrs.update({"units": "m", "standard_name": "height",
-                                 "long_name": "height above ground"})
-    ds["time"].attrs.update({"standard_name": "time", "long_name": "time (UTC)"})
-    return ds
-
-
-def read_tower_reference(path: str | Path, max_corrupt_fraction: float = 0.05) -> xr.Dataset:
-    """Read the tower reference CSV (1 Hz or 1-min means; long or wide form).
-
-    Parameters
-    ----------
-    path : str or Path
-        Long form ``time_utc,height_m,wind_speed_ms,wind_from_deg`` (one row per time and
-        height), or wide form ``time_utc,wind_speed_ms_<h>m,wind_from_deg_<h>m,...``.
-    max_corrupt_fraction : float, optional
-        Largest tolerated fraction of corrupt lines (:func:`_reference_rows`) [1].
-
-    Returns
-    -------
-    xarray.Dataset
-        Dimensions ``time`` (UTC, time stamp of each record) and ``height`` (coordinate
-        ``height_m`` [m above ground]); variables ``wind_speed_ms`` [m s-1] and
-        ``wind_from_deg`` [degree], NaN where a height has no record at a time. attrs
-        ``sampling_interval_s`` (median spacing), ``n_lines``, ``n_corrupt_lines`` (removed,
-        their lines in the log), ``n_nonfinite``, ``n_duplicates``, ``n_time_conflicts``,
-        ``processing_log``.
-
-    Raises
-    ------
-    InputError
-        Missing file/columns, more than ``max_corrupt_fraction`` of the lines corrupt (bad
-        times, negative speeds or heights, a direction outside [0, 360]; names the first),
-        or no data.
-    """
-    path = Path(path)
-    long, counts = _reference_rows(path, max_corrupt_fraction)
-    form = counts["form"]
-    log = [f"read: {len(long)} rows from {path.name}"]
-    if counts["n_corrupt_lines"]:
-        log.append(counts["_log"])
-    n_nonfinite = int((~np.isfinite(long["wind_speed_ms"])).sum() + (~np.isfinite(long["wind_from_deg"])).sum())
-    exact = long.drop(columns="line").duplicated(keep="first").to_numpy()
-    long = long.loc[~exact]
-    conflict = long.duplicated(["time", "height_m"], keep=False).to_numpy()
-    long = long.loc[~conflict]
-    n_dup, n_conflict = int(exact.sum()), int(conflict.sum())
-    if n_dup:
-        log.append(f"dedupe: {n_dup} duplicated (time, height) rows removed (first kept)")
-    if n_conflict:
-        log.append(f"dedupe: {n_conflict} rows repeating a (time, height) with other values removed, none trusted")
-    if n_nonfinite:
-        log.append(f"parse: {n_nonfinite} missing or non-numeric values kept as NaN")
-    if long.empty:
-        raise InputError(path, "no data rows left after removing conflicting time stamps")
-    ds = _reference_grid(long)
-    t_ns = ds["time"].to_numpy().astype("int64")
-    ds.attrs.update({
-        "sampling_interval_s": float(np.median(np.diff(t_ns)) / 1e9) if t_ns.size > 1 else float("nan"),
-        "n_nonfinite": n_nonfinite, "n_duplicates": n_dup, "n_time_conflicts": n_conflict, "form": form,
-        "n_lines": counts["n_lines"], "n_corrupt_lines": counts["n_corrupt_lines"],
-        "source_file": str(path), "processing_log": "\n".join(log),
-    })
-    return ds

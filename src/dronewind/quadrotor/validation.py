@@ -24,6 +24,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
+from dronewind.core.constants import AIR_DENSITY_KGM3, WETZ2021_MASS_KG
 from dronewind.errors import InputError
 from dronewind.quadrotor.calibration import (
     calibrate_individual,
@@ -31,7 +32,7 @@ from dronewind.quadrotor.calibration import (
     calibrate_universal,
     calibrate_yaw_offsets,
 )
-from dronewind.quadrotor.drag import MASS_KG, RHO_KGM3, DragLaw
+from dronewind.quadrotor.drag import DragLaw
 from dronewind.quadrotor.windows import WindowArrays, select_windows
 
 __all__ = [
@@ -41,8 +42,8 @@ __all__ = [
 
 def predict_windows(blocks: pd.DataFrame, windows: pd.DataFrame, params: pd.DataFrame,
                     aero: Mapping | None = None, flights: Iterable[str] | None = None,
-                    method: str = "tilt", mass_kg: float = MASS_KG,
-                    rho_kgm3: float = RHO_KGM3) -> pd.DataFrame:
+                    method: str = "tilt", mass_kg: float = WETZ2021_MASS_KG,
+                    rho_kgm3: float = AIR_DENSITY_KGM3) -> pd.DataFrame:
     r"""Calibrated UAV wind speed and direction per window.
 
     Parameters

@@ -29,7 +29,8 @@ from dronewind.errors import InputError
 from dronewind.quadrotor.drag import DragLaw
 from dronewind.quadrotor.ekf_wind import air_density_kgm3
 from dronewind.quadrotor.hover import hover_segment
-from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
+from dronewind.quadrotor.io import read_quadrotor
+from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.quadrotor.wind import (
     corrected_attitude_rad,
     drag_balance_direction,
@@ -80,7 +81,7 @@ def reference_at_height(reference: xr.Dataset, height_m: float, height_tol_m: fl
     Parameters
     ----------
     reference : xarray.Dataset
-        Tower reference (:func:`dronewind.quadrotor.io.read_tower_reference`).
+        Tower reference (:func:`dronewind.quadrotor.reference.read_tower_reference`).
     height_m : float
         Hover height above ground [m].
     height_tol_m : float
@@ -384,7 +385,7 @@ def flight_windows(ds: xr.Dataset, reference: xr.Dataset, site_altitude_m: float
     ds : xarray.Dataset
         Quadrotor log (:func:`dronewind.quadrotor.io.read_quadrotor`).
     reference : xarray.Dataset
-        Tower reference (:func:`dronewind.quadrotor.io.read_tower_reference`).
+        Tower reference (:func:`dronewind.quadrotor.reference.read_tower_reference`).
     site_altitude_m : float
         Ground altitude above MSL [m]; height above ground is ``alt_m - site_altitude_m``.
     flight, uav : str

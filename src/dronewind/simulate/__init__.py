@@ -1,10 +1,17 @@
 """The virtual campaign: writes L0 files that the processing chain cannot tell from logged ones.
 
-Modules: :mod:`~dronewind.simulate.atmosphere` (turbulent wind and temperature at points),
-:mod:`~dronewind.simulate.payload` (SAMURAI-S flight: pendulum, INS, sonic, and the mast
-sonics), :mod:`~dronewind.simulate.mast` (CSAT3 measurement model),
-:mod:`~dronewind.simulate.writers` (L0 formats), :mod:`~dronewind.simulate.settings`
-(validation of the ``simulation:`` section), :mod:`~dronewind.simulate.quadrotor` and
+Modules: :mod:`~dronewind.simulate.atmosphere` (turbulent wind and temperature at points,
+from the similarity functions of :mod:`dronewind.core.surface_layer`, the spectral model of
+:mod:`~dronewind.simulate.spectral_model` and the mast constraint of
+:mod:`~dronewind.simulate.constraint`; departures from the model in
+:mod:`~dronewind.simulate.departures`), :mod:`~dronewind.simulate.payload` (SAMURAI-S flight:
+INS, sonic and the mast sonics, with the flight plan in
+:mod:`~dronewind.simulate.payload_flight`, the wind at the payload in
+:mod:`~dronewind.simulate.payload_wind` and the pendulum and attitude in
+:mod:`~dronewind.simulate.payload_motion`), :mod:`~dronewind.simulate.mast` (CSAT3
+measurement model), :mod:`~dronewind.simulate.writers` (L0 formats),
+:mod:`~dronewind.simulate.settings` (validation of the ``simulation:`` section, defaults
+and ranges in :mod:`~dronewind.simulate.defaults`), :mod:`~dronewind.simulate.quadrotor` and
 :mod:`~dronewind.simulate.tunnel` (SWUF-3D fleet and wind tunnel), with their own forward
 drag physics in :mod:`~dronewind.simulate.airframe` (independent of the chain's inversion),
 :mod:`~dronewind.simulate.rigid` (a sonic on a rigid mount of a hovering multicopter, with the
@@ -17,7 +24,7 @@ The ``simulation:`` section of a campaign manifest (payload flights and masts)
 
 Units are in the key names; every key except ``payload_flights.<id>.mean_speed_ms``,
 ``wind_from_deg`` and one of ``z_over_L`` / ``obukhov_length_m`` is optional. Defaults
-and [ranges] below are those of ``settings.PAYLOAD_DEFAULTS``, ``DEFECT_DEFAULTS``,
+and [ranges] below are those of ``defaults.PAYLOAD_DEFAULTS``, ``DEFECT_DEFAULTS``,
 ``MAST_DEFAULTS``, ``ATMOSPHERE_DEFAULTS`` and ``TURBULENCE_DEFAULTS`` (the authoritative tables); rates must be
 whole numbers of Hz::
 

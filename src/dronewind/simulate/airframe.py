@@ -35,23 +35,17 @@ from typing import Any
 
 import numpy as np
 
-from dronewind.core.constants import GRAVITY_MS2
+from dronewind.core.constants import (
+    AIR_DENSITY_KGM3,
+    GRAVITY_MS2,
+    KISTNER2024_RANGES,
+    WETZ2021_AERO,
+    WETZ2021_MASS_KG,
+)
 from dronewind.errors import InputError, ProcessingError
 
-__all__ = ["TABLE2_COEFFICIENTS", "AirframeDrag", "rayleigh_tilt_rad", "regime_tilt", "attitude_from_tilt",
+__all__ = ["AirframeDrag", "rayleigh_tilt_rad", "regime_tilt", "attitude_from_tilt",
            "attitude_from_relative_air", "weathervane_heading_deg"]
-
-#: Speed-range coefficients of Kistner et al. (2024), Table 2 (the simulated UAS's default truth):
-#: upper edges of the longitudinal ranges [m s-1], ``b_x`` [-], ``c_x`` [m s-1 (m s-2)^-b]
-#: per range, lateral ``b_y``, ``c_y``.
-TABLE2_COEFFICIENTS: dict[str, Any] = {
-    "edges_ms": [4.0, 12.0],
-    "b_x": [0.784, 0.882, 0.635],
-    "c_x": [6.338, 7.604, 8.600],
-    "b_y": 0.860,
-    "c_y": 5.600,
-}
-
 
 @dataclass(frozen=True)
 class AirframeDrag:
@@ -80,15 +74,15 @@ class AirframeDrag:
     """
 
     law: str = "rayleigh"
-    cd0a0_m2: float = 0.03
-    cp_m2_per_rad: float = -0.047
-    edges_ms: tuple[float, ...] = tuple(TABLE2_COEFFICIENTS["edges_ms"])
-    b_x: tuple[float, ...] = tuple(TABLE2_COEFFICIENTS["b_x"])
-    c_x: tuple[float, ...] = tuple(TABLE2_COEFFICIENTS["c_x"])
-    b_y: float = float(TABLE2_COEFFICIENTS["b_y"])
-    c_y: float = float(TABLE2_COEFFICIENTS["c_y"])
-    mass_kg: float = 0.65
-    rho_kgm3: float = 1.2
+    cd0a0_m2: float = WETZ2021_AERO["cd0a0_m2"]
+    cp_m2_per_rad: float = WETZ2021_AERO["cp_m2_per_rad"]
+    edges_ms: tuple[float, ...] = tuple(KISTNER2024_RANGES["edges_ms"])
+    b_x: tuple[float, ...] = tuple(KISTNER2024_RANGES["b_x"])
+    c_x: tuple[float, ...] = tuple(KISTNER2024_RANGES["c_x"])
+    b_y: float = float(KISTNER2024_RANGES["b_y"])
+    c_y: float = float(KISTNER2024_RANGES["c_y"])
+    mass_kg: float = WETZ2021_MASS_KG
+    rho_kgm3: float = AIR_DENSITY_KGM3
 
     def __post_init__(self) -> None:
         if self.law not in ("rayleigh", "body_axis"):

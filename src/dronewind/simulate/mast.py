@@ -2,7 +2,7 @@
 
 Takes the true ENU wind and sonic temperature at the sensor and returns what the
 logger writes to TOA5: CSAT3 components ``Ux, Uy, Uz`` for the sensor's azimuth
-(DESIGN.md, "Frames and signs"), ``Ts`` in degree C, ``diag_csat``, RECORD numbers
+(``docs/data-contract.md``, "Frames and signs"), ``Ts`` in degree C, ``diag_csat``, RECORD numbers
 (which may skip) and ``NaN`` for bad samples (written as ``"NAN"``).
 
 The flow the sonic sees may be distorted by its tower and boom (:func:`flow_distortion`,
@@ -84,7 +84,7 @@ def enu_to_csat3(u_east_ms: np.ndarray, v_north_ms: np.ndarray, w_up_ms: np.ndar
 
     Notes
     -----
-    Inverse of DESIGN.md's :math:`u_E = -U_x\\sin\\alpha + U_y\\cos\\alpha`,
+    Inverse of the data contract's :math:`u_E = -U_x\\sin\\alpha + U_y\\cos\\alpha`,
     :math:`u_N = -U_x\\cos\\alpha - U_y\\sin\\alpha`:
 
     .. math:: U_x = -u_E\\sin\\alpha - u_N\\cos\\alpha,\\qquad

@@ -1,42 +1,26 @@
 """Virtual SAMURAI-S flight: sling-load payload, INS, sonic, and the mast sonics.
 
-Physics (Ghirardelli et al. 2025, Sects 2-3):
+Physics (Ghirardelli et al. 2025, Sects 2-3), by module:
 
-* Flight plan: payload on the ground (held) for ``ground_before_s``, vertical ascent at
-  ``ascent_rate_ms``, hover from ``hover_margin_s`` before the hover window to
-  ``hover_margin_s`` after it, descent at ``descent_rate_ms``, ground time. Corners are
-  smoothed over 2 s.
-* Drone: hovers ``pendulum_length_m`` above the payload with smooth position jitter
-  (second-order low-passed noise, ``hover_jitter_m``, ``hover_jitter_time_s``).
-* Payload: a simple pendulum (Sect. 2.3: "treated as a simple pendulum", period
-  2 pi sqrt(l/g) = 8.5 s for l = 18 m) hanging from the drone, forced by the moving
-  pivot and by the drag of the turbulent wind, linearised about the mean wind U:
+* flight plan, flight clock and random streams: :mod:`dronewind.simulate.payload_flight`;
+* the wind at the payload and at the mast sonics: :mod:`dronewind.simulate.payload_wind`;
+* drone jitter, the payload's pendulum and its attitude: :mod:`dronewind.simulate.payload_motion`;
+* the instrument records, here.
 
-  .. math::
-      \\ddot p_a + \\frac{\\rho C_dA U}{m}\\dot p_a + \\omega_0^2 (p_a - d_a - \\delta) =
-          \\frac{\\rho C_dA U}{m} u',\\qquad
-      \\ddot p_c + \\frac{\\rho C_dA U}{2m}\\dot p_c + \\omega_0^2 (p_c - d_c) =
-          \\frac{\\rho C_dA U}{2m} v'
+Instruments:
 
-  (a along, c across the wind; omega_0^2 = g/l; delta = l rho C_dA U^2 / (2 m g) the
-  mean downwind trail; damping at least ``min_damping_ratio``). Its height is
-  z_drone - sqrt(l^2 - r^2).
-* Attitude: roll transferred from the drone, which banks into lateral gusts
-  (phi = rho C_dA,drone U v' / (m_drone g), 0.5 s lag) plus jitter; pitch = balance trim
-  plus jitter; yaw weathervanes to the direction the relative air comes from
-  (first order, ``yaw_time_constant_s``) plus jitter (Sect. 2.3).
 * Sonic (RM Young 81000, 32 Hz, Table 2): air velocity relative to the sensor in the
-  sensor frame, the exact inverse of DESIGN.md's correction
-  V_wind = R(phi, theta, psi) V_body + V_ins, V_body = M_mount V_sensor; white noise
-  ``sonic_noise_ms`` and resolution 0.01 m/s (0.01 K).
+  sensor frame, the exact inverse of the chain's motion correction
+  (``docs/data-contract.md``) V_wind = R(phi, theta, psi) V_body + V_ins,
+  V_body = M_mount V_sensor; white noise ``sonic_noise_ms`` and resolution 0.01 m/s (0.01 K).
 * INS (Ellipse-D EKF, 50 Hz, Table 3): velocity of the sonic volume (NED), attitude,
   lat/lon (WGS84 local tangent plane of :mod:`dronewind.core.geo`, the chain's own Earth
   model) and alt MSL with Gauss-Markov errors of the Table 3 accuracies; GNSS time valid
   only ``gnss_acquisition_s`` after logging starts, with one blink of
   ``gnss_blink_s`` (< 10 s) halfway before; EKF valid after ``ekf_init_s``.
 * Sonic-INS processing lag: the sonic's rows are stamped ``sonic_ins_lag_s`` late against
-  the INS's (the time the chain must add to the sonic clock, DESIGN.md's
-  ``lag_sonic_ins_s``), per flight: its ``simulation.payload_flights.<id>.sonic_ins_lag_s``,
+  the INS's (the time the chain must add to the sonic clock, ``lag_sonic_ins_s`` of
+  ``docs/data-contract.md``), per flight: its ``simulation.payload_flights.<id>.sonic_ins_lag_s``,
   else drawn from the flight's seed in [``sonic_ins_lag_low_s``, ``sonic_ins_lag_high_s``],
   by default [-0.185, 0] s, the range of the ten validation flights' lags (Ghirardelli et
   al. 2025, Sect. 3.3, Fig. 4; :func:`dronewind.simulate.settings.processing_lag_s`). The
@@ -45,42 +29,54 @@ Physics (Ghirardelli et al. 2025, Sects 2-3):
   ``logger_clock_drift_ppm``, shared by both files.
 * Row defects (missing, duplicated, swapped, out-of-range) at the ``defects`` rates.
 
-The turbulent field comes from :mod:`dronewind.simulate.atmosphere` at the mast sonics
-(generated first, so they do not depend on the payload's position) and at the hover
-point, with the campaign's turbulence model (``simulation.atmosphere``: spectral shape
-and sigma factors, :func:`~dronewind.simulate.atmosphere.reshape_field`; mean-wind
-trends about the hover-window centre, :func:`~dronewind.simulate.atmosphere.mean_wind_trend`)
-seen alike by the payload and the masts. During ascent and descent the payload sees the hover point's fluctuations with
-the mean wind of its current height (an approximation: only hover data are analysed);
-the payload's own swing (about a metre) is not used to re-sample the field.
-
 Mechanisms act inside this measurement model (see :mod:`dronewind.mechanisms`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import xarray as xr
-from scipy import signal
 from scipy.interpolate import CubicSpline
 
-from dronewind.core.angles import deg2rad, rad2deg
-from dronewind.core.constants import GRAVITY_MS2, ZERO_CELSIUS_K
-from dronewind.core.geo import from_local_tangent_plane, local_tangent_plane_m
+from dronewind.core.constants import ZERO_CELSIUS_K
+from dronewind.core.geo import from_local_tangent_plane
 from dronewind.core.raw import RawRecord, content_digest
 from dronewind.core.reuse import reused
-from dronewind.core.timeseries import unwrap_rad
 from dronewind.errors import InputError
 from dronewind.simulate import atmosphere as atm
 from dronewind.simulate.mast import mast_measurement
+from dronewind.simulate.payload_flight import (
+    _MOUNTS,
+    _flight_clock,
+    _FlightClock,
+    _remembered,
+    _Streams,
+    flight_timeline,
+)
+from dronewind.simulate.payload_motion import (
+    _JITTER_KEYS,
+    _air_in_body,
+    _jitter,
+    _lowpass_noise,
+    _Motion,
+    _payload_motion,
+    body_to_ned,
+)
+from dronewind.simulate.payload_wind import (
+    _air_at_payload,
+    _AirAtPayload,
+    _field_points,
+    _FieldPoints,
+    _turbulence,
+    _with_trend,
+)
 from dronewind.simulate.settings import (
     CampaignLike,
     PayloadFlightConditions,
@@ -92,157 +88,12 @@ from dronewind.simulate.settings import (
 from dronewind.simulate.writers import ins_record, payload_sonic_record, toa5_record, write_record
 
 __all__ = [
-    "AIR_DENSITY_KGM3",
-    "body_to_ned",
-    "pendulum_period_s",
-    "flight_timeline",
     "simulate_payload_flight",
     "payload_records",
     "payload_truth",
     "PayloadTruth",
-    "measured_constraint",
-    "check_atmosphere_record",
     "atmosphere_digest",
 ]
-
-AIR_DENSITY_KGM3 = 1.2
-_G = GRAVITY_MS2
-_Z_GROUND_M = 0.5  # payload height while on the ground [m]
-_MOUNTS = {"upside_down": np.eye(3), "upright": np.diag([1.0, -1.0, -1.0])}
-# random streams (fixed purpose numbers so that switching one mechanism leaves the others' draws)
-_STREAM = {"turbulence": 0, "motion": 1, "ins_noise": 2, "sonic_noise": 3, "noise_mechanism": 4,
-           "sonic_defects": 5, "ins_defects": 6, "spectral_sampling": 7, "mast": 100}
-
-
-def body_to_ned(roll_deg: np.ndarray | float, pitch_deg: np.ndarray | float,
-                yaw_deg: np.ndarray | float) -> np.ndarray:
-    """Body-to-NED rotation R(phi, theta, psi) = [R3(phi) R2(theta) R1(psi)]^T.
-
-    Parameters
-    ----------
-    roll_deg, pitch_deg, yaw_deg : numpy.ndarray or float
-        Euler angles [degree], same shape s.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape s + (3, 3).
-
-    Notes
-    -----
-    Ghirardelli et al. (2025), Appendix A; written independently of the processing chain's
-    ``dronewind.payload.motion`` (the simulator must not use it).
-    """
-    f, t, p = (deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
-    cf, sf, ct, st, cp, sp = np.cos(f), np.sin(f), np.cos(t), np.sin(t), np.cos(p), np.sin(p)
-    r = np.empty(np.shape(f) + (3, 3))
-    r[..., 0, 0] = ct * cp
-    r[..., 0, 1] = sf * st * cp - cf * sp
-    r[..., 0, 2] = cf * st * cp + sf * sp
-    r[..., 1, 0] = ct * sp
-    r[..., 1, 1] = sf * st * sp + cf * cp
-    r[..., 1, 2] = cf * st * sp - sf * cp
-    r[..., 2, 0] = -st
-    r[..., 2, 1] = sf * ct
-    r[..., 2, 2] = cf * ct
-    return r
-
-
-def pendulum_period_s(length_m: float) -> float:
-    """Small-amplitude period of a simple pendulum, T = 2 pi sqrt(l/g) (Ghirardelli et al. 2025, Sect. 2.3).
-
-    Parameters
-    ----------
-    length_m : float
-        Rope length [m].
-
-    Returns
-    -------
-    float
-        Period [s] (8.51 s for 18 m).
-    """
-    return 2 * math.pi * math.sqrt(length_m / _G)
-
-
-def flight_timeline(cond: PayloadFlightConditions) -> dict[str, float]:
-    """Phase boundaries of a flight in seconds relative to the hover-window start.
-
-    Parameters
-    ----------
-    cond : dict
-        Output of :func:`dronewind.simulate.settings.resolve_payload_flight`.
-
-    Returns
-    -------
-    dict
-        ``log_start, takeoff, hover_start, hover_end, landing, log_end`` [s]. The
-        nominal hover height (without ``height_offset``) sets the climb times so that
-        the timeline does not depend on that mechanism.
-    """
-    p = cond["payload"]
-    h = cond["hover_height_m"]
-    margin = p["hover_margin_s"]
-    climb_up, climb_down = h / p["ascent_rate_ms"], h / p["descent_rate_ms"]
-    needed = cond["duration_s"] + 2 * margin + climb_up + climb_down + p["ground_before_s"] + p["ground_after_s"]
-    flight_duration_s = cond.get("flight_duration_s")
-    if flight_duration_s:
-        margin += 0.5 * (flight_duration_s - needed)
-    hover_start = -margin
-    hover_end = cond["duration_s"] + margin
-    takeoff = hover_start - climb_up
-    landing = hover_end + climb_down
-    return {"log_start": takeoff - p["ground_before_s"], "takeoff": takeoff, "hover_start": hover_start,
-            "hover_end": hover_end, "landing": landing, "log_end": landing + p["ground_after_s"]}
-
-
-@functools.lru_cache(maxsize=64)
-def _butter_sos(order: int, cutoff_hz: float, fs_hz: float) -> np.ndarray:
-    """Butterworth low-pass sections (read-only), designed once per order, cut-off and rate.
-
-    A flight's noise streams use a few filters again and again (every forward run draws
-    the INS errors anew): a flight's forward runs designed 3 filters 240 times, 2 % of
-    their profiled time (``benchmarks/results/profile_forward_s02_s26_before.json``). The
-    same arguments give the same sections, so nothing else changes.
-    """
-    sos = signal.butter(order, cutoff_hz, fs=fs_hz, output="sos")
-    sos.setflags(write=False)
-    return sos
-
-
-def _lowpass_noise(rng: np.random.Generator, n: int, fs_hz: float, time_s: float, sigma: float,
-                   order: int = 2) -> np.ndarray:
-    """Smooth random signal: white noise through a Butterworth low-pass at 1/(2 pi tau), scaled."""
-    if sigma == 0 or n == 0:
-        return np.zeros(n)
-    fc = min(1.0 / (2 * np.pi * time_s), 0.45 * fs_hz)
-    sos = _butter_sos(order, fc, fs_hz).copy()  # sosfilt wants a writable array
-    pad = int(min(10 * time_s * fs_hz, 20 * fs_hz * 60))
-    x = signal.sosfilt(sos, rng.standard_normal(n + pad))[pad:]
-    sd = np.std(x)
-    return x * (sigma / sd) if sd > 0 else x
-
-
-def _oscillator(force: np.ndarray, omega0: float, damping: float, fs_hz: float) -> np.ndarray:
-    """Response p of p'' + c p' + w0^2 p = force (bilinear-discretised, starts at rest)."""
-    b, a = signal.bilinear([1.0], [1.0, damping, omega0**2], fs=fs_hz)
-    return signal.lfilter(b, a, force)
-
-
-def _first_order(x: np.ndarray, tau_s: float, fs_hz: float, x0: float | None = None) -> np.ndarray:
-    """First-order low-pass (time constant tau) starting at x0 (default x[0])."""
-    alpha = 1.0 - math.exp(-1.0 / (tau_s * fs_hz))
-    zi = [(1 - alpha) * (x[0] if x0 is None else x0)]
-    y, _ = signal.lfilter([alpha], [1.0, -(1 - alpha)], x, zi=zi)
-    return y
-
-
-def _smooth_path(t: np.ndarray, knots_t: list[float], knots_z: list[float], fs_hz: float,
-                 width_s: float = 2.0) -> np.ndarray:
-    z = np.interp(t, knots_t, knots_z)
-    n = max(int(width_s * fs_hz), 1)
-    kernel = np.ones(n) / n
-    zp = np.concatenate([np.full(n, z[0]), z, np.full(n, z[-1])])
-    return np.convolve(zp, kernel, mode="same")[n:-n]
 
 
 def _defects(rng: np.random.Generator, n: int, rates: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -259,44 +110,6 @@ def _defects(rng: np.random.Generator, n: int, rates: Mapping[str, float]) -> tu
     return idx, oor
 
 
-def _mast_offsets_enu(site: Mapping[str, Any], sonic: Mapping[str, Any]) -> tuple[float, float]:
-    """East, north offset [m] of a mast sonic from the site position (WGS84 local tangent plane)."""
-    lat0 = float(site.get("latitude", sonic["latitude"]))
-    lon0 = float(site.get("longitude", sonic["longitude"]))
-    de, dn = local_tangent_plane_m(sonic["latitude"], sonic["longitude"], lat0, lon0)
-    return float(de), float(dn)
-
-
-def _log_span_utc(cond: PayloadFlightConditions) -> tuple[np.datetime64, np.datetime64]:
-    """UTC of the first and last logged sample of a flight."""
-    tl = flight_timeline(cond)
-    us = np.timedelta64(1, "us")
-    return (cond["start"] + int(round(tl["log_start"] * 1e6)) * us,
-            cond["start"] + int(round(tl["log_end"] * 1e6)) * us)
-
-
-def _mast_span(data: Mapping[str, Any], settings: SimulationSettings,
-               cond: PayloadFlightConditions) -> tuple[np.datetime64, np.datetime64]:
-    """Mast record span: the flight's log span plus margin, clipped halfway to neighbours."""
-    t0, t1 = _log_span_utc(cond)
-    margin = np.timedelta64(int(settings["mast"]["margin_s"] * 1e6), "us")
-    lo, hi = t0 - margin, t1 + margin
-    for f in data.get("payload_flights") or []:
-        fid = str(f["id"])
-        if fid == cond["flight_id"]:
-            continue
-        other = resolve_payload_flight(data, fid, settings)
-        o0, o1 = _log_span_utc(other)
-        if o0 < t1 and o1 > t0:
-            raise InputError(f"simulation.payload_flights.{fid}",
-                             f"flight overlaps flight {cond['flight_id']} ({o0}..{o1} vs {t0}..{t1})")
-        if o1 <= t0:
-            lo = max(lo, o1 + (t0 - o1) // 2)
-        else:
-            hi = min(hi, t1 + (o0 - t1) // 2)
-    return lo, hi
-
-
 def _mast_file(pattern_list: list[str], flight_id: str, sonic_id: str) -> str:
     """A mast sonic's file of one flight: its first files glob with '*' replaced by the flight id."""
     for pattern in pattern_list:
@@ -305,492 +118,6 @@ def _mast_file(pattern_list: list[str], flight_id: str, sonic_id: str) -> str:
     raise InputError(f"masts.sonics.{sonic_id}.files",
                      "a simulated campaign needs a glob with '*' (replaced by the flight id), "
                      f"got {pattern_list}")
-
-
-# --------------------------------------------------------------------------------------
-# One flight, step by step
-# --------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class _Streams:
-    """The flight's named random streams: ``streams(name, k)`` is a fresh generator of stream name + k.
-
-    With a truth's ``memo``, :meth:`once` keeps what a stream gave, so that the probes of one
-    truth draw it once, and the truths of the same seed at other hover heights find it inside a
-    forward flight's runs (:mod:`dronewind.core.reuse`): a fresh generator gives the same
-    numbers every time, so this changes no record.
-    """
-
-    seed: int
-    memo: dict[tuple[str, str], Any] | None = field(default=None, compare=False, repr=False)
-
-    def __call__(self, name: str, k: int = 0) -> np.random.Generator:
-        return np.random.default_rng([self.seed, _STREAM[name] + k])
-
-    def normal(self, name: str, shape: int | tuple[int, ...], k: int = 0) -> np.ndarray:
-        """``self(name, k).standard_normal(shape)`` (read-only; drawn once per truth with a memo)."""
-        return self.once(("normal", name, k, shape), lambda: self(name, k).standard_normal(shape))
-
-    def once(self, key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
-        """``make()``, made once per truth and key with a memo; its arrays read-only."""
-        if self.memo is None:
-            return make()
-        return _remembered(self.memo, ("stream draws", repr(key)),
-                           lambda: reused("stream draws", {}, repr((self.seed, key)), make))
-
-
-@dataclass(frozen=True)
-class _FlightClock:
-    """Time axes of one flight.
-
-    Field time is seconds from ``field_t0``, a whole UTC second before the mast span, so
-    that mast stamps fall on round 1/fs_mast; flight time (``t_s`` elsewhere) is seconds
-    from the hover-window start ``start``.
-    """
-
-    timeline: dict[str, float]
-    start: np.datetime64
-    field_t0: np.datetime64
-    #: hover-window start in field time [s]
-    hover_start_field_s: float
-    #: first sonic sample in field time [s]
-    log_start_field_s: float
-    n_sonic: int
-    mast_lo: np.datetime64
-    #: end of the mast span in field time [s]
-    mast_end_field_s: float
-    #: the field period is a whole multiple of this [s] (common sample spacing of sonic and mast)
-    period_unit_s: float
-    #: field time the field must cover [s] (before the Taylor-delay padding)
-    span_s: float
-
-
-def _flight_clock(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadFlightConditions,
-                  fs_sonic_hz: float, fs_mast_hz: float) -> _FlightClock:
-    """Flight timeline, sonic grid and mast span of one flight in field time."""
-    tl = flight_timeline(cond)
-    start = cond["start"]
-    us = np.timedelta64(1, "us")
-    mast_lo, mast_hi = _mast_span(data, settings, cond)
-    # the field period starts on a whole second, so mast stamps fall on round 1/fs_m
-    epoch_day = start.astype("datetime64[D]").astype("datetime64[us]")
-    lo_s = math.floor((mast_lo - epoch_day) / us * 1e-6)
-    field_t0 = epoch_day + int(lo_s * 1e6) * us               # UTC of field time 0
-    rel0 = (start - field_t0) / us * 1e-6                     # hover start in field time
-    log_start_f = math.ceil((rel0 + tl["log_start"]) * fs_sonic_hz) / fs_sonic_hz
-    n_son = int(math.floor((tl["log_end"] - tl["log_start"]) * fs_sonic_hz))
-    mast_end_f = (mast_hi - field_t0) / us * 1e-6
-    whole = float(fs_sonic_hz).is_integer() and float(fs_mast_hz).is_integer()
-    unit = 1.0 / math.gcd(int(fs_sonic_hz), int(fs_mast_hz)) if whole else 1.0
-    span = max(mast_end_f, log_start_f + n_son / fs_sonic_hz + 1.0)
-    return _FlightClock(tl, start, field_t0, rel0, log_start_f, n_son, mast_lo, mast_end_f, unit, span)
-
-
-@dataclass(frozen=True)
-class _FieldPoints:
-    """Points of the turbulent field: the mast sonics first, the hover point last (ENU from the site)."""
-
-    mast_ids: list[str]
-    points_enu_m: np.ndarray
-    hover_e_m: float
-    hover_n_m: float
-    hover_z_m: float
-
-
-def _field_points(cond: PayloadFlightConditions) -> _FieldPoints:
-    """Mast sonic positions and the hover point (reference mast + hover offset, lowered by ``height_offset``)."""
-    sonics = cond["mast_sonics"]
-    ref = sonics[cond["reference"]]
-    ref_e, ref_n = _mast_offsets_enu(cond["site"], ref)
-    dz = cond["mechanisms"].get("height_offset", {}).get("dz_m", 0.0)
-    z_hover = cond["hover_height_m"] - dz
-    hover_e, hover_n = ref_e + cond["hover_offset_enu_m"][0], ref_n + cond["hover_offset_enu_m"][1]
-    mast_ids = list(sonics)
-    points = [[*_mast_offsets_enu(cond["site"], sonics[s]), float(sonics[s]["height_m"])] for s in mast_ids]
-    points.append([hover_e, hover_n, z_hover])
-    return _FieldPoints(mast_ids, np.asarray(points), hover_e, hover_n, z_hover)
-
-
-def _turbulence(cond: PayloadFlightConditions, clock: _FlightClock, field: _FieldPoints, fs_sonic_hz: float,
-                fs_mast_hz: float, rng: np.random.Generator,
-                atmosphere: xr.Dataset | None = None,
-                sampling: np.random.Generator | None = None) -> tuple[atm.FieldSpec, dict[str, Any]]:
-    """Fourier coefficients of the field at all points over the flight and mast span (Taylor delays padded).
-
-    With ``atmosphere`` (the reference mast sonic's measured record, L1 names) the field is
-    constrained by that record at the reference sonic's position and takes its spectral
-    amplitudes (:func:`measured_constraint`); the second return value describes the record
-    used (empty without one). With ``sampling`` (the seed's own stream) those amplitudes are
-    the record's smoothed spectra drawn again from their sampling distribution
-    (:func:`dronewind.simulate.atmosphere.spectral_sampling_factors`): the seeds of a forward
-    flight then resample the record's spectral sampling error as well as the remainder of
-    the field that the record leaves free, while the record itself is reproduced at the
-    mast by every seed. The draws depend on the seed and the field's frequencies only, so
-    the probes of a seed (and a record read through a mechanism) share them.
-    """
-    points = field.points_enu_m
-    e_u0, _ = atm.wind_frame_unit_vectors(cond["wind_from_deg"])
-    s_down = points[:, :2] @ e_u0
-    pad = (s_down.max() - s_down.min()) / max(cond["mean_speed_ms"], 0.5)  # Taylor delays must not wrap
-    period = math.ceil((clock.span_s + pad) / clock.period_unit_s) * clock.period_unit_s
-    fs_max = max(fs_sonic_hz, fs_mast_hz)
-    con: atm.ConstraintLatents | None = None
-    info: dict[str, Any] = {}
-    if atmosphere is not None:
-        ref = field.mast_ids.index(cond["reference"])
-        names = [v for v in ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k") if v in atmosphere]
-        # the same record, point and clock for every seed and height of a forward flight: the
-        # constraint is made once inside its runs (dronewind.core.reuse; read-only)
-        con, info = reused(
-            "measured constraint", {"time": atmosphere["time"].values, "point": points[ref],
-                                    **{v: atmosphere[v].values for v in names}},
-            repr((clock, period, fs_max, cond["wind_from_deg"], cond["duration_s"],
-                  float(atmosphere.attrs.get("noise_ms", 0.0)),
-                  float(atmosphere.attrs.get("temperature_noise_k", 0.0)))),
-            lambda: measured_constraint(atmosphere, clock, points[ref], period, fs_max, cond["wind_from_deg"],
-                                        cond["duration_s"]))
-        info = dict(info)  # each truth its own description
-    spec = atm.field_coefficients(points, period, fs_max, cond["mean_speed_ms"],
-                                  cond["wind_from_deg"], cond["z_ref_m"], cond["obukhov_length_m"],
-                                  cond["roughness_length_m"], rng, cond["theta_mean_k"],
-                                  cond["boundary_layer_height_m"], con,
-                                  "model" if con is None else "constraint", sampling)
-    # the campaign's turbulence model (simulation.atmosphere) shapes a model field only: a field
-    # constrained by a measured record takes that record's spectra
-    return (_turbulence_model(cond, field, spec) if con is None else spec), info
-
-
-def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np.ndarray, period_s: float,
-                        fs_hz: float, wind_from_deg: float, hover_duration_s: float
-                        ) -> tuple[atm.ConstraintLatents, dict[str, Any]]:
-    """The reference mast's measured record as the constraint of a flight's field.
-
-    Parameters
-    ----------
-    record : xarray.Dataset
-        The reference sonic's measured record: ``u_east_ms``, ``v_north_ms``, ``w_up_ms``
-        (and ``t_sonic_k``) on a datetime64 ``time`` axis (a mast L1 or L2); optional
-        attributes ``noise_ms`` and ``temperature_noise_k``: its white measurement noise,
-        removed from its spectra (:func:`dronewind.simulate.atmosphere.constraint_from_record`).
-    clock : _FlightClock
-        The flight's time axes (field time 0 is ``clock.field_t0``).
-    point_enu_m : numpy.ndarray
-        (3,) the reference sonic's position [m].
-    period_s : float
-        Period of the field [s].
-    fs_hz : float
-        Highest sampling rate of the field [Hz].
-    wind_from_deg : float
-        Mean wind direction of the field [degree].
-    hover_duration_s : float
-        Length of the hover window [s]: the record's means are taken over it
-        (:func:`dronewind.simulate.atmosphere.constraint_from_record`).
-
-    Returns
-    -------
-    constraint : ConstraintLatents
-    info : dict
-        ``record_covered_s`` (field time the record covers), ``mirrored_s`` (field time
-        outside the record, filled by mirroring the record at its ends),
-        ``interpolated_samples`` (missing samples inside it, interpolated linearly).
-
-    Raises
-    ------
-    InputError
-        A record without the variables, shorter than half the field period or not covering
-        the hover window.
-
-    Notes
-    -----
-    The record is put on the field's grid at its own rate from ``field_t0``; where the field
-    period reaches beyond the record (the forward flight's log span plus mast margin may be
-    wider than what was recorded around the measured flight), it is mirrored at the record's
-    ends, which keeps its spectrum and continuity. Only the hover window enters the
-    features; that part must be measured.
-    """
-    where = "atmosphere record"
-    check_atmosphere_record(record, where)
-    us = np.timedelta64(1, "us")
-    t_rec = np.asarray((record["time"].values - clock.field_t0) / us, float) * 1e-6  # field time [s]
-    finite = np.isfinite(record["u_east_ms"].values) & np.isfinite(record["v_north_ms"].values) \
-        & np.isfinite(record["w_up_ms"].values)
-    if finite.sum() < 2:
-        raise InputError(where, "fewer than 2 valid samples")
-    dt = float(np.median(np.diff(t_rec)))
-    n = int(round(period_s / dt))
-    grid = np.arange(n) * dt
-    lo, hi = float(t_rec[finite][0]), float(t_rec[finite][-1])
-    hover = (clock.hover_start_field_s, clock.hover_start_field_s + hover_duration_s)
-    if lo > hover[0] + dt or hi < hover[1] - dt:
-        raise InputError(where, f"the record covers field time {lo:.1f}..{hi:.1f} s, not the hover window "
-                                f"{hover[0]:.1f}..{hover[1]:.1f} s")
-    if 2 * (hi - lo) < period_s:
-        raise InputError(where, f"the record covers {hi - lo:.1f} s, less than half the field period {period_s:.1f} s")
-    # mirror at the ends: t < lo -> 2 lo - t, t > hi -> 2 hi - t
-    mirrored = np.where(grid < lo, 2 * lo - grid, np.where(grid > hi, 2 * hi - grid, grid))
-    inside = (t_rec >= lo) & (t_rec <= hi)
-    data = {}
-    n_interp = 0
-    names = [v for v in ("u_east_ms", "v_north_ms", "w_up_ms", "t_sonic_k") if v in record]
-    for var in names:
-        x = np.asarray(record[var].values, float)
-        good = np.isfinite(x)
-        n_interp += int((~good & inside).sum())
-        data[var] = (("time",), np.interp(mirrored, t_rec[good], x[good]))
-    ds = xr.Dataset(data, coords={"time_s": ("time", grid)},
-                    attrs={"height_m": float(point_enu_m[2]), "x_m": float(point_enu_m[0]),
-                           "y_m": float(point_enu_m[1])})
-    con = atm.constraint_from_record(ds, period_s, fs_hz, wind_from_deg, mean_window_s=hover,
-                                     noise_ms=float(record.attrs.get("noise_ms", 0.0)),
-                                     temperature_noise_k=float(record.attrs.get("temperature_noise_k", 0.0)))
-    covered = max(0.0, min(hi, grid[-1]) - max(lo, 0.0))
-    return con, {"record_covered_s": covered, "mirrored_s": float(n * dt - covered),
-                 "interpolated_samples": n_interp, "record_rate_hz": 1.0 / dt}
-
-
-def check_atmosphere_record(record: xr.Dataset, where: str) -> None:
-    """Check that a measured record can be a field's atmosphere (:func:`measured_constraint`).
-
-    Parameters
-    ----------
-    record : xarray.Dataset
-        The record.
-    where : str
-        Name of the record in errors (its file).
-
-    Raises
-    ------
-    InputError
-        The wind variables (mast L1 names ``u_east_ms``, ``v_north_ms``, ``w_up_ms``) or the
-        datetime64 ``time`` axis missing.
-    """
-    missing = sorted({"u_east_ms", "v_north_ms", "w_up_ms"} - set(record.data_vars))
-    if missing:
-        raise InputError(where, f"missing variable(s) {missing} (mast L1 names expected)")
-    if "time" not in record.dims or not np.issubdtype(record["time"].dtype, np.datetime64):
-        raise InputError(where, "needs a datetime64 'time' axis")
-
-
-def _turbulence_model(cond: PayloadFlightConditions, field: _FieldPoints, spec: atm.FieldSpec) -> atm.FieldSpec:
-    """The campaign's spectral shape and sigma factors (``simulation.atmosphere``) on the field."""
-    tm = cond["turbulence"]
-    return atm.reshape_field(spec, field.points_enu_m[:, 2], tm["spectrum"],
-                             (tm["sigma_u_factor"], tm["sigma_v_factor"], tm["sigma_w_factor"]),
-                             tm["length_scale_factor"])
-
-
-def _with_trend(cond: PayloadFlightConditions, clock: _FlightClock, spec: atm.FieldSpec, series: np.ndarray,
-                points: list[int], t_field_s: np.ndarray) -> np.ndarray:
-    """Synthesised series of some points with the campaign's mean-wind trends, zero at the hover-window centre."""
-    tm = cond["turbulence"]
-    centre = clock.hover_start_field_s + 0.5 * cond["duration_s"]
-    return atm.mean_wind_trend(series, spec.mean_enu[points], t_field_s - centre, cond["mean_speed_ms"],
-                               tm["speed_trend_ms_per_h"], tm["direction_trend_deg_per_h"])
-
-
-@dataclass(frozen=True)
-class _AirAtPayload:
-    """True air at the payload on the sonic grid (flight time ``t_s``)."""
-
-    t_s: np.ndarray
-    #: planned payload height [m] and the 0..1 ramp of being airborne
-    z_nominal_m: np.ndarray
-    airborne: np.ndarray
-    #: mean wind speed at the hover point [m s-1]
-    mean_hover_ms: float
-    wind_e_ms: np.ndarray
-    wind_n_ms: np.ndarray
-    wind_up_ms: np.ndarray
-    theta_k: np.ndarray
-    #: along- and across-wind fluctuations at the hover point [m s-1]
-    u_fluct_ms: np.ndarray
-    v_fluct_ms: np.ndarray
-
-
-def _nominal_height_m(t_s: np.ndarray, tl: Mapping[str, float], z_hover_m: float, fs_hz: float) -> np.ndarray:
-    """Flight plan: on the ground (0.5 m), climb, hover, descent, ground; corners smoothed over 2 s."""
-    return _smooth_path(t_s, [tl["log_start"], tl["takeoff"], tl["hover_start"], tl["hover_end"],
-                              tl["landing"], tl["log_end"]],
-                        [_Z_GROUND_M, _Z_GROUND_M, z_hover_m, z_hover_m, _Z_GROUND_M, _Z_GROUND_M], fs_hz)
-
-
-def _air_at_payload(cond: PayloadFlightConditions, clock: _FlightClock, field: _FieldPoints,
-                    spec: atm.FieldSpec, fs_hz: float) -> _AirAtPayload:
-    """Wind and temperature along the flight: hover-point fluctuations with the mean of the current height.
-
-    The true air, without the drone's rotor ``downwash`` (see :func:`_wind_up_at_sonic`).
-    """
-    i0 = int(round(clock.log_start_field_s * fs_hz))
-    hover = [len(field.mast_ids)]
-    series = atm.synthesize(spec, fs_hz, hover, start_s=i0 / fs_hz, n_samples=clock.n_sonic)
-    air = _with_trend(cond, clock, spec, series, hover, (i0 + np.arange(clock.n_sonic)) / fs_hz)[0]
-    t = clock.log_start_field_s - clock.hover_start_field_s + np.arange(clock.n_sonic) / fs_hz  # s from hover start
-    ustar = spec.friction_velocity_ms
-    z_hover = field.hover_z_m
-    z_pay_nom = _nominal_height_m(t, clock.timeline, z_hover, fs_hz)
-    airborne = np.clip((z_pay_nom - _Z_GROUND_M) / 2.0, 0.0, 1.0)  # ramps in over the first 2 m
-    # mean wind at the current height replaces the hover point's mean
-    mean_h = atm.mean_speed_profile(z_hover, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
-    mean_z = atm.mean_speed_profile(z_pay_nom, ustar, cond["roughness_length_m"], cond["obukhov_length_m"])
-    e_u, e_v = spec.e_u, spec.e_v
-    wind_e = air[0] + (mean_z - mean_h) * e_u[0]
-    wind_n = air[1] + (mean_z - mean_h) * e_u[1]
-    wind_up = air[2].copy()
-    theta_h = float(spec.theta_mean_k[-1])
-    theta = air[3] + atm.theta_profile(z_pay_nom, z_hover, theta_h, ustar, cond["obukhov_length_m"]) - theta_h
-    u_fl = (air[0] - spec.mean_enu[-1, 0]) * e_u[0] + (air[1] - spec.mean_enu[-1, 1]) * e_u[1]
-    v_fl = (air[0] - spec.mean_enu[-1, 0]) * e_v[0] + (air[1] - spec.mean_enu[-1, 1]) * e_v[1]
-    return _AirAtPayload(t, z_pay_nom, airborne, float(mean_h), wind_e, wind_n, wind_up, theta, u_fl, v_fl)
-
-
-def _wind_up_at_sonic(cond: PayloadFlightConditions, air: _AirAtPayload) -> np.ndarray:
-    """Vertical wind the payload sonic sees: the true w, minus the rotors' ``downwash`` while airborne.
-
-    The downdraft changes only what the sonic measures (the payload's motion follows the
-    horizontal wind), so it belongs to the measurement stage.
-    """
-    if "downwash" not in cond["mechanisms"]:
-        return air.wind_up_ms
-    dw = cond["mechanisms"]["downwash"]
-    w_dw = dw["w0_ms"] * np.exp(-np.hypot(air.wind_e_ms, air.wind_n_ms) / dw["u_scale_ms"])
-    return air.wind_up_ms - air.airborne * w_dw
-
-
-@dataclass(frozen=True)
-class _Motion:
-    """True path (cubic splines of flight time) and attitude of the payload on the sonic grid."""
-
-    t_s: np.ndarray
-    east_m: CubicSpline
-    north_m: CubicSpline
-    up_m: CubicSpline
-    roll_deg: np.ndarray
-    pitch_deg: np.ndarray
-    yaw_deg: np.ndarray
-    #: body-to-NED rotation R(roll, pitch, yaw), (n, 3, 3)
-    rotation: np.ndarray
-
-
-class _Jitter(NamedTuple):
-    """The drone's random jitter (:func:`_jitter`): hover position [m] and attitude [degree]."""
-
-    along_m: np.ndarray
-    across_m: np.ndarray
-    vertical_m: np.ndarray
-    roll_deg: np.ndarray
-    pitch_deg: np.ndarray
-    yaw_deg: np.ndarray
-
-
-#: Payload settings the jitter depends on (:func:`_jitter`).
-_JITTER_KEYS: tuple[str, ...] = ("hover_jitter_time_s", "hover_jitter_m", "attitude_jitter_time_s",
-                                 "drone_roll_jitter_deg", "pitch_jitter_deg", "yaw_jitter_deg")
-
-
-def _jitter(p: Mapping[str, float], rng: np.random.Generator, n: int, fs_hz: float) -> _Jitter:
-    """The drone's hover and attitude jitter: low-passed noise drawn from ``rng`` (the motion stream).
-
-    Drawn in the order hover jitter along, across and vertical, then roll, pitch and yaw
-    jitter (Ghirardelli et al. 2025, Sect. 2.3). It depends on the stream, the settings of
-    :data:`_JITTER_KEYS`, ``n`` and ``fs_hz`` only, not on the air: the truths of one seed
-    at other hover heights (``height_offset``) draw the same (:func:`_truth`).
-    """
-    hover, attitude = p["hover_jitter_time_s"], p["attitude_jitter_time_s"]
-    return _Jitter(_lowpass_noise(rng, n, fs_hz, hover, p["hover_jitter_m"]),
-                   _lowpass_noise(rng, n, fs_hz, hover, p["hover_jitter_m"]),
-                   _lowpass_noise(rng, n, fs_hz, hover, 0.5 * p["hover_jitter_m"]),
-                   _lowpass_noise(rng, n, fs_hz, attitude, p["drone_roll_jitter_deg"]),
-                   _lowpass_noise(rng, n, fs_hz, attitude, p["pitch_jitter_deg"]),
-                   _lowpass_noise(rng, n, fs_hz, attitude, p["yaw_jitter_deg"]))
-
-
-def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e_u: np.ndarray,
-              e_v: np.ndarray, jitter: _Jitter,
-              fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Payload position: linearised pendulum under a jittering drone, forced by the turbulent drag.
-
-    Ghirardelli et al. (2025), Sect. 2.3 (see the module docstring); the drone's hover jitter is ``jitter``'s.
-
-    Returns
-    -------
-    east_m, north_m, up_m : numpy.ndarray
-        Payload position (ENU from the site) [m].
-    """
-    airborne = air.airborne
-    l_m = p["pendulum_length_m"]
-    omega0 = math.sqrt(_G / l_m)
-    u_mean = max(air.mean_hover_ms, 0.1)
-    k_drag = AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean / p["mass_kg"]
-    c_a = max(k_drag, 2 * p["min_damping_ratio"] * omega0)
-    c_c = max(0.5 * k_drag, 2 * p["min_damping_ratio"] * omega0)
-    trail = l_m * 0.5 * AIR_DENSITY_KGM3 * p["drag_area_m2"] * u_mean**2 / (p["mass_kg"] * _G)
-    jit_a, jit_c, jit_z = jitter.along_m, jitter.across_m, jitter.vertical_m
-    d_a, d_c = airborne * jit_a, airborne * jit_c
-    p_a = _oscillator(omega0**2 * (d_a + airborne * trail) + airborne * k_drag * air.u_fluct_ms, omega0, c_a, fs_hz)
-    p_c = _oscillator(omega0**2 * d_c + airborne * 0.5 * k_drag * air.v_fluct_ms, omega0, c_c, fs_hz)
-    r_h = np.hypot(p_a - d_a, p_c - d_c)
-    z_pay = air.z_nominal_m + airborne * (jit_z + l_m - np.sqrt(np.maximum(l_m**2 - r_h**2, 0.0)))
-    pos_e = field.hover_e_m + p_a * e_u[0] + p_c * e_v[0]
-    pos_n = field.hover_n_m + p_a * e_u[1] + p_c * e_v[1]
-    return pos_e, pos_n, z_pay
-
-
-def _slope_at_knots(spline: CubicSpline) -> np.ndarray:
-    r"""``spline(spline.x, 1)`` bit for bit: the first derivative at the spline's own knots.
-
-    At knot :math:`x_i` of interval :math:`i` scipy evaluates the derivative as
-    :math:`0 + c_{1,i} + c_{2,i} \cdot 0 \cdot 2 + c_{3,i} \cdot 0 \cdot 3 = c_{1,i}` (``0.0 +``
-    keeps the sign of a zero as that sum does); the last knot, the end of the last interval,
-    is evaluated. The payload's velocity on its own grid (the motion's time axis) is taken
-    five times per truth: over the 46 calls of sample s01's published-numbers forward job,
-    1.4 against 66.8 ms (``benchmarks/bench_exact_shortcuts.py``,
-    ``results/exact_shortcuts_s32.json``).
-    """
-    out = np.empty(spline.x.size)
-    out[:-1] = 0.0 + spline.c[-2]
-    out[-1:] = spline(spline.x[-1:], 1)
-    return out
-
-
-def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, spec: atm.FieldSpec,
-                    jitter: _Jitter, fs_hz: float) -> _Motion:
-    """Pendulum path and attitude (Ghirardelli et al. 2025, Sect. 2.3).
-
-    Roll: the drone banks into lateral gusts (0.5 s lag) plus jitter; pitch: trim plus
-    jitter; yaw weathervanes to the direction the relative air comes from (first order)
-    plus jitter (:func:`_jitter`).
-    """
-    t = air.t_s
-    pos_e, pos_n, z_pay = _pendulum(p, air, field, spec.e_u, spec.e_v, jitter, fs_hz)
-    u_mean = max(air.mean_hover_ms, 0.1)
-    roll_k = AIR_DENSITY_KGM3 * p["drone_drag_area_m2"] * u_mean / (p["drone_mass_kg"] * _G)
-    roll = rad2deg(_first_order(roll_k * air.v_fluct_ms, 0.5, fs_hz)) * air.airborne + jitter.roll_deg
-    pitch = p["pitch_trim_deg"] + jitter.pitch_deg
-    spl_e, spl_n, spl_z = (CubicSpline(t, x) for x in (pos_e, pos_n, z_pay))
-    rel_e, rel_n = air.wind_e_ms - _slope_at_knots(spl_e), air.wind_n_ms - _slope_at_knots(spl_n)
-    from_dir = unwrap_rad(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
-    yaw = rad2deg(_first_order(from_dir, p["yaw_time_constant_s"], fs_hz)) + jitter.yaw_deg
-    return _Motion(t, spl_e, spl_n, spl_z, roll, pitch, yaw, body_to_ned(roll, pitch, yaw))
-
-
-def _air_in_body(cond: PayloadFlightConditions, air: _AirAtPayload, motion: _Motion) -> np.ndarray:
-    """The air relative to the payload in its body frame, R^T (V_wind - V_ins) [m s-1], (n, 3), read-only.
-
-    Depends on the true state and ``downwash`` (the w the sonic sees) only, so a truth's
-    other sonic probes share it (:func:`payload_records`).
-    """
-    vel_e, vel_n, vel_up = (_slope_at_knots(spl) for spl in (motion.east_m, motion.north_m, motion.up_m))
-    rel_ned = np.stack([air.wind_n_ms - vel_n, air.wind_e_ms - vel_e, -(_wind_up_at_sonic(cond, air) - vel_up)],
-                       axis=-1)
-    v_body = np.einsum("tji,tj->ti", motion.rotation, rel_ned)
-    v_body.setflags(write=False)
-    return v_body
-
-
-def _remembered(memo: dict[tuple[str, str], Any], key: tuple[str, str], make: Callable[[], Any]) -> Any:
-    """``memo[key]``, made by ``make()`` the first time."""
-    if key not in memo:
-        memo[key] = make()
-    return memo[key]
 
 
 def _sonic_sensor_frame(cond: PayloadFlightConditions, air: _AirAtPayload, v_body: np.ndarray,
@@ -843,7 +170,7 @@ def _sonic_stamps_us(cond: PayloadFlightConditions, t_s: np.ndarray) -> np.ndarr
     and the ``sonic_ins_lag`` and ``clock_drift`` mechanisms.
 
     A sample of true time t is stamped t - lag: the chain adds lag to the sonic's clock to
-    align it with the INS (DESIGN.md's ``lag_sonic_ins_s``).
+    align it with the INS (the data contract's ``lag_sonic_ins_s``).
     """
     mech, log_t0 = cond["mechanisms"], t_s[0]
     t_stamp = t_s - cond["sonic_ins_lag_s"]
@@ -1270,10 +597,8 @@ def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: Simu
     truth: the payload, defect and mast settings, the times and, for the sonic, the flight's
     processing lag. A record with a mechanism on
     the instrument (a probe level, an extended model) is read by one run only: it is measured
-    and not kept, which would hold every probe's records as long as the truth (with them and
-    each run's products kept until the next run, a published-numbers job of sample s05 held
-    168.5 MB once its runs were made, 74.9 MB without: ``benchmarks/bench_job_memory.py``,
-    ``results/job_memory_s31_{start,new}.json``).
+    and not kept, which would hold every probe's records as long as the truth (with them,
+    a published-numbers job holds about twice the memory once its runs are made).
     """
     if any(name in cond["mechanisms"] for name in INSTRUMENT_MECHANISMS[instrument]):
         return measure()

@@ -85,11 +85,12 @@ import pandas as pd
 import scipy.signal
 
 from dronewind.core.angles import deg2rad, rad2deg
+from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.errors import InputError
 from dronewind.mechanisms import validate_parameters
 from dronewind.simulate.atmosphere import simulate_wind
 from dronewind.simulate.common import ornstein_uhlenbeck
-from dronewind.simulate.payload import body_to_ned
+from dronewind.simulate.payload_motion import body_to_ned
 
 __all__ = ["RigidSettings", "RigidRecord", "mount_matrix", "platform_gains", "sensor_reading",
            "survey_setpoints", "position_hold_error", "simulate_rigid_record", "RIGID_FORMAT"]
@@ -430,9 +431,9 @@ def simulate_rigid_record(path: str | os.PathLike[str], settings: RigidSettings 
     t = np.arange(n) / fs
     wind = simulate_wind(np.array([[0.0, 0.0, s.height_m]]), s.duration_s, fs, s.mean_speed_ms, s.wind_from_deg,
                          s.height_m, s.obukhov_length_m, s.roughness_length_m, seed=int(seed),
-                         theta_mean_k=s.temperature_c + 273.15)
+                         theta_mean_k=s.temperature_c + ZERO_CELSIUS_K)
     wind_enu = np.stack([wind[k].values[0, :n] for k in ("u_east_ms", "v_north_ms", "w_up_ms")], axis=-1)
-    theta = wind["theta_v_k"].values[0, :n] - 273.15
+    theta = wind["theta_v_k"].values[0, :n] - ZERO_CELSIUS_K
     if s.platform_model == "noise":
         disp = np.stack([_hover_displacement(rng, n, fs, sd, s.hover_frequency_hz, s.hover_damping)
                          for sd in s.position_sd_m], axis=-1)

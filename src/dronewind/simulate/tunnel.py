@@ -60,8 +60,9 @@ import numpy as np
 import pandas as pd
 
 from dronewind.core.cf import atomic_write_text
+from dronewind.core.constants import KISTNER2024_RANGES
 from dronewind.errors import InputError
-from dronewind.simulate.airframe import TABLE2_COEFFICIENTS, AirframeDrag, attitude_from_relative_air
+from dronewind.simulate.airframe import AirframeDrag, attitude_from_relative_air
 from dronewind.simulate.common import first_order_lag, merge_settings, ornstein_uhlenbeck
 
 __all__ = ["TUNNEL_DEFAULTS", "iec_gust", "step_series", "von_karman_series", "tunnel_settings", "simulate_tunnel"]
@@ -74,7 +75,7 @@ TUNNEL_DEFAULTS: dict[str, Any] = {
     "fs_cta_hz": 100.0,            # turbulence runs
     "fs_cta_steady_hz": 20.0,      # all other runs
     "mass_kg": 0.645,
-    "drag": {"law": "body_axis", **TABLE2_COEFFICIENTS},
+    "drag": {"law": "body_axis", **KISTNER2024_RANGES},
     "uas_settings": {              # truth per UAS: accelerometer offsets, drag scale
         "uas06": {"pitch_offset_deg": 0.8, "roll_offset_deg": -0.3, "drag_scale": 1.00},
         "uas31": {"pitch_offset_deg": -1.2, "roll_offset_deg": 0.4, "drag_scale": 1.03},

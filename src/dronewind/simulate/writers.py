@@ -1,4 +1,4 @@
-"""L0 writers: payload sonic CSV, INS CSV and Campbell TOA5 (DESIGN.md, "Data contract").
+"""L0 writers: payload sonic CSV, INS CSV and Campbell TOA5 (``docs/data-contract.md``, "Data contract").
 
 The simulator reaches the processing chain only through these files, so they follow
 the contract byte for byte: exact header lines, integer ``rpi_time_us``, ISO 8601 UTC
@@ -206,7 +206,7 @@ def toa5_record(source: str | Path, times: np.ndarray, record: np.ndarray, ux_ms
     record : numpy.ndarray
         RECORD numbers (int; may skip).
     ux_ms, uy_ms, uz_ms : numpy.ndarray
-        CSAT3 components [m s-1] (DESIGN.md sign convention; NaN where bad).
+        CSAT3 components [m s-1] (sign convention of ``docs/data-contract.md``; NaN where bad).
     ts_c : numpy.ndarray
         Sonic temperature [degree C].
     diag_csat : numpy.ndarray

@@ -67,7 +67,8 @@ def mast_blocks(l1_file: str | Path, output: str | Path, *, campaign: str, sonic
         The written file.
     """
     from dronewind.compare.blocks import BlockSettings, record_blocks, stack_blocks
-    from dronewind.core.cf import strip_cf, write_netcdf
+    from dronewind.core.cf import write_netcdf
+    from dronewind.core.cf_names import strip_cf
     from dronewind.core.products import open_product
 
     settings = BlockSettings.from_processing(processing)

@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from dronewind.core.cf import atomic_write_text, strip_cf, track_from_cf
+from dronewind.core.cf import atomic_write_text
+from dronewind.core.cf_names import strip_cf, track_from_cf
 from dronewind.core.products import open_product
 from dronewind.core.yamltext import load_yaml
 from dronewind.diagnose import campaign as dc
@@ -89,7 +90,7 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
     Path
         The written file.
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_conditions
     from dronewind.diagnose.features import binned_spectra, features_to_dict
 
     sonic, ins, l2, l3 = _load_flight(sonic_l1, ins_l1, drone_l2, l3_file)
@@ -102,7 +103,7 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
                                    "reason": reason})
     feats = forward.measured_features(campaign, flight_id, sonic, ins, l2, l3, sonic_ins_lag=sonic_ins_lag,
                                       hover=hover, max_missing_fraction=max_missing_fraction)
-    conditions = forward.forward_conditions(campaign, flight_id, l3, l2)
+    conditions = forward_conditions.forward_conditions(campaign, flight_id, l3, l2)
     LOG.info("flight %s: features %s", flight_id, feats.values)
     return write_json(output, {"flight": flight_id, "features": features_to_dict(feats), "conditions": conditions,
                                "usable": int(l2.attrs.get("usable", 1)), "spectra": binned_spectra(l3)})
@@ -124,18 +125,18 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
     flight_id : str
         Payload flight id.
     processing : mapping
-        ``processing`` settings of the chain (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+        ``processing`` settings of the chain (:data:`dronewind.diagnose.probes.CHAIN_SETTINGS`).
     seeds : sequence of int
         ``diagnosis.seeds``.
     part : str, optional
         Only this part (``"baseline"`` or a mechanism,
-        :func:`dronewind.diagnose.forward.probe_parts`); all by default.
+        :func:`dronewind.diagnose.probes.probe_parts`); all by default.
     mast_l1 : str or Path, optional
         L1 of the flight's reference mast sonic (needed for ``atmosphere="measured"``).
     atmosphere : {"model", "measured"}
         ``diagnosis.atmosphere``: the forward runs' turbulence is the similarity model's, or
         the reference mast's measured record
-        (:func:`dronewind.diagnose.forward.atmosphere_record`).
+        (:func:`dronewind.diagnose.forward_atmosphere.atmosphere_record`).
 
     Returns
     -------
@@ -147,14 +148,14 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
     InputError
         An unknown ``atmosphere``, or ``measured`` without ``mast_l1``.
     """
-    from dronewind.diagnose import forward
 
+    from dronewind.diagnose import probe_runs
     measured = json.loads(Path(measured_json).read_text())
     if measured.get("conditions") is None:  # a flight left out of the diagnosis (measured_features)
         return write_json(output, {"flight": flight_id, "usable": 0, "reason": measured.get("reason", ""),
                                    "atmosphere": atmosphere})
     record = _atmosphere(mast_l1, atmosphere, measured["conditions"])
-    runs = forward.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds),
+    runs = probe_runs.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds),
                               parts=None if part is None else [part], atmosphere=record)
     return write_json(output, runs)
 
@@ -162,25 +163,26 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
 def _atmosphere(mast_l1: str | Path | None, atmosphere: str, conditions: Mapping[str, Any]) -> Any:
     """The forward runs' atmosphere record (``diagnosis.atmosphere``): None for ``model``,
     the reference mast's L1 around the flight for ``measured``
-    (:func:`dronewind.diagnose.forward.atmosphere_record`).
+    (:func:`dronewind.diagnose.forward_atmosphere.atmosphere_record`).
 
     Raises
     ------
     InputError
         An unknown ``atmosphere``, or ``measured`` without ``mast_l1``.
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward_atmosphere, probes
     from dronewind.errors import InputError
 
-    if atmosphere not in forward.ATMOSPHERES:
-        raise InputError("diagnosis.atmosphere", f"{atmosphere!r}; expected one of {forward.ATMOSPHERES}")
+    if atmosphere not in probes.ATMOSPHERES:
+        raise InputError("diagnosis.atmosphere", f"{atmosphere!r}; expected one of {probes.ATMOSPHERES}")
     if atmosphere == "model":
         return None
     if mast_l1 is None:
         raise InputError("diagnosis.atmosphere", "'measured' needs the reference mast's L1 (mast_l1)")
     # only the record's wind and temperature around the flight are read, not the whole L1
-    record = open_product(mast_l1, forward.ATMOSPHERE_VARIABLES, forward.atmosphere_window(conditions))
-    return forward.atmosphere_record(strip_cf(record), conditions, str(mast_l1))
+    record = open_product(mast_l1, forward_atmosphere.ATMOSPHERE_VARIABLES,
+                          forward_atmosphere.atmosphere_window(conditions))
+    return forward_atmosphere.atmosphere_record(strip_cf(record), conditions, str(mast_l1))
 
 
 def merge_forward_parts(part_files: Sequence[str | Path], output: str | Path) -> Path:
@@ -199,12 +201,12 @@ def merge_forward_parts(part_files: Sequence[str | Path], output: str | Path) ->
     Path
         The written file.
     """
-    from dronewind.diagnose import forward
 
+    from dronewind.diagnose import probe_runs
     parts = [json.loads(Path(f).read_text()) for f in part_files]
     if any(p.get("usable", 1) == 0 and "baseline" not in p and "probes" not in p for p in parts):
         return write_json(output, parts[0])  # a flight left out of the diagnosis: its placeholder
-    return write_json(output, forward.merge_probe_runs(parts))
+    return write_json(output, probe_runs.merge_probe_runs(parts))
 
 
 def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str | Path]) -> dc.CampaignEvidence:
@@ -228,7 +230,7 @@ def _rerun_conditions(ev: dc.CampaignEvidence, forward_files: Sequence[str | Pat
     """Each flight's conditions for the extended model's reruns.
 
     A measured sonic-INS lag is replaced by the lag the forward runs simulated to reproduce it
-    (:func:`dronewind.diagnose.forward.simulated_sonic_ins_lag_s`), so that the reruns' chain
+    (:func:`dronewind.diagnose.probe_runs.simulated_sonic_ins_lag_s`), so that the reruns' chain
     finds the measured lag as the forward runs' did.
     """
     simulated = {}
@@ -357,14 +359,14 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
                  mast_l1: str | Path | None = None, atmosphere: str = "model") -> Path:
     """Rerun one flight of the extended campaign (fresh seeds) and store its features.
 
-    ``processing`` holds the chain settings (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`);
-    ``seeds`` are fresh seeds, none of ``diagnosis.seeds`` (:func:`dronewind.diagnose.forward.fresh_seeds`).
+    ``processing`` holds the chain settings (:data:`dronewind.diagnose.probes.CHAIN_SETTINGS`);
+    ``seeds`` are fresh seeds, none of ``diagnosis.seeds`` (:func:`dronewind.diagnose.probes.fresh_seeds`).
     ``mast_l1`` and ``atmosphere`` as for :func:`forward_probes`: with the measured
     atmosphere the rerun takes the same record as the baseline runs, read through the named
-    mechanisms that act on it (:func:`dronewind.diagnose.forward.record_through`), so that
+    mechanisms that act on it (:func:`dronewind.diagnose.forward_atmosphere.record_through`), so that
     the before/after comparison changes only the named causes.
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs
     from dronewind.diagnose.features import features_to_dict
 
     data = load_yaml(Path(extended_manifest_file).read_text())
@@ -378,7 +380,7 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     mechanisms = data["simulation"].get("mechanisms") or []
     base_record = _atmosphere(mast_l1, atmosphere, conditions)
     measured = base_record is not None
-    record = None if base_record is None else forward.record_through(base_record, mechanisms)
+    record = None if base_record is None else forward_atmosphere.record_through(base_record, mechanisms)
     out["atmosphere"] = atmosphere
     # the seeds' runs share what their records share (with the measured atmosphere, the
     # forward mast's record is the measured one in every run): products and steps of the
@@ -387,7 +389,8 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     cache = forward.ForwardCache()
     for k, seed in enumerate(seeds):
         feats, products = forward.run_forward(
-            forward.forward_manifest(data, flight_id, conditions, mechanisms, seed, measured), flight_id, processing,
+            forward_conditions.forward_manifest(data, flight_id, conditions, mechanisms, seed, measured), flight_id,
+            processing,
             atmosphere=record, cache=cache, errors=False)
         cache.freeze()
         out["runs"].append(features_to_dict(feats))
@@ -396,8 +399,8 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
             out["spectra"] = {"extended": binned_spectra(products["l3"])}
             if mechanisms:
                 # the same true state where the mechanisms act on the measurement only
-                truth = products["truth"] if forward.shares_truth(mechanisms, measured) else None
-                _, base = forward.run_forward(forward.forward_manifest(data, flight_id, conditions, [], seed,
+                truth = products["truth"] if probe_runs.shares_truth(mechanisms, measured) else None
+                _, base = forward.run_forward(forward_conditions.forward_manifest(data, flight_id, conditions, [], seed,
                                                                        measured), flight_id, processing,
                                               truth=truth, atmosphere=base_record, cache=cache,
                                               features=(), errors=False)  # its spectra only

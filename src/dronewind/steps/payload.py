@@ -25,14 +25,8 @@ from typing import Any
 
 import xarray as xr
 
-from dronewind.core.cf import (
-    atomic_write_text,
-    data_source,
-    strip_cf,
-    track_from_cf,
-    track_to_cf,
-    write_netcdf,
-)
+from dronewind.core.cf import atomic_write_text, data_source, write_netcdf
+from dronewind.core.cf_names import strip_cf, track_from_cf, track_to_cf
 from dronewind.core.products import open_product
 from dronewind.errors import InputError
 from dronewind.manifest import confined_path

@@ -42,19 +42,19 @@ def published_forward(published_file: str | Path, output: str | Path, *, campaig
     flight_id : str
         Sample (payload flight) id.
     processing : mapping
-        ``processing`` settings of the chain (:data:`dronewind.diagnose.forward.CHAIN_SETTINGS`).
+        ``processing`` settings of the chain (:data:`dronewind.diagnose.probes.CHAIN_SETTINGS`).
     seeds : sequence of int
         ``diagnosis.seeds``.
     part : str, optional
         Only this part (``"baseline"`` or a mechanism,
-        :func:`dronewind.diagnose.forward.probe_parts`); all by default.
+        :func:`dronewind.diagnose.probes.probe_parts`); all by default.
 
     Returns
     -------
     Path
         The written file.
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import probe_runs
     from dronewind.diagnose import published as dp
 
     pub = dp.load_published(published_file)
@@ -62,7 +62,7 @@ def published_forward(published_file: str | Path, output: str | Path, *, campaig
     LOG.info("sample %s: Table 4 conditions %s", flight_id, conditions)
     # the published numbers hold no lag (the lag drift of the hover's halves is not computed)
     # and only the features of dp.OBSERVED_FEATURES
-    runs = forward.probe_runs(campaign, flight_id, conditions, processing, seeds=tuple(seeds),
+    runs = probe_runs.probe_runs(campaign, flight_id, conditions, processing, seeds=tuple(seeds),
                               parts=None if part is None else [part], lag_drift=False,
                               features=dp.OBSERVED_FEATURES)
     return write_json(output, runs)
@@ -94,9 +94,9 @@ def published_rerun(published_file: str | Path, diagnosis_json: str | Path, outp
 
     ``campaign`` is the one-flight view of the manifest, ``processing`` the chain settings
     (as for :func:`published_forward`); ``seeds`` are fresh seeds, not ``diagnosis.seeds``
-    (:func:`dronewind.diagnose.forward.fresh_seeds`, as the workflow passes them).
+    (:func:`dronewind.diagnose.probes.fresh_seeds`, as the workflow passes them).
     """
-    from dronewind.diagnose import forward
+    from dronewind.diagnose import forward, forward_conditions, probe_runs
     from dronewind.diagnose import published as dp
 
     pub = dp.load_published(published_file)
@@ -105,14 +105,15 @@ def published_rerun(published_file: str | Path, diagnosis_json: str | Path, outp
     out: dict[str, Any] = {"flight": flight_id, "seeds": list(seeds), "mechanisms": diag["extended_mechanisms"],
                            "baseline": [], "extended": []}
     # the extended run of a seed takes the baseline run's true state and products where its
-    # mechanisms act on the measurement only (forward.shares_truth): the same numbers as its
+    # mechanisms act on the measurement only (probe_runs.shares_truth): the same numbers as its
     # own, without simulating the field and the motion again
-    share = forward.shares_truth(diag["extended_mechanisms"], measured=False)
+    share = probe_runs.shares_truth(diag["extended_mechanisms"], measured=False)
     for seed in seeds:
         truth, cache = None, forward.ForwardCache()
         for model, mechanisms in (("baseline", []), ("extended", diag["extended_mechanisms"])):
             feats, products = forward.run_forward(
-                forward.forward_manifest(campaign, flight_id, conditions, mechanisms, seed), flight_id, processing,
+                forward_conditions.forward_manifest(campaign, flight_id, conditions, mechanisms, seed), flight_id,
+                processing,
                 truth=truth, cache=cache if share else None, lag_drift=False, features=dp.SUMMARY_FEATURES,
                 errors=False)
             out[model].append(dp.flight_summary(products["l3"], feats.values))
@@ -129,6 +130,7 @@ def published_report(published_file: str | Path, diagnosis_json: str | Path, rer
                      figure_pdf: str | Path) -> list[Path]:
     """Markdown report, before/after numbers (JSON) and the figure of the published-numbers diagnosis."""
     from dronewind.diagnose import published as dp
+    from dronewind.diagnose import published_markdown
 
     pub = dp.load_published(published_file)
     diag = json.loads(Path(diagnosis_json).read_text())
@@ -138,7 +140,7 @@ def published_report(published_file: str | Path, diagnosis_json: str | Path, rer
         reruns[r["flight"]] = r
     summary = dp.rerun_summary(reruns, pub)
     write_json(output_json, summary)
-    atomic_write_text(output_md, dp.markdown(diag, summary, pub))
+    atomic_write_text(output_md, published_markdown.markdown(diag, summary, pub))
     _figure(summary, pub, Path(figure_png), Path(figure_pdf))
     return [Path(output_md), Path(output_json), Path(figure_png), Path(figure_pdf)]
 

@@ -38,12 +38,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from dronewind.core.cf import atomic_write_text, data_source, strip_cf, track_from_cf, write_netcdf
+from dronewind.core.cf import atomic_write_text, data_source, write_netcdf
+from dronewind.core.cf_names import strip_cf, track_from_cf
 from dronewind.errors import InputError, ProcessingError
 from dronewind.manifest import confined_path
 from dronewind.quadrotor import chain
 from dronewind.quadrotor.chain import QUAD_TABLES
-from dronewind.quadrotor.io import read_quadrotor, read_tower_reference
+from dronewind.quadrotor.io import read_quadrotor
+from dronewind.quadrotor.reference import read_tower_reference
 from dronewind.steps.common import LOG, open_product
 from dronewind.tunnel import TUNNEL_TABLES
 

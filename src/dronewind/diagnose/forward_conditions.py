@@ -1,0 +1,239 @@
+"""Conditions of a measured payload flight for its forward model, taken from the processed data.
+
+The reference mast's mean wind, direction, temperature, friction velocity and Obukhov
+length at its height (:func:`mast_surface_layer`, Monin-Obukhov similarity of
+:mod:`dronewind.core.surface_layer`), the drone's hover height, position relative to the
+mast and hover window (:func:`forward_conditions`), and the simulator's manifest of one
+flight built from them (:func:`forward_manifest`). Nothing is read from the campaign's own
+``simulation:`` section (for a virtual campaign that would be reading the answer).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, NamedTuple
+
+import numpy as np
+import xarray as xr
+
+from dronewind.core.constants import KARMAN
+from dronewind.diagnose.forward_atmosphere import hover_span
+from dronewind.manifest import payload_flight_manifest
+
+__all__ = [
+    "forward_conditions",
+    "forward_manifest",
+]
+
+
+def _psi_m(zeta: float) -> float:
+    from dronewind.core.surface_layer import psi_m
+
+    return float(psi_m(zeta))
+
+
+class SurfaceLayer(NamedTuple):
+    """Monin-Obukhov scaling of the reference mast record of one flight."""
+
+    z_m: float
+    speed_ms: float
+    ustar_ms: float
+    obukhov_length_m: float
+    zeta: float
+    theta_mean_k: float
+
+
+def mast_surface_layer(l3: xr.Dataset) -> SurfaceLayer:
+    """Height, mean wind, friction velocity, Obukhov length and z/L of the flight's mast sonic.
+
+    Parameters
+    ----------
+    l3 : xarray.Dataset
+        The flight's L3 (sensor ``mast`` in streamline coordinates).
+
+    Returns
+    -------
+    SurfaceLayer
+        From the samples where u, v, w and theta_v are all finite; the friction velocity is
+        at least 0.02 m s-1, the Obukhov length (Ghirardelli et al. 2025, Eq. 9) infinite beyond 1e5 m and
+        limited to :math:`|z/L| \\le 5`.
+    """
+    from dronewind.core import stats
+
+    m = list(np.asarray(l3["sensor"].values).astype(str)).index("mast")
+    u = l3["u_ms"].values[m].astype(float)
+    v = l3["v_ms"].values[m].astype(float)
+    w = l3["w_ms"].values[m].astype(float)
+    theta = l3["theta_v_k"].values[m].astype(float)
+    ok = np.isfinite(u) & np.isfinite(v) & np.isfinite(w) & np.isfinite(theta)
+    u, v, w, theta = u[ok], v[ok], w[ok], theta[ok]
+    z = float(l3["height_m"].values[m])
+    speed = float(np.mean(u))
+    uw = float(stats.covariance(u, w))
+    vw = float(stats.covariance(v, w))
+    wt = float(stats.covariance(w, theta))
+    ustar = max(float(stats.friction_velocity(uw, vw)), 0.02)
+    theta_mean = float(np.mean(theta))
+    ell = float(stats.obukhov_length(ustar, wt, theta_mean))
+    if not math.isfinite(ell) or abs(ell) > 1e5:
+        ell = math.inf
+    zeta = 0.0 if math.isinf(ell) else z / ell
+    if abs(zeta) > 5:
+        zeta = math.copysign(5.0, zeta)
+        ell = z / zeta
+    return SurfaceLayer(z, speed, ustar, ell, zeta, theta_mean)
+
+
+def roughness_length_m(layer: SurfaceLayer) -> float:
+    r"""Roughness length from Monin-Obukhov similarity at the mast height [m].
+
+    .. math:: z_0 = z \exp\left(-\frac{\kappa \bar u}{u_*} - \psi_m(z/L)\right),
+
+    clipped to [0.001, 2] m.
+    """
+    z0 = layer.z_m * math.exp(-(KARMAN * layer.speed_ms / layer.ustar_ms) - _psi_m(layer.zeta))
+    return float(min(max(z0, 1e-3), 2.0))
+
+
+def hover_offset_enu_m(campaign_data: Mapping[str, Any], flight: Mapping[str, Any], l2_drone: xr.Dataset
+                       ) -> tuple[float, float]:
+    """East and north offset of the drone's median hover position from its reference mast [m]."""
+    from dronewind.core.geo import local_tangent_plane_m
+
+    site = campaign_data["site"]
+    mast_lat, mast_lon = site["latitude"], site["longitude"]
+    for mast in campaign_data.get("masts") or []:
+        if any(s["id"] == flight["reference"] for s in mast["sonics"]):
+            mast_lat, mast_lon = mast.get("latitude", mast_lat), mast.get("longitude", mast_lon)
+    lat = float(np.nanmedian(l2_drone["lat_deg"].values))
+    lon = float(np.nanmedian(l2_drone["lon_deg"].values))
+    east, north = local_tangent_plane_m(np.array([lat]), np.array([lon]), mast_lat, mast_lon)
+    return float(east[0]), float(north[0])
+
+
+def forward_conditions(
+    campaign_data: Mapping[str, Any],
+    flight_id: str,
+    l3: xr.Dataset,
+    l2_drone: xr.Dataset,
+) -> dict[str, Any]:
+    """Simulator conditions of one flight, estimated from its processed data.
+
+    Parameters
+    ----------
+    campaign_data : mapping
+        Manifest content of the campaign (or its one-flight view,
+        :func:`dronewind.manifest.payload_flight_manifest`).
+    flight_id : str
+        Payload flight id.
+    l3 : xarray.Dataset
+        The flight's L3 (drone and reference mast sonic, streamline coordinates).
+    l2_drone : xarray.Dataset
+        The drone's L2 (hover window, GNSS track, height).
+
+    Returns
+    -------
+    dict
+        Keys of ``simulation.payload_flights.<id>`` (see :mod:`dronewind.simulate`):
+        ``mean_speed_ms``, ``wind_from_deg``, ``obukhov_length_m``, ``z_ref_m``,
+        ``hover_height_m``, ``start``, ``duration_s``, ``hover_offset_enu_m``,
+        ``roughness_length_m``, ``theta_mean_k``; the surface layer from
+        :func:`mast_surface_layer`, the roughness length from :func:`roughness_length_m`;
+        and ``sonic_ins_lag_s``, the sonic-INS lag the chain found for the flight (the L2's
+        ``lag_tke_min_s``, else its ``lag_sonic_ins_s``; absent when neither is finite):
+        every sonic-INS system has a processing lag of its own, different per flight
+        (Ghirardelli et al. 2025, Sect. 3.3, Fig. 4), which the forward runs reproduce
+        (:func:`simulated_sonic_ins_lag_s`). A condition of the forward model, the lag is
+        then no evidence of the diagnosis.
+    """
+    layer = mast_surface_layer(l3)
+    m = list(np.asarray(l3["sensor"].values).astype(str)).index("mast")
+    flight = next(f for f in campaign_data["payload_flights"] if f["id"] == flight_id)
+    east, north = hover_offset_enu_m(campaign_data, flight, l2_drone)
+    times = l2_drone["time"].values
+    height = float(l2_drone.attrs.get("height_m", flight.get("target_height_m", layer.z_m)))
+    ell = layer.obukhov_length_m
+    lag = _measured_lag_s(l2_drone)
+    return {
+        "mean_speed_ms": float(min(max(layer.speed_ms, 0.05), 40.0)),
+        "wind_from_deg": float(l3["wind_from_deg"].values[m]) % 360.0,
+        "obukhov_length_m": "inf" if math.isinf(ell) else float(ell),
+        "z_ref_m": layer.z_m,
+        "hover_height_m": float(max(height, 3.0)),
+        "start": np.datetime_as_string(times[0], unit="us") + "Z",
+        "duration_s": float((times[-1] - times[0]) / np.timedelta64(1, "us") * 1e-6),
+        "hover_offset_enu_m": [east, north],
+        "roughness_length_m": roughness_length_m(layer),
+        "theta_mean_k": float(min(max(layer.theta_mean_k, 221.0), 329.0)),
+        **({} if lag is None else {"sonic_ins_lag_s": lag}),
+    }
+
+
+def _measured_lag_s(l2_drone: xr.Dataset) -> float | None:
+    """The sonic-INS lag of minimum TKE the chain found (L2 ``lag_tke_min_s``, else ``lag_sonic_ins_s``) [s]."""
+    for key in ("lag_tke_min_s", "lag_sonic_ins_s"):
+        value = float(l2_drone.attrs.get(key, np.nan))
+        if math.isfinite(value):
+            return value
+    return None
+
+
+def forward_manifest(
+    campaign_data: Mapping[str, Any],
+    flight_id: str,
+    conditions: Mapping[str, Any],
+    mechanisms: list[dict[str, Any]] | None = None,
+    seed: int = 0,
+    measured_atmosphere: bool = False,
+) -> dict[str, Any]:
+    """A one-flight virtual campaign that reproduces a measured flight's conditions.
+
+    Parameters
+    ----------
+    campaign_data : mapping
+        Manifest content of the measured campaign, or its one-flight view (its
+        ``simulation:`` section, if any, is dropped).
+    flight_id : str
+        Payload flight id.
+    conditions : mapping
+        Output of :func:`forward_conditions`.
+    mechanisms : list of dict, optional
+        ``[{"mechanism": name, "parameters": {...}}]``; none for the baseline.
+    seed : int
+        Campaign seed of the forward run.
+    measured_atmosphere : bool
+        The run's atmosphere is the reference mast's measured record
+        (:func:`atmosphere_record`), which already holds the mast sonic's white noise: the
+        forward mast then adds none (``simulation.mast`` noise 0). The forward flight is
+        then processed over the measured hover window (``start`` and ``duration_s`` of the
+        conditions) instead of the window the chain would find in the simulated hover (which
+        includes the simulator's hover margins): the features of the mast, whose record is
+        the measured one, then cover the same samples as the measured features.
+
+    Returns
+    -------
+    dict
+        Manifest content with one payload flight (without its ``window``, or with the
+        measured one for ``measured_atmosphere``), its reference
+        mast sonic (:func:`dronewind.manifest.payload_flight_manifest`) and a
+        ``simulation:`` section. The flight's sonic-INS processing lag is the conditions'
+        ``sonic_ins_lag_s``, or 0 without one (not the simulator's per-flight draw, which
+        would give every seed another lag).
+    """
+    data = payload_flight_manifest(campaign_data, flight_id)
+    flight = data["payload_flights"][0]
+    flight.pop("window", None)
+    if measured_atmosphere:
+        _, end = hover_span(conditions)
+        flight["window"] = {"start": str(conditions["start"]), "end": np.datetime_as_string(end, unit="us") + "Z"}
+    data["name"] = f"{campaign_data['name']}_forward_{flight_id}"
+    data["simulation"] = {
+        "seed": int(seed),
+        "payload_flights": {flight_id: {**dict(conditions), "sonic_ins_lag_s": float(conditions.get("sonic_ins_lag_s",
+                                                                                                    0.0))}},
+        "mechanisms": [dict(m) for m in (mechanisms or [])],
+    }
+    if measured_atmosphere:
+        data["simulation"]["mast"] = {"noise_ms": 0.0, "temperature_noise_k": 0.0}
+    return data

@@ -1,0 +1,654 @@
+"""Field candidates of the quadrotor diagnosis: the single-law model on field windows and its held-out scores.
+
+The field windows (:func:`field_data`) pair each UAV's attitude with the reference wind; the
+baseline is one drag law for every UAV (Wetz et al. 2021, Eqs. 12-18) and the extensions
+``pitch_offset`` (Wetz et al. 2021, Sect. 5.2), ``yaw_offset`` (Sect. 5.4) and ``drag_regime``
+(power laws per speed range, Kistner et al. 2024, Eq. 1 and Table 2; :func:`regime_speed`)
+are fitted by least squares (:func:`fit_field`). :func:`score_field_candidates` scores each
+extension on windows of flights left out (k-fold over flights) with a one-sided paired
+Wilcoxon signed-rank test per unit (see :mod:`dronewind.diagnose.quadrotor`).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, cast
+
+import numpy as np
+import pandas as pd
+import scipy.optimize
+import scipy.sparse
+import scipy.stats
+
+from dronewind.core.constants import AIR_DENSITY_KGM3, GRAVITY_MS2
+from dronewind.errors import InputError
+from dronewind.quadrotor.calibration import BOUNDS
+from dronewind.quadrotor.drag import speed_from_tilt, tilt_from_attitude
+
+__all__ = [
+    "FieldData",
+    "field_data",
+    "fit_field",
+    "predict_field",
+    "score_field_candidates",
+    "regime_speed",
+]
+
+
+FIELD_CANDIDATES = ("pitch_offset", "yaw_offset", "drag_regime")
+
+
+#: Windows below this reference speed carry little direction information: the weather vane turns
+#: the nose only while the roll exceeds 1 degree (Wetz et al. 2021 Sect. 5.4), i.e. heading errors of tens of
+#: degrees persist at 2-3 m/s.
+MIN_DIRECTION_SPEED_MS = 3.5
+
+
+@dataclass
+class FieldData:
+    """Averaging windows of the fleet as arrays (blocks re-averaged to ``block_s``)."""
+
+    win: np.ndarray
+    roll: np.ndarray
+    pitch: np.ndarray
+    yaw: np.ndarray
+    vn: np.ndarray
+    ve: np.ndarray
+    ref_speed: np.ndarray
+    ref_from: np.ndarray
+    flight: np.ndarray
+    uav: np.ndarray
+    uavs: list[str]
+    rho: np.ndarray | None = None  # air density of each block [kg m-3] (NaN: not logged)
+    units: list[str] | None = None  # flight/uav of the per-flight offsets (default: those present)
+    count: np.ndarray = field(init=False)
+    uav_index: np.ndarray = field(init=False)
+    unit: np.ndarray = field(init=False)
+    unit_index: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.count = np.bincount(self.win, minlength=self.ref_speed.size).astype(float)
+        self.uav_index = np.searchsorted(self.uavs, self.uav)
+        self.unit = np.char.add(np.char.add(self.flight.astype(str), "/"), self.uav.astype(str))
+        if self.units is None:
+            self.units = sorted(set(self.unit.tolist()))
+        self.unit_index = np.searchsorted(self.units, self.unit)
+        if self.rho is None:
+            self.rho = np.full(self.win.size, np.nan)
+
+    @property
+    def has_density(self) -> bool:
+        """Whether any block has a logged air density."""
+        return bool(np.isfinite(cast(np.ndarray, self.rho)).any())
+
+    @property
+    def n(self) -> int:
+        return int(self.ref_speed.size)
+
+    # What no fitted offset changes, made once: the fits evaluate the field model's wind
+    # (:func:`_wind`) thousands of times.
+
+    @functools.cached_property
+    def roll_rad(self) -> np.ndarray:
+        """Roll of every block [rad]."""
+        return np.radians(self.roll)
+
+    @functools.cached_property
+    def tilt_without_offset(self) -> tuple[np.ndarray, np.ndarray]:
+        """Tilt and lean direction relative to the nose [rad] of every block, without a pitch offset."""
+        # minus 0.0 as in the fitted path (_attitude_terms): a logged -0.0 becomes 0.0 there too
+        return tilt_from_attitude(self.roll_rad, np.radians(self.pitch - 0.0))
+
+    @functools.cached_property
+    def attitude_without_offsets(self) -> tuple[np.ndarray, ...]:
+        """:func:`_attitude_terms` without pitch and yaw offsets."""
+        return _attitude_terms(self, 0.0, 0.0)
+
+    def subset(self, mask: np.ndarray) -> FieldData:
+        """Windows where ``mask`` is true (UAV list kept, so parameter vectors align)."""
+        idx = np.flatnonzero(mask)
+        new = -np.ones(self.n, int)
+        new[idx] = np.arange(idx.size)
+        keep = mask[self.win]
+        return FieldData(new[self.win[keep]], self.roll[keep], self.pitch[keep], self.yaw[keep], self.vn[keep],
+                         self.ve[keep], self.ref_speed[idx], self.ref_from[idx], self.flight[idx], self.uav[idx],
+                         self.uavs, cast(np.ndarray, self.rho)[keep], self.units)
+
+
+def field_data(blocks: pd.DataFrame, windows: pd.DataFrame, block_s: float = 10.0) -> FieldData:
+    """Arrays for the diagnosis from :func:`dronewind.quadrotor.windows.flight_windows` output.
+
+    Parameters
+    ----------
+    blocks, windows : pandas.DataFrame
+        1-s blocks and their windows.
+    block_s : float
+        The 1-s blocks are averaged to this length [s] (yaw as a circular mean) to keep the
+        many refits fast; the drag law is nearly linear over the tilt changes within 10 s.
+
+    Returns
+    -------
+    FieldData
+
+    Raises
+    ------
+    InputError
+        Fewer than 3 windows.
+    """
+    if len(windows) < 3:
+        raise InputError("quadrotor windows", f"{len(windows)} windows; the diagnosis needs at least 3")
+    w = windows.reset_index(drop=True)
+    keys = pd.Index(w["window_key"].astype(str))
+    b = blocks[blocks["window_key"].astype(str).isin(keys)].copy()
+    b["win"] = keys.get_indexer(pd.Index(b["window_key"].astype(str)))
+    b["k"] = b.groupby("win").cumcount() // max(1, int(round(block_s)))
+    b["sy"] = np.sin(np.radians(b["yaw_deg"]))
+    b["cy"] = np.cos(np.radians(b["yaw_deg"]))
+    if "rho_kgm3" not in b:
+        b["rho_kgm3"] = np.nan
+    g = b.groupby(["win", "k"], sort=True)[["roll_deg", "pitch_deg", "sy", "cy", "vel_n_ms", "vel_e_ms",
+                                            "rho_kgm3"]].mean()
+    win = g.index.get_level_values("win").to_numpy()
+    uav = w["uav"].astype(str).to_numpy()
+    return FieldData(win, g["roll_deg"].to_numpy(), g["pitch_deg"].to_numpy(),
+                     np.degrees(np.arctan2(g["sy"].to_numpy(), g["cy"].to_numpy())), g["vel_n_ms"].to_numpy(),
+                     g["vel_e_ms"].to_numpy(), w["ref_speed_ms"].to_numpy(float), w["ref_from_deg"].to_numpy(float),
+                     w["flight"].astype(str).to_numpy(), uav, sorted(set(uav)), g["rho_kgm3"].to_numpy(float))
+
+
+def regime_speed(accel_ms2: np.ndarray | float, edges_ms: Sequence[float], b: Sequence[float] | np.ndarray,
+                 c: Sequence[float] | np.ndarray) -> np.ndarray:
+    r"""Relative air speed from the wind acceleration with one power law per speed range.
+
+    Parameters
+    ----------
+    accel_ms2 : array_like
+        :math:`a = g\sin\gamma` [m s-2] (>= 0).
+    edges_ms : sequence of float
+        Upper speed edges of the ranges [m s-1] (``len(b) - 1`` values).
+    b, c : sequence of float
+        Exponent [-] and factor [m s-1 (m s-2)^-b] per range.
+
+    Returns
+    -------
+    numpy.ndarray
+        Speed [m s-1].
+
+    Notes
+    -----
+    Kistner et al. (2024), Eq. 1 and Table 2: :math:`V = c_k a^{b_k}`; range :math:`k` is the number of
+    thresholds :math:`a_j = (e_j/c_j)^{1/b_j}` that :math:`a` exceeds (range :math:`j` ends
+    where its own law reaches its upper edge), as in
+    :func:`dronewind.quadrotor.drag.body_axis_relative_air`.
+    """
+    a = np.abs(np.asarray(accel_ms2, float))
+    bb = np.asarray(b, float)
+    cc = np.asarray(c, float)
+    e = np.asarray(edges_ms, float)
+    k = np.zeros(a.shape, int)
+    if e.size:
+        thr = (e / cc[:-1]) ** (1.0 / bb[:-1])
+        k = np.sum(a[..., None] > thr, axis=-1)
+    return cc[k] * a ** bb[k]
+
+
+@dataclass
+class FieldModel:
+    """Which extensions a field model has and its parameter layout."""
+
+    pitch: bool = False
+    yaw: bool = False
+    regime_edges: tuple[float, ...] | None = None  # None: rayleigh law (Wetz et al. 2021 Eq. 17)
+    flight_pitch: bool = False  # one pitch offset per flight and UAV (replaces the per-UAV one)
+    density: bool = False  # the logged air density in the drag balance
+    units: tuple[str, ...] = ()  # flight/uav of the per-flight offsets
+
+    def offset_names(self, uavs: Sequence[str]) -> list[str]:
+        """Names of the pitch-offset parameters (per flight and UAV, per UAV, or none)."""
+        if self.flight_pitch:
+            return [f"pitch_{u}" for u in self.units]
+        return [f"pitch_{u}" for u in uavs] if self.pitch else []
+
+    def speed_names(self, uavs: Sequence[str]) -> list[str]:
+        if self.regime_edges is None:
+            names = ["cd0a0_m2", "cp_m2_per_rad"]
+        else:
+            nr = len(self.regime_edges) + 1
+            names = [f"b_{k}" for k in range(nr)] + [f"c_{k}" for k in range(nr)]
+        return names + self.offset_names(uavs)
+
+    def bounds(self, uavs: Sequence[str]) -> tuple[list[float], list[float]]:
+        lo, hi = [], []
+        for name in self.speed_names(uavs):
+            if name in BOUNDS:
+                lo.append(BOUNDS[name][0])
+                hi.append(BOUNDS[name][1])
+            elif name.startswith("b_"):
+                lo.append(0.2)
+                hi.append(1.5)
+            elif name.startswith("c_"):
+                lo.append(1.0)
+                hi.append(30.0)
+            else:
+                lo.append(BOUNDS["pitch_offset_deg"][0])
+                hi.append(BOUNDS["pitch_offset_deg"][1])
+        return lo, hi
+
+    def start(self, uavs: Sequence[str]) -> np.ndarray:
+        if self.regime_edges is None:
+            x = [0.03, -0.047]
+        else:
+            nr = len(self.regime_edges) + 1
+            x = [0.6] * nr + [7.0] * nr
+        return np.array(x + [0.0] * len(self.offset_names(uavs)), float)
+
+
+@dataclass
+class FieldFit:
+    """Fitted field model: speed parameters, yaw offsets (per UAV) and their errors."""
+
+    model: FieldModel
+    x: np.ndarray
+    se: np.ndarray
+    yaw_deg: np.ndarray
+    yaw_se: np.ndarray
+    converged: bool
+    rss: float
+    n: int
+
+
+def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray | None) -> tuple[np.ndarray, ...]:
+    """Window-mean (signed) speed and wind vector of a field model."""
+    n_off = len(model.offset_names(data.uavs))
+    nspeed = len(model.speed_names(data.uavs)) - n_off
+    if n_off or (model.yaw and yaw_deg is not None):
+        p_off: np.ndarray | float
+        if model.flight_pitch:
+            # a unit the training never saw (a held-out flight) keeps zero offset
+            known = np.isin(data.unit[data.win], model.units)
+            idx = np.searchsorted(model.units, data.unit[data.win]).clip(0, max(n_off - 1, 0))
+            p_off = np.where(known, x[nspeed:][idx], 0.0)
+        else:
+            p_off = x[nspeed:][data.uav_index[data.win]] if model.pitch else 0.0
+        y_off = yaw_deg[data.uav_index[data.win]] if (model.yaw and yaw_deg is not None) else 0.0
+        terms = _attitude_terms(data, p_off, y_off)
+    else:
+        terms = data.attitude_without_offsets
+    tilt, cos_lean, sin_lean, cos_psi, sin_psi = terms
+    if model.regime_edges is None:
+        vrel = speed_from_tilt(tilt, x[0], x[1])
+    else:
+        nr = len(model.regime_edges) + 1
+        vrel = regime_speed(GRAVITY_MS2 * np.sin(tilt), model.regime_edges, x[:nr], x[nr:2 * nr])
+    if model.density:
+        # V scales as rho**-1/2 (Wetz et al. 2021, Eq. 12); blocks without a logged density keep the law's
+        rho = cast(np.ndarray, data.rho)
+        vrel = vrel * np.sqrt(AIR_DENSITY_KGM3 / np.where(np.isfinite(rho), rho, AIR_DENSITY_KGM3))
+    wn = -vrel * cos_lean + data.vn
+    we = -vrel * sin_lean + data.ve
+    sp = np.hypot(wn, we)
+    head = -(wn * cos_psi + we * sin_psi)
+    signed = np.where(head < 0, -sp, sp)
+    m = data.ref_speed.size
+
+    def mean(v):
+        return np.bincount(data.win, weights=v, minlength=m) / np.maximum(data.count, 1)
+
+    return mean(sp), mean(signed), mean(wn), mean(we)
+
+
+def _attitude_terms(data: FieldData, p_off: np.ndarray | float, y_off: np.ndarray | float
+                    ) -> tuple[np.ndarray, ...]:
+    """Tilt [rad] and the cosines and sines of the lean and heading angles, with the offsets [degree] removed."""
+    if isinstance(p_off, float):  # no pitch offset fitted (0): the tilt and its direction never change
+        tilt, lean_rel = data.tilt_without_offset
+    else:
+        tilt, lean_rel = tilt_from_attitude(data.roll_rad, np.radians(data.pitch - p_off))
+    psi = np.radians(data.yaw - y_off)
+    lean = psi + lean_rel
+    return tilt, np.cos(lean), np.sin(lean), np.cos(psi), np.sin(psi)
+
+
+def predict_field(data: FieldData, fit: FieldFit) -> tuple[np.ndarray, np.ndarray]:
+    """Window speed [m s-1] and wind-from direction [degree] of a fitted field model."""
+    sp, _, wn, we = _wind(data, fit.model, fit.x, fit.yaw_deg)
+    return sp, _heading(data, fit.yaw_deg if fit.model.yaw else None)
+
+
+def _heading(data: FieldData, yaw_deg: np.ndarray | None) -> np.ndarray:
+    """Window wind direction from the corrected heading (weather vane, Wetz et al. (2021) Sect. 5.4).
+
+    The heading does not depend on the pitch offset or the drag law, so the direction
+    metric separates ``yaw_offset`` from the speed candidates.
+    """
+    off = yaw_deg[data.uav_index[data.win]] if yaw_deg is not None else 0.0
+    a = np.radians(data.yaw - off)
+    m = data.ref_speed.size
+    s = np.bincount(data.win, weights=np.sin(a), minlength=m)
+    c = np.bincount(data.win, weights=np.cos(a), minlength=m)
+    return np.degrees(np.arctan2(s, c)) % 360.0
+
+
+def _wrap(d: np.ndarray) -> np.ndarray:
+    return (np.asarray(d, float) + 180.0) % 360.0 - 180.0
+
+
+def fit_field(data: FieldData, model: FieldModel) -> FieldFit:
+    """Fit a field model: speed parameters by bounded least squares, yaw offsets in closed form.
+
+    Parameters
+    ----------
+    data : FieldData
+        Training windows.
+    model : FieldModel
+        Model layout.
+
+    Returns
+    -------
+    FieldFit
+
+    Notes
+    -----
+    Speed: ``scipy.optimize.least_squares(method="trf")`` on the signed window speed minus
+    the reference (the sign rules out the mirror solution of the tilt, as in
+    :func:`dronewind.quadrotor.calibration.calibrate_universal`), with a sparse Jacobian pattern (a
+    window depends on the law and on its own UAV's offset only). Yaw: speed-weighted
+    circular mean of heading minus reference direction per UAV (Wetz et al. 2021 Sect. 5.4, as
+    :func:`dronewind.quadrotor.calibration.calibrate_yaw_offsets`), over windows above
+    :data:`MIN_DIRECTION_SPEED_MS`. The window direction is the circular mean of the
+    corrected heading (weather vane), as in :func:`dronewind.quadrotor.validation.predict_windows`.
+    """
+    uavs = data.uavs
+    lo, hi = model.bounds(uavs)
+    names = model.speed_names(uavs)
+    nu = len(uavs)
+    nspeed = len(names) - len(model.offset_names(uavs))
+
+    def fun(x):
+        return _wind(data, model, x, None)[1] - data.ref_speed
+
+    sparsity = np.ones((data.n, len(names)), dtype=int)
+    if model.flight_pitch:
+        sparsity[:, nspeed:] = 0
+        sparsity[np.arange(data.n), nspeed + np.searchsorted(model.units, data.unit)] = 1
+    elif model.pitch:
+        sparsity[:, nspeed:] = 0
+        w_uav = np.searchsorted(uavs, data.uav)
+        sparsity[np.arange(data.n), nspeed + w_uav] = 1
+    fits = []
+    starts = [model.start(uavs)]
+    if model.regime_edges is None:
+        alt = model.start(uavs)
+        alt[:2] = [0.05, 0.0]
+        starts.append(alt)
+    for x0 in starts:
+        x0 = np.clip(x0, np.asarray(lo) + 1e-9, np.asarray(hi) - 1e-9)
+        fits.append(scipy.optimize.least_squares(fun, x0, bounds=(lo, hi), method="trf", x_scale="jac",
+                                                 jac_sparsity=scipy.sparse.csr_matrix(sparsity),
+                                                 xtol=1e-10, ftol=1e-10, max_nfev=500))
+    res = min(fits, key=lambda r: r.cost)
+    n_par = res.x.size
+    dof = data.n - n_par
+    se = np.full(n_par, np.nan)
+    if dof > 0:
+        jac = res.jac.toarray() if scipy.sparse.issparse(res.jac) else res.jac
+        cov = np.linalg.pinv(jac.T @ jac) * (2.0 * res.cost / dof)
+        se = np.sqrt(np.clip(np.diag(cov), 0, None))
+    yaw = np.zeros(nu)
+    yaw_se = np.full(nu, np.nan)
+    if model.yaw:
+        frm = _heading(data, None)
+        for k, u in enumerate(uavs):
+            sel = (data.uav == u) & (data.ref_speed >= MIN_DIRECTION_SPEED_MS) & np.isfinite(frm)
+            if sel.sum() == 0:
+                continue
+            d = frm[sel] - data.ref_from[sel]
+            wt = data.ref_speed[sel]
+            off = np.degrees(np.arctan2(np.sum(wt * np.sin(np.radians(d))), np.sum(wt * np.cos(np.radians(d)))))
+            yaw[k] = off
+            r = _wrap(d - off)
+            yaw_se[k] = float(np.sqrt(np.sum(wt * r**2) / np.sum(wt)) / np.sqrt(sel.sum())) if sel.sum() > 1 \
+                else np.nan
+    return FieldFit(model, res.x, se, yaw, yaw_se, bool(res.success), float(2.0 * res.cost), data.n)
+
+
+def _folds(flights: np.ndarray, k_folds: int) -> list[np.ndarray]:
+    """Flight groups for k-fold cross-validation (round-robin over sorted flight ids)."""
+    ids = sorted(set(flights.tolist()))
+    k = min(k_folds, len(ids))
+    groups = [ids[j::k] for j in range(k)]
+    return [np.isin(flights, g) for g in groups]
+
+
+@dataclass
+class HeldOut:
+    """Held-out predictions of one model on every window."""
+
+    speed_err: np.ndarray
+    dir_err: np.ndarray
+
+    def rmse(self, metric: str, mask: np.ndarray | None = None) -> float:
+        e = self.speed_err if metric == "speed" else self.dir_err
+        if mask is not None:
+            e = e[mask]
+        e = e[np.isfinite(e)]
+        return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
+
+
+def _within_folds(units: np.ndarray, k_folds: int) -> list[np.ndarray]:
+    """Folds of every ``k``-th window of each flight and UAV (each fold keeps windows of every unit to train on)."""
+    rank = pd.Series(np.arange(units.size)).groupby(units).cumcount().to_numpy()
+    return [rank % k_folds == j for j in range(k_folds)]
+
+
+def cross_validate(data: FieldData, model: FieldModel, k_folds: int = 5, within_flights: bool = False) -> HeldOut:
+    """Held-out speed and direction errors of every window (k-fold over flights, or within flights)."""
+    sp_err = np.full(data.n, np.nan)
+    dir_err = np.full(data.n, np.nan)
+    folds = _within_folds(data.unit, k_folds) if within_flights else _folds(data.flight, k_folds)
+    for test in folds:
+        train = ~test
+        if train.sum() < 3:
+            continue
+        fit = fit_field(data.subset(train), model)
+        sub = data.subset(test)
+        # UAVs never seen in training keep zero offsets (the fit's default)
+        sp, frm = predict_field(sub, fit)
+        sp_err[test] = sp - sub.ref_speed
+        d = _wrap(frm - sub.ref_from)
+        dir_err[test] = np.where(sub.ref_speed >= MIN_DIRECTION_SPEED_MS, d, np.nan)
+    return HeldOut(sp_err, dir_err)
+
+
+def _paired(ref: np.ndarray, cand: np.ndarray, units: np.ndarray) -> tuple[float, int]:
+    """One-sided Wilcoxon signed-rank test that the candidate's squared errors are smaller, per unit.
+
+    Squared errors are averaged per unit first (a UAV log, a gust repetition, a speed step),
+    so correlated samples of one unit count once. The rank test does not assume normal
+    differences (they are skewed: large at high speed, tiny at low speed).
+    """
+    ok = np.isfinite(ref) & np.isfinite(cand)
+    d = pd.DataFrame({"u": units[ok], "d": ref[ok] ** 2 - cand[ok] ** 2}).groupby("u")["d"].mean().to_numpy()
+    d = d[d != 0]
+    if d.size < 2:
+        return 1.0, int(d.size)
+    res = scipy.stats.wilcoxon(d, alternative="greater")
+    return (float(res.pvalue) if np.isfinite(res.pvalue) else 1.0), int(d.size)
+
+
+def _regime_edges(ref_speed: np.ndarray, n_ranges: int = 3, min_windows: int = 4) -> tuple[float, ...]:
+    """Speed-range edges at quantiles of the reference speed, rounded to 0.5 m/s."""
+    for nr in range(n_ranges, 1, -1):
+        edges = np.round(np.quantile(ref_speed, np.arange(1, nr) / nr) * 2) / 2
+        edges = np.unique(edges)
+        bins = np.searchsorted(edges, ref_speed)
+        if edges.size == nr - 1 and np.all(np.bincount(bins, minlength=nr) >= min_windows):
+            return tuple(float(e) for e in edges)
+    return ()
+
+
+def _with(model: FieldModel, cand: str, edges: tuple[float, ...]) -> FieldModel:
+    return FieldModel(pitch=model.pitch or cand == "pitch_offset", yaw=model.yaw or cand == "yaw_offset",
+                      regime_edges=edges if cand == "drag_regime" else model.regime_edges)
+
+
+def _estimate(fit: FieldFit, cand: str, uavs: Sequence[str]) -> tuple[dict[str, Any], dict[str, Any]]:
+    names = fit.model.speed_names(uavs)
+    est: dict[str, Any]
+    unc: dict[str, Any]
+    if cand == "flight_pitch_offset":
+        est = {u: float(fit.x[names.index(f"pitch_{u}")]) for u in fit.model.units}
+        unc = {u: float(fit.se[names.index(f"pitch_{u}")]) for u in fit.model.units}
+    elif cand == "air_density":
+        est, unc = {"density": "logged pressure and temperature"}, {}
+    elif cand == "pitch_offset" and fit.model.flight_pitch:
+        # per-UAV offsets replaced by per-flight ones: each UAV's mean over its flights
+        per = {u: [float(fit.x[names.index(f"pitch_{k}")]) for k in fit.model.units if k.endswith(f"/{u}")]
+               for u in uavs}
+        est = {u: float(np.mean(v)) if v else float("nan") for u, v in per.items()}
+        unc = {u: float(np.std(v)) if v else float("nan") for u, v in per.items()}
+    elif cand == "pitch_offset":
+        est = {u: float(fit.x[names.index(f"pitch_{u}")]) for u in uavs}
+        unc = {u: float(fit.se[names.index(f"pitch_{u}")]) for u in uavs}
+    elif cand == "yaw_offset":
+        est = {u: float(v) for u, v in zip(uavs, fit.yaw_deg, strict=True)}
+        unc = {u: float(v) for u, v in zip(uavs, fit.yaw_se, strict=True)}
+    else:
+        edges = list(fit.model.regime_edges or ())
+        nr = len(edges) + 1
+        lo = [0.0] + edges
+        hi = edges + [None]
+        est = {"coefficients": [{"min_speed_ms": lo[k], "max_speed_ms": hi[k], "b": float(fit.x[k]),
+                                 "c": float(fit.x[nr + k])} for k in range(nr)]}
+        unc = {"coefficients": [{"b": float(fit.se[k]), "c": float(fit.se[nr + k])} for k in range(nr)]}
+    return est, unc
+
+
+def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float = 0.05, k_folds: int = 5,
+                           max_causes: int = 3) -> dict[str, Any]:
+    """Greedy naming of field causes against the single-law baseline (see module doc).
+
+    Parameters
+    ----------
+    data : FieldData
+        All windows of the campaign.
+    alpha : float
+        Family-wise false-alarm rate per round (Bonferroni over the candidates of the round).
+    min_gain : float
+        Smallest held-out gain that names a cause.
+    k_folds : int
+        Flight folds of the cross-validation.
+    max_causes : int
+        Largest number of causes named.
+
+    Returns
+    -------
+    dict
+        ``baseline`` (fit and held-out metrics), ``rounds`` (every candidate scored per
+        round), ``named`` (candidates named in order), ``extended`` (held-out metrics of the
+        final model), ``final_fit``.
+    """
+    edges = _regime_edges(data.ref_speed)
+    units = np.char.add(np.char.add(data.flight.astype(str), "/"), data.uav.astype(str))
+    current = FieldModel()
+    cur_ho = cross_validate(data, current, k_folds)
+    base_ho = cur_ho
+    base_fit = fit_field(data, current)
+    rounds: list[list[dict[str, Any]]] = []
+    named: list[dict[str, Any]] = []
+    remaining = [c for c in FIELD_CANDIDATES if c != "drag_regime" or edges]
+    while remaining and len(named) < max_causes:
+        scored: list[dict[str, Any]] = []
+        for cand in remaining:
+            model = _with(current, cand, edges)
+            ho = cross_validate(data, model, k_folds)
+            metric = "direction" if cand == "yaw_offset" else "speed"
+            err_ref = cur_ho.dir_err if metric == "direction" else cur_ho.speed_err
+            err_cand = ho.dir_err if metric == "direction" else ho.speed_err
+            r0, r1 = cur_ho.rmse(metric), ho.rmse(metric)
+            gain = 1.0 - r1 / r0 if r0 > 0 else 0.0
+            p, n_units = _paired(err_ref, err_cand, units)
+            fit = fit_field(data, model)
+            ref_fit = fit_field(data, current)
+            dp = len(model.speed_names(data.uavs)) - len(current.speed_names(data.uavs)) + \
+                (len(data.uavs) if cand == "yaw_offset" else 0)
+            f_stat = float("nan")
+            if metric == "speed" and dp > 0 and data.n > len(fit.x):
+                f_stat = float(((ref_fit.rss - fit.rss) / dp) / (fit.rss / (data.n - len(fit.x))))
+            est, unc = _estimate(fit, cand, data.uavs)
+            scored.append({"mechanism": cand, "source": "field", "metric": f"{metric}_rmse",
+                           "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": float(gain),
+                           "p_value": p, "n_units": n_units, "n_parameters": int(dp), "f_statistic": f_stat,
+                           "estimate": est, "uncertainty": unc, "converged": fit.converged,
+                           "_model": model, "_ho": ho})
+        level = alpha / len(scored)
+        for s in scored:
+            s["significant"] = bool(s["p_value"] < level and s["gain"] >= min_gain and s["converged"])
+            s["alpha_bonferroni"] = level
+        rounds.append(scored)
+        best = [s for s in scored if s["significant"]]
+        if not best:
+            break
+        top = max(best, key=lambda s: s["gain"])
+        named.append(top)
+        current, cur_ho = top["_model"], top["_ho"]
+        remaining = [c for c in remaining if c != top["mechanism"]]
+    extra = _beside_candidates(data, current, cur_ho, units, alpha, min_gain, k_folds)
+    if extra:
+        rounds.append(extra)
+        for s in sorted((s for s in extra if s["significant"]), key=lambda s: -s["gain"]):
+            named.append(s)
+            m = s["_model"]
+            current = FieldModel(pitch=current.pitch and not m.flight_pitch, yaw=current.yaw,
+                                 regime_edges=current.regime_edges, flight_pitch=current.flight_pitch or m.flight_pitch,
+                                 density=current.density or m.density, units=m.units or current.units)
+            if s["mechanism"] == "air_density":  # scored on the flight folds: the extended model's errors
+                cur_ho = s["_ho"]
+    final_fit = fit_field(data, current)
+    return {"baseline": {"fit": base_fit, "heldout": base_ho}, "rounds": rounds, "named": named,
+            "extended": cur_ho, "final_fit": final_fit, "final_model": current, "edges": edges}
+
+
+def _beside_candidates(data: FieldData, current: FieldModel, cur_ho: HeldOut, units: np.ndarray, alpha: float,
+                       min_gain: float, k_folds: int) -> list[dict[str, Any]]:
+    """Per-flight pitch offsets and the logged air density scored against the named model (see module doc).
+
+    ``flight_pitch_offset`` replaces the per-UAV pitch offsets (or adds offsets when none are
+    named) and is held out within flights, the named model scored on the same folds;
+    ``air_density`` is held out over flights like the naming rounds. Each is tested against
+    the named model alone (Bonferroni over the two).
+    """
+    cands: list[tuple[str, FieldModel, bool]] = []
+    if len(set(data.flight.tolist())) > 1 and data.n >= 2 * k_folds:
+        cands.append(("flight_pitch_offset", FieldModel(pitch=False, yaw=current.yaw,
+                                                        regime_edges=current.regime_edges, flight_pitch=True,
+                                                        density=current.density, units=tuple(data.units or ())),
+                      True))
+    if data.has_density and not current.density:
+        cands.append(("air_density", FieldModel(pitch=current.pitch, yaw=current.yaw,
+                                                regime_edges=current.regime_edges, density=True), False))
+    scored: list[dict[str, Any]] = []
+    ref_fit = fit_field(data, current)
+    for cand, model, within in cands:
+        ref_ho = cross_validate(data, current, k_folds, within_flights=True) if within else cur_ho
+        ho = cross_validate(data, model, k_folds, within_flights=within)
+        r0, r1 = ref_ho.rmse("speed"), ho.rmse("speed")
+        gain = 1.0 - r1 / r0 if r0 > 0 else 0.0
+        p, n_units = _paired(ref_ho.speed_err, ho.speed_err, units)
+        fit = fit_field(data, model)
+        dp = len(model.speed_names(data.uavs)) - len(current.speed_names(data.uavs))
+        f_stat = float("nan")
+        if dp > 0 and data.n > len(fit.x):
+            f_stat = float(((ref_fit.rss - fit.rss) / dp) / (fit.rss / (data.n - len(fit.x))))
+        est, unc = _estimate(fit, cand, data.uavs)
+        scored.append({"mechanism": cand, "source": "field", "metric": "speed_rmse",
+                       "heldout": f"{k_folds}-fold within flights" if within else "k-fold over flights",
+                       "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": float(gain),
+                       "p_value": p, "n_units": n_units, "n_parameters": int(dp), "f_statistic": f_stat,
+                       "estimate": est, "uncertainty": unc, "converged": fit.converged, "_model": model, "_ho": ho})
+    for s in scored:
+        s["alpha_bonferroni"] = alpha / len(scored)
+        s["significant"] = bool(s["p_value"] < s["alpha_bonferroni"] and s["gain"] >= min_gain and s["converged"])
+    return scored
