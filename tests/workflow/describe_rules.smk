@@ -17,7 +17,9 @@ with open(os.environ["DESCRIBE_RULES_JSON"], "w") as _out:
                 "benchmark": _rule.benchmark is not None,
                 "conda": _rule.conda_env is not None,
                 "threads": str(_rule.resources.get("_cores")),
-                "resources": sorted(k for k in _rule.resources if not k.startswith("_")),
+                "resources": sorted(
+                    k for k in _rule.resources if not k.startswith("_")
+                ),
                 "script": str(_rule.script),
             }
             for _rule in workflow.rules

@@ -21,7 +21,7 @@ rule l3:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=400,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -50,7 +50,7 @@ rule drone_l3:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -76,7 +76,7 @@ rule l4_drone_only:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -108,7 +108,7 @@ rule l4:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -137,6 +137,6 @@ rule flight_stats:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     script:
         "../scripts/flight_stats.py"

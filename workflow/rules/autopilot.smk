@@ -20,7 +20,7 @@ rule autopilot_wind:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=500,
     params:
         campaign=CAMPAIGN.name,
         flight=autopilot_entry,
@@ -59,6 +59,6 @@ rule autopilot_summary:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=400,
     script:
         "../scripts/autopilot_summary.py"

@@ -41,7 +41,7 @@ rule block_stats:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=400,
     script:
         "../scripts/block_stats.py"
 
@@ -65,6 +65,6 @@ rule block_figures:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=500,
     script:
         "../scripts/block_figures.py"

@@ -21,7 +21,7 @@ rule diagnose_measured:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=400,
     params:
         campaign=flight_manifest,
         flight_id="{flight}",
@@ -56,7 +56,7 @@ rule diagnose_forward:
         ENV
     threads: 1
     resources:
-        mem_mb=600,
+        mem_mb=800,
     params:
         campaign=flight_manifest,
         flight_id="{flight}",
@@ -84,7 +84,7 @@ rule diagnose_probe:
         ENV
     threads: 1
     resources:
-        mem_mb=600,
+        mem_mb=800,
     params:
         campaign=flight_manifest,
         flight_id="{flight}",
@@ -145,7 +145,7 @@ rule diagnose:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         alpha=DIAGNOSIS["alpha"],
         max_causes=DIAGNOSIS["max_causes"],
@@ -177,7 +177,7 @@ rule diagnose_platform:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         flight_id="{flight}",
         alpha=DIAGNOSIS["alpha"],
@@ -233,7 +233,7 @@ rule diagnose_extended:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=700,
     params:
         flight_id="{flight}",
         processing=CHAIN,
@@ -282,6 +282,6 @@ rule diagnosis_report:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=400,
     script:
         "../scripts/diagnosis_report.py"

@@ -22,7 +22,7 @@ rule payload_l1_l2:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -56,7 +56,7 @@ rule mast_l1:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         sonic=mast_sonic,

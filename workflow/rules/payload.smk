@@ -20,7 +20,7 @@ rule rigid_l1:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=200,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -48,7 +48,7 @@ rule rigid_l2:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",

@@ -24,7 +24,7 @@ rule published_forward:
         ENV
     threads: 1
     resources:
-        mem_mb=600,
+        mem_mb=700,
     params:
         campaign=published_manifest,
         flight_id="{flight}",
@@ -50,7 +50,7 @@ rule published_probe:
         ENV
     threads: 1
     resources:
-        mem_mb=600,
+        mem_mb=700,
     params:
         campaign=published_manifest,
         flight_id="{flight}",
@@ -103,7 +103,7 @@ rule published_diagnosis:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         alpha=DIAGNOSIS["alpha"],
         max_causes=DIAGNOSIS["max_causes"],
@@ -126,7 +126,7 @@ rule published_rerun:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=800,
     params:
         campaign=published_manifest,
         flight_id="{flight}",
@@ -161,6 +161,6 @@ rule published_report:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     script:
         "../scripts/published_report.py"

@@ -36,7 +36,7 @@ rule quadrotor_fleet:
         ENV
     threads: 1
     resources:
-        mem_mb=400,
+        mem_mb=600,
     params:
         campaign=CAMPAIGN.name,
         flights=quad_fleet(QUAD_FLIGHTS),
@@ -69,7 +69,7 @@ rule quadrotor_calibration:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         tables_dir=lambda wc, output: str(Path(output.tables[0]).parent),
@@ -96,7 +96,7 @@ rule quadrotor_l2:
         ENV
     threads: 1
     resources:
-        mem_mb=400,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flights={f: quad_uavs(f) for f in QUAD_FLIGHTS},
@@ -123,7 +123,7 @@ rule quadrotor_diagnosis:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         alpha=DIAGNOSIS["alpha"],
@@ -158,7 +158,7 @@ rule quadrotor_figures:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         tables_dir=lambda wc, input: str(Path(input.tables[0]).parent),
     script:

@@ -114,7 +114,7 @@ rule campaign_record:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=200,
     params:
         config=canonical(dict(config)),
     script:
@@ -139,7 +139,7 @@ rule tables:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     script:
         "../scripts/tables.py"
 
@@ -175,7 +175,7 @@ rule figures:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=600,
     script:
         "../scripts/figures.py"
 
@@ -213,7 +213,7 @@ rule report_pages:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         results=lambda wc, input: str(Path(input.results[0]).parent),
         out_dir=lambda wc, output: str(Path(output.summary).parent),

@@ -15,7 +15,7 @@ rule tunnel_simulate:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=200,
     params:
         simulation=canonical(
             {
@@ -46,7 +46,7 @@ rule tunnel_analysis:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         tables_dir=lambda wc, output: str(Path(output[0]).parent),
@@ -76,7 +76,7 @@ rule tunnel_figures:
         ENV
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=200,
     params:
         tables_dir=lambda wc, input: str(Path(input[0]).parent),
     script:
