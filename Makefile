@@ -5,13 +5,11 @@
 # venv, else the first python3.11 on PATH (`make PYTHON=/path/to/python3.11 ...` chooses).
 # Debian's executable has libpython linked in; a pyenv build (--enable-shared, no optimisation
 # flags) runs the same code slower: make test 540 s against 636 s, Snakemake's start 3.5
-# against 4.3 CPU-s, the same outputs (benchmarks/results/README.md, session 27).
+# against 4.3 CPU-s, the same outputs.
 PYTHON ?= $(shell /usr/bin/python3.11 -c 'import ensurepip, venv' >/dev/null 2>&1 && echo /usr/bin/python3.11 || echo python3.11)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-# the start-up hook of the preloaded jobs (src/dronewind/steps/handoff.py) in .venv's site-packages
-HOOK := $(VENV)/.preload_hook
 CORES ?= 2
 # the data folder of the real records (dronewind.datasets; `python -m dronewind.datasets fetch` fills it)
 export DRONEWIND_DATA ?= $(abspath ../shared/data)
@@ -20,32 +18,28 @@ TEST_WORKERS ?= 2
 
 .PHONY: run test venv lint bench validate clean
 
-$(STAMP): envs/requirements.txt envs/constraints.txt pyproject.toml
+$(STAMP): workflow/envs/requirements.txt workflow/envs/constraints.txt pyproject.toml
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -r envs/requirements.txt -c envs/constraints.txt
+	$(BIN)/python -m pip install --quiet -r workflow/envs/requirements.txt -c workflow/envs/constraints.txt
 	$(BIN)/python -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
 
-$(HOOK): $(STAMP) src/dronewind/steps/handoff.py
-	$(BIN)/python -m dronewind.steps.preload --install-hook
-	touch $(HOOK)
+venv: $(STAMP)
 
-venv: $(HOOK)
-
-run: $(HOOK)
+run: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES)
 
-test: $(HOOK)
+test: $(STAMP)
 	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder
 
 lint: $(STAMP)
 	$(BIN)/lint-imports --no-cache
-	$(BIN)/ruff check src tests scripts benchmarks
+	$(BIN)/ruff check src tests workflow/scripts benchmarks
 	$(BIN)/mypy
 	$(BIN)/snakemake --lint
-	$(BIN)/snakefmt --check Snakefile workflow/rules
+	$(BIN)/snakefmt --check Snakefile workflow
 
 # timing suite of single stages (pytest-benchmark, benchmarks/test_bench_*.py, about 2 min); results in .benchmarks/
 bench: $(STAMP)

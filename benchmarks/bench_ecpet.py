@@ -35,7 +35,7 @@ is the fast ``press`` column's per-minute mean (EC-PeT uses the fast column). Th
 two days (April and June) are two EC-PeT runs (one per day, inside the one timed child),
 because EC-PeT processes one contiguous period.
 
-Install EC-PeT without its GUI dependencies (pinned in envs/requirements.txt)::
+Install EC-PeT without its GUI dependencies (pinned in workflow/envs/requirements.txt)::
 
     .venv/bin/pip install --no-deps ecpet==2.1.0b1
 
@@ -476,7 +476,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--ecpet-python",
         default=sys.executable,
-        help="Python with EC-PeT installed (default: this one; see envs/ecpet-requirements.txt)",
+        help="Python with EC-PeT installed (default: this one; see workflow/envs/ecpet-requirements.txt)",
     )
     ap.add_argument(
         "--blas-threads", type=int, default=1, help="BLAS/OpenMP threads of both tools (default 1; 0: leave as is)"

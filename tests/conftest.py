@@ -392,8 +392,7 @@ RERUN_TARGETS = ("tables/flight_stats.csv", "campaign.json")
 @pytest.fixture(scope="session")
 def small_campaign_rerun(small_campaign_run):
     """The same campaign, manifest and config run again into ``results_b`` up to :data:`RERUN_TARGETS`,
-    every job in its own process (``preload=false``; the first run forks its jobs from the
-    preloaded process, :mod:`dronewind.steps.preload`).
+    a second, independent run of the same workflow.
 
     Returns ``results_b/smallcamp``. Compared with ``results_a`` by tests/test_faults.py
     (every file, byte for byte), which also deletes and rebuilds its ``campaign.json``
@@ -401,7 +400,7 @@ def small_campaign_rerun(small_campaign_run):
     """
     folder, manifest, extra, _ = small_campaign_run
     results = folder / "results_b"
-    proc = run_workflow(manifest, results, extra, "preload=false", "--",
+    proc = run_workflow(manifest, results, extra, "--",
                         *(str(results / "smallcamp" / t) for t in RERUN_TARGETS),
                         env={"SOURCE_DATE_EPOCH": SOURCE_DATE_EPOCH})
     assert proc.returncode == 0, proc.stderr[-4000:]

@@ -49,7 +49,6 @@ from dronewind.mast.chain import compute_mast_l1, flight_reference
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 from dronewind.steps.lock import LOCK_NAME, ResultsLockedError, acquire_results_lock, lock_owner, release_results_lock
 from dronewind.steps.payload import simulate_payload, simulation_manifest
-from dronewind.steps.preload import JOB_TABLE_COLUMNS
 from tests.conftest import SOURCE_DATE_EPOCH, run_workflow, workflow_env
 from tests.small_campaign import SHORT_HOVER, write_small_campaign
 
@@ -965,9 +964,6 @@ def two_runs(small_campaign_run, small_campaign_rerun):
 @pytest.mark.slow
 def test_identical_runs_in_two_folders_give_identical_files(two_runs):
     """Every file of the second run (up to flight_stats and the campaign record) is byte for byte the first run's.
-
-    The first run forks its jobs from the preloaded process, the second runs each job in a
-    process of its own (``preload=false``): how the jobs are run changes no byte.
     """
     a, b = two_runs / "results_b" / "smallcamp", two_runs / "results_a" / "smallcamp"
     files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file() and p.parts[len(a.parts)] not in
@@ -981,10 +977,6 @@ def test_identical_runs_in_two_folders_give_identical_files(two_runs):
     assert sorted(p.relative_to(b) for p in b.rglob("*.nc")) == netcdf
     assert len(netcdf) >= 8, netcdf  # L1 (sonic, ins, mast), L2 (drone, mast), L3, L4 (drone, mast)
     assert not (a / LOCK_NAME).exists() and not (b / LOCK_NAME).exists()  # released at the end of each run
-    # the first run's jobs ran in the preloaded process (each with status 0)
-    table = (b / "benchmarks" / "preloaded_jobs.tsv").read_text().splitlines()
-    assert table[0].split("\t") == list(JOB_TABLE_COLUMNS) and len(table) > 8
-    assert all(line.split("\t")[5] == "0" for line in table[1:])
 
 
 @pytest.mark.slow

@@ -159,14 +159,14 @@ def test_tunnel_tables_and_figures(run):
         assert path.is_file() and path.stat().st_size > 5000, path
 
 
-def test_l1_and_l2_run_one_job_per_flight(run):
-    """Each flight's UAVs are processed by one L1 and one L2 job (one log and benchmark per flight)."""
-    for rule in ("quadrotor_l1", "quadrotor_l2"):
-        assert sorted(p.name for p in (run / "benchmarks" / rule).iterdir()) == ["f31.tsv", "f56.tsv"]
-        assert sorted(p.name for p in (run / "logs" / rule).iterdir()) == ["f31.log", "f56.log"]
-        log = (run / "logs" / rule / "f56.log").read_text()
-        for uav in OFFSETS:
-            assert f"flight f56 uav {uav} L{rule[-1]}:" in log, log[-2000:]
+def test_l1_and_l2_run_one_job_for_the_fleet(run):
+    """The fleet's UAVs are processed by one L1 (with the windows) and one L2 job (one log and benchmark each)."""
+    for rule, level in (("quadrotor_fleet", "L1"), ("quadrotor_l2", "L2")):
+        assert sorted(p.name for p in (run / "benchmarks" / rule).iterdir()) == ["all.tsv"]
+        log = (run / "logs" / rule / "all.log").read_text()
+        for flight in ("f31", "f56"):
+            for uav in OFFSETS:
+                assert f"flight {flight} uav {uav} {level}:" in log, log[-2000:]
     # the per-UAV products keep their names
     for level in ("L1", "L2"):
         assert sorted(p.name for p in (run / "netcdf" / level / "quadrotor").iterdir()) == sorted(
@@ -190,9 +190,9 @@ def _planned_jobs(run: Path) -> set[tuple[str, str]]:
     return {(row["rule"], Path(row["log-file(s)"]).stem) for row in rows if row["plan"] == "update pending"}
 
 
-def test_edited_flight_reruns_that_flights_jobs_up_to_the_calibration(run):
-    """Changed conditions of flight f31 plan its simulate, L1 and window jobs only; then the
-    campaign calibration and, as it changes, the L2 of every flight (no tunnel job)."""
+def test_edited_flight_reruns_the_fleet_jobs_and_the_calibration(run):
+    """Changed conditions of flight f31 plan the fleet's simulate-L1-windows job, the campaign
+    calibration and the L2 of every flight (no tunnel job)."""
     assert _planned_jobs(run) == set(), "a finished run plans nothing"
     manifest = run.parent.parent / "quadcamp.yaml"
     original, stat = manifest.read_text(), manifest.stat()
@@ -205,10 +205,7 @@ def test_edited_flight_reruns_that_flights_jobs_up_to_the_calibration(run):
         manifest.write_text(original)
         os.utime(manifest, ns=(stat.st_atime_ns, stat.st_mtime_ns))
     rules = {rule for rule, _ in jobs}
-    assert {"quadrotor_simulate_f31", "quadrotor_l1_f31", "quadrotor_calibration", "quadrotor_l2_f31",
-            "quadrotor_l2_f56"} <= rules, jobs
-    assert ("quadrotor_windows", "f31") in jobs and ("quadrotor_windows", "f56") not in jobs, jobs
-    assert not {"quadrotor_simulate_f56", "quadrotor_l1_f56"} & rules, jobs
+    assert {"quadrotor_fleet", "quadrotor_calibration", "quadrotor_l2"} <= rules, jobs
     assert not any(rule.startswith("tunnel") for rule in rules), jobs
 
 

@@ -28,7 +28,7 @@ from tests.small_campaign import SHORT_HOVER, write_small_campaign
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 FLIGHTS = ("s01", "s02")
-CHAIN_RULES = {"payload_l1", "mast_l1", "payload_l2", "mast_l2", "l3"}
+CHAIN_RULES = {"payload_l1_l2", "mast_l1", "l3"}
 
 
 def snakemake(folder: Path, *args: str, extra: tuple[Path, ...] = ()) -> subprocess.CompletedProcess:
@@ -49,7 +49,7 @@ def planned_jobs(folder: Path, extra: tuple[Path, ...] = ()) -> set[tuple[str, s
     """(rule, wildcards) of every job a dry run plans, from the table of ``snakemake --summary``.
 
     The wildcards are read from the job's log file, ``logs/<rule>/<wildcards>.log``
-    (``s01``, ``s01_drone``, ``mast30``; ``all`` for campaign-level rules).
+    (``s01``, ``mast30``; ``all`` for campaign-level rules).
     """
     proc = snakemake(folder, "--dry-run", "--summary", extra=extra)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -84,7 +84,7 @@ def test_changed_spectra_rerun_l4_tables_and_figures_of_every_flight(processed):
     changed = processed / "spectra.yaml"
     changed.write_text("processing:\n  spectra:\n    segments: 4\n")
     jobs = planned_jobs(processed, extra=(changed,))
-    assert {w for rule, w in jobs if rule == "l4"} == {f"{f}_{s}" for f in FLIGHTS for s in ("drone", "mast")}
+    assert {w for rule, w in jobs if rule == "l4"} == set(FLIGHTS)
     assert {"flight_stats", "tables", "figures"} <= rules_of(jobs)
     assert not rules_of(jobs) & CHAIN_RULES, jobs
     assert not any(rule.startswith("simulate") for rule in rules_of(jobs)), jobs
@@ -108,6 +108,6 @@ def test_edited_flight_entry_reruns_that_flight_only(processed):
     finally:
         manifest.write_text(original)
     assert flights_of(jobs) == {"s01"}, jobs
-    assert {"payload_l1", "payload_l2", "l3", "l4"} <= rules_of(jobs)
+    assert {"payload_l1_l2", "l3", "l4"} <= rules_of(jobs)
     assert "mast_l1" not in rules_of(jobs)
     assert not any(rule.startswith("simulate") for rule in rules_of(jobs)), jobs

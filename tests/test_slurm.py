@@ -1,4 +1,4 @@
-"""The workflow on a real single-node SLURM (scripts/setup_slurm.sh) through profiles/slurm.
+"""The workflow on a real single-node SLURM (workflow/scripts/setup_slurm.sh) through profiles/slurm.
 
 Jobs must really go through sbatch: the Snakemake log names a SLURM job id for every job
 and squeue/sinfo answer. Skipped, with the reason, only where this machine cannot run
@@ -111,7 +111,7 @@ class SlurmRun:
         if os.geteuid() != 0:
             self.skip = "SLURM test needs root to install slurm-wlm/munge and start the daemons"
             return
-        proc = subprocess.run(["bash", str(REPO / "scripts/setup_slurm.sh")], capture_output=True, text=True,
+        proc = subprocess.run(["bash", str(REPO / "workflow/scripts/setup_slurm.sh")], capture_output=True, text=True,
                               timeout=900, check=False)
         if proc.returncode != 0 and shutil.which("slurmctld") is None:
             self.skip = f"SLURM could not be installed on this machine: {proc.stderr[-500:]}"

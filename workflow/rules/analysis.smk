@@ -1,12 +1,15 @@
-# L2 -> L3 (alignment, decimation, rotation) and L3 -> L4 (statistics, spectra, ...).
+# L2 -> L3 (mast cut to the flight, alignment, decimation, rotation) and L3 -> L4 (statistics, spectra, ...).
 
 
+# The reference mast cut to a flight's hover window (mast L2) and the flight's L3 (alignment,
+# decimation, rotation) in one job.
 rule l3:
     input:
         drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
-        mast=RESULTS / "netcdf" / "L2" / "{flight}_mast.nc",
+        mast=reference_of,
     output:
-        RESULTS / "netcdf" / "L3" / "{flight}.nc",
+        mast=RESULTS / "netcdf" / "L2" / "{flight}_mast.nc",
+        l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
     log:
         log_path("l3", "flight"),
     benchmark:
@@ -16,6 +19,9 @@ rule l3:
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=400,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -24,7 +30,7 @@ rule l3:
         drone_mast=PROCESSING["drone_mast"],
         rotation=PROCESSING["rotation"],
     script:
-        "../../scripts/l3.py"
+        "../scripts/l3.py"
 
 
 # A flight without a reference mast (rigid mount): drone-only L3 (streamline coordinates at
@@ -42,6 +48,9 @@ rule drone_l3:
         flight=_alternatives(DRONE_ONLY_FLIGHTS),
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -49,7 +58,7 @@ rule drone_l3:
         site=SITE,
         rotation=PROCESSING["rotation"],
     script:
-        "../../scripts/drone_l3.py"
+        "../scripts/drone_l3.py"
 
 
 rule l4_drone_only:
@@ -65,6 +74,9 @@ rule l4_drone_only:
         flight=_alternatives(DRONE_ONLY_FLIGHTS),
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -75,33 +87,37 @@ rule l4_drone_only:
         quadrant=PROCESSING["quadrant"],
         detrending=PROCESSING["detrending"],
     script:
-        "../../scripts/l4.py"
+        "../scripts/l4.py"
 
 
+# the L4 of a flight's drone and reference mast in one job (two files)
 rule l4:
     input:
         l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
     output:
-        RESULTS / "netcdf" / "L4" / "{flight}_{sensor}.nc",
+        drone=RESULTS / "netcdf" / "L4" / "{flight}_drone.nc",
+        mast=RESULTS / "netcdf" / "L4" / "{flight}_mast.nc",
     log:
-        log_path("l4", "flight", "sensor"),
+        log_path("l4", "flight"),
     benchmark:
-        bench_path("l4", "flight", "sensor")
+        bench_path("l4", "flight")
     wildcard_constraints:
         flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
-        sensor="{sensor}",
         reference=reference_sonic,
         spectra=PROCESSING["spectra"],
         quadrant=PROCESSING["quadrant"],
         detrending=PROCESSING["detrending"],
     script:
-        "../../scripts/l4.py"
+        "../scripts/l4_flight.py"
 
 
 rule flight_stats:
@@ -119,5 +135,8 @@ rule flight_stats:
         bench_path("flight_stats")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     script:
-        "../../scripts/flight_stats.py"
+        "../scripts/flight_stats.py"

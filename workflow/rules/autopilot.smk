@@ -18,13 +18,16 @@ rule autopilot_wind:
         aflight=_alternatives(AUTOPILOT_FLIGHTS),
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=500,
     params:
         campaign=CAMPAIGN.name,
         flight=autopilot_entry,
         site=SITE,
         simulated=CAMPAIGN.simulated,
     script:
-        "../../scripts/autopilot_wind.py"
+        "../scripts/autopilot_wind.py"
 
 
 rule autopilot_summary:
@@ -54,5 +57,8 @@ rule autopilot_summary:
         bench_path("autopilot_summary")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=400,
     script:
-        "../../scripts/autopilot_summary.py"
+        "../scripts/autopilot_summary.py"

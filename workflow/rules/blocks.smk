@@ -17,12 +17,15 @@ rule mast_blocks:
         bench_path("mast_blocks", "sonic")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=1000,
     params:
         campaign=CAMPAIGN.name,
         sonic=mast_sonic,
         processing=BLOCK_PROCESSING,
     script:
-        "../../scripts/mast_blocks.py"
+        "../scripts/mast_blocks.py"
 
 
 rule block_stats:
@@ -36,8 +39,11 @@ rule block_stats:
         bench_path("block_stats")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=400,
     script:
-        "../../scripts/block_stats.py"
+        "../scripts/block_stats.py"
 
 
 rule block_figures:
@@ -57,5 +63,8 @@ rule block_figures:
         bench_path("block_figures")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=500,
     script:
-        "../../scripts/block_figures.py"
+        "../scripts/block_figures.py"

@@ -5,7 +5,6 @@
 # reference sonic's entry and the `processing` keys they use; the manifest file is an input
 # only of the rules that read all of it (campaign record, campaign diagnosis).
 import os
-import sys
 from pathlib import Path
 
 from snakemake.logging import logger
@@ -34,10 +33,6 @@ from dronewind.manifest import (
 )
 from dronewind.simulate.settings import simulation_manifest, validate_simulation
 from dronewind.steps.blocks import block_settings
-from dronewind.steps.lock import acquire_results_lock, release_results_lock
-from dronewind.steps.preload import SOCKET_ENV as PRELOAD_SOCKET_ENV
-from dronewind.steps.preload import PreloadServer
-from dronewind.steps.preload import supported as preload_supported
 
 min_version("9.0")
 
@@ -65,75 +60,7 @@ RESULTS = Path(config["results_dir"]) / CAMPAIGN.name
 # A virtual campaign's raw files are written by the simulator under results/<name>/L0/;
 # a measured campaign's raw files are where its manifest says.
 L0 = RESULTS / "L0" if CAMPAIGN.simulated else CAMPAIGN.data_root
-ENV = "../../envs/dronewind.yaml"
-
-
-# One run at a time on a results folder, across checkouts: a lock file under
-# results/<name>/ (dronewind.steps.lock), taken when jobs are about to run (never in a
-# dry run) and released at the end. A lock left by a killed run is taken over, so an
-# interrupted run is resumed by running the same command again (the default profile sets
-# rerun-incomplete and nolock: Snakemake's own lock would need --unlock after kill -9).
-#
-# A local run forks its jobs from one process that has the libraries imported
-# (dronewind.steps.preload; config preload: true), which saves each job 0.5-1.2 CPU-s of
-# imports; a cluster run (jobs on other nodes) does not use it, nor does a machine that is not
-# Linux (forking without exec is unsafe on macOS).
-_PRELOAD = []
-
-
-# Snakemake's command line limits job starts to 100 per second by default
-# (--max-jobs-per-timespan 100/1s). With the limit on, every pass of the scheduler's loop
-# starts a one-second timer that starts the next pass, and every job start and end adds
-# such a chain: with the default campaign's 267 jobs the main process made about 27,000
-# passes, each looking at the size of every input of every waiting job (1.5 million stat
-# calls; reported upstream, snakemake/snakemake pull request 3744). A local run of this
-# workflow never comes near the limit, so it is lifted there (a cluster run keeps it: it
-# paces the submissions). The outputs do not depend on it.
-def _lift_job_rate_limit():
-    scheduler = getattr(workflow, "scheduler", None)
-    if workflow.local_exec and getattr(scheduler, "job_rate_limiter", None) is not None:
-        scheduler.job_rate_limiter = None
-        logger.debug("dronewind: local run, Snakemake's job rate limit lifted")
-
-
-onstart:
-    if workflow.is_main_process:
-        _lift_job_rate_limit()
-        _note = acquire_results_lock(RESULTS, workflow.basedir)
-        if _note:
-            print(_note, file=sys.stderr)
-        if config["preload"] and workflow.local_exec and preload_supported():
-            try:
-                _PRELOAD.append(
-                    PreloadServer(
-                        RESULTS / "benchmarks" / "preloaded_jobs.tsv",
-                        RESULTS / "logs" / "preload.log",
-                    )
-                )
-            except OSError as _exc:
-                print(
-                    f"preload: not started ({_exc}); every job imports in its own process",
-                    file=sys.stderr,
-                )
-            else:
-                os.environ[PRELOAD_SOCKET_ENV] = _PRELOAD[0].socket_path
-
-
-def _end_run():
-    for server in _PRELOAD:
-        server.stop()
-    os.environ.pop(PRELOAD_SOCKET_ENV, None)
-    release_results_lock(RESULTS)
-
-
-onsuccess:
-    if workflow.is_main_process:
-        _end_run()
-
-
-onerror:
-    if workflow.is_main_process:
-        _end_run()
+ENV = "../envs/dronewind.yaml"
 
 
 # PAYLOAD_FLIGHTS: the sling-load flights (sonic + INS files, a reference mast), which the
@@ -211,9 +138,19 @@ PRIORITY_CHAIN = 20
 PRIORITY_FORWARD = 10
 
 
+#: Wildcard constraint that matches nothing: a rule whose wildcard has it makes no job (the
+#: rules of another mode, e.g. the forward runs split by mechanism or not).
+NEVER = "(?!x)x"
+
+
 def _alternatives(ids):
     """Wildcard constraint matching exactly these ids (never an empty alternation)."""
-    return "|".join(map(str, ids)) if ids else "(?!x)x"
+    return "|".join(map(str, ids)) if ids else NEVER
+
+
+def only_if(condition, ids):
+    """Wildcard constraint: these ids when ``condition`` holds, else nothing (the rule makes no job)."""
+    return _alternatives(ids) if condition else NEVER
 
 
 # parts of a flight's forward-model runs when they are one job each (diagnosis.probe_jobs)
@@ -223,9 +160,7 @@ PROBE_PARTS = list(probe_parts())
 wildcard_constraints:
     flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_FLIGHTS),
     part=_alternatives(PROBE_PARTS),
-    qflight=_alternatives(QUAD_FLIGHTS),
     sonic=_alternatives(MAST_SONICS),
-    sensor="drone|mast",
 
 
 def log_path(rule_name, *wildcard_names):
@@ -306,6 +241,40 @@ def simulated_payload_outputs(flight_id):
         for k, pattern in enumerate(sonic["files"]):
             out[f"{sonic_id}_{k}"] = str(L0 / pattern.replace("*", flight_id))
     return out
+
+
+def simulated_payload_patterns():
+    """Output patterns (wildcard ``flight``) of the payload simulator's files.
+
+    A virtual campaign names each flight's files after its id (``flights/s01/sonic.csv``,
+    ``mast/mast30_s01.dat``), so one pattern per file describes every flight: the flight id in
+    each path is replaced by ``{flight}``, and every flight must give the same patterns. A
+    measured campaign has no simulator: its patterns lie under results/<name>/L0/ and the
+    rule's wildcard matches no flight.
+    """
+    sims = [f for f in PAYLOAD_FLIGHTS if CAMPAIGN.simulated]
+    if not sims:
+        keys = ["sonic", "ins"] + [
+            f"{sonic_id}_{k}"
+            for sonic_id, sonic in CAMPAIGN.mast_sonics().items()
+            for k in range(len(sonic["files"]))
+        ]
+        return {key: str(RESULTS / "L0" / "{flight}" / key) for key in keys}
+    patterns = {}
+    for flight_id in sims:
+        for key, path in simulated_payload_outputs(flight_id).items():
+            if flight_id not in path:
+                raise ValueError(
+                    f"{CAMPAIGN.path}: payload flight {flight_id}: simulated file {path} does "
+                    "not contain the flight id (a virtual campaign names each flight's files after it)"
+                )
+            pattern = path.replace(flight_id, "{flight}")
+            if patterns.setdefault(key, pattern) != pattern:
+                raise ValueError(
+                    f"{CAMPAIGN.path}: payload flight {flight_id}: simulated file {path} does not "
+                    f"follow the layout of the other flights ({patterns[key]})"
+                )
+    return patterns
 
 
 def reference_of(wc):
@@ -411,11 +380,6 @@ def quad_raw(flight_id):
     return uavs, str(L0 / ref) if isinstance(ref, str) else uavs[0]
 
 
-def quad_flight(wc):
-    """Params function: a quadrotor flight's manifest entry."""
-    return canonical(CAMPAIGN.quadrotor_flight(wc.qflight))
-
-
 def quad_simulation(flight_id):
     """What the quadrotor simulator reads of `simulation:` for one flight (its rerun trigger).
 
@@ -443,8 +407,41 @@ def quad_simulation(flight_id):
 
 
 def quad_l0_root(wildcards, output):
-    """L0 folder of a simulated campaign, for the quadrotor simulate rules (see l0_root)."""
-    return l0_root(wildcards, output)
+    """L0 folder of a simulated campaign, for the quadrotor fleet rule: its output ``l0`` lies below it (see l0_root)."""
+    for path in output.l0:
+        confined_path(L0, os.path.relpath(path, L0), "simulate output")
+    return str(L0)
+
+
+def quad_raw_all():
+    """Raw UAV logs and tower references of every quadrotor flight (flight order, no repeats)."""
+    files = []
+    for f in QUAD_FLIGHTS:
+        uavs, reference = quad_raw(f)
+        files += uavs + [reference]
+    return list(dict.fromkeys(files))
+
+
+def quad_nc_all(level):
+    """L1 or L2 NetCDF files of every UAV of every quadrotor flight (flight, then manifest order)."""
+    return [path for f in QUAD_FLIGHTS for path in quad_nc(level, f)]
+
+
+def quad_fleet(flights):
+    """Params: per quadrotor flight, what the fleet's L0-L1 and windows steps read of it."""
+    return [
+        {
+            "flight": canonical(CAMPAIGN.quadrotor_flight(f)),
+            "uavs": quad_uavs(f),
+            "formats": [u.get("format") for u in CAMPAIGN.quadrotor_flight(f)["uavs"]],
+            "simulation": quad_simulation(f) if CAMPAIGN.simulated else None,
+            "raw": quad_raw(f)[0],
+            "reference": quad_raw(f)[1],
+            "l1": quad_nc("L1", f),
+            "windows": [quad_windows(kind, [f])[0] for kind in QUAD_WINDOW_KINDS],
+        }
+        for f in flights
+    ]
 
 
 def quad_nc(level, flight_id):
@@ -456,6 +453,10 @@ def quad_nc(level, flight_id):
 def quad_timeseries_flight():
     """The quadrotor flight shown as time series (Wetz et al. 2021 Fig. 7): the one with most UAVs."""
     return max(QUAD_FLIGHTS, key=lambda f: (len(quad_uavs(f)), -QUAD_FLIGHTS.index(f)))
+
+
+#: Per-flight window tables of the quadrotor chain.
+QUAD_WINDOW_KINDS = ("windows", "blocks", "problems")
 
 
 def quad_windows(kind, flights=None):

@@ -19,6 +19,9 @@ rule diagnose_measured:
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=400,
     params:
         campaign=flight_manifest,
         flight_id="{flight}",
@@ -26,81 +29,95 @@ rule diagnose_measured:
         hover=PROCESSING["hover"],
         max_missing_fraction=PROCESSING["max_missing_fraction"],
     script:
-        "../../scripts/diagnose_measured.py"
+        "../scripts/diagnose_measured.py"
 
 
-if DIAGNOSIS["probe_jobs"] == "mechanism":
+# The forward-model runs of a flight: one job per flight (diagnosis.probe_jobs: flight, the
+# default), or one job per flight and part (the baseline seeds, each mechanism's probes) joined
+# by diagnose_forward_parts (probe_jobs: mechanism). The wildcard of the other mode's rules
+# matches no flight.
+FORWARD_BY_FLIGHT = DIAGNOSIS["probe_jobs"] == "flight"
 
-    # one job per flight and part (the baseline seeds, each mechanism's probes), joined
-    rule diagnose_probe:
-        input:
-            measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
-            mast=reference_of,
-        output:
-            RESULTS / "diagnosis" / "forward" / "parts" / "{flight}" / "{part}.json",
-        log:
-            log_path("diagnose_probe", "flight", "part"),
-        benchmark:
-            bench_path("diagnose_probe", "flight", "part")
-        priority: PRIORITY_FORWARD
-        conda:
-            ENV
-        params:
-            campaign=flight_manifest,
-            flight_id="{flight}",
-            processing=CHAIN,
-            seeds=DIAGNOSIS["seeds"],
-            atmosphere=DIAGNOSIS["atmosphere"],
-            part="{part}",
-        script:
-            "../../scripts/diagnose_forward.py"
 
-    rule diagnose_forward:
-        input:
-            parts=expand(
-                RESULTS
-                / "diagnosis"
-                / "forward"
-                / "parts"
-                / "{{flight}}"
-                / "{part}.json",
-                part=PROBE_PARTS,
-            ),
-        output:
-            RESULTS / "diagnosis" / "forward" / "{flight}.json",
-        log:
-            log_path("diagnose_forward", "flight"),
-        benchmark:
-            bench_path("diagnose_forward", "flight")
-        priority: PRIORITY_FORWARD
-        conda:
-            ENV
-        script:
-            "../../scripts/merge_forward.py"
+rule diagnose_forward:
+    input:
+        measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+        mast=reference_of,
+    output:
+        RESULTS / "diagnosis" / "forward" / "{flight}.json",
+    log:
+        log_path("diagnose_forward", "flight"),
+    benchmark:
+        bench_path("diagnose_forward", "flight")
+    wildcard_constraints:
+        flight=only_if(FORWARD_BY_FLIGHT, PAYLOAD_FLIGHTS),
+    priority: PRIORITY_FORWARD
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=800,
+    params:
+        campaign=flight_manifest,
+        flight_id="{flight}",
+        processing=CHAIN,
+        seeds=DIAGNOSIS["seeds"],
+        atmosphere=DIAGNOSIS["atmosphere"],
+    script:
+        "../scripts/diagnose_forward.py"
 
-else:
 
-    rule diagnose_forward:
-        input:
-            measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
-            mast=reference_of,
-        output:
-            RESULTS / "diagnosis" / "forward" / "{flight}.json",
-        log:
-            log_path("diagnose_forward", "flight"),
-        benchmark:
-            bench_path("diagnose_forward", "flight")
-        priority: PRIORITY_FORWARD
-        conda:
-            ENV
-        params:
-            campaign=flight_manifest,
-            flight_id="{flight}",
-            processing=CHAIN,
-            seeds=DIAGNOSIS["seeds"],
-            atmosphere=DIAGNOSIS["atmosphere"],
-        script:
-            "../../scripts/diagnose_forward.py"
+rule diagnose_probe:
+    input:
+        measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+        mast=reference_of,
+    output:
+        RESULTS / "diagnosis" / "forward" / "parts" / "{flight}" / "{part}.json",
+    log:
+        log_path("diagnose_probe", "flight", "part"),
+    benchmark:
+        bench_path("diagnose_probe", "flight", "part")
+    wildcard_constraints:
+        flight=only_if(not FORWARD_BY_FLIGHT, PAYLOAD_FLIGHTS),
+    priority: PRIORITY_FORWARD
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=800,
+    params:
+        campaign=flight_manifest,
+        flight_id="{flight}",
+        processing=CHAIN,
+        seeds=DIAGNOSIS["seeds"],
+        atmosphere=DIAGNOSIS["atmosphere"],
+        part="{part}",
+    script:
+        "../scripts/diagnose_forward.py"
+
+
+rule diagnose_forward_parts:
+    input:
+        parts=expand(
+            RESULTS / "diagnosis" / "forward" / "parts" / "{{flight}}" / "{part}.json",
+            part=PROBE_PARTS,
+        ),
+    output:
+        RESULTS / "diagnosis" / "forward" / "{flight}.json",
+    log:
+        log_path("diagnose_forward_parts", "flight"),
+    benchmark:
+        bench_path("diagnose_forward_parts", "flight")
+    wildcard_constraints:
+        flight=only_if(not FORWARD_BY_FLIGHT, PAYLOAD_FLIGHTS),
+    priority: PRIORITY_FORWARD
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=300,
+    script:
+        "../scripts/merge_forward.py"
 
 
 rule diagnose:
@@ -126,6 +143,9 @@ rule diagnose:
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         alpha=DIAGNOSIS["alpha"],
         max_causes=DIAGNOSIS["max_causes"],
@@ -133,7 +153,7 @@ rule diagnose:
         atmosphere=DIAGNOSIS["atmosphere"],
         bootstrap=DIAGNOSIS["bootstrap"],
     script:
-        "../../scripts/diagnose.py"
+        "../scripts/diagnose.py"
 
 
 # Rigid-mount flights: the platform-motion response (platform_velocity_response) of each
@@ -155,6 +175,9 @@ rule diagnose_platform:
         flight=_alternatives(RIGID_FLIGHTS),
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         flight_id="{flight}",
         alpha=DIAGNOSIS["alpha"],
@@ -163,31 +186,36 @@ rule diagnose_platform:
         flight=flight_entry,
         max_lag_s=PROCESSING["rigid_mount"]["max_lag_s"],
     script:
-        "../../scripts/diagnose_platform.py"
+        "../scripts/diagnose_platform.py"
 
 
-if RIGID_FLIGHTS and not PAYLOAD_FLIGHTS:
+# A campaign without sling-load flights: diagnosis.json holds the rigid flights' results. The
+# wildcard ("diagnosis") matches only in such a campaign; there this rule makes diagnosis.json.
+rule diagnose_rigid:
+    input:
+        manifest=str(CAMPAIGN.path),
+        platform=expand(
+            RESULTS / "diagnosis" / "platform" / "{flight}.json",
+            flight=RIGID_FLIGHTS,
+        ),
+    output:
+        json=RESULTS / "{diagnosis}.json",
+    log:
+        log_path("diagnose_rigid", "diagnosis"),
+    benchmark:
+        bench_path("diagnose_rigid", "diagnosis")
+    wildcard_constraints:
+        diagnosis=only_if(RIGID_FLIGHTS and not PAYLOAD_FLIGHTS, ["diagnosis"]),
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=300,
+    script:
+        "../scripts/rigid_diagnosis.py"
 
-    # a campaign without sling-load flights: diagnosis.json holds the rigid flights' results
-    rule diagnose_rigid:
-        input:
-            manifest=str(CAMPAIGN.path),
-            platform=expand(
-                RESULTS / "diagnosis" / "platform" / "{flight}.json",
-                flight=RIGID_FLIGHTS,
-            ),
-        output:
-            json=RESULTS / "diagnosis.json",
-        log:
-            log_path("diagnose_rigid"),
-        benchmark:
-            bench_path("diagnose_rigid")
-        conda:
-            ENV
-        script:
-            "../../scripts/rigid_diagnosis.py"
 
-    ruleorder: diagnose_rigid > diagnose
+ruleorder: diagnose_rigid > diagnose
 
 
 rule diagnose_extended:
@@ -203,13 +231,16 @@ rule diagnose_extended:
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=700,
     params:
         flight_id="{flight}",
         processing=CHAIN,
         seeds=fresh_seeds(DIAGNOSIS["seeds"]),
         atmosphere=DIAGNOSIS["atmosphere"],
     script:
-        "../../scripts/diagnose_extended.py"
+        "../scripts/diagnose_extended.py"
 
 
 rule diagnosis_report:
@@ -249,5 +280,8 @@ rule diagnosis_report:
         bench_path("diagnosis_report")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=400,
     script:
-        "../../scripts/diagnosis_report.py"
+        "../scripts/diagnosis_report.py"

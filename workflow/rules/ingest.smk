@@ -1,20 +1,28 @@
-# L0 -> L1: raw records to UTC, CF NetCDF with range/spike/gap QC flags.
+# L0 -> L1: raw records to UTC, CF NetCDF with range/spike/gap QC flags (payload flights: and L2).
 
 
-rule payload_l1:
+# A payload flight's sonic and INS to L1 and on to L2 in one job (both steps are cheap): L2 is
+# the hover window, the sonic-INS lag and the motion correction (Ghirardelli et al. 2025, Sect. 3).
+rule payload_l1_l2:
     input:
         sonic=payload_file("sonic"),
         ins=payload_file("ins"),
     output:
         sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
         ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
+        drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
     log:
-        log_path("payload_l1", "flight"),
+        log_path("payload_l1_l2", "flight"),
     benchmark:
-        bench_path("payload_l1", "flight")
+        bench_path("payload_l1_l2", "flight")
+    wildcard_constraints:
+        flight=_alternatives(PAYLOAD_FLIGHTS),
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -26,8 +34,12 @@ rule payload_l1:
         sonic_format=payload_format("sonic"),
         ins_format=payload_format("ins"),
         attribution=ATTRIBUTION,
+        flight=flight_entry,
+        sonic_ins_lag=PROCESSING["sonic_ins_lag"],
+        hover=PROCESSING["hover"],
+        max_missing_fraction=PROCESSING["max_missing_fraction"],
     script:
-        "../../scripts/payload_l1.py"
+        "../scripts/payload_l1_l2.py"
 
 
 rule mast_l1:
@@ -42,6 +54,9 @@ rule mast_l1:
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         sonic=mast_sonic,
@@ -50,4 +65,4 @@ rule mast_l1:
         data_root=str(L0),
         attribution=ATTRIBUTION,
     script:
-        "../../scripts/mast_l1.py"
+        "../scripts/mast_l1.py"

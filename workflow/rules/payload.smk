@@ -1,31 +1,4 @@
-# L1 -> L2 for the payload: hover window, sonic-INS lag, motion correction (Ghirardelli et al. 2025, Sect. 3).
-
-
-rule payload_l2:
-    input:
-        sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
-        ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
-    output:
-        RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
-    log:
-        log_path("payload_l2", "flight"),
-    benchmark:
-        bench_path("payload_l2", "flight")
-    wildcard_constraints:
-        flight=_alternatives(PAYLOAD_FLIGHTS),
-    priority: PRIORITY_CHAIN
-    conda:
-        ENV
-    params:
-        campaign=CAMPAIGN.name,
-        flight_id="{flight}",
-        flight=flight_entry,
-        site=SITE,
-        sonic_ins_lag=PROCESSING["sonic_ins_lag"],
-        hover=PROCESSING["hover"],
-        max_missing_fraction=PROCESSING["max_missing_fraction"],
-    script:
-        "../../scripts/payload_l2.py"
+# Rigid-mount multicopter flights, L0 -> L1 -> L2 (the payload's L1 and L2: ingest.smk).
 
 
 # Rigid-mount multicopter flights: one record (sonic + platform) -> L1 -> L2 (steady segment,
@@ -45,6 +18,9 @@ rule rigid_l1:
         flight=_alternatives(RIGID_FLIGHTS),
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=200,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -54,7 +30,7 @@ rule rigid_l1:
         data_root=str(L0),
         attribution=ATTRIBUTION,
     script:
-        "../../scripts/rigid_l1.py"
+        "../scripts/rigid_l1.py"
 
 
 rule rigid_l2:
@@ -70,6 +46,9 @@ rule rigid_l2:
         flight=_alternatives(RIGID_FLIGHTS),
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -78,4 +57,4 @@ rule rigid_l2:
         rigid_mount=PROCESSING["rigid_mount"],
         max_missing_fraction=PROCESSING["max_missing_fraction"],
     script:
-        "../../scripts/rigid_l2.py"
+        "../scripts/rigid_l2.py"

@@ -3,79 +3,91 @@
 # Sect. 5.2/6 claims, the extended model rerun, the report.
 
 
-if DIAGNOSIS["probe_jobs"] == "mechanism":
+# The forward runs of a published sample: one job per sample, or one per sample and part
+# joined by published_forward_parts (diagnosis.probe_jobs, as for the campaign's flights).
+PUBLISHED_INPUT = [PUBLISHED] if PUBLISHED else []
 
-    # one job per sample and part (the baseline seeds, each mechanism's probes), joined
-    rule published_probe:
-        input:
-            published=PUBLISHED,
-        output:
-            RESULTS / "published" / "forward" / "parts" / "{flight}" / "{part}.json",
-        log:
-            log_path("published_probe", "flight", "part"),
-        benchmark:
-            bench_path("published_probe", "flight", "part")
-        priority: PRIORITY_FORWARD
-        conda:
-            ENV
-        params:
-            campaign=published_manifest,
-            flight_id="{flight}",
-            processing=CHAIN,
-            seeds=PUBLISHED_SEEDS,
-            part="{part}",
-        script:
-            "../../scripts/published_forward.py"
 
-    rule published_forward:
-        input:
-            parts=expand(
-                RESULTS
-                / "published"
-                / "forward"
-                / "parts"
-                / "{{flight}}"
-                / "{part}.json",
-                part=PROBE_PARTS,
-            ),
-        output:
-            RESULTS / "published" / "forward" / "{flight}.json",
-        log:
-            log_path("published_forward", "flight"),
-        benchmark:
-            bench_path("published_forward", "flight")
-        priority: PRIORITY_FORWARD
-        conda:
-            ENV
-        script:
-            "../../scripts/merge_forward.py"
+rule published_forward:
+    input:
+        published=PUBLISHED_INPUT,
+    output:
+        RESULTS / "published" / "forward" / "{flight}.json",
+    log:
+        log_path("published_forward", "flight"),
+    benchmark:
+        bench_path("published_forward", "flight")
+    wildcard_constraints:
+        flight=only_if(FORWARD_BY_FLIGHT, PUBLISHED_FLIGHTS),
+    priority: PRIORITY_FORWARD
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=700,
+    params:
+        campaign=published_manifest,
+        flight_id="{flight}",
+        processing=CHAIN,
+        seeds=PUBLISHED_SEEDS,
+    script:
+        "../scripts/published_forward.py"
 
-else:
 
-    rule published_forward:
-        input:
-            published=PUBLISHED,
-        output:
-            RESULTS / "published" / "forward" / "{flight}.json",
-        log:
-            log_path("published_forward", "flight"),
-        benchmark:
-            bench_path("published_forward", "flight")
-        priority: PRIORITY_FORWARD
-        conda:
-            ENV
-        params:
-            campaign=published_manifest,
-            flight_id="{flight}",
-            processing=CHAIN,
-            seeds=PUBLISHED_SEEDS,
-        script:
-            "../../scripts/published_forward.py"
+rule published_probe:
+    input:
+        published=PUBLISHED_INPUT,
+    output:
+        RESULTS / "published" / "forward" / "parts" / "{flight}" / "{part}.json",
+    log:
+        log_path("published_probe", "flight", "part"),
+    benchmark:
+        bench_path("published_probe", "flight", "part")
+    wildcard_constraints:
+        flight=only_if(not FORWARD_BY_FLIGHT, PUBLISHED_FLIGHTS),
+    priority: PRIORITY_FORWARD
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=700,
+    params:
+        campaign=published_manifest,
+        flight_id="{flight}",
+        processing=CHAIN,
+        seeds=PUBLISHED_SEEDS,
+        part="{part}",
+    script:
+        "../scripts/published_forward.py"
+
+
+rule published_forward_parts:
+    input:
+        parts=expand(
+            RESULTS / "published" / "forward" / "parts" / "{{flight}}" / "{part}.json",
+            part=PROBE_PARTS,
+        ),
+    output:
+        RESULTS / "published" / "forward" / "{flight}.json",
+    log:
+        log_path("published_forward_parts", "flight"),
+    benchmark:
+        bench_path("published_forward_parts", "flight")
+    wildcard_constraints:
+        flight=only_if(not FORWARD_BY_FLIGHT, PUBLISHED_FLIGHTS),
+    priority: PRIORITY_FORWARD
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=300,
+    script:
+        "../scripts/merge_forward.py"
 
 
 rule published_diagnosis:
     input:
-        published=PUBLISHED,
+        published=PUBLISHED_INPUT,
         forward=expand(
             RESULTS / "published" / "forward" / "{flight}.json",
             flight=PUBLISHED_FLIGHTS,
@@ -89,16 +101,19 @@ rule published_diagnosis:
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         alpha=DIAGNOSIS["alpha"],
         max_causes=DIAGNOSIS["max_causes"],
     script:
-        "../../scripts/published_diagnosis.py"
+        "../scripts/published_diagnosis.py"
 
 
 rule published_rerun:
     input:
-        published=PUBLISHED,
+        published=PUBLISHED_INPUT,
         diagnosis=RESULTS / "published" / "diagnosis.json",
     output:
         RESULTS / "published" / "rerun" / "{flight}.json",
@@ -109,18 +124,21 @@ rule published_rerun:
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=800,
     params:
         campaign=published_manifest,
         flight_id="{flight}",
         processing=CHAIN,
         seeds=fresh_seeds(PUBLISHED_SEEDS),
     script:
-        "../../scripts/published_rerun.py"
+        "../scripts/published_rerun.py"
 
 
 rule published_report:
     input:
-        published=PUBLISHED,
+        published=PUBLISHED_INPUT,
         diagnosis=RESULTS / "published" / "diagnosis.json",
         rerun=expand(
             RESULTS / "published" / "rerun" / "{flight}.json", flight=PUBLISHED_FLIGHTS
@@ -141,5 +159,8 @@ rule published_report:
         bench_path("published_report")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     script:
-        "../../scripts/published_report.py"
+        "../scripts/published_report.py"

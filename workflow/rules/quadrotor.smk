@@ -1,8 +1,7 @@
-# SWUF-3D quadrotor fleet (Wetz et al. 2021): L1 of a flight's UAVs, averaging windows per flight,
-# campaign calibration and tables, calibrated L2 wind of a flight's UAVs, diagnosis of the
-# single-law model, figures. Per-flight rules take what they read of the flight's manifest
-# entry as params (never the manifest file), so a change to one flight reruns only that
-# flight's jobs up to the windows (the L2 of every flight follows the campaign calibration).
+# SWUF-3D quadrotor fleet (Wetz et al. 2021): L1 of every UAV and averaging windows of every
+# flight, campaign calibration and tables, calibrated L2 wind of every UAV, diagnosis of the
+# single-law model, figures. The fleet rules take what they read of the flights' manifest
+# entries as params (never the manifest file).
 from dronewind.quadrotor import QUAD_TABLES
 
 # quadrotor figures in the report's "Validation" subcategory (the others: "Calibration")
@@ -13,84 +12,43 @@ QUAD_VALIDATION = (
     "quadrotor_fig9_variance",
 )
 
-if CAMPAIGN.simulated:
-    # One simulate rule per flight: its outputs are the files the manifest names for the
-    # flight's UAVs and tower, which no wildcard pattern can describe.
-    for _qf in QUAD_FLIGHTS:
 
-        rule:
-            name:
-                f"quadrotor_simulate_{_qf}"
-            output:
-                uavs=quad_raw(_qf)[0],
-                reference=quad_raw(_qf)[1],
-            log:
-                str(RESULTS / "logs" / "quadrotor_simulate" / f"{_qf}.log"),
-            benchmark:
-                str(RESULTS / "benchmarks" / "quadrotor_simulate" / f"{_qf}.tsv")
-            conda:
-                ENV
-            params:
-                flight=canonical(CAMPAIGN.quadrotor_flight(_qf)),
-                simulation=quad_simulation(_qf),
-                site=SITE,
-                out_dir=quad_l0_root,
-            script:
-                "../../scripts/quadrotor_simulate.py"
-
-
-# L1 and L2 run one job per flight, for all its UAVs (one process pays the library imports
-# once per flight): one rule per flight, whose outputs are the per-UAV files of the flight's
-# UAVs, which no wildcard pattern can describe.
-for _qf in QUAD_FLIGHTS:
-
-    rule:
-        name:
-            f"quadrotor_l1_{_qf}"
-        input:
-            raw=quad_raw(_qf)[0],
-        output:
-            quad_nc("L1", _qf),
-        log:
-            str(RESULTS / "logs" / "quadrotor_l1" / f"{_qf}.log"),
-        benchmark:
-            str(RESULTS / "benchmarks" / "quadrotor_l1" / f"{_qf}.tsv")
-        conda:
-            ENV
-        params:
-            campaign=CAMPAIGN.name,
-            flight_id=_qf,
-            uavs=quad_uavs(_qf),
-            formats=[u.get("format") for u in CAMPAIGN.quadrotor_flight(_qf)["uavs"]],
-            site=SITE,
-            simulated=CAMPAIGN.simulated,
-            attribution=ATTRIBUTION,
-        script:
-            "../../scripts/quadrotor_l1.py"
-
-
-rule quadrotor_windows:
-    """Wetz et al. (2021) Sect. 5 and App. C: 10-min and 2-min windows of a flight's UAVs with the tower."""
+# The cheap per-flight stages of the whole fleet run in two jobs: simulation (virtual
+# campaigns), L1 and averaging windows of every flight in one, the L2 of every flight in one
+# after the campaign calibration. A flight's UAV files are named in the manifest (its UAV ids),
+# which no wildcard pattern describes; the two jobs list them all (docs/workflow.md).
+rule quadrotor_fleet:
+    """Wetz et al. (2021) Sect. 5 and App. C: L1 of every UAV, 10-min and 2-min windows of every flight with the tower."""
     input:
-        l1=lambda wc: quad_nc("L1", wc.qflight),
-        reference=lambda wc: quad_raw(wc.qflight)[1],
+        raw=[] if CAMPAIGN.simulated else quad_raw_all(),
     output:
-        windows=QUAD_DIR / "windows" / "{qflight}_windows.csv",
-        blocks=QUAD_DIR / "windows" / "{qflight}_blocks.csv",
-        problems=QUAD_DIR / "windows" / "{qflight}_problems.csv",
+        l0=quad_raw_all() if CAMPAIGN.simulated else [],
+        l1=quad_nc_all("L1"),
+        windows=quad_windows("windows"),
+        blocks=quad_windows("blocks"),
+        problems=quad_windows("problems"),
     log:
-        log_path("quadrotor_windows", "qflight"),
+        log_path("quadrotor_fleet"),
     benchmark:
-        bench_path("quadrotor_windows", "qflight")
+        bench_path("quadrotor_fleet")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=600,
     params:
-        flight=quad_flight,
+        campaign=CAMPAIGN.name,
+        flights=quad_fleet(QUAD_FLIGHTS),
+        site=SITE,
+        simulated=CAMPAIGN.simulated,
+        attribution=ATTRIBUTION,
+        l0_dir=quad_l0_root,
         site_altitude_m=SITE["altitude_m"],
         block_s=QUAD["block_s"],
         hover=QUAD["hover"],
     script:
-        "../../scripts/quadrotor_windows.py"
+        "../scripts/quadrotor_fleet.py"
 
 
 rule quadrotor_calibration:
@@ -109,41 +67,44 @@ rule quadrotor_calibration:
     priority: PRIORITY_CHAIN
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         tables_dir=lambda wc, output: str(Path(output.tables[0]).parent),
         calibration_window_s=QUAD["calibration_window_s"],
         roles={f["id"]: f.get("role", "") for f in CAMPAIGN.quadrotor_flights},
     script:
-        "../../scripts/quadrotor_calibration.py"
+        "../scripts/quadrotor_calibration.py"
 
 
-for _qf in QUAD_FLIGHTS:
-
-    rule:
-        name:
-            f"quadrotor_l2_{_qf}"
-        input:
-            l1=quad_nc("L1", _qf),
-            calibration=RESULTS / "tables" / "quadrotor_calibration.csv",
-            summary=QUAD_DIR / "calibration.json",
-        output:
-            quad_nc("L2", _qf),
-        log:
-            str(RESULTS / "logs" / "quadrotor_l2" / f"{_qf}.log"),
-        benchmark:
-            str(RESULTS / "benchmarks" / "quadrotor_l2" / f"{_qf}.tsv")
-        conda:
-            ENV
-        params:
-            campaign=CAMPAIGN.name,
-            flight_id=_qf,
-            uavs=quad_uavs(_qf),
-            site=SITE,
-            average_s=QUAD["average_s"],
-            hover=QUAD["hover"],
-        script:
-            "../../scripts/quadrotor_l2.py"
+rule quadrotor_l2:
+    """Wetz et al. (2021): calibrated 1 Hz wind (L2) of every UAV of every flight."""
+    input:
+        l1=quad_nc_all("L1"),
+        calibration=RESULTS / "tables" / "quadrotor_calibration.csv",
+        summary=QUAD_DIR / "calibration.json",
+    output:
+        quad_nc_all("L2"),
+    log:
+        log_path("quadrotor_l2"),
+    benchmark:
+        bench_path("quadrotor_l2")
+    priority: PRIORITY_CHAIN
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=300,
+    params:
+        campaign=CAMPAIGN.name,
+        flights={f: quad_uavs(f) for f in QUAD_FLIGHTS},
+        site=SITE,
+        average_s=QUAD["average_s"],
+        hover=QUAD["hover"],
+    script:
+        "../scripts/quadrotor_l2.py"
 
 
 rule quadrotor_diagnosis:
@@ -160,13 +121,16 @@ rule quadrotor_diagnosis:
         bench_path("quadrotor_diagnosis")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         alpha=DIAGNOSIS["alpha"],
         min_gain=QUAD["diagnosis"]["min_gain"],
         window_s=QUAD["diagnosis"]["window_s"],
     script:
-        "../../scripts/quadrotor_diagnosis.py"
+        "../scripts/quadrotor_diagnosis.py"
 
 
 rule quadrotor_figures:
@@ -192,7 +156,10 @@ rule quadrotor_figures:
         bench_path("quadrotor_figures")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         tables_dir=lambda wc, input: str(Path(input.tables[0]).parent),
     script:
-        "../../scripts/quadrotor_figures.py"
+        "../scripts/quadrotor_figures.py"

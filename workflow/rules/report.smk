@@ -112,11 +112,13 @@ rule campaign_record:
         bench_path("campaign_record")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=200,
     params:
-        # how the jobs are run (preload) changes no output: not part of the record
-        config=canonical({k: v for k, v in config.items() if k != "preload"}),
+        config=canonical(dict(config)),
     script:
-        "../../scripts/campaign_record.py"
+        "../scripts/campaign_record.py"
 
 
 rule tables:
@@ -135,8 +137,11 @@ rule tables:
         bench_path("tables")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     script:
-        "../../scripts/tables.py"
+        "../scripts/tables.py"
 
 
 rule figures:
@@ -168,8 +173,11 @@ rule figures:
         bench_path("figures")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=600,
     script:
-        "../../scripts/figures.py"
+        "../scripts/figures.py"
 
 
 rule report_pages:
@@ -203,10 +211,13 @@ rule report_pages:
         bench_path("report_pages")
     conda:
         ENV
+    threads: 1
+    resources:
+        mem_mb=300,
     params:
         results=lambda wc, input: str(Path(input.results[0]).parent),
         out_dir=lambda wc, output: str(Path(output.summary).parent),
         figures=REPORT_FIGURES,
         tables=REPORT_TABLE_NAMES,
     script:
-        "../../scripts/report_pages.py"
+        "../scripts/report_pages.py"

@@ -51,11 +51,6 @@ import xarray as xr
 
 from dronewind import __version__
 from dronewind.core.attribution import ATTRIBUTION_KEYS
-from dronewind.core.duckarrays import defer_duck_array_imports
-
-# every module that writes or reads products imports this one: from here on, xarray's checks
-# for dask arrays and pint quantities do not import those libraries (dronewind.core.duckarrays)
-defer_duck_array_imports()
 
 CONVENTIONS = "CF-1.11, ACDD-1.3"
 STANDARD_NAME_VOCABULARY = "CF Standard Name Table v93"  # packaged with the checker: no download

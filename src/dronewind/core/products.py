@@ -14,10 +14,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from dronewind.core.duckarrays import defer_duck_array_imports
 from dronewind.errors import InputError
-
-defer_duck_array_imports()  # reading products: no dask.array / pint import (dronewind.core.duckarrays)
 
 __all__ = ["L4Products", "drone_usable", "load_l4_products", "open_by_flight", "open_product", "stored_scalar"]
 

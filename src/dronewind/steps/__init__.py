@@ -4,7 +4,7 @@ Each step reads its inputs, calls the chain functions (datasets in, datasets out
 :mod:`dronewind.payload.chain`, :mod:`dronewind.mast.chain`, :mod:`dronewind.compare.chain`)
 with the settings it is given, and writes its outputs (NetCDF through
 :func:`dronewind.steps.payload.write_product`, tables atomically). The Snakemake scripts in
-``scripts/`` call these functions with the rule's ``params`` as keyword arguments, so a
+``workflow/scripts/`` call these functions with the rule's ``params`` as keyword arguments, so a
 step can be rerun and debugged by hand without Snakemake. Besides ``cli``, this package is
 the only place that does file I/O for the workflow; the science lives in the topical modules.
 
@@ -17,12 +17,7 @@ Modules: :mod:`~dronewind.steps.common` (logging, campaign record, product reade
 from __future__ import annotations
 
 import importlib
-
-# not typing.TYPE_CHECKING: importing typing costs a job's process 5-15 ms before it hands its
-# job over (dronewind.steps.handoff); mypy takes any TYPE_CHECKING as true
-TYPE_CHECKING = False
-if TYPE_CHECKING:
-    from typing import Any
+from typing import Any
 
 #: Public names re-exported lazily (PEP 562), so that a job importing one step module does not
 #: pay for importing every chain (scipy.signal alone takes about 1 s to import; a quadrotor

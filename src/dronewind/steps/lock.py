@@ -3,7 +3,7 @@
 Snakemake's own lock lives in the ``.snakemake/`` folder of the checkout it runs from, so
 two checkouts (or two users) writing the same results folder do not see each other, and a
 run killed with ``kill -9`` leaves it behind until ``--unlock``. The workflow therefore
-takes this lock instead (``workflow/rules/common.smk``: ``onstart`` takes it, ``onsuccess``
+takes this lock instead (the ``Snakefile``: ``onstart`` takes it, ``onsuccess``
 and ``onerror`` release it; the default profile sets ``nolock: true``):
 
 * ``results/<name>/.dronewind.lock`` is created atomically (a complete temporary file

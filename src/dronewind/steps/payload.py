@@ -11,7 +11,7 @@ flight or sonic and the configuration keys of its rule, which the Snakemake rule
 ``config_sha256`` of a product is the hash of those configuration keys, nested as in
 ``config.yaml`` (e.g. ``{"processing": {"despike": {...}}}`` for L1).
 
-The Snakemake scripts in ``scripts/`` call these functions, so a step can be rerun and
+The Snakemake scripts in ``workflow/scripts/`` call these functions, so a step can be rerun and
 debugged by hand without Snakemake.
 """
 

@@ -4,8 +4,8 @@ Each function reads its inputs, calls the library (:mod:`dronewind.quadrotor.cha
 :mod:`dronewind.tunnel.analysis`, :mod:`dronewind.diagnose.quadrotor`, the simulators) and
 writes its outputs: NetCDF through :func:`dronewind.core.cf.write_netcdf`, tables
 atomically. The settings and manifest entries a step uses are its arguments (Snakemake
-passes them as ``params``). Snakemake scripts in ``scripts/quadrotor_*.py`` and
-``scripts/tunnel_*.py`` call them; they can be rerun by hand.
+passes them as ``params``). Snakemake scripts in ``workflow/scripts/quadrotor_*.py`` and
+``workflow/scripts/tunnel_*.py`` call them; they can be rerun by hand.
 
 Steps and products (``R = results/<name>``):
 

@@ -1,0 +1,11 @@
+"""Snakemake script: the campaign figures (PNG and PDF), drawn from stored products only."""
+
+from pathlib import Path
+
+from dronewind.figures.campaign import draw_all
+from dronewind.steps import logged
+
+sm = snakemake  # noqa: F821 (snakemake is injected)
+with logged(sm.log[0]):
+    results = Path(sm.input.campaign).parent
+    draw_all(results, Path(sm.output.png[0]).parent)
