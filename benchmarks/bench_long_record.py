@@ -72,19 +72,11 @@ def write_days(folder: Path, n_days: int, seed: int = 20260801) -> list[Path]:
     return files
 
 
-def child(files: list[str], out_dir: str, n_workers: int, keep_freed: bool = False) -> None:
-    """Process the files (in this process) and print the measurements as JSON.
-
-    With ``keep_freed`` the process first keeps the memory it frees, as a workflow job does
-    (:func:`dronewind.steps.handoff.keep_freed_memory`).
-    """
+def child(files: list[str], out_dir: str, n_workers: int) -> None:
+    """Process the files (in this process) and print the measurements as JSON."""
     import logging
 
     from dronewind.compare.long_record import process_long_record
-    from dronewind.steps.handoff import keep_freed_memory
-
-    if keep_freed and not keep_freed_memory():
-        raise RuntimeError("keep_freed_memory: the C library did not take the settings")
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s", stream=sys.stderr)
     wall0, cpu0 = time.perf_counter(), time.process_time()
@@ -107,8 +99,7 @@ def _vm_hwm_mb() -> float:
     return float("nan")
 
 
-def run(days: list[int], n_workers: int, keep: Path | None, toa5_dir: Path | None = None,
-        keep_freed: bool = False) -> dict:
+def run(days: list[int], n_workers: int, keep: Path | None, toa5_dir: Path | None = None) -> dict:
     """Generate max(days) daily files once, process the first N in a child process for each N."""
     tmp = Path(tempfile.mkdtemp(prefix="bench_long_record_", dir=keep))
     results = []
@@ -128,7 +119,7 @@ def run(days: list[int], n_workers: int, keep: Path | None, toa5_dir: Path | Non
         for n in days:
             out = tmp / f"out_{n}"
             cmd = [sys.executable, __file__, "--child", "--workers", str(n_workers), "--out-dir", str(out),
-                   *(["--keep-freed-memory"] if keep_freed else []), *[str(f) for f in files[:n]]]
+                   *[str(f) for f in files[:n]]]
             proc = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True, env=os.environ.copy())
             r = json.loads(proc.stdout.strip().splitlines()[-1])
             r.update(days=n, n_files=n, samples_per_s=r["n_samples"] / r["wall_s"],
@@ -145,8 +136,7 @@ def run(days: list[int], n_workers: int, keep: Path | None, toa5_dir: Path | Non
     return {
         "what": "N days of 20 Hz CSAT3 TOA5 (one file per day) -> L1 NetCDF per day -> 30-min block L4 -> "
                 "block_stats.csv, dronewind.compare.long_record.process_long_record in a child process",
-        "command": "benchmarks/bench_long_record.py --days " + " ".join(map(str, days)) + f" --workers {n_workers}"
-                   + (" --keep-freed-memory" if keep_freed else ""),
+        "command": "benchmarks/bench_long_record.py --days " + " ".join(map(str, days)) + f" --workers {n_workers}",
         "machine": machine(),
         "n_workers": n_workers, "generation_s": gen_s, "results": results,
         "wall_s_per_day": per_day,
@@ -166,20 +156,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tmp", type=Path, help="folder for the temporary files (default: the system's)")
     ap.add_argument("--toa5-dir", type=Path, help="reuse the daily files of an earlier run (python "
                     "benchmarks/bench_long_record.py --generate N --out-dir DIR) instead of generating them")
-    ap.add_argument("--keep-freed-memory", action="store_true",
-                    help="the processing child keeps the memory it frees, as a workflow job does")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--generate", type=int, help="only write N daily files into --out-dir and exit")
     ap.add_argument("--out-dir", help="folder of --generate")
     ap.add_argument("files", nargs="*", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        child(args.files, args.out_dir, args.workers, args.keep_freed_memory)
+        child(args.files, args.out_dir, args.workers)
         return 0
     if args.generate:
         print(json.dumps([str(f) for f in write_days(Path(args.out_dir), args.generate)]))
         return 0
-    report = run(sorted(args.days), args.workers, args.tmp, args.toa5_dir, args.keep_freed_memory)
+    report = run(sorted(args.days), args.workers, args.tmp, args.toa5_dir)
     print_and_write(report, args.out, indent=2)
     return 0
 

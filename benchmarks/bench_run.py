@@ -9,8 +9,7 @@ Two runs, each into a fresh results folder, on the cores given (default 2):
   then declared as measured data (no ``simulation:`` section), run to everything the
   workflow makes for a measured campaign (chain, tables, figures, diagnosis, report).
 
-The CPU seconds per stage come from the rules' benchmark files plus, for jobs forked from the
-preloaded process, the table of their children's CPU (:mod:`bench_workflow_rules`). Examples::
+The CPU seconds per stage come from the rules' benchmark files (:mod:`bench_workflow_rules`). Examples::
 
     .venv/bin/python benchmarks/bench_run.py default --out benchmarks/results/run_default.json
     .venv/bin/python benchmarks/bench_run.py measured6 --out benchmarks/results/run_measured6.json

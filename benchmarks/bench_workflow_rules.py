@@ -1,8 +1,7 @@
 """Wall and CPU time per rule of a finished workflow run, from Snakemake's benchmark files.
 
 Every rule writes ``results/<campaign>/benchmarks/<rule>/<wildcards>.tsv`` (Snakemake's
-``benchmark:`` directive: wall seconds ``s``, ``cpu_time``, peak ``max_rss`` MB), plus, for
-jobs run in the preloaded process, the CPU time of their child (``preloaded_jobs.tsv``). This
+``benchmark:`` directive: wall seconds ``s``, ``cpu_time``, peak ``max_rss`` MB). This
 script sums them per rule and per stage, e.g. the time of the diagnosis for the default campaign:
 
     .venv/bin/python benchmarks/bench_workflow_rules.py results/mosai2023
@@ -34,56 +33,16 @@ def stage_of(rule: str) -> str:
 
 
 def collect(results: Path) -> pd.DataFrame:
-    """One row per job: rule, job, wall s, CPU s, max RSS MB.
-
-    A job that ran in the preloaded process (``dronewind.steps.preload``) did its work in a
-    child of that process, which its benchmark file does not see: its CPU time is the
-    benchmark file's (the job's own process) plus the child's, from
-    ``benchmarks/preloaded_jobs.tsv`` (``cpu_s_preloaded``).
-    """
+    """One row per job: rule, job, wall s, CPU s, max RSS MB (the job's last benchmark line)."""
     rows = []
     for tsv in sorted((results / "benchmarks").glob("*/*.tsv")):
         df = pd.read_csv(tsv, sep="\t")
         rows.append({"rule": tsv.parent.name, "job": tsv.stem, "wall_s": float(df["s"].iloc[-1]),
-                     "cpu_s_benchmark": float(df["cpu_time"].iloc[-1]), "max_rss_mb": float(df["max_rss"].iloc[-1])})
+                     "cpu_s": float(df["cpu_time"].iloc[-1]), "max_rss_mb": float(df["max_rss"].iloc[-1])})
     if not rows:
         raise SystemExit(f"{results}: no benchmark files under benchmarks/ (run the workflow first)")
     out = pd.DataFrame(rows)
-    preloaded = preloaded_cpu(results / "benchmarks" / "preloaded_jobs.tsv", set(out["rule"]))
-    key = list(zip(out["rule"], out["job"], strict=True))
-    unmatched = set(preloaded) - set(key)
-    if unmatched:
-        raise SystemExit(f"{results}: preloaded jobs without a benchmark file: {sorted(unmatched)[:5]}")
-    out["cpu_s_preloaded"] = [preloaded.get(k, (0.0, 0.0))[0] for k in key]
-    out["cpu_s"] = out["cpu_s_benchmark"] + out["cpu_s_preloaded"]
-    out["max_rss_mb"] = [max(rss, preloaded.get(k, (0.0, 0.0))[1]) for k, rss in zip(key, out["max_rss_mb"],
-                                                                                       strict=True)]
     out["stage"] = out["rule"].map(stage_of)
-    return out
-
-
-def preloaded_cpu(table: Path, folders: set[str]) -> dict[tuple[str, str], tuple[float, float]]:
-    """CPU seconds and peak memory [MB] of the jobs run in the preloaded process, keyed as the
-    benchmark files (rule folder, job).
-
-    A rule made per flight (``quadrotor_l1_f01``) has its benchmark files in the folder of its
-    stem (``quadrotor_l1/f01.tsv``); a rule with wildcards names its file by their values
-    joined with ``_`` (``all`` without wildcards). The table keeps the jobs of every run into
-    the folder; a job's last successful line is its last run, which its benchmark file holds.
-    """
-    if not table.is_file():
-        return {}
-    df = pd.read_csv(table, sep="\t", dtype={"rule": str, "wildcards": str}, keep_default_na=False)
-    df = df[df["exit_status"] == 0]  # a failed attempt (its rule may be unknown) has no benchmark file of its own
-    out: dict[tuple[str, str], tuple[float, float]] = {}
-    for rule, wildcards, cpu, rss in zip(df["rule"], df["wildcards"], df["cpu_s"], df["max_rss_mb"], strict=True):
-        values = list(json.loads(wildcards).values())
-        if rule in folders:
-            folder, job = rule, "_".join(map(str, values)) or "all"
-        else:
-            folder = max((f for f in folders if rule.startswith(f + "_")), key=len, default=rule)
-            job = rule[len(folder) + 1:]
-        out[(folder, job)] = (float(cpu), float(rss))  # a job run again (a later run): its last run, as its file
     return out
 
 
