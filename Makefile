@@ -3,9 +3,6 @@
 #   make test  -> set up .venv and run the whole test suite
 # The interpreter .venv is made from: the distribution's /usr/bin/python3.11 where it can make a
 # venv, else the first python3.11 on PATH (`make PYTHON=/path/to/python3.11 ...` chooses).
-# Debian's executable has libpython linked in; a pyenv build (--enable-shared, no optimisation
-# flags) runs the same code slower: make test 540 s against 636 s, Snakemake's start 3.5
-# against 4.3 CPU-s, the same outputs.
 PYTHON ?= $(shell /usr/bin/python3.11 -c 'import ensurepip, venv' >/dev/null 2>&1 && echo /usr/bin/python3.11 || echo python3.11)
 VENV := .venv
 BIN := $(VENV)/bin
@@ -30,6 +27,7 @@ venv: $(STAMP)
 
 run: $(STAMP)
 	$(BIN)/snakemake --cores $(CORES)
+	$(BIN)/snakemake --report results/mosai2023/report.html
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder

@@ -150,6 +150,7 @@ rule quadrotor_figures:
             )
             for name in QUAD_FIGURES
         ],
+        [str(RESULTS / "figures" / f"{name}.pdf") for name in QUAD_FIGURES],
     log:
         log_path("quadrotor_figures"),
     benchmark:

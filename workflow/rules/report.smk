@@ -29,6 +29,7 @@ TABLE_SUBCATEGORIES = {
     "table4_flights": "Payload flights",
     "table5_statistics": "Payload flights",
     "flight_stats": "Payload flights",
+    "validation": "Payload flights",
     "diagnosis_evidence": "Diagnosis",
     "published_numbers": "Diagnosis",
     "quadrotor_calibration": "Quadrotor fleet",
@@ -55,10 +56,17 @@ REPORT_FIGURES = {
 }
 REPORT_TABLE_NAMES = (
     (
-        ["table4_flights", "table5_statistics", "flight_stats", "diagnosis_evidence"]
+        [
+            "validation",
+            "table4_flights",
+            "table5_statistics",
+            "flight_stats",
+            "diagnosis_evidence",
+        ]
         if PAYLOAD_FLIGHTS
         else []
     )
+    + (["flight_stats"] if RIGID_FLIGHTS and not PAYLOAD_FLIGHTS else [])
     + (["published_numbers"] if PUBLISHED else [])
     + (
         ["quadrotor_calibration", "quadrotor_table2", "quadrotor_table3"]
@@ -96,6 +104,7 @@ REPORT_INPUTS = list(
             if QUAD_FLIGHTS or TUNNEL_RUNS is not None
             else []
         )
+        + autopilot_targets()
     )
 )
 
@@ -131,6 +140,7 @@ rule tables:
     output:
         multiext(str(RESULTS / "tables" / "table4_flights"), ".csv", ".md", ".tex"),
         multiext(str(RESULTS / "tables" / "table5_statistics"), ".csv", ".md", ".tex"),
+        multiext(str(RESULTS / "tables" / "validation"), ".csv", ".md"),
     log:
         log_path("tables"),
     benchmark:

@@ -68,6 +68,7 @@ rule tunnel_figures:
             )
             for name in TUNNEL_FIGURES
         ],
+        [str(RESULTS / "figures" / f"{name}.pdf") for name in TUNNEL_FIGURES],
     log:
         log_path("tunnel_figures"),
     benchmark:

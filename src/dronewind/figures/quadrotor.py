@@ -122,7 +122,8 @@ def _scatter_by_uav(ax: Any, table: pd.DataFrame, x: str, y: str) -> None:
 
 
 def _by_path(outputs: Sequence[str | Path]) -> dict[str, Path]:
-    return {Path(p).stem: Path(p) for p in outputs}
+    """The PNG outputs by stem (the vector copy of each is written beside its PNG)."""
+    return {Path(p).stem: Path(p) for p in outputs if Path(p).suffix == ".png"}
 
 
 def _fig3_individual(win: pd.DataFrame, label: str, path: Path, note: str) -> Path:
