@@ -193,6 +193,7 @@ def test_real_finse_log():
 
 
 @needs_real
+@pytest.mark.slow
 def test_real_campaign_workflow(tmp_path):
     """The shipped campaign through Snakemake: L3, L4, the table and the figure."""
     campaign = ROOT / "config" / "campaigns" / "real_ardupilot_finse.yaml"

@@ -133,6 +133,7 @@ def test_gap_above_limit_unusable_with_reason_below_limit_filled():
     assert first_loose.attrs["usable"] == 1 and first_loose.attrs["n_gap_filled"] == 180
 
 
+@pytest.mark.slow
 def test_too_few_samples_unusable_with_reason():
     l1 = make_l1(BLOCKS[:1])
     l4 = blk.record_blocks(l1, blk.BlockSettings.from_processing({"block_s": 1.0}))[0]  # 10 samples a block

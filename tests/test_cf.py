@@ -45,6 +45,7 @@ def test_timeseries_file_passes_compliance_checker(tmp_path):
     assert ok, report
 
 
+@pytest.mark.slow
 def test_checking_files_together_gives_each_file_the_command_line_verdict(tmp_path):
     """One checker process for several files: each file's verdict is the exit status of
     ``compliance-checker`` run on it alone (a product that passes, one without CF and ACDD

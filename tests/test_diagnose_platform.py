@@ -66,6 +66,7 @@ def test_present_model_true_names_nothing(tmp_path):
         assert d["present_model"][group]["band_hz"][0] > 0.0
 
 
+@pytest.mark.slow
 def test_null_false_alarm_rate(tmp_path):
     """20 records under the present model: at alpha = 0.05 at most 3 false alarms (P(X > 3) = 0.016 if calibrated)."""
     alarms = 0

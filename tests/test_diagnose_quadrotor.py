@@ -21,6 +21,8 @@ from dronewind.errors import InputError
 from dronewind.quadrotor import windows as qw
 from dronewind.simulate.quadrotor import log_profile_wind, simulate_quadrotor_flight
 
+pytestmark = pytest.mark.slow  # workflow runs or repeated diagnoses: not in the fast tier
+
 UAVS = ("q01", "q02", "q03")
 
 

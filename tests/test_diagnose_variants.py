@@ -17,6 +17,8 @@ import pytest
 from dronewind.diagnose import campaign as dc
 from dronewind.diagnose.features import FEATURES
 
+pytestmark = pytest.mark.slow  # workflow runs or repeated diagnoses: not in the fast tier
+
 #: baseline seeds per flight (the diagnosis needs at least 30: dronewind.diagnose.probes.MIN_SEEDS)
 N_SEEDS = 30
 #: bootstrap replicates of the reference distributions (fewer than the default 600, for speed: a

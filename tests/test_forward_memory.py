@@ -224,6 +224,7 @@ def _measured_mast(camp: dict, conditions: dict):
 
 
 @pytest.mark.parametrize("atmosphere", ["model", "measured"])
+@pytest.mark.slow
 def test_parts_run_apart_merge_into_the_whole_flight(atmosphere):
     """The workflow's per-mechanism probe jobs give, merged, the runs of one job per flight.
 

@@ -31,6 +31,8 @@ from dronewind.quadrotor import chain
 from dronewind.steps import open_product
 from dronewind.steps import quadrotor as pq
 
+pytestmark = pytest.mark.slow  # workflow runs or repeated diagnoses: not in the fast tier
+
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 SITE = {"name": "GM Falkenberg", "latitude": 52.1667, "longitude": 14.1236, "altitude_m": 73.0}

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from dronewind.core.constants import AIR_DENSITY_KGM3
 from dronewind.quadrotor.validation import wetz2021_tables
@@ -42,6 +43,7 @@ def test_calibration_flights_only_fit_the_calibration():
     assert rmse_day1 > rmse_all
 
 
+@pytest.mark.slow
 def test_two_day_campaign_of_delimited_records_through_the_workflow(tmp_path):
     """Delimited 1-Hz records with gaps, the reference in their own columns, day 1 calibration and
     day 2 validation: the workflow calibrates on day 1 and lists every skipped window."""

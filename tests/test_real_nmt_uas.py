@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = record_path("nmt_uas_sonic", "level0.csv")
 CAMPAIGN = ROOT / "config" / "campaigns" / "real_nmt_uas.yaml"
 
-pytestmark = needs_record("nmt_uas_sonic")
+pytestmark = [needs_record("nmt_uas_sonic"), pytest.mark.slow]
 
 
 @pytest.fixture(scope="module")

@@ -32,6 +32,8 @@ from dronewind.core.cf import check_compliance
 from dronewind.core.products import open_product
 from tests.conftest import needs_record, record_path
 
+pytestmark = pytest.mark.slow  # workflow runs or repeated diagnoses: not in the fast tier
+
 ROOT = Path(__file__).resolve().parents[1]
 GOLD = record_path("ameriflux_gold_openpath")
 FLUXPART = record_path("fluxpart_csat3_toa5")
