@@ -13,7 +13,7 @@ export DRONEWIND_DATA ?= $(abspath ../shared/data)
 # pytest-xdist workers of `make test` (tests sharing a session or module fixture stay on one worker: tests/conftest.py)
 TEST_WORKERS ?= 2
 
-.PHONY: run test venv lint bench validate clean
+.PHONY: run test test-fast venv lint bench validate clean
 
 $(STAMP): workflow/envs/requirements.txt workflow/envs/constraints.txt pyproject.toml
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
@@ -31,6 +31,10 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder
+
+# the fast tier: unit, property and known-answer tests of the library (no workflow runs), under a minute
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -n $(TEST_WORKERS) -m "not slow" -q
 
 lint: $(STAMP)
 	$(BIN)/lint-imports --no-cache

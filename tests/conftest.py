@@ -264,8 +264,15 @@ def _fixture_groups(items: list) -> dict[int, str]:
     return {k: find(units[0]) for k, units in units_of.items()}
 
 
+#: Test packages whose tests run the workflow or read its products (tests/workflow, tests/figures):
+#: every test there is ``slow``, outside the fast tier (``make test-fast``: ``-m "not slow"``).
+SLOW_PACKAGES = frozenset({"workflow", "figures"})
+
+
 def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config, items: list) -> None:
     """The tests of :data:`BACKGROUND_MODULES` last (in their order), so that their runs overlap the others.
+
+    Every test of :data:`SLOW_PACKAGES` is marked ``slow``.
 
     With ``--dist loadgroup`` (``make test``), an xdist worker also writes the group of every
     test that shares a module- or session-scoped fixture (:func:`_fixture_groups`) to
@@ -273,6 +280,9 @@ def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config
     the groups held together by a session fixture first: run with ``--no-loadscope-reorder``,
     the longest work starts first and the short, ungrouped tests fill the gaps.
     """
+    for item in items:
+        if item.path.parent.name in SLOW_PACKAGES:
+            item.add_marker(pytest.mark.slow)
     if getattr(config.option, "loadgroup", False) and is_xdist_worker(config):
         groups = _fixture_groups(items)
         atomic_write_text(xdist_groups_file(config), json.dumps({items[k].nodeid: g for k, g in groups.items()}))
