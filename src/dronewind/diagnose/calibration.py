@@ -29,7 +29,11 @@ the signal). :math:`\tau_f^2` is the method-of-moments estimate of DerSimonian a
 95 % interval by the Q-profile method (Viechtbauer 2007). The discrepancy enters every test of
 a candidate through the residual covariance
 :math:`C_i = D_i R^* D_i + \mathrm{diag}(\tau^2)` (:func:`dronewind.diagnose.covariance.flight_correlations`),
-so that a cause is named only where its signature across flights stands above it.
+so that a cause is named only where its signature across flights stands above it. It is
+profiled under each candidate (:func:`profiled_fit`): estimated from the residuals after the
+candidate's fit, whose parameters took :math:`h_f` of each feature's degrees of freedom
+(:func:`fit_dof`), so that a real mechanism's signature does not inflate the discrepancy its
+own test is weighed against.
 
 Reference distributions
 -----------------------
@@ -43,9 +47,15 @@ scales, the shrunk correlation, the discrepancy) and every statistic. The refere
 holds the sampling error of the measured flight, that of the seeds' mean, the error of the
 covariance estimated from the seeds and of the discrepancy estimated from the flights, the
 bounds of the parameters and the piecewise-linear responses: none of the :math:`\chi^2`
-approximations is needed. Family-wise p-values over candidates (or features) are
-Westfall and Young's (1993) min-p: the share of replicates whose smallest p-value over the
-family is at most the observed one.
+approximations is needed. The candidates' statistics are computed on every replicate as on
+the campaign, the discrepancy profiled under each. Family-wise p-values over candidates (or
+features) are Westfall and Young's (1993) single-step min-p: the share of the :math:`B + 1`
+draws (the replicates and the observed campaign) whose smallest marginal p-value over the
+family is at most the observed one. The marginal p-values are pivotal tails
+(:math:`\chi^2_k` of a likelihood-ratio statistic, the normal of a z statistic), so the
+family-wise p-value resolves down to :math:`1/(B+1)`; ranks among the replicates alone could
+not go below about :math:`m/(B+1)` for :math:`m` tests. Every p-value has the Monte-Carlo
+standard error :math:`\sqrt{p(1-p)/(B+1)}` (:func:`mc_standard_error`).
 
 References
 ----------

@@ -28,16 +28,29 @@ freedom, so that the intensity stays below about 0.3 and real correlations are k
 Model discrepancy (:mod:`dronewind.diagnose.calibration`): the scatter of every feature's
 residuals across flights beyond its sampling error, about a common offset and trend, is
 estimated per feature (Kennedy and O'Hagan 2001; DerSimonian and Laird 1986) and added to the
-residual covariance of every test of a candidate,
-:math:`C_i = D_i R^* D_i + \mathrm{diag}(\tau^2)`, so that a cause is named only where its
-signature across flights stands above the misfit no candidate describes.
+residual covariance, :math:`C_i = D_i R^* D_i + \mathrm{diag}(\tau^2)`. It is profiled under
+every candidate: estimated from the residuals the candidate's fit leaves, with the degrees of
+freedom the fit took (the leverage of its parameters) accounted for
+(:func:`dronewind.diagnose.calibration.profiled_fit`), so that a mechanism's own signature is
+not counted as discrepancy against it, and a cause is named only where its signature across
+flights stands above the misfit it does not describe. The baseline's discrepancy (no candidate)
+is reported in ``error_model``, each candidate's under ``candidates[].discrepancy_sd``.
 
 Reference distributions: the likelihood-ratio statistic of every candidate, the goodness of
 fit and the offset and trend tests of ``unexplained`` are referred to a parametric bootstrap
-over seeds that repeats every estimate above on each replicate
-(:func:`dronewind.diagnose.calibration.null_reference`); candidates are tested by the
-Westfall-Young min-p over the candidates of a naming round, at the family-wise rate
-``diagnosis.alpha``.
+over seeds that repeats every estimate above on each replicate, the profiled discrepancy of
+every candidate included (:func:`dronewind.diagnose.calibration.null_reference`). Candidates
+are tested by the Westfall and Young (1993) single-step min-p over the candidates of a naming
+round, each statistic through its :math:`\chi^2_k` tail and the observed campaign counted among
+the :math:`B + 1` draws, so that p-values are :math:`(1 + \#\{T^* \ge T\})/(B + 1)`-type and
+the smallest is :math:`1/(B+1)`; a level below that is refused. Every bootstrap p-value is
+reported with its Monte-Carlo standard error :math:`\sqrt{p(1-p)/(B+1)}` (``p_mc_se``).
+
+The diagnosis is split by what each part holds: the error model and the evidence arrays
+(:mod:`dronewind.diagnose.evidence`), the naming rounds (:mod:`dronewind.diagnose.naming`),
+goodness of fit and ``unexplained`` (:mod:`dronewind.diagnose.fit_quality`) and the
+``diagnosis.json`` record (:mod:`dronewind.diagnose.record`); this module gathers their
+public names.
 
 Naming: a significant candidate is named when its held-out gain reaches ``diagnosis.min_gain``;
 a further cause only when it raises the held-out gain of the named set by more than that

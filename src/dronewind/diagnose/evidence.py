@@ -313,17 +313,20 @@ def error_model(ev: CampaignEvidence, result: DiagnosisResult | None = None) -> 
         if d is not None:
             out["discrepancy"] = {
                 "method": "DerSimonian-Laird moments about a common offset (and a wind-speed trend from "
-                          f"{MIN_FLIGHTS_TREND} flights), 95 % Q-profile interval; added to the covariance of every "
-                          "candidate test",
+                          f"{MIN_FLIGHTS_TREND} flights), 95 % Q-profile interval, of the baseline's residuals "
+                          "(listed here); profiled under every candidate (its fit's residuals, the degrees of freedom "
+                          "it took accounted for) and added to the covariance of its test",
                 "per_feature": {f: {"tau": finite_or_none(d.tau[j]),
                                     "ci95": [finite_or_none(d.low[j]), finite_or_none(d.high[j])],
                                     "q": finite_or_none(d.q_statistic[j]), "dof": float(d.dof[j])}
                                 for j, f in enumerate(FEATURES) if d.dof[j] > 0},
             }
         ref = result.reference
-        out["reference"] = ({"method": "parametric bootstrap over seeds (every estimate repeated per replicate); "
-                                       "candidates by Westfall-Young min-p over each naming round",
-                             "replicates": ref.n_replicates, "seed": ref.seed}
+        out["reference"] = ({"method": "parametric bootstrap over seeds (every estimate repeated per replicate, "
+                                       "the profiled discrepancy included); candidates by Westfall-Young single-step "
+                                       "min-p over each naming round (chi-square tails as marginals)",
+                             "replicates": ref.n_replicates, "seed": ref.seed,
+                             "smallest_p": 1.0 / (ref.n_replicates + 1)}
                             if ref is not None else
                             {"method": "chi-square, Bonferroni over mechanisms (fewer than two seeds: no bootstrap)"})
     return out

@@ -103,7 +103,8 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
         "sigma_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
         "error_model": error_model(ev, result),
         "method": "forward-model responses (simulated probes, common random numbers), bounded least squares "
-                  "whitened by the shrunk feature correlation of the baseline seeds plus the model discrepancy, "
+                  "whitened by the shrunk feature correlation of the baseline seeds plus the model discrepancy "
+                  "profiled under each candidate, "
                   "leave-one-flight-out gain, likelihood-ratio test referred to a parametric bootstrap over seeds "
                   "(Westfall-Young min-p over each naming round's candidates at alpha), greedy naming while the "
                   "held-out gain rises by more than its uncertainty; see dronewind.diagnose",
