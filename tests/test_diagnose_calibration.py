@@ -157,8 +157,10 @@ def test_discrepancy_profiled_under_the_right_candidate_is_the_true_discrepancy(
     errors 0.5-1: estimated from the baseline's residuals the discrepancy holds the mechanism
     (tau^2 of the first feature several times the truth); profiled under the right candidate,
     its mean over 40 campaigns is the truth within 20 % of the largest tau^2 (the DerSimonian-Laird
-    moment is unbiased before truncation at zero; the fit's lost degree of freedom accounted for),
-    and the fitted parameter is 2 within 0.15 on average."""
+    moment is unbiased before truncation at zero; the fit's projection accounted for), and the
+    fitted parameter is 2 within 0.15 on average. A signature that is an offset and a trend with
+    wind speed takes no degree of freedom from the moments (they are taken about both): the
+    profiled discrepancy is then the baseline's."""
     rng = np.random.default_rng(11)
     n, p = 30, 4
     tau = np.array([0.6, 0.0, 1.0, 0.3])
@@ -175,10 +177,18 @@ def test_discrepancy_profiled_under_the_right_candidate_is_the_true_discrepancy(
         base_t2.append(tau0**2)
         prof_t2.append(prof.discrepancy.tau_or_zero() ** 2)
         est.append(prof.fit.theta[0])
-        assert prof.lost_dof.sum() == pytest.approx(1.0, abs=1e-6)
     assert np.mean(base_t2, axis=0)[0] > 4.0 * tau[0] ** 2
     assert np.mean(prof_t2, axis=0) == pytest.approx(tau**2, abs=0.2)
     assert np.mean(est) == pytest.approx(2.0, abs=0.15)
+    signature = np.zeros((n, p))
+    signature[:, 0] = 0.1 * speed
+    sigma = np.full((n, p), 0.5)
+    y = 2.0 * signature + rng.normal(size=(n, p)) * tau[None, :] + rng.normal(size=(n, p)) * sigma
+    tau0 = discrepancy(y, sigma, speed).tau_or_zero()
+    total, fcorr = flight_correlations(None, sigma, tau0)
+    prof = profiled_fit(_linear_model(signature), y, sigma, None, speed, (total, Whitener(fcorr)))
+    assert prof.discrepancy.tau_or_zero() == pytest.approx(tau0, abs=1e-6)
+    assert prof.lost_dof == pytest.approx(np.zeros(p), abs=1e-6)
 
 
 def test_fit_dof_is_the_leverage_of_the_free_parameters() -> None:

@@ -86,9 +86,10 @@ import scipy.stats
 from dronewind.diagnose.covariance import Whitener, flight_correlations, nearest_correlation, shrunk_correlation
 from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters
 
-__all__ = ["Discrepancy", "discrepancy", "fit_dof", "ProfiledFit", "profiled_fit", "seed_scale", "offset_trend_z",
-           "NullReference", "null_reference", "empirical_p", "familywise_p", "mc_standard_error", "smallest_p",
-           "check_attainable", "MIN_FLIGHTS_TREND", "MAX_LOST_SHARE", "DEFAULT_REPLICATES"]
+__all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
+           "profiled_fit", "seed_scale", "offset_trend_z", "NullReference", "null_reference", "empirical_p",
+           "familywise_p", "mc_standard_error", "smallest_p", "check_attainable", "MIN_FLIGHTS_TREND",
+           "MAX_LOST_SHARE", "DEFAULT_REPLICATES"]
 
 #: Flights needed before a trend with wind speed is removed besides the offset when the
 #: discrepancy is estimated (two degrees of freedom left). Most mechanisms' effects grow or decay
@@ -233,8 +234,8 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
     return Discrepancy(np.sqrt(tau2), np.sqrt(low), np.sqrt(high), q_stat, dof, trend)
 
 
-def fit_dof(model: ResponseModel, theta: np.ndarray, total_sigma: np.ndarray, flights: np.ndarray) -> np.ndarray:
-    """Degrees of freedom a candidate's fit takes from each feature: the leverage of its parameters.
+def fit_jacobian(model: ResponseModel, theta: np.ndarray, flights: np.ndarray) -> np.ndarray:
+    """Derivative of a candidate's prediction at its fit with respect to its free parameters.
 
     Parameters
     ----------
@@ -242,19 +243,15 @@ def fit_dof(model: ResponseModel, theta: np.ndarray, total_sigma: np.ndarray, fl
         The candidate's responses.
     theta : numpy.ndarray
         Its fitted parameters.
-    total_sigma : numpy.ndarray
-        Errors of the residuals the fit weighed (n_flights, p).
     flights : numpy.ndarray
         Indices of the fitted flights.
 
     Returns
     -------
     numpy.ndarray
-        :math:`h_f = \\sum_i H_{(i,f),(i,f)}` (p,), with :math:`H = A (A^\\top A)^{-1} A^\\top` the hat
-        matrix of the linearised fit, :math:`A_{(i,f),j} = \\partial \\hat y_{if} / \\partial\\theta_j /
-        \\sigma_{if}` (one-sided differences of the piecewise-linear responses; the diagonal
-        weights, the features' correlation left out). Parameters at a bound (an active
-        constraint) take none; :math:`\\sum_f h_f` is the number of free parameters.
+        (n_flights, p, m): one-sided differences of the piecewise-linear responses (a step of
+        1e-3 of the parameter's range, toward the inside); a parameter at a bound (an active
+        constraint) is left out (m counts the free parameters; NaN effects are 0).
     """
     theta = np.asarray(theta, dtype=float)
     base = model.predict(theta, flights)
@@ -266,16 +263,112 @@ def fit_dof(model: ResponseModel, theta: np.ndarray, total_sigma: np.ndarray, fl
         step = 1e-3 * span * (1.0 if theta[k] + 1e-3 * span <= par.upper else -1.0)
         moved = theta.copy()
         moved[k] += step
-        cols.append(((model.predict(moved, flights) - base) / step).ravel())
-    p = base.shape[1]
-    if not cols:
+        d = (model.predict(moved, flights) - base) / step
+        cols.append(np.where(np.isfinite(d), d, 0.0))
+    return np.stack(cols, axis=2) if cols else np.zeros((*base.shape, 0))
+
+
+def fit_dof(model: ResponseModel, theta: np.ndarray, total_sigma: np.ndarray, flights: np.ndarray) -> np.ndarray:
+    r"""Leverage of a candidate's free parameters on each feature (the diagonal weights of its fit).
+
+    Returns
+    -------
+    numpy.ndarray
+        :math:`h_f = \sum_i H_{(i,f),(i,f)}` (p,), with :math:`H = A (A^\top A)^{-1} A^\top`,
+        :math:`A_{(i,f),j} = \partial \hat y_{if} / \partial\theta_j / \sigma_{if}`
+        (:func:`fit_jacobian`); :math:`\sum_f h_f` is the number of free parameters. It is the
+        share of each feature's degrees of freedom the fit takes before any offset or trend is
+        removed; :func:`profiled_discrepancy` works with the exact moments instead.
+    """
+    jac = fit_jacobian(model, theta, flights)
+    n, p, m = jac.shape
+    if m == 0:
         return np.zeros(p)
-    s = np.asarray(total_sigma[flights], dtype=float).ravel()
+    s = np.asarray(total_sigma[flights], dtype=float)
     ok = np.isfinite(s) & (s > 0)
-    a = np.column_stack(cols)
-    a = np.where(ok[:, None] & np.isfinite(a), a / np.where(ok, s, 1.0)[:, None], 0.0)
+    a = np.where(ok[..., None], jac / np.where(ok, s, 1.0)[..., None], 0.0).reshape(n * p, m)
     h = np.einsum("ij,jk,ik->i", a, np.linalg.pinv(a.T @ a), a)
-    return h.reshape(base.shape).sum(axis=0)
+    return h.reshape(n, p).sum(axis=0)
+
+
+def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None,
+                         jacobian: np.ndarray, fit_sigma: np.ndarray, tau_start: np.ndarray) -> Discrepancy:
+    r"""Model discrepancy per feature of the residuals after a candidate's fit (moments with the fit's projection).
+
+    Parameters
+    ----------
+    residual : numpy.ndarray
+        Measured minus the candidate's fitted prediction (n_flights, p) [feature units].
+    sigma : numpy.ndarray
+        Sampling errors (n_flights, p) [feature units].
+    speed_ms : numpy.ndarray or None
+        Mean wind speed of every flight [m s-1] (the trend of :func:`discrepancy`).
+    jacobian : numpy.ndarray
+        :func:`fit_jacobian` at the fit (n_flights, p, m).
+    fit_sigma : numpy.ndarray
+        The errors the fit weighed (n_flights, p): :math:`\hat\theta = (A^\top A)^{-1} A^\top z`,
+        :math:`A = J / s`, :math:`z = r_0 / s` (linearised, the features' correlation left out).
+    tau_start : numpy.ndarray
+        Discrepancy of the other features (p,) in the expected misfit they leak into a
+        feature through the fit.
+
+    Returns
+    -------
+    Discrepancy
+        As :func:`discrepancy` (no interval). For feature :math:`f` the residuals after the fit
+        and after the offset (and trend) are :math:`e = B_f r_0`, :math:`B_f = W^{1/2} M (E_f - J_f K)`
+        with :math:`M` the weighted residual maker of the offset and trend,
+        :math:`K = (A^\top A)^{-1} A^\top S^{-1}` and :math:`E_f` the selection of feature :math:`f`;
+        with :math:`r_0` of variances :math:`\sigma^2 + \tau^2`,
+        :math:`E[Q_f] = \sum_k (B_f)^2_{\cdot k} \sigma_k^2 + \tau_f^2 \sum_{k \in f} (B_f)^2_{\cdot k}
+        + \sum_{k \notin f} (B_f)^2_{\cdot k} \tau_{f(k)}^2`, and the moment equation gives
+        :math:`\hat\tau_f^2` (DerSimonian and Laird 1986 with the fit's projection: without a
+        fit it is their estimate). ``dof`` is the expected :math:`Q_f` without discrepancy
+        (:math:`n - q` less what the fit took), a fit whose signature in a feature is an
+        offset or a trend takes nothing from it.
+    """
+    r_all = np.asarray(residual, dtype=float)
+    s_all = np.asarray(sigma, dtype=float)
+    n, p = r_all.shape
+    m = jacobian.shape[2]
+    speed = np.full(n, np.nan) if speed_ms is None else np.asarray(speed_ms, dtype=float)
+    fs = np.asarray(fit_sigma, dtype=float)
+    used = np.isfinite(fs) & (fs > 0) & np.isfinite(r_all)
+    a = np.where(used[..., None], jacobian / np.where(used, fs, 1.0)[..., None], 0.0).reshape(n * p, m)
+    k_map = (np.linalg.pinv(a.T @ a) @ a.T) / np.where(used, fs, 1.0).reshape(1, -1) if m else np.zeros((0, n * p))
+    k_map = np.where(used.reshape(1, -1), k_map, 0.0)
+    var0 = np.where(used, np.where(np.isfinite(s_all), s_all, 0.0) ** 2, 0.0).reshape(-1)
+    tau2_other = np.repeat(np.nan_to_num(np.asarray(tau_start, dtype=float), nan=0.0)[None, :] ** 2, n, axis=0)
+    tau2_other = np.where(used, tau2_other, 0.0).reshape(-1)
+    feature_of = np.tile(np.arange(p), n)
+    tau2 = np.full(p, np.nan)
+    q_stat = np.full(p, np.nan)
+    dof = np.zeros(p)
+    trend = np.zeros(p, dtype=bool)
+    for f in range(p):
+        ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
+        with_trend = bool(ok.sum() >= MIN_FLIGHTS_TREND and np.all(np.isfinite(speed[ok])) and np.ptp(speed[ok]) > 0)
+        x = np.ones((ok.sum(), 1))
+        if with_trend:
+            x = np.column_stack([x, speed[ok] - np.mean(speed[ok])])
+        if int(ok.sum()) - x.shape[1] < 1:
+            continue
+        w = 1.0 / s_all[ok, f] ** 2
+        resid_maker = np.eye(x.shape[0]) - x @ np.linalg.pinv(x.T @ (w[:, None] * x)) @ (x.T * w[None, :])
+        rows = np.flatnonzero(ok) * p + f
+        d = -(jacobian[ok, f, :] @ k_map) if m else np.zeros((ok.sum(), n * p))
+        d[np.arange(ok.sum()), rows] += 1.0
+        b2 = (np.sqrt(w)[:, None] * (resid_maker @ d)) ** 2
+        col = b2.sum(axis=0)
+        own = feature_of == f
+        expected0 = float(col @ var0 + col[~own] @ tau2_other[~own])
+        c = float(col[own].sum())
+        e = resid_maker @ r_all[ok, f]
+        q = float(np.sum(w * e * e))
+        tau2[f] = max(0.0, (q - expected0) / c) if c > 0 else 0.0
+        q_stat[f], dof[f], trend[f] = q, float(col @ var0), with_trend
+    nan = np.full(p, np.nan)
+    return Discrepancy(np.sqrt(tau2), nan, nan, q_stat, dof, trend)
 
 
 @dataclass(frozen=True)
@@ -294,7 +387,8 @@ class ProfiledFit:
     whitener : Whitener
         Whitening of the residual covariance with that discrepancy.
     lost_dof : numpy.ndarray
-        :math:`h_f` of :func:`fit_dof` (p,).
+        Degrees of freedom the fit took from each feature's residuals about their offset
+        (and trend) (p,): :math:`n - q` less the ``dof`` of :func:`profiled_discrepancy`.
     """
 
     fit: FitResult
@@ -317,8 +411,8 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     signature as scatter: it widens the covariance of every candidate's test and hides the
     mechanism it holds. Here the discrepancy is what the candidate leaves: the candidate is
     fitted under the starting covariance, :math:`\\tau_f^2` is estimated from the residuals
-    after that fit (DerSimonian and Laird 1986, with the fit's lost degrees of freedom,
-    :func:`discrepancy` with ``lost_dof``), and the candidate is fitted again under
+    after that fit (DerSimonian and Laird 1986, the fit's projection accounted for in the
+    moments, :func:`profiled_discrepancy`), and the candidate is fitted again under
     :math:`C_i = D_i R^* D_i + \\mathrm{diag}(\\hat\\tau^2)` (Kennedy and O'Hagan 2001). One such
     step; :func:`null_reference` repeats it on every replicate, so the likelihood-ratio
     statistic keeps a calibrated reference whatever the step does to its distribution.
@@ -345,9 +439,13 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     idx = np.arange(y.shape[0])
     total0, white0 = start
     first = fit_parameters(model, y, total0, idx, white0)
-    lost = fit_dof(model, first.theta, total0, idx)
     resid = y - model.predict(first.theta, idx)
-    disc = discrepancy(resid, sigma, speed_ms, interval=interval, lost_dof=lost)
+    with np.errstate(invalid="ignore"):
+        tau_start = np.sqrt(np.nanmedian(np.maximum(total0**2 - sigma**2, 0.0), axis=0))
+    jac = fit_jacobian(model, first.theta, idx)
+    disc = profiled_discrepancy(resid, sigma, speed_ms, jac, total0, tau_start)
+    plain = discrepancy(resid, sigma, speed_ms, interval=False)
+    lost = np.where(np.isfinite(plain.dof) & (plain.dof > 0), plain.dof - disc.dof, 0.0)
     total, fcorr = flight_correlations(corr, sigma, disc.tau_or_zero())
     white = Whitener(fcorr)
     return ProfiledFit(fit_parameters(model, y, total, idx, white), disc, total, white, lost)
