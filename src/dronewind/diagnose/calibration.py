@@ -441,7 +441,8 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     first = fit_parameters(model, y, total0, idx, white0)
     resid = y - model.predict(first.theta, idx)
     with np.errstate(invalid="ignore"):
-        tau_start = np.sqrt(np.nanmedian(np.maximum(total0**2 - sigma**2, 0.0), axis=0))
+        excess = np.where(np.isfinite(total0) & np.isfinite(sigma), np.maximum(total0**2 - sigma**2, 0.0), 0.0)
+    tau_start = np.sqrt(excess.max(axis=0))
     jac = fit_jacobian(model, first.theta, idx)
     disc = profiled_discrepancy(resid, sigma, speed_ms, jac, total0, tau_start)
     plain = discrepancy(resid, sigma, speed_ms, interval=False)
