@@ -155,9 +155,9 @@ def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: fl
     the mast, so the Q test rejects on campaigns with nothing wrong; every feature's discrepancy
     is in ``error_model``. The offset and trend replicates of the bootstrap estimate the
     discrepancy again on every replicate, as here; the family-wise p-value counts the observed
-    campaign among the :math:`B + 1` draws (ranks that left it out made every statistic beyond
-    all replicates of its test significant whatever the number of tests: 4 of 20 null
-    campaigns of the own simulator had an entry). Rates on null campaigns:
+    campaign among the :math:`B + 1` draws (ranks among the replicates alone would make any
+    statistic beyond all replicates of its test significant at :math:`1/(B+1)`, whatever the
+    number of tests). Rates on null campaigns:
     ``benchmarks/results/null_calibration.json``. These are per-feature (marginal) tests, so
     each can be named; this is where model error that no catalog mechanism describes is
     reported.
