@@ -71,16 +71,11 @@ STUDIES: dict[str, Study] = {
                                      "--model-error-share", "1.0", "--only", "model_error:mast_flow_distortion"),
         "mast flow distortion as a model error"),
     "null_calibration": Study("validate_null_calibration.py",
-                              ("--draws", "20", "--workers", "2", "--replicates", "200"),
+                              ("--draws", "60", "--workers", "2", "--replicates", "200"),
                               "calibration of the diagnosis on null campaigns, offsets and trends"),
     "diagnosis_independent_world": Study("validate_independent_world.py",
-                                         ("--draws", "30", "--seed", "11", "--workers", "1"),
+                                         ("--draws", "60", "--seed", "11", "--workers", "1", "--order", "interleaved"),
                                          "rates on campaigns written by an independent simulated world"),
-    "diagnosis_independent_world_mechanisms": Study(
-        "validate_independent_world.py", ("--draws", "30", "--seed", "11", "--workers", "1", "--only",
-                                          "clock_drift,w_gain,heading_bias,sonic_noise,attitude_lag,mount_misalignment,sonic_ins_lag,"
-                                          "mast_w_attenuation"),
-        "the same, hidden mechanisms only"),
     "hidden_identifiability": Study("bench_identifiability.py", (),
                                     "is each mechanism identifiable at a physical size"),
     "model_error_features": Study("bench_model_error_features.py", ("--draws", "12", "--seed", "1"),

@@ -25,6 +25,14 @@ Examples::
     # base lags of 50-150 ms of either sign instead of the paper's -0.185..0 s
     ... --base-lag symmetric
 
+The plan of draws is fixed by ``--draws`` and ``--seed`` (draw ``k`` is the same whatever
+subset runs); ``--indices`` runs part of it, by default in an interleaved order (nulls, model
+errors and mechanisms in proportion, so that a stopped run is a fair sample of the plan).
+Every draw's evidence (the processed campaign: measured features and forward runs) and the
+world's base lags are kept in ``--evidence-dir`` as ``draw{k:03d}.json``: a later run with the
+same plan reuses them and only diagnoses again (``--evidence-only`` writes evidence without
+diagnosing). The results file holds every draw of the plan whose evidence is kept.
+
 A progress log (one JSON line per draw) goes to the output path with ``.log``; the results
 file is rewritten after every draw (so a stopped run keeps what it measured).
 """
@@ -70,34 +78,92 @@ TARGETS = {"nothing_named_null_and_model_error": (">=", 0.90), "named_right_in_t
            "wrong_cause": ("<=", 0.05)}
 
 
-def run_draw(job: tuple[int, Draw, Mapping[str, Any], WorldSettings, str | None]) -> dict[str, Any]:
-    """Write, process, diagnose and judge one draw; its record with CPU seconds per stage."""
-    index, truth, config, settings, keep = job
-    out: dict[str, Any] = {"index": index, "label": truth.label, "case": truth.case, "seed": truth.seed}
+def _evidence_path(evidence_dir: str, index: int) -> Path:
+    return Path(evidence_dir) / f"draw{index:03d}.json"
+
+
+def draw_evidence(index: int, truth: Draw, config: Mapping[str, Any], settings: WorldSettings,
+                  keep: str | None, evidence_dir: str) -> dict[str, Any]:
+    """The processed campaign of draw ``index``: read from ``evidence_dir`` when kept for the same truth
+    and world, else written, processed and kept (a failing chain is kept as the draw's error)."""
+    path = _evidence_path(evidence_dir, index)
+    key = {"truth": asdict(truth), "world": _world(settings)}
+    if path.exists():
+        stored = json.loads(path.read_text())
+        if stored.get("key") == json.loads(json.dumps(key, default=str)):
+            return stored
+    out: dict[str, Any] = {"key": key}
     with tempfile.TemporaryDirectory(prefix=f"world{index}_") as tmp:
         folder = Path(keep) / f"draw{index}" if keep else Path(tmp)
         c0 = c1 = time.process_time()
         try:
             manifest = write_campaign(truth, folder, settings, name=f"world{index}")
             c1 = time.process_time()
-            evidence = measured_campaign_evidence(manifest, config)
-            c2 = time.process_time()
-            diagnosis = diagnose_evidence(evidence, config)
-            c3 = time.process_time()
+            out["evidence"] = measured_campaign_evidence(manifest, config)
+            out["cpu_process_s"] = time.process_time() - c1
+            truth_file = json.loads((folder / "truth.json").read_text())
+            out["base_lags_s"] = {f: c["base_lag_s"] for f, c in truth_file["flights"].items()}
         except Exception as exc:  # a failing chain is a result of the draw, counted as such
-            out.update(error=f"{type(exc).__name__}: {exc}", cpu_write_s=c1 - c0)
-            return out
-        truth_file = json.loads((folder / "truth.json").read_text())
+            out["error"] = f"{type(exc).__name__}: {exc}"
+        out["cpu_write_s"] = c1 - c0
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp_path = path.with_suffix(".tmp")
+    tmp_path.write_text(json.dumps(out, default=str))
+    tmp_path.replace(path)
+    return json.loads(path.read_text())
+
+
+def run_draw(job: tuple[int, Draw, Mapping[str, Any], WorldSettings, str | None, str, bool]) -> dict[str, Any]:
+    """Evidence (kept or made), diagnosis and judgement of one draw; its record with CPU seconds per stage."""
+    index, truth, config, settings, keep, evidence_dir, evidence_only = job
+    out: dict[str, Any] = {"index": index, "label": truth.label, "case": truth.case, "seed": truth.seed}
+    stored = draw_evidence(index, truth, config, settings, keep, evidence_dir)
+    out["cpu_write_s"] = stored.get("cpu_write_s", 0.0)
+    out["cpu_process_s"] = stored.get("cpu_process_s", 0.0)
+    if "error" in stored:
+        out["error"] = stored["error"]
+        return out
+    if evidence_only:
+        out["evidence_only"] = True
+        return out
+    evidence = stored["evidence"]
+    c2 = time.process_time()
+    diagnosis = diagnose_evidence(evidence, config)
+    out["cpu_diagnose_s"] = time.process_time() - c2
+    base_lags = stored["base_lags_s"]
     out["judged"] = judge(truth, diagnosis) if truth.mechanism != "sonic_ins_lag" else _judge_lag(
-        truth, diagnosis, {f: c["base_lag_s"] for f, c in truth_file["flights"].items()})
+        truth, diagnosis, base_lags)
     out["named"] = diagnosis.get("named_causes", [])
-    out["candidates"] = [{k: c.get(k) for k in ("mechanism", "estimate", "gain", "significant")}
+    out["candidates"] = [{k: c.get(k) for k in ("mechanism", "estimate", "gain", "significant", "p_value")}
                          for c in diagnosis.get("candidates", [])[:4]]
     out["unexplained"] = diagnosis.get("unexplained", [])
     out["unusable"] = evidence.get("unusable", [])
-    out["base_lags_s"] = {f: c["base_lag_s"] for f, c in truth_file["flights"].items()}
-    out["cpu_write_s"], out["cpu_process_s"], out["cpu_diagnose_s"] = c1 - c0, c2 - c1, c3 - c2
+    out["base_lags_s"] = base_lags
     return out
+
+
+def _world(settings: WorldSettings) -> dict[str, Any]:
+    return {**asdict(replace(settings)), "line": asdict(settings.line), "ins_errors": asdict(settings.ins_errors)}
+
+
+def interleaved(draws: list[Draw]) -> list[int]:
+    """Indices of ``draws`` ordered so that every prefix holds each case (null, model error, mechanism)
+    in proportion to the plan: by the position of a draw within its case, as a fraction of that case."""
+    by_case: dict[str, list[int]] = {}
+    for k, d in enumerate(draws):
+        by_case.setdefault(d.case, []).append(k)
+    key = {k: ((j + 0.5) / len(ks), k) for ks in by_case.values() for j, k in enumerate(ks)}
+    return sorted(range(len(draws)), key=lambda k: key[k])
+
+
+def _indices(text: str, n: int) -> set[int] | None:
+    """``"a:b"`` (a range), ``"1,5,7"`` or empty (all)."""
+    if not text:
+        return None
+    if ":" in text:
+        a, b = text.split(":")
+        return set(range(int(a or 0), min(int(b or n), n)))
+    return {int(v) for v in text.split(",")}
 
 
 def _judge_lag(truth: Draw, diagnosis: Mapping[str, Any], base_lags_s: Mapping[str, float]) -> dict[str, Any]:
@@ -135,6 +201,7 @@ def rates(records: list[dict[str, Any]]) -> dict[str, Any]:
     * errors: draws where writing or processing failed (counted as failures of every rate
       they enter).
     """
+    records = [r for r in records if not r.get("evidence_only")]
     ok = [r for r in records if "judged" in r]
     nulls = [r for r in records if r["case"] in ("null", "model_error")]
     mechs = [r for r in records if r["case"] == "mechanism"]
@@ -177,24 +244,40 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", default="", help="comma-separated label prefixes to keep (after drawing)")
     parser.add_argument("--keep", default=None, help="folder to keep the written campaigns in (default: temp)")
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks/results/diagnosis_independent_world.json")
+    parser.add_argument("--evidence-dir", type=Path,
+                        default=REPO / "benchmarks/results/diagnosis_independent_world_evidence",
+                        help="folder of the kept evidence per draw (reused when present)")
+    parser.add_argument("--indices", default="", help="draws of the plan to run: 'a:b' or '1,5,7' (default all)")
+    parser.add_argument("--order", choices=["interleaved", "index"], default="interleaved",
+                        help="order of the draws (default interleaved: every prefix a fair sample of the plan)")
+    parser.add_argument("--evidence-only", action="store_true", help="make and keep the evidence, do not diagnose")
     args = parser.parse_args(argv)
 
     settings = WorldSettings(n_flights=args.flights, hover_s=60.0 * args.hover_min, base_lag=args.base_lag)
     config = default_config()
     draws = stratified_world_draws(args.draws, args.seed, args.null_share, args.model_error_share)
-    jobs = [(k, d, config, settings, args.keep) for k, d in enumerate(draws)
-            if not args.only or any(d.label.startswith(p) for p in args.only.split(","))]
+    chosen = _indices(args.indices, len(draws))
+    order = interleaved(draws) if args.order == "interleaved" else list(range(len(draws)))
+    jobs = [(k, draws[k], config, settings, args.keep, str(args.evidence_dir), args.evidence_only) for k in order
+            if (chosen is None or k in chosen)
+            and (not args.only or any(draws[k].label.startswith(p) for p in args.only.split(",")))]
+    # draws of the plan already kept but not chosen this time are diagnosed too: the results hold the plan's kept draws
+    kept = [(k, draws[k], config, settings, args.keep, str(args.evidence_dir), args.evidence_only) for k in order
+            if _evidence_path(str(args.evidence_dir), k).exists() and all(j[0] != k for j in jobs)
+            and (not args.only or any(draws[k].label.startswith(p) for p in args.only.split(",")))]
+    jobs = kept + jobs
     command = "PYTHONPATH=src " + " ".join(shlex.quote(a) for a in [Path(sys.executable).name,
                                                                        *sys.argv])
     head = {"command": command, "commit": git_commit(), "machine": machine(), "processor": platform.processor()
-            or platform.machine(), "cpu_count": os.cpu_count(), "world": {**asdict(replace(settings)),
-                                                                           "line": asdict(settings.line),
-                                                                           "ins_errors": asdict(settings.ins_errors)},
+            or platform.machine(), "cpu_count": os.cpu_count(), "world": _world(settings),
+            "plan": {"draws": args.draws, "seed": args.seed, "null_share": args.null_share,
+                     "model_error_share": args.model_error_share},
             "diagnosis_config": config["diagnosis"], "targets": TARGETS}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     log = args.out.with_suffix(".log")
     records: list[dict[str, Any]] = []
     wall0 = time.perf_counter()
+    result: dict[str, Any] = {}
     with log.open("w") as fh:
         results = Pool(args.workers).imap_unordered(run_draw, jobs) if args.workers > 1 else map(run_draw, jobs)
         for rec in results:
@@ -207,13 +290,17 @@ def main(argv: list[str] | None = None) -> int:
                   flush=True)
             records.sort(key=lambda r: r["index"])
             cpu = [sum(r.get(k, 0.0) for k in ("cpu_write_s", "cpu_process_s", "cpu_diagnose_s")) for r in records]
+            diag = [r["cpu_diagnose_s"] for r in records if "cpu_diagnose_s" in r]
             result = {**head, "n_draws": len(records), "wall_s": time.perf_counter() - wall0,
-                      "cpu_s_per_draw": {"mean": sum(cpu) / len(cpu), "max": max(cpu)},
+                      "cpu_s_per_draw": {"mean": sum(cpu) / len(cpu), "max": max(cpu),
+                                         "diagnose_mean": sum(diag) / len(diag) if diag else None},
                       "rates": rates(records), "draws": records}
+            if args.evidence_only:
+                continue
             tmp = args.out.with_suffix(".tmp")
             tmp.write_text(json.dumps(result, indent=1, default=str) + "\n")
             tmp.replace(args.out)
-    print(json.dumps(result["rates"], indent=1, default=str))
+    print(json.dumps(result.get("rates"), indent=1, default=str))
     return 0
 
 

@@ -10,8 +10,11 @@ library functions in this process, then measures what a calibrated diagnosis mus
   per standard deviation of the flights' wind speeds in another, added to a null's measured
   features, are each reported in ``unexplained`` (detection rates, Wilson intervals).
 
-The forward runs of every draw are kept (``--evidence-dir``), so the statistics can be
-recomputed without simulating again (``--reuse``).
+The forward runs of every draw are kept (``--evidence-dir``, ``draw{k:03d}.json``, deterministic by
+draw index ``k``: seed ``--seed + k``), so the statistics can be recomputed without simulating
+again (``--reuse``: the kept draws among the first ``--draws``), and a stopped run resumes where
+it stopped (draws already kept are not simulated again). The results file is rewritten after
+every analysed draw.
 
 Examples
 --------
@@ -27,6 +30,7 @@ Recompute the statistics from the kept forward runs::
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import multiprocessing
 import platform
@@ -34,6 +38,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -82,6 +87,7 @@ def _analyse(path: str, replicates: int, feature_offset: str, feature_trend: str
     from dronewind.diagnose import campaign as dc
     from dronewind.diagnose.features import FEATURES
 
+    cpu0 = time.process_time()
     evidence = json.loads(Path(path).read_text())
     out: dict[str, Any] = {"draw": Path(path).stem}
     ev = dc.assemble(evidence["measured"], evidence["forward"])
@@ -101,6 +107,7 @@ def _analyse(path: str, replicates: int, feature_offset: str, feature_trend: str
         res_k = dc.diagnose(ev_k, n_replicates=replicates)
         found = {u["feature"] for u in dc.to_json(res_k, evidence["name"])["unexplained"]}
         out[f"{kind}_found"] = feat in found
+    out["cpu_s"] = time.process_time() - cpu0
     return out
 
 
@@ -129,18 +136,38 @@ def main(argv: list[str] | None = None) -> int:
     args.evidence_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     jobs = [(i, args.flights, args.hover_min, args.seed, str(args.evidence_dir)) for i in range(args.draws)]
-    with multiprocessing.get_context("fork").Pool(args.workers) as pool:
-        paths = []
-        for k, path in enumerate(pool.imap(_evidence, jobs) if not args.reuse else
-                                 (str(args.evidence_dir / f"draw{i:03d}.json") for i in range(args.draws))):
-            paths.append(path)
-            print(f"evidence {k + 1}/{args.draws} {path}", file=sys.stderr, flush=True)
-        t_evidence = time.perf_counter() - start
-        rows = []
-        for k, row in enumerate(pool.starmap(_analyse, [(p, args.replicates, args.offset_feature,
-                                                         args.trend_feature) for p in paths])):
+    if args.reuse:  # the kept draws among the first --draws (evidence is deterministic by draw index)
+        paths = [str(args.evidence_dir / f"draw{i:03d}.json") for i in range(args.draws)
+                 if (args.evidence_dir / f"draw{i:03d}.json").exists()]
+    else:
+        with multiprocessing.get_context("fork").Pool(args.workers) as pool:
+            paths = []
+            for k, path in enumerate(pool.imap(_evidence, jobs)):
+                paths.append(path)
+                print(f"evidence {k + 1}/{args.draws} {path}", file=sys.stderr, flush=True)
+    t_evidence = time.perf_counter() - start
+    rows: list[dict[str, Any]] = []
+    work = functools.partial(_analyse, replicates=args.replicates, feature_offset=args.offset_feature,
+                             feature_trend=args.trend_feature)
+    pool = multiprocessing.get_context("fork").Pool(args.workers) if args.workers > 1 else None
+    try:
+        for k, row in enumerate(pool.imap(work, paths) if pool is not None else map(work, paths)):
             rows.append(row)
             print(f"analysed {k + 1}/{len(paths)}", file=sys.stderr, flush=True)
+            summary = _summary(rows, args, argv, t_evidence, time.perf_counter() - start)
+            tmp = args.out.with_suffix(".tmp")
+            tmp.write_text(json.dumps(summary, indent=1) + "\n")
+            tmp.replace(args.out)  # rewritten after every draw: a stopped run keeps what it measured
+    finally:
+        if pool is not None:
+            pool.close()
+    print(json.dumps({k: v for k, v in summary.items() if k != "draws"}, indent=1))
+    return 0
+
+
+def _summary(rows: list[dict[str, Any]], args: argparse.Namespace, argv: list[str] | None, t_evidence: float,
+             seconds: float) -> dict[str, Any]:
+    """Rates with Wilson intervals, the goodness of fit's uniformity and the rows."""
     p = np.array([r["gof_p"] for r in rows])
     per_dof = np.array([r["chi2"] / r["dof"] for r in rows])
     ks = scipy.stats.kstest(p, "uniform")
@@ -151,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     tr = sum(r["trend_found"] for r in rows)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True,
                             text=True).stdout.strip()
-    summary = {
+    return {
         "command": "benchmarks/validate_null_calibration.py " + " ".join(argv if argv is not None else sys.argv[1:]),
         "commit_of_code": commit,
         "processor": platform.processor() or platform.machine(),
@@ -165,16 +192,15 @@ def main(argv: list[str] | None = None) -> int:
                                                               if r["reference_mean"] is not None])),
         },
         "null_named_anything": {"k": false, "n": n, "ci95": _wilson(false, n)},
-        "null_unexplained_anything": {"k": unexpl, "n": n, "ci95": _wilson(unexpl, n)},
+        "null_unexplained_anything": {"k": unexpl, "n": n, "ci95": _wilson(unexpl, n),
+                                      "features": dict(Counter(f for r in rows for f in r["unexplained"]))},
         "offset_2sigma_found": {"feature": args.offset_feature, "k": off, "n": n, "ci95": _wilson(off, n)},
         "trend_1p5sigma_per_sd_found": {"feature": args.trend_feature, "k": tr, "n": n, "ci95": _wilson(tr, n)},
         "shrinkage_intensity_median": float(np.median([r["shrinkage_intensity"] for r in rows])),
-        "seconds": {"evidence": round(t_evidence, 1), "total": round(time.perf_counter() - start, 1)},
+        "seconds": {"evidence": round(t_evidence, 1), "total": round(seconds, 1),
+                    "cpu_per_draw_mean": round(float(np.mean([r["cpu_s"] for r in rows])), 1)},
         "draws": rows,
     }
-    args.out.write_text(json.dumps(summary, indent=1) + "\n")
-    print(json.dumps({k: v for k, v in summary.items() if k != "draws"}, indent=1))
-    return 0
 
 
 if __name__ == "__main__":

@@ -29,7 +29,11 @@ the signal). :math:`\tau_f^2` is the method-of-moments estimate of DerSimonian a
 95 % interval by the Q-profile method (Viechtbauer 2007). The discrepancy enters every test of
 a candidate through the residual covariance
 :math:`C_i = D_i R^* D_i + \mathrm{diag}(\tau^2)` (:func:`dronewind.diagnose.covariance.flight_correlations`),
-so that a cause is named only where its signature across flights stands above it.
+so that a cause is named only where its signature across flights stands above it. It is
+profiled under each candidate (:func:`profiled_fit`): estimated from the residuals after the
+candidate's fit, whose parameters took :math:`h_f` of each feature's degrees of freedom
+(:func:`fit_dof`), so that a real mechanism's signature does not inflate the discrepancy its
+own test is weighed against.
 
 Reference distributions
 -----------------------
@@ -43,9 +47,15 @@ scales, the shrunk correlation, the discrepancy) and every statistic. The refere
 holds the sampling error of the measured flight, that of the seeds' mean, the error of the
 covariance estimated from the seeds and of the discrepancy estimated from the flights, the
 bounds of the parameters and the piecewise-linear responses: none of the :math:`\chi^2`
-approximations is needed. Family-wise p-values over candidates (or features) are
-Westfall and Young's (1993) min-p: the share of replicates whose smallest p-value over the
-family is at most the observed one.
+approximations is needed. The candidates' statistics are computed on every replicate as on
+the campaign, the discrepancy profiled under each. Family-wise p-values over candidates (or
+features) are Westfall and Young's (1993) single-step min-p: the share of the :math:`B + 1`
+draws (the replicates and the observed campaign) whose smallest marginal p-value over the
+family is at most the observed one. The marginal p-values are pivotal tails
+(:math:`\chi^2_k` of a likelihood-ratio statistic, the normal of a z statistic), so the
+family-wise p-value resolves down to :math:`1/(B+1)`; ranks among the replicates alone could
+not go below about :math:`m/(B+1)` for :math:`m` tests. Every p-value has the Monte-Carlo
+standard error :math:`\sqrt{p(1-p)/(B+1)}` (:func:`mc_standard_error`).
 
 References
 ----------
@@ -66,7 +76,7 @@ Westfall, P. H. and Young, S. S. (1993): Resampling-Based Multiple Testing. Wile
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,10 +84,12 @@ import scipy.optimize
 import scipy.stats
 
 from dronewind.diagnose.covariance import Whitener, flight_correlations, nearest_correlation, shrunk_correlation
-from dronewind.diagnose.fitting import ResponseModel, chi2, fit_parameters
+from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters
 
-__all__ = ["Discrepancy", "discrepancy", "seed_scale", "offset_trend_z", "NullReference", "null_reference",
-           "empirical_p", "familywise_p", "MIN_FLIGHTS_TREND", "DEFAULT_REPLICATES"]
+__all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
+           "profiled_fit", "seed_scale", "offset_trend_z", "NullReference", "null_reference", "empirical_p",
+           "familywise_p", "mc_standard_error", "smallest_p", "check_attainable", "MIN_FLIGHTS_TREND",
+           "MAX_LOST_SHARE", "DEFAULT_REPLICATES"]
 
 #: Flights needed before a trend with wind speed is removed besides the offset when the
 #: discrepancy is estimated (two degrees of freedom left). Most mechanisms' effects grow or decay
@@ -85,6 +97,11 @@ __all__ = ["Discrepancy", "discrepancy", "seed_scale", "offset_trend_z", "NullRe
 #: downdraft decays with it): estimated about an offset alone, such an effect would be taken for
 #: discrepancy and hide itself (a hidden 5.4 degree pitch on four flights was not named).
 MIN_FLIGHTS_TREND = 4
+#: Largest share of a feature's degrees of freedom :math:`n - q` that a candidate's fit may take
+#: when the discrepancy is profiled under it (:func:`discrepancy` with ``lost_dof``): a fit that
+#: reproduces one feature of every flight leaves no scatter to estimate, and the estimate then
+#: rests on a tenth of a degree of freedom at least.
+MAX_LOST_SHARE = 0.9
 #: Bootstrap replicates by default: a family-wise p-value of 0.01 then has a Monte-Carlo
 #: standard error of 0.004 (binomial, sqrt(0.01 x 0.99 / 600)).
 DEFAULT_REPLICATES = 600
@@ -136,20 +153,25 @@ def _q_at(tau2: float, r: np.ndarray, v: np.ndarray, x: np.ndarray) -> float:
     return _wls(r, v + tau2, x)[1]
 
 
-def _profile_bound(target: float, r: np.ndarray, v: np.ndarray, x: np.ndarray) -> float:
-    """:math:`\\tau^2` where the generalised Q equals ``target`` (0 when it is below at 0)."""
+def _profile_bound(target: float, r: np.ndarray, v: np.ndarray, x: np.ndarray, scale: float = 1.0) -> float:
+    """:math:`\\tau^2` where the generalised Q equals ``target`` (0 when it is below at 0).
+
+    ``scale`` > 1 (a candidate's fit took degrees of freedom) shrinks the discrepancy's share
+    of the variances as the moment estimate does: Q is evaluated at :math:`\\tau^2 / scale`.
+    """
     if _q_at(0.0, r, v, x) <= target:
         return 0.0
     hi = max(float(np.var(r)), float(np.max(v)), 1e-12)
-    while _q_at(hi, r, v, x) > target:
+    while _q_at(hi / scale, r, v, x) > target:
         hi *= 4.0
         if hi > 1e12:
             return float("inf")
-    return float(scipy.optimize.brentq(lambda t: _q_at(t, r, v, x) - target, 0.0, hi, xtol=1e-14, rtol=1e-10))
+    return float(scipy.optimize.brentq(lambda t: _q_at(t / scale, r, v, x) - target, 0.0, hi, xtol=1e-14,
+                                       rtol=1e-10))
 
 
 def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None = None,
-                interval: bool = True) -> Discrepancy:
+                interval: bool = True, lost_dof: np.ndarray | None = None) -> Discrepancy:
     """Per-feature model discrepancy across flights (DerSimonian-Laird moments, Q-profile interval).
 
     Parameters
@@ -163,11 +185,21 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
         flights or more a trend with it is removed besides the offset.
     interval : bool
         Compute the Q-profile interval (the bootstrap replicates need only the estimate).
+    lost_dof : numpy.ndarray, optional
+        Degrees of freedom :math:`h_f` (p,) that a candidate's fit took from each feature's
+        residuals (:func:`fit_dof`): the residuals are those after the fit, whose projection
+        removed :math:`h_f` of the :math:`n - q` dimensions the moments rest on.
 
     Returns
     -------
     Discrepancy
-        See the module docstring (DerSimonian and Laird 1986; Viechtbauer 2007).
+        See the module docstring (DerSimonian and Laird 1986; Viechtbauer 2007). With
+        ``lost_dof`` the moment equation is
+        :math:`\\hat\tau_f^2 = \\max(0, (Q_f - k'_f) / (c_f\\,k'_f / k_f))`, :math:`k_f = n - q`,
+        :math:`k'_f = k_f - h_f` (``dof``), :math:`c_f` the denominator of the module
+        docstring: the fit's projection removes a share :math:`h_f / k_f` of the sampling and
+        of the discrepancy part of :math:`E[Q_f]` alike (exact when its leverage is spread
+        evenly over the flights). The interval uses :math:`\\chi^2_{k'_f}` quantiles.
     """
     r_all = np.asarray(residual, dtype=float)
     s_all = np.asarray(sigma, dtype=float)
@@ -177,7 +209,8 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
     low = np.full(p, np.nan)
     high = np.full(p, np.nan)
     q_stat = np.full(p, np.nan)
-    dof = np.zeros(p, dtype=int)
+    dof = np.zeros(p, dtype=float)
+    lost = np.zeros(p) if lost_dof is None else np.nan_to_num(np.asarray(lost_dof, dtype=float), nan=0.0)
     trend = np.zeros(p, dtype=bool)
     for f in range(p):
         ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
@@ -190,12 +223,233 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
             continue
         r, v = r_all[ok, f], s_all[ok, f] ** 2
         _, q, denom = _wls(r, v, x)
-        tau2[f] = max(0.0, (q - k) / denom) if denom > 0 else 0.0
-        q_stat[f], dof[f], trend[f] = q, k, with_trend
+        k_eff = k - float(np.clip(lost[f], 0.0, MAX_LOST_SHARE * k))
+        denom *= k_eff / k
+        tau2[f] = max(0.0, (q - k_eff) / denom) if denom > 0 else 0.0
+        q_stat[f], dof[f], trend[f] = q, k_eff, with_trend
         if interval:
-            low[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.975, k)), r, v, x)
-            high[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.025, k)), r, v, x)
+            scale = k / k_eff  # the interval's Q is read on the fitted residuals' reduced scale
+            low[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.975, k_eff)), r, v, x, scale)
+            high[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.025, k_eff)), r, v, x, scale)
     return Discrepancy(np.sqrt(tau2), np.sqrt(low), np.sqrt(high), q_stat, dof, trend)
+
+
+def fit_jacobian(model: ResponseModel, theta: np.ndarray, flights: np.ndarray) -> np.ndarray:
+    """Derivative of a candidate's prediction at its fit with respect to its free parameters.
+
+    Parameters
+    ----------
+    model : ResponseModel
+        The candidate's responses.
+    theta : numpy.ndarray
+        Its fitted parameters.
+    flights : numpy.ndarray
+        Indices of the fitted flights.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n_flights, p, m): one-sided differences of the piecewise-linear responses (a step of
+        1e-3 of the parameter's range, toward the inside); a parameter at a bound (an active
+        constraint) is left out (m counts the free parameters; NaN effects are 0).
+    """
+    theta = np.asarray(theta, dtype=float)
+    base = model.predict(theta, flights)
+    cols = []
+    for k, par in enumerate(model.parameters):
+        span = float(par.upper - par.lower)
+        if span <= 0 or theta[k] <= par.lower + 1e-6 * span or theta[k] >= par.upper - 1e-6 * span:
+            continue  # an active bound
+        step = 1e-3 * span * (1.0 if theta[k] + 1e-3 * span <= par.upper else -1.0)
+        moved = theta.copy()
+        moved[k] += step
+        d = (model.predict(moved, flights) - base) / step
+        cols.append(np.where(np.isfinite(d), d, 0.0))
+    return np.stack(cols, axis=2) if cols else np.zeros((*base.shape, 0))
+
+
+def fit_dof(model: ResponseModel, theta: np.ndarray, total_sigma: np.ndarray, flights: np.ndarray) -> np.ndarray:
+    r"""Leverage of a candidate's free parameters on each feature (the diagonal weights of its fit).
+
+    Returns
+    -------
+    numpy.ndarray
+        :math:`h_f = \sum_i H_{(i,f),(i,f)}` (p,), with :math:`H = A (A^\top A)^{-1} A^\top`,
+        :math:`A_{(i,f),j} = \partial \hat y_{if} / \partial\theta_j / \sigma_{if}`
+        (:func:`fit_jacobian`); :math:`\sum_f h_f` is the number of free parameters. It is the
+        share of each feature's degrees of freedom the fit takes before any offset or trend is
+        removed; :func:`profiled_discrepancy` works with the exact moments instead.
+    """
+    jac = fit_jacobian(model, theta, flights)
+    n, p, m = jac.shape
+    if m == 0:
+        return np.zeros(p)
+    s = np.asarray(total_sigma[flights], dtype=float)
+    ok = np.isfinite(s) & (s > 0)
+    a = np.where(ok[..., None], jac / np.where(ok, s, 1.0)[..., None], 0.0).reshape(n * p, m)
+    h = np.einsum("ij,jk,ik->i", a, np.linalg.pinv(a.T @ a), a)
+    return h.reshape(n, p).sum(axis=0)
+
+
+def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None,
+                         jacobian: np.ndarray, fit_sigma: np.ndarray, tau_start: np.ndarray) -> Discrepancy:
+    r"""Model discrepancy per feature of the residuals after a candidate's fit (moments with the fit's projection).
+
+    Parameters
+    ----------
+    residual : numpy.ndarray
+        Measured minus the candidate's fitted prediction (n_flights, p) [feature units].
+    sigma : numpy.ndarray
+        Sampling errors (n_flights, p) [feature units].
+    speed_ms : numpy.ndarray or None
+        Mean wind speed of every flight [m s-1] (the trend of :func:`discrepancy`).
+    jacobian : numpy.ndarray
+        :func:`fit_jacobian` at the fit (n_flights, p, m).
+    fit_sigma : numpy.ndarray
+        The errors the fit weighed (n_flights, p): :math:`\hat\theta = (A^\top A)^{-1} A^\top z`,
+        :math:`A = J / s`, :math:`z = r_0 / s` (linearised, the features' correlation left out).
+    tau_start : numpy.ndarray
+        Discrepancy of the other features (p,) in the expected misfit they leak into a
+        feature through the fit.
+
+    Returns
+    -------
+    Discrepancy
+        As :func:`discrepancy` (no interval). For feature :math:`f` the residuals after the fit
+        and after the offset (and trend) are :math:`e = B_f r_0`, :math:`B_f = W^{1/2} M (E_f - J_f K)`
+        with :math:`M` the weighted residual maker of the offset and trend,
+        :math:`K = (A^\top A)^{-1} A^\top S^{-1}` and :math:`E_f` the selection of feature :math:`f`;
+        with :math:`r_0` of variances :math:`\sigma^2 + \tau^2`,
+        :math:`E[Q_f] = \sum_k (B_f)^2_{\cdot k} \sigma_k^2 + \tau_f^2 \sum_{k \in f} (B_f)^2_{\cdot k}
+        + \sum_{k \notin f} (B_f)^2_{\cdot k} \tau_{f(k)}^2`, and the moment equation gives
+        :math:`\hat\tau_f^2` (DerSimonian and Laird 1986 with the fit's projection: without a
+        fit it is their estimate). ``dof`` is the expected :math:`Q_f` without discrepancy
+        (:math:`n - q` less what the fit took), a fit whose signature in a feature is an
+        offset or a trend takes nothing from it.
+    """
+    r_all = np.asarray(residual, dtype=float)
+    s_all = np.asarray(sigma, dtype=float)
+    n, p = r_all.shape
+    m = jacobian.shape[2]
+    speed = np.full(n, np.nan) if speed_ms is None else np.asarray(speed_ms, dtype=float)
+    fs = np.asarray(fit_sigma, dtype=float)
+    used = np.isfinite(fs) & (fs > 0) & np.isfinite(r_all)
+    a = np.where(used[..., None], jacobian / np.where(used, fs, 1.0)[..., None], 0.0).reshape(n * p, m)
+    k_map = (np.linalg.pinv(a.T @ a) @ a.T) / np.where(used, fs, 1.0).reshape(1, -1) if m else np.zeros((0, n * p))
+    k_map = np.where(used.reshape(1, -1), k_map, 0.0)
+    var0 = np.where(used, np.where(np.isfinite(s_all), s_all, 0.0) ** 2, 0.0).reshape(-1)
+    tau2_other = np.repeat(np.nan_to_num(np.asarray(tau_start, dtype=float), nan=0.0)[None, :] ** 2, n, axis=0)
+    tau2_other = np.where(used, tau2_other, 0.0).reshape(-1)
+    feature_of = np.tile(np.arange(p), n)
+    tau2 = np.full(p, np.nan)
+    q_stat = np.full(p, np.nan)
+    dof = np.zeros(p)
+    trend = np.zeros(p, dtype=bool)
+    for f in range(p):
+        ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
+        with_trend = bool(ok.sum() >= MIN_FLIGHTS_TREND and np.all(np.isfinite(speed[ok])) and np.ptp(speed[ok]) > 0)
+        x = np.ones((ok.sum(), 1))
+        if with_trend:
+            x = np.column_stack([x, speed[ok] - np.mean(speed[ok])])
+        if int(ok.sum()) - x.shape[1] < 1:
+            continue
+        w = 1.0 / s_all[ok, f] ** 2
+        resid_maker = np.eye(x.shape[0]) - x @ np.linalg.pinv(x.T @ (w[:, None] * x)) @ (x.T * w[None, :])
+        rows = np.flatnonzero(ok) * p + f
+        d = -(jacobian[ok, f, :] @ k_map) if m else np.zeros((ok.sum(), n * p))
+        d[np.arange(ok.sum()), rows] += 1.0
+        b2 = (np.sqrt(w)[:, None] * (resid_maker @ d)) ** 2
+        col = b2.sum(axis=0)
+        own = feature_of == f
+        expected0 = float(col @ var0 + col[~own] @ tau2_other[~own])
+        c = float(col[own].sum())
+        e = resid_maker @ r_all[ok, f]
+        q = float(np.sum(w * e * e))
+        tau2[f] = max(0.0, (q - expected0) / c) if c > 0 else 0.0
+        q_stat[f], dof[f], trend[f] = q, float(col @ var0), with_trend
+    nan = np.full(p, np.nan)
+    return Discrepancy(np.sqrt(tau2), nan, nan, q_stat, dof, trend)
+
+
+@dataclass(frozen=True)
+class ProfiledFit:
+    """A candidate's fit with the model discrepancy estimated under it (:func:`profiled_fit`).
+
+    Attributes
+    ----------
+    fit : FitResult
+        The fit under the profiled discrepancy.
+    discrepancy : Discrepancy
+        :math:`\\hat\\tau_f` of the residuals after the candidate's fit, its lost degrees of
+        freedom accounted for.
+    total_sigma : numpy.ndarray
+        :math:`\\sqrt{\\sigma_{if}^2 + \\hat\\tau_f^2}` (n_flights, p).
+    whitener : Whitener
+        Whitening of the residual covariance with that discrepancy.
+    lost_dof : numpy.ndarray
+        Degrees of freedom the fit took from each feature's residuals about their offset
+        (and trend) (p,): :math:`n - q` less the ``dof`` of :func:`profiled_discrepancy`.
+    """
+
+    fit: FitResult
+    discrepancy: Discrepancy
+    total_sigma: np.ndarray
+    whitener: Whitener
+    lost_dof: np.ndarray
+
+    @property
+    def lr_statistic(self) -> float:
+        """:math:`\\chi^2(0) - \\chi^2(\\hat\\theta)` under the candidate's discrepancy (at least 0)."""
+        return max(self.fit.chi2_baseline - self.fit.chi2, 0.0)
+
+
+def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
+                 speed_ms: np.ndarray, start: tuple[np.ndarray, Whitener], interval: bool = False) -> ProfiledFit:
+    """Fit a candidate with the model discrepancy profiled under it.
+
+    A discrepancy estimated from the baseline's residuals holds every real mechanism's
+    signature as scatter: it widens the covariance of every candidate's test and hides the
+    mechanism it holds. Here the discrepancy is what the candidate leaves: the candidate is
+    fitted under the starting covariance, :math:`\\tau_f^2` is estimated from the residuals
+    after that fit (DerSimonian and Laird 1986, the fit's projection accounted for in the
+    moments, :func:`profiled_discrepancy`), and the candidate is fitted again under
+    :math:`C_i = D_i R^* D_i + \\mathrm{diag}(\\hat\\tau^2)` (Kennedy and O'Hagan 2001). One such
+    step; :func:`null_reference` repeats it on every replicate, so the likelihood-ratio
+    statistic keeps a calibrated reference whatever the step does to its distribution.
+
+    Parameters
+    ----------
+    model : ResponseModel
+        The candidate's responses.
+    y, sigma : numpy.ndarray
+        Measured features and their sampling errors (n_flights, p).
+    corr : numpy.ndarray or None
+        Shrunk feature correlation :math:`R^*` (p, p).
+    speed_ms : numpy.ndarray
+        Mean wind speed of every flight (n_flights,) [m s-1].
+    start : (numpy.ndarray, Whitener)
+        Total errors and whitener of the first fit (those of the discrepancy without the candidate).
+    interval : bool
+        Compute the discrepancy's Q-profile interval.
+
+    Returns
+    -------
+    ProfiledFit
+    """
+    idx = np.arange(y.shape[0])
+    total0, white0 = start
+    first = fit_parameters(model, y, total0, idx, white0)
+    resid = y - model.predict(first.theta, idx)
+    with np.errstate(invalid="ignore"):
+        excess = np.where(np.isfinite(total0) & np.isfinite(sigma), np.maximum(total0**2 - sigma**2, 0.0), 0.0)
+    tau_start = np.sqrt(excess.max(axis=0))
+    jac = fit_jacobian(model, first.theta, idx)
+    disc = profiled_discrepancy(resid, sigma, speed_ms, jac, total0, tau_start)
+    plain = discrepancy(resid, sigma, speed_ms, interval=False)
+    lost = np.where(np.isfinite(plain.dof) & (plain.dof > 0), plain.dof - disc.dof, 0.0)
+    total, fcorr = flight_correlations(corr, sigma, disc.tau_or_zero())
+    white = Whitener(fcorr)
+    return ProfiledFit(fit_parameters(model, y, total, idx, white), disc, total, white, lost)
 
 
 def seed_scale(x: np.ndarray) -> np.ndarray:
@@ -272,26 +526,28 @@ def empirical_p(observed: float, replicates: np.ndarray) -> float:
     return float((1 + np.sum(rep >= observed)) / (1 + rep.size))
 
 
-def _rank_p(matrix: np.ndarray) -> np.ndarray:
-    """Each replicate's own upper-tail p-value within its column (B, m): the min-p building block."""
-    b = matrix.shape[0]
-    out = np.ones_like(matrix, dtype=float)
-    for j in range(matrix.shape[1]):
-        col = matrix[:, j]
-        ok = np.isfinite(col)
-        if not ok.any():
-            continue
-        srt = np.sort(col[ok])
-        # number of replicates >= each value (itself included), as empirical_p counts the observation
-        ge = ok.sum() - np.searchsorted(srt, col[ok], side="left")
-        out[ok, j] = ge / ok.sum()
-    del b
-    return out
+def mc_standard_error(p: float, n_replicates: int) -> float:
+    """Monte-Carlo standard error of a bootstrap p-value: :math:`\\sqrt{p(1-p)/(B+1)}`."""
+    return float(np.sqrt(max(p * (1.0 - p), 0.0) / (n_replicates + 1))) if n_replicates > 0 else float("nan")
+
+
+def smallest_p(n_replicates: int) -> float:
+    """Smallest p-value :math:`1/(B+1)` a bootstrap of ``n_replicates`` can give."""
+    return 1.0 / (n_replicates + 1)
+
+
+def check_attainable(alpha: float, n_replicates: int) -> None:
+    """Raise ValueError when a level ``alpha`` cannot be reached with ``n_replicates`` (:func:`smallest_p`)."""
+    if n_replicates > 0 and smallest_p(n_replicates) >= alpha:
+        raise ValueError(f"alpha {alpha:g} is not attainable with {n_replicates} bootstrap replicates "
+                         f"(smallest p-value 1/(B+1) = {smallest_p(n_replicates):.4g}): use at least "
+                         f"{int(np.ceil(1.0 / alpha))} replicates")
 
 
 def familywise_p(observed: Mapping[str, float], replicates: Mapping[str, np.ndarray],
-                 family: Sequence[str] | None = None) -> dict[str, float]:
-    """Westfall-Young min-p family-wise p-values of upper-tail statistics.
+                 family: Sequence[str] | None = None,
+                 marginal: Mapping[str, Callable[[np.ndarray], np.ndarray]] | None = None) -> dict[str, float]:
+    """Westfall-Young single-step family-wise p-values of upper-tail statistics.
 
     Parameters
     ----------
@@ -301,24 +557,47 @@ def familywise_p(observed: Mapping[str, float], replicates: Mapping[str, np.ndar
         Test -> its bootstrap replicates under the null (B,), the same replicates for every test.
     family : sequence of str, optional
         The tests the family-wise rate is taken over (default: all of ``observed``).
+    marginal : mapping, optional
+        Test -> a decreasing map of its statistic to an approximate p-value (e.g. the
+        :math:`\\chi^2_k` upper tail of a likelihood-ratio statistic). Without it each test's
+        marginal p-value is its rank among the observed and the replicates.
 
     Returns
     -------
     dict
-        Test -> :math:`(1 + \\#\\{b: \\min_j p^*_{bj} \\le p_t\\}) / (1 + B)`, with :math:`p_t`
-        the observed test's own bootstrap p-value and :math:`p^*_{bj}` that of replicate
-        :math:`b` of test :math:`j` (Westfall and Young 1993, Algorithm 2.8).
+        Test -> :math:`(1 + \\#\\{b: \\min_j u^*_{bj} \\le u_t\\}) / (1 + B)` (Westfall and Young 1993,
+        single-step min-p, Algorithm 2.5; with ``marginal`` the min-p over pivotal
+        transforms, their Section 2.6), :math:`u_t` the observed test's marginal p-value and
+        :math:`u^*_{bj}` that of replicate :math:`b` of test :math:`j`. The marginal p-values
+        need not be exact: the joint distribution of their minimum is the bootstrap's. Ranks
+        count the observed statistic among the :math:`B + 1` (it is one draw of the null), so a
+        replicate's rank p-value is on the observed's scale; the smallest family-wise p-value
+        is then about :math:`m/(B+1)` for :math:`m` tests, while the continuous ``marginal``
+        reaches :math:`1/(B+1)`.
     """
     names = list(observed if family is None else family)
     if not names:
         return {}
     mat = np.column_stack([np.asarray(replicates[t], dtype=float) for t in names])
-    min_p = np.min(_rank_p(mat), axis=1)
-    out = {}
-    for t in names:
-        p_own = empirical_p(observed[t], replicates[t])
-        out[t] = float((1 + np.sum(min_p <= p_own + 1e-12)) / (1 + min_p.size))
-    return out
+    obs = np.array([float(observed[t]) for t in names])
+    u = np.ones_like(mat)
+    u_obs = np.ones(len(names))
+    for j, t in enumerate(names):
+        col = mat[:, j]
+        ok = np.isfinite(col)
+        if marginal is not None and t in marginal:
+            u[ok, j] = marginal[t](col[ok])
+            u_obs[j] = float(marginal[t](np.array([obs[j]]))[0]) if np.isfinite(obs[j]) else 1.0
+            continue
+        if not ok.any():
+            continue
+        srt = np.sort(col[ok])
+        # members (replicates and the observed) at least as large as each replicate, itself included
+        ge = ok.sum() - np.searchsorted(srt, col[ok], side="left") + (obs[j] >= col[ok]).astype(float)
+        u[ok, j] = ge / (ok.sum() + 1)
+        u_obs[j] = empirical_p(obs[j], col)
+    min_u = np.min(u, axis=1)
+    return {t: float((1 + np.sum(min_u <= u_obs[j] * (1 + 1e-12))) / (1 + min_u.size)) for j, t in enumerate(names)}
 
 
 @dataclass
@@ -441,7 +720,6 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
     r = np.eye(p) if truth is None else nearest_correlation(np.asarray(truth, dtype=float))
     chol = np.linalg.cholesky(r)
     tau0 = np.where(np.isfinite(tau), tau, 0.0)
-    idx = np.arange(n)
     groups = np.repeat(np.arange(n), n_seeds)
     ref = NullReference(n_replicates, seed, baseline, np.empty(n_replicates),
                         {c: np.empty(n_replicates) for c in models},
@@ -467,8 +745,7 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         ref.y0.append(baseline + resid0)
         ref.flight_corr0.append(flight_correlations(corr_b, sigma_b, tau0_b))
         for c, model in models.items():
-            fit = fit_parameters(model, y_b, total_b, idx, white_total)
-            ref.lr[c][b] = max(fit.chi2_baseline - fit.chi2, 0.0)
+            ref.lr[c][b] = profiled_fit(model, y_b, sigma_b, corr_b, speed_ms, (total_b, white_total)).lr_statistic
         ref.mean_z[b], ref.slope_z[b] = (np.abs(a) for a in offset_trend_z(resid, total_b, speed_ms))
         ref.y.append(y_b)
         ref.sigma.append(sigma_b)

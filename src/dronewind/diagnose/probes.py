@@ -65,7 +65,7 @@ MECHANISM_BASELINES: dict[tuple[str, str], float] = {
     ("mast_w_attenuation", "gain"): 1.0,
 }
 
-#: The probes of every payload/mast mechanism of the catalog (DESIGN.md). A parameter that can
+#: The probes of every payload/mast mechanism of the catalog (docs/data-contract.md). A parameter that can
 #: take either sign about its baseline (a lag, an angle, an offset, a gain about 1) is probed on
 #: both sides, so that the response of an even (e.g. quadratic) feature is never extrapolated
 #: from one side to the other; the fit bounds are the catalog's physical range

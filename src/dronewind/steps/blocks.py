@@ -4,7 +4,7 @@ A campaign without drone flights (masts or towers only) gets, per mast sonic, th
 every block of ``processing.block_s`` (:mod:`dronewind.compare.blocks`: coverage test, gap
 filling, rotation, the flight L4 of a mast sensor) in one CF timeSeries file with the blocks
 along ``time`` (:func:`dronewind.compare.blocks.stack_blocks`), and the campaign table
-``tables/block_stats.csv`` assembled from those files (DESIGN.md, "Outputs that other tools
+``tables/block_stats.csv`` assembled from those files (docs/data-contract.md, "Outputs that other tools
 read"). The Snakemake rules (``workflow/rules/blocks.smk``) pass the settings as params.
 """
 

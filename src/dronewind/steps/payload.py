@@ -681,7 +681,7 @@ def drone_l3(drone_l2_file: str | Path, output: str | Path, *, campaign: str, fl
 
 # ----------------------------------------------------------------------------- campaign table
 
-#: Columns of results/<name>/tables/flight_stats.csv (DESIGN.md, "Outputs that other tools read").
+#: Columns of results/<name>/tables/flight_stats.csv (docs/data-contract.md, "Outputs that other tools read").
 FLIGHT_STATS_COLUMNS: tuple[str, ...] = (
     "flight", "sensor", "height_m", "U_ms", "wind_from_deg", "sigma_u_ms", "sigma_v_ms", "sigma_w_ms",
     "uw_m2s2", "wT_Kms", "L_m", "zeta", "lag_sonic_ins_s", "lag_drone_mast_s", "Sw_Su", "Sv_Su",

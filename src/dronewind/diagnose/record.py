@@ -1,0 +1,117 @@
+r"""The ``diagnosis.json`` record of a campaign diagnosis (docs/data-contract.md) and the evidence a report needs."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from dronewind.diagnose.calibration import ProfiledFit, mc_standard_error
+from dronewind.diagnose.evidence import error_model, measured_conditions
+from dronewind.diagnose.features import FEATURES
+from dronewind.diagnose.fit_quality import baseline_metrics, goodness_of_fit, unexplained_features
+from dronewind.diagnose.naming import (
+    FEATURE_ALIASES,
+    DiagnosisResult,
+    _at_bound,
+    best_variants,
+    caveats,
+    combined_prediction,
+)
+
+__all__ = ["to_json", "withheld_json"]
+
+def withheld_json(result: DiagnosisResult) -> list[dict[str, Any]]:
+    """``diagnosis.json`` entries of the withheld candidates (:class:`Withheld`)."""
+    ev = result.evidence
+    return [{"mechanism": ev.mechanism_of[w.candidate], "variant": w.candidate if w.candidate != ev.mechanism_of[
+                w.candidate] else None,
+             "estimate": result.estimate(w.candidate, w.score), "p_value": w.score.p_value,
+             "gain": w.score.gain, "feature": w.feature, "share": w.shares[w.feature],
+             "alias": FEATURE_ALIASES[w.feature]} for w in result.withheld]
+
+
+def _profiled_tau(profile: ProfiledFit | None) -> dict[str, float]:
+    """The features' model discrepancy under a candidate's fit (those above zero) [feature units]."""
+    if profile is None:
+        return {}
+    tau = profile.discrepancy.tau_or_zero()
+    return {f: float(t) for f, t in zip(FEATURES, tau, strict=True) if t > 0}
+
+
+def _profiles_or_none(profiles: Sequence[ProfiledFit] | None, n: int) -> list[ProfiledFit | None]:
+    """The named causes' profiled fits, or ``None`` for each where none were kept."""
+    return list(profiles) if profiles else [None] * n
+
+
+def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
+    """The ``diagnosis.json`` structure of the data contract (plus evidence fields)."""
+    ev = result.evidence
+    b = result.reference.n_replicates if result.reference is not None else 0
+    candidates = []
+    for cand in best_variants(result):
+        s = result.scores[cand]
+        mech = ev.mechanism_of[cand]
+        unc = s.uncertainty()
+        est = result.estimate(cand)
+        bound = _at_bound(ev.models[cand], s.fit.theta)
+        candidates.append({
+            "mechanism": mech,
+            "variant": cand if cand != mech else None,
+            "estimate": est,
+            "uncertainty": {k: unc.get(k, 0.0) for k in est},
+            "gain": s.gain,
+            "significant": bool(s.significant and not bound),
+            "at_bound": bound,
+            "p_value": s.p_value,
+            "p_mc_se": mc_standard_error(s.p_value, b) if b else None,
+            "lr_statistic": s.lr_statistic,
+            "discrepancy_sd": _profiled_tau(result.profiles.get(cand)),
+            "n_parameters": len(s.parameter_names),
+            "heldout_chi2": float(s.heldout_chi2.sum()),
+        })
+    named = []
+    for cand, _ in result.named:
+        mech = ev.mechanism_of[cand]
+        if mech not in named:
+            named.append(mech)
+    extended = combined_prediction(result)
+    n_fitted = sum(len(s.parameter_names) for _, s in result.named)
+    return {
+        "campaign": campaign,
+        "goodness_of_fit": goodness_of_fit(ev, extended, n_fitted, result),
+        "unexplained": unexplained_features(ev, extended, result=result),
+        "baseline": {"metrics": {**baseline_metrics(ev), "heldout_chi2": float(
+            next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")},
+            "goodness_of_fit": goodness_of_fit(ev, ev.baseline, 0, result, baseline=True)},
+        "candidates": candidates,
+        "named_causes": named,
+        "named_estimates": {ev.mechanism_of[c]: {"estimate": result.estimate(c, s), "uncertainty": s.uncertainty(),
+                                                 "gain": s.gain, "gain_rise": rise, "gain_rise_se": rise_se,
+                                                 "p_value": s.p_value,
+                                                 "p_mc_se": mc_standard_error(s.p_value, b) if b else None,
+                                                 "discrepancy_sd": _profiled_tau(prof),
+                                                 "evidence_share": {f: v for f, v in share.items() if v >= 0.05}}
+                            for (c, s), share, (rise, rise_se), prof in zip(
+                                result.named, result.shares, result.gain_rises,
+                                _profiles_or_none(result.named_profiles, len(result.named)), strict=True)},
+        "ambiguity_sets": [list(g) for g in result.ambiguity],
+        "ambiguity": [{"named": ev.mechanism_of[c], "mechanism": m, "cosine": cos}
+                      for (c, _), cosines in zip(result.named, result.ambiguity_cosines, strict=True)
+                      for m, cos in cosines.items()],
+        "not_identified": [{"mechanism": ev.mechanism_of[c], "variant": c if c != ev.mechanism_of[c] else None,
+                            "estimate": result.estimate(c, s), "p_value": s.p_value, "gain": s.gain, "reason": why}
+                           for c, s, why in result.not_identified],
+        "caveats": caveats(named),
+        "withheld": withheld_json(result),
+        "measured_conditions": measured_conditions(ev),
+        "features": list(FEATURES),
+        "flights": ev.flights,
+        "sigma_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
+        "error_model": error_model(ev, result),
+        "method": "forward-model responses (simulated probes, common random numbers), bounded least squares "
+                  "whitened by the shrunk feature correlation of the baseline seeds plus the model discrepancy "
+                  "profiled under each candidate, "
+                  "leave-one-flight-out gain, likelihood-ratio test referred to a parametric bootstrap over seeds "
+                  "(Westfall-Young min-p over each naming round's candidates at alpha), greedy naming while the "
+                  "held-out gain rises by more than its uncertainty; see dronewind.diagnose",
+    }
