@@ -374,3 +374,146 @@ def exponent_fields(raw: bytes, buf: np.ndarray, commas: np.ndarray, starts: np.
     line = np.searchsorted(starts, pos, side="right") - 1
     keep = good[line]
     return set(np.unique(np.searchsorted(commas, pos[keep]) - first_comma[line[keep]]).tolist())
+
+
+def text_body(raw: bytes, n_header: int) -> tuple[list[str], bytes, np.ndarray, np.ndarray, np.ndarray, bool]:
+    """The lines of a logger's text file as :func:`dronewind.core.rowfaults.text_lines` splits them.
+
+    The header lines are decoded; the lines after them are given as byte offsets, so that a
+    reader converts its regular lines in bulk and decodes only the irregular ones (one
+    line's text is the UTF-8 decoding of its bytes, undecodable bytes replaced: a replaced
+    sequence never swallows a line end).
+
+    Parameters
+    ----------
+    raw : bytes
+        The file's content.
+    n_header : int
+        Header lines (fewer when the file is shorter).
+
+    Returns
+    -------
+    header : list of str
+        The header lines found.
+    body : bytes
+        The lines after them: leading byte order marks dropped, ``\\r\\n`` and ``\\r``
+        turned into ``\\n``.
+    buf : numpy.ndarray
+        uint8 view of `body`.
+    starts, ends : numpy.ndarray
+        Line bounds in `body` (:func:`line_bounds`).
+    unusual : bool
+        `body` holds a byte other than printable ASCII and ``\\n``.
+    """
+    while raw.startswith(_BOM):
+        raw = raw[len(_BOM):]
+    if b"\r" in raw:
+        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    header: list[str] = []
+    cut = 0
+    while len(header) < n_header and cut < len(raw):
+        end = raw.find(b"\n", cut)
+        end = len(raw) if end < 0 else end
+        header.append(raw[cut:end].decode("utf-8", errors="replace"))
+        cut = end + 1
+    body = raw[cut:]
+    buf = np.frombuffer(body, dtype=np.uint8)
+    starts, ends = line_bounds(buf)
+    return header, body, buf, starts, ends, bool(body.translate(None, _PRINTABLE))
+
+
+def line_text(raw: bytes, starts: np.ndarray, ends: np.ndarray, lines: np.ndarray) -> list[str]:
+    """The decoded text of the lines `lines` (indices into `starts`, `ends`)."""
+    return [raw[starts[i]:ends[i]].decode("utf-8", errors="replace") for i in lines.tolist()]
+
+
+def lines_with(raw: bytes, buf: np.ndarray, starts: np.ndarray, chars: bytes) -> np.ndarray:
+    """Mask of the lines holding one of the bytes `chars` (one memchr per byte when none occurs)."""
+    out = np.zeros(starts.size, dtype=bool)
+    if not any(bytes([c]) in raw for c in chars):
+        return out
+    hit = np.zeros(buf.size, dtype=bool)
+    for c in chars:
+        hit |= buf == c
+    out[np.searchsorted(starts, np.flatnonzero(hit), side="right") - 1] = True
+    return out
+
+
+def int_fields(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vectorised parse of integer literals ``[+-]?[0-9]+`` at byte spans of `buf`.
+
+    For an integer column that ``read_csv`` did not read as int64 (a field of another form
+    in some line): the fields of this form are converted here, exactly as Python's ``int``
+    converts them (up to 18 digits), and the others are left to the reader's line-by-line
+    fault handling.
+
+    Parameters
+    ----------
+    buf : numpy.ndarray
+        uint8 bytes.
+    start, end : numpy.ndarray
+        Field spans.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        int64 (0 where not parsed).
+    ok : numpy.ndarray
+        True where the field is such a literal.
+    """
+    length = end - start
+    signed = (length >= 2) & np.isin(buf[np.minimum(start, buf.size - 1)], (ord("+"), ord("-")))
+    first = start + signed
+    n_dig = end - first
+    ok = (length >= 1) & (n_dig >= 1) & (n_dig <= 18)
+    value = np.zeros(start.size, dtype=np.int64)
+    for k in range(int(n_dig[ok].max()) if ok.any() else 0):
+        inside = ok & (k < n_dig)
+        d = buf[np.minimum(first + k, buf.size - 1)].astype(np.int64) - 48
+        ok &= ~inside | ((d >= 0) & (d <= 9))
+        value = np.where(inside, value * 10 + d, value)
+    neg = signed & (buf[np.minimum(start, buf.size - 1)] == ord("-"))
+    return np.where(ok, np.where(neg, -value, value), 0), ok
+
+
+def float_fields(values: pd.Series, length: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """float64 of a column as ``read_csv`` read it, and where that value is the careful parse's bit for bit.
+
+    Parameters
+    ----------
+    values : pandas.Series
+        The column of :func:`read_numeric_columns` (numbers, NaN from a NaN literal, or text
+        when some field is not a number).
+    length : numpy.ndarray
+        Characters of every field.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        float64.
+    ok : numpy.ndarray
+        True where the field is a finite number of at most :data:`FLOAT_FAST_MAX_CHARS`
+        characters or a NaN literal; the other lines are left to the line-by-line fault
+        handling (lines holding an exponent are left to it by the caller).
+    """
+    if values.dtype in (np.float64, np.int64):
+        vals = values.to_numpy(dtype=float)
+        ok = ~np.isinf(vals)
+    else:  # text in some field: each field converted as the careful parse converts it
+        vals = pd.to_numeric(values, errors="coerce").to_numpy(dtype=float)
+        ok = ~np.isinf(vals) & ~(np.isnan(vals) & ~values.isna().to_numpy(dtype=bool))
+    return vals, ok & (length <= FLOAT_FAST_MAX_CHARS)
+
+
+def kept_lines(raw: bytes, starts: np.ndarray, keep: np.ndarray) -> bytes:
+    """The lines `keep` (bool, one per line) of `raw` with their line ends, as one text.
+
+    Copied run by run of consecutive kept lines: a few irregular lines among a million
+    cost a few slices, not a pass over every byte.
+    """
+    if keep.all():
+        return raw
+    bounds = np.append(starts, len(raw))
+    edge = np.diff(np.concatenate([[0], keep.astype(np.int8), [0]]))
+    first, stop = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)
+    return b"".join(raw[a:b] for a, b in zip(bounds[first].tolist(), bounds[stop].tolist(), strict=True))
