@@ -517,3 +517,14 @@ def kept_lines(raw: bytes, starts: np.ndarray, keep: np.ndarray) -> bytes:
     edge = np.diff(np.concatenate([[0], keep.astype(np.int8), [0]]))
     first, stop = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)
     return b"".join(raw[a:b] for a, b in zip(bounds[first].tolist(), bounds[stop].tolist(), strict=True))
+
+
+def first_line(raw: bytes) -> str | None:
+    """The first line of a text file as :func:`text_body` gives it, without scanning the rest; None when empty."""
+    while raw.startswith(_BOM):
+        raw = raw[len(_BOM):]
+    if not raw:
+        return None
+    ends = [k for k in (raw.find(b"\n"), raw.find(b"\r")) if k >= 0]
+    end = min(ends) if ends else len(raw)
+    return raw[:end].decode("utf-8", errors="replace")
