@@ -22,7 +22,6 @@ from dronewind.core import textscan
 from dronewind.core.rowfaults import text_lines
 from dronewind.errors import InputError
 from dronewind.mast import ameriflux, level1, toa5
-from dronewind.mast.columns import REQUIRED_TOA5_COLUMNS
 from dronewind.payload import columns, reader
 from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
 from tests.conftest import needs_record, record_path
@@ -255,25 +254,35 @@ def test_short_decimals_rounded_like_the_fault_handling(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------ TOA5
 
 
-def toa5_both(monkeypatch: pytest.MonkeyPatch, path: Path) -> tuple[Any, Any]:
-    fast = outcome(lambda: toa5.read_toa5(path))
+def toa5_by_lines(monkeypatch: pytest.MonkeyPatch, path: Path) -> tuple[str, Any]:
+    """Outcome of the TOA5 parser with every data line through the fault handling (the reference)."""
     with monkeypatch.context() as m:
-        m.setattr(toa5, "_toa5_fast", lambda *a: None)
-        careful = outcome(lambda: toa5.read_toa5(path))
-    return fast, careful
+        m.setattr(toa5, "_regular_rows", lambda body, starts, ends, names: (np.zeros(starts.size, dtype=bool), {}))
+        return outcome(lambda: toa5.read_toa5(path))
 
 
-def assert_toa5_same(monkeypatch: pytest.MonkeyPatch, path: Path) -> str:
-    (kf, f), (kc, c) = toa5_both(monkeypatch, path)
+def assert_toa5_same(monkeypatch: pytest.MonkeyPatch, path: Path) -> tuple[str, Any]:
+    """The parser's outcome equals the line-by-line reference's; return it."""
+    (kf, f), (kc, c) = outcome(lambda: toa5.read_toa5(path)), toa5_by_lines(monkeypatch, path)
     assert kf == kc, (f, c)
     if kf == "error":
         assert f == c
-        return kf
+        return kf, f
     pd.testing.assert_frame_equal(f[0], c[0], check_exact=True)
     for col in c[0]:
         assert f[0][col].to_numpy().tobytes() == c[0][col].to_numpy().tobytes(), col
     assert f[1] == c[1]
-    return kf
+    return kf, f
+
+
+def handed_toa5(monkeypatch: pytest.MonkeyPatch, path: Path) -> list[int]:
+    """Numbers of lines the TOA5 parser hands to its fault handling, per block."""
+    handed: list[int] = []
+    real = toa5._irregular_rows
+    with monkeypatch.context() as m:
+        m.setattr(toa5, "_irregular_rows", lambda lines, *a: handed.append(len(lines)) or real(lines, *a))
+        outcome(lambda: toa5.read_toa5(path))
+    return handed
 
 
 def toa5_file(folder: Path, n: int = 600, kelvin: bool = False, nan_every: int = 0) -> Path:
@@ -291,42 +300,61 @@ def toa5_file(folder: Path, n: int = 600, kelvin: bool = False, nan_every: int =
 
 
 @needs_record("fluxpart_csat3_toa5")
-def test_real_toa5_files_take_the_fast_path_and_agree(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_real_toa5_files_are_read_whole_by_the_scan(monkeypatch: pytest.MonkeyPatch) -> None:
     for f in sorted(SHARED.glob("*.dat")):
-        assert toa5._toa5_fast(f, REQUIRED_TOA5_COLUMNS) is not None
-        assert assert_toa5_same(monkeypatch, f) == "ok"
+        assert handed_toa5(monkeypatch, f) == []
+        assert assert_toa5_same(monkeypatch, f)[0] == "ok"
 
 
-TOA5_DEFECTS: dict[str, tuple[dict[int, bytes | None], bool]] = {
-    "quoted_nan": ({10: b'"2023-08-21 14:00:00.3",16,"NAN",0.5,0.1,20.1,0', 11: b'"2023-08-21 14:00:00.35",17,'
-                   b'1.0,"nan",0.1,"",0'}, True),  # fmt: skip
-    "unquoted_nan_and_empty": ({10: b'"2023-08-21 14:00:00.3",16,NAN,,0.1,20.1,0'}, True),
-    "wrong_field_count": ({10: b'"2023-08-21 14:00:00.3",16,1.0', 12: b""}, True),
-    "bad_timestamp_and_record": ({10: b'"2023-08-21 25:00:00.3",16,1,1,0.1,20,0', 11: b'"2023-08-21 14:00:00.35",'
-                                 b'x7,1,1,0.1,20,0'}, True),  # fmt: skip
-    "nonnumeric_value": ({10: b'"2023-08-21 14:00:00.3",16,abc,1,0.1,20,0'}, True),
-    "binary_garbage": ({10: b"\xff\xfe\x9c\x80junk", 11: b"\xde\xad,\xbe\xef"}, True),
-    "garbage_right_count": ({10: b'"2023-08-21 14:00:00.3",16,1.\xff0,1,0.1,20,0'}, False),
-    "comma_in_quotes": ({10: b'"2023-08-21 14:00:00.3",16,"1,0",1,0.1,20,0'}, False),
-    "space_outside_quotes": ({10: b'"2023-08-21 14:00:00.3",16, 1.0,1,0.1,20,0'}, False),
-    "unbalanced_quote": ({10: b'"2023-08-21 14:00:00.3,16,1.0,1,0.1,20,0'}, False),
-    "timestamp_iso_t": ({10: b'"2023-08-21T14:00:00.3",16,1.0,1,0.1,20,0'}, True),
-    "unquoted_timestamp": ({10: b"2023-08-21 14:00:00.3,16,1.0,1,0.1,20,0"}, False),  # a space outside quotes
-    "long_exponent_floats": ({10: b'"2023-08-21 14:00:00.3",16,1.2345678901234567,1e-23,2.5E+2,20,0'}, True),
-    "quoted_record": ({10: b'"2023-08-21 14:00:00.3","16",1.0,1,0.1,20,0'}, True),
-    "nul": ({10: b'"2023-08-21 14:00:00.3",16,1.0,1,0.1,20\x00,0'}, True),
-    "many_corrupt": ({i: b'"x",1' for i in range(5, 80)}, True),
+def test_scattered_bad_toa5_rows_cost_their_lines_only(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A long file with a few bad rows: those lines go to the fault handling, the rest equal the clean file."""
+    clean = toa5_file(tmp_path, n=20_000)
+    ref, _ = toa5.read_toa5(clean)
+    bad = {137: b'"2023-08-21 25:00:00.3",16,1,1,0.1,20,0', 4_000: b'"2023-08-21 14:00:00.3",x7,1,1,0.1,20,0',
+           9_999: b"\xff\xfe\x9c\x80junk", 15_000: b"", 19_998: b'"2023-08-21 14:00:00.3",16,1.0'}
+    path = scatter(clean, 4, bad)
+    assert handed_toa5(monkeypatch, path) == [5]
+    frame, info = toa5.read_toa5(path)
+    assert info["n_corrupt_lines"] == 5 and info["corrupt_lines"] == [142, 4005, 10004, 15005, 20003]
+    assert info["n_lines"] == 20_000 and info["n_nonnumeric"] == 0
+    keep = ~np.isin(np.arange(20_000), list(bad))
+    for col in ref:
+        assert frame[col].to_numpy().tobytes() == ref[col].to_numpy()[keep].tobytes(), col
+    assert_toa5_same(monkeypatch, path)
+
+
+TOA5_DEFECTS: dict[str, dict[int, bytes | None]] = {
+    "quoted_nan": {10: b'"2023-08-21 14:00:00.3",16,"NAN",0.5,0.1,20.1,0', 11: b'"2023-08-21 14:00:00.35",17,'
+                   b'1.0,"nan",0.1,"",0'},  # fmt: skip
+    "unquoted_nan_and_empty": {10: b'"2023-08-21 14:00:00.3",16,NAN,,0.1,20.1,0'},
+    "wrong_field_count": {10: b'"2023-08-21 14:00:00.3",16,1.0', 12: b""},
+    "bad_timestamp_and_record": {10: b'"2023-08-21 25:00:00.3",16,1,1,0.1,20,0', 11: b'"2023-08-21 14:00:00.35",'
+                                 b'x7,1,1,0.1,20,0'},  # fmt: skip
+    "nonnumeric_value": {10: b'"2023-08-21 14:00:00.3",16,abc,1,0.1,20,0'},
+    "binary_garbage": {10: b"\xff\xfe\x9c\x80junk", 11: b"\xde\xad,\xbe\xef"},
+    "garbage_right_count": {10: b'"2023-08-21 14:00:00.3",16,1.\xff0,1,0.1,20,0'},
+    "comma_in_quotes": {10: b'"2023-08-21 14:00:00.3",16,"1,0",1,0.1,20,0'},
+    "space_outside_quotes": {10: b'"2023-08-21 14:00:00.3",16, 1.0,1,0.1,20,0'},
+    "unbalanced_quote": {10: b'"2023-08-21 14:00:00.3,16,1.0,1,0.1,20,0'},
+    "quote_inside_field": {10: b'"2023-08-21 14:00:00.3",16,1"0",1,0.1,20,0'},
+    "timestamp_iso_t": {10: b'"2023-08-21T14:00:00.3",16,1.0,1,0.1,20,0'},
+    "unquoted_timestamp": {10: b"2023-08-21 14:00:00.3,16,1.0,1,0.1,20,0"},
+    "long_exponent_floats": {10: b'"2023-08-21 14:00:00.3",16,1.2345678901234567,1e-23,2.5E+2,20,0'},
+    "quoted_record": {10: b'"2023-08-21 14:00:00.3","16",1.0,1,0.1,20,0'},
+    "record_forms": {10: b'"2023-08-21 14:00:00.3",+16,1.0,1,0.1,20,0', 11: b'"2023-08-21 14:00:00.35",16.0,1,1,0,2,0'},
+    "nul": {10: b'"2023-08-21 14:00:00.3",16,1.0,1,0.1,20\x00,0'},
+    "many_corrupt": {i: b'"x",1' for i in range(5, 80)},
 }
 
 
 @pytest.mark.parametrize("name", sorted(TOA5_DEFECTS))
 def test_toa5_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    edits, fast_expected = TOA5_DEFECTS[name]
-    path = edit_lines(toa5_file(tmp_path), edits)
-    if name != "nul":
-        assert (toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is not None) == fast_expected
-    else:
-        assert toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is None  # csv.reader's error left to it
+    path = edit_lines(toa5_file(tmp_path), TOA5_DEFECTS[name])
+    handed = handed_toa5(monkeypatch, path)
+    regular_edits = {"quoted_nan": 2, "unquoted_nan_and_empty": 1, "quoted_record": 1, "record_forms": 1}
+    if name != "many_corrupt":  # only the edited lines go to the fault handling, except those still regular
+        n_irregular = len(TOA5_DEFECTS[name]) - regular_edits.get(name, 0)
+        assert handed == ([n_irregular] if n_irregular else [])
     assert_toa5_same(monkeypatch, path)
 
 
@@ -346,16 +374,12 @@ def test_toa5_variants_same_result(variant: str, tmp_path: Path, monkeypatch: py
     elif variant == "lone_cr":
         text = text.replace(b"\n", b"\r", 7)
     path.write_bytes(text)
-    assert assert_toa5_same(monkeypatch, path) == ("error" if variant.startswith("header") else "ok")
-    if variant in ("crlf", "bom", "kelvin", "nan_values"):
-        assert toa5._toa5_fast(path, REQUIRED_TOA5_COLUMNS) is not None
-    if variant == "kelvin":  # the whole mast chain (units from the header) agrees too
-        fast = level1.mast_l1(path, 218.0, 30.0, "m30")
-        with monkeypatch.context() as m:
-            m.setattr(toa5, "_toa5_fast", lambda *a: None)
-            careful = level1.mast_l1(path, 218.0, 30.0, "m30")
-        assert fast.identical(careful)
-        assert float(np.nanmedian(fast["t_sonic_k"])) == pytest.approx(293.15, abs=0.2)
+    assert assert_toa5_same(monkeypatch, path)[0] == ("error" if variant.startswith("header") else "ok")
+    if not variant.startswith("header"):
+        assert handed_toa5(monkeypatch, path) == []
+    if variant == "kelvin":  # the whole mast chain (units from the header) reads the header's unit
+        ds = level1.mast_l1(path, 218.0, 30.0, "m30")
+        assert float(np.nanmedian(ds["t_sonic_k"])) == pytest.approx(293.15, abs=0.2)
 
 
 # ------------------------------------------------------------------------- textscan

@@ -38,6 +38,7 @@ __all__ = [
     "FLOAT_FAST_MAX_CHARS",
     "NAN_LITERALS",
     "PLAIN_CSV",
+    "PRINTABLE_LINES",
     "csv_body",
     "comma_grid",
     "exponent_fields",
@@ -54,6 +55,7 @@ _BOM = b"\xef\xbb\xbf"
 # Line breaks of str.splitlines other than \n and \r (\v, \f, FS, GS, RS, NEL, LS, PS in UTF-8).
 _OTHER_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e", b"\xc2\x85", b"\xe2\x80\xa8", b"\xe2\x80\xa9")
 _PRINTABLE = bytes(range(0x20, 0x7F)) + b"\n"
+PRINTABLE_LINES = _PRINTABLE  # printable ASCII and the line end: the bytes of a plain text
 FLOAT_FAST_MAX_CHARS = 15  # longest float field parsed by read_csv (see the module docstring)
 NAN_LITERALS: tuple[str, ...] = tuple(
     sign + "".join(chars) for sign in ("", "+", "-") for chars in itertools.product("nN", "aA", "nN")

@@ -368,7 +368,7 @@ def _quadrotor_rows(path: Path, max_corrupt_fraction: float = 0.05,
     The scan is written by hand because the rows must be those of the line-by-line parse
     bit for bit (``pandas.to_numeric`` of every stripped field, whose rounding of long and
     exponent literals ``read_csv`` does not share: :mod:`dronewind.core.textscan`), at a
-    fraction of its cost (400,000 rows, 36 MB: 0.27 s of CPU by the scan, 4 s line by line).
+    fraction of its cost (400,000 rows, 36 MB: 0.3 s of CPU by the scan, 4 s line by line).
 
     Returns
     -------
