@@ -385,6 +385,21 @@ def test_toa5_variants_same_result(variant: str, tmp_path: Path, monkeypatch: py
 # ------------------------------------------------------------------------- textscan
 
 
+@pytest.mark.parametrize("seed", range(20))
+def test_text_body_splits_lines_as_the_fault_handling(seed: int) -> None:
+    """Lines as byte offsets decode to the lines of text_lines: BOMs, CR, CRLF, invalid UTF-8, other breaks."""
+    rng = np.random.default_rng(seed)
+    pieces = [b"ab,1", b"\n", b"\r", b"\r\n", b"\xef\xbb\xbf", b"\xe2\x80", b"\xff", b"\x0b", b"\xc2\x85", b"",
+              b"\xe2\x80\xa8", b"x"]
+    raw = b"".join(pieces[k] for k in rng.integers(0, len(pieces), 60))
+    raw = (b"\xef\xbb\xbf" * int(rng.integers(0, 3))) + raw
+    for n_header in (0, 1, 4):
+        head, body, _, starts, ends, _ = textscan.text_body(raw, n_header)
+        lines = head + textscan.line_text(body, starts, ends, np.arange(starts.size))
+        assert lines == text_lines(raw)
+    assert textscan.first_line(raw) == (text_lines(raw) or [None])[0]
+
+
 def test_nan_literals_cover_every_spelling() -> None:
     spellings = {s + "".join(c) for s in ("", "+", "-") for c in itertools.product("nN", "aA", "nN")}
     assert set(textscan.NAN_LITERALS) == spellings
@@ -410,21 +425,32 @@ def test_fixed_width_times_rejects_what_it_cannot_vouch_for() -> None:
 GOLD = record_path("ameriflux_gold_openpath")
 
 
-def gold_both(monkeypatch: pytest.MonkeyPatch, path: Path, **kw: Any) -> tuple[Any, Any]:
-    """Outcome of ``_read_gold_values`` with and without the fast path."""
-    fast = outcome(lambda: ameriflux._read_gold_values(path, 0.05, **kw))
+def gold_by_lines(monkeypatch: pytest.MonkeyPatch, path: Path, **kw: Any) -> tuple[str, Any]:
+    """Outcome of the gold parser with every line through the fault handling (the reference)."""
     with monkeypatch.context() as m:
-        m.setattr(ameriflux, "_gold_values_fast", lambda raw, columns: None)
-        careful = outcome(lambda: ameriflux._read_gold_values(path, 0.05, **kw))
-    return fast, careful
+        m.setattr(ameriflux, "_regular_gold_rows", lambda body, buf, starts, ends, unusual, columns:
+                  (np.zeros(starts.size, dtype=bool), np.zeros((0, 6))))
+        return outcome(lambda: ameriflux._gold_values(path, 0.05, **kw))
+
+
+def handed_gold(monkeypatch: pytest.MonkeyPatch, path: Path, **kw: Any) -> list[int]:
+    """Numbers of lines the gold parser hands to its fault handling."""
+    handed: list[int] = []
+    real = ameriflux._irregular_gold_rows
+    with monkeypatch.context() as m:
+        m.setattr(ameriflux, "_irregular_gold_rows", lambda lines, *a: handed.append(len(lines)) or real(lines, *a))
+        outcome(lambda: ameriflux._gold_values(path, 0.05, **kw))
+    return handed
 
 
 def assert_gold_same(monkeypatch: pytest.MonkeyPatch, path: Path, **kw: Any) -> str:
-    (kind_a, a), (kind_b, b) = gold_both(monkeypatch, path, **kw)
+    (kind_a, a), (kind_b, b) = outcome(lambda: ameriflux._gold_values(path, 0.05, **kw)), \
+        gold_by_lines(monkeypatch, path, **kw)  # fmt: skip
     assert kind_a == kind_b, (a, b)
     if kind_a == "ok":
-        assert a[0].dtype == b[0].dtype and a[0].tobytes() == b[0].tobytes()
-        assert a[1].tobytes() == b[1].tobytes()
+        assert a.values.dtype == b.values.dtype and a.values.tobytes() == b.values.tobytes()
+        assert a.corrupt.tobytes() == b.corrupt.tobytes() and a.line_no.tolist() == b.line_no.tolist()
+        assert (a.n_joined, a.problem) == (b.n_joined, b.problem)
     else:
         assert a == b
     return kind_a
@@ -444,20 +470,36 @@ def gold_file(tmp_path: Path, seed: int = 0, n: int = 600, crlf: bool = True) ->
 
 
 @needs_record("ameriflux_gold_openpath")
-def test_real_gold_files_take_the_fast_path_and_agree(monkeypatch: pytest.MonkeyPatch) -> None:
-    import gzip
-
-    for f in sorted(GOLD.glob("G*.RAW.gz")):
-        assert ameriflux._gold_values_fast(gzip.open(f, "rb").read(), ameriflux.AMERIFLUX_GOLD_COLUMNS) is not None
+def test_real_gold_files_are_read_whole_by_the_scan(monkeypatch: pytest.MonkeyPatch) -> None:
+    for f in sorted(GOLD.glob("G*.RAW.gz"))[::8]:
+        assert handed_gold(monkeypatch, f) == [0]
         assert assert_gold_same(monkeypatch, f) == "ok"
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
 @pytest.mark.parametrize("crlf", [True, False])
-def test_plain_gold_files_take_the_fast_path_and_agree(seed: int, crlf: bool, tmp_path: Path,
-                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+def test_regular_gold_files_are_read_whole_by_the_scan(seed: int, crlf: bool, tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     path = gold_file(tmp_path, seed, crlf=crlf)
-    assert ameriflux._gold_values_fast(path.read_bytes(), ameriflux.AMERIFLUX_GOLD_COLUMNS) is not None
+    assert handed_gold(monkeypatch, path) == [0]
+    assert assert_gold_same(monkeypatch, path) == "ok"
+
+
+def test_scattered_bad_gold_rows_cost_their_lines_only(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Bad lines among 18,000, a joined line among them: each costs its samples, the others are the clean ones."""
+    clean = gold_file(tmp_path, 4, n=18_000, crlf=False)
+    ref = ameriflux._gold_values(clean, 0.05)
+    joined = b"+0.110,-0.930,+0.600,20.82,2.992,2.246" + b"," * 36 + b"+0.1,2,3,4,5,6"  # 43 fields: 3 samples
+    bad = {10: b"+0.1x0,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15, 5_000: joined, 9_000: b"",
+           17_999: b"+0.110,-0.930"}
+    path = scatter(clean, 0, bad)
+    assert handed_gold(monkeypatch, path) == [4]
+    got = ameriflux._gold_values(path, 0.05)
+    assert got.n_joined == 3 and got.values.shape == (18_000 + 2 - 1, 6)
+    assert got.line_no[got.corrupt].tolist() == [11, 5001, 5001, 5001, 18_000]  # a short line: four numbers lack
+    keep = ~np.isin(np.arange(18_000), list(bad))
+    assert got.values[~got.corrupt].tobytes() == ref.values[keep].tobytes()
+    assert got.line_no[~got.corrupt].tolist() == (np.arange(1, 18_001)[keep]).tolist()
     assert assert_gold_same(monkeypatch, path) == "ok"
 
 
@@ -470,10 +512,13 @@ GOLD_DEFECTS: dict[str, dict[int, bytes]] = {
     "sixteen_chars": {5: b"+0.1100000000000,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
     "seventh_field": {5: b"+0.110,-0.930,+0.600,20.82,2.992,2.246,7" + b"," * 14},
     "short_line": {5: b"+0.110,-0.930,+0.600"},
+    "six_fields": {5: b"+0.110,-0.930,+0.600,20.82,2.992,2.246"},
     "long_line": {5: b"+0.110,-0.930,+0.600,20.82,2.992,2.246" + b"," * 16},
+    "joined_lines": {5: b"+0.110,-0.930,+0.600,20.82,2.992,2.246" + b"," * 36 + b"+0.1,2,3,4,5,6"},
     "blank_line": {5: b""},
     "double_sign": {5: b"+-0.110,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
     "two_points": {5: b"+0.1.10,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
+    "lone_sign": {5: b"+,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
     "binary": {5: b"\xff\xfe,-0.930,+0.600,20.82,2.992,2.246" + b"," * 15},
     "many_corrupt": {i: b"x,y" + b"," * 19 for i in range(0, 100)},
 }
@@ -486,15 +531,28 @@ def test_gold_defects_same_result(name: str, tmp_path: Path, monkeypatch: pytest
     for i, text in GOLD_DEFECTS[name].items():
         lines[i] = text
     path.write_bytes(b"\r\n".join(lines))
-    assert ameriflux._gold_values_fast(path.read_bytes(), ameriflux.AMERIFLUX_GOLD_COLUMNS) is None
+    if name != "many_corrupt":
+        assert handed_gold(monkeypatch, path) == [1]  # the edited line only
     assert_gold_same(monkeypatch, path)
 
 
-def test_gold_lone_cr_and_other_columns_take_the_careful_path(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_gold_lone_cr_and_other_columns(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     path = gold_file(tmp_path, 8)
     columns = ("w", "u", "v", "t_sonic_c", "unused", "unused")
-    assert ameriflux._gold_values_fast(path.read_bytes(), columns) is None
+    assert handed_gold(monkeypatch, path, columns=columns) == [0]
     assert assert_gold_same(monkeypatch, path, columns=columns) == "ok"
     path.write_bytes(path.read_bytes().replace(b"\r\n", b"\r", 3))
-    assert ameriflux._gold_values_fast(path.read_bytes(), ameriflux.AMERIFLUX_GOLD_COLUMNS) is None
+    assert handed_gold(monkeypatch, path) == [0]
     assert_gold_same(monkeypatch, path)
+
+
+def test_damaged_gzip_stream_is_read_as_far_as_it_goes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import gzip
+
+    path = gold_file(tmp_path, 9)
+    data = gzip.compress(path.read_bytes(), mtime=0)
+    gz = tmp_path / "G1040000.RAW.gz"
+    gz.write_bytes(data[: len(data) * 2 // 3])
+    got = ameriflux._gold_values(gz, 0.05)
+    assert got.problem and "truncated" in got.problem and 0 < got.values.shape[0] < 600
+    assert assert_gold_same(monkeypatch, gz) == "ok"
