@@ -222,22 +222,22 @@ def _regular_rows(body: bytes, starts: np.ndarray, ends: np.ndarray, names: list
                                         bool(body.translate(None, textscan.PRINTABLE_LINES)))
     candidate &= ~textscan.lines_with(body, buf, starts, b"eE")
     space = np.flatnonzero(buf == ord(" "))
-    candidate &= np.bincount(np.searchsorted(starts, space, side="right") - 1, minlength=n) == 1
     quote = np.flatnonzero(buf == ord('"'))
-    q_line = np.searchsorted(starts, quote, side="right") - 1
-    per_line = np.bincount(q_line, minlength=n)
-    candidate &= per_line % 2 == 0
     commas = np.flatnonzero(buf == ord(","))
-    if quote.size:  # every quote pair of a line encloses one whole field
-        rank = np.arange(quote.size) - np.searchsorted(quote, starts)[q_line]
-        opening = np.flatnonzero((rank % 2 == 0) & candidate[q_line])
-        qo, qc = quote[opening], quote[np.minimum(opening + 1, quote.size - 1)]
-        line = q_line[opening]
-        whole = (qc > qo) & (q_line[np.minimum(opening + 1, quote.size - 1)] == line) \
-            & (np.searchsorted(commas, qo) == np.searchsorted(commas, qc)) \
-            & ((qo == starts[line]) | (buf[np.maximum(qo - 1, 0)] == ord(","))) \
-            & ((qc + 1 == ends[line]) | (buf[np.minimum(qc + 1, buf.size - 1)] == ord(",")))  # fmt: skip
-        candidate[line[~whole]] = False
+    if not _common_quotes(buf, starts, ends, space, quote, j_ts):
+        candidate &= np.bincount(np.searchsorted(starts, space, side="right") - 1, minlength=n) == 1
+        q_line = np.searchsorted(starts, quote, side="right") - 1
+        candidate &= np.bincount(q_line, minlength=n) % 2 == 0
+        if quote.size:  # every quote pair of a line encloses one whole field
+            rank = np.arange(quote.size) - np.searchsorted(quote, starts)[q_line]
+            opening = np.flatnonzero((rank % 2 == 0) & candidate[q_line])
+            qo, qc = quote[opening], quote[np.minimum(opening + 1, quote.size - 1)]
+            line = q_line[opening]
+            whole = (qc > qo) & (q_line[np.minimum(opening + 1, quote.size - 1)] == line) \
+                & (np.searchsorted(commas, qo) == np.searchsorted(commas, qc)) \
+                & ((qo == starts[line]) | (buf[np.maximum(qo - 1, 0)] == ord(","))) \
+                & ((qc + 1 == ends[line]) | (buf[np.minimum(qc + 1, buf.size - 1)] == ord(",")))  # fmt: skip
+            candidate[line[~whole]] = False
     rows, cpos, _ = textscan.comma_grid(commas, starts, ends, candidate, ncol)
     columns: dict[str, np.ndarray] = {}
     if rows.size == 0:
@@ -252,7 +252,8 @@ def _regular_rows(body: bytes, starts: np.ndarray, ends: np.ndarray, names: list
 
     t0, t1 = span(j_ts)
     time, ok = textscan.fixed_width_times(buf, t0, t1 - t0, sep=b" ")
-    ok &= buf[np.maximum(t0 - 1, 0)] == ord('"')  # the TIMESTAMP quoted (its space inside the quotes)
+    # the TIMESTAMP quoted, its closing quote the one before the line's first comma (no comma inside)
+    ok &= (buf[np.maximum(t0 - 1, 0)] == ord('"')) & (buf[np.minimum(t1, buf.size - 1)] == ord('"'))
     scanned = np.zeros(n, dtype=bool)
     scanned[rows] = True
     other = [c for c in names if c != "TIMESTAMP"]
@@ -274,6 +275,23 @@ def _regular_rows(body: bytes, starts: np.ndarray, ends: np.ndarray, names: list
     regular = np.zeros(n, dtype=bool)
     regular[rows[ok]] = True
     return regular, {k: v[ok] for k, v in columns.items()}
+
+
+def _common_quotes(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, space: np.ndarray, quote: np.ndarray,
+                   j_ts: int) -> bool:
+    """Whether every line's only quotes open it and close before a comma, its only space between them.
+
+    The common file, checked with a few comparisons instead of the per-line counts
+    (:func:`_regular_rows` then checks that the closing quote ends the first field, so no
+    comma lies inside the quotes).
+    """
+    n = starts.size
+    if j_ts != 0 or quote.size != 2 * n or space.size != n or n == 0:
+        return False
+    qo, qc = quote[0::2], quote[1::2]
+    return bool((qo == starts).all() and (qc < ends).all()
+                and (buf[np.minimum(qc + 1, buf.size - 1)] == ord(",")).all()
+                and ((space > qo) & (space < qc)).all())
 
 
 #: Data lines scanned at a time: the offsets of one block are held at once, so a day of
