@@ -329,10 +329,15 @@ def _regular_gold_rows(body: bytes, buf: np.ndarray, starts: np.ndarray, ends: n
     rows, cpos, _ = textscan.comma_grid(np.flatnonzero(buf == ord(",")), starts, ends, candidate, _N_FIELDS)
     if rows.size == 0:
         return regular, np.zeros((0, 6))
-    fstart = np.column_stack([starts[rows], cpos + 1])
-    fend = np.column_stack([cpos, ends[rows]])
-    length = fend - fstart  # characters per field
-    ok = ~(length[:, n_cols:] != 0).any(axis=1)
+    line_end = ends[rows]
+    # the fields after the declared ones empty: their commas consecutive, the last one ending the line
+    ok = (cpos[:, -1] + 1 == line_end) & (cpos[:, -1] - cpos[:, n_cols - 1] == _N_FIELDS - 1 - n_cols) \
+        if n_cols < _N_FIELDS else np.ones(rows.size, dtype=bool)  # fmt: skip
+
+    def length(k: int) -> np.ndarray:
+        """Characters of field `k` of the scanned lines."""
+        return (cpos[:, k] if k < _N_FIELDS - 1 else line_end) - (starts[rows] if k == 0 else cpos[:, k - 1] + 1)
+
     names = [str(k) for k in range(_N_FIELDS)]
     declared = {j: list(columns).index(name) for j, name in enumerate(AMERIFLUX_GOLD_COLUMNS) if name in columns}
     scanned = np.zeros(n, dtype=bool)
@@ -341,8 +346,9 @@ def _regular_gold_rows(body: bytes, buf: np.ndarray, starts: np.ndarray, ends: n
                                           [names[k] for k in sorted(set(declared.values()))], {}, quoting=False)
     vals = np.full((rows.size, 6), np.nan)
     for j, k in declared.items():
-        vals[:, j], col_ok = textscan.float_fields(frame[names[k]], length[:, k])
-        ok &= col_ok & (length[:, k] >= 1) & np.isfinite(vals[:, j])
+        chars = length(k)
+        vals[:, j], col_ok = textscan.float_fields(frame[names[k]], chars)
+        ok &= col_ok & (chars >= 1) & np.isfinite(vals[:, j])
     regular[rows[ok]] = True
     return regular, vals[ok]
 

@@ -393,8 +393,10 @@ def _quadrotor_rows(path: Path, max_corrupt_fraction: float = 0.05,
         & ~textscan.lines_with(body, buf, starts, b"eE")  # fmt: skip
     rows, cpos, _ = textscan.comma_grid(np.flatnonzero(buf == ord(",")), starts, ends, candidate, ncol)
 
+    row_start, row_end = (starts, ends) if rows.size == n else (starts[rows], ends[rows])
+
     def span(j: int) -> tuple[np.ndarray, np.ndarray]:
-        return (starts[rows] if j == 0 else cpos[:, j - 1] + 1), (cpos[:, j] if j < ncol - 1 else ends[rows])
+        return (row_start if j == 0 else cpos[:, j - 1] + 1), (cpos[:, j] if j < ncol - 1 else row_end)
 
     provable = np.ones(rows.size, dtype=bool)
     values: dict[str, np.ndarray] = {}
