@@ -131,7 +131,7 @@ def test_reference_bad_values_named(tmp_path):
         read_tower_reference(p)
 
 
-# ----------------------------------------------------------------------------- fast path of the CSV reader
+# ----------------------------------------------------------------------------- the scan of the CSV reader
 
 
 def _plain_log(rng: np.random.Generator, n: int = 400) -> str:

@@ -61,11 +61,11 @@ PRINTABLE_LINES = _PRINTABLE  # printable ASCII and the line end: the bytes of a
 FLOAT_FAST_MAX_CHARS = 15  # longest float field parsed by read_csv (see the module docstring)
 NAN_LITERALS: tuple[str, ...] = tuple(
     sign + "".join(chars) for sign in ("", "+", "-") for chars in itertools.product("nN", "aA", "nN")
-)  # every spelling the careful parsers accept as a NaN literal (case-insensitive nan, +nan, -nan)
+)  # every spelling the fault handling accepts as a NaN literal (case-insensitive nan, +nan, -nan)
 
 
 #: Bytes of a plain line of a comma-separated file: printable ASCII except the quote (read_csv
-#: would unquote, the careful split keeps it) and the space (the careful parses strip it,
+#: would unquote, the line-by-line split keeps it) and the space (the fault handling strips it,
 #: read_csv may not).
 PLAIN_CSV = bytes(b for b in range(0x21, 0x7F) if b != ord('"'))
 
@@ -179,7 +179,7 @@ def fixed_width_times(buf: np.ndarray, start: np.ndarray, length: np.ndarray, se
     """Vectorised parse of ``YYYY-MM-DD?HH:MM:SS[.f...]`` time stamps at byte offsets of `buf`.
 
     Hand-written because the stamps sit inside the lines (no ``datetime64`` string array to
-    convert) and because every stamp must be proven to be read as the careful parser reads
+    convert) and because every stamp must be proven to be read as the fault handling reads
     it: each one is checked against the fixed pattern of its length, and only those are
     converted (date and time digits by one matrix product, exact in float64).
 
@@ -200,7 +200,7 @@ def fixed_width_times(buf: np.ndarray, start: np.ndarray, length: np.ndarray, se
         datetime64[ns] (NaT where not parsed).
     ok : numpy.ndarray
         True where the stamp has exactly this form with 0 to 9 decimals, a real calendar
-        date of the years 1900-2199 and a time of day below 24:00:00 (the careful parser
+        date of the years 1900-2199 and a time of day below 24:00:00 (the fault handling
         reads every such stamp to the same instant; the others are left to it).
     """
     ns = np.zeros(start.size, dtype=np.int64)
@@ -377,7 +377,7 @@ def int_fields(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> tuple[np.
 
 
 def float_fields(values: pd.Series, length: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """float64 of a column as ``read_csv`` read it, and where that value is the careful parse's bit for bit.
+    """float64 of a column as ``read_csv`` read it, and where that value is the fault handling's bit for bit.
 
     Parameters
     ----------
@@ -399,7 +399,7 @@ def float_fields(values: pd.Series, length: np.ndarray) -> tuple[np.ndarray, np.
     if values.dtype in (np.float64, np.int64):
         vals = values.to_numpy(dtype=float)
         ok = ~np.isinf(vals)
-    else:  # text in some field: each field converted as the careful parse converts it
+    else:  # text in some field: each field converted as the fault handling converts it
         vals = pd.to_numeric(values, errors="coerce").to_numpy(dtype=float)
         ok = ~np.isinf(vals) & ~(np.isnan(vals) & ~values.isna().to_numpy(dtype=bool))
     return vals, ok & (length <= FLOAT_FAST_MAX_CHARS)

@@ -257,19 +257,19 @@ def _rows(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: dict[s
     count_ok = regular.copy()
     count_ok[irregular[good_count]] = True
     good_lines = np.flatnonzero(count_ok)
-    from_careful = np.isin(good_lines, irregular)
+    from_lines = np.isin(good_lines, irregular)
     merged: dict[str, np.ndarray] = {}
     for name in expected:
-        if from_careful.all():
+        if from_lines.all():
             merged[name] = cols[name]
-        elif not from_careful.any():
+        elif not from_lines.any():
             merged[name] = fields[name][0][provable]
         else:
             merged[name] = np.empty(good_lines.size, dtype=fields[name][0].dtype)
-            merged[name][~from_careful] = fields[name][0][provable]
-            merged[name][from_careful] = cols[name]
+            merged[name][~from_lines] = fields[name][0][provable]
+            merged[name][from_lines] = cols[name]
     all_bad = np.zeros(good_lines.size, dtype=bool)
-    all_bad[from_careful] = bad
+    all_bad[from_lines] = bad
     regular_bad = np.zeros(int(provable.sum()), dtype=bool)
     for name in expected:
         if kinds[name] == "flag" and rows.size:
@@ -277,7 +277,7 @@ def _rows(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: dict[s
             regular_bad |= flag_bad
             if flag_bad.any():
                 per_column[name] = per_column.get(name, 0) + int(flag_bad.sum())
-    all_bad[~from_careful] = regular_bad
+    all_bad[~from_lines] = regular_bad
     return _Rows(np.arange(2, n + 2)[nonblank], int(blank.sum()), count_ok[nonblank], merged, all_bad,
                  dict(sorted(per_column.items(), key=lambda kv: expected.index(kv[0]))))
 

@@ -435,8 +435,8 @@ def _quadrotor_rows(path: Path, max_corrupt_fraction: float = 0.05,
         order = np.argsort(line_no, kind="stable")
         line_no = line_no[order]
         for col in QUADROTOR_COLUMNS[1:]:
-            careful = pd.to_numeric(frame_i[col].astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
-            columns[col] = np.concatenate([values.get(col, np.zeros(0)), careful])[order]
+            by_line = pd.to_numeric(frame_i[col].astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
+            columns[col] = np.concatenate([values.get(col, np.zeros(0)), by_line])[order]
         time = np.concatenate([time, time_i])[order]
     else:
         columns = values
