@@ -12,7 +12,7 @@ the fault handling does.
 The helpers are written by hand because no library call proves what the scan must prove
 of a line before converting it in bulk: that the fault handling would split it into the
 same fields and convert every value to the same bits. Converting every line one by one
-costs 5 to 15 times as much CPU (400,000 rows: 2.3 s against 0.35 s for TOA5, 3.8 s
+costs 5 to 15 times as much CPU (400,000 rows: 2.3 s against 0.25 s for TOA5, 3.8 s
 against 0.6 s for an INS CSV, 4 s against 0.3 s for the quadrotor CSV).
 
 Facts the scan relies on (checked by ``tests/test_parsing_fast.py``):
