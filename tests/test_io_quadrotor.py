@@ -5,6 +5,7 @@ from __future__ import annotations
 import struct
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from dronewind.errors import InputError
@@ -130,7 +131,7 @@ def test_reference_bad_values_named(tmp_path):
         read_tower_reference(p)
 
 
-# ----------------------------------------------------------------------------- fast path of the CSV reader
+# ----------------------------------------------------------------------------- the scan of the CSV reader
 
 
 def _plain_log(rng: np.random.Generator, n: int = 400) -> str:
@@ -154,21 +155,45 @@ def _same(a, b) -> None:
         assert np.array_equal(ca[col].view(np.int64), cb[col].view(np.int64)), col
 
 
+def _parsed(p):
+    """Time, columns and non-finite count of the parser (:func:`_quadrotor_rows`)."""
+    from dronewind.quadrotor.io import _quadrotor_rows
+
+    time, cols, _, counts = _quadrotor_rows(p)
+    return time, cols, counts["n_nonfinite"]
+
+
+def _by_lines(p):
+    """The same with every line through the fault handling (the reference)."""
+    from dronewind.quadrotor.columns import QUADROTOR_COLUMNS
+    from dronewind.quadrotor.io import _csv_rows
+
+    _, frame, time, _, _, _ = _csv_rows(p, "not found", QUADROTOR_COLUMNS, exact=False)
+    cols = {c: pd.to_numeric(frame[c].astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
+            for c in QUADROTOR_COLUMNS[1:]}
+    return time, cols, sum(int((~np.isfinite(v)).sum()) for v in cols.values())
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_csv_fast_path_equals_the_careful_parse_bit_for_bit(tmp_path, seed):
-    from dronewind.quadrotor.io import _quadrotor_columns_careful, _quadrotor_columns_fast
+def test_csv_scan_equals_the_line_by_line_parse_bit_for_bit(tmp_path, monkeypatch, seed):
+    from dronewind.quadrotor import io
 
     p = tmp_path / "q.csv"
     p.write_text(_plain_log(np.random.default_rng(seed)))
-    fast = _quadrotor_columns_fast(p)
-    assert fast is not None  # a plain file takes the fast path
-    _same(fast, _quadrotor_columns_careful(p))
+    handed = []
+    real = io._irregular_csv_rows
+    monkeypatch.setattr(io, "_irregular_csv_rows", lambda lines, *a, **k: handed.append(len(lines))
+                        or real(lines, *a, **k))
+    fast = _parsed(p)
+    assert handed == [0]  # a regular file: every line read by the scan
+    monkeypatch.undo()
+    _same(fast, _by_lines(p))
     p.write_bytes(p.read_bytes().replace(b"\n", b"\r\n"))  # CRLF: the same lines
-    _same(_quadrotor_columns_fast(p), _quadrotor_columns_careful(p))
+    _same(_parsed(p), _by_lines(p))
 
 
 @pytest.mark.parametrize("edit", [
-    lambda t: t.replace(",0.0,", ", 0.0,", 1),               # a space: the careful parse strips it
+    lambda t: t.replace(",0.0,", ", 0.0,", 1),               # a space: the fault handling strips it
     lambda t: t.replace(",12.0,", ",nan,", 1),               # a NaN literal: counted as non-finite
     lambda t: t.replace(",12.0,", ",1.2e1,", 1),             # an exponent
     lambda t: t.replace(",12.0,", ",12.000000000000001,", 1),  # a long literal
@@ -177,28 +202,21 @@ def test_csv_fast_path_equals_the_careful_parse_bit_for_bit(tmp_path, seed):
     lambda t: t.replace(",12.0,", ',"12.0",', 1),            # quoted
     lambda t: t.replace("\n", "\n\n", 3),                    # blank lines
     lambda t: t.replace(HEADER, HEADER + ",extra", 1).replace("\n2020", ",1\n2020"),  # an extra column
+    lambda t: t.replace(HEADER, "extra," + HEADER, 1).replace("\n2020", "\nx,2020"),  # another column order
     lambda t: t.replace("T10:19:30.000Z", "T10:19:30Z", 1),  # a stamp without fraction
 ])
-def test_csv_fast_path_gives_way_or_agrees(tmp_path, edit):
-    from dronewind.quadrotor.io import _quadrotor_columns_careful, _quadrotor_columns_fast
-
+def test_csv_irregular_lines_agree_with_the_line_by_line_parse(tmp_path, edit):
     p = tmp_path / "q.csv"
     p.write_text(edit(_plain_log(np.random.default_rng(5))))
-    fast = _quadrotor_columns_fast(p)
-    if fast is not None:
-        _same(fast, _quadrotor_columns_careful(p))
-    ds = read_quadrotor_csv(p)  # whichever path: the reader's result is the careful one's
-    careful = _quadrotor_columns_careful(p)
-    assert ds.attrs["n_nonfinite"] == careful[2]
+    parsed = _parsed(p)
+    _same(parsed, _by_lines(p))
+    assert read_quadrotor_csv(p).attrs["n_nonfinite"] == parsed[2]
 
 
-def test_csv_fast_path_leaves_bad_stamps_to_the_careful_count(tmp_path):
-    from dronewind.quadrotor.io import _quadrotor_columns_fast
-
+def test_csv_bad_stamps_are_counted_by_the_fault_handling(tmp_path):
     p = tmp_path / "q.csv"
     text = _plain_log(np.random.default_rng(7))
     p.write_text(text.replace("T10:19:30.100Z", "T10:19:30.100", 1))
-    assert _quadrotor_columns_fast(p) is None
     ds = read_quadrotor_csv(p)  # one bad stamp: its line counted and named, the others read
     assert ds.attrs["n_corrupt_lines"] == 1 and ds.sizes["time"] == 399 and "(lines [3])" in ds.attrs["processing_log"]
     lines = text.split("\n")
@@ -206,7 +224,6 @@ def test_csv_fast_path_leaves_bad_stamps_to_the_careful_count(tmp_path):
     with pytest.raises(InputError, match=r"q\.csv:2.*trailing 'Z'"):  # many: the named error
         read_quadrotor_csv(p)
     p.write_text(text.replace("2020-07-24T10:19:30.100Z", "2020-02-30T10:19:30.100Z", 1))
-    assert _quadrotor_columns_fast(p) is None
     assert read_quadrotor_csv(p).attrs["n_corrupt_lines"] == 1
     p.write_text(text.replace("2020-07-24T10:19:3", "2020-02-30T10:19:3", 40))
     with pytest.raises(InputError, match=r"q\.csv:2.*not a valid date"):

@@ -1,30 +1,35 @@
-"""The chunked C-parser path of the TOA5 reader (large files) gives exactly the careful result, or declines."""
+"""The TOA5 parser reads long files block by block: the same rows, counts and line numbers as in one block."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
-from dronewind.mast import columns, toa5
+from dronewind.mast import toa5
 from tests.conftest import needs_record
 from tests.test_io_toa5 import EXCERPT, SHARED, synthetic_rows, write_toa5
 
 
 def _row_by_row(path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[pd.DataFrame, dict]:
+    """The parser's result with every line through the fault handling (the reference)."""
     with monkeypatch.context() as m:
-        m.setattr(toa5, "_CHUNKED_MIN_BYTES", 1 << 62)  # never chunked
-        m.setattr(toa5, "_toa5_fast", lambda p, required: None)  # the careful csv.reader path
+        m.setattr(toa5, "_regular_rows", lambda body, starts, ends, names: (np.zeros(starts.size, dtype=bool), {}))
         return toa5.read_toa5(path)
 
 
-def _assert_same(path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    fast = toa5._read_toa5_chunked(Path(path), columns.REQUIRED_TOA5_COLUMNS)
-    assert fast is not None, f"{path}: clean file, the C-parser path should take it"
+def _assert_same(path: Path, monkeypatch: pytest.MonkeyPatch, blocks: tuple[int, ...] = (7, 64, 400_000)) -> None:
     slow = _row_by_row(Path(path), monkeypatch)
-    pd.testing.assert_frame_equal(fast[0], slow[0], check_exact=True)
-    assert fast[1] == slow[1]
+    for block in blocks:
+        with monkeypatch.context() as m:
+            m.setattr(toa5, "_BLOCK_LINES", block)
+            fast = toa5.read_toa5(path)
+        pd.testing.assert_frame_equal(fast[0], slow[0], check_exact=True)
+        for col in slow[0]:
+            assert fast[0][col].to_numpy().tobytes() == slow[0][col].to_numpy().tobytes(), (block, col)
+        assert fast[1] == slow[1]
 
 
 def test_clean_file_with_nan_literals_identical(tmp_path, monkeypatch):
@@ -44,49 +49,44 @@ def test_real_excerpt_identical(monkeypatch):
 
 @needs_record("fluxpart_csat3_toa5")
 def test_real_fluxpart_file_identical(monkeypatch):
-    _assert_same(sorted(SHARED.glob("*.dat"))[0], monkeypatch)
+    _assert_same(sorted(SHARED.glob("*.dat"))[0], monkeypatch, blocks=(5000, 400_000))
 
 
 @pytest.mark.parametrize("damage", ["short_row", "long_row", "text_value", "bad_timestamp", "blank_line",
                                     "bad_record"])
-def test_damaged_file_declined_and_read_row_by_row(tmp_path, monkeypatch, damage):
+@pytest.mark.parametrize("at", [5, 63, 64])  # inside a block, at the last and the first line of one
+def test_damaged_rows_cost_their_lines_in_every_block(tmp_path, monkeypatch, damage, at):
     rows = synthetic_rows(400)
     if damage == "short_row":
-        rows[5] = rows[5].rsplit(",", 1)[0]
+        rows[at] = rows[at].rsplit(",", 1)[0]
     elif damage == "long_row":
-        rows[5] += ",9"
+        rows[at] += ",9"
     elif damage == "text_value":
-        rows[5] = rows[5].replace(rows[5].split(",")[2], "abc", 1)
+        rows[at] = rows[at].replace(rows[at].split(",")[2], "abc", 1)
     elif damage == "bad_timestamp":
-        rows[5] = '"2023-08-21 xx:00:00"' + rows[5][rows[5].index(","):]
+        rows[at] = '"2023-08-21 xx:00:00"' + rows[at][rows[at].index(","):]
     elif damage == "blank_line":
-        rows.insert(5, "")
+        rows.insert(at, "")
     else:
-        rows[5] = rows[5].replace(rows[5].split(",")[1], "12a", 1)
+        rows[at] = rows[at].replace(rows[at].split(",")[1], "12a", 1)
     p = write_toa5(tmp_path / "d.dat", rows)
-    assert toa5._read_toa5_chunked(p, columns.REQUIRED_TOA5_COLUMNS) is None
+    _assert_same(p, monkeypatch)
     frame, info = toa5.read_toa5(p)
-    assert frame.equals(_row_by_row(p, monkeypatch)[0])
     assert info["n_corrupt_lines"] + info["n_nonnumeric"] == 1
+    if damage != "text_value":
+        assert info["corrupt_lines"] == [at + 5] and at + 5 not in frame["_line"].tolist()
 
 
 @pytest.mark.parametrize("text", ["1.5e-3", "0.12345678901234567"])
-def test_number_text_that_may_round_differently_is_declined(tmp_path, monkeypatch, text):
-    """An exponent or 16+ digits: read_csv and the careful path's pd.to_numeric may differ in the last bit."""
+def test_number_text_that_may_round_differently_goes_to_the_fault_handling(tmp_path, monkeypatch, text):
+    """An exponent or 16+ digits: read_csv and pandas' to_numeric may differ in the last bit."""
     rows = synthetic_rows(400)
     rows[7] = rows[7].replace(rows[7].split(",")[2], text, 1)
     p = write_toa5(tmp_path / "e.dat", rows)
-    assert toa5._read_toa5_chunked(p, columns.REQUIRED_TOA5_COLUMNS) is None
+    handed = []
+    real = toa5._irregular_rows
+    monkeypatch.setattr(toa5, "_irregular_rows", lambda lines, *a: handed.append(len(lines)) or real(lines, *a))
     frame, info = toa5.read_toa5(p)
-    assert frame.equals(_row_by_row(p, monkeypatch)[0]) and info["n_nonnumeric"] == 0
-
-
-def test_large_files_take_the_chunked_path(tmp_path, monkeypatch):
-    """Above the size threshold read_toa5 returns the chunked path's frame, equal to the careful one."""
-    p = write_toa5(tmp_path / "big.dat", synthetic_rows(2000))
-    monkeypatch.setattr(toa5, "_CHUNKED_MIN_BYTES", 1)
-    calls = []
-    real = toa5._read_toa5_chunked
-    monkeypatch.setattr(toa5, "_read_toa5_chunked", lambda *a: calls.append(a) or real(*a))
-    frame, _ = toa5.read_toa5(p)
-    assert calls and frame.equals(_row_by_row(p, monkeypatch)[0])
+    assert handed == [1] and info["n_nonnumeric"] == 0
+    monkeypatch.undo()
+    _assert_same(p, monkeypatch)

@@ -1,35 +1,37 @@
-"""Byte-level helpers of the fast paths of the raw-text readers (payload, INS, quadrotor CSV, TOA5, AmeriFlux).
+"""The byte-level scan shared by the raw-text readers (payload CSVs, quadrotor CSV, TOA5, AmeriFlux gold).
 
-The readers parse every line carefully (``str.splitlines``, ``str.split``, pandas string
-conversions per column), which names every corrupt line but costs most of a forward run.
-Their fast paths scan the file's bytes with numpy instead and hand the numbers of the
-lines that are plain text to ``pandas.read_csv`` (C engine). The helpers here are
-hand-written because no library call gives what the fast path must prove before it may
-stand in for the careful one: that the lines, fields and values it sees are exactly those
-the careful parse sees, and every value bit for bit the same. Whatever they cannot prove
-is left to the careful parse (for one column, or for the whole file), so results,
-counts, logs and errors never depend on which path ran.
+Each reader has one parser: :func:`text_body` splits the file's bytes into lines as
+:func:`dronewind.core.rowfaults.text_lines` does, the scan finds the regular lines (plain
+bytes, one field per column, values of a form proven to convert alike) and converts them
+in bulk (``pandas.read_csv``'s C engine for the numbers, :func:`fixed_width_times` for time
+stamps), and every other line is decoded and handed with its line number to the reader's
+line-by-line fault handling, whose rows are joined back in line order. A file with a few
+bad rows among a million thus keeps the speed of the scan, and names its bad lines as
+the fault handling does.
 
-Facts the helpers rely on (checked by ``tests/test_parsing_fast.py``):
+The helpers are written by hand because no library call proves what the scan must prove
+of a line before converting it in bulk: that the fault handling would split it into the
+same fields and convert every value to the same bits. Converting every line one by one
+costs 5 to 15 times as much CPU (400,000 rows: 2.3 s against 0.25 s for TOA5, 3.8 s
+against 0.6 s for an INS CSV, 4 s against 0.3 s for the quadrotor CSV).
 
-* For text with no other line break than ``\\n`` (and ``\\r\\n``), ``str.splitlines`` of the
-  decoded text and a split of the bytes at ``\\n`` give the same lines; invalid UTF-8
-  decoded with ``errors="replace"`` never swallows a ``\\n``.
-* ``pandas.to_numeric`` (the careful path) is not always correctly rounded (it scales by
+Facts the scan relies on (checked by ``tests/test_parsing_fast.py``):
+
+* Splitting the bytes at ``\\n`` (after ``\\r\\n`` and ``\\r`` are turned into ``\\n``) gives
+  the lines of the decoded text; invalid UTF-8 decoded with ``errors="replace"`` never
+  swallows a line end, so a line's text is the decoding of its bytes.
+* ``pandas.to_numeric`` (the fault handling) is not always correctly rounded (it scales by
   inexact powers of ten beyond 1e22 and keeps 17 digits), ``pandas.read_csv`` is. A decimal
   literal of at most 15 characters without exponent has at most 15 digits and at most 15
   decimals: both parsers then compute one correctly rounded division or product of exact
-  doubles, so they agree bit for bit. Longer fields and fields with an exponent are
-  parsed by the careful path.
+  doubles, so they agree bit for bit. Longer fields and fields with an exponent go to the
+  fault handling.
 """
 
 from __future__ import annotations
 
 import io
 import itertools
-import os
-from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -38,123 +40,34 @@ __all__ = [
     "FLOAT_FAST_MAX_CHARS",
     "NAN_LITERALS",
     "PLAIN_CSV",
-    "csv_body",
+    "PRINTABLE_LINES",
     "comma_grid",
-    "exponent_fields",
-    "field_strings",
     "fixed_width_times",
     "line_bounds",
-    "line_safe_bytes",
-    "line_safe_content",
     "lines_holding",
     "read_numeric_columns",
+    "first_line",
+    "float_fields",
+    "int_fields",
+    "kept_lines",
+    "line_text",
+    "lines_with",
+    "text_body",
 ]
 
 _BOM = b"\xef\xbb\xbf"
-# Line breaks of str.splitlines other than \n and \r (\v, \f, FS, GS, RS, NEL, LS, PS in UTF-8).
-_OTHER_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e", b"\xc2\x85", b"\xe2\x80\xa8", b"\xe2\x80\xa9")
 _PRINTABLE = bytes(range(0x20, 0x7F)) + b"\n"
+PRINTABLE_LINES = _PRINTABLE  # printable ASCII and the line end: the bytes of a plain text
 FLOAT_FAST_MAX_CHARS = 15  # longest float field parsed by read_csv (see the module docstring)
 NAN_LITERALS: tuple[str, ...] = tuple(
     sign + "".join(chars) for sign in ("", "+", "-") for chars in itertools.product("nN", "aA", "nN")
-)  # every spelling the careful parsers accept as a NaN literal (case-insensitive nan, +nan, -nan)
-
-
-def line_safe_bytes(path: str | os.PathLike[str]) -> tuple[bytes, bool] | None:
-    """The bytes of a file whose lines split at ``\\n`` are those of the careful reader, or None.
-
-    Parameters
-    ----------
-    path : str or Path
-        Text file.
-
-    Returns
-    -------
-    raw : bytes
-        The content without leading byte order marks and with ``\\r\\n`` turned into ``\\n``.
-    unusual : bool
-        The content holds a byte other than printable ASCII and ``\\n``.
-    None
-        When the file is missing or holds another line break (a lone ``\\r``, ``\\v``,
-        ``\\f``, ``\\x1c``-``\\x1e``, NEL, LS, PS), which only the careful reader splits
-        like ``str.splitlines``.
-    """
-    p = Path(path)
-    if not p.is_file():
-        return None
-    return line_safe_content(p.read_bytes())
-
-
-def line_safe_content(raw: bytes) -> tuple[bytes, bool] | None:
-    """:func:`line_safe_bytes` of content already read (e.g. a decompressed file).
-
-    Parameters
-    ----------
-    raw : bytes
-        The file's content.
-
-    Returns
-    -------
-    (bytes, bool) or None
-        As :func:`line_safe_bytes`.
-    """
-    while raw.startswith(_BOM):  # the careful reader strips every leading U+FEFF
-        raw = raw[len(_BOM):]
-    rest = raw.translate(None, _PRINTABLE)  # one C-speed pass; empty for the common file
-    if not rest:
-        return raw, False
-    if any(ch in rest for ch in _OTHER_BREAKS[:5]) or (not rest.isascii() and any(
-            sep in raw for sep in _OTHER_BREAKS[5:])):  # fmt: skip
-        return None
-    if b"\r" in rest:
-        if rest.count(b"\r") != raw.count(b"\r\n"):
-            return None
-        raw = raw.translate(None, b"\r")  # every \r precedes a \n: the same as replacing \r\n by \n
-        rest = rest.translate(None, b"\r")
-    return raw, bool(rest)
+)  # every spelling the fault handling accepts as a NaN literal (case-insensitive nan, +nan, -nan)
 
 
 #: Bytes of a plain line of a comma-separated file: printable ASCII except the quote (read_csv
-#: would unquote, the careful split keeps it) and the space (the careful parses strip it,
+#: would unquote, the line-by-line split keeps it) and the space (the fault handling strips it,
 #: read_csv may not).
 PLAIN_CSV = bytes(b for b in range(0x21, 0x7F) if b != ord('"'))
-
-
-def csv_body(path: str | os.PathLike[str], header: Sequence[str]
-             ) -> tuple[bytes, np.ndarray, np.ndarray, np.ndarray, bool] | None:
-    """The data lines of a CSV file whose first line is exactly ``header`` joined by commas, or None.
-
-    Parameters
-    ----------
-    path : str or Path
-        CSV file.
-    header : sequence of str
-        Expected column names.
-
-    Returns
-    -------
-    raw : bytes
-        The lines after the header (:func:`line_safe_bytes`).
-    buf : numpy.ndarray
-        uint8 view of `raw`.
-    starts, ends : numpy.ndarray
-        Line bounds (:func:`line_bounds`).
-    unusual : bool
-        As :func:`line_safe_bytes`.
-    None
-        When :func:`line_safe_bytes` gives None or the first line is another header.
-    """
-    scanned = line_safe_bytes(path)
-    if scanned is None:
-        return None
-    raw, unusual = scanned
-    head_end = raw.find(b"\n")
-    if head_end < 0 or raw[:head_end] != ",".join(header).encode():
-        return None
-    raw = raw[head_end + 1:]
-    buf = np.frombuffer(raw, dtype=np.uint8)
-    starts, ends = line_bounds(buf)
-    return raw, buf, starts, ends, unusual
 
 
 def line_bounds(buf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -201,18 +114,14 @@ def lines_holding(raw: bytes, buf: np.ndarray, starts: np.ndarray, allowed: byte
     """
     odd = np.zeros(starts.size, dtype=bool)
     banned = bytes(b for b in _PRINTABLE if b not in allowed + b"\n")
-    if not unusual and not any(bytes([b]) in raw for b in banned):  # memchr per banned byte
+    if not unusual and not (any(bytes([b]) in raw for b in banned) if len(banned) <= 4  # memchr per banned byte
+                            else raw.translate(None, allowed + b"\n")):  # else one pass deleting the allowed ones
         return odd
     lut = np.ones(256, dtype=bool)
     lut[np.frombuffer(allowed + b"\n", dtype=np.uint8)] = False
     pos = np.flatnonzero(lut[buf])
     odd[np.searchsorted(starts, pos, side="right") - 1] = True
     return odd
-
-
-def field_strings(raw: bytes, start: np.ndarray, end: np.ndarray) -> list[str]:
-    """The fields ``raw[start:end]`` as text (for the careful parse of one column)."""
-    return [raw[s:e].decode("utf-8", errors="replace") for s, e in zip(start.tolist(), end.tolist(), strict=True)]
 
 
 def read_numeric_columns(buf: bytes, names: list[str], usecols: list[str], nan_columns: dict[str, tuple[str, ...]],
@@ -270,7 +179,7 @@ def fixed_width_times(buf: np.ndarray, start: np.ndarray, length: np.ndarray, se
     """Vectorised parse of ``YYYY-MM-DD?HH:MM:SS[.f...]`` time stamps at byte offsets of `buf`.
 
     Hand-written because the stamps sit inside the lines (no ``datetime64`` string array to
-    convert) and because every stamp must be proven to be read as the careful parser reads
+    convert) and because every stamp must be proven to be read as the fault handling reads
     it: each one is checked against the fixed pattern of its length, and only those are
     converted (date and time digits by one matrix product, exact in float64).
 
@@ -291,7 +200,7 @@ def fixed_width_times(buf: np.ndarray, start: np.ndarray, length: np.ndarray, se
         datetime64[ns] (NaT where not parsed).
     ok : numpy.ndarray
         True where the stamp has exactly this form with 0 to 9 decimals, a real calendar
-        date of the years 1900-2199 and a time of day below 24:00:00 (the careful parser
+        date of the years 1900-2199 and a time of day below 24:00:00 (the fault handling
         reads every such stamp to the same instant; the others are left to it).
     """
     ns = np.zeros(start.size, dtype=np.int64)
@@ -365,12 +274,157 @@ def comma_grid(commas: np.ndarray, starts: np.ndarray, ends: np.ndarray, candida
     return rows, commas[first_comma[rows, None] + np.arange(ncol - 1)], first_comma
 
 
-def exponent_fields(raw: bytes, buf: np.ndarray, commas: np.ndarray, starts: np.ndarray, first_comma: np.ndarray,
-                    good: np.ndarray) -> set[int]:
-    """Indices of the fields holding an ``e`` or ``E`` in the `good` lines (see :func:`comma_grid`)."""
-    if b"e" not in raw and b"E" not in raw:
-        return set()
-    pos = np.flatnonzero((buf == ord("e")) | (buf == ord("E")))
-    line = np.searchsorted(starts, pos, side="right") - 1
-    keep = good[line]
-    return set(np.unique(np.searchsorted(commas, pos[keep]) - first_comma[line[keep]]).tolist())
+
+
+def text_body(raw: bytes, n_header: int) -> tuple[list[str], bytes, np.ndarray, np.ndarray, np.ndarray, bool]:
+    """The lines of a logger's text file as :func:`dronewind.core.rowfaults.text_lines` splits them.
+
+    The header lines are decoded; the lines after them are given as byte offsets, so that a
+    reader converts its regular lines in bulk and decodes only the irregular ones (one
+    line's text is the UTF-8 decoding of its bytes, undecodable bytes replaced: a replaced
+    sequence never swallows a line end).
+
+    Parameters
+    ----------
+    raw : bytes
+        The file's content.
+    n_header : int
+        Header lines (fewer when the file is shorter).
+
+    Returns
+    -------
+    header : list of str
+        The header lines found.
+    body : bytes
+        The lines after them: leading byte order marks dropped, ``\\r\\n`` and ``\\r``
+        turned into ``\\n``.
+    buf : numpy.ndarray
+        uint8 view of `body`.
+    starts, ends : numpy.ndarray
+        Line bounds in `body` (:func:`line_bounds`).
+    unusual : bool
+        `body` holds a byte other than printable ASCII and ``\\n``.
+    """
+    while raw.startswith(_BOM):
+        raw = raw[len(_BOM):]
+    if b"\r" in raw:
+        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    header: list[str] = []
+    cut = 0
+    while len(header) < n_header and cut < len(raw):
+        end = raw.find(b"\n", cut)
+        end = len(raw) if end < 0 else end
+        header.append(raw[cut:end].decode("utf-8", errors="replace"))
+        cut = end + 1
+    body = raw[cut:]
+    buf = np.frombuffer(body, dtype=np.uint8)
+    starts, ends = line_bounds(buf)
+    return header, body, buf, starts, ends, bool(body.translate(None, _PRINTABLE))
+
+
+def line_text(raw: bytes, starts: np.ndarray, ends: np.ndarray, lines: np.ndarray) -> list[str]:
+    """The decoded text of the lines `lines` (indices into `starts`, `ends`)."""
+    return [raw[starts[i]:ends[i]].decode("utf-8", errors="replace") for i in lines.tolist()]
+
+
+def lines_with(raw: bytes, buf: np.ndarray, starts: np.ndarray, chars: bytes) -> np.ndarray:
+    """Mask of the lines holding one of the bytes `chars` (one memchr per byte when none occurs)."""
+    out = np.zeros(starts.size, dtype=bool)
+    if not any(bytes([c]) in raw for c in chars):
+        return out
+    hit = np.zeros(buf.size, dtype=bool)
+    for c in chars:
+        hit |= buf == c
+    out[np.searchsorted(starts, np.flatnonzero(hit), side="right") - 1] = True
+    return out
+
+
+def int_fields(buf: np.ndarray, start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vectorised parse of integer literals ``[+-]?[0-9]+`` at byte spans of `buf`.
+
+    For an integer column that ``read_csv`` did not read as int64 (a field of another form
+    in some line): the fields of this form are converted here, exactly as Python's ``int``
+    converts them (up to 18 digits), and the others are left to the reader's line-by-line
+    fault handling.
+
+    Parameters
+    ----------
+    buf : numpy.ndarray
+        uint8 bytes.
+    start, end : numpy.ndarray
+        Field spans.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        int64 (0 where not parsed).
+    ok : numpy.ndarray
+        True where the field is such a literal.
+    """
+    length = end - start
+    signed = (length >= 2) & np.isin(buf[np.minimum(start, buf.size - 1)], (ord("+"), ord("-")))
+    first = start + signed
+    n_dig = end - first
+    ok = (length >= 1) & (n_dig >= 1) & (n_dig <= 18)
+    value = np.zeros(start.size, dtype=np.int64)
+    for k in range(int(n_dig[ok].max()) if ok.any() else 0):
+        inside = ok & (k < n_dig)
+        d = buf[np.minimum(first + k, buf.size - 1)].astype(np.int64) - 48
+        ok &= ~inside | ((d >= 0) & (d <= 9))
+        value = np.where(inside, value * 10 + d, value)
+    neg = signed & (buf[np.minimum(start, buf.size - 1)] == ord("-"))
+    return np.where(ok, np.where(neg, -value, value), 0), ok
+
+
+def float_fields(values: pd.Series, length: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """float64 of a column as ``read_csv`` read it, and where that value is the fault handling's bit for bit.
+
+    Parameters
+    ----------
+    values : pandas.Series
+        The column of :func:`read_numeric_columns` (numbers, NaN from a NaN literal, or text
+        when some field is not a number).
+    length : numpy.ndarray
+        Characters of every field.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        float64.
+    ok : numpy.ndarray
+        True where the field is a finite number of at most :data:`FLOAT_FAST_MAX_CHARS`
+        characters or a NaN literal; the other lines are left to the line-by-line fault
+        handling (lines holding an exponent are left to it by the caller).
+    """
+    if values.dtype in (np.float64, np.int64):
+        vals = values.to_numpy(dtype=float)
+        ok = ~np.isinf(vals)
+    else:  # text in some field: each field converted as the fault handling converts it
+        vals = pd.to_numeric(values, errors="coerce").to_numpy(dtype=float)
+        ok = ~np.isinf(vals) & ~(np.isnan(vals) & ~values.isna().to_numpy(dtype=bool))
+    return vals, ok & (length <= FLOAT_FAST_MAX_CHARS)
+
+
+def kept_lines(raw: bytes, starts: np.ndarray, keep: np.ndarray) -> bytes:
+    """The lines `keep` (bool, one per line) of `raw` with their line ends, as one text.
+
+    Copied run by run of consecutive kept lines: a few irregular lines among a million
+    cost a few slices, not a pass over every byte.
+    """
+    if keep.all():
+        return raw
+    bounds = np.append(starts, len(raw))
+    edge = np.diff(np.concatenate([[0], keep.astype(np.int8), [0]]))
+    first, stop = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)
+    return b"".join(raw[a:b] for a, b in zip(bounds[first].tolist(), bounds[stop].tolist(), strict=True))
+
+
+def first_line(raw: bytes) -> str | None:
+    """The first line of a text file as :func:`text_body` gives it, without scanning the rest; None when empty."""
+    while raw.startswith(_BOM):
+        raw = raw[len(_BOM):]
+    if not raw:
+        return None
+    ends = [k for k in (raw.find(b"\n"), raw.find(b"\r")) if k >= 0]
+    end = min(ends) if ends else len(raw)
+    return raw[:end].decode("utf-8", errors="replace")

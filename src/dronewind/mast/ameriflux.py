@@ -61,7 +61,7 @@ from dronewind.core.cf import variable_attrs
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.filtering import INSTRUMENT_LIMITS, despike_moving_mad, range_mask
 from dronewind.core.qc import QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
-from dronewind.core.rowfaults import gunzip_readable, text_lines
+from dronewind.core.rowfaults import gunzip_readable
 from dronewind.errors import InputError
 from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS
 from dronewind.mast.level1 import _on_grid, _regular_grid  # the regular grid of the TOA5 mast record
@@ -171,9 +171,12 @@ class _GoldValues:
 
 def _gold_values(p: Path, max_corrupt_fraction: float, columns: Sequence[str] = AMERIFLUX_GOLD_COLUMNS,
                  gzipped: bool | None = None) -> _GoldValues:
-    """The samples of a gold file, line by line (see :func:`_read_gold_values`).
+    """The samples of a gold file: the parser of the format (see :func:`_read_gold_values`).
 
-    A line is one sample. It is corrupt (NaN, flagged missing) when a declared field is not a
+    The regular lines are found and converted in bulk by a byte-level scan
+    (:func:`_regular_gold_rows`); every other line goes with its line number to the
+    line-by-line fault handling (:func:`_irregular_gold_rows`), and the samples of both are
+    put back in line order. A line is one sample. It is corrupt (NaN, flagged missing) when a declared field is not a
     number or a field after the declared ones is not empty. A line with more than 21 fields
     holds several samples whose line ends were lost (a logger's torn write): it stands for
     ``ceil(fields / 21)`` corrupt samples, so that the samples after it keep their times
@@ -197,44 +200,23 @@ def _gold_values(p: Path, max_corrupt_fraction: float, columns: Sequence[str] = 
         raw, problem = gunzip_readable(raw)
         if problem and not raw:
             raise InputError(p, f"cannot read: {problem}")
-    fast = _gold_values_fast(raw, columns) if problem is None else None
-    if fast is not None:
-        return _GoldValues(fast[0], fast[1], np.arange(1, fast[1].size + 1))
-    # line by line (str.split: the format has no quotes); hand-written because pandas' C parser
-    # stops at a line with more fields than the first and has no per-line accounting
+    _, body, buf, starts, ends, unusual = textscan.text_body(raw, 0)
+    regular, reg_vals = _regular_gold_rows(body, buf, starts, ends, unusual, columns)
+    irregular = np.flatnonzero(~regular)
+    irr = _irregular_gold_rows(textscan.line_text(body, starts, ends, irregular), irregular + 1, columns)
     n_cols = len(columns)
-    cells: list[list[str]] = []
-    line_no: list[int] = []
-    beyond: list[bool] = []
-    joined: list[bool] = []
-    for ln, line in enumerate(text_lines(raw), start=1):
-        if not line.strip():
-            continue
-        fields = line.split(",")
-        if len(fields) > _N_FIELDS:
-            k = -(-len(fields) // _N_FIELDS)
-            cells.extend([[""] * n_cols] * k)
-            line_no.extend([ln] * k)
-            beyond.extend([False] * k)
-            joined.extend([True] * k)
-            continue
-        cells.append((fields + [""] * n_cols)[:n_cols])
-        line_no.append(ln)
-        beyond.append(any(f.strip() for f in fields[n_cols:]))
-        joined.append(False)
-    n_lines = len(cells)
+    n_lines = int(regular.sum()) + irr.line_no.size
     if n_lines == 0:
         raise InputError(p, "no data lines" + (f" ({problem})" if problem else ""))
-    frame = pd.DataFrame(cells, dtype=object)
-    vals = np.full((n_lines, 6), np.nan)
     declared = [j for j, name in enumerate(AMERIFLUX_GOLD_COLUMNS) if name in columns]
-    for j in declared:
-        k = list(columns).index(AMERIFLUX_GOLD_COLUMNS[j])
-        vals[:, j] = pd.to_numeric(frame[k].astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
-    beyond_a, joined_a = np.asarray(beyond, dtype=bool), np.asarray(joined, dtype=bool)
-    corrupt = np.asarray(~np.isfinite(vals[:, declared]).all(axis=1)) | beyond_a | joined_a
-    vals[corrupt] = np.nan
-    lines = np.asarray(line_no, dtype=np.int64)
+    lines = np.concatenate([np.flatnonzero(regular) + 1, irr.line_no])
+    n_reg = int(regular.sum())
+    vals = np.concatenate([reg_vals, irr.values]) if irr.line_no.size else reg_vals
+    corrupt = np.concatenate([np.zeros(n_reg, dtype=bool), irr.corrupt])
+    beyond_a = np.concatenate([np.zeros(n_reg, dtype=bool), irr.beyond])
+    if irr.line_no.size and n_reg:  # the samples of both in line order (a joined line's samples stay together)
+        order = np.argsort(lines, kind="stable")
+        lines, vals, corrupt, beyond_a = lines[order], vals[order], corrupt[order], beyond_a[order]
     n_corrupt = int(corrupt.sum())
     if n_corrupt > max_corrupt_fraction * n_lines:
         if beyond_a.any():
@@ -245,56 +227,130 @@ def _gold_values(p: Path, max_corrupt_fraction: float, columns: Sequence[str] = 
         i = int(np.flatnonzero(corrupt)[0])
         raise InputError(f"{p}:{int(lines[i])}", f"{n_corrupt} of {n_lines} lines do not hold {len(declared)} "
                          f"numbers ({','.join(columns)})")  # fmt: skip
-    return _GoldValues(vals, corrupt, lines, int(joined_a.sum()), problem)
+    return _GoldValues(vals, corrupt, lines, irr.n_joined, problem)
 
 
-#: Bytes of a plain gold file (after ``\r\n`` -> ``\n``): digits, signs, points, commas, line ends.
-_GOLD_PLAIN = b"0123456789+-.,\n"
+@dataclass
+class _IrregularGold:
+    """Samples of the lines left to the fault handling (:func:`_irregular_gold_rows`)."""
+
+    values: np.ndarray
+    corrupt: np.ndarray
+    beyond: np.ndarray
+    line_no: np.ndarray
+    n_joined: int
 
 
-def _gold_values_fast(raw: bytes, columns: Sequence[str]) -> tuple[np.ndarray, np.ndarray] | None:
-    """:func:`_read_gold_values` of a plain file, by the byte-level fast path; None for any other.
+def _irregular_gold_rows(lines: list[str], line_no: np.ndarray, columns: Sequence[str]) -> _IrregularGold:
+    """The fault handling of gold-file lines, one by one (``str.split``: the format has no quotes).
 
-    A plain file has the default columns, lines of exactly 21 comma-separated fields
-    (:data:`_GOLD_PLAIN` bytes only, ``\n`` or ``\r\n`` line ends, no blank line), the six
-    numeric fields each 1 to 15 characters long (no exponent: see
-    :mod:`dronewind.core.textscan`) and the other fifteen empty. ``pandas.read_csv``
-    (:func:`~dronewind.core.textscan.read_numeric_columns`) then reads the six fields exactly
-    as the careful parse (``pandas.to_numeric`` of the stripped text) does, bit for bit, and no
-    line is corrupt; a field the C parser does not take as a number sends the file to the
-    careful parse. Hand-written (with the helpers of
-    :mod:`dronewind.core.textscan`) because the careful parse spent 80 % of its time
-    converting 10 million short strings one by one.
+    A blank line is skipped. A line is one sample, corrupt (NaN) when a declared field is
+    not a number or a field after the declared ones is not empty. A line with more than 21
+    fields holds several samples whose line ends were lost (a logger's torn write): it
+    stands for ``ceil(fields / 21)`` corrupt samples, so that the samples after it keep
+    their times (the file has no time stamps; a sample's time is its position).
+
+    Parameters
+    ----------
+    lines : list of str
+        Data lines.
+    line_no : numpy.ndarray
+        Their 1-based file lines.
+    columns : sequence of str
+        As :func:`_read_gold_values`.
+
+    Returns
+    -------
+    _IrregularGold
+        (n_samples, 6) values, corrupt and beyond-the-declared-fields masks, the file line
+        of every sample and the samples of joined lines.
     """
-    if tuple(columns) != AMERIFLUX_GOLD_COLUMNS:
-        return None
-    scanned = textscan.line_safe_content(raw)
-    if scanned is None or scanned[1]:
-        return None
-    body = scanned[0]
-    if body.translate(None, _GOLD_PLAIN):
-        return None
-    buf = np.frombuffer(body, dtype=np.uint8)
-    starts, ends = textscan.line_bounds(buf)
-    if starts.size == 0 or bool((ends == starts).any()):
-        return None
-    every = np.ones(starts.size, dtype=bool)
-    rows, cpos, _ = textscan.comma_grid(np.flatnonzero(buf == ord(",")), starts, ends, every, _N_FIELDS)
-    if rows.size != starts.size:
-        return None  # a line with another number of fields
-    length = np.column_stack([cpos, ends]) - np.column_stack([starts, cpos + 1])  # characters per field
-    n_num = len(AMERIFLUX_GOLD_COLUMNS)
-    if bool((length[:, n_num:] != 0).any()) or not bool(
-            ((length[:, :n_num] >= 1) & (length[:, :n_num] <= textscan.FLOAT_FAST_MAX_CHARS)).all()):  # fmt: skip
-        return None  # a field beyond the sixth not empty, or a number empty or too long to vouch for
+    n_cols = len(columns)
+    cells: list[list[str]] = []
+    sample_line: list[int] = []
+    beyond: list[bool] = []
+    joined: list[bool] = []
+    for ln, line in zip(line_no.tolist(), lines, strict=True):
+        if not line.strip():
+            continue
+        fields = line.split(",")
+        if len(fields) > _N_FIELDS:
+            k = -(-len(fields) // _N_FIELDS)
+            cells.extend([[""] * n_cols] * k)
+            sample_line.extend([ln] * k)
+            beyond.extend([False] * k)
+            joined.extend([True] * k)
+            continue
+        cells.append((fields + [""] * n_cols)[:n_cols])
+        sample_line.append(ln)
+        beyond.append(any(f.strip() for f in fields[n_cols:]))
+        joined.append(False)
+    frame = pd.DataFrame(cells, dtype=object)
+    vals = np.full((len(cells), 6), np.nan)
+    declared = [j for j, name in enumerate(AMERIFLUX_GOLD_COLUMNS) if name in columns]
+    for j in declared:
+        k = list(columns).index(AMERIFLUX_GOLD_COLUMNS[j])
+        if cells:
+            vals[:, j] = pd.to_numeric(frame[k].astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
+    beyond_a, joined_a = np.asarray(beyond, dtype=bool), np.asarray(joined, dtype=bool)
+    corrupt = np.asarray(~np.isfinite(vals[:, declared]).all(axis=1)) | beyond_a | joined_a
+    vals[corrupt] = np.nan
+    return _IrregularGold(vals, corrupt, beyond_a, np.asarray(sample_line, dtype=np.int64), int(joined_a.sum()))
+
+
+#: Bytes of a regular gold line: digits, signs, points, commas.
+_GOLD_PLAIN = b"0123456789+-.,"
+
+
+def _regular_gold_rows(body: bytes, buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, unusual: bool,
+                       columns: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    """The regular lines of a gold file and their samples, by a byte-level scan.
+
+    A line is regular when it holds only :data:`_GOLD_PLAIN` bytes, 21 comma-separated
+    fields, every declared field a finite number of 1 to
+    :data:`~dronewind.core.textscan.FLOAT_FAST_MAX_CHARS` characters (no exponent: see
+    :mod:`dronewind.core.textscan`) and every field after the declared ones empty: one good
+    sample, whose numbers ``pandas.read_csv`` reads bit for bit as the fault handling's
+    ``pandas.to_numeric`` does. Written by hand because converting the 10 million short
+    fields of a day's files one by one was 80 % of the parse.
+
+    Returns
+    -------
+    regular : numpy.ndarray
+        bool, one per line.
+    values : numpy.ndarray
+        (regular lines, 6) w, u, v, T, H2O, CO2 (NaN where not declared).
+    """
+    n, n_cols = int(starts.size), len(columns)
+    regular = np.zeros(n, dtype=bool)
+    if n == 0 or n_cols > _N_FIELDS:
+        return regular, np.zeros((0, 6))
+    candidate = (ends > starts) & ~textscan.lines_holding(body, buf, starts, _GOLD_PLAIN, unusual)
+    rows, cpos, _ = textscan.comma_grid(np.flatnonzero(buf == ord(",")), starts, ends, candidate, _N_FIELDS)
+    if rows.size == 0:
+        return regular, np.zeros((0, 6))
+    line_end = ends[rows]
+    # the fields after the declared ones empty: their commas consecutive, the last one ending the line
+    ok = (cpos[:, -1] + 1 == line_end) & (cpos[:, -1] - cpos[:, n_cols - 1] == _N_FIELDS - 1 - n_cols) \
+        if n_cols < _N_FIELDS else np.ones(rows.size, dtype=bool)  # fmt: skip
+
+    def length(k: int) -> np.ndarray:
+        """Characters of field `k` of the scanned lines."""
+        return (cpos[:, k] if k < _N_FIELDS - 1 else line_end) - (starts[rows] if k == 0 else cpos[:, k - 1] + 1)
+
     names = [str(k) for k in range(_N_FIELDS)]
-    frame = textscan.read_numeric_columns(body, names, names[:n_num], {}, quoting=False)
-    if len(frame) != starts.size or any(frame[c].dtype not in (np.float64, np.int64) for c in names[:n_num]):
-        return None  # a field that is not a number: the careful parse counts the corrupt lines
-    vals = frame[names[:n_num]].to_numpy(dtype=float)
-    if not bool(np.isfinite(vals).all()):
-        return None
-    return vals, np.zeros(starts.size, dtype=bool)
+    declared = {j: list(columns).index(name) for j, name in enumerate(AMERIFLUX_GOLD_COLUMNS) if name in columns}
+    scanned = np.zeros(n, dtype=bool)
+    scanned[rows] = True
+    frame = textscan.read_numeric_columns(textscan.kept_lines(body, starts, scanned), names,
+                                          [names[k] for k in sorted(set(declared.values()))], {}, quoting=False)
+    vals = np.full((rows.size, 6), np.nan)
+    for j, k in declared.items():
+        chars = length(k)
+        vals[:, j], col_ok = textscan.float_fields(frame[names[k]], chars)
+        ok &= col_ok & (chars >= 1) & np.isfinite(vals[:, j])
+    regular[rows[ok]] = True
+    return regular, vals[ok]
 
 
 def _gold_qc(u: np.ndarray, v: np.ndarray, w: np.ndarray, t_c: np.ndarray, corrupt: np.ndarray,

@@ -53,7 +53,6 @@ import pandas as pd
 
 from dronewind.core import textscan
 from dronewind.core.raw import RawRecord
-from dronewind.core.rowfaults import text_lines
 from dronewind.errors import InputError, describe_header
 from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
 
@@ -107,42 +106,6 @@ def _read_text(path: str | os.PathLike[str]) -> bytes:
         raise InputError(p, "file not found")
     # Binary garbage in a line must not stop the reader: it becomes a corrupt line.
     return p.read_bytes()
-
-
-def _split_lines(path: str | os.PathLike[str], expected: tuple[str, ...]) -> tuple[list[str], np.ndarray, int]:
-    """Read a CSV, check its header and drop blank lines.
-
-    Parameters
-    ----------
-    path : str or Path
-        CSV file.
-    expected : tuple of str
-        Expected header fields.
-
-    Returns
-    -------
-    body : list of str
-        Non-blank data lines.
-    line_numbers : numpy.ndarray
-        Their file line numbers (1-based, the header is line 1).
-    n_blank : int
-        Number of blank lines dropped.
-    """
-    lines = text_lines(_read_text(path))
-    if not lines:
-        raise InputError(path, f"empty file; expected header {','.join(expected)!r}")
-    header = tuple(h.strip() for h in lines[0].split(","))
-    if header != expected:
-        raise InputError(f"{path}:1", describe_header(header, expected))
-    body = lines[1:]
-    line_numbers = np.arange(2, len(body) + 2)
-    blank = np.fromiter((not ln.strip() for ln in body), dtype=bool, count=len(body))
-    n_blank = int(blank.sum())
-    body = [ln for ln, b in zip(body, blank, strict=True) if not b]
-    line_numbers = line_numbers[~blank]
-    if len(body) == 0:
-        raise InputError(path, "no data lines after the header")
-    return body, line_numbers, n_blank
 
 
 def _parse_field(s: pd.Series, kind: str) -> tuple[np.ndarray, np.ndarray]:
@@ -229,83 +192,127 @@ class _Rows:
     per_column: dict[str, int]
 
 
-def _rows_careful(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: dict[str, str]) -> _Rows:
-    """Split and parse the CSV line by line (the reference; names every header error)."""
-    body, line_numbers, n_blank = _split_lines(path, expected)
-    ncol = len(expected)
-    split = [ln.split(",") for ln in body]
-    good_count = np.fromiter((len(f) == ncol for f in split), dtype=bool, count=len(body))
-    rows = [f for f, g in zip(split, good_count, strict=True) if g]
-    cols, bad, per_column = _parse_rows(rows, expected, kinds)
-    return _Rows(line_numbers, n_blank, good_count, cols, bad, per_column)
+def _rows(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: dict[str, str]) -> _Rows:
+    """Split and parse the data lines of a fixed-header CSV: the parser of the payload CSVs.
 
+    The regular lines (printable ASCII without spaces or quotes, one field per column,
+    numbers of at most :data:`~dronewind.core.textscan.FLOAT_FAST_MAX_CHARS` characters
+    without exponent, time stamps of the fixed ISO 8601 form) are found and converted in
+    bulk by a byte-level scan; every other line goes, with its line number, to the
+    line-by-line fault handling (:func:`_irregular_rows`), and the rows of both are put
+    back in line order.
 
-def _rows_fast(path: str | os.PathLike[str], expected: tuple[str, ...], kinds: dict[str, str]) -> _Rows | None:
-    """The same as :func:`_rows_careful`, from a byte-level scan, or None when it cannot vouch for that.
+    The scan is written by hand because the result must be that of the line-by-line
+    parse bit for bit (line numbers, blank and corrupt lines, NaN literals, corrupt fields
+    per column, float rounding: :mod:`dronewind.core.textscan`), which no single
+    ``pandas.read_csv`` call gives, while converting every line one by one costs most of
+    a long record's parse (an INS record of 400,000 rows, 47 MB: 0.6 s of CPU by the scan,
+    3.8 s line by line).
 
-    Hand-written rather than one ``pandas.read_csv`` call because the careful parse's
-    results must be reproduced exactly: its line numbers (blank lines skipped but counted,
-    lines with a wrong field count kept as corrupt lines), its NaN literals, its corrupt
-    fields per column and its float rounding (:mod:`dronewind.core.textscan`). The scan
-    finds lines and fields with numpy; ``read_csv`` converts the numbers of the plain lines;
-    the ``utc`` column is parsed at fixed width. A column that is not plain (a corrupt
-    field, a long or exponent float, an unusual time stamp) is parsed by the careful
-    :func:`_parse_field`, on the same strings as the careful path; a non-plain line with
-    the right field count (spaces, quotes, non-ASCII bytes), an unusual line break or
-    header, or an empty body makes the whole file go the careful way (returns None).
+    Raises
+    ------
+    InputError
+        Missing or empty file, a header other than `expected` (line 1), no data lines.
     """
-    body = textscan.csv_body(path, expected)
-    if body is None:
-        return None
-    raw, buf, starts, ends, unusual = body
-    ncol = len(expected)
-    odd = textscan.lines_holding(raw, buf, starts, textscan.PLAIN_CSV, unusual)
+    header, raw, buf, starts, ends, unusual = textscan.text_body(_read_text(path), 1)
+    if not header:
+        raise InputError(path, f"empty file; expected header {','.join(expected)!r}")
+    got = tuple(h.strip() for h in header[0].split(","))
+    if got != expected:
+        raise InputError(f"{path}:1", describe_header(got, expected))
+    ncol, n = len(expected), int(starts.size)
     blank = ends == starts
-    for i in np.flatnonzero(odd):
-        line = raw[starts[i]:ends[i]].decode("utf-8", errors="replace")
-        if not line.strip():
-            blank[i] = True
-        elif len(line.split(",")) == ncol:
-            return None
+    candidate = ~blank & ~textscan.lines_holding(raw, buf, starts, textscan.PLAIN_CSV, unusual) \
+        & ~textscan.lines_with(raw, buf, starts, b"eE")  # fmt: skip
     commas = np.flatnonzero(buf == ord(","))
-    rows, cpos, first_comma = textscan.comma_grid(commas, starts, ends, ~odd & ~blank, ncol)
-    if rows.size == 0:
-        return None
-    good = np.zeros(starts.size, dtype=bool)
-    good[rows] = True
-    if rows.size == starts.size:
-        plain = raw
-    else:
-        next_start = np.concatenate([starts[1:], [buf.size]])
-        plain = buf[np.repeat(good, next_start - starts)].tobytes()
-    numeric = [c for c in expected if kinds[c] != "utc"]
-    frame = textscan.read_numeric_columns(plain, list(expected), numeric,
-                                          {c: textscan.NAN_LITERALS for c in numeric if kinds[c] == "float"},
-                                          quoting=False)  # fmt: skip
-    if len(frame) != rows.size:
-        return None
-    exponent = textscan.exponent_fields(raw, buf, commas, starts, first_comma, good)
-    cols: dict[str, np.ndarray] = {}
-    bad = np.zeros(rows.size, dtype=bool)
-    per_column: dict[str, int] = {}
-    for j, name in enumerate(expected):
-        fstart = starts[rows] if j == 0 else cpos[:, j - 1] + 1
-        fend = cpos[:, j] if j < ncol - 1 else ends[rows]
-        fast = _fast_field(frame[name] if name in frame else None, kinds[name], buf, fstart, fend, j in exponent)
-        if fast is None:  # not plain: the careful conversion of the same strings
-            text = pd.Series(textscan.field_strings(raw, fstart, fend), dtype=object)
-            fast = _parse_field(text.astype(str).str.strip(), kinds[name])
-        cols[name], bad_field = fast
-        bad |= bad_field
-        if bad_field.any():
-            per_column[name] = int(bad_field.sum())
-    nonblank = ~blank
-    return _Rows(np.arange(2, starts.size + 2)[nonblank], int(blank.sum()), good[nonblank], cols, bad, per_column)
+    rows, cpos, _ = textscan.comma_grid(commas, starts, ends, candidate, ncol)
+    fields: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    provable = np.ones(rows.size, dtype=bool)
+    if rows.size:
+        scanned = np.zeros(n, dtype=bool)
+        scanned[rows] = True
+        plain = textscan.kept_lines(raw, starts, scanned)
+        numeric = [c for c in expected if kinds[c] != "utc"]
+        frame = textscan.read_numeric_columns(plain, list(expected), numeric,
+                                              {c: textscan.NAN_LITERALS for c in numeric if kinds[c] == "float"},
+                                              quoting=False)  # fmt: skip
+        for j, name in enumerate(expected):
+            fstart = starts[rows] if j == 0 else cpos[:, j - 1] + 1
+            fend = cpos[:, j] if j < ncol - 1 else ends[rows]
+            fields[name] = _regular_field(frame[name] if name in frame else None, kinds[name], buf, fstart, fend)
+            provable &= fields[name][1]
+    regular = np.zeros(n, dtype=bool)
+    regular[rows[provable]] = True
+    irregular = np.flatnonzero(~regular & ~blank)
+    text = textscan.line_text(raw, starts, ends, irregular)
+    more_blank = np.fromiter((not ln.strip() for ln in text), dtype=bool, count=len(text))
+    blank[irregular[more_blank]] = True
+    irregular = irregular[~more_blank]
+    good_count, cols, bad, per_column = _irregular_rows([t for t, b in zip(text, more_blank, strict=True) if not b],
+                                                        expected, kinds)
+    if not (~blank).any():
+        raise InputError(path, "no data lines after the header")
+    # the rows of both in line order: the regular lines and the irregular ones with the expected field count
+    nonblank = np.flatnonzero(~blank)
+    count_ok = regular.copy()
+    count_ok[irregular[good_count]] = True
+    good_lines = np.flatnonzero(count_ok)
+    from_lines = np.isin(good_lines, irregular)
+    merged: dict[str, np.ndarray] = {}
+    for name in expected:
+        if from_lines.all():
+            merged[name] = cols[name]
+        elif not from_lines.any():
+            merged[name] = fields[name][0][provable]
+        else:
+            merged[name] = np.empty(good_lines.size, dtype=fields[name][0].dtype)
+            merged[name][~from_lines] = fields[name][0][provable]
+            merged[name][from_lines] = cols[name]
+    all_bad = np.zeros(good_lines.size, dtype=bool)
+    all_bad[from_lines] = bad
+    regular_bad = np.zeros(int(provable.sum()), dtype=bool)
+    for name in expected:
+        if kinds[name] == "flag" and rows.size:
+            flag_bad = fields[name][2][provable]
+            regular_bad |= flag_bad
+            if flag_bad.any():
+                per_column[name] = per_column.get(name, 0) + int(flag_bad.sum())
+    all_bad[~from_lines] = regular_bad
+    return _Rows(np.arange(2, n + 2)[nonblank], int(blank.sum()), count_ok[nonblank], merged, all_bad,
+                 dict(sorted(per_column.items(), key=lambda kv: expected.index(kv[0]))))
 
 
-def _fast_field(values: pd.Series | None, kind: str, buf: np.ndarray, start: np.ndarray, end: np.ndarray,
-                has_exponent: bool) -> tuple[np.ndarray, np.ndarray] | None:
-    """Values and corrupt mask of a plain column as :func:`_parse_field` gives them, or None if not plain.
+def _irregular_rows(lines: list[str], expected: tuple[str, ...], kinds: dict[str, str],
+                    ) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, dict[str, int]]:
+    """The fault handling of the lines the scan of :func:`_rows` leaves: split and parsed one by one.
+
+    Parameters
+    ----------
+    lines : list of str
+        Non-blank data lines.
+    expected, kinds
+        As :func:`_parse_csv`.
+
+    Returns
+    -------
+    good_count : numpy.ndarray
+        True for the lines with the expected number of fields.
+    cols : dict of numpy.ndarray
+        Values of those lines, per column.
+    bad : numpy.ndarray
+        True for those lines with a corrupt field.
+    per_column : dict of int
+        Corrupt fields per column (columns without any left out).
+    """
+    split = [ln.split(",") for ln in lines]
+    good_count = np.fromiter((len(f) == len(expected) for f in split), dtype=bool, count=len(lines))
+    cols, bad, per_column = _parse_rows([f for f, g in zip(split, good_count, strict=True) if g], expected, kinds)
+    return good_count, cols, bad, per_column
+
+
+def _regular_field(values: pd.Series | None, kind: str, buf: np.ndarray, start: np.ndarray, end: np.ndarray,
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Values of one column of the scanned lines, where they are :func:`_parse_field`'s, and its corrupt flags.
 
     Parameters
     ----------
@@ -317,29 +324,32 @@ def _fast_field(values: pd.Series | None, kind: str, buf: np.ndarray, start: np.
         The bytes of the data lines.
     start, end : numpy.ndarray
         Byte span of the column's field in every line.
-    has_exponent : bool
-        A field of the column holds an ``e`` or ``E``.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        int64, float64 or datetime64[ns].
+    ok : numpy.ndarray
+        True where the value is proven to be the line-by-line parse's (the other lines go
+        to :func:`_irregular_rows`).
+    bad : numpy.ndarray
+        A ``flag`` other than 0 or 1 (a corrupt field of a regular line).
     """
     n = start.size
+    no = np.zeros(n, dtype=bool)
     if kind == "utc":
         length = end - start
-        empty = length == 0
         times, ok = textscan.fixed_width_times(buf, start, length, sep=b"T", suffix=b"Z")
-        return (times, np.zeros(n, dtype=bool)) if bool((ok | empty).all()) else None
+        return times, ok | (length == 0), no
     assert values is not None
     if kind in ("int", "flag"):
-        if values.dtype != np.int64:
-            return None
-        vals = values.to_numpy(dtype=np.int64)
-        bad = ~((vals == 0) | (vals == 1)) if kind == "flag" else np.zeros(n, dtype=bool)
-        return vals, bad
-    if values.dtype not in (np.float64, np.int64) or has_exponent \
-            or int((end - start).max()) > textscan.FLOAT_FAST_MAX_CHARS:  # fmt: skip
-        return None
-    fvals = values.to_numpy(dtype=float)
-    if np.isinf(fvals).any():
-        return None
-    return fvals, np.zeros(n, dtype=bool)  # NaN only from the nan literals
+        if values.dtype == np.int64:
+            vals, ok = values.to_numpy(dtype=np.int64), np.ones(n, dtype=bool)
+        else:
+            vals, ok = textscan.int_fields(buf, start, end)
+        return vals, ok, (~((vals == 0) | (vals == 1)) if kind == "flag" else no)
+    fvals, ok = textscan.float_fields(values, end - start)
+    return fvals, ok, no
 
 
 def _parse_csv(
@@ -354,10 +364,9 @@ def _parse_csv(
     kinds: column -> "int" (integer literal), "float" (number or nan literal), "flag"
     (0 or 1), "utc" (ISO 8601, optional trailing Z, may be empty).
     extra_bad: optional callable(columns) -> bool array of further corrupt rows.
-    Plain files take the byte-level fast path (:func:`_rows_fast`), anything else the
-    careful one (:func:`_rows_careful`); both give the same result.
+    The lines are split and parsed by :func:`_rows`.
     """
-    parsed = _rows_fast(path, expected, kinds) or _rows_careful(path, expected, kinds)
+    parsed = _rows(path, expected, kinds)
     line_numbers, n_blank, good_count = parsed.line_numbers, parsed.n_blank, parsed.good_count
     cols, bad, per_column = parsed.cols, parsed.bad, parsed.per_column
     n_lines = len(line_numbers)
