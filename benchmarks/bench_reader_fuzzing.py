@@ -1,4 +1,4 @@
-"""Long fuzzing run of every reader with byte-level logger faults (the validation of tests/test_fuzz_readers.py).
+"""Long fuzzing run of every reader with byte-level logger faults (the validation of tests/core/test_fuzz_readers.py).
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_reader_fuzzing.py [examples per reader]``
 (default 600). The same property as the tests (:func:`tests.fuzz_readers.check`: only the

@@ -14,7 +14,7 @@ Examples::
 
     .venv/bin/python benchmarks/bench_test_suite.py --out benchmarks/results/test_suite.json
     .venv/bin/python benchmarks/bench_test_suite.py --workers 0 --out /tmp/test_suite_one_process.json
-    .venv/bin/python benchmarks/bench_test_suite.py -- tests/test_sync.py   # a part of the suite
+    .venv/bin/python benchmarks/bench_test_suite.py -- tests/payload/test_sync.py   # a part of the suite
 """
 
 from __future__ import annotations

@@ -86,7 +86,7 @@ def real_record():
 
 
 def pytest_report_header(config) -> str:
-    """The seed of the hidden-effect draws (tests/test_diagnosis_hidden.py): from the commit unless overridden."""
+    """The seed of the hidden-effect draws (tests/diagnose/test_diagnosis_hidden.py): from the commit unless overridden."""
     from dronewind.diagnose.experiments import DRAW_SEED_ENV, draw_seed
 
     seed, source = draw_seed(REPO)
@@ -214,9 +214,9 @@ class BackgroundRuns(threading.Thread):
             run.stop()
 
 
-#: The hidden-effect runs of tests/test_diagnosis_hidden.py, started when the session has collected them.
+#: The hidden-effect runs of tests/diagnose/test_diagnosis_hidden.py, started when the session has collected them.
 HIDDEN_RUNS: pytest.StashKey = pytest.StashKey()
-#: Where the session keeps the SLURM run of tests/test_slurm.py (a ``SlurmRun``).
+#: Where the session keeps the SLURM run of tests/workflow/test_slurm.py (a ``SlurmRun``).
 SLURM_RUN: pytest.StashKey = pytest.StashKey()
 #: Set once the controller of an xdist session has started the background runs.
 _BACKGROUND_STARTED: pytest.StashKey[bool] = pytest.StashKey()
@@ -329,8 +329,8 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log):
 def _start_background_runs(config: pytest.Config, nodeids: list[str]) -> None:
     """Start the workflow runs of :data:`BACKGROUND_MODULES` whose tests (``nodeids``) are to run."""
     names = {nodeid.split("@")[0].rsplit("::", 1)[-1] for nodeid in nodeids}
-    if any(nodeid.startswith("tests/test_diagnosis_hidden.py::") for nodeid in nodeids):
-        from tests.test_diagnosis_hidden import DRAW_IDS, hidden_runs
+    if any(nodeid.startswith("tests/diagnose/test_diagnosis_hidden.py::") for nodeid in nodeids):
+        from tests.diagnose.test_diagnosis_hidden import DRAW_IDS, hidden_runs
 
         selected = [k for k, draw_id in enumerate(DRAW_IDS) if f"test_hidden_effect_is_found[{draw_id}]" in names]
         if selected:  # the runs of the selected draws, in the tests' order
@@ -338,8 +338,8 @@ def _start_background_runs(config: pytest.Config, nodeids: list[str]) -> None:
             queue = BackgroundRuns([runs[k] for k in selected])
             config.stash[HIDDEN_RUNS] = queue
             queue.start()
-    if any(nodeid.startswith("tests/test_slurm.py::") for nodeid in nodeids):
-        from tests.test_slurm import start_in_background
+    if any(nodeid.startswith("tests/workflow/test_slurm.py::") for nodeid in nodeids):
+        from tests.workflow.test_slurm import start_in_background
 
         start_in_background(config)
 
@@ -347,8 +347,8 @@ def _start_background_runs(config: pytest.Config, nodeids: list[str]) -> None:
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Start the workflow runs of :data:`BACKGROUND_MODULES` whose tests are to run.
 
-    The hidden-effect runs (tests/test_diagnosis_hidden.py) compute while the session runs
-    the tests before them on the other core; the SLURM run (tests/test_slurm.py) mostly
+    The hidden-effect runs (tests/diagnose/test_diagnosis_hidden.py) compute while the session runs
+    the tests before them on the other core; the SLURM run (tests/workflow/test_slurm.py) mostly
     waits for SLURM's status checks. Their tests wait for their ends. Not for ``--collect-only``,
     nor on an xdist worker (its controller starts them: :func:`pytest_xdist_node_collection_finished`).
     """
@@ -404,7 +404,7 @@ def small_campaign_rerun(small_campaign_run):
     """The same campaign, manifest and config run again into ``results_b`` up to :data:`RERUN_TARGETS`,
     a second, independent run of the same workflow.
 
-    Returns ``results_b/smallcamp``. Compared with ``results_a`` by tests/test_faults.py
+    Returns ``results_b/smallcamp``. Compared with ``results_a`` by tests/workflow/test_faults.py
     (every file, byte for byte), which also deletes and rebuilds its ``campaign.json``
     under a held lock.
     """

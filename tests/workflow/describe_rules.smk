@@ -1,6 +1,6 @@
 # The workflow's rules as Snakemake registered them, written as JSON to $DESCRIBE_RULES_JSON:
 # name, log, benchmark, conda environment, threads and resources of every rule. Used by
-# tests/test_workflow.py (`snakemake --snakefile tests/workflow/describe_rules.smk --list-rules`).
+# tests/workflow/test_workflow.py (`snakemake --snakefile tests/workflow/describe_rules.smk --list-rules`).
 import json
 import os
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Install (Debian packages) and start a single-node SLURM on this machine, as root.
 # Idempotent: does nothing when a node is already up. Used by the SLURM workflow test
-# (tests/test_slurm.py) and by anyone who wants to try profiles/slurm locally.
+# (tests/workflow/test_slurm.py) and by anyone who wants to try profiles/slurm locally.
 #
 #   sudo bash workflow/scripts/setup_slurm.sh      # then: sinfo; squeue
 #

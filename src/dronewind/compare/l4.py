@@ -42,7 +42,7 @@ __all__ = ["STATUS_FLAG_MEANINGS", "flight_l4", "record_l4"]
 _S = {name: i for i, name in enumerate(STATUS_FLAG_MEANINGS)}
 
 #: Known low bias of the exponential-fit integral scale of u, stored as the ``comment`` of
-#: ``T_u_s`` and ``L_u_m`` (measured by tests/test_scales.py::test_exponential_fit_low_bias_for_u).
+#: ``T_u_s`` and ``L_u_m`` (measured by tests/core/test_scales.py::test_exponential_fit_low_bias_for_u).
 EXPONENTIAL_FIT_BIAS_U: str = (
     "Known low bias: the exponential fit to the autocovariance (up to its first zero crossing, after linear "
     "detrending of a finite record) underestimates the integral scale of u, whose autocovariance decays slowly. "

@@ -31,7 +31,7 @@ record's ends is shortened in both alike). Context = ``2 * (2h + 1)`` rows, twic
 reach, so that duplicated rows at a file boundary cannot shorten it. Conditions: time
 stamps on the logger's sampling grid (Campbell TOA5 are), and files that overlap in time
 by less than the context (checked; an :class:`~dronewind.errors.InputError` otherwise).
-Tested in ``tests/test_long_record.py``: the L1 of the pieces is identical to the L1 of
+Tested in ``tests/compare/test_long_record.py``: the L1 of the pieces is identical to the L1 of
 the concatenated files, and without context it is not.
 
 The per-file counts of the L1 (``n_spikes``, ``n_missing``, ...) describe that file's

@@ -200,7 +200,7 @@ def _welch_density(x: np.ndarray, y: np.ndarray, fs_hz: float, nperseg: int, nov
     The same steps as scipy's ``csd`` for one-sided densities without detrending, averaged
     by the mean (scipy 1.17): one spectrogram over the segments, the one-sided bins doubled
     (all but the zero and, for an even segment, the Nyquist bin), the segments' mean. The
-    result is scipy's bit for bit (``tests/test_spectra.py`` checks it against
+    result is scipy's bit for bit (``tests/core/test_spectra.py`` checks it against
     ``scipy.signal.welch`` and ``csd``, so a scipy that computes them differently is
     noticed). Real for ``y is x``, complex otherwise.
     """

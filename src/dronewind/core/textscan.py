@@ -15,7 +15,7 @@ same fields and convert every value to the same bits. Converting every line one 
 costs 5 to 15 times as much CPU (400,000 rows: 2.3 s against 0.25 s for TOA5, 3.8 s
 against 0.6 s for an INS CSV, 4 s against 0.3 s for the quadrotor CSV).
 
-Facts the scan relies on (checked by ``tests/test_parsing_fast.py``):
+Facts the scan relies on (checked by ``tests/core/test_parsing_fast.py``):
 
 * Splitting the bytes at ``\\n`` (after ``\\r\\n`` and ``\\r`` are turned into ``\\n``) gives
   the lines of the decoded text; invalid UTF-8 decoded with ``errors="replace"`` never

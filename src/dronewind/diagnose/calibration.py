@@ -690,7 +690,7 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         replicates' shrinkage act on weaker correlations than the data's, and understate how much
         whitening with a shrunk estimate inflates the misfit (measured on a known Gaussian model:
         mean misfit 32.8 against 30.4 of such replicates for 30 residuals,
-        ``tests/test_diagnose_calibration.py``). Its eigenvalues are raised to
+        ``tests/diagnose/test_diagnose_calibration.py``). Its eigenvalues are raised to
         :data:`~dronewind.diagnose.covariance.MIN_EIGENVALUE` where needed.
     tau : numpy.ndarray
         Discrepancy standard deviation per feature (p,) [feature units].

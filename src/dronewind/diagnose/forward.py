@@ -18,7 +18,7 @@ values its writers would print) go to the chain's readers without a file; the fl
 state (turbulence, payload motion, mast field) is simulated once per seed and reused by every
 probe of a measurement-stage mechanism (all but :data:`dronewind.diagnose.probes.TRUTH_MECHANISMS`); and the products
 of records a probe leaves unchanged are reused (:class:`ForwardCache`). Each shortcut gives
-bit for bit the result of the long way round (``tests/test_forward_memory.py``), and
+bit for bit the result of the long way round (``tests/diagnose/test_forward_memory.py``), and
 :func:`file_round_trip` checks one flight through the files.
 
 The atmosphere (``diagnosis.atmosphere``, :data:`dronewind.diagnose.probes.ATMOSPHERES`): with ``measured`` (the
@@ -36,7 +36,7 @@ from their sampling distribution given the record
 (:func:`dronewind.simulate.constraint.spectral_sampling_factors`), so that the baseline seeds
 vary the remainder, the mast record's spectral sampling error and the instruments, and their
 scatter is that of a feature across independent atmospheres
-(``tests/test_measured_atmosphere_scatter.py``). With ``model`` the turbulence is the similarity model's
+(``tests/diagnose/test_measured_atmosphere_scatter.py``). With ``model`` the turbulence is the similarity model's
 at the measured mean conditions (mean wind, direction, u*, L). A mechanism acting on the
 mast's record (:data:`~dronewind.diagnose.forward_atmosphere.RECORD_INVERSES`) is probed by
 undoing it on the record; with the

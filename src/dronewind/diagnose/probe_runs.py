@@ -221,7 +221,7 @@ def simulated_sonic_ins_lag_s(campaign_data: Mapping[str, Any], flight_id: str, 
 
     On the search grid a whole number of lag steps moves the sonic's stamps and the TKE
     curve alike, so the first seed's baseline finds :math:`\\ell_m` again
-    (``tests/test_forward_lag.py``); the other seeds differ by their own sampling error.
+    (``tests/diagnose/test_forward_lag.py``); the other seeds differ by their own sampling error.
 
     Parameters
     ----------
