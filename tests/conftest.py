@@ -86,7 +86,8 @@ def real_record():
 
 
 def pytest_report_header(config) -> str:
-    """The seed of the hidden-effect draws (tests/diagnose/test_diagnosis_hidden.py): from the commit unless overridden."""
+    """The seed of the hidden-effect draws (tests/diagnose/test_diagnosis_hidden.py): from the commit or the
+    environment."""
     from dronewind.diagnose.experiments import DRAW_SEED_ENV, draw_seed
 
     seed, source = draw_seed(REPO)

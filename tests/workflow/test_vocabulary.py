@@ -24,7 +24,8 @@ FORBIDDEN: dict[str, re.Pattern[str]] = {
     "work-period label": re.compile(r"\bwork[- ]perio[d]s?\b", re.IGNORECASE),
     "numbered ticket": re.compile(r"\b(?:issu[e]s?|ticke[t]s?)\s+#?\d+\b", re.IGNORECASE),
     "numbered paper label": re.compile(r"\bsee[d][ _]?00[0-9]\b", re.IGNORECASE),
-    "result file tagged with a work period": re.compile(r"[A-Za-z0-9]_[s]([1-9][3-9]|[2-9]\d)(?:_[a-z]+)*\.(?:json|txt|csv|md|log)\b"),
+    "result file tagged with a work period":
+        re.compile(r"[A-Za-z0-9]_[s](?:1[3-9]|[2-9]\d)(?:_[a-z]+)*\.(?:json|txt|csv|md|log)\b"),
 }
 
 #: Real records are data written by others; they are not the product's words.
