@@ -57,16 +57,6 @@ def test_processing_log_and_provenance(campaign_run):
     assert any(k.startswith("n_") for k in l1.attrs), "counts of removed/filled samples are stored"
 
 
-def test_a_local_run_lifts_snakemakes_job_rate_limit(campaign_run):
-    """The run's onstart lifted the job rate limit (workflow/rules/common.smk): Snakemake's scheduler and
-    its limiter are where the workaround expects them (a Snakemake that moved them would leave the
-    limit on, and this fails)."""
-    folder, *_ = campaign_run
-    log = (folder / "snakemake_a.log").read_text()
-    assert "Submitting maximum 100 job(s) over 1" in log  # the limiter the command line made
-    assert "dronewind: local run, Snakemake's job rate limit lifted" in log
-
-
 def test_html_report_with_captions(small_campaign_report):
     """`snakemake --report` builds the HTML report of the finished run, figure captions included."""
     html = small_campaign_report
