@@ -129,5 +129,5 @@ def autopilot_summary(l3_files: Sequence[str | Path], l4_files: Sequence[str | P
         rows.append(stats)
         written.append(ekf_wind_figure(l3, stats, fig, flight))
     table = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=list(COMPARISON_COLUMNS))
-    atomic_write_text(out_table, table.to_csv(index=False, float_format="%.6g"))
+    atomic_write_text(out_table, table.to_csv(index=False))
     return [Path(out_table), *written]

@@ -118,4 +118,4 @@ def block_stats(l4_files: Sequence[str | Path], output: str | Path) -> Path:
         rows += stacked_block_rows(ds, str(ds.attrs["mast"]), str(ds.attrs["sonic"]))
     table = block_stats_table(rows)
     LOG.info("block_stats: %d blocks of %d sonic(s), %d usable", len(table), len(l4_files), int(table["usable"].sum()))
-    return atomic_write_text(output, table.to_csv(index=False, float_format="%.6g", na_rep="", lineterminator="\n"))
+    return atomic_write_text(output, table.to_csv(index=False, na_rep="", lineterminator="\n"))

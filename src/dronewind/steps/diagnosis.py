@@ -441,7 +441,7 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
         row["z_extended"] = row_after["z"]
     import pandas as pd
 
-    atomic_write_text(output_csv, pd.DataFrame(rows).to_csv(index=False, float_format="%.6g"))
+    atomic_write_text(output_csv, pd.DataFrame(rows).to_csv(index=False))  # full precision
     text = report.markdown(diag, before_metrics, after_metrics, rows)
     atomic_write_text(output_md, text)
     measured_spectra = {}

@@ -725,6 +725,7 @@ def flight_stats(l4_files: Sequence[str | Path], output: str | Path) -> Path:
     rows = [_flight_stats_row(open_product(path)) for path in l4_files]
     table = pd.DataFrame(rows, columns=[*FLIGHT_STATS_COLUMNS, "usable", "unusable_reason"])
     table = table.sort_values(["flight", "sensor"], key=lambda s: s.astype(str)).reset_index(drop=True)
-    text = table.to_csv(index=False, float_format="%.6g", na_rep="")
+    # full precision (shortest round-trip form of each value); the report pages format for reading
+    text = table.to_csv(index=False, na_rep="")
     LOG.info("flight_stats: %d rows", len(table))
     return atomic_write_text(output, text)
