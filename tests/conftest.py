@@ -215,9 +215,9 @@ class BackgroundRuns(threading.Thread):
             run.stop()
 
 
-#: The hidden-effect runs of tests/diagnose/test_diagnosis_hidden.py, started when the session has collected them.
+#: The hidden-effect runs of tests/diagnose/test_diagnosis_hidden.py, started once their tests are collected.
 HIDDEN_RUNS: pytest.StashKey = pytest.StashKey()
-#: Where the session keeps the SLURM run of tests/workflow/test_slurm.py (a ``SlurmRun``).
+#: Where the test run keeps the SLURM run of tests/workflow/test_slurm.py (a ``SlurmRun``).
 SLURM_RUN: pytest.StashKey = pytest.StashKey()
 #: Set once the controller of an xdist session has started the background runs.
 _BACKGROUND_STARTED: pytest.StashKey[bool] = pytest.StashKey()
@@ -348,7 +348,7 @@ def _start_background_runs(config: pytest.Config, nodeids: list[str]) -> None:
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Start the workflow runs of :data:`BACKGROUND_MODULES` whose tests are to run.
 
-    The hidden-effect runs (tests/diagnose/test_diagnosis_hidden.py) compute while the session runs
+    The hidden-effect runs (tests/diagnose/test_diagnosis_hidden.py) compute while the test run goes through
     the tests before them on the other core; the SLURM run (tests/workflow/test_slurm.py) mostly
     waits for SLURM's status checks. Their tests wait for their ends. Not for ``--collect-only``,
     nor on an xdist worker (its controller starts them: :func:`pytest_xdist_node_collection_finished`).

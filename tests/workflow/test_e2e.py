@@ -22,7 +22,8 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def campaign_run(small_campaign_run):
-    """The session's run of the small campaign (tests/conftest.py), shared with tests/figures/test_report.py."""
+    """The small campaign run through the workflow once (tests/conftest.py), shared with
+    tests/figures/test_report.py."""
     return small_campaign_run
 
 

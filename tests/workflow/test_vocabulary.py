@@ -28,6 +28,9 @@ FORBIDDEN: dict[str, re.Pattern[str]] = {
         re.compile(r"[A-Za-z0-9]_[s](?:1[3-9]|[2-9]\d)(?:_[a-z]+)*\.(?:json|txt|csv|md|log)\b"),
 }
 
+#: A period number for the check's own example of a tagged result file.
+_PERIOD = 27
+
 #: Real records are data written by others; they are not the product's words.
 EXEMPT_PREFIXES = ("tests/data/",)
 
@@ -62,7 +65,7 @@ def find_vocabulary(text: str) -> list[tuple[int, str, str]]:
     ("the code of sessi" "on 27 took 123 s", "numbered work period"),
     ("issu" "e 14's targets", "numbered ticket"),
     ("(see" "d 000, Sect. 2.3)", "numbered paper label"),
-    ("benchmarks/results/compliance" "_s27.json", "result file tagged with a work period"),
+    (f"benchmarks/results/compliance_s{_PERIOD}.json", "result file tagged with a work period"),
 ])
 def test_the_check_finds_each_kind(text: str, kind: str) -> None:
     assert [k for _, k, _ in find_vocabulary(text)] == [kind]
