@@ -170,6 +170,30 @@ def _profile_bound(target: float, r: np.ndarray, v: np.ndarray, x: np.ndarray, s
                                        rtol=1e-10))
 
 
+def _offset_trend_design(speed_ms: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Design matrix of the offset (and, with enough flights, the trend with wind speed) of one feature.
+
+    Parameters
+    ----------
+    speed_ms : numpy.ndarray
+        Mean wind speed of the flights that have the feature (n,) [m s-1].
+
+    Returns
+    -------
+    x : numpy.ndarray
+        (n, 1) ones, or (n, 2) ones and the centred speeds when there are at least
+        :data:`MIN_FLIGHTS_TREND` flights with finite, differing speeds.
+    with_trend : bool
+        Whether the trend column is there.
+    """
+    n = speed_ms.size
+    with_trend = bool(n >= MIN_FLIGHTS_TREND and np.all(np.isfinite(speed_ms)) and np.ptp(speed_ms) > 0)
+    x = np.ones((n, 1))
+    if with_trend:
+        x = np.column_stack([x, speed_ms - np.mean(speed_ms)])
+    return x, with_trend
+
+
 def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None = None,
                 interval: bool = True, lost_dof: np.ndarray | None = None) -> Discrepancy:
     """Per-feature model discrepancy across flights (DerSimonian-Laird moments, Q-profile interval).
@@ -214,10 +238,7 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
     trend = np.zeros(p, dtype=bool)
     for f in range(p):
         ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
-        with_trend = bool(ok.sum() >= MIN_FLIGHTS_TREND and np.all(np.isfinite(speed[ok])) and np.ptp(speed[ok]) > 0)
-        x = np.ones((ok.sum(), 1))
-        if with_trend:
-            x = np.column_stack([x, speed[ok] - np.mean(speed[ok])])
+        x, with_trend = _offset_trend_design(speed[ok])
         k = int(ok.sum()) - x.shape[1]
         if k < 1:
             continue
@@ -347,10 +368,7 @@ def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.n
     trend = np.zeros(p, dtype=bool)
     for f in range(p):
         ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
-        with_trend = bool(ok.sum() >= MIN_FLIGHTS_TREND and np.all(np.isfinite(speed[ok])) and np.ptp(speed[ok]) > 0)
-        x = np.ones((ok.sum(), 1))
-        if with_trend:
-            x = np.column_stack([x, speed[ok] - np.mean(speed[ok])])
+        x, with_trend = _offset_trend_design(speed[ok])
         if int(ok.sum()) - x.shape[1] < 1:
             continue
         w = 1.0 / s_all[ok, f] ** 2
