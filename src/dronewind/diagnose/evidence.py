@@ -19,6 +19,7 @@ import numpy as np
 
 from dronewind.diagnose.calibration import (
     MIN_FLIGHTS_TREND,
+    UNEXPLAINED_ALPHA,
     seed_scale,
 )
 from dronewind.diagnose.covariance import ShrunkCorrelation, Whitener, flight_correlations, shrunk_correlation
@@ -326,6 +327,9 @@ def error_model(ev: CampaignEvidence, result: DiagnosisResult | None = None) -> 
                                        "the profiled discrepancy included); candidates by Westfall-Young single-step "
                                        "min-p over each naming round (chi-square tails as marginals)",
                              "replicates": ref.n_replicates, "seed": ref.seed,
+                             "unexplained": "offset and wind-speed trend of every feature's residuals, Westfall-Young "
+                                            "single-step min-p over all features and both tests at a family-wise "
+                                            f"{UNEXPLAINED_ALPHA:g}",
                              "smallest_p": 1.0 / (ref.n_replicates + 1)}
                             if ref is not None else
                             {"method": "chi-square, Bonferroni over mechanisms (fewer than two seeds: no bootstrap)"})

@@ -16,6 +16,7 @@ import numpy as np
 import scipy.stats
 
 from dronewind.diagnose.calibration import (
+    UNEXPLAINED_ALPHA,
     discrepancy,
     empirical_p,
     familywise_p,
@@ -114,7 +115,7 @@ def goodness_of_fit(ev: CampaignEvidence, prediction: np.ndarray, n_parameters: 
     return out
 
 
-def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: float = 0.01,
+def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: float = UNEXPLAINED_ALPHA,
                          result: DiagnosisResult | None = None) -> list[dict[str, Any]]:
     """Features the prediction still misses: an offset, a trend with wind speed, or a discrepancy.
 
@@ -126,7 +127,8 @@ def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: fl
         Predicted features (the model with the named causes), (n_flights, n_features).
     alpha : float
         Family-wise false-alarm rate over the features' offset and trend tests, and (Bonferroni)
-        over their discrepancy tests.
+        over their discrepancy tests (:data:`~dronewind.diagnose.calibration.UNEXPLAINED_ALPHA`,
+        where its power is stated).
     result : DiagnosisResult, optional
         The diagnosis: with its bootstrap reference the offset and trend tests are referred to
         it (Westfall and Young 1993 single-step min-p over all features and both tests, each
