@@ -126,11 +126,12 @@ def fresh_seeds(used: Sequence[int], n: int = 2) -> tuple[int, ...]:
 
 
 #: Pooled degrees of freedom of the baseline seeds that the feature covariance is estimated
-#: with by default: with 15 features, 350 bring the Schäfer-Strimmer shrinkage intensity of
+#: with by default: with 15 features, 400 bring the Schäfer-Strimmer shrinkage intensity of
 #: a null campaign's correlation below 0.3 (measured: 0.28 with 89 seeds on 4 flights, 356
-#: degrees of freedom; 0.36 with 60 seeds, 236), so that real correlations between the
-#: features of one w series are kept rather than shrunk away.
-SEED_DOF = 350
+#: degrees of freedom; 0.31 with 36 seeds on 10 flights, 350; 0.36 with 60 seeds, 236; the
+#: intensity falls about as the inverse of the degrees of freedom), so that real correlations
+#: between the features of one w series are kept rather than shrunk away.
+SEED_DOF = 400
 #: Fewest baseline seeds per flight (the seed scale of every feature then has at least 29
 #: degrees of freedom on one flight).
 MIN_SEEDS = 30
@@ -161,7 +162,7 @@ def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS
     Examples
     --------
     >>> len(baseline_seeds(1)), len(baseline_seeds(4)), len(baseline_seeds(6)), len(baseline_seeds(20))
-    (90, 89, 60, 30)
+    (90, 90, 68, 30)
     """
     n = min(int(maximum), max(int(minimum), -(-int(dof) // max(int(n_flights), 1)) + 1))
     return [101 * (k + 1) for k in range(n)]
