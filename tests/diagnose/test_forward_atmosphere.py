@@ -142,7 +142,7 @@ def forward_flight(tmp_path_factory):
     flight = data["payload_flights"][1]
     v = ex.process_virtual_flight(data, flight, work, proc)
     cond = forward_conditions.forward_conditions(data, flight["id"], v.l3, v.l2)
-    return data, flight["id"], proc, cond, v.mast_l1, v.l2
+    return data, flight["id"], proc, cond, v.mast_l1, v.l2, v.l3
 
 
 def _hover_differences(measured: xr.Dataset, simulated: xr.Dataset, l2: xr.Dataset) -> dict[str, np.ndarray]:
@@ -161,7 +161,7 @@ def _hover_differences(measured: xr.Dataset, simulated: xr.Dataset, l2: xr.Datas
 def test_forward_mast_reproduces_the_measured_record(forward_flight):
     from dronewind.diagnose import forward, forward_atmosphere, forward_conditions
 
-    data, fid, proc, cond, m1, l2 = forward_flight
+    data, fid, proc, cond, m1, l2, _ = forward_flight
     record = forward_atmosphere.atmosphere_record(m1, cond)
     _, products = forward.run_forward(forward_conditions.forward_manifest(data, fid, cond, None, 101, True), fid, proc,
                                       atmosphere=record)
@@ -178,10 +178,38 @@ def test_forward_mast_reproduces_the_measured_record(forward_flight):
     assert info["mirrored_s"] < 10.0 and info["record_covered_s"] > cond["duration_s"] + 300.0
 
 
+def test_forward_mast_keeps_the_measured_samples_and_band_ratio(forward_flight):
+    """The forward run is processed over the measured L2's samples, so its mast's <S_w/S_u> is the measured one.
+
+    The conditions' window is the measured L2's span, which the chain had already cut by the
+    sonic-INS lag: processed over that span again, a forward L2 lost the lag's samples (4-5
+    at 32 Hz), its 8 Hz L3 one or two, and the mast's band ratio, a mean over log-frequency
+    bins of 2-12 Welch ordinates each, moved with the Welch frequency grid by up to twice its
+    sampling error at low wind speed (0.18 for 3.5 m/s). With the measured length the
+    forward mast differs from the measured one only by the window the drone-mast lag shifts
+    (a few seconds of 360 s), which moves the ratio by about 0.01 (0.009 sd over shifts of
+    0-7 s of a 3.5 m/s flight): the tolerance is 0.03, a third of the ratio's sampling error.
+    """
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions
+    from dronewind.diagnose.features import flight_features
+
+    data, fid, proc, cond, m1, l2, l3 = forward_flight
+    record = forward_atmosphere.atmosphere_record(m1, cond)
+    feats, products = forward.run_forward(forward_conditions.forward_manifest(data, fid, cond, None, 101, True), fid,
+                                          proc, atmosphere=record, lag_drift=False, features=["sw_su_mast"])
+    t_meas, t_fwd = l2["time"].values, products["l2"]["time"].values
+    half = np.median(np.diff(t_meas)) / 2
+    assert t_fwd.size == t_meas.size
+    assert abs(t_fwd[0] - t_meas[0]) < half and abs(t_fwd[-1] - t_meas[-1]) < half
+    measured = flight_features(l3, l2, features=["sw_su_mast"]).values["sw_su_mast"]
+    assert products["l3"].sizes["time"] == l3.sizes["time"]
+    assert feats.values["sw_su_mast"] == pytest.approx(measured, abs=0.03)
+
+
 def test_mast_attenuation_probe_reads_the_record_through_the_mechanism(forward_flight):
     from dronewind.diagnose import forward, forward_atmosphere, forward_conditions
 
-    data, fid, proc, cond, m1, l2 = forward_flight
+    data, fid, proc, cond, m1, l2, _ = forward_flight
     params = {"gain": 0.85}
     measured = forward_atmosphere.atmosphere_record(m1, cond)
     record = forward_atmosphere.RECORD_INVERSES["mast_w_attenuation"](measured, params)
@@ -197,7 +225,7 @@ def test_mast_attenuation_probe_reads_the_record_through_the_mechanism(forward_f
 def test_atmosphere_record_needs_the_hover_window(forward_flight):
     from dronewind.diagnose import forward, forward_atmosphere, forward_conditions
 
-    data, fid, proc, cond, m1, l2 = forward_flight
+    data, fid, proc, cond, m1, l2, _ = forward_flight
     short = m1.sel(time=slice(l2["time"].values[0] + np.timedelta64(60, "s"), None))
     with pytest.raises(InputError, match="hover window"):
         forward.run_forward(forward_conditions.forward_manifest(data, fid, cond, None, 101, True), fid, proc,

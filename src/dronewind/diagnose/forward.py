@@ -72,6 +72,7 @@ from dronewind.compare.chain import compute_l3
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import StepStore, read_only, reusing, same_bits
 from dronewind.diagnose.features import FlightFeatures, flight_features
+from dronewind.diagnose.forward_conditions import measured_span
 from dronewind.diagnose.probes import (
     LAG_SETTINGS,
 )
@@ -315,8 +316,15 @@ def _process_forward_flight(manifest: Mapping[str, Any], flight_id: str, sources
                          settings=_clock_settings(ins_table, ins_src))
     site_altitude_m = float(manifest["site"]["altitude_m"])
 
+    # a run processed over the measured hover window (forward_manifest with a measured
+    # atmosphere) keeps the measured L2's samples: the same record lengths downstream
+    conditions = manifest.get("simulation", {}).get("payload_flights", {}).get(flight_id, {})
+    measured_window = "window" in flight and "start" in conditions and "duration_s" in conditions
+
     def payload_l2() -> tuple[xr.Dataset, tuple[float, float] | None]:
         l2 = compute_payload_l2(sonic_l1, ins_l1, flight, site_altitude_m, lag_halves=lag_drift, **lag)
+        if measured_window:
+            l2 = measured_span(l2, conditions)
         return l2, lag_halves(sonic_l1, ins_l1, l2, flight, site_altitude_m, **lag) if lag_drift else None
 
     l2, halves = cache.get("l2" if lag_drift else "l2 without halves", [sonic_src, ins_src], payload_l2)

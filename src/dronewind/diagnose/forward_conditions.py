@@ -24,6 +24,9 @@ from dronewind.manifest import payload_flight_manifest
 __all__ = [
     "forward_conditions",
     "forward_manifest",
+    "processing_window",
+    "measured_span",
+    "WINDOW_PAD_S",
 ]
 
 
@@ -179,6 +182,79 @@ def _measured_lag_s(l2_drone: xr.Dataset) -> float | None:
     return None
 
 
+#: Time added to both ends of the measured hover window, beyond the sonic-INS lag, when a
+#: forward run is processed over it (:func:`processing_window`) [s].
+WINDOW_PAD_S = 1.0
+
+
+def processing_window(conditions: Mapping[str, Any]) -> dict[str, str]:
+    """The flight window of a forward run processed over the measured hover window.
+
+    The chain keeps the sonic samples whose own clock lies in the flight window and whose
+    time shifted by the sonic-INS lag lies in the hover window of the INS
+    (:func:`dronewind.payload.l2.compute_payload_l2`). The conditions' ``start`` and
+    ``duration_s`` are the first and last time of the measured L2, i.e. already shifted:
+    that span given again as the window would lose the lag's worth of samples at one end
+    (4 at 32 Hz for -0.125 s) and one to the sampling grid's phase at the other. The window
+    is therefore the measured span widened at both ends by ``|sonic_ins_lag_s|`` and
+    :data:`WINDOW_PAD_S`; :func:`measured_span` then cuts the forward L2 back to the
+    measured samples.
+
+    Parameters
+    ----------
+    conditions : mapping
+        :func:`forward_conditions` output (``start``, ``duration_s``, optional
+        ``sonic_ins_lag_s`` [s]).
+
+    Returns
+    -------
+    dict
+        ``{"start": ..., "end": ...}`` (UTC ISO strings, microseconds, ``Z``).
+    """
+    pad = np.timedelta64(int(round((abs(float(conditions.get("sonic_ins_lag_s", 0.0))) + WINDOW_PAD_S) * 1e6)), "us")
+    start, end = hover_span(conditions)
+    return {"start": np.datetime_as_string(start - pad, unit="us") + "Z",
+            "end": np.datetime_as_string(end + pad, unit="us") + "Z"}
+
+
+def measured_span(l2_drone: xr.Dataset, conditions: Mapping[str, Any]) -> xr.Dataset:
+    r"""A forward run's drone L2 cut to the measured L2's span: the same number of samples.
+
+    Parameters
+    ----------
+    l2_drone : xarray.Dataset
+        The forward run's L2 over :func:`processing_window` (datetime64 ``time``).
+    conditions : mapping
+        :func:`forward_conditions` output: ``start`` (the measured L2's first time) and
+        ``duration_s`` (its last minus its first time [s]).
+
+    Returns
+    -------
+    xarray.Dataset
+        The samples whose time lies in [start - dt/2, start + duration + dt/2), dt the L2's
+        median sample step: as many as the measured L2 holds ((duration / dt) + 1), whatever
+        the phase of the forward run's sampling grid.
+
+    Notes
+    -----
+    The record lengths of the later products follow from it: the 8 Hz L3 of the chain has
+    floor((n_32 - 62) / 4) - 15 samples for n_32 samples on the common 32 Hz grid
+    (:func:`dronewind.compare.chain.compute_l3`), n_32 being the L2's samples less 0-3 to
+    the phase of the drone-mast lag. The features' Welch spectra take their frequency grid
+    from that length, and a band average of few log-frequency bins, as the mast's
+    :math:`\langle S_w/S_u\rangle` at low wind speed, changes by its sampling error when
+    one Welch ordinate moves between bins (:func:`dronewind.diagnose.features.flight_features`):
+    a forward L2 shorter than the measured one by a few samples biases such a feature.
+    """
+    t = l2_drone["time"].values
+    if t.size < 2:
+        return l2_drone
+    half = np.median(np.diff(t)) / 2
+    start, end = hover_span(conditions)
+    keep = (t >= start.astype(t.dtype) - half) & (t < end.astype(t.dtype) + half)
+    return l2_drone.isel(time=np.flatnonzero(keep))
+
+
 def forward_manifest(
     campaign_data: Mapping[str, Any],
     flight_id: str,
@@ -207,15 +283,18 @@ def forward_manifest(
         (:func:`atmosphere_record`), which already holds the mast sonic's white noise: the
         forward mast then adds none (``simulation.mast`` noise 0). The forward flight is
         then processed over the measured hover window (``start`` and ``duration_s`` of the
-        conditions) instead of the window the chain would find in the simulated hover (which
-        includes the simulator's hover margins): the features of the mast, whose record is
-        the measured one, then cover the same samples as the measured features.
+        conditions; the flight window of :func:`processing_window`, the L2 cut to the
+        measured samples by :func:`measured_span` in
+        :func:`dronewind.diagnose.forward.process_forward_flight`) instead of the window the
+        chain would find in the simulated hover (which includes the simulator's hover
+        margins): the features of the mast, whose record is the measured one, then cover the
+        same samples as the measured features, up to the drone-mast lag the run finds.
 
     Returns
     -------
     dict
-        Manifest content with one payload flight (without its ``window``, or with the
-        measured one for ``measured_atmosphere``), its reference
+        Manifest content with one payload flight (without its ``window``, or with
+        :func:`processing_window` for ``measured_atmosphere``), its reference
         mast sonic (:func:`dronewind.manifest.payload_flight_manifest`) and a
         ``simulation:`` section. The flight's sonic-INS processing lag is the conditions'
         ``sonic_ins_lag_s``, or 0 without one (not the simulator's per-flight draw, which
@@ -225,8 +304,7 @@ def forward_manifest(
     flight = data["payload_flights"][0]
     flight.pop("window", None)
     if measured_atmosphere:
-        _, end = hover_span(conditions)
-        flight["window"] = {"start": str(conditions["start"]), "end": np.datetime_as_string(end, unit="us") + "Z"}
+        flight["window"] = processing_window(conditions)
     data["name"] = f"{campaign_data['name']}_forward_{flight_id}"
     data["simulation"] = {
         "seed": int(seed),
