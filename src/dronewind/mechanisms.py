@@ -19,7 +19,8 @@ sonic_ins_lag                sonic rows are stamped ``rpi(t) - lag_s``: ``lag_s`
                              must be ADDED to the sonic clock to align it with the INS (same sign
                              as ``lag_sonic_ins_s``); a sonic processing delay d gives lag_s = -d
 clock_drift                  the sonic's stamps run ``ppm`` 1e-6 fast: stamp = rpi(t) + ppm 1e-6
-                             (t - t_log_start)
+                             (t - t_hover_centre), about the centre of the hover window,
+                             where the flight's own lag (and the chain's lag search) holds
 mount_misalignment           true sensor-to-body rotation = M_mount . R(roll, pitch, yaw) (App. A)
 heading_bias                 logged INS yaw = true yaw + deg
 attitude_lag                 logged INS attitude at t = true attitude at t - lag_s

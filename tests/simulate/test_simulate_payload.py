@@ -279,6 +279,10 @@ def test_mechanism_clock_drift(tmp_path, base):
     slope = np.polyfit(t - t.min(), d, 1)[0]
     assert slope == pytest.approx(200e-6, rel=1e-3)
     assert np.abs(d).min() < 2e-6
+    # the flight's lag holds at the centre of the hover window (symmetric margins: the centre of
+    # the INS's hover by altitude, within the few seconds its 3-m band cuts off climb and descent)
+    hover_t = base["ins"].rpi_time_us.to_numpy()[_hover(base["ins"])] * 1e-6
+    assert t[np.argmin(np.abs(d))] == pytest.approx(0.5 * (hover_t.min() + hover_t.max()), abs=5.0)
 
 
 def test_mechanism_mount_misalignment(tmp_path, base):

@@ -34,12 +34,24 @@ from dronewind.mechanisms import get_mechanism
 if TYPE_CHECKING:
     from dronewind.diagnose.naming import DiagnosisResult
 
-__all__ = ["CONDITIONED", "PARAMETER_SUBSETS", "N_LISTED_CORRELATIONS", "CampaignEvidence", "assemble",
+__all__ = ["CONDITIONED", "MEASURED_ATMOSPHERE_CONDITIONED",
+           "PARAMETER_SUBSETS", "N_LISTED_CORRELATIONS", "CampaignEvidence", "assemble",
            "feature_correlation", "error_model", "measured_conditions", "finite_or_none"]
 
 #: Conditions of the forward runs measured by the chain, which therefore cannot be evidence:
 #: condition key -> (the feature it fixes, the mechanism it stands for).
 CONDITIONED: dict[str, tuple[str, str]] = {"sonic_ins_lag_s": ("lag_sonic_ins_s", "sonic_ins_lag")}
+#: Features that the measured atmosphere fixes: with the forward runs constrained by the
+#: reference mast's measured record (``atmosphere: measured``) every seed and every probe
+#: reproduces that record at the mast, and a mechanism acting on the mast is read through
+#: it (:mod:`dronewind.diagnose.forward_atmosphere`), so a feature of the mast alone is the
+#: record's own value whatever the candidate. Its residual measures only how exactly the
+#: forward chain cuts the record (the 8-Hz L3 of a run may hold a sample or two fewer, as
+#: the drone-mast lag falls on the grid), not the sampling error its seed scatter stands for:
+#: the band ratio of a 6-min record at 3.5 m/s moves from 1.60 to 1.80 when one sample is cut
+#: (its log bins in the band hold two or three Welch ordinates), while its seed scatter is
+#: 0.01. It is a condition of the forward runs, like the lag.
+MEASURED_ATMOSPHERE_CONDITIONED: tuple[str, ...] = ("sw_su_mast",)
 #: Correlations listed in ``error_model`` (the largest in absolute value).
 N_LISTED_CORRELATIONS = 8
 #: Variants of a candidate that fit only some of its parameters, the others held at their
@@ -235,6 +247,8 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
     conditions = [dict(forward[f]["conditions"]) for f in flights]
     conditioned = [feat for key, (feat, _) in CONDITIONED.items()
                    if flights and all(c.get(key) is not None for c in conditions)]
+    if flights and all(forward[f].get("atmosphere") == "measured" for f in flights):
+        conditioned += [feat for feat in MEASURED_ATMOSPHERE_CONDITIONED if feat not in conditioned]
     used_runs = runs.copy()
     for feat in conditioned:  # a measured condition of the forward runs is not evidence
         y[:, FEATURES.index(feat)] = np.nan

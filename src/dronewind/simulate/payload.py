@@ -24,7 +24,8 @@ Instruments:
   else drawn from the flight's seed in [``sonic_ins_lag_low_s``, ``sonic_ins_lag_high_s``],
   by default [-0.185, 0] s, the range of the ten validation flights' lags (Ghirardelli et
   al. 2025, Sect. 3.3, Fig. 4; :func:`dronewind.simulate.settings.processing_lag_s`). The
-  ``sonic_ins_lag`` mechanism adds to it.
+  ``sonic_ins_lag`` mechanism adds to it; the lag holds at the centre of the hover window,
+  the ``clock_drift`` mechanism moves it about there.
 * Logger clock: ``rpi_time_us`` = (UTC + ``logger_clock_offset_s``) with
   ``logger_clock_drift_ppm``, shared by both files.
 * Row defects (missing, duplicated, swapped, out-of-range) at the ``defects`` rates.
@@ -170,14 +171,20 @@ def _sonic_stamps_us(cond: PayloadFlightConditions, t_s: np.ndarray) -> np.ndarr
     and the ``sonic_ins_lag`` and ``clock_drift`` mechanisms.
 
     A sample of true time t is stamped t - lag: the chain adds lag to the sonic's clock to
-    align it with the INS (the data contract's ``lag_sonic_ins_s``).
+    align it with the INS (the data contract's ``lag_sonic_ins_s``). The flight's lag holds
+    at the centre of the hover window (flight time ``duration_s / 2``) and a clock drift moves
+    the lag about it: the chain's lag search finds the lag over the hover, and the forward
+    runs of a measured flight take that lag as a condition, so a drift about any other time
+    would shift the forward's mean lag away from the measured one by the drift's share
+    (300 ppm over half a 12-min hover and its margins: about 0.15 s) and penalise the drift
+    in every feature that the sonic-INS alignment moves.
     """
     mech, log_t0 = cond["mechanisms"], t_s[0]
     t_stamp = t_s - cond["sonic_ins_lag_s"]
     if "sonic_ins_lag" in mech:
         t_stamp = t_stamp - mech["sonic_ins_lag"]["lag_s"]
     if "clock_drift" in mech:
-        t_stamp = t_stamp + mech["clock_drift"]["ppm"] * 1e-6 * (t_s - log_t0)
+        t_stamp = t_stamp + mech["clock_drift"]["ppm"] * 1e-6 * (t_s - 0.5 * cond["duration_s"])
     return _logger_clock_us(t_stamp, log_t0, cond["start"], cond["payload"])
 
 
