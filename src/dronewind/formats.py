@@ -21,8 +21,9 @@ What is checked, per format:
 * ``ardupilot_bin``: the first bytes of a DataFlash log's first message (``a3 95 80``, an FMT);
 * ``delimited``: :func:`dronewind.core.delimited.check_delimited_head` (the mapped columns
   in the header, the field count, the time column parsing, numbers where mapped); the
-  record of a rigid-mount flight (kind ``rigid_record``) is checked with its platform
-  variables (:func:`dronewind.payload.rigid.rigid_layout`).
+  record of a rigid-mount flight (kind ``rigid_record``) is checked with the platform
+  variables its mapping declares (:func:`dronewind.payload.columns.rigid_layout`); its
+  ``platform_log`` (kind ``platform_log``) as ``ardupilot_bin``.
 
 What is echoed from a file is limited: the first field of a line, a time field, a header
 line of a declared delimited file (shortened); binary content is described, never quoted.
@@ -225,7 +226,8 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
     fmt : mapping
         The record's format (:func:`dronewind.manifest.record_format`): ``name`` and settings.
     kind : str
-        ``mast_sonic``, ``payload_sonic``, ``payload_ins`` or ``quadrotor_uav``.
+        ``mast_sonic``, ``payload_sonic``, ``payload_ins``, ``quadrotor_uav``,
+        ``autopilot_log``, ``rigid_record`` or ``platform_log``.
     where : str
         Key path of the format in the manifest (messages about the mapping itself).
 
@@ -240,7 +242,7 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
     name = fmt["name"]
     allowed = {"mast_sonic": ("toa5", "gill_raw", "delimited"),
                "quadrotor_uav": ("contract_csv", "ulog", "ardupilot_bin", "delimited"),
-               "autopilot_log": ("ardupilot_bin",), "rigid_record": ("delimited",),
+               "autopilot_log": ("ardupilot_bin",), "rigid_record": ("delimited",), "platform_log": ("ardupilot_bin",),
                "payload_sonic": ("contract_csv", "delimited"), "payload_ins": ("contract_csv", "delimited")}.get(
         kind, ("contract_csv",))
     if name not in allowed:
@@ -250,7 +252,9 @@ def check_file_format(path: str | Path, fmt: Mapping[str, Any], kind: str, where
     elif name == "gill_raw":
         _check_gill(p, fmt)
     elif name == "delimited" and kind == "rigid_record":
-        check_delimited_head(p, rigid_layout(fmt, where))
+        # the mapping's columns against the head; which platform variables it must hold (a
+        # platform_log gives the others) is the manifest's check (dronewind.manifest)
+        check_delimited_head(p, rigid_layout(fmt, where, platform_log=None))
     elif name == "delimited" and kind == "payload_sonic":
         check_delimited_head(p, payload_delimited.sonic_layout(fmt, where))
     elif name == "delimited" and kind == "payload_ins":
@@ -281,6 +285,10 @@ def _records(campaign: Campaign) -> list[tuple[str, str, dict[str, Any], list[Pa
         if is_rigid(flight):
             out.append((f"payload_flights[{i}].record", "rigid_record", dict(flight["record"]["format"]),
                         [root / flight["record"]["file"]]))
+            if flight.get("platform_log"):
+                log = flight["platform_log"]
+                out.append((f"payload_flights[{i}].platform_log", "platform_log", record_format(log, "platform_log"),
+                            [root / log["file"]]))
             continue
         for part in ("sonic", "ins"):
             kind = f"payload_{part}"

@@ -16,7 +16,9 @@ expected:
    read and may lie anywhere (absolute, or relative to the manifest). The campaign name
    cannot start with ``.`` (``..`` would put the results in the parent of ``results_dir``);
 3. meaning: duplicate flight, mast or sensor ids; a payload flight whose ``reference`` is
-   not a mast sonic id; a window whose end is not after its start; and, for measured
+   not a mast sonic id; a window whose end is not after its start; a rigid-mount flight
+   whose platform variables come from neither its record's columns nor its ``platform_log``
+   (or a ``platform_log`` that would give none); and, for measured
    campaigns (no ``simulation:`` section), files that do not exist and globs that match
    nothing.
 
@@ -47,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from dronewind.errors import ManifestError
+from dronewind.errors import InputError, ManifestError
 
 __all__ = ["Campaign", "load_campaign", "campaign_schema", "parse_utc", "config_schema", "default_config",
            "with_defaults", "payload_flight_manifest", "data_paths", "path_problem", "confined_path",
@@ -380,6 +382,8 @@ def data_paths(data: Mapping[str, Any]) -> list[tuple[str, str]]:
     for i, flight in enumerate(data.get("payload_flights") or []):
         if is_rigid(flight):
             out.append((f"payload_flights[{i}].record.file", str(flight["record"]["file"])))
+            if flight.get("platform_log"):
+                out.append((f"payload_flights[{i}].platform_log.file", str(flight["platform_log"]["file"])))
             continue
         out += [(f"payload_flights[{i}].{part}.file", str(flight[part]["file"])) for part in ("sonic", "ins")]
     for i, flight in enumerate(data.get("quadrotor_flights") or []):
@@ -395,7 +399,7 @@ def data_paths(data: Mapping[str, Any]) -> list[tuple[str, str]]:
 #: The format of a record that declares none: the contract format of its kind (``docs/data-contract.md``).
 DEFAULT_FORMATS: dict[str, str] = {"mast_sonic": "toa5", "payload_sonic": "contract_csv",
                                    "payload_ins": "contract_csv", "quadrotor_uav": "contract_csv",
-                                   "autopilot_log": "ardupilot_bin"}
+                                   "autopilot_log": "ardupilot_bin", "platform_log": "ardupilot_bin"}
 
 
 def record_format(record: Mapping[str, Any], kind: str, file: str | None = None) -> dict[str, Any]:
@@ -476,6 +480,28 @@ def _path_checks(data: dict[str, Any]) -> list[tuple[str, str]]:
     return problems
 
 
+def _rigid_platform_checks(key: str, flight: Mapping[str, Any], root: Path, check_files: bool
+                            ) -> list[tuple[str, str]]:
+    """Where a rigid-mount flight's platform state comes from: the record's columns, its ``platform_log``, or both.
+
+    Each platform variable comes from the record's mapping when it declares it (the record's
+    columns win), else from the platform log (:func:`dronewind.payload.columns.rigid_layout`);
+    the log file must exist.
+    """
+    from dronewind.payload.columns import rigid_layout
+
+    problems: list[tuple[str, str]] = []
+    log = flight.get("platform_log")
+    try:
+        rigid_layout(flight["record"]["format"], f"{key}.record.format", platform_log=bool(log))
+    except InputError as exc:
+        problems.append((exc.where, exc.what))
+    if log and check_files and not (root / log["file"]).is_file():
+        problems.append((f"{key}.platform_log.file", f"platform log {log['file']!r} does not exist under {root}; "
+                         "expected the vehicle's own log (format ardupilot_bin)"))
+    return problems
+
+
 def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> list[tuple[str, str]]:
     problems: list[tuple[str, str]] = _path_checks(data)
     if data.get("data_root") and data.get("simulation"):
@@ -523,7 +549,11 @@ def _semantic_checks(path: Path, data: dict[str, Any], check_files: bool) -> lis
                 if check_files and not (root / flight["record"]["file"]).is_file():
                     problems.append((f"{key}.record.file",
                                      f"file {flight['record']['file']!r} does not exist under {root}"))
+                problems += _rigid_platform_checks(key, flight, root, check_files)
             elif section == "payload_flights":
+                if flight.get("platform_log"):
+                    problems.append((f"{key}.platform_log", "a platform_log is for a rigid-mount flight (platform: "
+                                     "rigid_mount); a sling-load flight's platform state is its INS file (ins:)"))
                 if flight["reference"] not in sonic_ids:
                     known = ", ".join(sorted(sonic_ids)) or "none defined"
                     problems.append((f"{key}.reference",

@@ -316,6 +316,12 @@ def rigid_record(wc):
     return str(L0 / CAMPAIGN.payload_flight(wc.flight)["record"]["file"])
 
 
+def rigid_platform_log(wc):
+    """Input function: the vehicle's own log of a rigid-mount flight (``platform_log``), or none."""
+    log = CAMPAIGN.payload_flight(wc.flight).get("platform_log")
+    return [str(L0 / log["file"])] if log else []
+
+
 def flight_sensors(flight_id):
     """Sensors of a payload flight's L4: drone and mast, or drone alone without a reference."""
     return ["drone"] if flight_id in DRONE_ONLY_FLIGHTS else ["drone", "mast"]

@@ -2,12 +2,15 @@
 
 
 # Rigid-mount multicopter flights: one record (sonic + platform) -> L1 -> L2 (steady segment,
-# sonic-platform lag at 1/fs, V = R M V_sensor + V_platform).
+# sonic-platform lag at 1/fs, V = R M V_sensor + V_platform). A flight with a platform_log takes
+# the platform variables its record lacks from the vehicle's own log (an input: a changed log
+# reruns the L1).
 
 
 rule rigid_l1:
     input:
         record=rigid_record,
+        platform_log=rigid_platform_log,
     output:
         RESULTS / "netcdf" / "L1" / "{flight}_rigid.nc",
     log:

@@ -21,15 +21,15 @@ each a mechanism of the catalog (:mod:`dronewind.mechanisms`) except ``sideslip`
 ``sideslip`` (tunnel)
     separate lateral coefficients :math:`(b_y, c_y)` (Kistner et al. 2024, Eq. 1) instead of the
     longitudinal law at every angle of sideslip;
-``flight_pitch_offset`` (field, scored after the naming rounds)
+``flight_pitch_offset`` (field)
     one pitch offset per flight and UAV instead of per UAV: an IMU re-levelled between days
     of a multi-day campaign. A new flight's offset cannot be known in advance, so it is
     held out within flights (every ``k``-th window of each flight and UAV), the model it
-    extends scored on the same folds;
-``air_density`` (field, scored after the naming rounds)
+    extends scored on the same folds; it replaces the per-UAV offsets;
+``air_density`` (field)
     the air density of the drag balance (Wetz et al. 2021, Eq. 12) from the logged pressure
-    and temperature of each block instead of one constant; scored only when the records hold
-    them.
+    and temperature of each block instead of one constant; a candidate only when the records
+    hold them.
 
 Scoring (the same for every candidate): the parameters are fitted on training data and
 the misfit is measured on held-out data: field windows of flights left out (k-fold over
@@ -44,7 +44,14 @@ the test is on held-out data, extra parameters that only fit noise lose rather t
 the in-sample F statistic
 :math:`F = \frac{(RSS_0 - RSS_1)/\Delta p}{RSS_1/(n - p_1)}` is reported for reference.
 Causes are named greedily: the best significant candidate joins the model, the others are
-scored again against the extended model, until none is significant.
+scored again against the extended model, until none is significant. The per-flight offsets
+and the logged density are candidates of the same rounds as the per-UAV causes (same test,
+Bonferroni family and gain rule), so a per-day offset competes with a per-UAV one.
+Ambiguity: a significant candidate that the named one does not beat in a paired test of
+their held-out errors (same metric, same folds, the round's level) explains the data as
+well; it is listed in the named cause's ``ambiguous_with`` and the campaign's
+``ambiguity_sets``. Per-flight offsets that cannot be told from per-UAV ones are not named:
+the per-UAV offsets are (the simpler model).
 
 References
 ----------
@@ -101,6 +108,7 @@ def _field_part(data: FieldData, alpha: float, min_gain: float,
     """
     res = score_field_candidates(data, alpha, min_gain, k_folds)
     bho = res["baseline"]["heldout"]
+    eho = res["extended_baseline"]  # the baseline on the folds of the extended model
     bf = res["baseline"]["fit"]
     metrics = {"speed_rmse_ms": bho.rmse("speed"), "direction_rmse_deg": bho.rmse("direction"),
                "n_windows": data.n, "n_flights": int(len(set(data.flight))), "n_uavs": len(data.uavs),
@@ -116,12 +124,13 @@ def _field_part(data: FieldData, alpha: float, min_gain: float,
     ext = res["extended"]
     extended = {
         "named": [n["mechanism"] for n in res["named"]],
-        "speed_rmse_ms": {"before": bho.rmse("speed"), "after": ext.rmse("speed")},
-        "direction_rmse_deg": {"before": bho.rmse("direction"), "after": ext.rmse("direction")},
-        "speed_gain": 1.0 - ext.rmse("speed") / bho.rmse("speed") if bho.rmse("speed") > 0 else 0.0,
-        "direction_gain": 1.0 - ext.rmse("direction") / bho.rmse("direction")
-        if bho.rmse("direction") > 0 else 0.0,
-        "heldout": f"{min(k_folds, len(set(data.flight)))}-fold over flights"}
+        "speed_rmse_ms": {"before": eho.rmse("speed"), "after": ext.rmse("speed")},
+        "direction_rmse_deg": {"before": eho.rmse("direction"), "after": ext.rmse("direction")},
+        "speed_gain": 1.0 - ext.rmse("speed") / eho.rmse("speed") if eho.rmse("speed") > 0 else 0.0,
+        "direction_gain": 1.0 - ext.rmse("direction") / eho.rmse("direction")
+        if eho.rmse("direction") > 0 else 0.0,
+        "heldout": res["extended_heldout"] if res["extended_heldout"].endswith("within flights")
+        else f"{min(k_folds, len(set(data.flight)))}-fold over flights"}
     return metrics, [_public(s) for s in last.values()], list(res["named"]), extended
 
 
@@ -164,11 +173,13 @@ def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.D
         ``campaign``, ``baseline.metrics`` (held-out RMSEs of the single-law model),
         ``candidates`` (ranked by gain, best first; each with ``mechanism``, ``source``,
         ``estimate``, ``uncertainty``, ``gain``, ``significant``, ``p_value``, ...),
-        ``named_causes`` (empty when nothing is significant), ``extended_model`` (held-out
-        RMSE before and after with every named field cause), ``as_mechanisms`` (named causes
-        as ``simulation.mechanisms`` entries), ``method``.
+        ``named_causes`` (empty when nothing is significant), ``ambiguity_sets`` (per named
+        field cause: it and the significant candidates it does not beat), ``extended_model``
+        (held-out RMSE before and after with every named field cause), ``as_mechanisms``
+        (named causes as ``simulation.mechanisms`` entries), ``method``.
     """
-    out: dict[str, Any] = {"campaign": campaign, "baseline": {"metrics": {}}, "candidates": [], "named_causes": []}
+    out: dict[str, Any] = {"campaign": campaign, "baseline": {"metrics": {}}, "candidates": [], "named_causes": [],
+                           "ambiguity_sets": []}
     named_entries: list[dict[str, Any]] = []
     if windows is not None and len(windows) >= 3:
         metrics, cands, named_entries, out["extended_model"] = _field_part(
@@ -185,11 +196,14 @@ def diagnose_quadrotor(campaign: str, blocks: pd.DataFrame | None, windows: pd.D
         if c["significant"] and c["mechanism"] not in names:
             names.append(c["mechanism"])
     out["named_causes"] = names
+    out["ambiguity_sets"] = [[c["mechanism"], *c.get("ambiguous_with", [])] for c in named_entries]
     out["as_mechanisms"] = _as_mechanisms(out["candidates"])
     out["method"] = ("single-law quasi-steady baseline (Wetz et al. 2021, Eq. 17; c_d0A0, c_p fitted) vs extensions; "
-                     f"field: {k_folds}-fold over flights, held-out window RMSE, one-sided paired test per UAV "
-                     "log (Wilcoxon signed-rank); tunnel: leave-one-run-out (response_lag) or runs not used in the "
-                     "calibration; "
+                     f"field: {k_folds}-fold over flights (within flights for per-flight offsets), held-out window "
+                     "RMSE, one-sided paired test per UAV log (Wilcoxon signed-rank), per-flight offsets and the "
+                     "logged air density in the same rounds as the per-UAV causes, ambiguity by a paired test of "
+                     "the named cause against each other significant one; tunnel: leave-one-run-out "
+                     "(response_lag) or runs not used in the calibration; "
                      f"alpha={alpha} Bonferroni per round, min gain {min_gain}; see dronewind.diagnose.quadrotor")
     return out
 

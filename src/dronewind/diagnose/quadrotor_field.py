@@ -37,7 +37,14 @@ __all__ = [
 ]
 
 
-FIELD_CANDIDATES = ("pitch_offset", "yaw_offset", "drag_regime")
+#: Candidates of the field naming rounds. ``flight_pitch_offset`` (one pitch offset per flight
+#: and UAV: an IMU re-levelled between days) replaces the per-UAV ``pitch_offset``;
+#: ``air_density`` (the logged density in the drag balance) is scored when the records log it.
+FIELD_CANDIDATES = ("pitch_offset", "yaw_offset", "drag_regime", "flight_pitch_offset", "air_density")
+
+#: Candidate -> the simpler candidate it extends (its parameters a special case of the other's):
+#: when the data cannot tell the two apart, the simpler one is named.
+NESTED = {"flight_pitch_offset": "pitch_offset"}
 
 
 #: Windows below this reference speed carry little direction information: the weather vane turns
@@ -489,9 +496,32 @@ def _regime_edges(ref_speed: np.ndarray, n_ranges: int = 3, min_windows: int = 4
     return ()
 
 
-def _with(model: FieldModel, cand: str, edges: tuple[float, ...]) -> FieldModel:
-    return FieldModel(pitch=model.pitch or cand == "pitch_offset", yaw=model.yaw or cand == "yaw_offset",
-                      regime_edges=edges if cand == "drag_regime" else model.regime_edges)
+def _with(model: FieldModel, cand: str, edges: tuple[float, ...], units: Sequence[str]) -> FieldModel:
+    """The model extended by one candidate (``flight_pitch_offset`` replaces per-UAV pitch offsets)."""
+    flight_pitch = model.flight_pitch or cand == "flight_pitch_offset"
+    return FieldModel(pitch=(model.pitch or cand == "pitch_offset") and not flight_pitch,
+                      yaw=model.yaw or cand == "yaw_offset",
+                      regime_edges=edges if cand == "drag_regime" else model.regime_edges,
+                      flight_pitch=flight_pitch, density=model.density or cand == "air_density",
+                      units=tuple(units) if flight_pitch else ())
+
+
+def _available(cand: str, model: FieldModel, data: FieldData, edges: tuple[float, ...], k_folds: int) -> bool:
+    """Whether a candidate can extend the model on these data."""
+    if cand == "pitch_offset":
+        return not (model.pitch or model.flight_pitch)
+    if cand == "yaw_offset":
+        return not model.yaw
+    if cand == "drag_regime":
+        return bool(edges) and model.regime_edges is None
+    if cand == "flight_pitch_offset":
+        return not model.flight_pitch and len(set(data.flight.tolist())) > 1 and data.n >= 2 * k_folds
+    return cand == "air_density" and data.has_density and not model.density
+
+
+def _within(cand: str, model: FieldModel) -> bool:
+    """Whether a candidate is held out within flights: per-flight offsets cannot predict a new flight."""
+    return cand == "flight_pitch_offset" or model.flight_pitch
 
 
 def _estimate(fit: FieldFit, cand: str, uavs: Sequence[str]) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -526,6 +556,34 @@ def _estimate(fit: FieldFit, cand: str, uavs: Sequence[str]) -> tuple[dict[str, 
     return est, unc
 
 
+def _errors(ho: HeldOut, metric: str) -> np.ndarray:
+    return ho.dir_err if metric == "direction" else ho.speed_err
+
+
+def _ambiguity(top: dict[str, Any], scored: Sequence[dict[str, Any]], data: FieldData, units: np.ndarray,
+               k_folds: int) -> list[str]:
+    """Significant candidates of a round that the round's best does not beat: its ambiguity set.
+
+    The best candidate's held-out squared errors are tested against each other significant
+    candidate's on the same metric with the round's test (one-sided paired Wilcoxon per unit,
+    at the round's Bonferroni level), both on one fold scheme (within flights when either is
+    held out within flights). A candidate the best does not beat explains the data as well.
+    """
+    out = []
+    for s in scored:
+        if s is top or not s["significant"] or s["metric"] != top["metric"]:
+            continue
+        a, b = top["_ho"], s["_ho"]
+        if top["_within"] != s["_within"]:
+            a = a if top["_within"] else cross_validate(data, top["_model"], k_folds, within_flights=True)
+            b = b if s["_within"] else cross_validate(data, s["_model"], k_folds, within_flights=True)
+        metric = top["metric"].removesuffix("_rmse")
+        p, _ = _paired(_errors(b, metric), _errors(a, metric), units)
+        if p >= top["alpha_bonferroni"]:
+            out.append(s["mechanism"])
+    return out
+
+
 def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float = 0.05, k_folds: int = 5,
                            max_causes: int = 3) -> dict[str, Any]:
     """Greedy naming of field causes against the single-law baseline (see module doc).
@@ -539,7 +597,7 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
     min_gain : float
         Smallest held-out gain that names a cause.
     k_folds : int
-        Flight folds of the cross-validation.
+        Folds of the cross-validation (over flights, or within flights for per-flight offsets).
     max_causes : int
         Largest number of causes named.
 
@@ -547,31 +605,59 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
     -------
     dict
         ``baseline`` (fit and held-out metrics), ``rounds`` (every candidate scored per
-        round), ``named`` (candidates named in order), ``extended`` (held-out metrics of the
-        final model), ``final_fit``.
+        round, each with ``heldout`` (its fold scheme) and ``ambiguous_with``), ``named``
+        (candidates named in order), ``extended`` and ``extended_baseline`` (held-out errors of
+        the final model and of the baseline on one fold scheme, ``extended_heldout``),
+        ``final_fit``, ``final_model``, ``edges``.
+
+    Notes
+    -----
+    Every candidate of :data:`FIELD_CANDIDATES` that can extend the current model takes part
+    in every round, per-flight offsets and the logged density beside the per-UAV causes:
+    fitted on training folds, its held-out errors tested against the current model's on the
+    same folds (one-sided paired Wilcoxon per flight and UAV, Bonferroni over the round's
+    candidates, ``gain >= min_gain``). The folds are over flights, except for per-flight
+    offsets (a new flight's offset cannot be known: every ``k``-th window of each flight and
+    UAV is held out), and for every candidate once per-flight offsets are in the model. The
+    round's best significant candidate (largest gain) is named, with its ambiguity set
+    (:func:`_ambiguity`); when the set holds the simpler candidate it extends
+    (:data:`NESTED`), the simpler one is named instead. Naming per-flight offsets retires
+    the per-UAV ones; naming per-UAV offsets leaves per-flight ones to compete in the next
+    round against the per-UAV model.
     """
     edges = _regime_edges(data.ref_speed)
     units = np.char.add(np.char.add(data.flight.astype(str), "/"), data.uav.astype(str))
+    flight_units = tuple(data.units or ())
     current = FieldModel()
-    cur_ho = cross_validate(data, current, k_folds)
-    base_ho = cur_ho
     base_fit = fit_field(data, current)
+    # held-out errors of the current model on each fold scheme (False: over flights, True: within)
+    cur: dict[bool, HeldOut] = {False: cross_validate(data, current, k_folds)}
+    base_ho = {False: cur[False]}
+
+    def heldout(cache: dict[bool, HeldOut], model: FieldModel, within: bool) -> HeldOut:
+        if within not in cache:
+            cache[within] = cross_validate(data, model, k_folds, within_flights=within)
+        return cache[within]
+
     rounds: list[list[dict[str, Any]]] = []
     named: list[dict[str, Any]] = []
-    remaining = [c for c in FIELD_CANDIDATES if c != "drag_regime" or edges]
-    while remaining and len(named) < max_causes:
+    remaining = list(FIELD_CANDIDATES)
+    while len(named) < max_causes:
+        remaining = [c for c in remaining if _available(c, current, data, edges, k_folds)]
+        if not remaining:
+            break
         scored: list[dict[str, Any]] = []
+        ref_fit = fit_field(data, current)
         for cand in remaining:
-            model = _with(current, cand, edges)
-            ho = cross_validate(data, model, k_folds)
+            model = _with(current, cand, edges, flight_units)
+            within = _within(cand, current)
+            ref_ho = heldout(cur, current, within)
+            ho = cross_validate(data, model, k_folds, within_flights=within)
             metric = "direction" if cand == "yaw_offset" else "speed"
-            err_ref = cur_ho.dir_err if metric == "direction" else cur_ho.speed_err
-            err_cand = ho.dir_err if metric == "direction" else ho.speed_err
-            r0, r1 = cur_ho.rmse(metric), ho.rmse(metric)
+            r0, r1 = ref_ho.rmse(metric), ho.rmse(metric)
             gain = 1.0 - r1 / r0 if r0 > 0 else 0.0
-            p, n_units = _paired(err_ref, err_cand, units)
+            p, n_units = _paired(_errors(ref_ho, metric), _errors(ho, metric), units)
             fit = fit_field(data, model)
-            ref_fit = fit_field(data, current)
             dp = len(model.speed_names(data.uavs)) - len(current.speed_names(data.uavs)) + \
                 (len(data.uavs) if cand == "yaw_offset" else 0)
             f_stat = float("nan")
@@ -579,10 +665,11 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
                 f_stat = float(((ref_fit.rss - fit.rss) / dp) / (fit.rss / (data.n - len(fit.x))))
             est, unc = _estimate(fit, cand, data.uavs)
             scored.append({"mechanism": cand, "source": "field", "metric": f"{metric}_rmse",
+                           "heldout": f"{k_folds}-fold {'within' if within else 'over'} flights",
                            "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": float(gain),
                            "p_value": p, "n_units": n_units, "n_parameters": int(dp), "f_statistic": f_stat,
-                           "estimate": est, "uncertainty": unc, "converged": fit.converged,
-                           "_model": model, "_ho": ho})
+                           "estimate": est, "uncertainty": unc, "converged": fit.converged, "ambiguous_with": [],
+                           "_model": model, "_ho": ho, "_within": within})
         level = alpha / len(scored)
         for s in scored:
             s["significant"] = bool(s["p_value"] < level and s["gain"] >= min_gain and s["converged"])
@@ -592,63 +679,22 @@ def score_field_candidates(data: FieldData, alpha: float = 0.01, min_gain: float
         if not best:
             break
         top = max(best, key=lambda s: s["gain"])
+        ambiguous = _ambiguity(top, scored, data, units, k_folds)
+        simpler = NESTED.get(top["mechanism"])
+        if simpler in ambiguous:  # the data cannot tell the two apart: the simpler one is named
+            other = top
+            top = next(s for s in scored if s["mechanism"] == simpler)
+            ambiguous = [other["mechanism"]] + _ambiguity(top, [s for s in scored if s is not other], data, units,
+                                                          k_folds)
+        top["ambiguous_with"] = ambiguous
         named.append(top)
-        current, cur_ho = top["_model"], top["_ho"]
+        current = top["_model"]
+        cur = {top["_within"]: top["_ho"]}
         remaining = [c for c in remaining if c != top["mechanism"]]
-    extra = _beside_candidates(data, current, cur_ho, units, alpha, min_gain, k_folds)
-    if extra:
-        rounds.append(extra)
-        for s in sorted((s for s in extra if s["significant"]), key=lambda s: -s["gain"]):
-            named.append(s)
-            m = s["_model"]
-            current = FieldModel(pitch=current.pitch and not m.flight_pitch, yaw=current.yaw,
-                                 regime_edges=current.regime_edges, flight_pitch=current.flight_pitch or m.flight_pitch,
-                                 density=current.density or m.density, units=m.units or current.units)
-            if s["mechanism"] == "air_density":  # scored on the flight folds: the extended model's errors
-                cur_ho = s["_ho"]
+    final_within = current.flight_pitch
     final_fit = fit_field(data, current)
-    return {"baseline": {"fit": base_fit, "heldout": base_ho}, "rounds": rounds, "named": named,
-            "extended": cur_ho, "final_fit": final_fit, "final_model": current, "edges": edges}
-
-
-def _beside_candidates(data: FieldData, current: FieldModel, cur_ho: HeldOut, units: np.ndarray, alpha: float,
-                       min_gain: float, k_folds: int) -> list[dict[str, Any]]:
-    """Per-flight pitch offsets and the logged air density scored against the named model (see module doc).
-
-    ``flight_pitch_offset`` replaces the per-UAV pitch offsets (or adds offsets when none are
-    named) and is held out within flights, the named model scored on the same folds;
-    ``air_density`` is held out over flights like the naming rounds. Each is tested against
-    the named model alone (Bonferroni over the two).
-    """
-    cands: list[tuple[str, FieldModel, bool]] = []
-    if len(set(data.flight.tolist())) > 1 and data.n >= 2 * k_folds:
-        cands.append(("flight_pitch_offset", FieldModel(pitch=False, yaw=current.yaw,
-                                                        regime_edges=current.regime_edges, flight_pitch=True,
-                                                        density=current.density, units=tuple(data.units or ())),
-                      True))
-    if data.has_density and not current.density:
-        cands.append(("air_density", FieldModel(pitch=current.pitch, yaw=current.yaw,
-                                                regime_edges=current.regime_edges, density=True), False))
-    scored: list[dict[str, Any]] = []
-    ref_fit = fit_field(data, current)
-    for cand, model, within in cands:
-        ref_ho = cross_validate(data, current, k_folds, within_flights=True) if within else cur_ho
-        ho = cross_validate(data, model, k_folds, within_flights=within)
-        r0, r1 = ref_ho.rmse("speed"), ho.rmse("speed")
-        gain = 1.0 - r1 / r0 if r0 > 0 else 0.0
-        p, n_units = _paired(ref_ho.speed_err, ho.speed_err, units)
-        fit = fit_field(data, model)
-        dp = len(model.speed_names(data.uavs)) - len(current.speed_names(data.uavs))
-        f_stat = float("nan")
-        if dp > 0 and data.n > len(fit.x):
-            f_stat = float(((ref_fit.rss - fit.rss) / dp) / (fit.rss / (data.n - len(fit.x))))
-        est, unc = _estimate(fit, cand, data.uavs)
-        scored.append({"mechanism": cand, "source": "field", "metric": "speed_rmse",
-                       "heldout": f"{k_folds}-fold within flights" if within else "k-fold over flights",
-                       "heldout_rmse_before": r0, "heldout_rmse_after": r1, "gain": float(gain),
-                       "p_value": p, "n_units": n_units, "n_parameters": int(dp), "f_statistic": f_stat,
-                       "estimate": est, "uncertainty": unc, "converged": fit.converged, "_model": model, "_ho": ho})
-    for s in scored:
-        s["alpha_bonferroni"] = alpha / len(scored)
-        s["significant"] = bool(s["p_value"] < s["alpha_bonferroni"] and s["gain"] >= min_gain and s["converged"])
-    return scored
+    return {"baseline": {"fit": base_fit, "heldout": base_ho[False]}, "rounds": rounds, "named": named,
+            "extended": heldout(cur, current, final_within),
+            "extended_baseline": heldout(base_ho, FieldModel(), final_within),
+            "extended_heldout": f"{k_folds}-fold {'within' if final_within else 'over'} flights",
+            "final_fit": final_fit, "final_model": current, "edges": edges}

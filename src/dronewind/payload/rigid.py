@@ -56,10 +56,12 @@ from dronewind.core.qc import QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPI
 from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, time_ns, unwrap_rad
 from dronewind.errors import InputError
 from dronewind.payload import checks, l2, lag_search, motion
-from dronewind.payload.columns import RIGID_QUANTITIES, rigid_layout
+from dronewind.payload.columns import RIGID_QUANTITIES, log_platform_variables, rigid_layout
+from dronewind.payload.platform_log import merge_platform_state, read_platform_state
 
 __all__ = ["RIGID_QUANTITIES", "BODY_DIRECTIONS", "RigidMount", "mount_matrix_of", "rigid_mount", "rigid_layout",
-           "rigid_l1", "Segment", "SegmentSelection", "steady_segments", "lag_search_min_samples", "rigid_l2"]
+           "rigid_l1", "Segment", "SegmentSelection", "steady_segments", "lag_search_min_samples", "rigid_l2",
+           "read_platform_state"]
 
 #: Body-frame unit vector of each direction name (body: x forward, y right, z down).
 BODY_DIRECTIONS: dict[str, tuple[float, float, float]] = {
@@ -189,7 +191,8 @@ def _grid(t: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray, float, flo
 
 def rigid_l1(path: str | os.PathLike[str], fmt: Mapping[str, Any], *, despike_window_s: float = 10.0,
              despike_n_mad: float = 7.0, limits: str = "trisonica_mini", where: str = "record.format",
-             max_corrupt_fraction: float = 0.05) -> xr.Dataset:
+             max_corrupt_fraction: float = 0.05, platform_state: xr.Dataset | None = None,
+             max_log_gap_s: float = 1.0) -> xr.Dataset:
     """L1 of a rigid-mount record: sonic and platform on one regular time axis, QC counted.
 
     Parameters
@@ -206,6 +209,13 @@ def rigid_l1(path: str | os.PathLike[str], fmt: Mapping[str, Any], *, despike_wi
         Key path of the format for messages.
     max_corrupt_fraction : float
         Largest fraction of corrupt rows [1].
+    platform_state : xarray.Dataset, optional
+        The vehicle's own log (:func:`read_platform_state`, the flight's ``platform_log``):
+        gives every platform variable the mapping does not declare (the record's columns
+        win, :func:`dronewind.payload.columns.log_platform_variables`), interpolated to the
+        record's times (:func:`dronewind.payload.platform_log.merge_platform_state`).
+    max_log_gap_s : float
+        Longest gap of the platform log interpolated across [s].
 
     Returns
     -------
@@ -214,9 +224,13 @@ def rigid_l1(path: str | os.PathLike[str], fmt: Mapping[str, Any], *, despike_wi
         [m s-1], ``t_sonic_k`` [K] (NaN where flagged), ``qc_sonic``; ``roll_deg``,
         ``pitch_deg``, ``yaw_deg`` ([0, 360)), ``vel_n_ms``, ``vel_e_ms``, ``vel_d_ms``,
         ``lat_deg``, ``lon_deg``, ``alt_m`` (NaN where missing). attrs: ``sampling_rate_hz``,
-        counts ``n_*``, ``processing_log``, ``platform = "rigid_mount"``.
+        counts ``n_*``, ``processing_log``, ``platform = "rigid_mount"``. With a platform
+        log also ``platform_outside_log`` (1 where the sample lies outside the log's
+        coverage: no platform state) and the attrs ``platform_log_format``,
+        ``platform_log_sha256``, ``platform_log_variables`` (taken from the log),
+        ``platform_log_start``, ``platform_log_end`` (UTC) and ``n_platform_outside_log``.
     """
-    layout = rigid_layout(fmt, where)
+    layout = rigid_layout(fmt, where, platform_log=platform_state is not None)
     table = read_delimited(path, layout, max_corrupt_fraction)
     log = [f"read: {Path(path).name}: {table.n_lines} data rows, {table.n_corrupt} corrupt removed, "
            f"{table.n_nonnumeric} non-numeric values"]
@@ -264,14 +278,26 @@ def rigid_l1(path: str | os.PathLike[str], fmt: Mapping[str, Any], *, despike_wi
     bad = qc != 0
     sonic = {"u_sensor_ms": u, "v_sensor_ms": v, "w_sensor_ms": w, "t_sonic_k": t_k}
     sonic = {name: np.where(bad, np.nan, x) for name, x in sonic.items()}
+    from_log = log_platform_variables(layout.variables) if platform_state is not None else ()
+    vel: dict[str, np.ndarray] = {}
     if "vel_e" in vals and "vel_n" in vals and "vel_u" in vals:
         vel = {"vel_n_ms": on_grid("vel_n"), "vel_e_ms": on_grid("vel_e"), "vel_d_ms": -on_grid("vel_u")}
         log.append("platform velocity: east, north, up in the record, stored as north, east, down")
-    else:
+    elif "vel_d" in vals:
         vel = {"vel_n_ms": on_grid("vel_n"), "vel_e_ms": on_grid("vel_e"), "vel_d_ms": on_grid("vel_d")}
-    plat = {"roll_deg": on_grid("roll"), "pitch_deg": on_grid("pitch"), "yaw_deg": np.mod(on_grid("yaw"), 360.0),
-            **vel, "lat_deg": on_grid("lat"), "lon_deg": on_grid("lon"), "alt_m": on_grid("alt")}
-    counts["n_platform_missing"] = int((~np.all([np.isfinite(x) for x in plat.values()], axis=0)).sum())
+    names = {"roll_deg": "roll", "pitch_deg": "pitch", "yaw_deg": "yaw", "lat_deg": "lat", "lon_deg": "lon",
+             "alt_m": "alt"}
+    plat = {k: vel[k] if k in vel else on_grid(names[k]) for k in _PLATFORM if k not in from_log}
+    outside = np.zeros(n, dtype=bool)
+    if platform_state is not None:
+        merged = merge_platform_state(times, platform_state, from_log, max_gap_s=max_log_gap_s)
+        plat.update(merged.values)
+        outside = merged.outside
+        counts["n_platform_outside_log"] = merged.n_outside
+        own = [k for k in _PLATFORM if k not in from_log]
+        log.append(merged.log + (f"; from the record's columns (they win): {', '.join(own)}" if own else ""))
+    plat["yaw_deg"] = np.mod(plat["yaw_deg"], 360.0)
+    counts["n_platform_missing"] = int((~np.all([np.isfinite(plat[k]) for k in _PLATFORM], axis=0)).sum())
     dims = ("time",)
     ds = xr.Dataset(
         {
@@ -298,6 +324,17 @@ def rigid_l1(path: str | os.PathLike[str], fmt: Mapping[str, Any], *, despike_wi
     ds["time"].attrs.update({"standard_name": "time", "long_name": "time (UTC) of the record"})
     ds.attrs.update({"platform": "rigid_mount", "sampling_rate_hz": float(fs), "sonic_limits": limits,
                      **counts, "processing_log": "\n".join(log)})
+    if platform_state is not None:
+        ds["platform_outside_log"] = xr.Variable(dims, outside.astype(np.int8), attrs={
+            "long_name": "sample outside the platform log's coverage (no platform state)", "units": "1",
+            "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "covered outside_log"})
+        t_log = platform_state["time"].values
+        ds.attrs.update({"platform_log_format": str(platform_state.attrs.get("format", "")),
+                         "platform_log_sha256": str(platform_state.attrs.get("sha256", "")),
+                         "platform_log_variables": ", ".join(from_log),
+                         "platform_log_start": str(t_log[0].astype("datetime64[ms]")) + "Z",
+                         "platform_log_end": str(t_log[-1].astype("datetime64[ms]")) + "Z",
+                         "platform_log_max_gap_s": float(max_log_gap_s)})
     return ds
 
 
@@ -508,8 +545,15 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
     log: list[str] = []
     plat, plat_missing = _fill_platform(l1, t, where)
     log.append(f"platform_gaps: filled {int(plat_missing.sum())} platform samples linearly in time")
+    # samples outside the platform log's coverage have no platform state: never in a steady segment
+    outside = (np.asarray(l1["platform_outside_log"].values) != 0 if "platform_outside_log" in l1
+               else np.zeros(t.size, dtype=bool))
+    if outside.any():
+        log.append(f"platform_log: {int(outside.sum())} samples outside the log's coverage left out of the steady "
+                   "segments")
     centre = None if target_height_m is None or site_altitude_m is None else site_altitude_m + target_height_m
-    sel = steady_segments(t, plat["alt_m"], plat["vel_e_ms"], plat["vel_n_ms"], alt_band_m=alt_band_m,
+    sel = steady_segments(t, np.where(outside, np.nan, plat["alt_m"]), plat["vel_e_ms"], plat["vel_n_ms"],
+                          alt_band_m=alt_band_m,
                           max_horizontal_speed_ms=max_horizontal_speed_ms, min_segment_s=min_segment_s,
                           alt_centre_m=centre)
     log.append(sel.log)
@@ -592,7 +636,7 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
         "lever_arm_m": "none" if mount.lever_arm_m is None else ", ".join(f"{x:g}" for x in mount.lever_arm_m),
         "sampling_rate_hz": fs, "lag_search_max_s": float(n_half * step), "lag_search_step_s": float(step),
         "n_samples": int(keep.sum()), "n_sonic_filled": int(nan_any.sum()),
-        "n_platform_filled": int(plat_missing.sum()),
+        "n_platform_filled": int(plat_missing.sum()), "n_platform_outside_log": int(outside.sum()),
         "steady_alt_centre_m": sel.alt_centre_m, "steady_alt_band_m": float(alt_band_m),
         "steady_max_horizontal_speed_ms": float(max_horizontal_speed_ms), "steady_min_segment_s": float(min_segment_s),
         "steady_n_segments": len(sel.accepted), "steady_segment_durations_s": ", ".join(
@@ -603,40 +647,3 @@ def rigid_l2(l1: xr.Dataset, mount: RigidMount, *, alt_band_m: float, max_horizo
     if site_altitude_m is not None:
         ds.attrs["height_m"] = height
     return ds
-
-
-# ----------------------------------------------------------------------------- platform state from a vehicle log
-
-__all__ += ["read_platform_state"]
-
-
-def read_platform_state(path: str | os.PathLike[str], fmt: str | Mapping[str, Any]) -> xr.Dataset:
-    """Platform state of a rigid-mount vehicle from its own log, by the log's format.
-
-    Parameters
-    ----------
-    path : str or Path
-        The vehicle's log.
-    fmt : str or mapping
-        Its format: ``ardupilot_bin`` (:func:`dronewind.core.dataflash.read_dataflash`; a
-        mapping may set ``ekf_core``).
-
-    Returns
-    -------
-    xarray.Dataset
-        ``roll_deg``, ``pitch_deg``, ``yaw_deg``, ``vel_n_ms``, ``vel_e_ms``, ``vel_d_ms``,
-        ``lat_deg``, ``lon_deg``, ``alt_m`` on the log's times (UTC), with the reader's attrs.
-
-    Raises
-    ------
-    InputError
-        A format without a platform-state reader, or a reader error.
-    """
-    spec = {"name": fmt} if isinstance(fmt, str) else dict(fmt)
-    if spec.get("name") == "ardupilot_bin":
-        from dronewind.core.dataflash import PLATFORM_VARIABLES, read_dataflash
-
-        ds = read_dataflash(Path(path), ekf_core=int(spec.get("ekf_core", 0)))
-        return ds[list(PLATFORM_VARIABLES)].sortby("time")
-    raise InputError(str(path), f"format {spec.get('name')!r} has no platform-state reader; expected ardupilot_bin "
-                     "(or the platform columns of the record's delimited mapping)")

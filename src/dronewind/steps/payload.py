@@ -560,7 +560,7 @@ def l4(l3_file: str | Path, output: str | Path, *, campaign: str, flight_id: str
 
 def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flight_id: str, flight: Mapping[str, Any],
              site: Mapping[str, Any], despike: Mapping[str, Any], data_root: str | Path | None = None,
-             attribution: Mapping[str, str] | None = None) -> Path:
+             attribution: Mapping[str, str] | None = None, platform_log: str | Path | None = None) -> Path:
     """L0 -> L1 file for a rigid-mount flight: sonic and platform on one time axis with QC.
 
     Parameters
@@ -572,7 +572,7 @@ def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flig
     campaign, flight_id : str
         Campaign name and flight id.
     flight : mapping
-        The flight's manifest entry (``record``, ``sonic``).
+        The flight's manifest entry (``record``, ``sonic``, optional ``platform_log``).
     site : mapping
         Manifest ``site``.
     despike : mapping
@@ -581,6 +581,9 @@ def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flig
         Folder the manifest's data paths refer to (``source_file`` relative to it).
     attribution : mapping, optional
         As :func:`payload_l1`.
+    platform_log : str or Path, optional
+        The file of the flight's ``platform_log`` (the vehicle's own log), read in its
+        ``format`` (default ``ardupilot_bin``): the platform variables the record lacks.
 
     Returns
     -------
@@ -588,16 +591,23 @@ def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flig
         The written file.
     """
     sonic = flight.get("sonic") or {}
+    state = None
+    if platform_log is not None:
+        declared = (flight.get("platform_log") or {}).get("format", "ardupilot_bin")
+        state = rigid.read_platform_state(platform_log, declared)
     ds = rigid.rigid_l1(record_file, flight["record"]["format"], despike_window_s=float(despike["window_s"]),
                         despike_n_mad=float(despike["n_mad"]), limits=str(sonic.get("limits", "trisonica_mini")),
-                        where=f"payload flight {flight_id} record.format")
+                        where=f"payload flight {flight_id} record.format", platform_state=state)
     ds.attrs["source_file"] = source_name(record_file, data_root)
+    if platform_log is not None:
+        ds.attrs["platform_log_file"] = source_name(platform_log, data_root)
     ds.attrs["source"] = data_source(False)
     ds.attrs.update(attribution or {})
     LOG.info("flight %s rigid-mount L1: %d samples; %s", flight_id, ds.sizes["time"], ds.attrs["processing_log"])
     fields = {"campaign": campaign, "flight": flight_id, "model": sonic.get("model", "3-D")}
     where = Position(site["latitude"], site["longitude"], flight.get("target_height_m"))
-    return write_product(track_to_cf(ds), output, "rigid_l1", fields, where, [record_file],
+    inputs = [record_file] if platform_log is None else [record_file, platform_log]
+    return write_product(track_to_cf(ds), output, "rigid_l1", fields, where, inputs,
                          {"processing": {"despike": despike}})
 
 
