@@ -35,10 +35,12 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    interval (Wilson 1927) for the number of draws; the false-alarm rate from draws of the
    campaign without the error (:math:`\Delta = 0`).
 
-Why not full simulations as the main path: one 6-flight campaign costs about 20-40 CPU-s to
-simulate, process and forward-run, so 100 draws per error would take over an hour; a drawn
-campaign's diagnosis costs a few CPU-s. The full simulation is the check
-(:func:`simulated_detection`, ``benchmarks/plan_validation.py``).
+Cost: a 2-flight campaign costs about 16 CPU-s to simulate, process and forward-run, a drawn
+campaign's diagnosis 15-20 CPU-s (its bootstrap of ``diagnosis.bootstrap`` replicates, each
+repeating the profiled discrepancy of every candidate), which dominates: a plan's power costs
+about the number of draws times that. Full simulations of every draw would add the
+simulation's cost to each; they are the check (:func:`simulated_detection`,
+``benchmarks/plan_validation.py``).
 """
 
 from __future__ import annotations
