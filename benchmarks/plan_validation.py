@@ -3,19 +3,27 @@
 For each validation plan (short and long hovers, low and high wind, two hover heights) the
 planner gives the hover duration, the number of flights, the predicted relative
 uncertainties of sigma_w, u* and w'T' per flight and the predicted detection power of one
-instrument error (Monte Carlo over the diagnosis' response and error model,
-:mod:`dronewind.plan.power`). The planned manifest is then simulated, processed,
-forward-run and diagnosed in full for ``--seeds`` campaign seeds with the error hidden
-(:func:`dronewind.plan.power.simulated_detection`): the achieved relative uncertainty of each
-statistic is its scatter over the seeds (per flight, relative to its mean over the seeds),
-the detection rate is the share of seeds in which the diagnosis names the error. Criteria
-(of the planner): achieved uncertainties within 20 % of the predicted ones (root mean square
-over the flights), detection rate within 10 points of the predicted power.
+instrument error (:mod:`dronewind.plan.power`: campaigns drawn about the planned campaign
+simulated with and without the error, each decided by the campaign diagnosis and judged as a
+measured campaign is). The planned manifest is then simulated, processed, forward-run and
+diagnosed in full for ``--seeds`` campaign seeds with the error hidden
+(:func:`dronewind.plan.power.simulated_detection`, seeds disjoint from the planner's): the
+achieved relative uncertainty of each statistic is its scatter over the seeds (per flight,
+relative to its mean over the seeds), the detection rate is the share of seeds in which the
+judge finds the error detected (the same judge as the planner's draws). Criteria (of the
+planner): achieved uncertainties within 20 % of the predicted ones (root mean square over the
+flights), detection rate within 10 points of the predicted power. Both rates carry their 95 %
+Wilson intervals (Wilson 1927); the record states the point difference, its standard error
+and whether its 95 % interval reaches within 10 points (``compatible_with_10_points``).
 
-Usage (about 900 CPU-s with the defaults, 7-8 min on 2 free cores; the sling-load campaigns
-take 10-20 CPU-s each, the rigid-mount hovers under 1 CPU-s each)::
+The rigid-mount plan is judged on its uncertainties only (the campaign diagnosis models the
+sling-load payload). The planner's Ghirardelli et al. (2025) metric at the conditions and
+durations of their Table 4 is recorded beside the paper's printed statements on it
+(Sect. 5.3, Fig. 16: the figure is not digitised).
 
-    PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/plan_validation.py --seeds 20 --workers 2 \\
+Usage (the CPU per seed and plan is in the record, ``cpu_seconds_per_campaign``)::
+
+    PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/plan_validation.py --seeds 20 --workers 1 \\
         --out benchmarks/results/plan_validation.json
 """
 
@@ -140,9 +148,70 @@ def rigid_validation(seeds: int, workers: int) -> dict[str, Any]:
             "uncertainty": per_q, "uncertainty_within_20_percent": all(v["within_20_percent"] for v in per_q.values())}
 
 
-def _spec(name: str, flights: int, draws: int) -> Any:
+def compare_rates(k_pred: int, n_pred: int, k_sim: int, n_sim: int, points: float = 0.10) -> dict[str, Any]:
+    """Predicted against simulated detection rate, with their Monte-Carlo uncertainty.
+
+    The point difference, its standard error (two independent binomial shares; each share
+    taken as (k + 1/2)/(n + 1) in the variance so that 0/n and n/n do not give zero), its 95 %
+    interval, whether the point difference is within ``points`` and whether that interval
+    reaches within ``points`` (the data do not exclude agreement within ``points``), and
+    whether the two 95 % Wilson intervals (Wilson 1927) overlap.
+    """
+    p_pred, p_sim = k_pred / n_pred, k_sim / n_sim
+    a, b = (k_pred + 0.5) / (n_pred + 1), (k_sim + 0.5) / (n_sim + 1)
+    se = math.sqrt(a * (1 - a) / n_pred + b * (1 - b) / n_sim)
+    diff = p_sim - p_pred
+    lo, hi = diff - 1.959963984540054 * se, diff + 1.959963984540054 * se
+    wp, ws = wilson_interval(k_pred, n_pred), wilson_interval(k_sim, n_sim)
+    return {"difference": diff, "difference_se": se, "difference_ci95": [lo, hi],
+            "within_10_points": abs(diff) <= points, "compatible_with_10_points": lo <= points and hi >= -points,
+            "wilson_intervals_overlap": wp[0] <= ws[1] and ws[0] <= wp[1]}
+
+
+def table4_comparison() -> dict[str, Any]:
+    """The planner's Ghirardelli et al. (2025) metric at their Table 4 conditions and durations.
+
+    The published values are in their Fig. 16, which is not digitised; the comparison is with
+    their printed statements (Sect. 5.3): most samples below 0.5, s2-s4 above it for their weak
+    wind, s5 a high a_theta_w for its short record among the stationary samples. Roughness
+    length 0.3 m and boundary-layer depth 1500 m (unstable) or 1000 m (stable) are assumed
+    (not in Table 4).
+    """
+    from dronewind.diagnose.published_file import load_published
+    from dronewind.plan.uncertainty import point_uncertainty
+
+    root = Path(__file__).resolve().parents[1]
+    pub = load_published(root / "config" / "published" / "ghirardelli2025_samurai_s.yaml")
+    rows: dict[str, Any] = {}
+    for flight, row in pub["table4"].items():
+        z, zeta = float(row["payload_height_m"]), float(row["zeta"])
+        pu = point_uncertainty(z, float(row["wind_speed_ms"]), float(row["wind_from_deg"]), z / zeta, 0.3,
+                               1500.0 if zeta < 0 else 1000.0, 285.0, seed=1)
+        duration = 60.0 * float(row["duration_min"])
+        rows[flight] = {"duration_s": duration, "wind_speed_ms": float(row["wind_speed_ms"]), "zeta": zeta,
+                        "paper_metric": pu.paper(duration), "relative_uncertainty": pu.relative(duration)}
+    stationary = list(pub["stationary_flights"])
+    weak = ["s02", "s03", "s04"]
+    checks = {
+        "weak_wind_samples_mostly_above_0.5": {f: sum(v > 0.5 for v in rows[f]["paper_metric"].values()) >= 3
+                                               for f in weak},
+        "stationary_samples_all_below_0.5": {f: all(v < 0.5 for v in rows[f]["paper_metric"].values())
+                                             for f in stationary},
+        "s05_highest_a_theta_w_of_stationary":
+            max(stationary, key=lambda f: rows[f]["paper_metric"]["wtheta"]) == "s05",
+    }
+    agree = (all(checks["weak_wind_samples_mostly_above_0.5"].values())
+             and all(checks["stationary_samples_all_below_0.5"].values())
+             and checks["s05_highest_a_theta_w_of_stationary"])
+    return {"source": "Ghirardelli et al. (2025), Table 4 (conditions, durations); Sect. 5.3 and Fig. 16 (statements)",
+            "published": {"most_below_0.5": True, "above_0.5": weak, "high_a_theta_w_stationary": "s05",
+                          "not_reproduced_by_design": "s09 high a_theta_w (called unclear in the paper, drone only)"},
+            "samples": rows, "checks": checks, "agrees_with_statements": bool(agree)}
+
+
+def _spec(name: str, flights: int, draws: int, curve_draws: int = 20) -> Any:
     body = {"name": name, "site": SITE, "platform": {"kind": "sling_load", "max_hover_min": 25},
-            **PLANS[name], "monte_carlo": {"draws": draws, "curve_draws": min(20, draws), "seed": 1}}
+            **PLANS[name], "monte_carlo": {"draws": draws, "curve_draws": min(curve_draws, draws), "seed": 1}}
     body["targets"] = {**body["targets"], "power": 0.8, "max_flights": flights}
     return parse_plan(body, f"plan_validation:{name}")
 
@@ -161,19 +230,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plans", nargs="*", default=list(PLANS))
     parser.add_argument("--out", type=Path,
                         default=Path(__file__).resolve().parent / "results" / "plan_validation.json")
+    parser.add_argument("--curve-draws", type=int, default=20, help="Monte-Carlo draws per point of the power curve")
     parser.add_argument("--rigid-only", action="store_true", help="only the rigid-mount plan (uncertainties)")
+    parser.add_argument("--no-rigid", action="store_true", help="without the rigid-mount plan")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    results: dict[str, Any] = {"rigid_mount_plan": rigid_validation(args.seeds, args.workers)}
+    results: dict[str, Any] = {} if args.no_rigid else {"rigid_mount_plan": rigid_validation(args.seeds, args.workers)}
+    table4 = table4_comparison()
+    print(f"Ghirardelli et al. (2025) Table 4: statements reproduced {table4['agrees_with_statements']}", flush=True)
     if args.rigid_only:
         args.plans = []
     tasks, owners = [], []
     plans = {}
     for name in args.plans:
-        spec = _spec(name, args.flights, args.draws)
+        spec = _spec(name, args.flights, args.draws, args.curve_draws)
         t = time.process_time()
+        logging.getLogger("dronewind").setLevel(logging.INFO)  # the planner's progress
         plan = plan_campaign(spec)
+        logging.getLogger("dronewind").setLevel(logging.WARNING)
         plans[name] = (spec, plan)
         print(f"{name}: planned in {time.process_time() - t:.1f} CPU-s\n{plan.table()}", flush=True)
         error = spec.detect[0]
@@ -185,8 +260,8 @@ def main(argv: list[str] | None = None) -> int:
         for i, (name, out) in enumerate(zip(owners, pool.map(_run, tasks), strict=True)):
             outs[name].append(out)
             print(f"campaign {i + 1}/{len(tasks)} {name} seed done ({out['evidence_seconds'][0]:.0f} CPU-s, "
-                  f"named {out['named'][0]})", flush=True)
-    ok_all = bool(results["rigid_mount_plan"]["uncertainty_within_20_percent"])
+                  f"named {out['named'][0]}, detected {out['detected']})", flush=True)
+    ok_all = all(bool(r["uncertainty_within_20_percent"]) for r in results.values())
     for name, (spec, plan) in plans.items():
         runs = outs[name]
         label = spec.detect[0].label
@@ -194,7 +269,8 @@ def main(argv: list[str] | None = None) -> int:
         n = sum(r["n"] for r in runs)
         rate = k / n
         predicted = plan.power[label]
-        power_ok = abs(rate - predicted.power) <= 0.10
+        comparison = compare_rates(predicted.detected, predicted.draws, k, n)
+        power_ok = comparison["within_10_points"]
         flights = sorted(runs[0]["statistics"][0])
         per_q: dict[str, Any] = {}
         for q in QUANTITIES:
@@ -219,17 +295,23 @@ def main(argv: list[str] | None = None) -> int:
             "predicted_draws": predicted.draws,
             "simulated_detection": rate, "simulated_detected": k, "simulated_n": n,
             "simulated_ci95": list(wilson_interval(k, n)), "power_within_10_points": power_ok,
+            "power_comparison": comparison,
+            "predicted_false_alarm": None if plan.false_alarm is None else 1.0 - plan.false_alarm.power,
+            "planner_cpu_seconds": plan.seconds.get("total_cpu"),
             "uncertainty": per_q, "uncertainty_within_20_percent": unc_ok,
             "named_per_seed": [r["named"][0] for r in runs],
             "cpu_seconds_per_campaign": float(np.mean([r["evidence_seconds"][0] for r in runs])),
         }
-        print(f"{name}: power predicted {predicted.power:.2f} simulated {rate:.2f} ({k}/{n}); uncertainty ratios "
+        print(f"{name}: power predicted {predicted.power:.2f} ({predicted.detected}/{predicted.draws}) simulated "
+              f"{rate:.2f} ({k}/{n}), difference {comparison['difference']:+.2f} +- "
+              f"{comparison['difference_se']:.2f}; uncertainty ratios "
               + ", ".join(f"{q} {v['ratio_rms']:.2f}" for q, v in per_q.items()), flush=True)
     doc = {"command": "PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/plan_validation.py "
                       + " ".join(sys.argv[1:] if argv is None else argv),
            "seeds": args.seeds, "criteria": {"uncertainty": "|achieved/predicted - 1| <= 0.2 (rms over flights)",
-                                            "power": "|simulated rate - predicted power| <= 0.10"},
-           "all_met": bool(ok_all), "plans": results,
+                                            "power": "|simulated rate - predicted power| <= 0.10 (point); "
+                                                     "compatible: the difference's 95 % interval reaches within 0.10"},
+           "all_met": bool(ok_all), "plans": results, "ghirardelli2025_table4": table4,
            "wall_seconds": time.perf_counter() - wall0, "parent_cpu_seconds": time.process_time() - cpu0}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")

@@ -28,7 +28,7 @@ from typing import Any
 from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.manifest import flight_speeds, plan_manifest
-from dronewind.plan.power import PowerResult, draw_power, manifest_evidence, power_model
+from dronewind.plan.power import PowerResult, draw_power, manifest_evidence, power_model, with_error
 from dronewind.plan.separation import along_wind_limit_m, separation_limit_m
 from dronewind.plan.spec import PlanSpec
 from dronewind.plan.uncertainty import DURATION_STEP_S, PointUncertainty, point_uncertainty
@@ -209,16 +209,21 @@ def plan_campaign(spec: PlanSpec, config: Mapping[str, Any] | None = None, work_
 
 
 def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path | None) -> None:
-    """Simulate the null campaign of ``max_flights``, then the power curve and the final power."""
+    """Simulate the campaign of ``max_flights`` without and with each error, then the power curve and the power."""
     spec = plan.spec
     t0 = time.perf_counter()
     speeds = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)
     full = plan_manifest(spec, spec.max_flights, plan.duration_s, speeds, plan.distance_m, seed=spec.seed)
-    progress = Progress("plan flight", spec.max_flights, "done")
+    progress = Progress("plan flight", spec.max_flights * (1 + len(spec.detect)), "done")
+    errors = {}
     with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
-        evidence = manifest_evidence(full, settings, tmp, spec.detect, progress)
+        null = with_error(full, None)
+        evidence = manifest_evidence(null, settings, Path(tmp) / "none", progress)
+        for i, e in enumerate(spec.detect):
+            hidden = with_error(full, e)
+            errors[e.label] = (e, manifest_evidence(hidden, settings, Path(tmp) / f"error{i}", progress), hidden)
     progress.finished()
-    model = power_model(evidence, spec.detect)
+    model = power_model(evidence, null, errors)
     plan.seconds["simulation"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     labels = [e.label for e in spec.detect]
@@ -245,6 +250,7 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     plan.speeds_ms = speeds[:n]
     plan.speed_range_ms = (min(plan.speeds_ms), max(plan.speeds_ms)) if n > 1 else plan.speed_range_ms
     plan.manifest = plan_manifest(spec, n, plan.duration_s, plan.speeds_ms, plan.distance_m)
-    plan.power_note = (f"power: {spec.draws} Monte-Carlo campaigns drawn from the diagnosis' response and error model "
-                       f"of one simulated {spec.max_flights}-flight campaign (noise factor "
-                       f"{model.noise_factor:.2f}), each diagnosed; 95 % Wilson intervals")
+    plan.power_note = (f"power: {spec.draws} Monte-Carlo campaigns per error drawn about the {spec.max_flights}-flight "
+                       f"campaign simulated with the error (its effect: the residuals' difference from the same "
+                       f"campaign without it; noise factor {model.noise_factor:.2f}), each diagnosed and judged as a "
+                       f"measured campaign; 95 % Wilson intervals")

@@ -1,35 +1,46 @@
-r"""Detection power of a planned campaign: the diagnosis' own response and error model, sampled.
+r"""Detection power of a planned campaign: the event the campaign diagnosis decides, sampled.
 
-Main path (:func:`campaign_power`), per plan:
+Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
 
-1. The planned campaign without any error is simulated, processed and forward-run in this
-   process (:func:`manifest_evidence`: the in-process path of
-   :mod:`dronewind.diagnose.experiments`, :func:`~dronewind.diagnose.experiments.process_virtual_flight`
-   and :func:`dronewind.diagnose.probe_runs.probe_runs`, for a given manifest). This gives, per
-   flight, the forward model's baseline seeds and probes (the diagnosis' linearised
-   response) and, through :func:`dronewind.diagnose.campaign.assemble`, its error model: the
-   residual errors :math:`\sigma_{i,f}` and the shrunk feature correlation :math:`R^*`.
-2. Each error to detect is run once more per flight through the forward model at its planned
-   size (a probe at that level, common random numbers with the first baseline seed): its
-   effect :math:`\Delta_{i,f}` on every feature.
+1. The planned campaign is simulated, processed and forward-run in this process twice at one
+   campaign seed (common random numbers): without any error, and with each error to detect
+   hidden in the simulation at its planned size (:func:`manifest_evidence`: the in-process
+   path of :mod:`dronewind.diagnose.experiments`,
+   :func:`~dronewind.diagnose.experiments.process_virtual_flight` and
+   :func:`dronewind.diagnose.probe_runs.probe_runs`). The forward runs of each are conditioned
+   on what the chain measured of that campaign (wind, stability, sonic-INS lag), so an error
+   that also moves a measured condition (a heading bias moves the wind direction, a lag the
+   lag the chain finds) has the effect on the residual features that the diagnosis sees.
+   Through :func:`dronewind.diagnose.campaign.assemble` each campaign gives its forward
+   baseline :math:`\bar b_{i,f}`, residual errors :math:`\sigma_{i,f}`, shrunk feature
+   correlation :math:`R^*` and candidates' responses (the diagnosis' probes).
+2. The error's effect on the residuals is the difference of the two campaigns' residuals,
+   :math:`\Delta_{i,f} = (y^E - \bar b^E)_{i,f} - (y^0 - \bar b^0)_{i,f}`: the realisation
+   the two share cancels.
 3. Monte Carlo: a measured campaign is drawn as
-   :math:`y_i = \bar b_i + \Delta_i + c\,D_i L \xi_i` (:math:`\xi` standard normal,
-   :math:`L L^\top = R^*`, :math:`D_i = \mathrm{diag}(\sigma_{i,f})`) and diagnosed by
-   :func:`dronewind.diagnose.campaign.diagnose` (the same tests, alpha, gain filter), and
-   judged by :func:`dronewind.diagnose.experiments.judge`. The factor :math:`c` is the root
-   mean square of the simulated null campaign's own standardised residuals
-   :math:`(y - \bar b)/\sigma` over flights and features: the diagnosis' errors are wider
-   than the realisation scatter by design (:mod:`dronewind.diagnose.campaign`, "the whitened
-   baseline misfit per degree of freedom is 0.46"), and drawing with them would understate
-   the power.
-4. The power is the share of draws in which the error is named (or an ambiguity-equivalent
-   cause is), with its 95 % Wilson interval (Wilson 1927) for the number of draws; the
-   false-alarm rate from the same draws without the error.
+   :math:`y_i = \bar b^E_i + \Delta_i + c\,D^E_i L^E \xi_i` (:math:`\xi` standard normal,
+   :math:`L L^\top = R^*`, :math:`D_i = \mathrm{diag}(\sigma_{i,f})`) against the forward runs
+   of the campaign with the error, and decided exactly as a measured campaign is: by
+   :func:`dronewind.diagnose.experiments.diagnose_evidence`'s call of
+   :func:`dronewind.diagnose.campaign.diagnose` (the configured alpha, ``max_causes``,
+   ``min_gain`` and bootstrap replicates; a bootstrap reference of its own per draw, since the
+   reference carries the draw's profiled discrepancy), judged by
+   :func:`dronewind.diagnose.experiments.judge` against the planned manifest (the flights'
+   own processing lags). The factor :math:`c` is the root mean square of the simulated null
+   campaign's own standardised residuals :math:`(y - \bar b)/\sigma` over flights and
+   features: the realised misfit, discrepancy included.
+4. The power is the share of draws in which the judge finds the error detected (named, or an
+   ambiguity-equivalent cause named; a hidden sonic-INS lag, which the chain measures and the
+   forward runs are conditioned on, is detected when no cause is named), with its 95 % Wilson
+   interval (Wilson 1927) for the number of draws; the false-alarm rate from draws of the
+   campaign without the error (:math:`\Delta = 0`).
 
-Why not full simulations as the main path: one 6-flight campaign costs about 20 CPU-s to
-simulate, process and forward-run, so 100 draws per error would take over half an hour; a
-diagnosis of drawn features costs about 0.1 s. The full simulation is the check
-(:func:`simulated_detection`, ``benchmarks/plan_validation.py``).
+Cost: a 2-flight campaign costs about 16 CPU-s to simulate, process and forward-run, a drawn
+campaign's diagnosis 15-20 CPU-s (its bootstrap of ``diagnosis.bootstrap`` replicates, each
+repeating the profiled discrepancy of every candidate), which dominates: a plan's power costs
+about the number of draws times that. Full simulations of every draw would add the
+simulation's cost to each; they are the check (:func:`simulated_detection`,
+``benchmarks/plan_validation.py``).
 """
 
 from __future__ import annotations
@@ -48,38 +59,51 @@ from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.spec import Detect
 
-__all__ = ["manifest_evidence", "PowerModel", "power_model", "draw_power", "PowerResult", "simulated_detection",
-           "probe_for", "hover_statistics"]
+__all__ = ["manifest_evidence", "with_error", "PowerModel", "power_model", "draw_power", "PowerResult",
+           "simulated_detection", "hover_statistics"]
 
 
-def probe_for(error: Detect) -> Any:
-    """The forward model's probe of ``error`` at its planned size (first parameter off its baseline level)."""
-    from dronewind.diagnose.probes import Probe, baseline_level
-
-    moved = [k for k, v in error.parameters.items() if not np.isclose(v, baseline_level(error.mechanism, k))]
-    par = moved[0] if moved else next(iter(error.parameters))
-    fixed = tuple((k, float(v)) for k, v in error.parameters.items() if k != par)
-    return Probe(f"{error.mechanism}@plan", error.mechanism, par, (float(error.parameters[par]),), fixed)
-
-
-def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_dir: str | Path,
-                      errors: Sequence[Detect] = (), progress: Progress | None = None) -> dict[str, Any]:
-    """Simulate, process and forward-run every flight of a virtual campaign manifest, in this process.
-
-    The steps of :func:`dronewind.diagnose.experiments.campaign_evidence` for any manifest
-    (its reference sonic first; only that sonic is simulated), plus one forward run per flight
-    and error at the error's size.
+def with_error(data: Mapping[str, Any], error: Detect | None, seed: int | None = None) -> dict[str, Any]:
+    """A virtual campaign manifest with ``error`` hidden in its simulation (and ``seed`` as its campaign seed).
 
     Parameters
     ----------
     data : mapping
         Virtual campaign manifest (:func:`dronewind.plan.manifest.plan_manifest`).
+    error : Detect or None
+        The error hidden in every flight (None: nothing hidden).
+    seed : int, optional
+        Campaign seed (``simulation.seed``); the manifest's own by default.
+
+    Returns
+    -------
+    dict
+        A copy of ``data`` with ``simulation.mechanisms`` (and ``simulation.seed``) replaced.
+    """
+    manifest = copy.deepcopy(dict(data))
+    if seed is not None:
+        manifest["simulation"]["seed"] = int(seed)
+    manifest["simulation"]["mechanisms"] = ([{"mechanism": error.mechanism, "parameters": dict(error.parameters)}]
+                                            if error else [])
+    return manifest
+
+
+def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_dir: str | Path,
+                      progress: Progress | None = None) -> dict[str, Any]:
+    """Simulate, process and forward-run every flight of a virtual campaign manifest, in this process.
+
+    The steps of :func:`dronewind.diagnose.experiments.campaign_evidence` for any manifest
+    (its reference sonic first; only that sonic is simulated).
+
+    Parameters
+    ----------
+    data : mapping
+        Virtual campaign manifest (:func:`dronewind.plan.manifest.plan_manifest`, an error
+        possibly hidden by :func:`with_error`).
     config : mapping
         Workflow configuration (defaults where missing).
     work_dir : str or Path
         Folder for the raw files.
-    errors : sequence of Detect
-        Errors whose effect is run.
     progress : Progress, optional
         Counter of flights (one item per flight).
 
@@ -87,7 +111,7 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
     -------
     dict
         ``name``, ``measured`` and ``forward`` as :func:`~dronewind.diagnose.experiments.campaign_evidence`,
-        and ``effects``: error label -> flight -> features (values) of the error's run.
+        and ``statistics``: flight -> :func:`hover_statistics`.
     """
     from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
     from dronewind.diagnose.experiments import process_virtual_flight
@@ -105,7 +129,6 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
     lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     measured: dict[str, Any] = {}
     fwd: dict[str, Any] = {}
-    effects: dict[str, dict[str, Any]] = {e.label: {} for e in errors}
     stats: dict[str, dict[str, float]] = {}
     for flight in view["payload_flights"]:
         fid = flight["id"]
@@ -121,12 +144,7 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
             from_mast = diagnosis["atmosphere"] == "measured"
             record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if from_mast else None
             fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
-            for e in errors:
-                probe = probe_for(e)
-                run = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, probes=(probe,),
-                                         parts=[e.mechanism], atmosphere=record)
-                effects[e.label][fid] = run["probes"][0]["features"]["values"] if run["probes"] else None
-    return {"name": view["name"], "measured": measured, "forward": fwd, "effects": effects, "statistics": stats}
+    return {"name": view["name"], "measured": measured, "forward": fwd, "statistics": stats}
 
 
 def hover_statistics(l3: Any) -> dict[str, float]:
@@ -167,34 +185,52 @@ class _null:
 
 
 @dataclass
-class PowerModel:
-    """The diagnosis' linearised response and error model of one simulated null campaign."""
+class CaseModel:
+    """One simulated campaign (without or with an error) as the diagnosis assembles it.
+
+    Attributes
+    ----------
+    flights : list of str
+        Flight ids, in the diagnosis' order.
+    measured, forward : dict
+        Flight -> measured features and forward runs (:func:`manifest_evidence`).
+    baseline, sigma : numpy.ndarray
+        Mean forward baseline and residual errors (n_flights, n_features) [feature units].
+    residual : numpy.ndarray
+        Measured minus baseline (n_flights, n_features) [feature units].
+    chol : numpy.ndarray
+        Cholesky factor of the shrunk feature correlation (n_features, n_features).
+    manifest : dict
+        The simulated manifest (the judge reads the flights' processing lags from it).
+    """
 
     flights: list[str]
     measured: dict[str, Any]
     forward: dict[str, Any]
     baseline: np.ndarray
     sigma: np.ndarray
+    residual: np.ndarray
     chol: np.ndarray
+    manifest: dict[str, Any]
+
+
+@dataclass
+class PowerModel:
+    """The null campaign, the campaigns with each error, the errors' effects and the noise factor."""
+
+    null: CaseModel
     noise_factor: float
+    cases: dict[str, CaseModel] = field(default_factory=dict)
     effects: dict[str, np.ndarray] = field(default_factory=dict)
     errors: dict[str, Detect] = field(default_factory=dict)
 
+    @property
+    def flights(self) -> list[str]:
+        """Flight ids of the campaign."""
+        return self.null.flights
 
-def power_model(evidence: Mapping[str, Any], errors: Sequence[Detect] = ()) -> PowerModel:
-    """Error model and effects from :func:`manifest_evidence`'s output (module docstring, steps 1-2).
 
-    Parameters
-    ----------
-    evidence : mapping
-        Output of :func:`manifest_evidence` for the campaign without errors.
-    errors : sequence of Detect
-        The errors whose ``effects`` the evidence holds.
-
-    Returns
-    -------
-    PowerModel
-    """
+def _case(evidence: Mapping[str, Any], manifest: Mapping[str, Any]) -> CaseModel:
     from dronewind.diagnose import campaign as dc
     from dronewind.diagnose.features import FEATURES
 
@@ -204,18 +240,41 @@ def power_model(evidence: Mapping[str, Any], errors: Sequence[Detect] = ()) -> P
     corr = np.where(np.isfinite(corr), corr, 0.0)
     np.fill_diagonal(corr, 1.0)
     chol = np.linalg.cholesky(corr + 1e-9 * np.eye(n_f))
-    resid = (ev.y - ev.baseline) / ev.sigma
-    factor = float(np.sqrt(np.nanmean(resid**2))) if np.isfinite(resid).any() else 1.0
-    model = PowerModel(ev.flights, dict(evidence["measured"]), dict(evidence["forward"]), ev.baseline, ev.sigma,
-                       chol, factor)
-    for e in errors:
-        rows = []
-        for i, fid in enumerate(ev.flights):
-            values = (evidence.get("effects") or {}).get(e.label, {}).get(fid)
-            run = np.array([np.nan if values is None or values.get(f) is None else float(values[f]) for f in FEATURES])
-            rows.append(run - ev.baseline_seed0[i])
-        model.effects[e.label] = np.where(np.isfinite(np.array(rows)), np.array(rows), 0.0)
-        model.errors[e.label] = e
+    return CaseModel(list(ev.flights), dict(evidence["measured"]), dict(evidence["forward"]), ev.baseline, ev.sigma,
+                     ev.y - ev.baseline, chol, copy.deepcopy(dict(manifest)))
+
+
+def power_model(null_evidence: Mapping[str, Any], null_manifest: Mapping[str, Any],
+                error_evidence: Mapping[str, tuple[Detect, Mapping[str, Any], Mapping[str, Any]]] | None = None
+                ) -> PowerModel:
+    """Response and error models of the campaigns and the errors' effects (module docstring, steps 1-2).
+
+    Parameters
+    ----------
+    null_evidence : mapping
+        :func:`manifest_evidence` of the campaign without errors.
+    null_manifest : mapping
+        Its manifest.
+    error_evidence : mapping, optional
+        Error label -> (error, :func:`manifest_evidence` of the campaign with the error hidden,
+        at the null campaign's seed, and its manifest).
+
+    Returns
+    -------
+    PowerModel
+    """
+    null = _case(null_evidence, null_manifest)
+    z = null.residual / null.sigma
+    factor = float(np.sqrt(np.nanmean(z**2))) if np.isfinite(z).any() else 1.0
+    model = PowerModel(null, factor)
+    for label, (error, evidence, manifest) in (error_evidence or {}).items():
+        case = _case(evidence, manifest)
+        if case.flights != null.flights:
+            raise ValueError(f"{label}: the campaign with the error has flights {case.flights}, not {null.flights}")
+        delta = case.residual - null.residual
+        model.cases[label] = case
+        model.effects[label] = np.where(np.isfinite(delta), delta, 0.0)
+        model.errors[label] = error
     return model
 
 
@@ -241,16 +300,23 @@ class PowerResult:
         return wilson_interval(self.detected, self.draws)
 
 
-def _measured(model: PowerModel, y: np.ndarray, flights: Sequence[str]) -> dict[str, Any]:
+def _measured(case: CaseModel, y: np.ndarray, flights: Sequence[str]) -> dict[str, Any]:
     from dronewind.diagnose.features import FEATURES
 
     out = {}
     for i, fid in enumerate(flights):
-        m = copy.copy(model.measured[fid])
+        m = copy.copy(case.measured[fid])
         original = m["values"]
         m["values"] = {f: (None if original.get(f) is None or not math.isfinite(y[i, k]) else float(y[i, k]))
                        for k, f in enumerate(FEATURES)}
         out[fid] = m
+    return out
+
+
+def _first_flights(manifest: Mapping[str, Any], flights: Sequence[str]) -> dict[str, Any]:
+    """``manifest`` with only ``flights`` among its payload flights."""
+    out = copy.deepcopy(dict(manifest))
+    out["payload_flights"] = [f for f in out["payload_flights"] if f["id"] in set(flights)]
     return out
 
 
@@ -271,7 +337,8 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     seed : int
         Seed of the draws.
     config : mapping, optional
-        Workflow configuration (its ``diagnosis`` settings).
+        Workflow configuration (its ``diagnosis`` settings, as
+        :func:`dronewind.diagnose.experiments.diagnose_evidence` reads them).
     progress : Progress, optional
         One item per draw.
 
@@ -280,32 +347,26 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     PowerResult
         For ``label=None``, ``detected`` counts the draws naming nothing (1 - false-alarm rate).
     """
-    from dronewind.diagnose import campaign as dc
-    from dronewind.diagnose.experiments import Draw, judge
+    from dronewind.diagnose.experiments import Draw, diagnose_evidence, judge
 
-    diagnosis = with_defaults(config or {})["diagnosis"]
-    flights = model.flights[:n_flights]
+    case = model.cases[label] if label else model.null
+    flights = case.flights[:n_flights]
     idx = np.arange(len(flights))
     error = model.errors.get(label) if label else None
     truth = Draw(error.mechanism, dict(error.parameters), 0) if error else Draw("none", {}, 0)
     effect = model.effects[label][idx] if label else 0.0
+    campaign = _first_flights(case.manifest, flights)
     rng = np.random.default_rng([int(seed), n_flights, len(label or "")])
-    forward = {f: model.forward[f] for f in flights}
+    forward = {f: case.forward[f] for f in flights}
     hits = 0
-    reference = None  # the draws share the forward runs: one bootstrap reference serves them all
     for k in range(draws):
         ctx = progress.item(f"{label or 'no error'}, {n_flights} flights, draw {k + 1}") if progress else _null()
         with ctx:
-            xi = rng.standard_normal((len(flights), model.chol.shape[0])) @ model.chol.T
-            y = model.baseline[idx] + effect + model.noise_factor * model.sigma[idx] * xi
-            ev = dc.assemble(_measured(model, y, flights), forward)
-            result = dc.diagnose(ev, alpha=float(diagnosis["alpha"]), max_causes=int(diagnosis["max_causes"]),
-                                 min_gain=float(diagnosis["min_gain"]), n_replicates=int(diagnosis["bootstrap"]),
-                                 reference=reference)
-            reference = result.reference
-            out = dc.to_json(result, "plan")
-            out["atmosphere"] = str(diagnosis["atmosphere"])
-            hits += bool(judge(truth, out)["detected"])
+            xi = rng.standard_normal((len(flights), case.chol.shape[0])) @ case.chol.T
+            y = case.baseline[idx] + effect + model.noise_factor * case.sigma[idx] * xi
+            out = diagnose_evidence({"name": "plan", "measured": _measured(case, y, flights), "forward": forward},
+                                    dict(config or {}))
+            hits += bool(judge(truth, out, campaign)["detected"])
     return PowerResult(label or "none", n_flights, hits, draws)
 
 
@@ -343,10 +404,7 @@ def simulated_detection(data: Mapping[str, Any], error: Detect | None, seeds: Se
     truth = Draw(error.mechanism, dict(error.parameters), 0) if error else Draw("none", {}, 0)
     named, hits, cpu, stats = [], 0, [], []
     for s in seeds:
-        manifest = copy.deepcopy(dict(data))
-        manifest["simulation"]["seed"] = int(s)
-        manifest["simulation"]["mechanisms"] = ([{"mechanism": error.mechanism, "parameters": dict(error.parameters)}]
-                                                if error else [])
+        manifest = with_error(data, error, s)
         t0 = time.process_time()
         with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
             ctx = progress.item(f"seed {s} ({truth.label})") if progress else _null()
@@ -355,7 +413,7 @@ def simulated_detection(data: Mapping[str, Any], error: Detect | None, seeds: Se
                 out = diagnose_evidence(evidence, config)
         cpu.append(time.process_time() - t0)
         stats.append(evidence["statistics"])
-        verdict = judge(truth, out)
+        verdict = judge(truth, out, manifest)
         hits += bool(verdict["detected"])
         named.append(list(verdict["named"]))
     return {"detected": hits, "n": len(seeds), "named": named, "statistics": stats, "evidence_seconds": cpu}
