@@ -3,7 +3,8 @@
 Each draw picks a catalog mechanism and its size at random from the ranges of
 dronewind.diagnose.experiments.HIDDEN_RANGES, on either side of its "off" value where both
 make sense (or the null case), writes a 4-flight virtual campaign hiding it, runs the normal
-Snakemake workflow up to diagnosis.json, and requires:
+Snakemake workflow up to diagnosis.json (with fewer baseline seeds and bootstrap replicates than
+a campaign's defaults: :data:`DIAGNOSIS_SETTINGS`), and requires:
 
 * null case: no named cause (a cause named where there is none is a failure);
 * otherwise: no wrong cause; the hidden mechanism named (or reported in an ambiguity set with
@@ -65,6 +66,17 @@ def test_draws_cover_the_null_case_distinct_mechanisms_and_a_model_error():
     assert DRAWS[-1].case == "model_error" and DRAWS[-1].model_error
 
 
+#: Diagnosis settings of the runs, as the independent world's draws (tests/diagnose/test_independent_world.py):
+#: 45 baseline seeds per flight (180 pooled degrees of freedom on four flights, above the 30 seeds the
+#: error model needs) and 300 bootstrap replicates, where a campaign's defaults (89 seeds for 350 pooled
+#: degrees of freedom, 600 replicates) cost twice the forward runs and the bootstrap. The tests hold
+#: what they held: the bootstrap repeats the error model's estimate from as many seeds on every
+#: replicate, so a false alarm or a wrong cause stays at the family-wise level alpha = 0.01
+#: (p < alpha: the campaign beats all but 2 of 300 replicates, 3/301 = 1.00 % under the null, against
+#: 6/601 = 1.00 % with 600); a miss is an expected failure either way, its rate the benchmarks'.
+DIAGNOSIS_SETTINGS = {"seeds": [101 * (k + 1) for k in range(45)], "bootstrap": 300}
+
+
 def hidden_runs(config: pytest.Config) -> dict[int, WorkflowRun]:
     """The workflow run of each draw (by its position in :data:`DRAWS`) up to diagnosis.json, made once per session.
 
@@ -80,11 +92,14 @@ def hidden_runs(config: pytest.Config) -> dict[int, WorkflowRun]:
         runs = {}
         for k, truth in enumerate(DRAWS):
             manifest = folder / f"draw{k}" / "hidden.yaml"
+            settings = manifest.with_name("diagnosis.yaml")
             if not remote:
                 manifest.parent.mkdir(parents=True)
                 manifest.write_text(yaml.safe_dump(campaign_manifest(truth), sort_keys=False))
+                settings.write_text(yaml.safe_dump({"diagnosis": DIAGNOSIS_SETTINGS}, default_flow_style=None))
             results = manifest.parent / "results"
-            runs[k] = WorkflowRun(["--cores", "2", "--config", f"campaign={manifest}", f"results_dir={results}",
+            runs[k] = WorkflowRun(["--cores", "2", "--configfile", "config/config.yaml", str(settings),
+                                   "--config", f"campaign={manifest}", f"results_dir={results}",
                                    "--", str(results / "hidden" / "diagnosis.json")],
                                   log=manifest.parent / "snakemake.log", remote=remote)
         config.stash[_RUNS] = runs
