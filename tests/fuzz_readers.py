@@ -505,7 +505,7 @@ _SONIC_KINDS = {"rpi_time_us": "int", "u_ms": "float", "v_ms": "float", "w_ms": 
 
 
 def _ins_kinds() -> tuple[tuple[str, ...], dict[str, str]]:
-    from dronewind.payload.columns import INS_COLUMNS
+    from dronewind.core.columns import INS_COLUMNS
 
     kinds = {c: "float" for c in INS_COLUMNS}
     kinds.update(rpi_time_us="int", utc="utc", time_valid="flag", ekf_valid="int")
@@ -513,7 +513,7 @@ def _ins_kinds() -> tuple[tuple[str, ...], dict[str, str]]:
 
 
 def _sonic_columns() -> tuple[str, ...]:
-    from dronewind.payload.columns import SONIC_COLUMNS
+    from dronewind.core.columns import SONIC_COLUMNS
 
     return SONIC_COLUMNS
 

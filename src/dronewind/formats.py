@@ -22,7 +22,7 @@ What is checked, per format:
 * ``delimited``: :func:`dronewind.core.delimited.check_delimited_head` (the mapped columns
   in the header, the field count, the time column parsing, numbers where mapped); the
   record of a rigid-mount flight (kind ``rigid_record``) is checked with the platform
-  variables its mapping declares (:func:`dronewind.payload.columns.rigid_layout`); its
+  variables its mapping declares (:func:`dronewind.core.columns.rigid_layout`); its
   ``platform_log`` (kind ``platform_log``) as ``ardupilot_bin``.
 
 What is echoed from a file is limited: the first field of a line, a time field, a header
@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from dronewind.core.columns import INS_COLUMNS, SONIC_COLUMNS, rigid_layout
 from dronewind.core.delimited import (
     GZIP_MAGIC,
     check_delimited_head,
@@ -54,7 +55,6 @@ from dronewind.manifest import Campaign, is_rigid, record_format
 # the column layouts, not the readers (which import xarray): this module runs at every Snakemake start
 from dronewind.mast.columns import AMERIFLUX_GOLD_COLUMNS, REQUIRED_TOA5_COLUMNS
 from dronewind.payload import delimited as payload_delimited
-from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS, rigid_layout
 from dronewind.quadrotor.columns import DATAFLASH_MAGIC, QUADROTOR_COLUMNS, QUADROTOR_QUANTITIES
 
 __all__ = ["ULOG_MAGIC", "CONTRACT_HEADERS", "describe_content", "check_file_format", "format_problems",

@@ -485,10 +485,10 @@ def _rigid_platform_checks(key: str, flight: Mapping[str, Any], root: Path, chec
     """Where a rigid-mount flight's platform state comes from: the record's columns, its ``platform_log``, or both.
 
     Each platform variable comes from the record's mapping when it declares it (the record's
-    columns win), else from the platform log (:func:`dronewind.payload.columns.rigid_layout`);
+    columns win), else from the platform log (:func:`dronewind.core.columns.rigid_layout`);
     the log file must exist.
     """
-    from dronewind.payload.columns import rigid_layout
+    from dronewind.core.columns import rigid_layout
 
     problems: list[tuple[str, str]] = []
     log = flight.get("platform_log")

@@ -21,9 +21,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from dronewind.core.columns import log_platform_variables, rigid_layout
 from dronewind.errors import InputError
 from dronewind.payload import motion, rigid
-from dronewind.payload.columns import log_platform_variables, rigid_layout
 from dronewind.payload.platform_log import merge_platform_state, read_platform_state
 from tests.conftest import needs_record, record_path
 

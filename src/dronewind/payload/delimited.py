@@ -39,11 +39,11 @@ from typing import Any
 
 import numpy as np
 
+from dronewind.core.columns import INS_COLUMNS, SONIC_COLUMNS
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.delimited import DelimitedLayout, DelimitedTable, delimited_layout, read_delimited
 from dronewind.core.raw import RawRecord
 from dronewind.errors import InputError
-from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
 
 __all__ = ["MappedRecord", "CLOCK_KINDS", "sonic_layout", "ins_layouts", "sonic_record", "ins_record",
            "payload_source"]
@@ -237,7 +237,7 @@ def ins_record(path: str | os.PathLike[str], fmt: Mapping[str, Any], where: str 
     Returns
     -------
     MappedRecord
-        The columns of :data:`dronewind.payload.columns.INS_COLUMNS`: ``utc`` datetime64[ns]
+        The columns of :data:`dronewind.core.columns.INS_COLUMNS`: ``utc`` datetime64[ns]
         (NaT without one), ``time_valid`` 0 or 1, ``ekf_valid`` 0 or 1, angles [degree],
         velocities north, east, down [m s-1].
     """

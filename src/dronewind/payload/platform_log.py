@@ -16,7 +16,7 @@ time axis:
   the nearest log sample.
 
 Which source wins: a platform variable declared as a column of the record is read from the
-record; the log gives the others (:func:`dronewind.payload.columns.log_platform_variables`).
+record; the log gives the others (:func:`dronewind.core.columns.log_platform_variables`).
 """
 
 from __future__ import annotations

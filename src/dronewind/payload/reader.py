@@ -52,9 +52,9 @@ import numpy as np
 import pandas as pd
 
 from dronewind.core import textscan
+from dronewind.core.columns import INS_COLUMNS, SONIC_COLUMNS
 from dronewind.core.raw import RawRecord
 from dronewind.errors import InputError, describe_header
-from dronewind.payload.columns import INS_COLUMNS, SONIC_COLUMNS
 
 __all__ = [
     "ClockJumpError",

@@ -50,13 +50,13 @@ import xarray as xr
 from dronewind.core import filtering
 from dronewind.core.angles import deg2rad, rad2deg
 from dronewind.core.cf import variable
+from dronewind.core.columns import RIGID_QUANTITIES, log_platform_variables, rigid_layout
 from dronewind.core.constants import ZERO_CELSIUS_K
 from dronewind.core.delimited import read_delimited
 from dronewind.core.qc import QC_GAP_FILLED, QC_MISSING, QC_OUT_OF_RANGE, QC_SPIKE, qc_flag_attrs
 from dronewind.core.timeseries import NS_PER_S, fill_nan_by_time, time_ns, unwrap_rad
 from dronewind.errors import InputError
 from dronewind.payload import checks, l2, lag_search, motion
-from dronewind.payload.columns import RIGID_QUANTITIES, log_platform_variables, rigid_layout
 from dronewind.payload.platform_log import merge_platform_state, read_platform_state
 
 __all__ = ["RIGID_QUANTITIES", "BODY_DIRECTIONS", "RigidMount", "mount_matrix_of", "rigid_mount", "rigid_layout",
@@ -212,7 +212,7 @@ def rigid_l1(path: str | os.PathLike[str], fmt: Mapping[str, Any], *, despike_wi
     platform_state : xarray.Dataset, optional
         The vehicle's own log (:func:`read_platform_state`, the flight's ``platform_log``):
         gives every platform variable the mapping does not declare (the record's columns
-        win, :func:`dronewind.payload.columns.log_platform_variables`), interpolated to the
+        win, :func:`dronewind.core.columns.log_platform_variables`), interpolated to the
         record's times (:func:`dronewind.payload.platform_log.merge_platform_state`).
     max_log_gap_s : float
         Longest gap of the platform log interpolated across [s].
