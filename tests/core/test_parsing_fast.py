@@ -18,11 +18,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dronewind.core import textscan
+from dronewind.core import columns, textscan
 from dronewind.core.rowfaults import text_lines
 from dronewind.errors import InputError
 from dronewind.mast import ameriflux, level1, toa5
-from dronewind.payload import columns, reader
+from dronewind.payload import reader
 from dronewind.simulate.writers import write_ins_csv, write_payload_sonic_csv, write_toa5
 from tests.conftest import needs_record, record_path
 
