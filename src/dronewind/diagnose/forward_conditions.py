@@ -18,6 +18,7 @@ import numpy as np
 import xarray as xr
 
 from dronewind.core.constants import KARMAN
+from dronewind.core.timeseries import median_step
 from dronewind.diagnose.forward_atmosphere import hover_span
 from dronewind.manifest import payload_flight_manifest
 
@@ -246,12 +247,12 @@ def measured_span(l2_drone: xr.Dataset, conditions: Mapping[str, Any]) -> xr.Dat
     one Welch ordinate moves between bins (:func:`dronewind.diagnose.features.flight_features`):
     a forward L2 shorter than the measured one by a few samples biases such a feature.
     """
-    t = l2_drone["time"].values
+    t = l2_drone["time"].values.astype("datetime64[ns]").astype(np.int64)
     if t.size < 2:
         return l2_drone
-    half = np.median(np.diff(t)) / 2
-    start, end = hover_span(conditions)
-    keep = (t >= start.astype(t.dtype) - half) & (t < end.astype(t.dtype) + half)
+    half = median_step(t) / 2
+    start, end = (x.astype("datetime64[ns]").astype(np.int64) for x in hover_span(conditions))
+    keep = (t >= start - half) & (t < end + half)
     return l2_drone.isel(time=np.flatnonzero(keep))
 
 

@@ -30,7 +30,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from dronewind.core.angles import deg2rad, rad2deg, wrap_360
 from dronewind.core.cf import sha256_file
+from dronewind.core.timeseries import unwrap_rad
 from dronewind.errors import InputError
 
 __all__ = ["PLATFORM_LOG_FORMATS", "read_platform_state", "PlatformMerge", "merge_platform_state"]
@@ -191,10 +193,10 @@ def merge_platform_state(times: np.ndarray, state: xr.Dataset, variables: Sequen
         if name == "yaw_deg":
             ok = np.isfinite(x)
             x = x.copy()
-            x[ok] = np.degrees(np.unwrap(np.radians(x[ok])))
+            x[ok] = rad2deg(unwrap_rad(deg2rad(x[ok])))
         v, out, gaps = _interp_covered(t_ns, src, x, max_gap_ns)
         if name == "yaw_deg":
-            v = np.mod(v, 360.0)
+            v = wrap_360(v)
         values[name] = v
         outside |= out
         n_gaps = max(n_gaps, gaps)

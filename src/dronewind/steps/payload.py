@@ -29,7 +29,7 @@ from dronewind.core.cf import atomic_write_text, data_source, write_netcdf
 from dronewind.core.cf_names import strip_cf, track_from_cf, track_to_cf
 from dronewind.core.products import open_product
 from dronewind.errors import InputError
-from dronewind.manifest import confined_path
+from dronewind.manifest import confined_path, record_format
 from dronewind.mast.chain import (
     compute_mast_l1,
     flight_reference,
@@ -593,8 +593,7 @@ def rigid_l1(record_file: str | Path, output: str | Path, *, campaign: str, flig
     sonic = flight.get("sonic") or {}
     state = None
     if platform_log is not None:
-        declared = (flight.get("platform_log") or {}).get("format", "ardupilot_bin")
-        state = rigid.read_platform_state(platform_log, declared)
+        state = rigid.read_platform_state(platform_log, record_format(flight.get("platform_log") or {}, "platform_log"))
     ds = rigid.rigid_l1(record_file, flight["record"]["format"], despike_window_s=float(despike["window_s"]),
                         despike_n_mad=float(despike["n_mad"]), limits=str(sonic.get("limits", "trisonica_mini")),
                         where=f"payload flight {flight_id} record.format", platform_state=state)
