@@ -48,6 +48,26 @@ def test_discrepancy_recovers_a_known_scatter_and_its_interval_covers() -> None:
     assert 0.85 <= covered / 120 <= 1.0
 
 
+def test_batched_moments_are_the_per_feature_ones() -> None:
+    """The moments of features grouped by their usable flights (``interval=False``) equal the
+    per-feature computation of the interval path, with missing flights, lost degrees of freedom
+    and a trend (to rounding, 1e-10)."""
+    rng = np.random.default_rng(5)
+    n, p = 9, 6
+    sigma = rng.uniform(0.2, 0.6, (n, p))
+    r = rng.normal(0, 0.4, (n, p)) + rng.normal(0, 1, (n, p)) * sigma
+    r[0, 1] = r[4, 1] = r[2, 3] = np.nan
+    r[:7, 5] = np.nan  # two flights left: no degree of freedom with the trend, one without
+    speed = rng.uniform(3, 12, n)
+    lost = rng.uniform(0, 2, p)
+    for speeds in (speed, None):
+        fast = discrepancy(r, sigma, speeds, interval=False, lost_dof=lost)
+        full = discrepancy(r, sigma, speeds, interval=True, lost_dof=lost)
+        for a, b in ((fast.tau, full.tau), (fast.q_statistic, full.q_statistic), (fast.dof, full.dof)):
+            np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12, equal_nan=True)
+        assert np.array_equal(fast.trend, full.trend)
+
+
 def test_discrepancy_is_zero_without_scatter_and_a_trend_is_not_scatter() -> None:
     """Pure sampling error: tau estimated 0 in most draws; a trend with wind speed on six flights
     is removed before the scatter is estimated (it would otherwise read as a discrepancy)."""

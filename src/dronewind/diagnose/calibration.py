@@ -83,7 +83,13 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from dronewind.diagnose.covariance import Whitener, flight_correlations, nearest_correlation, shrunk_correlation
+from dronewind.diagnose.covariance import (
+    Whitener,
+    flight_correlations,
+    nearest_correlation,
+    row_patterns,
+    shrunk_correlation,
+)
 from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters
 
 __all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
@@ -205,6 +211,57 @@ def _offset_trend_design(speed_ms: np.ndarray) -> tuple[np.ndarray, bool]:
     return x, with_trend
 
 
+def _feature_groups(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None
+                    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, bool]]:
+    """Features that share the flights they are measured on, with their offset-and-trend design.
+
+    Returns
+    -------
+    list of (features, rows, x, with_trend)
+        For every pattern of usable flights (finite residual and error, error > 0) with at
+        least one degree of freedom left: the feature indices, the flight indices, the design
+        of :func:`_offset_trend_design` on them and whether it has the trend. Features of one
+        pattern are worked on in one batch (the bootstrap repeats these moments thousands of
+        times; a loop of small calls per feature was most of their cost).
+    """
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(residual) & np.isfinite(sigma) & (sigma > 0)
+    speed = np.full(ok.shape[0], np.nan) if speed_ms is None else np.asarray(speed_ms, dtype=float)
+    groups = []
+    for pattern, feats in row_patterns(ok.T):
+        rows = np.flatnonzero(pattern)
+        x, with_trend = _offset_trend_design(speed[rows])
+        if rows.size - x.shape[1] < 1:
+            continue
+        groups.append((feats, rows, x, with_trend))
+    return groups
+
+
+def _wls_batch(r: np.ndarray, v: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_wls` of several features at once on one design.
+
+    Parameters
+    ----------
+    r, v : numpy.ndarray
+        Residuals and their variances (g, n).
+    x : numpy.ndarray
+        Design (n, q).
+
+    Returns
+    -------
+    maker, q, denom : numpy.ndarray
+        The weighted residual makers :math:`I - X (X^\top W X)^{+} X^\top W` (g, n, n), Q and the
+        DerSimonian-Laird denominator (g,).
+    """
+    w = 1.0 / v
+    inv = np.linalg.pinv(np.einsum("ia,gi,ib->gab", x, w, x))
+    maker = np.eye(x.shape[0])[None] - np.einsum("ia,gab,jb,gj->gij", x, inv, x, w)
+    e = np.einsum("gij,gj->gi", maker, r)
+    q = np.sum(w * e * e, axis=1)
+    denom = np.sum(w, axis=1) - np.einsum("gab,ib,gi,ia->g", inv, x, w * w, x)
+    return maker, q, denom
+
+
 def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None = None,
                 interval: bool = True, lost_dof: np.ndarray | None = None) -> Discrepancy:
     """Per-feature model discrepancy across flights (DerSimonian-Laird moments, Q-profile interval).
@@ -247,6 +304,16 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
     dof = np.zeros(p, dtype=float)
     lost = np.zeros(p) if lost_dof is None else np.nan_to_num(np.asarray(lost_dof, dtype=float), nan=0.0)
     trend = np.zeros(p, dtype=bool)
+    if not interval:
+        for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed):
+            k = rows.size - x.shape[1]
+            _, q_g, denom_g = _wls_batch(r_all[np.ix_(rows, feats)].T, s_all[np.ix_(rows, feats)].T ** 2, x)
+            k_eff_g = k - np.clip(lost[feats], 0.0, MAX_LOST_SHARE * k)
+            denom_g = denom_g * k_eff_g / k
+            with np.errstate(invalid="ignore", divide="ignore"):
+                tau2[feats] = np.where(denom_g > 0, np.maximum(0.0, (q_g - k_eff_g) / denom_g), 0.0)
+            q_stat[feats], dof[feats], trend[feats] = q_g, k_eff_g, with_trend
+        return Discrepancy(np.sqrt(tau2), np.sqrt(low), np.sqrt(high), q_stat, dof, trend)
     for f in range(p):
         ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
         x, with_trend = _offset_trend_design(speed[ok])
@@ -259,10 +326,9 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
         denom *= k_eff / k
         tau2[f] = max(0.0, (q - k_eff) / denom) if denom > 0 else 0.0
         q_stat[f], dof[f], trend[f] = q, k_eff, with_trend
-        if interval:
-            scale = k / k_eff  # the interval's Q is read on the fitted residuals' reduced scale
-            low[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.975, k_eff)), r, v, x, scale)
-            high[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.025, k_eff)), r, v, x, scale)
+        scale = k / k_eff  # the interval's Q is read on the fitted residuals' reduced scale
+        low[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.975, k_eff)), r, v, x, scale)
+        high[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.025, k_eff)), r, v, x, scale)
     return Discrepancy(np.sqrt(tau2), np.sqrt(low), np.sqrt(high), q_stat, dof, trend)
 
 
@@ -377,25 +443,23 @@ def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.n
     q_stat = np.full(p, np.nan)
     dof = np.zeros(p)
     trend = np.zeros(p, dtype=bool)
-    for f in range(p):
-        ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
-        x, with_trend = _offset_trend_design(speed[ok])
-        if int(ok.sum()) - x.shape[1] < 1:
-            continue
-        w = 1.0 / s_all[ok, f] ** 2
-        resid_maker = np.eye(x.shape[0]) - x @ np.linalg.pinv(x.T @ (w[:, None] * x)) @ (x.T * w[None, :])
-        rows = np.flatnonzero(ok) * p + f
-        d = -(jacobian[ok, f, :] @ k_map) if m else np.zeros((ok.sum(), n * p))
-        d[np.arange(ok.sum()), rows] += 1.0
-        b2 = (np.sqrt(w)[:, None] * (resid_maker @ d)) ** 2
-        col = b2.sum(axis=0)
-        own = feature_of == f
-        expected0 = float(col @ var0 + col[~own] @ tau2_other[~own])
-        c = float(col[own].sum())
-        e = resid_maker @ r_all[ok, f]
-        q = float(np.sum(w * e * e))
-        tau2[f] = max(0.0, (q - expected0) / c) if c > 0 else 0.0
-        q_stat[f], dof[f], trend[f] = q, float(col @ var0), with_trend
+    for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed):
+        w = 1.0 / s_all[np.ix_(rows, feats)].T ** 2  # (g, n_ok)
+        maker, _, _ = _wls_batch(r_all[np.ix_(rows, feats)].T, 1.0 / w, x)
+        # d_f = E_f - J_f K: the fitted residuals of feature f as a map of all residuals
+        d = (-np.einsum("igm,mk->gik", jacobian[np.ix_(rows, feats)], k_map) if m
+             else np.zeros((feats.size, rows.size, n * p)))
+        d[np.arange(feats.size)[:, None], np.arange(rows.size)[None, :], rows[None, :] * p + feats[:, None]] += 1.0
+        b2 = (np.sqrt(w)[:, :, None] * np.einsum("gij,gjk->gik", maker, d)) ** 2
+        col = b2.sum(axis=1)  # (g, n p)
+        own = feature_of[None, :] == feats[:, None]
+        expected0 = col @ var0 + np.sum(np.where(own, 0.0, col) * tau2_other[None, :], axis=1)
+        c = np.sum(np.where(own, col, 0.0), axis=1)
+        e = np.einsum("gij,gj->gi", maker, r_all[np.ix_(rows, feats)].T)
+        q = np.sum(w * e * e, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            tau2[feats] = np.where(c > 0, np.maximum(0.0, (q - expected0) / c), 0.0)
+        q_stat[feats], dof[feats], trend[feats] = q, col @ var0, with_trend
     nan = np.full(p, np.nan)
     return Discrepancy(np.sqrt(tau2), nan, nan, q_stat, dof, trend)
 
@@ -474,8 +538,10 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     tau_start = np.sqrt(excess.max(axis=0))
     jac = fit_jacobian(model, first.theta, idx)
     disc = profiled_discrepancy(resid, sigma, speed_ms, jac, total0, tau_start)
-    plain = discrepancy(resid, sigma, speed_ms, interval=False)
-    lost = np.where(np.isfinite(plain.dof) & (plain.dof > 0), plain.dof - disc.dof, 0.0)
+    plain_dof = np.zeros(resid.shape[1])  # n - q of every feature (discrepancy()'s dof without a fit)
+    for feats, rows, x, _ in _feature_groups(resid, sigma, speed_ms):
+        plain_dof[feats] = rows.size - x.shape[1]
+    lost = np.where(plain_dof > 0, plain_dof - disc.dof, 0.0)
     total, fcorr = flight_correlations(corr, sigma, disc.tau_or_zero())
     white = Whitener(fcorr)
     return ProfiledFit(fit_parameters(model, y, total, idx, white), disc, total, white, lost)

@@ -78,7 +78,7 @@ import scipy.linalg
 import scipy.linalg.lapack
 
 __all__ = ["MIN_EIGENVALUE", "ShrunkCorrelation", "shrunk_correlation", "whiten", "Whitener", "flight_correlations",
-           "nearest_correlation"]
+           "nearest_correlation", "row_patterns"]
 
 #: Smallest eigenvalue of a shrunk correlation matrix: whitening divides by the square root
 #: of the eigenvalues, so a near-singular pairwise estimate would amplify a residual
@@ -193,6 +193,32 @@ def shrunk_correlation(x: np.ndarray, groups: np.ndarray | None = None) -> Shrun
     return ShrunkCorrelation(nearest_correlation(shrunk), sample, intensity, dof, n_rows)
 
 
+def row_patterns(mask: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The distinct rows of a boolean matrix and where each occurs.
+
+    Parameters
+    ----------
+    mask : numpy.ndarray
+        (n, p) bool.
+
+    Returns
+    -------
+    list of (pattern, rows)
+        Every distinct row (p,) with the indices of the rows equal to it, in order of first
+        occurrence. The common case of one pattern is answered without sorting (``np.unique``
+        over rows cost more than the batched work it groups).
+    """
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape[0] == 0:
+        return []
+    if (mask == mask[0]).all():
+        return [(mask[0], np.arange(mask.shape[0]))]
+    groups: dict[bytes, list[int]] = {}
+    for i, row in enumerate(mask):
+        groups.setdefault(row.tobytes(), []).append(i)
+    return [(mask[rows[0]], np.asarray(rows)) for rows in groups.values()]
+
+
 class Whitener:
     """Whitening of standardised residuals by a correlation matrix (sub-matrix per missing pattern).
 
@@ -213,6 +239,7 @@ class Whitener:
     def __init__(self, corr: np.ndarray | None) -> None:
         self.corr = None if corr is None else np.asarray(corr, dtype=float)
         self._cache: dict[tuple[int, bytes], np.ndarray] = {}
+        self._padded: dict[tuple[tuple[int, ...], bytes], np.ndarray] = {}
 
     @property
     def per_row(self) -> bool:
@@ -237,12 +264,58 @@ class Whitener:
             self._cache[key] = np.tril(inverse)
         return self._cache[key]
 
+    def padded(self, use: np.ndarray) -> np.ndarray:
+        """Every row's :math:`L_i^{-1}` at once, zero-padded to the full feature set.
+
+        Parameters
+        ----------
+        use : numpy.ndarray
+            Features used in every row (n, p) (bool).
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, p, p): for row :math:`i` the inverse Cholesky factor of the sub-matrix of its
+            used features in their rows and columns, zero elsewhere, so that
+            ``padded[i] @ nan_to_num(z[i])`` is :meth:`__call__`'s row on the used features.
+
+        Notes
+        -----
+        Rows with the same pattern of used features are factored in one batched call (the
+        fits evaluate residuals thousands of times with a few fixed patterns; a Python loop of
+        one LAPACK call per row was most of their time).
+        """
+        use = np.asarray(use, dtype=bool)
+        key = (use.shape, use.tobytes())
+        if key in self._padded:
+            return self._padded[key]
+        n, p = use.shape
+        out = np.zeros((n, p, p))
+        if self.corr is None:
+            out[:, np.arange(p), np.arange(p)] = use
+            self._padded[key] = out
+            return out
+        for pattern, rows in row_patterns(use):
+            if not pattern.any():
+                continue
+            idx = np.flatnonzero(pattern)
+            mats = self.corr[rows] if self.per_row else self.corr[None]
+            sub = mats[:, idx[:, None], idx[None, :]]
+            inverse = np.tril(np.linalg.inv(np.linalg.cholesky(sub)))
+            out[np.ix_(rows, idx, idx)] = inverse if self.per_row else np.broadcast_to(
+                inverse, (rows.size, idx.size, idx.size))
+        self._padded[key] = out
+        return out
+
     def subset(self, rows: np.ndarray) -> Whitener:
         """The whitener of the rows ``rows`` (itself when every row shares one matrix)."""
         if not self.per_row:
             return self
         assert self.corr is not None
-        return Whitener(self.corr[np.asarray(rows, dtype=int)])
+        rows = np.asarray(rows, dtype=int)
+        if rows.size == self.corr.shape[0] and np.array_equal(rows, np.arange(rows.size)):
+            return self  # every row, in order: keep the factors already computed
+        return Whitener(self.corr[rows])
 
     def __call__(self, z: np.ndarray) -> np.ndarray:
         """Whitened residuals of each row of ``z`` (n, p); NaN marks an unused feature.
@@ -257,12 +330,9 @@ class Whitener:
         z = np.asarray(z, dtype=float)
         if self.corr is None:
             return z
-        out = np.full_like(z, np.nan)
-        for i, row in enumerate(z):
-            use = np.isfinite(row)
-            if use.any():
-                out[i, use] = self.factor(use, i) @ row[use]
-        return out
+        use = np.isfinite(z)
+        out = np.einsum("ipq,iq->ip", self.padded(use), np.where(use, z, 0.0))
+        return np.where(use, out, np.nan)
 
 
 def flight_correlations(corr: np.ndarray | None, sigma: np.ndarray, tau: np.ndarray
@@ -292,14 +362,10 @@ def flight_correlations(corr: np.ndarray | None, sigma: np.ndarray, tau: np.ndar
     p = sigma.shape[1]
     r = np.eye(p) if corr is None else np.asarray(corr, dtype=float)
     total = np.sqrt(sigma**2 + tau2[None, :])
-    out = np.empty((sigma.shape[0], p, p))
-    for i in range(sigma.shape[0]):
-        s = np.where(np.isfinite(sigma[i]), sigma[i], 0.0)
-        t = np.where(np.isfinite(total[i]) & (total[i] > 0), total[i], 1.0)
-        cov = r * np.outer(s, s) + np.diag(tau2)
-        c = cov / np.outer(t, t)
-        np.fill_diagonal(c, 1.0)
-        out[i] = c
+    s = np.where(np.isfinite(sigma), sigma, 0.0)
+    t = np.where(np.isfinite(total) & (total > 0), total, 1.0)
+    out = (r[None] * s[:, :, None] * s[:, None, :] + np.diag(tau2)[None]) / (t[:, :, None] * t[:, None, :])
+    out[:, np.arange(p), np.arange(p)] = 1.0
     return total, out
 
 

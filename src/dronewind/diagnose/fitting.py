@@ -379,12 +379,15 @@ def piecewise_linear_least_squares(
             else:
                 d = scipy.optimize.lsq_linear(j, rhs, bounds=(d_lo, d_hi), method="bvls").x
             theta[moving] = np.clip(centre[moving] + d, lo[moving], hi[moving])
-        r = np.asarray(residuals(theta), dtype=float)
+        # the residuals are linear on the cell: its minimum from the probes, without another evaluation
+        r = r0 + jac @ (theta - centre)
         value = float(r @ r)
         if best is None or value < best[0]:
             best = (value, theta, jac, r)
     assert best is not None
-    value, theta, jac, r = best
+    _, theta, jac, _ = best
+    r = np.asarray(residuals(theta), dtype=float)  # the winner's misfit evaluated, not extrapolated
+    value = float(r @ r)
     dof = max(r.size - len(parameters), 1)
     try:
         cov = np.linalg.pinv(jac.T @ jac)
@@ -424,14 +427,14 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
         return FitResult(base_theta, base_theta, base_chi2, base_chi2, True, "no parameters")
     yf, sf = y[flights], sigma[flights]
     mask = np.isfinite(yf) & np.isfinite(sf) & (sf > 0)
-    factors = [white.factor(m, row) if white.corr is not None and m.any() else None
-               for row, m in zip(flights, mask, strict=True)]
+    factors = white.subset(flights).padded(mask) if white.corr is not None else None
 
     def residuals(theta: np.ndarray) -> np.ndarray:
         # a feature the forward model cannot produce at this flight counts as no misfit
         z = standardised_residuals(yf, model.predict(theta, flights), sf)
-        return np.concatenate([z[i, m] if f is None else f @ z[i, m]
-                               for i, (m, f) in enumerate(zip(mask, factors, strict=True))])
+        if factors is None:
+            return z[mask]
+        return np.einsum("ipq,iq->ip", factors, np.where(mask, z, 0.0))[mask]
 
     theta, theta_std, value, success, message = piecewise_linear_least_squares(residuals, model.parameters)
     return FitResult(theta, theta_std, value, base_chi2, success, message)
