@@ -123,3 +123,47 @@ def test_never_worse_than_the_multistart_local_fit(seed):
     local = bounded_least_squares(res, params)
     assert fit.chi2 <= local[2] + 1e-9
     assert fit.chi2 == pytest.approx(float(res(fit.theta) @ res(fit.theta)), rel=1e-10)
+
+
+@pytest.mark.parametrize("missing", [False, True])
+def test_fits_from_the_tables_equal_fits_from_probed_residuals(missing):
+    """:func:`fit_parameters` reads each cell's linear form from the response tables; probing
+    the residual function (the generic path) gives the same fit to rounding (1e-9), with
+    correlated errors and missing measurements, and with a missing table value at a used
+    feature (where the tables cannot be used and the fit probes)."""
+    from dronewind.diagnose.covariance import Whitener
+
+    rng = np.random.default_rng(9)
+    n, p = 6, 4
+    levels = [[-2.0, 0.0, 1.0, 3.0], [0.5, 1.0, 1.5]]
+    baseline = rng.normal(0, 1, (n, p))
+    tables = []
+    for lv in levels:
+        t = baseline[:, None, :] + rng.normal(0, 0.6, (n, len(lv), p))
+        t[:, int(np.argmin(np.abs(np.asarray(lv) - (1.0 if lv[0] > 0 else 0.0)))), :] = baseline
+        tables.append(t)
+    params = [ParameterResponse("a", np.asarray(levels[0]), tables[0], 0.0, -3.0, 4.0),
+              ParameterResponse("b", np.asarray(levels[1]), tables[1], 1.0, 0.2, 2.0)]
+    model = ResponseModel("m", baseline, params)
+    if missing:
+        tables[1][2, 2, 1] = np.nan  # on the segment above the truth: y stays measured there
+    y = model.predict([1.7, 0.8], np.arange(n)) + rng.normal(0, 0.3, (n, p))
+    y[4, 3] = np.nan
+    sigma = rng.uniform(0.2, 0.5, (n, p))
+    a = rng.normal(0, 1, (p, p))
+    cov = a @ a.T + p * np.eye(p)
+    white = Whitener(cov / np.sqrt(np.outer(np.diag(cov), np.diag(cov))))
+    flights = np.arange(n)
+    fit = fit_parameters(model, y, sigma, flights, white)
+    mask = np.isfinite(y) & (sigma > 0)
+    factors = white.padded(mask)
+
+    def probed(theta):
+        from dronewind.diagnose.fitting import standardised_residuals
+
+        z = standardised_residuals(y, model.predict(theta, flights), sigma)
+        return np.einsum("ipq,iq->ip", factors, np.where(mask, z, 0.0))[mask]
+
+    theta, _, value, _, _ = piecewise_linear_least_squares(probed, model.parameters)
+    np.testing.assert_allclose(fit.theta, theta, rtol=1e-9, atol=1e-9)
+    assert fit.chi2 == pytest.approx(value, rel=1e-9)

@@ -142,14 +142,32 @@ class ParameterResponse:
         Segment ``j`` lies between levels ``j`` and ``j + 1``; the first and the last reach
         the bounds, as :meth:`effect` extrapolates their lines.
         """
+        return [(lo, hi) for _, lo, hi in self.linear_segments()]
+
+    def linear_segments(self) -> list[tuple[int, float, float]]:
+        """:meth:`linear_intervals` with the index ``j`` of the segment each lies on."""
         levels = np.asarray(self.levels, dtype=float)
         edges = [-np.inf, *levels[1:-1], np.inf]
         out = []
-        for a, b in zip(edges[:-1], edges[1:], strict=True):
+        for j, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
             lo, hi = max(a, self.lower), min(b, self.upper)
             if lo <= hi:
-                out.append((float(lo), float(hi)))
+                out.append((j, float(lo), float(hi)))
         return out
+
+    def segment_line(self, j: int, flights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Intercept and slope of :meth:`effect` on segment ``j``: ``effect(v) = a + b v`` there.
+
+        Returns
+        -------
+        a, b : numpy.ndarray
+            (len(flights), n_features) [feature units, feature units per parameter unit]; NaN
+            where :meth:`effect` is NaN on the segment.
+        """
+        levels = self.level_list
+        f = self.features[flights]
+        slope = (f[:, j + 1, :] - f[:, j, :]) / (levels[j + 1] - levels[j])
+        return f[:, j, :] - levels[j] * slope - f[:, self.base_index, :], slope
 
 
 @dataclass
@@ -315,7 +333,8 @@ def _probe_point(lo: float, hi: float, level_span: float) -> tuple[float, float]
 
 
 def piecewise_linear_least_squares(
-    residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse]
+    residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse],
+    cell_form: Callable[[tuple[int, ...]], tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float, bool, str]:
     """Exact bounded least squares for residuals linear in each parameter between its levels.
 
@@ -339,6 +358,12 @@ def piecewise_linear_least_squares(
         Parameter vector -> weighted residuals (finite), linear on each cell.
     parameters : sequence of ParameterResponse
         Levels, baseline level and physical bounds per parameter.
+    cell_form : callable, optional
+        Segment index of every parameter (:meth:`ParameterResponse.linear_segments`) ->
+        ``(r_0, J)``: the residuals at parameter vector 0 and their Jacobian on that cell
+        (``residuals(theta) = r_0 + J theta`` there). Given, the cells' linear forms are taken
+        from it instead of from residual evaluations (:func:`fit_parameters` builds it from
+        the tables); the winner's misfit is still evaluated with ``residuals``.
 
     Returns
     -------
@@ -353,21 +378,25 @@ def piecewise_linear_least_squares(
         Always true (the minimum is exact).
     message : str
     """
-    cells = [p.linear_intervals() for p in parameters]
+    cells = [p.linear_segments() for p in parameters]
     spans = [float(np.ptp(np.asarray(p.levels, dtype=float))) or 1.0 for p in parameters]
     base = np.array([p.baseline_level for p in parameters], dtype=float)
     best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
     for cell in itertools.product(*cells):
-        lo = np.array([c[0] for c in cell])
-        hi = np.array([c[1] for c in cell])
-        points = [_probe_point(a, b, s) for (a, b), s in zip(cell, spans, strict=True)]
+        lo = np.array([c[1] for c in cell])
+        hi = np.array([c[2] for c in cell])
+        points = [_probe_point(a, b, s) for (_, a, b), s in zip(cell, spans, strict=True)]
         centre = np.array([c for c, _ in points])
-        r0 = np.asarray(residuals(centre), dtype=float)
-        jac = np.empty((r0.size, len(parameters)))
-        for k, (_, h) in enumerate(points):
-            step = centre.copy()
-            step[k] += h
-            jac[:, k] = (np.asarray(residuals(step), dtype=float) - r0) / h
+        if cell_form is not None:
+            at_zero, jac = cell_form(tuple(c[0] for c in cell))
+            r0 = at_zero + jac @ centre
+        else:
+            r0 = np.asarray(residuals(centre), dtype=float)
+            jac = np.empty((r0.size, len(parameters)))
+            for k, (_, h) in enumerate(points):
+                step = centre.copy()
+                step[k] += h
+                jac[:, k] = (np.asarray(residuals(step), dtype=float) - r0) / h
         norms = np.sqrt(np.sum(jac * jac, axis=0))
         moving = norms > 1e-12 * max(float(norms.max(initial=0.0)), 1e-300)
         theta = np.clip(base, lo, hi)  # a parameter that moves nothing: nearest its baseline
@@ -436,8 +465,54 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
             return z[mask]
         return np.einsum("ipq,iq->ip", factors, np.where(mask, z, 0.0))[mask]
 
-    theta, theta_std, value, success, message = piecewise_linear_least_squares(residuals, model.parameters)
+    theta, theta_std, value, success, message = piecewise_linear_least_squares(
+        residuals, model.parameters, _tabulated_cell_form(model, yf, sf, flights, mask, factors))
     return FitResult(theta, theta_std, value, base_chi2, success, message)
+
+
+def _tabulated_cell_form(model: ResponseModel, yf: np.ndarray, sf: np.ndarray, flights: np.ndarray,
+                         mask: np.ndarray, factors: np.ndarray | None
+                         ) -> Callable[[tuple[int, ...]], tuple[np.ndarray, np.ndarray]] | None:
+    """The residuals' linear form on every cell, read from the response tables (``cell_form`` of
+    :func:`piecewise_linear_least_squares`).
+
+    On a cell every parameter's effect is the line :meth:`ParameterResponse.segment_line`, so the
+    whitened residuals are ``W((y - baseline - sum a_k) / s) - sum_k theta_k W(b_k / s)``. The
+    lines of every segment are whitened once per fit; a cell then costs a few additions where
+    the probing of the residual function cost ``m + 1`` evaluations. None (probe instead) where
+    a used feature's baseline or table value is missing: a missing prediction counts as no
+    misfit, which is not linear across the cells.
+    """
+    if model.n_parameters == 0:
+        return None
+    if not np.isfinite(model.baseline[flights][mask]).all() or any(
+            (~np.isfinite(par.features[flights]) & mask[:, None, :]).any() for par in model.parameters):
+        return None
+    scale = np.where(mask, sf, 1.0)
+
+    def whitened(v: np.ndarray) -> np.ndarray:
+        v = np.where(mask, v / scale, 0.0)
+        return (v if factors is None else np.einsum("ipq,iq->ip", factors, v))[mask]
+
+    start = whitened(yf - model.baseline[flights])
+    lines = []
+    for par in model.parameters:
+        per_segment = {}
+        for j, _, _ in par.linear_segments():
+            a, b = par.segment_line(j, flights)
+            per_segment[j] = (whitened(a), -whitened(b))
+        lines.append(per_segment)
+
+    def form(segments: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+        at_zero = start.copy()
+        jac = np.empty((start.size, len(segments)))
+        for k, j in enumerate(segments):
+            a_w, b_w = lines[k][j]
+            at_zero -= a_w
+            jac[:, k] = b_w
+        return at_zero, jac
+
+    return form
 
 
 @dataclass(frozen=True)
