@@ -332,6 +332,37 @@ def _probe_point(lo: float, hi: float, level_span: float) -> tuple[float, float]
     return 0.0, level_span / 2.0
 
 
+def _cell_floors(forms: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
+                 ) -> tuple[list[int], np.ndarray]:
+    """Order in which to solve the cells, and a lower bound of each cell's bounded misfit.
+
+    The bounded minimum of a cell's quadratic is at least its unbounded minimum
+    :math:`|r_0|^2 - g^\top G^{+} g` (:math:`G = J^\top J`, :math:`g = J^\top r_0`). Solving the
+    cells in increasing order of that bound, a cell whose bound exceeds the best bounded misfit
+    found so far, and every later one, cannot hold the minimum (branch and bound): the
+    bounded solver then runs on a few cells instead of all of them. With one parameter the
+    bounded solve is a clipped division, and the cells keep their order (bounds of -inf).
+
+    Returns
+    -------
+    order : list of int
+        Cell indices in solving order.
+    floor : numpy.ndarray
+        Lower bound of every cell's misfit, lowered by a relative 1e-9 (and 1e-12 absolute)
+        for rounding, so that no cell whose minimum ties the best is skipped wrongly.
+    """
+    n_par = forms[0][4].shape[1] if forms else 0
+    if n_par < 2:
+        return list(range(len(forms))), np.full(len(forms), -np.inf)
+    jac = np.stack([f[4] for f in forms])
+    r0 = np.stack([f[3] for f in forms])
+    g = np.einsum("cik,ci->ck", jac, r0)
+    step = np.einsum("ckl,cl->ck", np.linalg.pinv(np.einsum("cik,cil->ckl", jac, jac)), g)
+    floor = np.einsum("ci,ci->c", r0, r0) - np.einsum("ck,ck->c", g, step)
+    floor = floor - 1e-9 * np.abs(floor) - 1e-12
+    return [int(c) for c in np.argsort(floor, kind="stable")], floor
+
+
 def piecewise_linear_least_squares(
     residuals: Callable[[np.ndarray], np.ndarray], parameters: Sequence[ParameterResponse],
     cell_form: Callable[[tuple[int, ...]], tuple[np.ndarray, np.ndarray]] | None = None,
@@ -381,7 +412,7 @@ def piecewise_linear_least_squares(
     cells = [p.linear_segments() for p in parameters]
     spans = [float(np.ptp(np.asarray(p.levels, dtype=float))) or 1.0 for p in parameters]
     base = np.array([p.baseline_level for p in parameters], dtype=float)
-    best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
+    forms = []
     for cell in itertools.product(*cells):
         lo = np.array([c[1] for c in cell])
         hi = np.array([c[2] for c in cell])
@@ -397,6 +428,13 @@ def piecewise_linear_least_squares(
                 step = centre.copy()
                 step[k] += h
                 jac[:, k] = (np.asarray(residuals(step), dtype=float) - r0) / h
+        forms.append((lo, hi, centre, r0, jac))
+    order, floor = _cell_floors(forms)
+    best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
+    for c in order:
+        if best is not None and floor[c] > best[0]:
+            break  # no later cell can do better than its unbounded minimum
+        lo, hi, centre, r0, jac = forms[c]
         norms = np.sqrt(np.sum(jac * jac, axis=0))
         moving = norms > 1e-12 * max(float(norms.max(initial=0.0)), 1e-300)
         theta = np.clip(base, lo, hi)  # a parameter that moves nothing: nearest its baseline
