@@ -67,14 +67,14 @@ def test_draws_cover_the_null_case_distinct_mechanisms_and_a_model_error():
 
 
 #: Diagnosis settings of the runs, as the independent world's draws (tests/diagnose/test_independent_world.py):
-#: 45 baseline seeds per flight (180 pooled degrees of freedom on four flights, above the 30 seeds the
-#: error model needs) and 300 bootstrap replicates, where a campaign's defaults (89 seeds for 350 pooled
-#: degrees of freedom, 600 replicates) cost twice the forward runs and the bootstrap. The tests hold
-#: what they held: the bootstrap repeats the error model's estimate from as many seeds on every
-#: replicate, so a false alarm or a wrong cause stays at the family-wise level alpha = 0.01
+#: 30 baseline seeds per flight (the least the error model takes; 120 pooled degrees of freedom on four
+#: flights) and 300 bootstrap replicates, where a campaign's defaults (90 seeds on four flights for 400
+#: pooled degrees of freedom, 600 replicates) cost three times the forward runs and twice the bootstrap.
+#: The tests hold what they held: the bootstrap repeats the error model's estimate from as many seeds on
+#: every replicate, so a false alarm or a wrong cause stays at the family-wise level alpha = 0.01
 #: (p < alpha: the campaign beats all but 2 of 300 replicates, 3/301 = 1.00 % under the null, against
 #: 6/601 = 1.00 % with 600); a miss is an expected failure either way, its rate the benchmarks'.
-DIAGNOSIS_SETTINGS = {"seeds": [101 * (k + 1) for k in range(45)], "bootstrap": 300}
+DIAGNOSIS_SETTINGS = {"seeds": [101 * (k + 1) for k in range(30)], "bootstrap": 300}
 
 
 def hidden_runs(config: pytest.Config) -> dict[int, WorkflowRun]:

@@ -160,10 +160,10 @@ def judged_draw(truth: Draw, folder) -> dict:
     settings = WorldSettings(n_flights=3, hover_s=660.0)   # the chain needs 600 s of detected hover
     manifest = write_campaign(truth, folder, settings)
     config = default_config()
-    # Fewer baseline seeds and bootstrap replicates than a campaign's defaults (sized for 350
-    # pooled dof and 600 draws), for the suite's time: 45 seeds per flight (above the 30 the
-    # error model needs) and 300 replicates (smallest family-wise p 1/301, below alpha 0.01).
-    config["diagnosis"] = {**config["diagnosis"], "seeds": [101 * (k + 1) for k in range(45)], "bootstrap": 300}
+    # Fewer baseline seeds and bootstrap replicates than a campaign's defaults (sized for 400
+    # pooled dof and 600 draws), for the suite's time: 30 seeds per flight (the least the error
+    # model takes) and 300 replicates (smallest family-wise p 1/301, below alpha 0.01).
+    config["diagnosis"] = {**config["diagnosis"], "seeds": [101 * (k + 1) for k in range(30)], "bootstrap": 300}
     out = judge(truth, diagnose_evidence(measured_campaign_evidence(manifest, config), config))
     print(truth.label, json.dumps(out, default=str))   # shown with pytest -s: the measured outcome
     return out

@@ -224,15 +224,17 @@ def test_cli_plan_bad_file(tmp_path, capsys):
 @pytest.mark.slow
 def test_power_of_a_two_flight_plan(tmp_path):
     """A 2-flight plan: a large w gain is detected in nearly every draw, the false-alarm rate is
-    small (the diagnosis' calibration: 0 of 12 null draws named a cause). Ten draws per rate
-    and a bootstrap of 100 replicates (the least that alpha = 0.01 allows): each drawn campaign
-    is diagnosed with a bootstrap of its own, 15-20 CPU-s with the default 600 replicates."""
+    small (the diagnosis' calibration: 0 of 12 null draws named a cause). Ten draws per rate,
+    30 baseline seeds per flight (the least the error model takes; the default for two flights
+    is 90) and a bootstrap of 100 replicates (the least that alpha = 0.01 allows): each drawn
+    campaign is diagnosed with a bootstrap of its own."""
     from dronewind.plan import plan_campaign
 
     body = _plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
                           "detect": [{"mechanism": "w_gain", "parameters": {"gain": 1.25}}], "max_flights": 2},
                  monte_carlo={"draws": 10, "curve_draws": 10, "seed": 3})
-    plan = plan_campaign(parse_plan(body, "p.yaml"), config={"diagnosis": {"bootstrap": 100}}, work_dir=tmp_path)
+    plan = plan_campaign(parse_plan(body, "p.yaml"), config={"diagnosis": {"bootstrap": 100, "seeds": list(range(1, 31))}},
+                         work_dir=tmp_path)
     r = plan.power["w_gain gain=1.25"]
     # the Wilson bound of 10/10 is 1 to rounding
     assert r.power >= 0.8 and r.interval[0] - 1e-12 <= r.power <= r.interval[1] + 1e-12
