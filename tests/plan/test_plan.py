@@ -233,8 +233,8 @@ def test_power_of_a_two_flight_plan(tmp_path):
     body = _plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
                           "detect": [{"mechanism": "w_gain", "parameters": {"gain": 1.25}}], "max_flights": 2},
                  monte_carlo={"draws": 10, "curve_draws": 10, "seed": 3})
-    plan = plan_campaign(parse_plan(body, "p.yaml"), config={"diagnosis": {"bootstrap": 100, "seeds": list(range(1, 31))}},
-                         work_dir=tmp_path)
+    config = {"diagnosis": {"bootstrap": 100, "seeds": list(range(1, 31))}}
+    plan = plan_campaign(parse_plan(body, "p.yaml"), config=config, work_dir=tmp_path)
     r = plan.power["w_gain gain=1.25"]
     # the Wilson bound of 10/10 is 1 to rounding
     assert r.power >= 0.8 and r.interval[0] - 1e-12 <= r.power <= r.interval[1] + 1e-12

@@ -36,9 +36,10 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    campaign without the error (:math:`\Delta = 0`).
 
 Cost: a 2-flight campaign costs about 16 CPU-s to simulate, process and forward-run, a drawn
-campaign's diagnosis 15-20 CPU-s (its bootstrap of ``diagnosis.bootstrap`` replicates, each
-repeating the profiled discrepancy of every candidate), which dominates: a plan's power costs
-about the number of draws times that. Full simulations of every draw would add the
+campaign's diagnosis about 13 CPU-s on two flights and 16 on six with the default 600 bootstrap
+replicates (each repeating the profiled discrepancy of every candidate; throughput in
+``benchmarks/test_bench_statistics.py``), which dominates: a plan's power costs about the
+number of draws times that. Full simulations of every draw would add the
 simulation's cost to each; they are the check (:func:`simulated_detection`,
 ``benchmarks/plan_validation.py``).
 """
