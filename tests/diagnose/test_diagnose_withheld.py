@@ -147,3 +147,20 @@ def test_a_second_cause_is_reported_at_its_own_rounds_fit():
     assert reported == pytest.approx(second.estimate()["gain"], rel=1e-12)  # ... and the named round's is reported
     rerun = {m["mechanism"]: m["parameters"] for m in dc.named_mechanisms(result)}
     assert rerun["w_gain"]["gain"] == pytest.approx(reported, rel=1e-12)
+
+
+
+@pytest.mark.parametrize("seed", [21, 22])
+def test_naming_stops_at_a_withheld_candidate(seed):
+    """An ``ln_hf_u`` excess and a w gain of 1.3: ``sonic_noise`` is the best fit and withheld;
+    the w gain is significant in the same round but is not named after it (the scores of that
+    round were fitted to data holding the withheld signature, where a candidate that mimics part
+    of it would be named for it), and its misfit is reported as unexplained."""
+    measured, forward = _campaign(np.random.default_rng(seed), hf_u_excess=0.4, w_gain=1.3)
+    result = dc.diagnose(dc.assemble(measured, forward), n_replicates=REPLICATES)
+    assert result.scores["w_gain"].significant
+    assert result.scores["sonic_noise"].gain > result.scores["w_gain"].gain
+    diag = dc.to_json(result, "synthetic")
+    assert [w["mechanism"] for w in diag["withheld"]] == ["sonic_noise"]
+    assert diag["named_causes"] == []
+    assert {"ln_hf_u", "ln_sigma_ratio_w"} <= {u["feature"] for u in diag["unexplained"]}

@@ -350,7 +350,8 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
     explains something the first does not, by more than that gain's uncertainty. A candidate
     whose estimate sits at a catalog bound is not identified; one whose evidence rests on one
     feature that an effect outside the catalog moves alike (:data:`FEATURE_ALIASES`) is
-    withheld; neither is named.
+    withheld, and naming stops there (the others were scored on data holding its signature);
+    neither is named.
 
     Parameters
     ----------
@@ -440,9 +441,16 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
         share = feature_shares(y, after, ev.baseline, profiles[best].total_sigma)
         if single_feature_alias(share) is not None:
             # its evidence is one feature that an effect outside the catalog moves alike:
-            # not a cause the data can name (the misfit stays, and is reported as unexplained)
+            # not a cause the data can name (the misfit stays, and is reported as unexplained).
+            # Naming stops here: the other candidates' scores were fitted to data holding that
+            # signature, and one that mimics part of it would be named for it (a hidden sonic
+            # noise withheld, then a mast w attenuation named on the high-frequency w it had
+            # raised). Taking the withheld fit out first does not help: its whole effect
+            # leaves the opposite of its prediction in the other features when the alias is the
+            # cause (a w gain named next), its effect on the aliased feature alone leaves the
+            # rest of a genuine noise's signature.
             withheld.append(Withheld(best, score, share))
-            continue
+            break
         named.append((best, score))
         named_profiles.append(profiles[best])
         shares.append(share)
