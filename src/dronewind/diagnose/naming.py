@@ -494,6 +494,9 @@ UNCATALOGUED_ALIASES: dict[str, str] = {
                           "-2.6 degree tilt were named mount_misalignment",
     "sonic_ins_lag": "an INS lever arm along the body's forward axis (the missing omega x r term) moves the lag "
                      "search's minimum: a hidden 1 m lever arm was named sonic_ins_lag at 0.105 s",
+    "height_offset": "a mean-speed deficit at the reference mast (boom or tower blockage of its flow) raises the "
+                     "drone/mast wind-speed ratio as a higher drone does: both mast flow distortions (7 % speed "
+                     "deficit, -2.6 degree tilt) of the independent world's campaigns were named height_offset",
 }
 
 
