@@ -154,20 +154,8 @@ class Discrepancy:
         return np.where(np.isfinite(self.tau), self.tau, 0.0)
 
 
-def _wls(r: np.ndarray, v: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """Weighted least squares of ``r`` on ``x`` with variances ``v``: residuals, Q and the DL denominator."""
-    w = 1.0 / v
-    xtwx = x.T @ (w[:, None] * x)
-    inv = np.linalg.pinv(xtwx)
-    beta = inv @ (x.T @ (w * r))
-    e = r - x @ beta
-    q = float(np.sum(w * e * e))
-    denom = float(np.sum(w) - np.trace(inv @ (x.T @ ((w * w)[:, None] * x))))
-    return e, q, denom
-
-
 def _q_at(tau2: float, r: np.ndarray, v: np.ndarray, x: np.ndarray) -> float:
-    return _wls(r, v + tau2, x)[1]
+    return float(_wls_batch(r[None, :], (v + tau2)[None, :], x)[1][0])
 
 
 def _profile_bound(target: float, r: np.ndarray, v: np.ndarray, x: np.ndarray, scale: float = 1.0) -> float:
@@ -304,31 +292,21 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
     dof = np.zeros(p, dtype=float)
     lost = np.zeros(p) if lost_dof is None else np.nan_to_num(np.asarray(lost_dof, dtype=float), nan=0.0)
     trend = np.zeros(p, dtype=bool)
-    if not interval:
-        for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed):
-            k = rows.size - x.shape[1]
-            _, q_g, denom_g = _wls_batch(r_all[np.ix_(rows, feats)].T, s_all[np.ix_(rows, feats)].T ** 2, x)
-            k_eff_g = k - np.clip(lost[feats], 0.0, MAX_LOST_SHARE * k)
-            denom_g = denom_g * k_eff_g / k
-            with np.errstate(invalid="ignore", divide="ignore"):
-                tau2[feats] = np.where(denom_g > 0, np.maximum(0.0, (q_g - k_eff_g) / denom_g), 0.0)
-            q_stat[feats], dof[feats], trend[feats] = q_g, k_eff_g, with_trend
-        return Discrepancy(np.sqrt(tau2), np.sqrt(low), np.sqrt(high), q_stat, dof, trend)
-    for f in range(p):
-        ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
-        x, with_trend = _offset_trend_design(speed[ok])
-        k = int(ok.sum()) - x.shape[1]
-        if k < 1:
+    for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed):
+        k = rows.size - x.shape[1]
+        r_g, v_g = r_all[np.ix_(rows, feats)].T, s_all[np.ix_(rows, feats)].T ** 2
+        _, q_g, denom_g = _wls_batch(r_g, v_g, x)
+        k_eff_g = k - np.clip(lost[feats], 0.0, MAX_LOST_SHARE * k)
+        denom_g = denom_g * k_eff_g / k
+        with np.errstate(invalid="ignore", divide="ignore"):
+            tau2[feats] = np.where(denom_g > 0, np.maximum(0.0, (q_g - k_eff_g) / denom_g), 0.0)
+        q_stat[feats], dof[feats], trend[feats] = q_g, k_eff_g, with_trend
+        if not interval:
             continue
-        r, v = r_all[ok, f], s_all[ok, f] ** 2
-        _, q, denom = _wls(r, v, x)
-        k_eff = k - float(np.clip(lost[f], 0.0, MAX_LOST_SHARE * k))
-        denom *= k_eff / k
-        tau2[f] = max(0.0, (q - k_eff) / denom) if denom > 0 else 0.0
-        q_stat[f], dof[f], trend[f] = q, k_eff, with_trend
-        scale = k / k_eff  # the interval's Q is read on the fitted residuals' reduced scale
-        low[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.975, k_eff)), r, v, x, scale)
-        high[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.025, k_eff)), r, v, x, scale)
+        for f, r, v, k_eff in zip(feats, r_g, v_g, k_eff_g, strict=True):
+            scale = k / k_eff  # the interval's Q is read on the fitted residuals' reduced scale
+            low[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.975, k_eff)), r, v, x, scale)
+            high[f] = _profile_bound(float(scipy.stats.chi2.ppf(0.025, k_eff)), r, v, x, scale)
     return Discrepancy(np.sqrt(tau2), np.sqrt(low), np.sqrt(high), q_stat, dof, trend)
 
 

@@ -74,8 +74,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
-import scipy.linalg.lapack
 
 __all__ = ["MIN_EIGENVALUE", "ShrunkCorrelation", "shrunk_correlation", "whiten", "Whitener", "flight_correlations",
            "nearest_correlation", "row_patterns"]
@@ -232,37 +230,18 @@ class Whitener:
 
     Notes
     -----
-    The inverse Cholesky factor of every sub-matrix (one per row and pattern of used
-    features) is computed once and kept.
+    The inverse Cholesky factors of every row's sub-matrix of used features are computed once
+    per pattern of used features over the rows and kept (:meth:`padded`).
     """
 
     def __init__(self, corr: np.ndarray | None) -> None:
         self.corr = None if corr is None else np.asarray(corr, dtype=float)
-        self._cache: dict[tuple[int, bytes], np.ndarray] = {}
         self._padded: dict[tuple[tuple[int, ...], bytes], np.ndarray] = {}
 
     @property
     def per_row(self) -> bool:
         """Whether every row has a matrix of its own."""
         return self.corr is not None and self.corr.ndim == 3
-
-    def factor(self, use: np.ndarray, row: int = 0) -> np.ndarray:
-        """:math:`L^{-1}` of the sub-matrix of the features flagged in ``use`` (boolean, (p,)) for ``row``."""
-        row = int(row) if self.per_row else 0
-        key = (row, np.asarray(use, dtype=bool).tobytes())
-        if key not in self._cache:
-            assert self.corr is not None
-            matrix = self.corr[row] if self.per_row else self.corr
-            sub = matrix[np.ix_(use, use)]
-            lower = np.linalg.cholesky(sub)
-            # LAPACK's triangular inverse: solve_triangular against the identity goes through
-            # OpenBLAS's threaded trsm, which took 4.8 ms instead of 2 us for a 15 x 15 factor
-            # on a loaded 2-core machine (threads waiting for cores)
-            inverse, info = scipy.linalg.lapack.dtrtri(lower, lower=1)
-            if info != 0:
-                raise np.linalg.LinAlgError(f"triangular inverse failed (LAPACK info {info})")
-            self._cache[key] = np.tril(inverse)
-        return self._cache[key]
 
     def padded(self, use: np.ndarray) -> np.ndarray:
         """Every row's :math:`L_i^{-1}` at once, zero-padded to the full feature set.

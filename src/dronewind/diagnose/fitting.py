@@ -496,20 +496,22 @@ def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, fligh
     mask = np.isfinite(yf) & np.isfinite(sf) & (sf > 0)
     factors = white.subset(flights).padded(mask) if white.corr is not None else None
 
+    def whiten_used(v: np.ndarray) -> np.ndarray:
+        """Whitened standardised values (n, p) (zero where not used), as one vector of the used ones."""
+        return (v if factors is None else np.einsum("ipq,iq->ip", factors, v))[mask]
+
     def residuals(theta: np.ndarray) -> np.ndarray:
         # a feature the forward model cannot produce at this flight counts as no misfit
         z = standardised_residuals(yf, model.predict(theta, flights), sf)
-        if factors is None:
-            return z[mask]
-        return np.einsum("ipq,iq->ip", factors, np.where(mask, z, 0.0))[mask]
+        return whiten_used(np.where(mask, z, 0.0))
 
     theta, theta_std, value, success, message = piecewise_linear_least_squares(
-        residuals, model.parameters, _tabulated_cell_form(model, yf, sf, flights, mask, factors))
+        residuals, model.parameters, _tabulated_cell_form(model, yf, sf, flights, mask, whiten_used))
     return FitResult(theta, theta_std, value, base_chi2, success, message)
 
 
 def _tabulated_cell_form(model: ResponseModel, yf: np.ndarray, sf: np.ndarray, flights: np.ndarray,
-                         mask: np.ndarray, factors: np.ndarray | None
+                         mask: np.ndarray, whiten_used: Callable[[np.ndarray], np.ndarray]
                          ) -> Callable[[tuple[int, ...]], tuple[np.ndarray, np.ndarray]] | None:
     """The residuals' linear form on every cell, read from the response tables (``cell_form`` of
     :func:`piecewise_linear_least_squares`).
@@ -529,8 +531,7 @@ def _tabulated_cell_form(model: ResponseModel, yf: np.ndarray, sf: np.ndarray, f
     scale = np.where(mask, sf, 1.0)
 
     def whitened(v: np.ndarray) -> np.ndarray:
-        v = np.where(mask, v / scale, 0.0)
-        return (v if factors is None else np.einsum("ipq,iq->ip", factors, v))[mask]
+        return whiten_used(np.where(mask, v / scale, 0.0))
 
     start = whitened(yf - model.baseline[flights])
     lines = []
