@@ -100,8 +100,8 @@ STUDIES: dict[str, Study] = {
     # planning, robustness
     "plan_validation": Study("plan_validation.py", ("--seeds", "20", "--flights", "3", "--draws", "60",
                                                     "--workers", "2"), "dronewind plan against simulated campaigns"),
-    "plan_validation_rigid": Study("plan_validation.py", ("--seeds", "20", "--workers", "1", "--rigid-only"),
-                                   "the same for rigid-mount plans"),
+    "plan_validation_rigid": Study("plan_validation.py", ("--seeds", "100", "--workers", "1", "--rigid-only"),
+                                   "the same for rigid-mount plans (uncertainties, 100 seeds per flight)"),
     "soak_faults": Study("soak_faults.py", (), "20 seeded faults in a 6-flight measured campaign, one run",
                          out_option=False),
     "reader_fuzzing": Study("bench_reader_fuzzing.py", ("800",), "every reader under byte-level logger faults",
