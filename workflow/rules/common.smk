@@ -14,6 +14,7 @@ from dronewind.config import check_config
 from dronewind.core.attribution import attribution
 from dronewind.diagnose.probes import (
     CHAIN_SETTINGS,
+    SCALE_DOF,
     fresh_seeds,
     probe_parts,
     resolved_seeds,
@@ -127,8 +128,9 @@ def _published():
 
 
 PUBLISHED, PUBLISHED_FLIGHTS = _published()
-# the published numbers' baseline seeds, enough for their stationary flights
-PUBLISHED_SEEDS = resolved_seeds(config["diagnosis"]["seeds"], len(PUBLISHED_FLIGHTS))
+# the published numbers' baseline seeds, enough for their stationary flights (only their
+# seed scale is estimated, no feature correlation)
+PUBLISHED_SEEDS = resolved_seeds(config["diagnosis"]["seeds"], len(PUBLISHED_FLIGHTS), dof=SCALE_DOF)
 
 # Job priorities (Snakemake picks among ready jobs by priority). The forward-model runs are the
 # longest jobs, so the chain that feeds them (simulation, L1-L3, measured features) and the
