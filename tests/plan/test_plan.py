@@ -226,8 +226,8 @@ def test_power_of_a_two_flight_plan(tmp_path):
     """A 2-flight plan: a large w gain is detected in nearly every draw, the false-alarm rate is
     small (the diagnosis' calibration: 0 of 12 null draws named a cause). Ten draws per rate,
     30 baseline seeds per flight (the least the error model takes; the default for two flights
-    is 90) and a bootstrap of 100 replicates (the least that alpha = 0.01 allows): each drawn
-    campaign is diagnosed with a bootstrap of its own."""
+    is 90) and a bootstrap of 100 replicates (the least that alpha = 0.01 allows), drawn once per
+    error and flight count for all draws (test_shared_reference_decides_as_each_draws_own)."""
     from dronewind.plan import plan_campaign
 
     body = _plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
@@ -240,3 +240,53 @@ def test_power_of_a_two_flight_plan(tmp_path):
     assert r.power >= 0.8 and r.interval[0] - 1e-12 <= r.power <= r.interval[1] + 1e-12
     assert plan.false_alarm is not None and plan.false_alarm.power >= 0.7
     assert len(plan.manifest["payload_flights"]) == plan.n_flights
+
+
+@pytest.fixture(scope="module")
+def two_flight_model(tmp_path_factory):
+    """The power model of a 2-flight plan with a w gain of 1.25 hidden (30 seeds per flight)."""
+    from dronewind.manifest import with_defaults
+    from dronewind.plan import plan_campaign
+    from dronewind.plan import power as pw
+
+    spec = parse_plan(_plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
+                                     "detect": [{"mechanism": "w_gain", "parameters": {"gain": 1.25}}],
+                                     "max_flights": 2}), "p.yaml")
+    config = with_defaults({"diagnosis": {"bootstrap": 100, "seeds": list(range(1, 31))}})
+    plan = plan_campaign(spec, config=config, simulate_power=False)
+    full = plan_manifest(spec, 2, plan.duration_s, flight_speeds(*plan.speed_range_ms, 2), plan.distance_m,
+                         seed=spec.seed)
+    error = spec.detect[0]
+    work = tmp_path_factory.mktemp("power")
+    null, hidden = pw.with_error(full, None), pw.with_error(full, error)
+    model = pw.power_model(pw.manifest_evidence(null, config, work / "none"), null,
+                           {error.label: (error, pw.manifest_evidence(hidden, config, work / "error"), hidden)})
+    return model, error.label, config
+
+
+@pytest.mark.slow
+def test_shared_reference_decides_as_each_draws_own(two_flight_model):
+    """The draws of one case share one bootstrap reference (made once per error and flight count,
+    reused on the next call); their decisions are those of a reference of each draw's own: the
+    two differ only where a p-value sits near alpha, so at least 5 of 6 paired draws agree, and
+    the draws are the same campaigns both ways (same seed, same features)."""
+    from dronewind.diagnose.experiments import diagnose_evidence, judge
+    from dronewind.plan import power as pw
+
+    model, label, config = two_flight_model
+    first = pw.draw_power(model, label, 2, 6, 11, config)
+    assert set(model.references) == {(label, 2)}
+    ref = model.references[(label, 2)]
+    assert ref is not None and ref.n_replicates == 100
+    again = pw.draw_power(model, label, 2, 6, 11, config)
+    assert model.references[(label, 2)] is ref and again == first
+    draws = list(pw.drawn_campaigns(model, label, 2, 6, 11))
+    same = list(pw.drawn_campaigns(model, label, 2, 6, 11))
+    assert [d.evidence["measured"] for d in draws] == [d.evidence["measured"] for d in same]
+    own = [judge(d.truth, diagnose_evidence(d.evidence, config), d.campaign)["detected"] for d in draws]
+    shared = [judge(d.truth, diagnose_evidence(d.evidence, config, reference=ref), d.campaign)["detected"]
+              for d in draws]
+    assert sum(shared) == first.detected
+    assert sum(a == b for a, b in zip(own, shared, strict=True)) >= 5
+    with pytest.raises(ValueError, match="per_draw"):
+        pw.draw_power(model, label, 2, 1, 11, config, reference="bootstrap")

@@ -683,7 +683,7 @@ def campaign_evidence(truth: Draw, config: Mapping[str, Any], work_dir: str | Pa
     return {"name": data["name"], "measured": measured, "forward": fwd}
 
 
-def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any]) -> dict[str, Any]:
+def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any], reference: Any = None) -> dict[str, Any]:
     """The campaign diagnosis of :func:`campaign_evidence`'s output, as ``diagnosis.json``.
 
     Parameters
@@ -692,6 +692,9 @@ def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any]) ->
         Output of :func:`campaign_evidence` (or the same read back from JSON).
     config : mapping
         Workflow configuration (its ``diagnosis`` settings; defaults where missing).
+    reference : NullReference, optional
+        A bootstrap reference for evidence with the same forward runs
+        (:func:`dronewind.diagnose.naming.diagnose`); by default the diagnosis draws its own.
 
     Returns
     -------
@@ -703,7 +706,7 @@ def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any]) ->
     diagnosis = with_defaults(config)["diagnosis"]
     result = dc.diagnose(dc.assemble(evidence["measured"], evidence["forward"]), alpha=float(diagnosis["alpha"]),
                          max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]),
-                         n_replicates=int(diagnosis["bootstrap"]))
+                         n_replicates=int(diagnosis["bootstrap"]), reference=reference)
     out = dc.to_json(result, evidence["name"])
     out["atmosphere"] = str(diagnosis["atmosphere"])
     return out

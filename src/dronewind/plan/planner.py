@@ -232,7 +232,8 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     progress = Progress("power draw", len(labels) * len(counts) * draws_curve + (len(labels) + 1) *
                         (spec.draws - draws_curve), "diagnosed")
     for label in labels:
-        plan.power_curve[label] = [draw_power(model, label, k, draws_curve, spec.seed, settings, progress)
+        plan.power_curve[label] = [draw_power(model, label, k, draws_curve, spec.seed, settings, progress,
+                                              spec.reference)
                                    for k in counts]
     reached = [k for k in counts if all(plan.power_curve[lab][k - 1].power >= spec.power for lab in labels)]
     n = reached[0] if reached else spec.max_flights
@@ -240,10 +241,10 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
         plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for every "
                           "error: the plan flies the most and the power target is not met")
     for label in labels:
-        more = draw_power(model, label, n, spec.draws - draws_curve, spec.seed + 1, settings, progress)
+        more = draw_power(model, label, n, spec.draws - draws_curve, spec.seed + 1, settings, progress, spec.reference)
         first = plan.power_curve[label][n - 1]
         plan.power[label] = PowerResult(label, n, first.detected + more.detected, first.draws + more.draws)
-    plan.false_alarm = draw_power(model, None, n, spec.draws, spec.seed + 2, settings, progress)
+    plan.false_alarm = draw_power(model, None, n, spec.draws, spec.seed + 2, settings, progress, spec.reference)
     progress.finished()
     plan.seconds["power_draws"] = time.perf_counter() - t1
     plan.n_flights = n
@@ -253,4 +254,6 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     plan.power_note = (f"power: {spec.draws} Monte-Carlo campaigns per error drawn about the {spec.max_flights}-flight "
                        f"campaign simulated with the error (its effect: the residuals' difference from the same "
                        f"campaign without it; noise factor {model.noise_factor:.2f}), each diagnosed and judged as a "
-                       f"measured campaign; 95 % Wilson intervals")
+                       f"measured campaign"
+                       + (" against one bootstrap reference per error and flight count" if spec.reference == "shared"
+                          else " with a bootstrap reference of its own") + "; 95 % Wilson intervals")

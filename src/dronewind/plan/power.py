@@ -23,25 +23,29 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    of the campaign with the error, and decided exactly as a measured campaign is: by
    :func:`dronewind.diagnose.experiments.diagnose_evidence`'s call of
    :func:`dronewind.diagnose.campaign.diagnose` (the configured alpha, ``max_causes``,
-   ``min_gain`` and bootstrap replicates; a bootstrap reference of its own per draw, since the
-   reference carries the draw's profiled discrepancy), judged by
+   ``min_gain`` and bootstrap replicates), judged by
    :func:`dronewind.diagnose.experiments.judge` against the planned manifest (the flights'
    own processing lags). The factor :math:`c` is the root mean square of the simulated null
    campaign's own standardised residuals :math:`(y - \bar b)/\sigma` over flights and
-   features: the realised misfit, discrepancy included.
+   features: the realised misfit, discrepancy included. The draws share the forward runs, so
+   the bootstrap reference of their diagnoses is drawn once per error and flight count
+   (:func:`shared_reference`: the discrepancy the draws are generated with,
+   :math:`\tau_f^2 = (c^2 - 1)\overline{\sigma_f^2}`, in place of each draw's profiled one);
+   ``monte_carlo.reference: per_draw`` gives every draw its own, as a measured campaign's
+   diagnosis has. The two decide paired draws alike but where a p-value sits near alpha
+   (``benchmarks/results/plan_reference_agreement.json``, ``benchmarks/plan_reference_agreement.py``).
 4. The power is the share of draws in which the judge finds the error detected (named, or an
    ambiguity-equivalent cause named; a hidden sonic-INS lag, which the chain measures and the
    forward runs are conditioned on, is detected when no cause is named), with its 95 % Wilson
    interval (Wilson 1927) for the number of draws; the false-alarm rate from draws of the
    campaign without the error (:math:`\Delta = 0`).
 
-Cost: a 2-flight campaign costs about 16 CPU-s to simulate, process and forward-run, a drawn
-campaign's diagnosis about 13 CPU-s on two flights and 16 on six with the default 600 bootstrap
-replicates (each repeating the profiled discrepancy of every candidate; throughput in
-``benchmarks/test_bench_statistics.py``), which dominates: a plan's power costs about the
-number of draws times that. Full simulations of every draw would add the
-simulation's cost to each; they are the check (:func:`simulated_detection`,
-``benchmarks/plan_validation.py``).
+Cost: a 2-flight campaign costs about 16 CPU-s to simulate, process and forward-run; a shared
+bootstrap reference about 12 CPU-s (600 replicates; throughput in
+``benchmarks/test_bench_statistics.py``) and each drawn campaign's diagnosis against it about
+0.1-0.4 CPU-s; a draw with a reference of its own about 12 CPU-s on two or three flights and 16
+on six. Full simulations of every draw would add the simulation's cost to each; they are the
+check (:func:`simulated_detection`, ``benchmarks/plan_validation.py``).
 """
 
 from __future__ import annotations
@@ -49,7 +53,7 @@ from __future__ import annotations
 import copy
 import math
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -60,8 +64,8 @@ from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.spec import Detect
 
-__all__ = ["manifest_evidence", "with_error", "PowerModel", "power_model", "draw_power", "PowerResult",
-           "simulated_detection", "hover_statistics"]
+__all__ = ["manifest_evidence", "with_error", "PowerModel", "power_model", "draw_power", "shared_reference",
+           "drawn_campaigns", "DrawnCampaign", "PowerResult", "simulated_detection", "hover_statistics"]
 
 
 def with_error(data: Mapping[str, Any], error: Detect | None, seed: int | None = None) -> dict[str, Any]:
@@ -224,6 +228,8 @@ class PowerModel:
     cases: dict[str, CaseModel] = field(default_factory=dict)
     effects: dict[str, np.ndarray] = field(default_factory=dict)
     errors: dict[str, Detect] = field(default_factory=dict)
+    #: (label, flights) -> the shared bootstrap reference of its draws (:func:`shared_reference`)
+    references: dict[tuple[str | None, int], Any] = field(default_factory=dict, repr=False)
 
     @property
     def flights(self) -> list[str]:
@@ -321,8 +327,60 @@ def _first_flights(manifest: Mapping[str, Any], flights: Sequence[str]) -> dict[
     return out
 
 
+def shared_reference(case: CaseModel, n_flights: int, noise_factor: float,
+                     config: Mapping[str, Any] | None = None) -> Any:
+    r"""One bootstrap reference for every campaign drawn about ``case`` (its first ``n_flights`` flights).
+
+    Parameters
+    ----------
+    case : CaseModel
+        The simulated campaign the draws scatter about.
+    n_flights : int
+        Use the first ``n_flights`` flights.
+    noise_factor : float
+        The draws' noise factor :math:`c` (:attr:`PowerModel.noise_factor`).
+    config : mapping, optional
+        Workflow configuration (its ``diagnosis.bootstrap`` replicates).
+
+    Returns
+    -------
+    dronewind.diagnose.calibration.NullReference or None
+        None where the campaign has fewer than two seeds or no candidates (the diagnosis then
+        uses its chi-square tails, as for a measured campaign).
+
+    Notes
+    -----
+    The draws share the forward runs, so every input of a draw's own reference is the same but
+    the discrepancy the draw profiles. The shared reference takes the discrepancy the draws are
+    generated with: a draw's residual error is :math:`c\,\sigma_{i,f}`, so beyond the sampling
+    error each feature carries :math:`\tau_f^2 = (c^2 - 1)\,\overline{\sigma_f^2}` (the mean
+    over the flights; 0 where :math:`c \le 1`). Every replicate profiles its own discrepancy, as
+    a draw does, so the likelihood-ratio statistics are close to pivotal in it. Checked on paired
+    draws against a reference of each draw's own (``benchmarks/plan_reference_agreement.py``).
+    """
+    from dronewind.diagnose import campaign as dc
+    from dronewind.diagnose.calibration import null_reference
+
+    flights = case.flights[:n_flights]
+    ev = dc.assemble({f: case.measured[f] for f in flights}, {f: case.forward[f] for f in flights})
+    n_replicates = int(with_defaults(dict(config or {}))["diagnosis"]["bootstrap"])
+    if ev.n_seeds < 2 or n_replicates <= 0 or not ev.models:
+        return None
+    used = np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0)
+    # mean squared sampling error over the flights that measure each feature (0 where none does)
+    n_used = used.sum(axis=0)
+    s2 = np.where(used, ev.sigma, 0.0) ** 2
+    mean_s2 = np.divide(s2.sum(axis=0), n_used, out=np.zeros(s2.shape[1]), where=n_used > 0)
+    tau = np.sqrt(max(noise_factor**2 - 1.0, 0.0) * mean_s2)
+    return null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
+                          truth_corr=None if ev.correlation is None else ev.correlation.sample, tau=tau, used=used,
+                          n_seeds=ev.n_seeds, speed_ms=ev.speed_ms, models=ev.models, n_replicates=n_replicates,
+                          seed=0)
+
+
 def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int, seed: int,
-               config: Mapping[str, Any] | None = None, progress: Progress | None = None) -> PowerResult:
+               config: Mapping[str, Any] | None = None, progress: Progress | None = None,
+               reference: str = "shared") -> PowerResult:
     """Detection rate of ``label`` (``None``: no error; then the rate of naming nothing) over drawn campaigns.
 
     Parameters
@@ -342,13 +400,79 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
         :func:`dronewind.diagnose.experiments.diagnose_evidence` reads them).
     progress : Progress, optional
         One item per draw.
+    reference : {"shared", "per_draw"}
+        ``shared``: one bootstrap reference for all draws of this case and flight count
+        (:func:`shared_reference`, kept in ``model.references``); ``per_draw``: each draw's
+        diagnosis draws its own, exactly as a measured campaign's does (about 25 times the cost).
 
     Returns
     -------
     PowerResult
         For ``label=None``, ``detected`` counts the draws naming nothing (1 - false-alarm rate).
     """
-    from dronewind.diagnose.experiments import Draw, diagnose_evidence, judge
+    from dronewind.diagnose.experiments import diagnose_evidence, judge
+
+    if reference not in ("shared", "per_draw"):
+        raise ValueError(f"reference {reference!r}: expected 'shared' or 'per_draw'")
+    case = model.cases[label] if label else model.null
+    ref = None
+    if reference == "shared":
+        key = (label, min(n_flights, len(case.flights)))
+        if key not in model.references:
+            model.references[key] = shared_reference(case, key[1], model.noise_factor, config)
+        ref = model.references[key]
+    hits = 0
+    for k, draw in enumerate(drawn_campaigns(model, label, n_flights, draws, seed)):
+        ctx = progress.item(f"{label or 'no error'}, {n_flights} flights, draw {k + 1}") if progress else _null()
+        with ctx:
+            out = diagnose_evidence(draw.evidence, dict(config or {}), reference=ref)
+            hits += bool(judge(draw.truth, out, draw.campaign)["detected"])
+    return PowerResult(label or "none", n_flights, hits, draws)
+
+
+@dataclass
+class DrawnCampaign:
+    """One Monte-Carlo campaign of :func:`drawn_campaigns`.
+
+    Attributes
+    ----------
+    evidence : dict
+        ``name``, ``measured`` (the drawn features) and ``forward`` (the case's forward runs),
+        as :func:`dronewind.diagnose.experiments.diagnose_evidence` reads it.
+    truth : dronewind.diagnose.experiments.Draw
+        The hidden error (``none`` for the null case), for the judge.
+    campaign : dict
+        The manifest of the drawn flights (the judge reads their processing lags).
+    """
+
+    evidence: dict[str, Any]
+    truth: Any
+    campaign: dict[str, Any]
+
+
+def drawn_campaigns(model: PowerModel, label: str | None, n_flights: int, draws: int, seed: int
+                    ) -> Iterator[DrawnCampaign]:
+    """The measured campaigns drawn about a simulated case (module docstring, step 3).
+
+    Parameters
+    ----------
+    model : PowerModel
+        From :func:`power_model`.
+    label : str or None
+        Error label or None for the campaign without an error.
+    n_flights : int
+        Use the first ``n_flights`` flights.
+    draws : int
+        Number of campaigns.
+    seed : int
+        Seed of the draws (with ``n_flights`` and the label's length: the same arguments give
+        the same campaigns).
+
+    Yields
+    ------
+    DrawnCampaign
+    """
+    from dronewind.diagnose.experiments import Draw
 
     case = model.cases[label] if label else model.null
     flights = case.flights[:n_flights]
@@ -359,16 +483,11 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     campaign = _first_flights(case.manifest, flights)
     rng = np.random.default_rng([int(seed), n_flights, len(label or "")])
     forward = {f: case.forward[f] for f in flights}
-    hits = 0
-    for k in range(draws):
-        ctx = progress.item(f"{label or 'no error'}, {n_flights} flights, draw {k + 1}") if progress else _null()
-        with ctx:
-            xi = rng.standard_normal((len(flights), case.chol.shape[0])) @ case.chol.T
-            y = case.baseline[idx] + effect + model.noise_factor * case.sigma[idx] * xi
-            out = diagnose_evidence({"name": "plan", "measured": _measured(case, y, flights), "forward": forward},
-                                    dict(config or {}))
-            hits += bool(judge(truth, out, campaign)["detected"])
-    return PowerResult(label or "none", n_flights, hits, draws)
+    for _ in range(draws):
+        xi = rng.standard_normal((len(flights), case.chol.shape[0])) @ case.chol.T
+        y = case.baseline[idx] + effect + model.noise_factor * case.sigma[idx] * xi
+        yield DrawnCampaign({"name": "plan", "measured": _measured(case, y, flights), "forward": forward}, truth,
+                            campaign)
 
 
 def simulated_detection(data: Mapping[str, Any], error: Detect | None, seeds: Sequence[int],

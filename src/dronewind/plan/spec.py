@@ -99,6 +99,7 @@ class PlanSpec:
     curve_draws: int
     seed: int
     source: str = "plan"
+    reference: str = "shared"
     raw: dict[str, Any] = field(default_factory=dict, compare=False)
 
     @property
@@ -214,7 +215,7 @@ def parse_plan(data: Mapping[str, Any], source: str = "plan") -> PlanSpec:
         power=float(targets["power"]), max_flights=int(targets["max_flights"]),
         min_correlation=float(targets["min_correlation"]), draws=int(raw["monte_carlo"]["draws"]),
         curve_draws=int(raw["monte_carlo"]["curve_draws"]), seed=int(raw["monte_carlo"]["seed"]), source=source,
-        raw=raw)
+        reference=str(raw["monte_carlo"]["reference"]), raw=raw)
 
 
 def load_plan(path: str | Path) -> PlanSpec:
