@@ -7,7 +7,8 @@ draws a reference of its own. This study draws the same campaigns
 gain) and decides each both ways: the share of draws decided alike, the detection rates of
 both with their 95 % Wilson intervals (Wilson 1927), the discordant pairs (McNemar's exact
 two-sided p-value) and the CPU per draw of each. The simulated campaigns are kept in
-``--evidence-dir`` (deterministic: a rerun reuses them).
+``--evidence-dir`` with the decisions of each draw's own reference (deterministic: a rerun
+reuses them).
 
 Usage::
 
@@ -75,19 +76,30 @@ def _evidence(gain: float, flights: int, folder: Path) -> tuple[Any, dict[str, A
     return model, {"error": error.label, "hover_duration_s": plan.duration_s, "speeds_ms": speeds}
 
 
-def compare(model: Any, label: str | None, flights: int, draws: int, seed: int) -> dict[str, Any]:
-    """Decide the same drawn campaigns with the shared reference and with each draw's own."""
+def compare(model: Any, label: str | None, flights: int, draws: int, seed: int, cache: Path) -> dict[str, Any]:
+    """Decide the same drawn campaigns with the shared reference and with each draw's own.
+
+    The own-reference decisions are kept in ``cache`` (a JSON list; deterministic by draw).
+    """
     config: dict[str, Any] = {}
+    drawn = list(pw.drawn_campaigns(model, label, flights, draws, seed))
     t0 = time.process_time()
-    shared = pw.shared_reference(model.cases[label] if label else model.null, flights, model.noise_factor, config)
+    shared = pw.shared_reference(drawn, config)
     cpu_reference = time.process_time() - t0
-    own, common, cpu_own, cpu_shared = [], [], 0.0, 0.0
-    for k, draw in enumerate(pw.drawn_campaigns(model, label, flights, draws, seed)):
-        t0 = time.process_time()
-        a = judge(draw.truth, diagnose_evidence(draw.evidence, config), draw.campaign)["detected"]
+    kept = json.loads(cache.read_text()) if cache.exists() else []
+    own, common, cpu_own, cpu_shared = [], [], [], 0.0
+    for k, draw in enumerate(drawn):
+        if k < len(kept):
+            a, dt = kept[k]["detected"], kept[k]["cpu_s"]
+        else:
+            t0 = time.process_time()
+            a = bool(judge(draw.truth, diagnose_evidence(draw.evidence, config), draw.campaign)["detected"])
+            dt = time.process_time() - t0
+            kept.append({"detected": a, "cpu_s": dt})
+            cache.write_text(json.dumps(kept))
         t1 = time.process_time()
         b = judge(draw.truth, diagnose_evidence(draw.evidence, config, reference=shared), draw.campaign)["detected"]
-        cpu_own += t1 - t0
+        cpu_own.append(dt)
         cpu_shared += time.process_time() - t1
         own.append(bool(a))
         common.append(bool(b))
@@ -103,7 +115,7 @@ def compare(model: Any, label: str | None, flights: int, draws: int, seed: int) 
                                  "wilson95": list(wilson_interval(k_shared, draws))},
             "decided_alike": draws - discordant, "only_own": only_own, "only_shared": only_shared,
             "mcnemar_exact_p": mcnemar,
-            "cpu_s": {"shared_reference": round(cpu_reference, 2), "per_draw_own": round(cpu_own / draws, 3),
+            "cpu_s": {"shared_reference": round(cpu_reference, 2), "per_draw_own": round(sum(cpu_own) / draws, 3),
                       "per_draw_shared": round(cpu_shared / draws, 3)}}
 
 
@@ -121,8 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     plans = []
     for gain in args.gain:
         model, plan = _evidence(gain, args.flights, args.evidence_dir)
-        cases = [compare(model, plan["error"], args.flights, args.draws, args.seed),
-                 compare(model, None, args.flights, args.draws, args.seed)]
+        stem = args.evidence_dir / f"own_gain{gain:g}_{args.flights}flights_seed{args.seed}"
+        cases = [compare(model, plan["error"], args.flights, args.draws, args.seed, Path(f"{stem}_error.json")),
+                 compare(model, None, args.flights, args.draws, args.seed, Path(f"{stem}_none.json"))]
         plans.append({**plan, "noise_factor": model.noise_factor, "cases": cases})
     argv_text = " ".join(sys.argv[1:] if argv is None else argv)
     out = {"command": f"PYTHONPATH=src .venv/bin/python benchmarks/plan_reference_agreement.py {argv_text}",

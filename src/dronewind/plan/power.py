@@ -29,8 +29,8 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    campaign's own standardised residuals :math:`(y - \bar b)/\sigma` over flights and
    features: the realised misfit, discrepancy included. The draws share the forward runs, so
    the bootstrap reference of their diagnoses is drawn once per error and flight count
-   (:func:`shared_reference`: the discrepancy the draws are generated with,
-   :math:`\tau_f^2 = (c^2 - 1)\overline{\sigma_f^2}`, in place of each draw's profiled one);
+   (:func:`shared_reference`: with the root mean square of the discrepancies the draws
+   profile, in place of each draw's own);
    ``monte_carlo.reference: per_draw`` gives every draw its own, as a measured campaign's
    diagnosis has. The two decide paired draws alike but where a p-value sits near alpha
    (``benchmarks/results/plan_reference_agreement.json``, ``benchmarks/plan_reference_agreement.py``).
@@ -327,55 +327,53 @@ def _first_flights(manifest: Mapping[str, Any], flights: Sequence[str]) -> dict[
     return out
 
 
-def shared_reference(case: CaseModel, n_flights: int, noise_factor: float,
-                     config: Mapping[str, Any] | None = None) -> Any:
-    r"""One bootstrap reference for every campaign drawn about ``case`` (its first ``n_flights`` flights).
+def shared_reference(draws: Sequence[DrawnCampaign], config: Mapping[str, Any] | None = None) -> Any:
+    r"""One bootstrap reference for drawn campaigns that share their forward runs.
 
     Parameters
     ----------
-    case : CaseModel
-        The simulated campaign the draws scatter about.
-    n_flights : int
-        Use the first ``n_flights`` flights.
-    noise_factor : float
-        The draws' noise factor :math:`c` (:attr:`PowerModel.noise_factor`).
+    draws : sequence of DrawnCampaign
+        Campaigns drawn about one simulated case (:func:`drawn_campaigns`: same flights, same
+        forward runs).
     config : mapping, optional
         Workflow configuration (its ``diagnosis.bootstrap`` replicates).
 
     Returns
     -------
     dronewind.diagnose.calibration.NullReference or None
-        None where the campaign has fewer than two seeds or no candidates (the diagnosis then
+        None where there are no draws, fewer than two seeds or no candidates (the diagnosis then
         uses its chi-square tails, as for a measured campaign).
 
     Notes
     -----
-    The draws share the forward runs, so every input of a draw's own reference is the same but
-    the discrepancy the draw profiles. The shared reference takes the discrepancy the draws are
-    generated with: a draw's residual error is :math:`c\,\sigma_{i,f}`, so beyond the sampling
-    error each feature carries :math:`\tau_f^2 = (c^2 - 1)\,\overline{\sigma_f^2}` (the mean
-    over the flights; 0 where :math:`c \le 1`). Every replicate profiles its own discrepancy, as
-    a draw does, so the likelihood-ratio statistics are close to pivotal in it. Checked on paired
-    draws against a reference of each draw's own (``benchmarks/plan_reference_agreement.py``).
+    Every input of a draw's own reference (:func:`dronewind.diagnose.naming.diagnose`) is the
+    same for all draws but the model discrepancy :math:`\hat\tau_f` the draw profiles from its
+    residuals about the baseline. The shared reference takes its root mean square over the
+    draws, :math:`\tau_f = (\overline{\hat\tau_f^2})^{1/2}`: the replicates' discrepancy
+    variance is then the draws' mean one. A hidden error moves the residuals, so its draws
+    profile a larger discrepancy than the null's and their reference is wider, as each draw's
+    own is. Checked on paired draws against a reference of each draw's own
+    (``benchmarks/plan_reference_agreement.py``).
     """
     from dronewind.diagnose import campaign as dc
-    from dronewind.diagnose.calibration import null_reference
+    from dronewind.diagnose.calibration import discrepancy, null_reference
 
-    flights = case.flights[:n_flights]
-    ev = dc.assemble({f: case.measured[f] for f in flights}, {f: case.forward[f] for f in flights})
+    if not draws:
+        return None
     n_replicates = int(with_defaults(dict(config or {}))["diagnosis"]["bootstrap"])
+    tau2 = []
+    ev = None
+    for draw in draws:
+        ev = dc.assemble(draw.evidence["measured"], draw.evidence["forward"])
+        tau2.append(discrepancy(ev.y - ev.baseline, ev.sigma, ev.speed_ms, interval=False).tau_or_zero() ** 2)
+    assert ev is not None
     if ev.n_seeds < 2 or n_replicates <= 0 or not ev.models:
         return None
     used = np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0)
-    # mean squared sampling error over the flights that measure each feature (0 where none does)
-    n_used = used.sum(axis=0)
-    s2 = np.where(used, ev.sigma, 0.0) ** 2
-    mean_s2 = np.divide(s2.sum(axis=0), n_used, out=np.zeros(s2.shape[1]), where=n_used > 0)
-    tau = np.sqrt(max(noise_factor**2 - 1.0, 0.0) * mean_s2)
     return null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
-                          truth_corr=None if ev.correlation is None else ev.correlation.sample, tau=tau, used=used,
-                          n_seeds=ev.n_seeds, speed_ms=ev.speed_ms, models=ev.models, n_replicates=n_replicates,
-                          seed=0)
+                          truth_corr=None if ev.correlation is None else ev.correlation.sample,
+                          tau=np.sqrt(np.mean(tau2, axis=0)), used=used, n_seeds=ev.n_seeds, speed_ms=ev.speed_ms,
+                          models=ev.models, n_replicates=n_replicates, seed=0)
 
 
 def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int, seed: int,
@@ -415,14 +413,15 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     if reference not in ("shared", "per_draw"):
         raise ValueError(f"reference {reference!r}: expected 'shared' or 'per_draw'")
     case = model.cases[label] if label else model.null
+    drawn = list(drawn_campaigns(model, label, n_flights, draws, seed))
     ref = None
     if reference == "shared":
         key = (label, min(n_flights, len(case.flights)))
         if key not in model.references:
-            model.references[key] = shared_reference(case, key[1], model.noise_factor, config)
+            model.references[key] = shared_reference(drawn, config)
         ref = model.references[key]
     hits = 0
-    for k, draw in enumerate(drawn_campaigns(model, label, n_flights, draws, seed)):
+    for k, draw in enumerate(drawn):
         ctx = progress.item(f"{label or 'no error'}, {n_flights} flights, draw {k + 1}") if progress else _null()
         with ctx:
             out = diagnose_evidence(draw.evidence, dict(config or {}), reference=ref)
