@@ -17,6 +17,7 @@ from dronewind.diagnose.calibration import (
     discrepancy,
     empirical_p,
     familywise_p,
+    flight_seed_scale,
     fit_dof,
     mc_standard_error,
     null_reference,
@@ -117,6 +118,48 @@ def test_seed_scale_pools_within_flight_deviations() -> None:
     rng = np.random.default_rng(3)
     x = 2.0 * rng.normal(size=(2, 121, 3)) + np.array([[[5.0]], [[-5.0]]])
     assert seed_scale(x) == pytest.approx(np.full(3, 2.0), rel=0.15)
+
+
+def test_flight_seed_scale_known_answers() -> None:
+    """Each flight's own seed scatter: sd 1 and 3 of two flights with 40 seeds (ddof 1, exact
+    for the +-sd pattern); a flight with fewer than 30 seeds falls back to the pooled scale."""
+    pattern = np.tile([-1.0, 1.0], 20) * np.sqrt(39.0 / 40.0)  # sample sd exactly 1
+    x = np.stack([np.column_stack([pattern, 2 * pattern]), np.column_stack([3 * pattern + 7.0, 2 * pattern])])
+    assert flight_seed_scale(x) == pytest.approx(np.array([[1.0, 2.0], [3.0, 2.0]]))
+    assert seed_scale(x) == pytest.approx(np.array([np.sqrt(5.0), 2.0]))  # pooled variance (1 + 9) / 2
+    few = x.copy()
+    few[1, 25:, 0] = np.nan  # 25 seeds left on the second flight
+    k_few = flight_seed_scale(few)
+    assert k_few[0, 0] == pytest.approx(1.0)
+    assert k_few[1, 0] == pytest.approx(seed_scale(few)[0])
+
+
+def test_replicates_drawn_with_each_flights_scatter_calibrate_the_goodness_of_fit() -> None:
+    """Flights whose seed scatter differs from the analytic errors by factors of 0.3 to 2.5 (as
+    the speed, direction and tilt differences' do): the misfit against the pooled errors is then
+    wider than pooled Gaussian replicates make it, and its bootstrap p-values pile up at both ends
+    (Kolmogorov-Smirnov p < 0.001 over 300 campaigns); replicates drawn with each flight's own
+    seed scatter (``flight_scale``) give uniform p-values (KS p > 0.01)."""
+    rng = np.random.default_rng(11)
+    n, n_seeds, p = 10, 41, 3
+    true = np.exp(rng.uniform(np.log(0.3), np.log(2.5), size=(n, p)))  # seed scatter / analytic error
+    analytic, zero, used = np.ones((n, p)), np.zeros((n, p)), np.ones((n, p), dtype=bool)
+    speed = np.linspace(3.0, 11.0, n)
+    seeds = true[:, None, :] * rng.normal(size=(n, n_seeds, p))
+    refs = {name: null_reference(baseline=zero, analytic=analytic, scale=seed_scale(seeds), corr=None,
+                                 tau=np.zeros(p), used=used, n_seeds=n_seeds, speed_ms=speed, models={},
+                                 n_replicates=400, seed=1, flight_scale=fs)
+            for name, fs in (("pooled", None), ("flight", flight_seed_scale(seeds)))}
+    p_values: dict[str, list[float]] = {"pooled": [], "flight": []}
+    for _ in range(300):
+        own = true[:, None, :] * rng.normal(size=(n, n_seeds, p))
+        resid = true * rng.normal(size=(n, p)) - own.mean(axis=1)
+        sigma = np.sqrt(1.0 + 1.0 / n_seeds) * seed_scale(own)[None, :] * analytic
+        gof = float(np.sum((resid / sigma) ** 2))
+        for name, ref in refs.items():
+            p_values[name].append(empirical_p(gof, ref.gof))
+    assert scipy.stats.kstest(p_values["pooled"], "uniform").pvalue < 0.001
+    assert scipy.stats.kstest(p_values["flight"], "uniform").pvalue > 0.01
 
 
 def test_familywise_min_p_holds_its_rate_over_independent_tests() -> None:

@@ -93,8 +93,8 @@ from dronewind.diagnose.covariance import (
 from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters
 
 __all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
-           "profiled_fit", "seed_scale", "offset_trend_z", "NullReference", "null_reference", "empirical_p",
-           "familywise_p", "mc_standard_error", "smallest_p", "check_attainable", "MIN_FLIGHTS_TREND",
+           "profiled_fit", "seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference", "null_reference",
+           "empirical_p", "familywise_p", "mc_standard_error", "smallest_p", "check_attainable", "MIN_FLIGHTS_TREND",
            "MAX_LOST_SHARE", "DEFAULT_REPLICATES"]
 
 #: Flights needed before a trend with wind speed is removed besides the offset when the
@@ -549,6 +549,36 @@ def seed_scale(x: np.ndarray) -> np.ndarray:
         return np.sqrt(np.where(dof > 0, dev2 / np.maximum(dof, 1), np.nan))
 
 
+def flight_seed_scale(x: np.ndarray, pooled: np.ndarray | None = None, min_seeds: int = 30) -> np.ndarray:
+    """Per-flight standard deviation of standardised seed runs, per feature.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Baseline runs divided by their analytic errors (n_flights, n_seeds, p); NaN: missing.
+    pooled : numpy.ndarray, optional
+        The pooled scale (p,) (:func:`seed_scale`), used where a flight has fewer than
+        ``min_seeds`` finite seeds of a feature (default: computed from ``x``).
+    min_seeds : int
+        Fewest seeds of one flight whose own scatter is used (29 degrees of freedom: a relative
+        standard error of the scale of about 13 %).
+
+    Returns
+    -------
+    numpy.ndarray
+        :math:`k_{if} = \\sqrt{\\sum_s (x_{isf} - \\bar x_{if})^2 / (n_{if} - 1)}` (n_flights, p);
+        the pooled :math:`k_f` where the flight has too few seeds; NaN where neither exists.
+    """
+    finite = np.isfinite(x)
+    n_i = finite.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.nansum(np.where(finite, x, 0.0), axis=1) / n_i
+        dev2 = np.where(finite, (x - mean[:, None, :]) ** 2, 0.0).sum(axis=1)
+        own = np.sqrt(dev2 / (n_i - 1))
+    base = seed_scale(x) if pooled is None else np.asarray(pooled, dtype=float)
+    return np.where(n_i >= max(int(min_seeds), 2), own, base[None, :])
+
+
 def offset_trend_z(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Offset and trend statistics of every feature's residuals, with known variances.
 
@@ -744,7 +774,8 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
                    truth_corr: np.ndarray | None = None, tau: np.ndarray, used: np.ndarray, n_seeds: int,
                    speed_ms: np.ndarray,
                    models: Mapping[str, ResponseModel], n_replicates: int = DEFAULT_REPLICATES,
-                   seed: int = 0, progress: object | None = None) -> NullReference:
+                   seed: int = 0, progress: object | None = None,
+                   flight_scale: np.ndarray | None = None) -> NullReference:
     """Parametric bootstrap over seeds of every statistic of the diagnosis (module docstring).
 
     Parameters
@@ -781,6 +812,16 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         Seed of the generator (the reference is reproducible).
     progress : object, optional
         Called with no argument after each replicate (a progress counter).
+    flight_scale : numpy.ndarray, optional
+        The seeds' own scatter on every flight :math:`k_{if}` (n_flights, p)
+        (:func:`flight_seed_scale`): the replicates' seeds and measurement are drawn with it,
+        while their errors are estimated with the pooled :math:`k_f` as the data's are. The
+        analytic errors give the shape of the sampling error over flights well only for the
+        features that are second moments of one series; for the mean-speed, direction and tilt
+        differences and the correlations with the payload's rotation the seeds' scatter on one
+        flight differs from :math:`k_f s_{if}` by factors of 0.3 to 2.5 within a campaign, which
+        widens the distribution of every statistic beyond what pooled Gaussian replicates give.
+        Default: :math:`k_f` on every flight.
 
     Returns
     -------
@@ -789,6 +830,8 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
     rng = np.random.default_rng(seed)
     n, p = baseline.shape
     k = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+    k_draw = k[None, :] if flight_scale is None else np.where(np.isfinite(flight_scale) & (flight_scale > 0),
+                                                             flight_scale, k[None, :])
     truth = corr if truth_corr is None else truth_corr
     r = np.eye(p) if truth is None else nearest_correlation(np.asarray(truth, dtype=float))
     chol = np.linalg.cholesky(r)
@@ -799,7 +842,7 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
                         np.empty((n_replicates, p)), np.empty((n_replicates, p)))
     s = np.where(used, analytic, np.nan)
     for b in range(n_replicates):
-        draws = (rng.standard_normal((n, n_seeds + 1, p)) @ chol.T) * k[None, None, :]
+        draws = (rng.standard_normal((n, n_seeds + 1, p)) @ chol.T) * k_draw[:, None, :]
         seeds = np.where(used[:, None, :], draws[:, 1:, :], np.nan)
         k_b = seed_scale(seeds)
         k_b = np.where(np.isfinite(k_b) & (k_b > 0), k_b, 1.0)

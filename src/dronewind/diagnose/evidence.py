@@ -20,6 +20,7 @@ import numpy as np
 from dronewind.diagnose.calibration import (
     MIN_FLIGHTS_TREND,
     UNEXPLAINED_ALPHA,
+    flight_seed_scale,
     seed_scale,
 )
 from dronewind.diagnose.covariance import ShrunkCorrelation, Whitener, flight_correlations, shrunk_correlation
@@ -28,7 +29,7 @@ from dronewind.diagnose.fitting import (
     ParameterResponse,
     ResponseModel,
 )
-from dronewind.diagnose.probes import baseline_level
+from dronewind.diagnose.probes import MIN_SEEDS, baseline_level
 from dronewind.mechanisms import get_mechanism
 
 if TYPE_CHECKING:
@@ -98,6 +99,9 @@ class CampaignEvidence:
     #: features left out of the evidence because a measured condition fixes them (:data:`CONDITIONED`)
     conditioned: list[str] = field(default_factory=list)
     tau: np.ndarray | None = None
+    #: the seeds' own scale on every flight :math:`k_{if}` (n_flights, p), which the bootstrap
+    #: draws its replicates with (:func:`~dronewind.diagnose.calibration.flight_seed_scale`)
+    flight_scale: np.ndarray | None = None
     _white: Whitener | None = field(default=None, init=False, repr=False, compare=False)
     _sampling_white: Whitener | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -253,9 +257,15 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
     for feat in conditioned:  # a measured condition of the forward runs is not evidence
         y[:, FEATURES.index(feat)] = np.nan
         used_runs[:, :, FEATURES.index(feat)] = np.nan
+    flight_scale = None
+    if n_seeds >= MIN_SEEDS:
+        with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            flight_scale = flight_seed_scale(runs / np.where(analytic > 0, analytic, np.nan)[:, None, :], scale,
+                                             MIN_SEEDS)
     ev = CampaignEvidence(flights, y, sigma, analytic, scale, mean_runs, runs[:, 0, :], conditions,
                           correlation=feature_correlation(used_runs, analytic), n_seeds=n_seeds,
-                          conditioned=conditioned)
+                          conditioned=conditioned, flight_scale=flight_scale)
     dropped = {CONDITIONED[key][1] for key in CONDITIONED if CONDITIONED[key][0] in conditioned}
     for cand, params in _probe_tables(ev, forward).items():
         if ev.mechanism_of[cand] not in dropped:

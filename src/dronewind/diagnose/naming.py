@@ -393,7 +393,7 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
                                    truth_corr=None if ev.correlation is None else ev.correlation.sample,
                                    tau=disc.tau_or_zero(), used=used, n_seeds=ev.n_seeds, speed_ms=ev.speed_ms,
                                    models=ev.models, n_replicates=int(n_replicates), seed=int(bootstrap_seed),
-                                   progress=progress)
+                                   progress=progress, flight_scale=ev.flight_scale)
     white = ev.whitener()
     sig = ev.total_sigma
     base_chi2 = float(chi2(ev.y, ev.baseline, sig, white).sum())

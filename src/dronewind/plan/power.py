@@ -373,7 +373,8 @@ def shared_reference(draws: Sequence[DrawnCampaign], config: Mapping[str, Any] |
     return null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
                           truth_corr=None if ev.correlation is None else ev.correlation.sample,
                           tau=np.sqrt(np.mean(tau2, axis=0)), used=used, n_seeds=ev.n_seeds, speed_ms=ev.speed_ms,
-                          models=ev.models, n_replicates=n_replicates, seed=0)
+                          models=ev.models, n_replicates=n_replicates, seed=0,
+                          flight_scale=ev.flight_scale)
 
 
 def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int, seed: int,
