@@ -100,6 +100,10 @@ STUDIES: dict[str, Study] = {
     # planning, robustness
     "plan_validation": Study("plan_validation.py", ("--seeds", "20", "--flights", "3", "--draws", "60",
                                                     "--workers", "2"), "dronewind plan against simulated campaigns"),
+    "plan_validation_long_hover": Study("plan_validation.py", ("--seeds", "20", "--flights", "2", "--draws", "20",
+                                                               "--curve-draws", "10", "--workers", "1", "--no-rigid",
+                                                               "--plans", "long_hover_high_wind"),
+                                        "the same for a plan of long hovers in high wind"),
     "plan_validation_rigid": Study("plan_validation.py", ("--seeds", "100", "--workers", "1", "--rigid-only"),
                                    "the same for rigid-mount plans (uncertainties, 100 seeds per flight)"),
     "plan_reference_agreement": Study("plan_reference_agreement.py", ("--gain", "1.05", "1.08", "--flights", "3",
