@@ -290,3 +290,18 @@ def test_shared_reference_decides_as_each_draws_own(two_flight_model):
     assert sum(a == b for a, b in zip(own, shared, strict=True)) >= 5
     with pytest.raises(ValueError, match="per_draw"):
         pw.draw_power(model, label, 2, 1, 11, config, reference="bootstrap")
+
+
+def test_first_flights_of_a_plan_manifest_stay_a_valid_virtual_campaign():
+    """The power curve's campaigns of fewer flights keep only those flights' simulated conditions,
+    so the judge can read their processing lags (a hidden sonic-INS lag's verdict needs them)."""
+    from dronewind.plan.power import _first_flights
+    from dronewind.simulate.settings import validate_simulation
+
+    spec = parse_plan(_plan(targets={"relative_uncertainty": {"sigma_w": 0.1}, "max_flights": 3}), "p.yaml")
+    full = plan_manifest(spec, 3, 630.0, [4.0, 6.0, 8.0], 36.0)
+    one = _first_flights(full, ["p01"])
+    assert [f["id"] for f in one["payload_flights"]] == ["p01"]
+    assert sorted(one["simulation"]["payload_flights"]) == ["p01"]
+    validate_simulation(one)
+    assert sorted(full["simulation"]["payload_flights"]) == ["p01", "p02", "p03"]  # the original is untouched

@@ -321,9 +321,13 @@ def _measured(case: CaseModel, y: np.ndarray, flights: Sequence[str]) -> dict[st
 
 
 def _first_flights(manifest: Mapping[str, Any], flights: Sequence[str]) -> dict[str, Any]:
-    """``manifest`` with only ``flights`` among its payload flights."""
+    """``manifest`` with only ``flights`` among its payload flights (and their simulated conditions)."""
     out = copy.deepcopy(dict(manifest))
-    out["payload_flights"] = [f for f in out["payload_flights"] if f["id"] in set(flights)]
+    keep = set(flights)
+    out["payload_flights"] = [f for f in out["payload_flights"] if f["id"] in keep]
+    sim = out.get("simulation")
+    if isinstance(sim, dict) and isinstance(sim.get("payload_flights"), dict):
+        sim["payload_flights"] = {k: v for k, v in sim["payload_flights"].items() if k in keep}
     return out
 
 
