@@ -7,7 +7,7 @@ from pathlib import Path
 import yaml
 
 #: Baseline seeds of the small campaign's workflow tests: they check the workflow's wiring, not
-#: the diagnosis' statistics (which need the default, enough seeds for 520 pooled degrees of
+#: the diagnosis' statistics (which need the default, enough seeds for 640 pooled degrees of
 #: freedom, and are tested in tests/diagnose/test_diagnose_calibration.py and the hidden-effect draws).
 SMALL_SEEDS = (101, 202, 303, 404, 505)
 

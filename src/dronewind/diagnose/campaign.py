@@ -22,7 +22,7 @@ forward model cannot reproduce is the model discrepancy, estimated and reported 
 Correlated errors: the same seed deviations, divided by the analytic errors, give the pooled
 feature correlation matrix, shrunk toward the identity with the Schäfer-Strimmer analytic
 intensity (:mod:`dronewind.diagnose.covariance`). The number of seeds
-(:func:`dronewind.diagnose.probes.baseline_seeds`) gives the campaign 520 pooled degrees of
+(:func:`dronewind.diagnose.probes.baseline_seeds`) gives the campaign 640 pooled degrees of
 freedom, so that the intensity stays below about 0.3 and real correlations are kept.
 
 Model discrepancy (:mod:`dronewind.diagnose.calibration`): the scatter of every feature's

@@ -126,14 +126,15 @@ def fresh_seeds(used: Sequence[int], n: int = 2) -> tuple[int, ...]:
 
 
 #: Pooled degrees of freedom of the baseline seeds that the feature covariance is estimated
-#: with by default: with 15 features the Schäfer-Strimmer shrinkage intensity falls about as
-#: the inverse of the degrees of freedom (measured on null campaigns: 0.28 with 89 seeds on 4
-#: flights, 356 degrees of freedom; 0.31 with 36 seeds on 10 flights, 350; 0.36 with 60 seeds,
-#: 236), and a campaign of measured atmospheres, whose seeds vary only the part of the wind the
-#: mast does not fix, has weaker correlations (0.36 at 400 on the default campaign). 520 keep
-#: the intensity below 0.3 in both, so that real correlations between the features of one w
-#: series are kept rather than shrunk away.
-SEED_DOF = 520
+#: with by default: with 15 features the Schäfer-Strimmer shrinkage intensity falls with the
+#: degrees of freedom (measured on null campaigns: 0.28 with 89 seeds on 4 flights, 356 degrees
+#: of freedom; 0.31 with 36 seeds on 10 flights, 350; 0.36 with 60 seeds, 236; 0.26 with 41
+#: seeds on 10 flights, 400), and a campaign of measured atmospheres, whose seeds vary only the
+#: part of the wind the mast does not fix, has weaker correlations (on the default campaign
+#: 0.357 at 400 and 0.308 at 520, about as the power -0.56). 640 keep the intensity below 0.3
+#: in both, so that real correlations between the features of one w series are kept rather
+#: than shrunk away.
+SEED_DOF = 640
 #: Pooled degrees of freedom of baseline seeds that only scale the errors (no correlation
 #: estimated: the published numbers, :mod:`dronewind.diagnose.published`): a seed scale with
 #: 400 degrees of freedom has a relative standard error of about 3.5 %.
@@ -141,8 +142,8 @@ SCALE_DOF = 400
 #: Fewest baseline seeds per flight (the seed scale of every feature then has at least 29
 #: degrees of freedom on one flight).
 MIN_SEEDS = 30
-#: Most baseline seeds per flight by default: campaigns of one to three flights stop here
-#: (89, 178 and 267 pooled degrees of freedom) instead of paying up to 351 runs per flight.
+#: Most baseline seeds per flight by default: campaigns of one to seven flights stop here
+#: (89 to 623 pooled degrees of freedom) instead of paying up to 641 runs per flight.
 MAX_SEEDS = 90
 
 
@@ -168,7 +169,7 @@ def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS
     Examples
     --------
     >>> len(baseline_seeds(1)), len(baseline_seeds(4)), len(baseline_seeds(6)), len(baseline_seeds(20))
-    (90, 90, 88, 30)
+    (90, 90, 90, 33)
     """
     n = min(int(maximum), max(int(minimum), -(-int(dof) // max(int(n_flights), 1)) + 1))
     return [101 * (k + 1) for k in range(n)]
