@@ -130,7 +130,9 @@ def _published():
 PUBLISHED, PUBLISHED_FLIGHTS = _published()
 # the published numbers' baseline seeds, enough for their stationary flights (only their
 # seed scale is estimated, no feature correlation)
-PUBLISHED_SEEDS = resolved_seeds(config["diagnosis"]["seeds"], len(PUBLISHED_FLIGHTS), dof=SCALE_DOF)
+PUBLISHED_SEEDS = resolved_seeds(
+    config["diagnosis"]["seeds"], len(PUBLISHED_FLIGHTS), dof=SCALE_DOF
+)
 
 # Job priorities (Snakemake picks among ready jobs by priority). The forward-model runs are the
 # longest jobs, so the chain that feeds them (simulation, L1-L3, measured features) and the
