@@ -540,25 +540,28 @@ def seed_scale(x: np.ndarray) -> np.ndarray:
         NaN where no flight has two finite seeds. This turns a feature's analytic error into
         the seed-to-seed scatter; it is neither floored nor widened.
     """
+    dev2, n_i = _seed_deviations(x)
+    dof = np.where(n_i >= 2, n_i - 1, 0).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(np.where(dof > 0, dev2.sum(axis=0) / np.maximum(dof, 1), np.nan))
+
+
+def _seed_deviations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sum of squared deviations from each flight's seed mean and the finite seeds, both (n_flights, p)."""
     finite = np.isfinite(x)
     n_i = finite.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = np.nansum(np.where(finite, x, 0.0), axis=1) / n_i
-        dev2 = np.where(finite, (x - mean[:, None, :]) ** 2, 0.0).sum(axis=(0, 1))
-        dof = np.where(n_i >= 2, n_i - 1, 0).sum(axis=0)
-        return np.sqrt(np.where(dof > 0, dev2 / np.maximum(dof, 1), np.nan))
+    return np.where(finite, (x - mean[:, None, :]) ** 2, 0.0).sum(axis=1), n_i
 
 
-def flight_seed_scale(x: np.ndarray, pooled: np.ndarray | None = None, min_seeds: int = 30) -> np.ndarray:
+def flight_seed_scale(x: np.ndarray, min_seeds: int = 30) -> np.ndarray:
     """Per-flight standard deviation of standardised seed runs, per feature.
 
     Parameters
     ----------
     x : numpy.ndarray
         Baseline runs divided by their analytic errors (n_flights, n_seeds, p); NaN: missing.
-    pooled : numpy.ndarray, optional
-        The pooled scale (p,) (:func:`seed_scale`), used where a flight has fewer than
-        ``min_seeds`` finite seeds of a feature (default: computed from ``x``).
     min_seeds : int
         Fewest seeds of one flight whose own scatter is used (29 degrees of freedom: a relative
         standard error of the scale of about 13 %).
@@ -567,16 +570,12 @@ def flight_seed_scale(x: np.ndarray, pooled: np.ndarray | None = None, min_seeds
     -------
     numpy.ndarray
         :math:`k_{if} = \\sqrt{\\sum_s (x_{isf} - \\bar x_{if})^2 / (n_{if} - 1)}` (n_flights, p);
-        the pooled :math:`k_f` where the flight has too few seeds; NaN where neither exists.
+        NaN where the flight has fewer than ``min_seeds`` finite seeds of the feature (the
+        bootstrap then uses the pooled :math:`k_f`, :func:`null_reference`).
     """
-    finite = np.isfinite(x)
-    n_i = finite.sum(axis=1)
+    dev2, n_i = _seed_deviations(x)
     with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.nansum(np.where(finite, x, 0.0), axis=1) / n_i
-        dev2 = np.where(finite, (x - mean[:, None, :]) ** 2, 0.0).sum(axis=1)
-        own = np.sqrt(dev2 / (n_i - 1))
-    base = seed_scale(x) if pooled is None else np.asarray(pooled, dtype=float)
-    return np.where(n_i >= max(int(min_seeds), 2), own, base[None, :])
+        return np.where(n_i >= max(int(min_seeds), 2), np.sqrt(dev2 / (n_i - 1)), np.nan)
 
 
 def offset_trend_z(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

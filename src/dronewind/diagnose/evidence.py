@@ -144,7 +144,7 @@ class CampaignEvidence:
 
 
 def _calibrated_errors(y: np.ndarray, measured_sigma: np.ndarray, runs: np.ndarray,
-                       run_sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       run_sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """Sampling errors of the residuals: the forward runs' analytic errors scaled by the seeds' scatter.
 
     Parameters
@@ -163,18 +163,25 @@ def _calibrated_errors(y: np.ndarray, measured_sigma: np.ndarray, runs: np.ndarr
         The analytic errors :math:`s_{if}`: the mean over the seeds of the forward runs'.
     scale : numpy.ndarray
         Per-feature factor :math:`k_f` from analytic to seed scatter (1 with fewer than two seeds).
+    flight_scale : numpy.ndarray or None
+        The same factor of every flight's own seeds :math:`k_{if}` (NaN with fewer than
+        :data:`~dronewind.diagnose.probes.MIN_SEEDS`; None with fewer than two seeds), which the
+        bootstrap draws its replicates with.
     """
     n_seeds = runs.shape[1]
     analytic = np.nanmean(run_sigma, axis=1)
     analytic = np.where(np.isfinite(analytic) & (analytic > 0), analytic, measured_sigma)
+    flight_scale = None
     if n_seeds >= 2:
         with np.errstate(invalid="ignore", divide="ignore"):
-            scale = seed_scale(runs / np.where(analytic > 0, analytic, np.nan)[:, None, :])
+            x = runs / np.where(analytic > 0, analytic, np.nan)[:, None, :]
+        scale = seed_scale(x)
+        flight_scale = flight_seed_scale(x, MIN_SEEDS)
     else:
         scale = np.ones(y.shape[1])
     scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
     sigma = np.sqrt(1.0 + 1.0 / max(n_seeds, 1)) * scale[None, :] * analytic
-    return sigma, analytic, scale
+    return sigma, analytic, scale, flight_scale
 
 
 def _probe_tables(ev: CampaignEvidence, forward: Mapping[str, Mapping[str, Any]]
@@ -246,7 +253,8 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
     runs = np.array([r[:n_seeds] for r in base_runs])  # (n_flights, n_seeds, n_features)
     with warnings.catch_warnings():  # a feature no run has (e.g. lag_drift_s without lag_drift) stays NaN
         warnings.simplefilter("ignore", RuntimeWarning)
-        sigma, analytic, scale = _calibrated_errors(y, s_meas, runs, np.array([s[:n_seeds] for s in base_sig]))
+        sigma, analytic, scale, flight_scale = _calibrated_errors(y, s_meas, runs,
+                                                                  np.array([s[:n_seeds] for s in base_sig]))
         mean_runs = np.nanmean(runs, axis=1)
     conditions = [dict(forward[f]["conditions"]) for f in flights]
     conditioned = [feat for key, (feat, _) in CONDITIONED.items()
@@ -257,12 +265,6 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
     for feat in conditioned:  # a measured condition of the forward runs is not evidence
         y[:, FEATURES.index(feat)] = np.nan
         used_runs[:, :, FEATURES.index(feat)] = np.nan
-    flight_scale = None
-    if n_seeds >= MIN_SEEDS:
-        with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            flight_scale = flight_seed_scale(runs / np.where(analytic > 0, analytic, np.nan)[:, None, :], scale,
-                                             MIN_SEEDS)
     ev = CampaignEvidence(flights, y, sigma, analytic, scale, mean_runs, runs[:, 0, :], conditions,
                           correlation=feature_correlation(used_runs, analytic), n_seeds=n_seeds,
                           conditioned=conditioned, flight_scale=flight_scale)

@@ -44,7 +44,7 @@ from dronewind.mechanisms import get_mechanism
 __all__ = ["AMBIGUITY_COSINE", "AT_BOUND", "MIN_GAIN", "Withheld", "DiagnosisResult", "n_tests", "simplest_variant",
            "response_ambiguity", "diagnose", "best_variants", "UNCATALOGUED_ALIASES", "FEATURE_ALIASES",
            "SINGLE_FEATURE_SHARE", "feature_shares", "single_feature_alias", "caveats", "combined_prediction",
-           "named_mechanisms"]
+           "named_mechanisms", "campaign_reference"]
 
 #: Cosine between a named cause's whitened fitted effect and another candidate's response
 #: subspace above which the data cannot tell them apart (the other reproduces at least 81 %
@@ -336,6 +336,34 @@ def response_ambiguity(ev: CampaignEvidence, candidate: str, effect: np.ndarray,
     return dict(sorted(((m, c) for m, c in best.items() if c >= threshold), key=lambda kv: -kv[1]))
 
 
+def campaign_reference(ev: CampaignEvidence, tau: np.ndarray, n_replicates: int, seed: int = 0,
+                       progress: Any = None) -> NullReference:
+    """The bootstrap reference of a campaign's statistics (:func:`~dronewind.diagnose.calibration.null_reference`).
+
+    Parameters
+    ----------
+    ev : CampaignEvidence
+        The campaign (its baseline, errors, seed scales, correlation and candidates).
+    tau : numpy.ndarray
+        Model discrepancy per feature (p,) [feature units] the replicates carry.
+    n_replicates : int
+        Bootstrap replicates.
+    seed : int
+        Seed of the bootstrap.
+    progress : callable, optional
+        Called after each replicate.
+
+    Returns
+    -------
+    NullReference
+    """
+    used = np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0)
+    return null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
+                          truth_corr=None if ev.correlation is None else ev.correlation.sample, tau=tau, used=used,
+                          n_seeds=ev.n_seeds, speed_ms=ev.speed_ms, models=ev.models, n_replicates=n_replicates,
+                          seed=seed, progress=progress, flight_scale=ev.flight_scale)
+
+
 def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 3,
              min_gain: float = MIN_GAIN, n_replicates: int = DEFAULT_REPLICATES, bootstrap_seed: int = 0,
              progress: Any = None, reference: NullReference | None = None) -> DiagnosisResult:
@@ -386,14 +414,9 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
     idx = np.arange(n)
     disc = discrepancy(ev.y - ev.baseline, ev.sigma, ev.speed_ms)
     ev.set_discrepancy(disc.tau_or_zero())
-    used = np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0)
     if reference is None and ev.n_seeds >= 2 and n_replicates > 0 and ev.models:
         check_attainable(alpha, int(n_replicates))
-        reference = null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
-                                   truth_corr=None if ev.correlation is None else ev.correlation.sample,
-                                   tau=disc.tau_or_zero(), used=used, n_seeds=ev.n_seeds, speed_ms=ev.speed_ms,
-                                   models=ev.models, n_replicates=int(n_replicates), seed=int(bootstrap_seed),
-                                   progress=progress, flight_scale=ev.flight_scale)
+        reference = campaign_reference(ev, disc.tau_or_zero(), int(n_replicates), int(bootstrap_seed), progress)
     white = ev.whitener()
     sig = ev.total_sigma
     base_chi2 = float(chi2(ev.y, ev.baseline, sig, white).sum())

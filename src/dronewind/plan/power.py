@@ -360,25 +360,21 @@ def shared_reference(draws: Sequence[DrawnCampaign], config: Mapping[str, Any] |
     (``benchmarks/plan_reference_agreement.py``).
     """
     from dronewind.diagnose import campaign as dc
-    from dronewind.diagnose.calibration import discrepancy, null_reference
+    from dronewind.diagnose.calibration import discrepancy
+    from dronewind.diagnose.naming import campaign_reference
 
     if not draws:
         return None
     n_replicates = int(with_defaults(dict(config or {}))["diagnosis"]["bootstrap"])
-    tau2 = []
-    ev = None
-    for draw in draws:
-        ev = dc.assemble(draw.evidence["measured"], draw.evidence["forward"])
-        tau2.append(discrepancy(ev.y - ev.baseline, ev.sigma, ev.speed_ms, interval=False).tau_or_zero() ** 2)
-    assert ev is not None
+    # the draws share everything but their features: one assembly, each draw's features in its
+    # measured entries (a feature the campaign does not use stays out, as assemble leaves it)
+    ev = dc.assemble(draws[0].evidence["measured"], draws[0].evidence["forward"])
     if ev.n_seeds < 2 or n_replicates <= 0 or not ev.models:
         return None
-    used = np.isfinite(ev.y) & np.isfinite(ev.sigma) & (ev.sigma > 0)
-    return null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
-                          truth_corr=None if ev.correlation is None else ev.correlation.sample,
-                          tau=np.sqrt(np.mean(tau2, axis=0)), used=used, n_seeds=ev.n_seeds, speed_ms=ev.speed_ms,
-                          models=ev.models, n_replicates=n_replicates, seed=0,
-                          flight_scale=ev.flight_scale)
+    used = np.isfinite(ev.y)
+    tau2 = [discrepancy(np.where(used, d.y, np.nan) - ev.baseline, ev.sigma, ev.speed_ms,
+                        interval=False).tau_or_zero() ** 2 for d in draws]
+    return campaign_reference(ev, np.sqrt(np.mean(tau2, axis=0)), n_replicates)
 
 
 def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int, seed: int,
@@ -406,7 +402,8 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     reference : {"shared", "per_draw"}
         ``shared``: one bootstrap reference for all draws of this case and flight count
         (:func:`shared_reference`, kept in ``model.references``); ``per_draw``: each draw's
-        diagnosis draws its own, exactly as a measured campaign's does (about 25 times the cost).
+        diagnosis draws its own, exactly as a measured campaign's does (about 12 CPU-s per draw against
+        0.1-0.4, ``benchmarks/results/plan_reference_agreement.json``).
 
     Returns
     -------
@@ -443,6 +440,8 @@ class DrawnCampaign:
     evidence : dict
         ``name``, ``measured`` (the drawn features) and ``forward`` (the case's forward runs),
         as :func:`dronewind.diagnose.experiments.diagnose_evidence` reads it.
+    y : numpy.ndarray
+        The drawn features (n_flights, p) [feature units], flights in the diagnosis' order.
     truth : dronewind.diagnose.experiments.Draw
         The hidden error (``none`` for the null case), for the judge.
     campaign : dict
@@ -452,6 +451,7 @@ class DrawnCampaign:
     evidence: dict[str, Any]
     truth: Any
     campaign: dict[str, Any]
+    y: np.ndarray
 
 
 def drawn_campaigns(model: PowerModel, label: str | None, n_flights: int, draws: int, seed: int
@@ -491,7 +491,7 @@ def drawn_campaigns(model: PowerModel, label: str | None, n_flights: int, draws:
         xi = rng.standard_normal((len(flights), case.chol.shape[0])) @ case.chol.T
         y = case.baseline[idx] + effect + model.noise_factor * case.sigma[idx] * xi
         yield DrawnCampaign({"name": "plan", "measured": _measured(case, y, flights), "forward": forward}, truth,
-                            campaign)
+                            campaign, y)
 
 
 def simulated_detection(data: Mapping[str, Any], error: Detect | None, seeds: Sequence[int],
