@@ -166,6 +166,14 @@ def _show_config(args: argparse.Namespace) -> int:
     return 0
 
 
+def _available_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the platform reports it)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on every platform
+        return os.cpu_count() or 1
+
+
 def _plan_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("plan", type=Path, help="plan file (YAML, workflow/schemas/plan.schema.json)")
     parser.add_argument("--out", type=Path, default=None,
@@ -176,6 +184,9 @@ def _plan_args(parser: argparse.ArgumentParser) -> None:
                              "(default: the schema's defaults)")
     parser.add_argument("--no-power", action="store_true",
                         help="uncertainties, separation and manifest only (no simulation of the detection power)")
+    parser.add_argument("--workers", type=int, default=_available_cores(),
+                        help="processes for the power simulation (default: the cores this process may use, "
+                             "here %(default)s); the plan does not depend on it")
 
 
 def _plan(args: argparse.Namespace) -> int:
@@ -191,7 +202,7 @@ def _plan(args: argparse.Namespace) -> int:
     for path in args.config:
         config = _merge(config, _read_config_file(path))
     config = check_config({"campaign": "", "results_dir": "", **config}) if args.config else {}
-    result = plan_campaign(spec, config, simulate_power=not args.no_power)
+    result = plan_campaign(spec, config, simulate_power=not args.no_power, workers=args.workers)
     out = args.out if args.out is not None else Path("results") / "plans" / spec.name
     files = write_plan(result, out)
     print(result.table())
@@ -338,7 +349,8 @@ SUBCOMMANDS: list[Subcommand] = [
         "target uncertainties and detection powers, with a report page and a virtual-campaign manifest",
         "examples:\n  dronewind plan config/plans/example_plan.yaml\n"
         "  dronewind plan my_plan.yaml --out results/plans/mine --config config/config.yaml\n"
-        "  dronewind plan my_plan.yaml --no-power        # uncertainties, separation and manifest only\n\n"
+        "  dronewind plan my_plan.yaml --no-power        # uncertainties, separation and manifest only\n"
+        "  dronewind plan my_plan.yaml --workers 1       # the power simulation in this process only\n\n"
         "The plan file: site, conditions (wind_speed_ms at the hover height, wind_from_deg, stability as\n"
         "obukhov_length_m or class, roughness_length_m, boundary_layer_height_m), platform (sling_load,\n"
         "rigid_mount, quadrotor_fleet; max_hover_min), mast (heights_m, hover_height_m, hover_distance_m)\n"

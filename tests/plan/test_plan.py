@@ -223,8 +223,9 @@ def test_cli_plan_bad_file(tmp_path, capsys):
 # ---------------------------------------------------------------- power (slow)
 @pytest.mark.slow
 def test_power_of_a_two_flight_plan(tmp_path):
-    """A 2-flight plan: a large w gain is detected in nearly every draw, the false-alarm rate is
-    small (the diagnosis' calibration: 0 of 12 null draws named a cause). Ten draws per rate,
+    """A 2-flight plan (its flights and draws in two worker processes): a large w gain is detected
+    in nearly every draw, the false-alarm rate is small (the diagnosis' calibration: 0 of 12 null
+    draws named a cause). Ten draws per rate,
     30 baseline seeds per flight (the least the error model takes; the default for two flights
     is 90) and a bootstrap of 100 replicates (the least that alpha = 0.01 allows), drawn once per
     error and flight count for all draws (test_shared_reference_decides_as_each_draws_own)."""
@@ -234,7 +235,9 @@ def test_power_of_a_two_flight_plan(tmp_path):
                           "detect": [{"mechanism": "w_gain", "parameters": {"gain": 1.25}}], "max_flights": 2},
                  monte_carlo={"draws": 10, "curve_draws": 10, "seed": 3})
     config = {"diagnosis": {"bootstrap": 100, "seeds": list(range(1, 31))}}
-    plan = plan_campaign(parse_plan(body, "p.yaml"), config=config, work_dir=tmp_path)
+    plan = plan_campaign(parse_plan(body, "p.yaml"), config=config, work_dir=tmp_path, workers=2)
+    # the four flights (two without the error, two with it) and the draws ran in worker processes
+    assert plan.seconds["total_cpu"] > plan.seconds["simulation"] / 2
     r = plan.power["w_gain gain=1.25"]
     # the Wilson bound of 10/10 is 1 to rounding
     assert r.power >= 0.8 and r.interval[0] - 1e-12 <= r.power <= r.interval[1] + 1e-12
@@ -290,6 +293,33 @@ def test_shared_reference_decides_as_each_draws_own(two_flight_model):
     assert sum(a == b for a, b in zip(own, shared, strict=True)) >= 5
     with pytest.raises(ValueError, match="per_draw"):
         pw.draw_power(model, label, 2, 1, 11, config, reference="bootstrap")
+
+
+@pytest.mark.slow
+def test_draw_powers_in_worker_processes_are_the_calls_in_this_process(two_flight_model):
+    """The Monte-Carlo calls spread over two worker processes give the same detections and the
+    same shared references as the same calls one after the other here (the draws are seeded by
+    their arguments, the references by their draws); a call whose reference exists reuses it."""
+    import copy
+
+    from dronewind.plan import power as pw
+
+    model, label, config = two_flight_model
+    calls = [(label, 1, 6, 4), (None, 2, 6, 5)]
+    here, there = copy.deepcopy(model), copy.deepcopy(model)
+    here.references.clear()
+    there.references.clear()
+    cpu: list[float] = []
+    sequential = pw.draw_powers(here, calls, config)
+    parallel = pw.draw_powers(there, calls, config, workers=2, cpu_seconds=cpu)
+    assert parallel == sequential
+    assert set(there.references) == set(here.references) == {(label, 1), (None, 2)}
+    for key, ref in here.references.items():
+        assert np.array_equal(there.references[key].lr[next(iter(ref.lr))], ref.lr[next(iter(ref.lr))])
+    assert len(cpu) == 2 and all(c > 0 for c in cpu)
+    kept = there.references[(label, 1)]
+    assert pw.draw_powers(there, [(label, 1, 6, 4)], config, workers=2) == sequential[:1]
+    assert there.references[(label, 1)] is kept
 
 
 def test_first_flights_of_a_plan_manifest_stay_a_valid_virtual_campaign():

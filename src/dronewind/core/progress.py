@@ -52,6 +52,11 @@ class Progress:
         self.log.info("%s %d/%d %s %s in %.1f s", self.stage, index, self.total, name, self.verb,
                       time.perf_counter() - start)
 
+    def add(self, name: str, seconds: float) -> None:
+        """Count an item done elsewhere (in a worker process) that took ``seconds``; log it as :meth:`item` does."""
+        self.done += 1
+        self.log.info("%s %d/%d %s %s in %.1f s", self.stage, self.done, self.total, name, self.verb, seconds)
+
     def skipped(self, name: str, reason: str) -> None:
         """Count an item that was not done, logging why (a warning)."""
         self.done += 1

@@ -28,7 +28,7 @@ from typing import Any
 from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.manifest import flight_speeds, plan_manifest
-from dronewind.plan.power import PowerResult, draw_power, manifest_evidence, power_model, with_error
+from dronewind.plan.power import PowerResult, campaign_evidences, draw_powers, power_model, with_error
 from dronewind.plan.separation import along_wind_limit_m, separation_limit_m
 from dronewind.plan.spec import PlanSpec
 from dronewind.plan.uncertainty import DURATION_STEP_S, PointUncertainty, point_uncertainty
@@ -154,7 +154,7 @@ def _hover(spec: PlanSpec, min_hover_s: float) -> tuple[float, float, list[str]]
 
 
 def plan_campaign(spec: PlanSpec, config: Mapping[str, Any] | None = None, work_dir: str | Path | None = None,
-                  simulate_power: bool = True) -> CampaignPlan:
+                  simulate_power: bool = True, workers: int = 1) -> CampaignPlan:
     """Plan the campaign (module docstring).
 
     Parameters
@@ -168,6 +168,9 @@ def plan_campaign(spec: PlanSpec, config: Mapping[str, Any] | None = None, work_
     simulate_power : bool
         Compute the detection power (the simulated null campaign and the Monte Carlo); when
         false only the uncertainties, the separation and the skeleton.
+    workers : int
+        Processes for the power's simulated flights and Monte-Carlo calls (one flight, or one
+        error and flight count, per task); the plan does not depend on it.
 
     Returns
     -------
@@ -202,49 +205,53 @@ def plan_campaign(spec: PlanSpec, config: Mapping[str, Any] | None = None, work_
         plan.speeds_ms = flight_speeds(lowest, hi, plan.n_flights)
         plan.manifest = plan_manifest(spec, plan.n_flights, duration, plan.speeds_ms, distance)
         return plan
-    _power(plan, settings, work_dir)
+    worker_cpu = _power(plan, settings, work_dir, max(1, int(workers)))
     plan.seconds["total"] = time.perf_counter() - t_start
-    plan.seconds["total_cpu"] = time.process_time() - cpu_start
+    # this process's CPU and that of the power's tasks that ran in worker processes
+    plan.seconds["total_cpu"] = time.process_time() - cpu_start + worker_cpu
     return plan
 
 
-def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path | None) -> None:
-    """Simulate the campaign of ``max_flights`` without and with each error, then the power curve and the power."""
+def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path | None, workers: int) -> float:
+    """Simulate the campaign of ``max_flights`` without and with each error, then the power curve and the power.
+
+    Returns the CPU time of the tasks that ran in worker processes [s] (0 with one worker).
+    """
     spec = plan.spec
     t0 = time.perf_counter()
     speeds = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)
     full = plan_manifest(spec, spec.max_flights, plan.duration_s, speeds, plan.distance_m, seed=spec.seed)
     progress = Progress("plan flight", spec.max_flights * (1 + len(spec.detect)), "done")
-    errors = {}
+    cpu: list[float] = []  # CPU time of every task [s]
+    manifests = {"no error": with_error(full, None)} | {e.label: with_error(full, e) for e in spec.detect}
     with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
-        null = with_error(full, None)
-        evidence = manifest_evidence(null, settings, Path(tmp) / "none", progress)
-        for i, e in enumerate(spec.detect):
-            hidden = with_error(full, e)
-            errors[e.label] = (e, manifest_evidence(hidden, settings, Path(tmp) / f"error{i}", progress), hidden)
+        evidence = campaign_evidences(manifests, settings, tmp, progress, workers, cpu)
     progress.finished()
-    model = power_model(evidence, null, errors)
+    model = power_model(evidence["no error"], manifests["no error"],
+                        {e.label: (e, evidence[e.label], manifests[e.label]) for e in spec.detect})
     plan.seconds["simulation"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     labels = [e.label for e in spec.detect]
     counts = list(range(1, spec.max_flights + 1))
     draws_curve = min(spec.curve_draws, spec.draws)
-    progress = Progress("power draw", len(labels) * len(counts) * draws_curve + (len(labels) + 1) *
-                        (spec.draws - draws_curve), "diagnosed")
-    for label in labels:
-        plan.power_curve[label] = [draw_power(model, label, k, draws_curve, spec.seed, settings, progress,
-                                              spec.reference)
-                                   for k in counts]
+    more_draws = spec.draws - draws_curve
+    progress = Progress("power", len(labels) * len(counts) + len(labels) * (more_draws > 0) + 1, "diagnosed")
+    curve = draw_powers(model, [(label, k, draws_curve, spec.seed) for label in labels for k in counts], settings,
+                        progress, spec.reference, workers, cpu)
+    for j, label in enumerate(labels):
+        plan.power_curve[label] = curve[j * len(counts):(j + 1) * len(counts)]
     reached = [k for k in counts if all(plan.power_curve[lab][k - 1].power >= spec.power for lab in labels)]
     n = reached[0] if reached else spec.max_flights
     if not reached:
         plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for every "
                           "error: the plan flies the most and the power target is not met")
-    for label in labels:
-        more = draw_power(model, label, n, spec.draws - draws_curve, spec.seed + 1, settings, progress, spec.reference)
+    final = draw_powers(model, [(label, n, more_draws, spec.seed + 1) for label in labels if more_draws > 0]
+                        + [(None, n, spec.draws, spec.seed + 2)], settings, progress, spec.reference, workers, cpu)
+    for j, label in enumerate(labels):
         first = plan.power_curve[label][n - 1]
+        more = final[j] if more_draws > 0 else PowerResult(label, n, 0, 0)
         plan.power[label] = PowerResult(label, n, first.detected + more.detected, first.draws + more.draws)
-    plan.false_alarm = draw_power(model, None, n, spec.draws, spec.seed + 2, settings, progress, spec.reference)
+    plan.false_alarm = final[-1]
     progress.finished()
     plan.seconds["power_draws"] = time.perf_counter() - t1
     plan.n_flights = n
@@ -257,3 +264,4 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
                        f"measured campaign"
                        + (" against one bootstrap reference per error and flight count" if spec.reference == "shared"
                           else " with a bootstrap reference of its own") + "; 95 % Wilson intervals")
+    return float(sum(cpu)) if workers > 1 else 0.0

@@ -53,6 +53,7 @@ from __future__ import annotations
 import copy
 import math
 import tempfile
+import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,8 +65,9 @@ from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.spec import Detect
 
-__all__ = ["manifest_evidence", "with_error", "PowerModel", "power_model", "draw_power", "shared_reference",
-           "drawn_campaigns", "DrawnCampaign", "PowerResult", "simulated_detection", "hover_statistics"]
+__all__ = ["manifest_evidence", "campaign_evidences", "flight_evidence", "draw_powers", "with_error", "PowerModel",
+           "power_model", "draw_power", "shared_reference", "drawn_campaigns", "DrawnCampaign", "PowerResult",
+           "simulated_detection", "hover_statistics"]
 
 
 def with_error(data: Mapping[str, Any], error: Detect | None, seed: int | None = None) -> dict[str, Any]:
@@ -118,38 +120,136 @@ def manifest_evidence(data: Mapping[str, Any], config: Mapping[str, Any], work_d
         ``name``, ``measured`` and ``forward`` as :func:`~dronewind.diagnose.experiments.campaign_evidence`,
         and ``statistics``: flight -> :func:`hover_statistics`.
     """
+    return campaign_evidences({"campaign": data}, config, work_dir, progress)["campaign"]
+
+
+def _simulated_view(data: Mapping[str, Any]) -> dict[str, Any]:
+    """The manifest as the power simulation runs it: only the reference sonic (the first) of the mast.
+
+    :func:`~dronewind.diagnose.experiments.process_virtual_flight` reads every simulated mast
+    file as the reference's record; the other heights do not enter the diagnosis.
+    """
+    view: dict[str, Any] = copy.deepcopy(dict(data))
+    view["masts"] = [{**view["masts"][0], "sonics": view["masts"][0]["sonics"][:1]}]
+    return view
+
+
+def flight_evidence(view: Mapping[str, Any], flight_id: str, config: Mapping[str, Any], work_dir: str | Path
+                    ) -> dict[str, Any]:
+    """One flight of a virtual campaign simulated, processed and forward-run (its measured features and runs).
+
+    Parameters
+    ----------
+    view : mapping
+        Virtual campaign manifest with only the reference sonic (:func:`manifest_evidence`).
+    flight_id : str
+        Payload flight id.
+    config : mapping
+        Workflow configuration (defaults where missing).
+    work_dir : str or Path
+        Folder for the flight's raw files.
+
+    Returns
+    -------
+    dict
+        ``measured`` (features), ``forward`` (:func:`dronewind.diagnose.probe_runs.probe_runs`)
+        and ``statistics`` (:func:`hover_statistics`) of the flight.
+    """
     from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
     from dronewind.diagnose.experiments import process_virtual_flight
     from dronewind.diagnose.features import features_to_dict
     from dronewind.diagnose.probes import resolved_seeds
 
-    settings = with_defaults(config)
+    settings = with_defaults(dict(config))
     processing, diagnosis = settings["processing"], settings["diagnosis"]
-    # process_virtual_flight reads every simulated mast file as the reference's record: keep
-    # only the reference sonic (the first) in the simulated view; the other heights do not
-    # enter the diagnosis
-    view: dict[str, Any] = copy.deepcopy(dict(data))
-    view["masts"] = [{**view["masts"][0], "sonics": view["masts"][0]["sonics"][:1]}]
     seeds = tuple(resolved_seeds(diagnosis["seeds"], len(view["payload_flights"])))
     lag = {key: processing[key] for key in probes.LAG_SETTINGS}
-    measured: dict[str, Any] = {}
-    fwd: dict[str, Any] = {}
-    stats: dict[str, dict[str, float]] = {}
-    for flight in view["payload_flights"]:
-        fid = flight["id"]
-        work = Path(work_dir) / fid
-        work.mkdir(parents=True, exist_ok=True)
-        ctx = progress.item(f"flight {fid} simulated, processed and forward-run") if progress else _null()
-        with ctx:
-            v = process_virtual_flight(view, flight, work, processing)
-            stats[fid] = hover_statistics(v.l3)
-            measured[fid] = features_to_dict(forward.measured_features(view, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3,
-                                                                       **lag))
-            conditions = forward_conditions.forward_conditions(view, fid, v.l3, v.l2)
-            from_mast = diagnosis["atmosphere"] == "measured"
-            record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if from_mast else None
-            fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
-    return {"name": view["name"], "measured": measured, "forward": fwd, "statistics": stats}
+    flight = next(f for f in view["payload_flights"] if f["id"] == flight_id)
+    work = Path(work_dir)
+    work.mkdir(parents=True, exist_ok=True)
+    v = process_virtual_flight(view, flight, work, processing)
+    measured = features_to_dict(forward.measured_features(view, flight_id, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
+    conditions = forward_conditions.forward_conditions(view, flight_id, v.l3, v.l2)
+    record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if diagnosis["atmosphere"] == "measured" \
+        else None
+    runs = probe_runs.probe_runs(view, flight_id, conditions, processing, seeds=seeds, atmosphere=record)
+    return {"measured": measured, "forward": runs, "statistics": hover_statistics(v.l3)}
+
+
+def _flight_task(task: tuple[str, dict[str, Any], str, dict[str, Any], str]
+                 ) -> tuple[str, str, dict[str, Any], float, float]:
+    """Worker of :func:`campaign_evidences`: one flight's evidence, its wall time and its CPU time [s]."""
+    key, view, flight_id, config, work_dir = task
+    t0, c0 = time.perf_counter(), time.process_time()
+    out = flight_evidence(view, flight_id, config, work_dir)
+    return key, flight_id, out, time.perf_counter() - t0, time.process_time() - c0
+
+
+def _pool(workers: int, initializer: Any = None, initargs: tuple[Any, ...] = ()) -> Any:
+    """A process pool of ``workers`` (forkserver where the platform has it: no state copied from this process)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    return ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=initializer, initargs=initargs)
+
+
+def campaign_evidences(manifests: Mapping[str, Mapping[str, Any]], config: Mapping[str, Any], work_dir: str | Path,
+                       progress: Progress | None = None, workers: int = 1, cpu_seconds: list[float] | None = None
+                       ) -> dict[str, dict[str, Any]]:
+    """:func:`manifest_evidence` of several campaigns, their flights spread over ``workers`` processes.
+
+    Every flight is simulated, processed and forward-run on its own (seeded by the manifest),
+    so the result does not depend on ``workers`` or on the order in which flights finish.
+
+    Parameters
+    ----------
+    manifests : mapping
+        Key -> virtual campaign manifest.
+    config : mapping
+        Workflow configuration (defaults where missing).
+    work_dir : str or Path
+        Folder for the raw files (one sub-folder per key and flight).
+    progress : Progress, optional
+        Counter of flights (one item per flight).
+    workers : int
+        Processes; 1 runs every flight in this process.
+    cpu_seconds : list of float, optional
+        Each flight's CPU time [s] is appended to it (wherever it ran).
+
+    Returns
+    -------
+    dict
+        Key -> ``name``, ``measured``, ``forward`` and ``statistics`` (:func:`manifest_evidence`).
+    """
+    config = dict(config)
+    views = {key: _simulated_view(data) for key, data in manifests.items()}
+    tasks = [(key, view, f["id"], config, str(Path(work_dir) / str(i) / f["id"]))
+             for i, (key, view) in enumerate(views.items()) for f in view["payload_flights"]]
+    done: dict[tuple[str, str], dict[str, Any]] = {}
+
+    def record(key: str, fid: str, out: dict[str, Any], seconds: float, cpu: float) -> None:
+        done[(key, fid)] = out
+        if cpu_seconds is not None:
+            cpu_seconds.append(cpu)
+        if progress is not None:
+            progress.add(f"{key} flight {fid} simulated, processed and forward-run", seconds)
+
+    if workers <= 1 or len(tasks) <= 1:
+        for task in tasks:
+            record(*_flight_task(task))
+    else:
+        with _pool(min(workers, len(tasks))) as pool:
+            for flight in pool.map(_flight_task, tasks):
+                record(*flight)
+    result = {}
+    for key, view in views.items():
+        fids = [f["id"] for f in view["payload_flights"]]
+        result[key] = {"name": view["name"], "measured": {f: done[(key, f)]["measured"] for f in fids},
+                       "forward": {f: done[(key, f)]["forward"] for f in fids},
+                       "statistics": {f: done[(key, f)]["statistics"] for f in fids}}
+    return result
 
 
 def hover_statistics(l3: Any) -> dict[str, float]:
@@ -431,6 +531,92 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     return PowerResult(label or "none", n_flights, hits, draws)
 
 
+#: The power model of a worker process of :func:`draw_powers` (set once per process by its initializer).
+_WORKER_MODEL: PowerModel | None = None
+
+
+def _set_worker_model(model: PowerModel | None) -> None:
+    global _WORKER_MODEL
+    _WORKER_MODEL = model
+
+
+def _reference_key(model: PowerModel, label: str | None, n_flights: int) -> tuple[str | None, int]:
+    case = model.cases[label] if label else model.null
+    return label, min(n_flights, len(case.flights))
+
+
+def _draw_task(task: tuple[str | None, int, int, int, dict[str, Any], str, Any]
+               ) -> tuple[PowerResult, Any, float, float]:
+    """Worker of :func:`draw_powers`: one :func:`draw_power` call, its shared reference, its wall and CPU time [s]."""
+    label, n_flights, draws, seed, config, reference, ref = task
+    model = _WORKER_MODEL
+    assert model is not None, "draw_powers' worker started without its model"
+    key = _reference_key(model, label, n_flights)
+    if ref is not None:
+        model.references[key] = ref
+    t0, c0 = time.perf_counter(), time.process_time()
+    result = draw_power(model, label, n_flights, draws, seed, config, None, reference)
+    return result, model.references.get(key), time.perf_counter() - t0, time.process_time() - c0
+
+
+def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, int]],
+                config: Mapping[str, Any] | None = None, progress: Progress | None = None,
+                reference: str = "shared", workers: int = 1, cpu_seconds: list[float] | None = None
+                ) -> list[PowerResult]:
+    """Several :func:`draw_power` calls, spread over ``workers`` processes.
+
+    Parameters
+    ----------
+    model : PowerModel
+        From :func:`power_model`; the shared references the calls make are kept in
+        ``model.references`` (a call whose reference is there already uses it).
+    calls : sequence of (label, n_flights, draws, seed)
+        The arguments of each call.
+    config : mapping, optional
+        Workflow configuration.
+    progress : Progress, optional
+        One item per call (``draws`` campaigns diagnosed).
+    reference : {"shared", "per_draw"}
+        As :func:`draw_power`.
+    workers : int
+        Processes; 1 runs every call in this process. The draws are seeded by their arguments
+        and the references by their draws, so the results do not depend on ``workers``.
+    cpu_seconds : list of float, optional
+        Each call's CPU time [s] is appended to it (wherever it ran).
+
+    Returns
+    -------
+    list of PowerResult
+        In the order of ``calls``.
+    """
+    config = dict(config or {})
+    tasks = [(label, int(n), int(draws), int(seed), config, reference,
+              model.references.get(_reference_key(model, label, int(n)))) for label, n, draws, seed in calls]
+    out: list[PowerResult] = []
+
+    def record(label: str | None, n: int, result: PowerResult, ref: Any, seconds: float, cpu: float) -> None:
+        if cpu_seconds is not None:
+            cpu_seconds.append(cpu)
+        if ref is not None:
+            model.references.setdefault(_reference_key(model, label, n), ref)
+        out.append(result)
+        if progress is not None:
+            progress.add(f"{label or 'no error'}, {n} flights, {result.draws} draws", seconds)
+
+    if workers <= 1 or len(tasks) <= 1:
+        _set_worker_model(model)
+        try:
+            for task in tasks:
+                record(task[0], task[1], *_draw_task(task))
+        finally:
+            _set_worker_model(None)
+        return out
+    with _pool(min(workers, len(tasks)), _set_worker_model, (model,)) as pool:
+        for task, done in zip(tasks, pool.map(_draw_task, tasks), strict=True):
+            record(task[0], task[1], *done)
+    return out
+
+
 @dataclass
 class DrawnCampaign:
     """One Monte-Carlo campaign of :func:`drawn_campaigns`.
@@ -520,8 +706,6 @@ def simulated_detection(data: Mapping[str, Any], error: Detect | None, seeds: Se
         ``detected`` (count), ``n``, ``named`` (per seed), ``statistics`` (per seed, flight ->
         :func:`hover_statistics`), ``evidence_seconds`` (CPU per campaign).
     """
-    import time
-
     from dronewind.diagnose.experiments import Draw, diagnose_evidence, judge
 
     config = dict(config or {})
