@@ -32,12 +32,12 @@ from bench_common import machine
 from dronewind.diagnose.experiments import diagnose_evidence, judge, wilson_interval
 from dronewind.manifest import with_defaults
 from dronewind.plan import power as pw
-from dronewind.plan.manifest import flight_speeds, plan_manifest
-from dronewind.plan.planner import plan_campaign
+from dronewind.plan.manifest import flight_speeds
+from dronewind.plan.planner import plan_campaign, power_campaigns
 from dronewind.plan.spec import parse_plan
+from plan_validation import SITE  # the validation plans' site
 
 HERE = Path(__file__).resolve().parent
-SITE = {"name": "virtual", "latitude": 43.1247, "longitude": 0.3628, "altitude_m": 603}
 
 
 def _plan_body(gain: float, flights: int) -> dict[str, Any]:
@@ -54,26 +54,21 @@ def _plan_body(gain: float, flights: int) -> dict[str, Any]:
 def _evidence(gain: float, flights: int, folder: Path) -> tuple[Any, dict[str, Any]]:
     """The plan's power model (simulated without and with the gain), kept in ``folder``."""
     spec = parse_plan(_plan_body(gain, flights), f"plan_reference_agreement:w_gain={gain:g}")
-    settings = with_defaults({})
     plan = plan_campaign(spec, simulate_power=False)
-    speeds = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], flights)
-    full = plan_manifest(spec, flights, plan.duration_s, speeds, plan.distance_m, seed=spec.seed)
-    error = spec.detect[0]
-    path = folder / f"evidence_gain{gain:g}_{flights}flights.json"
+    manifests = power_campaigns(plan)  # as plan_campaign simulates them for the power
+    path = folder / f"evidences_gain{gain:g}_{flights}flights.json"
     if path.exists():
-        saved = json.loads(path.read_text())
+        evidences = json.loads(path.read_text())
     else:
         with tempfile.TemporaryDirectory() as tmp:
-            null, hidden = pw.with_error(full, None), pw.with_error(full, error)
-            saved = {"null": pw.manifest_evidence(null, settings, Path(tmp) / "none"), "null_manifest": null,
-                     "error": pw.manifest_evidence(hidden, settings, Path(tmp) / "error"), "error_manifest": hidden}
+            evidences = pw.campaign_evidences(manifests, with_defaults({}), tmp)
         folder.mkdir(parents=True, exist_ok=True)
         tmp_path = path.with_suffix(".tmp")
-        tmp_path.write_text(json.dumps(saved))
+        tmp_path.write_text(json.dumps(evidences))
         tmp_path.replace(path)
-    model = pw.power_model(saved["null"], saved["null_manifest"],
-                           {error.label: (error, saved["error"], saved["error_manifest"])})
-    return model, {"error": error.label, "hover_duration_s": plan.duration_s, "speeds_ms": speeds}
+    speeds = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], flights)
+    return pw.campaign_power_model(manifests, evidences, spec.detect), {
+        "error": spec.detect[0].label, "hover_duration_s": plan.duration_s, "speeds_ms": speeds}
 
 
 def compare(model: Any, label: str | None, flights: int, draws: int, seed: int, cache: Path) -> dict[str, Any]:

@@ -251,20 +251,17 @@ def two_flight_model(tmp_path_factory):
     from dronewind.manifest import with_defaults
     from dronewind.plan import plan_campaign
     from dronewind.plan import power as pw
+    from dronewind.plan.planner import power_campaigns
 
     spec = parse_plan(_plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
                                      "detect": [{"mechanism": "w_gain", "parameters": {"gain": 1.25}}],
                                      "max_flights": 2}), "p.yaml")
     config = with_defaults({"diagnosis": {"bootstrap": 100, "seeds": list(range(1, 31))}})
     plan = plan_campaign(spec, config=config, simulate_power=False)
-    full = plan_manifest(spec, 2, plan.duration_s, flight_speeds(*plan.speed_range_ms, 2), plan.distance_m,
-                         seed=spec.seed)
-    error = spec.detect[0]
-    work = tmp_path_factory.mktemp("power")
-    null, hidden = pw.with_error(full, None), pw.with_error(full, error)
-    model = pw.power_model(pw.manifest_evidence(null, config, work / "none"), null,
-                           {error.label: (error, pw.manifest_evidence(hidden, config, work / "error"), hidden)})
-    return model, error.label, config
+    manifests = power_campaigns(plan)  # as plan_campaign simulates them for the power
+    model = pw.campaign_power_model(manifests, pw.campaign_evidences(manifests, config,
+                                                                     tmp_path_factory.mktemp("power")), spec.detect)
+    return model, spec.detect[0].label, config
 
 
 @pytest.mark.slow

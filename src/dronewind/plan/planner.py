@@ -28,12 +28,19 @@ from typing import Any
 from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.manifest import flight_speeds, plan_manifest
-from dronewind.plan.power import PowerResult, campaign_evidences, draw_powers, power_model, with_error
+from dronewind.plan.power import (
+    NO_ERROR,
+    PowerResult,
+    campaign_evidences,
+    campaign_power_model,
+    draw_powers,
+    with_error,
+)
 from dronewind.plan.separation import along_wind_limit_m, separation_limit_m
 from dronewind.plan.spec import PlanSpec
 from dronewind.plan.uncertainty import DURATION_STEP_S, PointUncertainty, point_uncertainty
 
-__all__ = ["CampaignPlan", "plan_campaign", "plan_uncertainty", "HOVER_MARGIN_S"]
+__all__ = ["CampaignPlan", "plan_campaign", "power_campaigns", "plan_uncertainty", "HOVER_MARGIN_S"]
 
 #: Margin added to the chain's shortest usable hover [s]: the hover window found in the INS
 #: track is a few seconds shorter than the planned one (a planned 600 s gave 596 s).
@@ -212,6 +219,28 @@ def plan_campaign(spec: PlanSpec, config: Mapping[str, Any] | None = None, work_
     return plan
 
 
+def power_campaigns(plan: CampaignPlan) -> dict[str, dict[str, Any]]:
+    """The campaigns the detection power is simulated from: the plan's ``max_flights`` without and with each error.
+
+    Parameters
+    ----------
+    plan : CampaignPlan
+        A plan's hover duration, wind range and distance (:func:`plan_campaign`, the power not
+        needed).
+
+    Returns
+    -------
+    dict
+        :data:`~dronewind.plan.power.NO_ERROR` -> the virtual campaign of ``max_flights`` flights
+        spanning the wind range at the plan's seed; each error's label -> the same campaign
+        with that error hidden (common random numbers, :mod:`dronewind.plan.power`).
+    """
+    spec = plan.spec
+    speeds = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)
+    full = plan_manifest(spec, spec.max_flights, plan.duration_s, speeds, plan.distance_m, seed=spec.seed)
+    return {NO_ERROR: with_error(full, None)} | {e.label: with_error(full, e) for e in spec.detect}
+
+
 def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path | None, workers: int) -> float:
     """Simulate the campaign of ``max_flights`` without and with each error, then the power curve and the power.
 
@@ -220,15 +249,13 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     spec = plan.spec
     t0 = time.perf_counter()
     speeds = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)
-    full = plan_manifest(spec, spec.max_flights, plan.duration_s, speeds, plan.distance_m, seed=spec.seed)
     progress = Progress("plan flight", spec.max_flights * (1 + len(spec.detect)), "done")
     cpu: list[float] = []  # CPU time of every task [s]
-    manifests = {"no error": with_error(full, None)} | {e.label: with_error(full, e) for e in spec.detect}
+    manifests = power_campaigns(plan)
     with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
         evidence = campaign_evidences(manifests, settings, tmp, progress, workers, cpu)
     progress.finished()
-    model = power_model(evidence["no error"], manifests["no error"],
-                        {e.label: (e, evidence[e.label], manifests[e.label]) for e in spec.detect})
+    model = campaign_power_model(manifests, evidence, spec.detect)
     plan.seconds["simulation"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     labels = [e.label for e in spec.detect]

@@ -65,9 +65,9 @@ from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.spec import Detect
 
-__all__ = ["manifest_evidence", "campaign_evidences", "flight_evidence", "draw_powers", "with_error", "PowerModel",
-           "power_model", "draw_power", "shared_reference", "drawn_campaigns", "DrawnCampaign", "PowerResult",
-           "simulated_detection", "hover_statistics"]
+__all__ = ["NO_ERROR", "campaign_power_model", "manifest_evidence", "campaign_evidences", "flight_evidence",
+           "draw_powers", "with_error", "PowerModel", "power_model", "draw_power", "shared_reference",
+           "drawn_campaigns", "DrawnCampaign", "PowerResult", "simulated_detection", "hover_statistics"]
 
 
 def with_error(data: Mapping[str, Any], error: Detect | None, seed: int | None = None) -> dict[str, Any]:
@@ -383,6 +383,32 @@ def power_model(null_evidence: Mapping[str, Any], null_manifest: Mapping[str, An
         model.effects[label] = np.where(np.isfinite(delta), delta, 0.0)
         model.errors[label] = error
     return model
+
+
+#: Key of the campaign without an error in :func:`campaign_power_model`'s manifests.
+NO_ERROR = "no error"
+
+
+def campaign_power_model(manifests: Mapping[str, Mapping[str, Any]], evidences: Mapping[str, Mapping[str, Any]],
+                         errors: Sequence[Detect]) -> PowerModel:
+    """:func:`power_model` of the campaigns :func:`dronewind.plan.planner.power_campaigns` gives.
+
+    Parameters
+    ----------
+    manifests : mapping
+        :data:`NO_ERROR` -> the campaign without an error; error label -> the same campaign with
+        that error hidden (same seed).
+    evidences : mapping
+        The same keys -> their :func:`campaign_evidences`.
+    errors : sequence of Detect
+        The errors (their labels are keys of ``manifests``).
+
+    Returns
+    -------
+    PowerModel
+    """
+    return power_model(evidences[NO_ERROR], manifests[NO_ERROR],
+                       {e.label: (e, evidences[e.label], manifests[e.label]) for e in errors})
 
 
 @dataclass(frozen=True)
