@@ -86,6 +86,7 @@ import scipy.stats
 from dronewind.diagnose.covariance import (
     Whitener,
     flight_correlations,
+    log_determinant,
     nearest_correlation,
     row_patterns,
     shrunk_correlation,
@@ -199,7 +200,7 @@ def _offset_trend_design(speed_ms: np.ndarray) -> tuple[np.ndarray, bool]:
     return x, with_trend
 
 
-def _feature_groups(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None
+def _feature_groups(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None, about_zero: bool = False
                     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, bool]]:
     """Features that share the flights they are measured on, with their offset-and-trend design.
 
@@ -208,7 +209,8 @@ def _feature_groups(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarra
     list of (features, rows, x, with_trend)
         For every pattern of usable flights (finite residual and error, error > 0) with at
         least one degree of freedom left: the feature indices, the flight indices, the design
-        of :func:`_offset_trend_design` on them and whether it has the trend. Features of one
+        of :func:`_offset_trend_design` on them (no column with ``about_zero``: the moments are
+        taken about zero) and whether it has the trend. Features of one
         pattern are worked on in one batch (the bootstrap repeats these moments thousands of
         times; a loop of small calls per feature was most of their cost).
     """
@@ -218,7 +220,7 @@ def _feature_groups(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarra
     groups = []
     for pattern, feats in row_patterns(ok.T):
         rows = np.flatnonzero(pattern)
-        x, with_trend = _offset_trend_design(speed[rows])
+        x, with_trend = (np.zeros((rows.size, 0)), False) if about_zero else _offset_trend_design(speed[rows])
         if rows.size - x.shape[1] < 1:
             continue
         groups.append((feats, rows, x, with_trend))
@@ -242,6 +244,10 @@ def _wls_batch(r: np.ndarray, v: np.ndarray, x: np.ndarray) -> tuple[np.ndarray,
         DerSimonian-Laird denominator (g,).
     """
     w = 1.0 / v
+    if x.shape[1] == 0:  # no design: the moments about zero
+        e = np.asarray(r, dtype=float)
+        return (np.broadcast_to(np.eye(x.shape[0]), (r.shape[0], x.shape[0], x.shape[0])),
+                np.sum(w * e * e, axis=1), np.sum(w, axis=1))
     inv = np.linalg.pinv(np.einsum("ia,gi,ib->gab", x, w, x))
     maker = np.eye(x.shape[0])[None] - np.einsum("ia,gab,jb,gj->gij", x, inv, x, w)
     e = np.einsum("gij,gj->gi", maker, r)
@@ -251,7 +257,8 @@ def _wls_batch(r: np.ndarray, v: np.ndarray, x: np.ndarray) -> tuple[np.ndarray,
 
 
 def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None = None,
-                interval: bool = True, lost_dof: np.ndarray | None = None) -> Discrepancy:
+                interval: bool = True, lost_dof: np.ndarray | None = None, about_zero: bool = False
+                ) -> Discrepancy:
     """Per-feature model discrepancy across flights (DerSimonian-Laird moments, Q-profile interval).
 
     Parameters
@@ -269,6 +276,10 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
         Degrees of freedom :math:`h_f` (p,) that a candidate's fit took from each feature's
         residuals (:func:`fit_dof`): the residuals are those after the fit, whose projection
         removed :math:`h_f` of the :math:`n - q` dimensions the moments rest on.
+    about_zero : bool
+        Take the moments about zero (no offset or trend removed, :math:`q = 0`): the
+        discrepancy of the null hypothesis of the likelihood-ratio statistic
+        (:attr:`ProfiledFit.lr_statistic`), under which a common offset is discrepancy too.
 
     Returns
     -------
@@ -292,7 +303,7 @@ def discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | 
     dof = np.zeros(p, dtype=float)
     lost = np.zeros(p) if lost_dof is None else np.nan_to_num(np.asarray(lost_dof, dtype=float), nan=0.0)
     trend = np.zeros(p, dtype=bool)
-    for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed):
+    for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed, about_zero):
         k = rows.size - x.shape[1]
         r_g, v_g = r_all[np.ix_(rows, feats)].T, s_all[np.ix_(rows, feats)].T ** 2
         _, q_g, denom_g = _wls_batch(r_g, v_g, x)
@@ -368,7 +379,8 @@ def fit_dof(model: ResponseModel, theta: np.ndarray, total_sigma: np.ndarray, fl
 
 
 def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray | None,
-                         jacobian: np.ndarray, fit_sigma: np.ndarray, tau_start: np.ndarray) -> Discrepancy:
+                         jacobian: np.ndarray, fit_sigma: np.ndarray, tau_start: np.ndarray,
+                         about_zero: bool = False) -> Discrepancy:
     r"""Model discrepancy per feature of the residuals after a candidate's fit (moments with the fit's projection).
 
     Parameters
@@ -387,6 +399,8 @@ def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.n
     tau_start : numpy.ndarray
         Discrepancy of the other features (p,) in the expected misfit they leak into a
         feature through the fit.
+    about_zero : bool
+        Moments about zero (no offset or trend removed, :func:`discrepancy`).
 
     Returns
     -------
@@ -421,7 +435,7 @@ def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.n
     q_stat = np.full(p, np.nan)
     dof = np.zeros(p)
     trend = np.zeros(p, dtype=bool)
-    for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed):
+    for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed, about_zero):
         w = 1.0 / s_all[np.ix_(rows, feats)].T ** 2  # (g, n_ok)
         maker, _, _ = _wls_batch(r_all[np.ix_(rows, feats)].T, 1.0 / w, x)
         # d_f = E_f - J_f K: the fitted residuals of feature f as a map of all residuals
@@ -460,6 +474,8 @@ class ProfiledFit:
     lost_dof : numpy.ndarray
         Degrees of freedom the fit took from each feature's residuals about their offset
         (and trend) (p,): :math:`n - q` less the ``dof`` of :func:`profiled_discrepancy`.
+    lr_profile : float
+        The candidate's profile likelihood-ratio statistic (:func:`likelihood_ratio`, at least 0).
     """
 
     fit: FitResult
@@ -467,15 +483,18 @@ class ProfiledFit:
     total_sigma: np.ndarray
     whitener: Whitener
     lost_dof: np.ndarray
+    lr_profile: float
 
     @property
     def lr_statistic(self) -> float:
-        """:math:`\\chi^2(0) - \\chi^2(\\hat\\theta)` under the candidate's discrepancy (at least 0)."""
+        """:math:`\\chi^2(0) - \\chi^2(\\hat\\theta)` under the candidate's discrepancy (at least 0): the
+        likelihood ratio given that discrepancy (the conditional statistic)."""
         return max(self.fit.chi2_baseline - self.fit.chi2, 0.0)
 
 
 def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
-                 speed_ms: np.ndarray, start: tuple[np.ndarray, Whitener], interval: bool = False) -> ProfiledFit:
+                 speed_ms: np.ndarray, start: tuple[np.ndarray, Whitener], interval: bool = False,
+                 null: tuple[np.ndarray, float] | None = None) -> ProfiledFit:
     """Fit a candidate with the model discrepancy profiled under it.
 
     A discrepancy estimated from the baseline's residuals holds every real mechanism's
@@ -502,6 +521,9 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
         Total errors and whitener of the first fit (those of the discrepancy without the candidate).
     interval : bool
         Compute the discrepancy's Q-profile interval.
+    null : (numpy.ndarray, float), optional
+        :func:`null_likelihood` of ``y`` (the same for every candidate of a round); computed
+        here when not given.
 
     Returns
     -------
@@ -522,7 +544,98 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     lost = np.where(plain_dof > 0, plain_dof - disc.dof, 0.0)
     total, fcorr = flight_correlations(corr, sigma, disc.tau_or_zero())
     white = Whitener(fcorr)
-    return ProfiledFit(fit_parameters(model, y, total, idx, white), disc, total, white, lost)
+    fit = fit_parameters(model, y, total, idx, white)
+    lr = likelihood_ratio(model, y, sigma, corr, speed_ms, fit.theta, total, null)
+    return ProfiledFit(fit, disc, total, white, lost, lr)
+
+
+def _neg2_loglik(y: np.ndarray, prediction: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
+                 tau: np.ndarray) -> float:
+    """:math:`\\chi^2 + \\log|C|` of the residuals under :math:`C_i = D_i R^* D_i + \\mathrm{diag}(\\tau^2)`."""
+    total, fcorr = flight_correlations(corr, sigma, tau)
+    white = Whitener(fcorr)
+    z = np.where(np.isfinite(total) & (total > 0), (y - prediction) / np.where(total > 0, total, 1.0), np.nan)
+    use = np.isfinite(z)
+    e = white(z)
+    return float(np.nansum(e * e)) + log_determinant(total, white, use)
+
+
+def null_likelihood(y: np.ndarray, baseline: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
+                    speed_ms: np.ndarray | None) -> tuple[np.ndarray, float]:
+    r"""The null hypothesis' side of :func:`likelihood_ratio`: its discrepancy and minus twice its log-likelihood.
+
+    Parameters
+    ----------
+    y, baseline, sigma : numpy.ndarray
+        Measured features, the forward baseline and the sampling errors (n_flights, p).
+    corr : numpy.ndarray or None
+        Shrunk feature correlation :math:`R^*` (p, p).
+    speed_ms : numpy.ndarray or None
+        Mean wind speed of every flight [m s-1].
+
+    Returns
+    -------
+    tau : numpy.ndarray
+        :math:`\hat\tau_0` of ``y - baseline`` about zero (p,) [feature units].
+    neg2_loglik : float
+        :math:`\chi^2(0; C_0) + \log|C_0|`.
+    """
+    tau = discrepancy(y - baseline, sigma, speed_ms, interval=False, about_zero=True).tau_or_zero()
+    return tau, _neg2_loglik(y, baseline, sigma, corr, tau)
+
+
+def likelihood_ratio(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
+                     speed_ms: np.ndarray, theta: np.ndarray, fit_sigma: np.ndarray,
+                     null: tuple[np.ndarray, float] | None = None) -> float:
+    r"""Likelihood-ratio statistic of a fitted candidate, each hypothesis under the discrepancy it leaves.
+
+    .. math:: \Lambda = \left[\chi^2(0; C_0) + \log|C_0|\right]
+              - \left[\chi^2(\hat\theta; C_1) + \log|C_1|\right]
+
+    minus twice the Gaussian log-likelihood of the residuals without the candidate less that
+    with its fit, :math:`C_h = D_i R^* D_i + \mathrm{diag}(\hat\tau_h^2)` with the discrepancy
+    :math:`\hat\tau_h` of each hypothesis' residuals taken about zero (:func:`discrepancy`,
+    :func:`profiled_discrepancy` with ``about_zero``; the fit's degrees of freedom accounted
+    for). Under the null hypothesis the discrepancy is the only departure from the model, so
+    its moments are taken about zero: a common offset of the residuals is discrepancy unless
+    the candidate explains it. The statistic compares the two hypotheses as a likelihood ratio
+    does, each under its own covariance; with the misfits alone under the candidate's
+    covariance, a candidate that absorbs a feature's flight-to-flight discrepancy would count
+    that discrepancy as its signal, and its null distribution (:func:`null_reference`) would
+    carry a long tail that costs every candidate of the family its power.
+
+    Parameters
+    ----------
+    model : ResponseModel
+        The candidate's responses.
+    y, sigma : numpy.ndarray
+        Measured features and their sampling errors (n_flights, p).
+    corr : numpy.ndarray or None
+        Shrunk feature correlation :math:`R^*` (p, p).
+    speed_ms : numpy.ndarray
+        Mean wind speed of every flight [m s-1].
+    theta : numpy.ndarray
+        The candidate's fitted parameters.
+    fit_sigma : numpy.ndarray
+        The total errors the fit weighed (n_flights, p) (its projection, :func:`profiled_discrepancy`).
+    null : (numpy.ndarray, float), optional
+        :func:`null_likelihood` of ``y`` about the candidate's baseline, when already computed.
+
+    Returns
+    -------
+    float
+        :math:`\max(\Lambda, 0)`.
+    """
+    idx = np.arange(y.shape[0])
+    tau0, neg2_null = null if null is not None else null_likelihood(
+        y, model.predict(model.baseline_theta(), idx), sigma, corr, speed_ms)
+    pred = model.predict(theta, idx)
+    if model.n_parameters:
+        tau1 = profiled_discrepancy(y - pred, sigma, speed_ms, fit_jacobian(model, theta, idx), fit_sigma, tau0,
+                                    about_zero=True).tau_or_zero()
+    else:
+        tau1 = tau0
+    return max(neg2_null - _neg2_loglik(y, pred, sigma, corr, tau1), 0.0)
 
 
 def seed_scale(x: np.ndarray) -> np.ndarray:
@@ -715,7 +828,9 @@ class NullReference:
     gof : numpy.ndarray
         Baseline misfit against the sampling error alone (B,).
     lr : dict
-        Candidate -> likelihood-ratio statistic (B,).
+        Candidate -> conditional likelihood-ratio statistic (B,) (:attr:`ProfiledFit.lr_statistic`).
+    lr_profile : dict
+        Candidate -> profile likelihood-ratio statistic (B,) (:func:`likelihood_ratio`).
     mean_z, slope_z : numpy.ndarray
         Offset and trend statistics of every feature (B, p), as :func:`offset_trend_z`.
     y, sigma, total_sigma : list of numpy.ndarray
@@ -732,6 +847,7 @@ class NullReference:
     baseline: np.ndarray
     gof: np.ndarray
     lr: dict[str, np.ndarray] = field(default_factory=dict)
+    lr_profile: dict[str, np.ndarray] = field(default_factory=dict)
     mean_z: np.ndarray = field(default_factory=lambda: np.empty((0, 0)))
     slope_z: np.ndarray = field(default_factory=lambda: np.empty((0, 0)))
     y: list[np.ndarray] = field(default_factory=list, repr=False)
@@ -837,8 +953,9 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
     tau0 = np.where(np.isfinite(tau), tau, 0.0)
     groups = np.repeat(np.arange(n), n_seeds)
     ref = NullReference(n_replicates, seed, baseline, np.empty(n_replicates),
-                        {c: np.empty(n_replicates) for c in models},
-                        np.empty((n_replicates, p)), np.empty((n_replicates, p)))
+                        lr={c: np.empty(n_replicates) for c in models},
+                        lr_profile={c: np.empty(n_replicates) for c in models},
+                        mean_z=np.empty((n_replicates, p)), slope_z=np.empty((n_replicates, p)))
     s = np.where(used, analytic, np.nan)
     for b in range(n_replicates):
         draws = (rng.standard_normal((n, n_seeds + 1, p)) @ chol.T) * k_draw[:, None, :]
@@ -859,8 +976,10 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         tau0_b = discrepancy(resid0, sigma_b, speed_ms, interval=False).tau_or_zero()
         ref.y0.append(baseline + resid0)
         ref.flight_corr0.append(flight_correlations(corr_b, sigma_b, tau0_b))
+        null_b = null_likelihood(y_b, baseline, sigma_b, corr_b, speed_ms)
         for c, model in models.items():
-            ref.lr[c][b] = profiled_fit(model, y_b, sigma_b, corr_b, speed_ms, (total_b, white_total)).lr_statistic
+            prof = profiled_fit(model, y_b, sigma_b, corr_b, speed_ms, (total_b, white_total), null=null_b)
+            ref.lr[c][b], ref.lr_profile[c][b] = prof.lr_statistic, prof.lr_profile
         ref.mean_z[b], ref.slope_z[b] = (np.abs(a) for a in offset_trend_z(resid, total_b, speed_ms))
         ref.y.append(y_b)
         ref.sigma.append(sigma_b)

@@ -76,6 +76,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["MIN_EIGENVALUE", "ShrunkCorrelation", "shrunk_correlation", "whiten", "Whitener", "flight_correlations",
+           "log_determinant",
            "nearest_correlation", "row_patterns"]
 
 #: Smallest eigenvalue of a shrunk correlation matrix: whitening divides by the square root
@@ -346,6 +347,32 @@ def flight_correlations(corr: np.ndarray | None, sigma: np.ndarray, tau: np.ndar
     out = (r[None] * s[:, :, None] * s[:, None, :] + np.diag(tau2)[None]) / (t[:, :, None] * t[:, None, :])
     out[:, np.arange(p), np.arange(p)] = 1.0
     return total, out
+
+
+def log_determinant(total_sigma: np.ndarray, whitener: Whitener, use: np.ndarray) -> float:
+    r"""Log-determinant of the campaign's residual covariance over the used features.
+
+    Parameters
+    ----------
+    total_sigma : numpy.ndarray
+        Total errors :math:`t_{if}` (n, p) [feature units] (:func:`flight_correlations`).
+    whitener : Whitener
+        Whitening of the standardised residuals by their correlation :math:`R_i`.
+    use : numpy.ndarray
+        Features used in every row (n, p) (bool); the others are left out of every row's matrix.
+
+    Returns
+    -------
+    float
+        :math:`\sum_i \log|C_i|`, :math:`C_i = T_i R_i T_i` restricted to row :math:`i`'s used
+        features, :math:`T_i = \mathrm{diag}(t_i)`; from the inverse Cholesky factors the whitener
+        keeps, :math:`\log|R_i| = -2\sum_f \log (L_i^{-1})_{ff}`. With it,
+        :math:`\chi^2 + \log|C|` is minus twice the Gaussian log-likelihood less a constant.
+    """
+    use = np.asarray(use, dtype=bool)
+    t = np.where(use, np.asarray(total_sigma, dtype=float), 1.0)
+    diag = np.diagonal(whitener.padded(use), axis1=1, axis2=2)
+    return float(2.0 * np.sum(np.log(t[use])) - 2.0 * np.sum(np.log(diag[use])))
 
 
 def whiten(z: np.ndarray, corr: np.ndarray | None) -> np.ndarray:

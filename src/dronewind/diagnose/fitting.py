@@ -568,6 +568,9 @@ class CandidateScore:
     lr_statistic: float
     p_value: float
     significant: bool
+    #: The profile likelihood-ratio statistic (:func:`dronewind.diagnose.calibration.likelihood_ratio`),
+    #: where the campaign diagnosis computed it.
+    lr_profile: float = float("nan")
 
     def estimate(self) -> dict[str, float]:
         """Fitted parameters by name."""

@@ -26,6 +26,7 @@ from dronewind.diagnose.calibration import (
     check_attainable,
     discrepancy,
     familywise_p,
+    null_likelihood,
     null_reference,
     profiled_fit,
 )
@@ -213,17 +214,27 @@ def _calibrated(scores: Mapping[str, CandidateScore], reference: NullReference |
 
     Without a reference (fewer than two seeds) the chi-square p-values of
     :func:`~dronewind.diagnose.fitting.score_candidate` are Bonferroni-corrected with ``divisors``.
-    With one, the family-wise p-value is Westfall and Young's (1993) single-step min-p over the
-    round's candidates, each statistic through its :math:`\\chi^2_k` tail (:func:`lr_marginal`), so
-    that the smallest attainable p-value is :math:`1/(B+1)`; a candidate is significant when its
-    p-value is below ``alpha``.
+    With one, the test statistic of a candidate is its profile likelihood ratio (each
+    hypothesis under its own model discrepancy,
+    :func:`~dronewind.diagnose.calibration.likelihood_ratio`), and the family-wise p-value is
+    Westfall and Young's (1993) single-step min-p over the round's candidates, each statistic
+    through its :math:`\\chi^2_k` tail (:func:`lr_marginal`), so that the smallest attainable
+    p-value is :math:`1/(B+1)`; a candidate is significant when its p-value is below ``alpha``.
+    The profile statistic's null distribution stays close to :math:`\\chi^2_k` whatever the
+    discrepancy; the misfits' difference under the candidate's discrepancy alone (the
+    conditional statistic, :attr:`~dronewind.diagnose.fitting.CandidateScore.lr_statistic`)
+    grows a long tail where the discrepancy is large (a candidate's fit absorbs part of it), and
+    in the min-p that tail would set every candidate's p-value. A reference without profile
+    replicates is read with the conditional statistic.
     """
     if reference is None:
         return {c: dataclasses.replace(s, p_value=min(1.0, s.p_value * divisors[c]),
                                        significant=bool(s.parameter_names and s.p_value * divisors[c] < alpha
                                                         and s.gain > 0))
                 for c, s in scores.items()}
-    p_fw = familywise_p({c: s.lr_statistic for c, s in scores.items()}, reference.lr, marginal=lr_marginal(scores))
+    profile = all(c in reference.lr_profile and np.isfinite(s.lr_profile) for c, s in scores.items())
+    observed = {c: s.lr_profile if profile else s.lr_statistic for c, s in scores.items()}
+    p_fw = familywise_p(observed, reference.lr_profile if profile else reference.lr, marginal=lr_marginal(scores))
     return {c: dataclasses.replace(s, p_value=p_fw[c],
                                    significant=bool(s.parameter_names and p_fw[c] < alpha and s.gain > 0))
             for c, s in scores.items()}
@@ -253,10 +264,12 @@ def _score_round(ev: CampaignEvidence, y: np.ndarray, models: Mapping[str, Respo
     total0, fcorr0 = flight_correlations(ev.corr, ev.sigma, tau0)
     start = (total0, Whitener(fcorr0))
     scores, profiles, base = {}, {}, {}
+    null = null_likelihood(y, ev.baseline, ev.sigma, ev.corr, ev.speed_ms)
     for c, m in models.items():
-        prof = profiled_fit(m, y, ev.sigma, ev.corr, ev.speed_ms, start)
+        prof = profiled_fit(m, y, ev.sigma, ev.corr, ev.speed_ms, start, null=null)
         profiles[c] = prof
-        scores[c] = score_candidate(m, y, prof.total_sigma, alpha=alpha, corr=prof.whitener)
+        scores[c] = dataclasses.replace(score_candidate(m, y, prof.total_sigma, alpha=alpha, corr=prof.whitener),
+                                        lr_profile=prof.lr_profile)
         base[c] = float(chi2(ev.y, ev.baseline, prof.total_sigma, prof.whitener).sum())
     return scores, profiles, base
 
@@ -493,7 +506,8 @@ def _restricted(reference: NullReference | None, candidates: Mapping[str, Any]) 
     """The reference with only ``candidates``' likelihood-ratio replicates (the next round's family)."""
     if reference is None:
         return None
-    return dataclasses.replace(reference, lr={c: reference.lr[c] for c in candidates})
+    return dataclasses.replace(reference, lr={c: reference.lr[c] for c in candidates},
+                               lr_profile={c: reference.lr_profile[c] for c in candidates if c in reference.lr_profile})
 
 
 def best_variants(result: DiagnosisResult) -> list[str]:

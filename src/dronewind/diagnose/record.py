@@ -2,6 +2,7 @@ r"""The ``diagnosis.json`` record of a campaign diagnosis (docs/data-contract.md
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -65,6 +66,7 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
             "p_value": s.p_value,
             "p_mc_se": mc_standard_error(s.p_value, b) if b else None,
             "lr_statistic": s.lr_statistic,
+            "lr_profile": s.lr_profile if math.isfinite(s.lr_profile) else None,
             "discrepancy_sd": _profiled_tau(result.profiles.get(cand)),
             "n_parameters": len(s.parameter_names),
             "heldout_chi2": float(s.heldout_chi2.sum()),
