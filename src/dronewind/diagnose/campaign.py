@@ -36,6 +36,20 @@ not counted as discrepancy against it, and a cause is named only where its signa
 flights stands above the misfit it does not describe. The baseline's discrepancy (no candidate)
 is reported in ``error_model``, each candidate's under ``candidates[].discrepancy_sd``.
 
+Test statistic of a candidate: its profile likelihood ratio
+(:func:`dronewind.diagnose.calibration.likelihood_ratio`), minus twice the Gaussian
+log-likelihood of the residuals without the candidate less that with its fit, each hypothesis
+under the discrepancy its own residuals leave (taken about zero: under the null hypothesis a
+common offset is discrepancy unless a candidate explains it), the log-determinants of the two
+covariances included. The candidate's fit and its held-out gain use the profiled covariance
+above. With the misfits alone under the candidate's covariance, the statistic's null
+distribution grows a long tail wherever a feature carries a large discrepancy (a candidate's
+fit absorbs part of a drawn discrepancy and counts its offset as signal), and in the
+family-wise min-p that tail sets every candidate's p-value; the profile statistic's stays
+close to :math:`\chi^2_k`. Its price: on few flights without discrepancy, an offset or a
+trend of a feature counts for less than in the misfits' difference, since discrepancy could
+also have made it.
+
 Reference distributions: the likelihood-ratio statistic of every candidate, the goodness of
 fit and the offset and trend tests of ``unexplained`` are referred to a parametric bootstrap
 over seeds that repeats every estimate above on each replicate, the profiled discrepancy of
