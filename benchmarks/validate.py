@@ -100,7 +100,7 @@ STUDIES: dict[str, Study] = {
     # planning, robustness
     "plan_validation": Study("plan_validation.py", ("--seeds", "20", "--flights", "3", "--draws", "60",
                                                     "--workers", "2"), "dronewind plan against simulated campaigns"),
-    "plan_validation_long_hover": Study("plan_validation.py", ("--seeds", "20", "--flights", "2", "--draws", "20",
+    "plan_validation_long_hover": Study("plan_validation.py", ("--seeds", "60", "--flights", "2", "--draws", "20",
                                                                "--curve-draws", "10", "--workers", "1", "--no-rigid",
                                                                "--plans", "long_hover_high_wind"),
                                         "the same for a plan of long hovers in high wind"),
