@@ -29,7 +29,8 @@ Rates (per label, mechanism, case and overall), each with a 95 % Wilson score in
   draws with its distribution-free 95 % interval (binomial order statistics);
 * null calibration of the likelihood-ratio test: over the candidates of the null draws, the
   share of p-values below 0.01 and 0.05 (nominal 0.01 and 0.05 if the whitened misfit is
-  chi-square), the mean LR statistic per fitted parameter (nominal 1) and the share of null
+  chi-square), the mean likelihood-ratio statistic the candidates are tested by (the profile
+  one) per fitted parameter (nominal 1) and the share of null
   draws where some candidate passes the Bonferroni-corrected test before the gain filter.
 
 ``--only`` keeps the draws whose label starts with one of the given prefixes (e.g.
@@ -156,7 +157,10 @@ def one(args: tuple[int, Draw, Path | None]) -> dict[str, Any]:
     em = diagnosis.get("error_model", {})
     verdict.update(
         index=index, seed=truth.seed, seconds=time.perf_counter() - start, evidence_reused=reused,
-        candidates=[{"mechanism": c["mechanism"], "gain": c["gain"], "lr": c["lr_statistic"], "p": c["p_value"],
+        # "lr": the statistic the candidate was tested by (the profile likelihood ratio where recorded)
+        candidates=[{"mechanism": c["mechanism"], "gain": c["gain"],
+                     "lr": c["lr_profile"] if c.get("lr_profile") is not None else c["lr_statistic"],
+                     "lr_conditional": c["lr_statistic"], "p": c["p_value"],
                      "k": c["n_parameters"], "significant": c["significant"]} for c in diagnosis["candidates"]],
         error_model={k: em.get(k) for k in ("n_seeds", "dof", "shrinkage_intensity")},
         goodness_of_fit=diagnosis.get("goodness_of_fit"),
