@@ -54,7 +54,7 @@ STUDIES: dict[str, Study] = {
     "ecpet_compare": Study("bench_ecpet.py", (), "block statistics and cost against EC-PeT on the real tower records",
                            "EC-PeT's own environment: pass --args '--ecpet-python /path/to/python'"),
     # the diagnosis: detection and false-alarm rates
-    "diagnosis_rates": Study("bench_diagnosis_rates.py", ("--draws", "60", "--seed", "1", "--workers", "2",
+    "diagnosis_rates": Study("bench_diagnosis_rates.py", ("--draws", "30", "--seed", "1", "--workers", "2",
                                                           "--null-share", "0.2", "--model-error-share", "0.15"),
                              "detection, false-alarm and estimate-error rates over stratified hidden-effect draws"),
     "diagnosis_model_errors_measured": Study(

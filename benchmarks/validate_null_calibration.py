@@ -10,6 +10,11 @@ library functions in this process, then measures what a calibrated diagnosis mus
   per standard deviation of the flights' wind speeds in another, added to a null's measured
   features, are each reported in ``unexplained`` (detection rates, Wilson intervals).
 
+Besides, per feature, the 5 %, 50 % and 95 % quantiles over all flights of each flight's own
+seed scatter relative to the pooled scale (``flight_seed_scale``: the ratio the bootstrap's
+replicates are drawn with, :func:`dronewind.diagnose.calibration.flight_seed_scale`); with
+``n`` seeds per flight chance alone spreads it by about 1/sqrt(2(n - 1)).
+
 The forward runs of every draw are kept (``--evidence-dir``, ``draw{k:03d}.json``, deterministic by
 draw index ``k``: seed ``--seed + k``), so the statistics can be recomputed without simulating
 again (``--reuse``: the kept draws among the first ``--draws``), and a stopped run resumes where
@@ -98,7 +103,9 @@ def _analyse(path: str, replicates: int, feature_offset: str, feature_trend: str
                 "reference_mean": gof.get("reference_mean"), "named": js["named_causes"],
                 "unexplained": [u["feature"] for u in js["unexplained"]],
                 "shrinkage_intensity": js["error_model"].get("shrinkage_intensity"),
-                "n_seeds": js["error_model"]["n_seeds"], "n_flights": len(ev.flights)})
+                "n_seeds": js["error_model"]["n_seeds"], "n_flights": len(ev.flights),
+                "flight_seed_scale": (np.asarray(ev.flight_scale, dtype=float)
+                                      / np.asarray(ev.scale, dtype=float)[None, :]).tolist()})
     for kind, feat in (("offset", feature_offset), ("trend", feature_trend)):
         ev_k = dc.assemble(evidence["measured"], evidence["forward"])
         res0 = dc.diagnose(ev_k, n_replicates=0)  # the discrepancy and total errors of the null
@@ -165,6 +172,20 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _scale_quantiles(rows: list[dict[str, Any]]) -> dict[str, list[float]]:
+    """Feature -> 5, 50 and 95 % quantiles over all flights of the flight's seed scale relative to the pooled one."""
+    from dronewind.diagnose.features import FEATURES
+
+    ratios = np.concatenate([np.asarray(r["flight_seed_scale"], dtype=float) for r in rows if "flight_seed_scale" in r]
+                            or [np.full((0, len(FEATURES)), np.nan)])
+    out = {}
+    for k, name in enumerate(FEATURES):
+        v = ratios[:, k][np.isfinite(ratios[:, k])]
+        if v.size:
+            out[name] = [round(float(q), 3) for q in np.quantile(v, [0.05, 0.5, 0.95])]
+    return out
+
+
 def _summary(rows: list[dict[str, Any]], args: argparse.Namespace, argv: list[str] | None, t_evidence: float,
              seconds: float) -> dict[str, Any]:
     """Rates with Wilson intervals, the goodness of fit's uniformity and the rows."""
@@ -197,6 +218,7 @@ def _summary(rows: list[dict[str, Any]], args: argparse.Namespace, argv: list[st
         "offset_2sigma_found": {"feature": args.offset_feature, "k": off, "n": n, "ci95": _wilson(off, n)},
         "trend_1p5sigma_per_sd_found": {"feature": args.trend_feature, "k": tr, "n": n, "ci95": _wilson(tr, n)},
         "shrinkage_intensity_median": float(np.median([r["shrinkage_intensity"] for r in rows])),
+        "flight_seed_scale_quantiles": _scale_quantiles(rows),
         "seconds": {"evidence": round(t_evidence, 1), "total": round(seconds, 1),
                     "cpu_per_draw_mean": round(float(np.mean([r["cpu_s"] for r in rows])), 1)},
         "draws": rows,
