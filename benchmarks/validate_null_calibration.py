@@ -176,8 +176,7 @@ def _scale_quantiles(rows: list[dict[str, Any]]) -> dict[str, list[float]]:
     """Feature -> 5, 50 and 95 % quantiles over all flights of the flight's seed scale relative to the pooled one."""
     from dronewind.diagnose.features import FEATURES
 
-    ratios = np.concatenate([np.asarray(r["flight_seed_scale"], dtype=float) for r in rows if "flight_seed_scale" in r]
-                            or [np.full((0, len(FEATURES)), np.nan)])
+    ratios = np.concatenate([np.asarray(r["flight_seed_scale"], dtype=float) for r in rows])
     out = {}
     for k, name in enumerate(FEATURES):
         v = ratios[:, k][np.isfinite(ratios[:, k])]

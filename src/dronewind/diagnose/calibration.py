@@ -91,7 +91,7 @@ from dronewind.diagnose.covariance import (
     row_patterns,
     shrunk_correlation,
 )
-from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters
+from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters, standardised_residuals
 
 __all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
            "profiled_fit", "seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference", "null_reference",
@@ -554,10 +554,10 @@ def _neg2_loglik(y: np.ndarray, prediction: np.ndarray, sigma: np.ndarray, corr:
     """:math:`\\chi^2 + \\log|C|` of the residuals under :math:`C_i = D_i R^* D_i + \\mathrm{diag}(\\tau^2)`."""
     total, fcorr = flight_correlations(corr, sigma, tau)
     white = Whitener(fcorr)
-    z = np.where(np.isfinite(total) & (total > 0), (y - prediction) / np.where(total > 0, total, 1.0), np.nan)
-    use = np.isfinite(z)
+    # the used features depend on y and the errors only, so both hypotheses cover the same ones
+    z = standardised_residuals(y, prediction, total)
     e = white(z)
-    return float(np.nansum(e * e)) + log_determinant(total, white, use)
+    return float(np.nansum(e * e)) + log_determinant(total, white, np.isfinite(z))
 
 
 def null_likelihood(y: np.ndarray, baseline: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
@@ -606,14 +606,8 @@ def likelihood_ratio(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, cor
 
     Parameters
     ----------
-    model : ResponseModel
-        The candidate's responses.
-    y, sigma : numpy.ndarray
-        Measured features and their sampling errors (n_flights, p).
-    corr : numpy.ndarray or None
-        Shrunk feature correlation :math:`R^*` (p, p).
-    speed_ms : numpy.ndarray
-        Mean wind speed of every flight [m s-1].
+    model, y, sigma, corr, speed_ms
+        As :func:`profiled_fit`.
     theta : numpy.ndarray
         The candidate's fitted parameters.
     fit_sigma : numpy.ndarray

@@ -224,17 +224,15 @@ def _calibrated(scores: Mapping[str, CandidateScore], reference: NullReference |
     discrepancy; the misfits' difference under the candidate's discrepancy alone (the
     conditional statistic, :attr:`~dronewind.diagnose.fitting.CandidateScore.lr_statistic`)
     grows a long tail where the discrepancy is large (a candidate's fit absorbs part of it), and
-    in the min-p that tail would set every candidate's p-value. A reference without profile
-    replicates is read with the conditional statistic.
+    in the min-p that tail would set every candidate's p-value.
     """
     if reference is None:
         return {c: dataclasses.replace(s, p_value=min(1.0, s.p_value * divisors[c]),
                                        significant=bool(s.parameter_names and s.p_value * divisors[c] < alpha
                                                         and s.gain > 0))
                 for c, s in scores.items()}
-    profile = all(c in reference.lr_profile and np.isfinite(s.lr_profile) for c, s in scores.items())
-    observed = {c: s.lr_profile if profile else s.lr_statistic for c, s in scores.items()}
-    p_fw = familywise_p(observed, reference.lr_profile if profile else reference.lr, marginal=lr_marginal(scores))
+    p_fw = familywise_p({c: s.lr_profile for c, s in scores.items()}, reference.lr_profile,
+                        marginal=lr_marginal(scores))
     return {c: dataclasses.replace(s, p_value=p_fw[c],
                                    significant=bool(s.parameter_names and p_fw[c] < alpha and s.gain > 0))
             for c, s in scores.items()}
@@ -507,7 +505,7 @@ def _restricted(reference: NullReference | None, candidates: Mapping[str, Any]) 
     if reference is None:
         return None
     return dataclasses.replace(reference, lr={c: reference.lr[c] for c in candidates},
-                               lr_profile={c: reference.lr_profile[c] for c in candidates if c in reference.lr_profile})
+                               lr_profile={c: reference.lr_profile[c] for c in candidates})
 
 
 def best_variants(result: DiagnosisResult) -> list[str]:

@@ -248,7 +248,6 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     """
     spec = plan.spec
     t0 = time.perf_counter()
-    speeds = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)
     progress = Progress("plan flight", spec.max_flights * (1 + len(spec.detect)), "done")
     cpu: list[float] = []  # CPU time of every task [s]
     manifests = power_campaigns(plan)
@@ -282,7 +281,7 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     progress.finished()
     plan.seconds["power_draws"] = time.perf_counter() - t1
     plan.n_flights = n
-    plan.speeds_ms = speeds[:n]
+    plan.speeds_ms = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)[:n]
     plan.speed_range_ms = (min(plan.speeds_ms), max(plan.speeds_ms)) if n > 1 else plan.speed_range_ms
     plan.manifest = plan_manifest(spec, n, plan.duration_s, plan.speeds_ms, plan.distance_m)
     plan.power_note = (f"power: {spec.draws} Monte-Carlo campaigns per error drawn about the {spec.max_flights}-flight "

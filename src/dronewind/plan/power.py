@@ -540,11 +540,10 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
 
     if reference not in ("shared", "per_draw"):
         raise ValueError(f"reference {reference!r}: expected 'shared' or 'per_draw'")
-    case = model.cases[label] if label else model.null
     drawn = list(drawn_campaigns(model, label, n_flights, draws, seed))
     ref = None
     if reference == "shared":
-        key = (label, min(n_flights, len(case.flights)))
+        key = _reference_key(model, label, n_flights)
         if key not in model.references:
             model.references[key] = shared_reference(drawn, config)
         ref = model.references[key]
@@ -561,28 +560,35 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
 _WORKER_MODEL: PowerModel | None = None
 
 
-def _set_worker_model(model: PowerModel | None) -> None:
+def _set_worker_model(model: PowerModel) -> None:
     global _WORKER_MODEL
     _WORKER_MODEL = model
 
 
 def _reference_key(model: PowerModel, label: str | None, n_flights: int) -> tuple[str | None, int]:
+    """Key of ``model.references`` for a case and flight count (more flights than the case has: all of them)."""
     case = model.cases[label] if label else model.null
     return label, min(n_flights, len(case.flights))
 
 
-def _draw_task(task: tuple[str | None, int, int, int, dict[str, Any], str, Any]
-               ) -> tuple[PowerResult, Any, float, float]:
-    """Worker of :func:`draw_powers`: one :func:`draw_power` call, its shared reference, its wall and CPU time [s]."""
+def _timed_draw(model: PowerModel, task: tuple[str | None, int, int, int, dict[str, Any], str, Any]
+                ) -> tuple[PowerResult, Any, float, float]:
+    """One :func:`draw_power` call of :func:`draw_powers` (its reference set first when given): the result,
+    the shared reference of its case and flight count, and its wall and CPU time [s]."""
     label, n_flights, draws, seed, config, reference, ref = task
-    model = _WORKER_MODEL
-    assert model is not None, "draw_powers' worker started without its model"
     key = _reference_key(model, label, n_flights)
     if ref is not None:
         model.references[key] = ref
     t0, c0 = time.perf_counter(), time.process_time()
     result = draw_power(model, label, n_flights, draws, seed, config, None, reference)
     return result, model.references.get(key), time.perf_counter() - t0, time.process_time() - c0
+
+
+def _draw_task(task: tuple[str | None, int, int, int, dict[str, Any], str, Any]
+               ) -> tuple[PowerResult, Any, float, float]:
+    """Worker of :func:`draw_powers`: :func:`_timed_draw` on the worker process's model."""
+    assert _WORKER_MODEL is not None, "draw_powers' worker started without its model"
+    return _timed_draw(_WORKER_MODEL, task)
 
 
 def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, int]],
@@ -630,12 +636,8 @@ def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, i
             progress.add(f"{label or 'no error'}, {n} flights, {result.draws} draws", seconds)
 
     if workers <= 1 or len(tasks) <= 1:
-        _set_worker_model(model)
-        try:
-            for task in tasks:
-                record(task[0], task[1], *_draw_task(task))
-        finally:
-            _set_worker_model(None)
+        for task in tasks:
+            record(task[0], task[1], *_timed_draw(model, task))
         return out
     with _pool(min(workers, len(tasks)), _set_worker_model, (model,)) as pool:
         for task, done in zip(tasks, pool.map(_draw_task, tasks), strict=True):
