@@ -67,6 +67,7 @@ from dronewind.diagnose.experiments import (  # noqa: E402
     TOLERANCES,
     Draw,
     diagnose_evidence,
+    hidden_lag_estimate,
     judge,
     measured_campaign_evidence,
     wilson_interval,
@@ -167,22 +168,20 @@ def _indices(text: str, n: int) -> set[int] | None:
 
 
 def _judge_lag(truth: Draw, diagnosis: Mapping[str, Any], base_lags_s: Mapping[str, float]) -> dict[str, Any]:
-    """Judge a hidden sonic-INS lag by the world's own base lags.
+    """Judge a hidden sonic-INS lag by the world's own base lags, by the rule of ``experiments.judge``.
 
     The diagnosis takes each flight's measured lag as a condition of its forward runs and reports
-    it under ``measured_conditions`` (it names no cause for it): right when nothing is named and
-    the median over the flights of measured minus base lag equals the hidden lag within
-    ``experiments.TOLERANCES`` (the chain's own offset from the true lag in this world included).
+    the processing lag they estimated under ``measured_conditions`` (it names no cause for it):
+    right when nothing is named and the campaign's estimate of the hidden lag
+    (``experiments.hidden_lag_estimate``: median over the flights of estimated minus base lag)
+    equals it within ``experiments.TOLERANCES``.
     """
     named = list(diagnosis.get("named_causes") or [])
-    measured = {str(f): c.get("sonic_ins_lag_s") for f, c in (diagnosis.get("measured_conditions") or {}).items()}
-    diffs = [float(v) - float(base_lags_s[f]) for f, v in measured.items() if v is not None and f in base_lags_s]
-    hidden = float(truth.parameters["lag_s"])
-    error = float(np.median(diffs)) - hidden if diffs else float("nan")
-    tol = TOLERANCES["sonic_ins_lag"]["lag_s"]
+    estimate, lags = hidden_lag_estimate(diagnosis.get("measured_conditions"), base_lags_s)
+    error = abs(estimate - float(truth.parameters["lag_s"])) / TOLERANCES["sonic_ins_lag"]["lag_s"]
     return {"named": named, "detected": not named, "false_alarm": False, "wrong_cause": bool(named),
-            "estimate": {"lag_s": hidden + error} if diffs else {}, "estimate_error": abs(error) / tol,
-            "estimate_ok": bool(not named and np.isfinite(error) and abs(error) <= tol)}
+            "estimate": {"lag_s": estimate} if np.isfinite(estimate) else {}, "measured_lags": lags,
+            "estimate_error": float(error), "estimate_ok": bool(not named and np.isfinite(error) and error <= 1.0)}
 
 
 def _rate(k: int, n: int) -> dict[str, Any]:

@@ -174,28 +174,31 @@ def test_extended_reruns_get_seeds_the_baseline_never_ran():
     assert not set(fresh_seeds([404, 7, 1000], n=3)) & {404, 7, 1000}
 
 
-def test_a_hidden_lag_is_judged_on_the_measured_lags_with_nothing_named():
+def test_a_hidden_lag_is_judged_on_the_estimated_processing_lags_with_nothing_named():
     """A hidden sonic_ins_lag adds to every flight's processing lag (a measured condition of
-    the forward model): right when nothing is named and each measured lag is the flight's
-    processing lag + the hidden lag + the chain's offset within 0.1 s."""
+    the forward model): right when nothing is named and the median over the flights of the
+    estimated processing lag minus the flight's own equals the hidden lag within 0.1 s."""
     from dronewind.simulate.settings import resolve_payload_flight
 
     truth = ex.Draw("sonic_ins_lag", {"lag_s": 0.4}, 5)
     camp = ex.campaign_manifest(truth)
     base = {f["id"]: resolve_payload_flight(camp, f["id"])["sonic_ins_lag_s"] for f in camp["payload_flights"]}
     assert all(-0.185 <= b <= 0.0 for b in base.values()) and len(set(base.values())) == len(base)
-    errors = dict(zip(base, (0.03, -0.05, 0.0, 0.09), strict=True))
-    found = {f: {"sonic_ins_lag_s": b + 0.4 + ex.CHAIN_LAG_OFFSET_S + errors[f]} for f, b in base.items()}
+    errors = dict(zip(base, (0.03, -0.05, 0.07, 0.09), strict=True))
+    # the chain's own lag (sonic_ins_lag_s, below the processing lag) is not the estimate
+    found = {f: {"sonic_ins_lag_s": b + 0.4 - 0.1, "processing_lag_s": b + 0.4 + errors[f]} for f, b in base.items()}
     v = ex.judge(truth, {"named_causes": [], "measured_conditions": found})
     assert v["detected"] and not v["wrong_cause"] and v["estimate_ok"]
-    assert v["estimate_error"] == pytest.approx(0.09 / 0.1)
-    assert v["measured_lags"]["h02"]["expected"] == pytest.approx(base["h02"] + 0.4 + ex.CHAIN_LAG_OFFSET_S)
+    assert v["estimate"]["lag_s"] == pytest.approx(0.45)  # median of 0.43, 0.35, 0.47, 0.49
+    assert v["estimate_error"] == pytest.approx(0.05 / 0.1)
+    assert v["measured_lags"]["h02"] == pytest.approx({"estimated": base["h02"] + 0.35, "base": base["h02"]})
     named = ex.judge(truth, {"named_causes": ["lever_arm"], "measured_conditions": found})
     assert not named["detected"] and named["wrong_cause"] and not named["estimate_ok"]
-    # the chain missing the hidden lag on one flight (only the processing lag found there)
-    missed = {**found, "h03": {"sonic_ins_lag_s": base["h03"] + ex.CHAIN_LAG_OFFSET_S}}
+    # the hidden lag missed on two flights (only their processing lag found there): the median
+    # of 0.43, 0.35, 0 and 0 is off
+    missed = {**found, **{f: {"processing_lag_s": base[f]} for f in ("h03", "h04")}}
     v = ex.judge(truth, {"named_causes": [], "measured_conditions": missed})
-    assert not v["estimate_ok"] and v["estimate_error"] == pytest.approx(0.4 / 0.1)
+    assert not v["estimate_ok"] and v["estimate_error"] == pytest.approx((0.4 - 0.175) / 0.1)
     # a diagnosis without measured lags cannot show it
     v = ex.judge(truth, {"named_causes": []})
     assert v["detected"] and not v["estimate_ok"] and np.isnan(v["estimate_error"])

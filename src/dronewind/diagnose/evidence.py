@@ -35,13 +35,17 @@ from dronewind.mechanisms import get_mechanism
 if TYPE_CHECKING:
     from dronewind.diagnose.naming import DiagnosisResult
 
-__all__ = ["CONDITIONED", "MEASURED_ATMOSPHERE_CONDITIONED",
+__all__ = ["CONDITIONED", "PROCESSING_LAG_KEY", "MEASURED_ATMOSPHERE_CONDITIONED",
            "PARAMETER_SUBSETS", "N_LISTED_CORRELATIONS", "CampaignEvidence", "assemble",
            "feature_correlation", "error_model", "measured_conditions", "finite_or_none"]
 
 #: Conditions of the forward runs measured by the chain, which therefore cannot be evidence:
 #: condition key -> (the feature it fixes, the mechanism it stands for).
 CONDITIONED: dict[str, tuple[str, str]] = {"sonic_ins_lag_s": ("lag_sonic_ins_s", "sonic_ins_lag")}
+#: Key of a flight's estimated sonic-INS processing lag [s] among its conditions and in
+#: :func:`measured_conditions`: the lag the forward runs simulate
+#: (:func:`dronewind.diagnose.probe_runs.simulated_sonic_ins_lag_s`).
+PROCESSING_LAG_KEY = "processing_lag_s"
 #: Features that the measured atmosphere fixes: with the forward runs constrained by the
 #: reference mast's measured record (``atmosphere: measured``) every seed and every probe
 #: reproduces that record at the mast, and a mechanism acting on the mast is read through
@@ -257,6 +261,9 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
                                                                   np.array([s[:n_seeds] for s in base_sig]))
         mean_runs = np.nanmean(runs, axis=1)
     conditions = [dict(forward[f]["conditions"]) for f in flights]
+    for f, cond in zip(flights, conditions, strict=True):
+        if forward[f].get("simulated_sonic_ins_lag_s") is not None and cond.get("sonic_ins_lag_s") is not None:
+            cond[PROCESSING_LAG_KEY] = float(forward[f]["simulated_sonic_ins_lag_s"])
     conditioned = [feat for key, (feat, _) in CONDITIONED.items()
                    if flights and all(c.get(key) is not None for c in conditions)]
     if flights and all(forward[f].get("atmosphere") == "measured" for f in flights):
@@ -373,11 +380,15 @@ def measured_conditions(ev: CampaignEvidence) -> dict[str, dict[str, float]]:
     Returns
     -------
     dict
-        Flight -> condition key (e.g. ``sonic_ins_lag_s`` [s]) -> value; empty without such conditions.
+        Flight -> condition key -> value; empty without such conditions. ``sonic_ins_lag_s`` [s]
+        is the lag the chain found (its lag of minimum TKE), ``processing_lag_s`` [s] the
+        sonic-INS processing lag the forward runs simulate so that their chain finds that lag
+        (:func:`dronewind.diagnose.probe_runs.simulated_sonic_ins_lag_s`): the flight's estimate
+        of its processing lag, the chain's bias from the payload's wind-following attitude removed.
     """
     out: dict[str, dict[str, float]] = {}
     for flight, cond in zip(ev.flights, ev.conditions, strict=True):
-        values = {key: float(cond[key]) for key in CONDITIONED if cond.get(key) is not None}
+        values = {key: float(cond[key]) for key in (*CONDITIONED, PROCESSING_LAG_KEY) if cond.get(key) is not None}
         if values:
             out[flight] = values
     return out

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from dronewind.core.verdict import misfit_rows, verdict
+from dronewind.diagnose.evidence import PROCESSING_LAG_KEY
 from dronewind.diagnose.features import FEATURES
 
 __all__ = ["markdown", "FEATURE_LABELS"]
@@ -98,7 +99,10 @@ def _error_model_lines(diag: Mapping[str, Any]) -> list[str]:
     cond = diag.get("measured_conditions") or {}
     keys = sorted({k for values in cond.values() for k in values})
     for key in keys:
-        out.append(f"- measured condition `{key}` (taken by the forward runs as measured, not evidence): "
+        what = ("the sonic-INS processing lag the forward runs estimated from the measured lag, the chain's "
+                "bias removed" if key == PROCESSING_LAG_KEY else
+                "taken by the forward runs as measured, not evidence")
+        out.append(f"- measured condition `{key}` ({what}): "
                    + ", ".join(f"{f} {_fmt(values.get(key))}" for f, values in cond.items()))
     return out
 
