@@ -265,6 +265,33 @@ def two_flight_model(tmp_path_factory):
 
 
 @pytest.mark.slow
+def test_flights_an_error_leaves_unseen_share_the_forward_runs_they_would_have(tmp_path):
+    """A w gain of the payload sonic moves neither the conditions the chain measures from the mast
+    nor the mast record: the flight of the campaign with the error gets the forward runs of the
+    flight without it, and they are those it would get on its own (two seeds, one flight)."""
+    from dronewind.manifest import with_defaults
+    from dronewind.plan import plan_campaign
+    from dronewind.plan import power as pw
+    from dronewind.plan.planner import power_campaigns
+
+    spec = parse_plan(_plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
+                                     "detect": [{"mechanism": "w_gain", "parameters": {"gain": 1.25}}],
+                                     "max_flights": 1}), "p.yaml")
+    config = with_defaults({"diagnosis": {"seeds": [1, 2]}})
+    manifests = power_campaigns(plan_campaign(spec, config=config, simulate_power=False))
+    label = spec.detect[0].label
+    cpu: list[float] = []
+    evidences = pw.campaign_evidences(manifests, config, tmp_path / "shared", cpu_seconds=cpu)
+    fid = next(iter(evidences[pw.NO_ERROR]["forward"]))
+    assert len(cpu) == 3  # two flights processed, one set of forward runs
+    assert evidences[label]["forward"][fid] is evidences[pw.NO_ERROR]["forward"][fid]
+    assert evidences[label]["measured"][fid] != evidences[pw.NO_ERROR]["measured"][fid]
+    own = pw.flight_evidence(pw._simulated_view(manifests[label]), fid, config, tmp_path / "own")
+    assert json.dumps(own["forward"], sort_keys=True) == json.dumps(evidences[label]["forward"][fid], sort_keys=True)
+    assert own["measured"] == evidences[label]["measured"][fid]
+
+
+@pytest.mark.slow
 def test_shared_reference_decides_as_each_draws_own(two_flight_model):
     """The draws of one case share one bootstrap reference (made once per error and flight count,
     reused on the next call); their decisions are those of a reference of each draw's own: the

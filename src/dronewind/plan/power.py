@@ -11,6 +11,9 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    on what the chain measured of that campaign (wind, stability, sonic-INS lag), so an error
    that also moves a measured condition (a heading bias moves the wind direction, a lag the
    lag the chain finds) has the effect on the residual features that the diagnosis sees.
+   A flight whose chain measured exactly the conditions of the campaign without the error,
+   over the same mast record, has the same forward runs; they are made once
+   (:func:`campaign_evidences`).
    Through :func:`dronewind.diagnose.campaign.assemble` each campaign gives its forward
    baseline :math:`\bar b_{i,f}`, residual errors :math:`\sigma_{i,f}`, shrunk feature
    correlation :math:`R^*` and candidates' responses (the diagnosis' probes).
@@ -66,8 +69,9 @@ from dronewind.manifest import with_defaults
 from dronewind.plan.spec import Detect
 
 __all__ = ["NO_ERROR", "campaign_power_model", "manifest_evidence", "campaign_evidences", "flight_evidence",
-           "draw_powers", "with_error", "PowerModel", "power_model", "draw_power", "shared_reference",
-           "drawn_campaigns", "DrawnCampaign", "PowerResult", "simulated_detection", "hover_statistics"]
+           "processed_flight", "flight_forward_runs", "forward_inputs_key", "draw_powers", "with_error",
+           "PowerModel", "power_model", "draw_power", "shared_reference", "drawn_campaigns", "DrawnCampaign",
+           "PowerResult", "simulated_detection", "hover_statistics"]
 
 
 def with_error(data: Mapping[str, Any], error: Detect | None, seed: int | None = None) -> dict[str, Any]:
@@ -155,14 +159,34 @@ def flight_evidence(view: Mapping[str, Any], flight_id: str, config: Mapping[str
         ``measured`` (features), ``forward`` (:func:`dronewind.diagnose.probe_runs.probe_runs`)
         and ``statistics`` (:func:`hover_statistics`) of the flight.
     """
-    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
+    flight = processed_flight(view, flight_id, config, work_dir)
+    runs = flight_forward_runs(view, flight_id, config, flight["conditions"], flight["record"])
+    return {"measured": flight["measured"], "forward": runs, "statistics": flight["statistics"]}
+
+
+def processed_flight(view: Mapping[str, Any], flight_id: str, config: Mapping[str, Any], work_dir: str | Path
+                     ) -> dict[str, Any]:
+    """One flight of a virtual campaign simulated and processed: what its forward runs are conditioned on.
+
+    Parameters
+    ----------
+    view, flight_id, config, work_dir
+        As :func:`flight_evidence`.
+
+    Returns
+    -------
+    dict
+        ``measured`` (features), ``statistics`` (:func:`hover_statistics`), ``conditions``
+        (:func:`dronewind.diagnose.forward_conditions.forward_conditions`) and ``record`` (the
+        measured atmosphere, :func:`dronewind.diagnose.forward_atmosphere.atmosphere_record`, or
+        None for ``diagnosis.atmosphere: model``).
+    """
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probes
     from dronewind.diagnose.experiments import process_virtual_flight
     from dronewind.diagnose.features import features_to_dict
-    from dronewind.diagnose.probes import resolved_seeds
 
     settings = with_defaults(dict(config))
     processing, diagnosis = settings["processing"], settings["diagnosis"]
-    seeds = tuple(resolved_seeds(diagnosis["seeds"], len(view["payload_flights"])))
     lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     flight = next(f for f in view["payload_flights"] if f["id"] == flight_id)
     work = Path(work_dir)
@@ -172,17 +196,79 @@ def flight_evidence(view: Mapping[str, Any], flight_id: str, config: Mapping[str
     conditions = forward_conditions.forward_conditions(view, flight_id, v.l3, v.l2)
     record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if diagnosis["atmosphere"] == "measured" \
         else None
-    runs = probe_runs.probe_runs(view, flight_id, conditions, processing, seeds=seeds, atmosphere=record)
-    return {"measured": measured, "forward": runs, "statistics": hover_statistics(v.l3)}
+    return {"measured": measured, "statistics": hover_statistics(v.l3), "conditions": conditions, "record": record}
 
 
-def _flight_task(task: tuple[str, dict[str, Any], str, dict[str, Any], str]
-                 ) -> tuple[str, str, dict[str, Any], float, float]:
-    """Worker of :func:`campaign_evidences`: one flight's evidence, its wall time and its CPU time [s]."""
+def flight_forward_runs(view: Mapping[str, Any], flight_id: str, config: Mapping[str, Any],
+                        conditions: Mapping[str, Any], record: Any) -> dict[str, Any]:
+    """The forward runs of one processed flight (:func:`dronewind.diagnose.probe_runs.probe_runs`).
+
+    Parameters
+    ----------
+    view, flight_id, config
+        As :func:`flight_evidence`.
+    conditions, record
+        The flight's ``conditions`` and ``record`` (:func:`processed_flight`).
+
+    Returns
+    -------
+    dict
+        The baseline seeds' and the probes' runs.
+    """
+    from dronewind.diagnose import probe_runs
+    from dronewind.diagnose.probes import resolved_seeds
+
+    settings = with_defaults(dict(config))
+    seeds = tuple(resolved_seeds(settings["diagnosis"]["seeds"], len(view["payload_flights"])))
+    return probe_runs.probe_runs(view, flight_id, conditions, settings["processing"], seeds=seeds, atmosphere=record)
+
+
+def forward_inputs_key(view: Mapping[str, Any], flight_id: str, conditions: Mapping[str, Any], record: Any) -> str:
+    """A digest of everything a flight's forward runs depend on besides the configuration.
+
+    The forward runs read the manifest without its ``simulation:`` section (the hidden error is
+    not known to them, :func:`dronewind.diagnose.forward_conditions.forward_manifest`), the
+    flight's conditions and the measured atmosphere record; two flights with the same digest
+    have the same runs.
+
+    Returns
+    -------
+    str
+        SHA-256 hex digest.
+    """
+    import hashlib
+    import json
+
+    h = hashlib.sha256()
+    h.update(json.dumps({k: v for k, v in view.items() if k != "simulation"}, sort_keys=True, default=str).encode())
+    h.update(json.dumps([flight_id, dict(conditions)], sort_keys=True, default=str).encode())
+    if record is None:
+        h.update(b"no record")
+    else:
+        h.update(json.dumps(dict(record.attrs), sort_keys=True, default=str).encode())
+        for name in sorted(map(str, record.variables)):
+            values = np.ascontiguousarray(record[name].values)
+            h.update(name.encode() + str(values.dtype).encode() + str(values.shape).encode())
+            h.update(values.tobytes())
+    return h.hexdigest()
+
+
+def _processed_task(task: tuple[str, dict[str, Any], str, dict[str, Any], str]
+                    ) -> tuple[str, str, dict[str, Any], float, float]:
+    """Worker of :func:`campaign_evidences`: one flight processed, its wall time and its CPU time [s]."""
     key, view, flight_id, config, work_dir = task
     t0, c0 = time.perf_counter(), time.process_time()
-    out = flight_evidence(view, flight_id, config, work_dir)
+    out = processed_flight(view, flight_id, config, work_dir)
     return key, flight_id, out, time.perf_counter() - t0, time.process_time() - c0
+
+
+def _forward_task(task: tuple[str, dict[str, Any], str, dict[str, Any], dict[str, Any], Any]
+                  ) -> tuple[str, dict[str, Any], float, float]:
+    """Worker of :func:`campaign_evidences`: one flight's forward runs, their wall time and CPU time [s]."""
+    digest, view, flight_id, config, conditions, record = task
+    t0, c0 = time.perf_counter(), time.process_time()
+    out = flight_forward_runs(view, flight_id, config, conditions, record)
+    return digest, out, time.perf_counter() - t0, time.process_time() - c0
 
 
 def _pool(workers: int, initializer: Any = None, initargs: tuple[Any, ...] = ()) -> Any:
@@ -200,8 +286,12 @@ def campaign_evidences(manifests: Mapping[str, Mapping[str, Any]], config: Mappi
                        ) -> dict[str, dict[str, Any]]:
     """:func:`manifest_evidence` of several campaigns, their flights spread over ``workers`` processes.
 
-    Every flight is simulated, processed and forward-run on its own (seeded by the manifest),
-    so the result does not depend on ``workers`` or on the order in which flights finish.
+    Every flight is simulated and processed on its own (seeded by the manifest); then the
+    forward runs are made once for each distinct input (:func:`forward_inputs_key`): flights
+    of two campaigns whose chain measured the same conditions over the same mast record (an
+    error that moves neither, such as a w gain of the payload sonic on most flights) share
+    their runs, which are the same runs either way. The result does not depend on ``workers``
+    or on the order in which flights finish.
 
     Parameters
     ----------
@@ -216,7 +306,8 @@ def campaign_evidences(manifests: Mapping[str, Mapping[str, Any]], config: Mappi
     workers : int
         Processes; 1 runs every flight in this process.
     cpu_seconds : list of float, optional
-        Each flight's CPU time [s] is appended to it (wherever it ran).
+        The CPU time [s] of every task (a flight processed, a flight's forward runs) is
+        appended to it (wherever it ran).
 
     Returns
     -------
@@ -227,22 +318,51 @@ def campaign_evidences(manifests: Mapping[str, Mapping[str, Any]], config: Mappi
     views = {key: _simulated_view(data) for key, data in manifests.items()}
     tasks = [(key, view, f["id"], config, str(Path(work_dir) / str(i) / f["id"]))
              for i, (key, view) in enumerate(views.items()) for f in view["payload_flights"]]
-    done: dict[tuple[str, str], dict[str, Any]] = {}
+    processed: dict[tuple[str, str], dict[str, Any]] = {}
+    runs: dict[str, dict[str, Any]] = {}
+    seconds: dict[tuple[str, str], float] = {}
 
-    def record(key: str, fid: str, out: dict[str, Any], seconds: float, cpu: float) -> None:
-        done[(key, fid)] = out
+    def record_processed(key: str, fid: str, out: dict[str, Any], wall: float, cpu: float) -> None:
+        processed[(key, fid)] = out
+        seconds[(key, fid)] = wall
+        if cpu_seconds is not None:
+            cpu_seconds.append(cpu)
+
+    def record_runs(digest: str, out: dict[str, Any], wall: float, cpu: float) -> None:
+        runs[digest] = out
         if cpu_seconds is not None:
             cpu_seconds.append(cpu)
         if progress is not None:
-            progress.add(f"{key} flight {fid} simulated, processed and forward-run", seconds)
+            for key, fid in sharing[digest]:
+                progress.add(f"{key} flight {fid} simulated, processed and forward-run"
+                             + (f" (runs shared by {len(sharing[digest])} campaigns)" if len(sharing[digest]) > 1
+                                else ""), seconds[(key, fid)] + wall / len(sharing[digest]))
 
-    if workers <= 1 or len(tasks) <= 1:
-        for task in tasks:
-            record(*_flight_task(task))
-    else:
-        with _pool(min(workers, len(tasks))) as pool:
-            for flight in pool.map(_flight_task, tasks):
-                record(*flight)
+    # first every flight simulated and processed; then the forward runs once per distinct input
+    # (an error the chain's conditions and the mast record do not see leaves them as without it)
+    parallel = workers > 1 and len(tasks) > 1
+    pool = _pool(min(workers, len(tasks))) if parallel else None
+    try:
+        for done in (pool.map(_processed_task, tasks) if pool is not None else map(_processed_task, tasks)):
+            record_processed(*done)
+        sharing: dict[str, list[tuple[str, str]]] = {}
+        for key, view, fid, *_ in tasks:
+            p = processed[(key, fid)]
+            sharing.setdefault(forward_inputs_key(view, fid, p["conditions"], p["record"]), []).append((key, fid))
+        forward_tasks = []
+        for digest, members in sharing.items():
+            key, fid = members[0]
+            p = processed[(key, fid)]
+            forward_tasks.append((digest, views[key], fid, config, p["conditions"], p["record"]))
+        for done in (pool.map(_forward_task, forward_tasks) if pool is not None
+                     else map(_forward_task, forward_tasks)):
+            record_runs(*done)
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    digest_of = {member: digest for digest, members in sharing.items() for member in members}
+    done = {(key, fid): {"measured": p["measured"], "statistics": p["statistics"],
+                         "forward": runs[digest_of[(key, fid)]]} for (key, fid), p in processed.items()}
     result = {}
     for key, view in views.items():
         fids = [f["id"] for f in view["payload_flights"]]
