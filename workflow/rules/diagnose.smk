@@ -4,6 +4,24 @@
 # atmosphere (dronewind.diagnose.forward_atmosphere.atmosphere_record).
 
 
+# The forward-model runs of a flight: one job per flight (diagnosis.probe_jobs: flight, the
+# default), or one job per flight and part (the baseline seeds, each mechanism's probes) joined
+# by diagnose_forward_parts (probe_jobs: mechanism). The wildcard of the other mode's rules
+# matches no flight.
+FORWARD_BY_FLIGHT = DIAGNOSIS["probe_jobs"] == "flight"
+# the measured-features step's settings (dronewind.steps.diagnosis.measured_features)
+MEASURED_PARAMS = dict(
+    campaign=flight_manifest,
+    flight_id="{flight}",
+    sonic_ins_lag=PROCESSING["sonic_ins_lag"],
+    hover=PROCESSING["hover"],
+    max_missing_fraction=PROCESSING["max_missing_fraction"],
+)
+
+
+# The residual features of a flight and the forward model's conditions (measured/{flight}.json):
+# made by the flight's forward job (diagnose_forward) in the default mode, by a job of their own
+# where the forward runs are split by mechanism.
 rule diagnose_measured:
     input:
         sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
@@ -16,6 +34,8 @@ rule diagnose_measured:
         log_path("diagnose_measured", "flight"),
     benchmark:
         bench_path("diagnose_measured", "flight")
+    wildcard_constraints:
+        flight=only_if(not FORWARD_BY_FLIGHT, PAYLOAD_FLIGHTS),
     priority: PRIORITY_CHAIN
     conda:
         ENV
@@ -23,28 +43,21 @@ rule diagnose_measured:
     resources:
         mem_mb=400,
     params:
-        campaign=flight_manifest,
-        flight_id="{flight}",
-        sonic_ins_lag=PROCESSING["sonic_ins_lag"],
-        hover=PROCESSING["hover"],
-        max_missing_fraction=PROCESSING["max_missing_fraction"],
+        **MEASURED_PARAMS,
     script:
         "../scripts/diagnose_measured.py"
 
 
-# The forward-model runs of a flight: one job per flight (diagnosis.probe_jobs: flight, the
-# default), or one job per flight and part (the baseline seeds, each mechanism's probes) joined
-# by diagnose_forward_parts (probe_jobs: mechanism). The wildcard of the other mode's rules
-# matches no flight.
-FORWARD_BY_FLIGHT = DIAGNOSIS["probe_jobs"] == "flight"
-
-
 rule diagnose_forward:
     input:
-        measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+        sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
+        ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
+        drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
+        l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
         mast=reference_of,
     output:
-        RESULTS / "diagnosis" / "forward" / "{flight}.json",
+        measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+        forward=RESULTS / "diagnosis" / "forward" / "{flight}.json",
     log:
         log_path("diagnose_forward", "flight"),
     benchmark:
@@ -58,8 +71,7 @@ rule diagnose_forward:
     resources:
         mem_mb=800,
     params:
-        campaign=flight_manifest,
-        flight_id="{flight}",
+        **MEASURED_PARAMS,
         processing=CHAIN,
         seeds=DIAGNOSIS["seeds"],
         atmosphere=DIAGNOSIS["atmosphere"],
