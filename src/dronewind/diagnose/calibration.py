@@ -94,9 +94,9 @@ from dronewind.diagnose.covariance import (
 from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters, standardised_residuals
 
 __all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
-           "profiled_fit", "seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference", "null_reference",
-           "empirical_p", "familywise_p", "mc_standard_error", "smallest_p", "check_attainable", "MIN_FLIGHTS_TREND",
-           "MAX_LOST_SHARE", "DEFAULT_REPLICATES"]
+           "profiled_fit", "plain_start", "seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference",
+           "null_reference", "empirical_p", "familywise_p", "mc_standard_error", "smallest_p", "check_attainable",
+           "MIN_FLIGHTS_TREND", "MAX_LOST_SHARE", "DEFAULT_REPLICATES"]
 
 #: Flights needed before a trend with wind speed is removed besides the offset when the
 #: discrepancy is estimated (two degrees of freedom left). Most mechanisms' effects grow or decay
@@ -494,7 +494,8 @@ class ProfiledFit:
 
 def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
                  speed_ms: np.ndarray, start: tuple[np.ndarray, Whitener], interval: bool = False,
-                 null: tuple[np.ndarray, float] | None = None) -> ProfiledFit:
+                 null: tuple[np.ndarray, float] | None = None,
+                 plain: tuple[np.ndarray, Whitener] | None = None) -> ProfiledFit:
     """Fit a candidate with the model discrepancy profiled under it.
 
     A discrepancy estimated from the baseline's residuals holds every real mechanism's
@@ -506,6 +507,14 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     :math:`C_i = D_i R^* D_i + \\mathrm{diag}(\\hat\\tau^2)` (Kennedy and O'Hagan 2001). One such
     step; :func:`null_reference` repeats it on every replicate, so the likelihood-ratio
     statistic keeps a calibrated reference whatever the step does to its distribution.
+
+    The starting discrepancy holds the candidate's own signature where that signature is
+    large and varies over the flights (a mount pitch's tilt difference alternates in sign with
+    the wind direction): under it the fit weighs the features the candidate moves little and
+    may stay at the baseline. With ``plain`` the step is also made from the covariance without
+    discrepancy, and the one of larger profile likelihood (:func:`likelihood_ratio`) is kept:
+    a maximum-likelihood choice between two starts, repeated on every replicate (the second
+    step is completed only where its first fit is already the likelier).
 
     Parameters
     ----------
@@ -524,14 +533,53 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     null : (numpy.ndarray, float), optional
         :func:`null_likelihood` of ``y`` (the same for every candidate of a round); computed
         here when not given.
+    plain : (numpy.ndarray, Whitener), optional
+        Total errors and whitener without discrepancy (:func:`plain_start`): a second start.
 
     Returns
     -------
     ProfiledFit
     """
     idx = np.arange(y.shape[0])
+    best = _profiled_step(model, y, sigma, corr, speed_ms, start, idx, null)
+    if plain is None:
+        return best
+    first = fit_parameters(model, y, plain[0], idx, plain[1])
+    # the second step is completed only where its first fit is already the more likely one
+    # (it then moves only to a likelier point): the same rule on every replicate
+    if likelihood_ratio(model, y, sigma, corr, speed_ms, first.theta, plain[0], null) > best.lr_profile:
+        other = _profiled_step(model, y, sigma, corr, speed_ms, plain, idx, null, first)
+        if other.lr_profile > best.lr_profile:
+            best = other
+    return best
+
+
+def plain_start(corr: np.ndarray | None, sigma: np.ndarray) -> tuple[np.ndarray, Whitener]:
+    """The second start of :func:`profiled_fit`: total errors and whitener without discrepancy.
+
+    Parameters
+    ----------
+    corr : numpy.ndarray or None
+        Shrunk feature correlation :math:`R^*` (p, p).
+    sigma : numpy.ndarray
+        Sampling errors (n_flights, p).
+
+    Returns
+    -------
+    (numpy.ndarray, Whitener)
+    """
+    total, fcorr = flight_correlations(corr, sigma, np.zeros(sigma.shape[1]))
+    return total, Whitener(fcorr)
+
+
+def _profiled_step(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
+                   speed_ms: np.ndarray, start: tuple[np.ndarray, Whitener], idx: np.ndarray,
+                   null: tuple[np.ndarray, float] | None, first: FitResult | None = None) -> ProfiledFit:
+    """One step of :func:`profiled_fit` from ``start`` (its first fit when made already): fit,
+    discrepancy of what it leaves, fit again."""
     total0, white0 = start
-    first = fit_parameters(model, y, total0, idx, white0)
+    if first is None:
+        first = fit_parameters(model, y, total0, idx, white0)
     resid = y - model.predict(first.theta, idx)
     with np.errstate(invalid="ignore"):
         excess = np.where(np.isfinite(total0) & np.isfinite(sigma), np.maximum(total0**2 - sigma**2, 0.0), 0.0)
@@ -971,8 +1019,10 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         ref.y0.append(baseline + resid0)
         ref.flight_corr0.append(flight_correlations(corr_b, sigma_b, tau0_b))
         null_b = null_likelihood(y_b, baseline, sigma_b, corr_b, speed_ms)
+        plain_b = plain_start(corr_b, sigma_b)
         for c, model in models.items():
-            prof = profiled_fit(model, y_b, sigma_b, corr_b, speed_ms, (total_b, white_total), null=null_b)
+            prof = profiled_fit(model, y_b, sigma_b, corr_b, speed_ms, (total_b, white_total), null=null_b,
+                                plain=plain_b)
             ref.lr[c][b], ref.lr_profile[c][b] = prof.lr_statistic, prof.lr_profile
         ref.mean_z[b], ref.slope_z[b] = (np.abs(a) for a in offset_trend_z(resid, total_b, speed_ms))
         ref.y.append(y_b)
