@@ -22,6 +22,7 @@ from dronewind.diagnose.calibration import (
     mc_standard_error,
     null_reference,
     offset_trend_z,
+    plain_start,
     profiled_fit,
     seed_scale,
 )
@@ -220,7 +221,8 @@ def test_bootstrap_reference_is_calibrated_on_a_known_gaussian_model() -> None:
                              used=np.ones((n, p), bool), n_seeds=n_seeds, speed_ms=speed,
                              models={"m": model}, n_replicates=100, seed=int(rng.integers(1 << 30)))
         gof = float(chi2(y, base, sigma, Whitener(r_star.matrix)).sum())
-        lr = profiled_fit(model, y, sigma, r_star.matrix, speed, (total, Whitener(fcorr))).lr_profile
+        lr = profiled_fit(model, y, sigma, r_star.matrix, speed, (total, Whitener(fcorr)),
+                          plain=plain_start(r_star.matrix, sigma)).lr_profile
         return empirical_p(gof, ref.gof), familywise_p({"m": lr}, ref.lr_profile)["m"]
 
     nulls = [run(0.0) for _ in range(50)]
@@ -302,7 +304,8 @@ def test_profile_likelihood_ratio_keeps_its_reference_under_a_large_discrepancy(
         tau0 = discrepancy(y, sigma, speed).tau_or_zero()
         assert tau0[0] > 5.0
         total, fcorr = flight_correlations(None, sigma, tau0)
-        fits = {c: profiled_fit(m, y, sigma, None, speed, (total, Whitener(fcorr))) for c, m in models.items()}
+        fits = {c: profiled_fit(m, y, sigma, None, speed, (total, Whitener(fcorr)), plain=plain_start(None, sigma))
+                for c, m in models.items()}
         ref = null_reference(baseline=np.zeros((n, p)), analytic=np.ones((n, p)), scale=np.ones(p), corr=None,
                              truth_corr=None, tau=tau0, used=np.ones((n, p), bool), n_seeds=30, speed_ms=speed,
                              models=models, n_replicates=200, seed=trial)
@@ -310,6 +313,34 @@ def test_profile_likelihood_ratio_keeps_its_reference_under_a_large_discrepancy(
         assert np.quantile(ref.lr["m"], 0.95) > 10.0
         p_fw = familywise_p({c: f.lr_profile for c, f in fits.items()}, ref.lr_profile, marginal=tails)
         assert p_fw["m"] < 0.01
+
+
+def test_a_second_start_without_discrepancy_fits_a_signature_the_discrepancy_holds() -> None:
+    """Four flights: a candidate moves the first feature along 3, -2, 4, -3 sampling errors per unit
+    (a sign that changes from flight to flight) and the second by 0.5 on every flight; the data
+    hold it at -2 in the first feature while the second is moved the other way (+1, what another
+    world's physics may do). Estimated about an offset and a trend, the discrepancy of the first
+    feature holds the planted signature, and a fit started under it follows the second feature
+    (off by more than 0.9 in all six campaigns). Started also without discrepancy, the likelier
+    step finds -2 within 0.4, with a larger profile likelihood ratio."""
+    n, p = 4, 2
+    speed = np.array([3.5, 5.5, 7.5, 9.5])
+    signature = np.zeros((n, p))
+    signature[:, 0] = [3.0, -2.0, 4.0, -3.0]
+    signature[:, 1] = 0.5
+    model = _linear_model(signature)
+    sigma = np.ones((n, p))
+    for trial in range(6):
+        rng = np.random.default_rng(trial)
+        y = -2.0 * signature + rng.normal(size=(n, p)) * sigma
+        y[:, 1] = 1.0 + rng.normal(size=n)
+        tau0 = discrepancy(y, sigma, speed).tau_or_zero()
+        total, fcorr = flight_correlations(None, sigma, tau0)
+        one = profiled_fit(model, y, sigma, None, speed, (total, Whitener(fcorr)))
+        two = profiled_fit(model, y, sigma, None, speed, (total, Whitener(fcorr)), plain=plain_start(None, sigma))
+        assert abs(one.fit.theta[0] + 2.0) > 0.9
+        assert two.fit.theta[0] == pytest.approx(-2.0, abs=0.4)
+        assert two.lr_profile > one.lr_profile
 
 
 def test_fit_dof_is_the_leverage_of_the_free_parameters() -> None:
