@@ -759,9 +759,16 @@ def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, i
         for task in tasks:
             record(task[0], task[1], *_timed_draw(model, task))
         return out
+    # the largest calls first (a reference costs about its flight count, the draws their number):
+    # the last calls to finish are then short ones, and no worker idles while one runs alone
+    order = sorted(range(len(tasks)), key=lambda i: (-tasks[i][1], -tasks[i][2], i))
+    results: dict[int, Any] = {}
     with _pool(min(workers, len(tasks)), _set_worker_model, (model,)) as pool:
-        for task, done in zip(tasks, pool.map(_draw_task, tasks), strict=True):
-            record(task[0], task[1], *done)
+        for i, done in zip(order, pool.map(_draw_task, [tasks[i] for i in order]), strict=True):
+            results[i] = done
+            record(tasks[i][0], tasks[i][1], *done)
+    # in the order of the calls
+    out[:] = [results[i][0] for i in range(len(tasks))]
     return out
 
 
