@@ -202,3 +202,19 @@ def test_a_w_gain_beside_an_hf_u_excess_is_named_and_the_excess_left_unexplained
     assert diag["named_causes"] == ["w_gain"] and diag["withheld"] == []
     assert diag["named_estimates"]["w_gain"]["estimate"]["gain"] == pytest.approx(1.3, abs=0.1)
     assert "ln_hf_u" in {u["feature"] for u in diag["unexplained"]}
+
+
+def test_the_forward_runs_processing_lag_is_reported_not_a_condition():
+    """A flight whose chain measured a lag reports it and the processing lag its forward runs
+    simulate (measured_conditions); the latter is no condition of the campaign's flights (an
+    extended campaign's simulation takes the conditions as its flights' settings)."""
+    measured, forward = _campaign(np.random.default_rng(3))
+    for i, flight in enumerate(sorted(forward)):
+        forward[flight]["conditions"]["sonic_ins_lag_s"] = -0.2 - 0.01 * i
+        forward[flight]["simulated_sonic_ins_lag_s"] = -0.1 - 0.01 * i
+    forward["h04"].pop("simulated_sonic_ins_lag_s")
+    ev = dc.assemble(measured, forward)
+    reported = dc.measured_conditions(ev)
+    assert reported["h01"] == pytest.approx({"sonic_ins_lag_s": -0.2, "processing_lag_s": -0.1})
+    assert reported["h04"] == pytest.approx({"sonic_ins_lag_s": -0.23})
+    assert all("processing_lag_s" not in c for c in ev.conditions)

@@ -42,9 +42,8 @@ __all__ = ["CONDITIONED", "PROCESSING_LAG_KEY", "MEASURED_ATMOSPHERE_CONDITIONED
 #: Conditions of the forward runs measured by the chain, which therefore cannot be evidence:
 #: condition key -> (the feature it fixes, the mechanism it stands for).
 CONDITIONED: dict[str, tuple[str, str]] = {"sonic_ins_lag_s": ("lag_sonic_ins_s", "sonic_ins_lag")}
-#: Key of a flight's estimated sonic-INS processing lag [s] among its conditions and in
-#: :func:`measured_conditions`: the lag the forward runs simulate
-#: (:func:`dronewind.diagnose.probe_runs.simulated_sonic_ins_lag_s`).
+#: Key of a flight's estimated sonic-INS processing lag [s] in :func:`measured_conditions`: the
+#: lag the forward runs simulate (:func:`dronewind.diagnose.probe_runs.simulated_sonic_ins_lag_s`).
 PROCESSING_LAG_KEY = "processing_lag_s"
 #: Features that the measured atmosphere fixes: with the forward runs constrained by the
 #: reference mast's measured record (``atmosphere: measured``) every seed and every probe
@@ -106,6 +105,8 @@ class CampaignEvidence:
     #: the seeds' own scale on every flight :math:`k_{if}` (n_flights, p), which the bootstrap
     #: draws its replicates with (:func:`~dronewind.diagnose.calibration.flight_seed_scale`)
     flight_scale: np.ndarray | None = None
+    #: flight -> the sonic-INS processing lag its forward runs simulate [s] (:func:`measured_conditions`)
+    processing_lag_s: dict[str, float] = field(default_factory=dict)
     _white: Whitener | None = field(default=None, init=False, repr=False, compare=False)
     _sampling_white: Whitener | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -261,9 +262,10 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
                                                                   np.array([s[:n_seeds] for s in base_sig]))
         mean_runs = np.nanmean(runs, axis=1)
     conditions = [dict(forward[f]["conditions"]) for f in flights]
-    for f, cond in zip(flights, conditions, strict=True):
-        if forward[f].get("simulated_sonic_ins_lag_s") is not None and cond.get("sonic_ins_lag_s") is not None:
-            cond[PROCESSING_LAG_KEY] = float(forward[f]["simulated_sonic_ins_lag_s"])
+    processing_lags = {f: float(forward[f]["simulated_sonic_ins_lag_s"]) for f, cond in zip(flights, conditions,
+                                                                                           strict=True)
+                       if forward[f].get("simulated_sonic_ins_lag_s") is not None
+                       and cond.get("sonic_ins_lag_s") is not None}
     conditioned = [feat for key, (feat, _) in CONDITIONED.items()
                    if flights and all(c.get(key) is not None for c in conditions)]
     if flights and all(forward[f].get("atmosphere") == "measured" for f in flights):
@@ -274,7 +276,7 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
         used_runs[:, :, FEATURES.index(feat)] = np.nan
     ev = CampaignEvidence(flights, y, sigma, analytic, scale, mean_runs, runs[:, 0, :], conditions,
                           correlation=feature_correlation(used_runs, analytic), n_seeds=n_seeds,
-                          conditioned=conditioned, flight_scale=flight_scale)
+                          conditioned=conditioned, flight_scale=flight_scale, processing_lag_s=processing_lags)
     dropped = {CONDITIONED[key][1] for key in CONDITIONED if CONDITIONED[key][0] in conditioned}
     for cand, params in _probe_tables(ev, forward).items():
         if ev.mechanism_of[cand] not in dropped:
@@ -388,7 +390,9 @@ def measured_conditions(ev: CampaignEvidence) -> dict[str, dict[str, float]]:
     """
     out: dict[str, dict[str, float]] = {}
     for flight, cond in zip(ev.flights, ev.conditions, strict=True):
-        values = {key: float(cond[key]) for key in (*CONDITIONED, PROCESSING_LAG_KEY) if cond.get(key) is not None}
+        values = {key: float(cond[key]) for key in CONDITIONED if cond.get(key) is not None}
+        if flight in ev.processing_lag_s:
+            values[PROCESSING_LAG_KEY] = ev.processing_lag_s[flight]
         if values:
             out[flight] = values
     return out
