@@ -105,7 +105,7 @@ rule diagnose_probe:
         atmosphere=DIAGNOSIS["atmosphere"],
         part="{part}",
     script:
-        "../scripts/diagnose_forward.py"
+        "../scripts/diagnose_probe.py"
 
 
 rule diagnose_forward_parts:
