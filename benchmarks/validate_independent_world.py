@@ -12,7 +12,8 @@ signed). The campaign is then processed and diagnosed in this process with the l
 configuration) and judged by experiments.judge: nulls and model errors must name nothing,
 a hidden mechanism must be the first named cause (or share an ambiguity set with it) with
 its estimate within experiments.TOLERANCES. For ``sonic_ins_lag`` the truth is the hidden
-lag alone (the per-flight base lag is part of every flight, null or not).
+lag alone (the per-flight base lag is part of every flight, null or not), judged by
+experiments.judge_hidden_lag against the world's own base lags.
 
 Examples::
 
@@ -54,8 +55,6 @@ from multiprocessing import Pool
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -64,11 +63,10 @@ from tests.worlds import WorldSettings, stratified_world_draws, write_campaign  
 
 from bench_common import git_commit, machine  # noqa: E402
 from dronewind.diagnose.experiments import (  # noqa: E402
-    TOLERANCES,
     Draw,
     diagnose_evidence,
-    hidden_lag_estimate,
     judge,
+    judge_hidden_lag,
     measured_campaign_evidence,
     wilson_interval,
 )
@@ -132,7 +130,7 @@ def run_draw(job: tuple[int, Draw, Mapping[str, Any], WorldSettings, str | None,
     diagnosis = diagnose_evidence(evidence, config)
     out["cpu_diagnose_s"] = time.process_time() - c2
     base_lags = stored["base_lags_s"]
-    out["judged"] = judge(truth, diagnosis) if truth.mechanism != "sonic_ins_lag" else _judge_lag(
+    out["judged"] = judge(truth, diagnosis) if truth.mechanism != "sonic_ins_lag" else judge_hidden_lag(
         truth, diagnosis, base_lags)
     out["named"] = diagnosis.get("named_causes", [])
     out["candidates"] = [{k: c.get(k) for k in ("mechanism", "estimate", "gain", "significant", "p_value")}
@@ -165,23 +163,6 @@ def _indices(text: str, n: int) -> set[int] | None:
         a, b = text.split(":")
         return set(range(int(a or 0), min(int(b or n), n)))
     return {int(v) for v in text.split(",")}
-
-
-def _judge_lag(truth: Draw, diagnosis: Mapping[str, Any], base_lags_s: Mapping[str, float]) -> dict[str, Any]:
-    """Judge a hidden sonic-INS lag by the world's own base lags, by the rule of ``experiments.judge``.
-
-    The diagnosis takes each flight's measured lag as a condition of its forward runs and reports
-    the processing lag they estimated under ``measured_conditions`` (it names no cause for it):
-    right when nothing is named and the campaign's estimate of the hidden lag
-    (``experiments.hidden_lag_estimate``: median over the flights of estimated minus base lag)
-    equals it within ``experiments.TOLERANCES``.
-    """
-    named = list(diagnosis.get("named_causes") or [])
-    estimate, lags = hidden_lag_estimate(diagnosis.get("measured_conditions"), base_lags_s)
-    error = abs(estimate - float(truth.parameters["lag_s"])) / TOLERANCES["sonic_ins_lag"]["lag_s"]
-    return {"named": named, "detected": not named, "false_alarm": False, "wrong_cause": bool(named),
-            "estimate": {"lag_s": estimate} if np.isfinite(estimate) else {}, "measured_lags": lags,
-            "estimate_error": float(error), "estimate_ok": bool(not named and np.isfinite(error) and error <= 1.0)}
 
 
 def _rate(k: int, n: int) -> dict[str, Any]:

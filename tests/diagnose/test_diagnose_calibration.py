@@ -22,7 +22,6 @@ from dronewind.diagnose.calibration import (
     mc_standard_error,
     null_reference,
     offset_trend_z,
-    plain_start,
     profiled_fit,
     seed_scale,
 )
@@ -222,7 +221,7 @@ def test_bootstrap_reference_is_calibrated_on_a_known_gaussian_model() -> None:
                              models={"m": model}, n_replicates=100, seed=int(rng.integers(1 << 30)))
         gof = float(chi2(y, base, sigma, Whitener(r_star.matrix)).sum())
         lr = profiled_fit(model, y, sigma, r_star.matrix, speed, (total, Whitener(fcorr)),
-                          plain=plain_start(r_star.matrix, sigma)).lr_profile
+                          plain=(sigma, Whitener(r_star.matrix))).lr_profile
         return empirical_p(gof, ref.gof), familywise_p({"m": lr}, ref.lr_profile)["m"]
 
     nulls = [run(0.0) for _ in range(50)]
@@ -304,7 +303,7 @@ def test_profile_likelihood_ratio_keeps_its_reference_under_a_large_discrepancy(
         tau0 = discrepancy(y, sigma, speed).tau_or_zero()
         assert tau0[0] > 5.0
         total, fcorr = flight_correlations(None, sigma, tau0)
-        fits = {c: profiled_fit(m, y, sigma, None, speed, (total, Whitener(fcorr)), plain=plain_start(None, sigma))
+        fits = {c: profiled_fit(m, y, sigma, None, speed, (total, Whitener(fcorr)), plain=(sigma, Whitener(None)))
                 for c, m in models.items()}
         ref = null_reference(baseline=np.zeros((n, p)), analytic=np.ones((n, p)), scale=np.ones(p), corr=None,
                              truth_corr=None, tau=tau0, used=np.ones((n, p), bool), n_seeds=30, speed_ms=speed,
@@ -337,7 +336,7 @@ def test_a_second_start_without_discrepancy_fits_a_signature_the_discrepancy_hol
         tau0 = discrepancy(y, sigma, speed).tau_or_zero()
         total, fcorr = flight_correlations(None, sigma, tau0)
         one = profiled_fit(model, y, sigma, None, speed, (total, Whitener(fcorr)))
-        two = profiled_fit(model, y, sigma, None, speed, (total, Whitener(fcorr)), plain=plain_start(None, sigma))
+        two = profiled_fit(model, y, sigma, None, speed, (total, Whitener(fcorr)), plain=(sigma, Whitener(None)))
         assert abs(one.fit.theta[0] + 2.0) > 0.9
         assert two.fit.theta[0] == pytest.approx(-2.0, abs=0.4)
         assert two.lr_profile > one.lr_profile

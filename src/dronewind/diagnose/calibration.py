@@ -94,7 +94,7 @@ from dronewind.diagnose.covariance import (
 from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters, standardised_residuals
 
 __all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
-           "profiled_fit", "plain_start", "seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference",
+           "profiled_fit", "seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference",
            "null_reference", "empirical_p", "familywise_p", "mc_standard_error", "smallest_p", "check_attainable",
            "MIN_FLIGHTS_TREND", "MAX_LOST_SHARE", "DEFAULT_REPLICATES"]
 
@@ -534,7 +534,9 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
         :func:`null_likelihood` of ``y`` (the same for every candidate of a round); computed
         here when not given.
     plain : (numpy.ndarray, Whitener), optional
-        Total errors and whitener without discrepancy (:func:`plain_start`): a second start.
+        A second start without discrepancy: the sampling errors and their whitening by
+        :math:`R^*` alone (the goodness of fit's,
+        :meth:`~dronewind.diagnose.evidence.CampaignEvidence.sampling_whitener`).
 
     Returns
     -------
@@ -552,24 +554,6 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
         if other.lr_profile > best.lr_profile:
             best = other
     return best
-
-
-def plain_start(corr: np.ndarray | None, sigma: np.ndarray) -> tuple[np.ndarray, Whitener]:
-    """The second start of :func:`profiled_fit`: total errors and whitener without discrepancy.
-
-    Parameters
-    ----------
-    corr : numpy.ndarray or None
-        Shrunk feature correlation :math:`R^*` (p, p).
-    sigma : numpy.ndarray
-        Sampling errors (n_flights, p).
-
-    Returns
-    -------
-    (numpy.ndarray, Whitener)
-    """
-    total, fcorr = flight_correlations(corr, sigma, np.zeros(sigma.shape[1]))
-    return total, Whitener(fcorr)
 
 
 def _profiled_step(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,
@@ -1014,15 +998,15 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         total_b, fcorr_b = flight_correlations(corr_b, sigma_b, tau_b)
         y_b = baseline + resid
         white_total = Whitener(fcorr_b)
-        ref.gof[b] = float(chi2(baseline + resid0, baseline, sigma_b, Whitener(corr_b)).sum())
+        white_plain = Whitener(corr_b)
+        ref.gof[b] = float(chi2(baseline + resid0, baseline, sigma_b, white_plain).sum())
         tau0_b = discrepancy(resid0, sigma_b, speed_ms, interval=False).tau_or_zero()
         ref.y0.append(baseline + resid0)
         ref.flight_corr0.append(flight_correlations(corr_b, sigma_b, tau0_b))
         null_b = null_likelihood(y_b, baseline, sigma_b, corr_b, speed_ms)
-        plain_b = plain_start(corr_b, sigma_b)
         for c, model in models.items():
             prof = profiled_fit(model, y_b, sigma_b, corr_b, speed_ms, (total_b, white_total), null=null_b,
-                                plain=plain_b)
+                                plain=(sigma_b, white_plain))
             ref.lr[c][b], ref.lr_profile[c][b] = prof.lr_statistic, prof.lr_profile
         ref.mean_z[b], ref.slope_z[b] = (np.abs(a) for a in offset_trend_z(resid, total_b, speed_ms))
         ref.y.append(y_b)

@@ -262,10 +262,11 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
                                                                   np.array([s[:n_seeds] for s in base_sig]))
         mean_runs = np.nanmean(runs, axis=1)
     conditions = [dict(forward[f]["conditions"]) for f in flights]
-    processing_lags = {f: float(forward[f]["simulated_sonic_ins_lag_s"]) for f, cond in zip(flights, conditions,
-                                                                                           strict=True)
-                       if forward[f].get("simulated_sonic_ins_lag_s") is not None
-                       and cond.get("sonic_ins_lag_s") is not None}
+    # the processing lag the forward runs simulate where the chain measured one (a condition)
+    processing_lags = {f: float(forward[f]["simulated_sonic_ins_lag_s"])
+                       for f, c in zip(flights, conditions, strict=True)
+                       if c.get("sonic_ins_lag_s") is not None
+                       and forward[f].get("simulated_sonic_ins_lag_s") is not None}
     conditioned = [feat for key, (feat, _) in CONDITIONED.items()
                    if flights and all(c.get(key) is not None for c in conditions)]
     if flights and all(forward[f].get("atmosphere") == "measured" for f in flights):

@@ -58,7 +58,7 @@ from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
            "stratified_draws", "campaign_manifest", "judge", "run_in_process", "campaign_evidence",
-           "diagnose_evidence", "AMBIGUOUS_WITH", "hidden_lag_estimate",
+           "diagnose_evidence", "AMBIGUOUS_WITH", "hidden_lag_estimate", "judge_hidden_lag",
            "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
            "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS",
            "CAVEATED_MODEL_ERRORS", "model_error_draw", "VirtualFlight", "process_virtual_flight",
@@ -553,19 +553,42 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any], campaign: Mapping[str, Any]
 
 def _judge_lag(truth: Draw, diagnosis: Mapping[str, Any], campaign: Mapping[str, Any],
                out: dict[str, Any]) -> dict[str, Any]:
-    """:func:`judge` of a hidden ``sonic_ins_lag``: nothing named, the campaign's lag estimate = the hidden lag."""
+    """:func:`judge` of a hidden ``sonic_ins_lag``, the flights' own lags from the campaign's manifest."""
     from dronewind.simulate.settings import resolve_payload_flight, validate_simulation
 
-    named = out["named"]
     settings = validate_simulation(campaign)
-    flights = [str(f) for f in (diagnosis.get("measured_conditions") or {})]
-    base = {f: float(resolve_payload_flight(campaign, f, settings)["sonic_ins_lag_s"]) for f in flights}
-    estimate, lags = hidden_lag_estimate(diagnosis.get("measured_conditions"), base)
-    error = abs(estimate - float(truth.parameters["lag_s"])) / TOLERANCES["sonic_ins_lag"]["lag_s"]
-    out.update(detected=not named, false_alarm=False, wrong_cause=bool(named),
-               estimate={"lag_s": estimate} if np.isfinite(estimate) else {}, measured_lags=lags,
-               estimate_error=float(error), estimate_ok=bool(not named and np.isfinite(error) and error <= 1.0))
+    base = {str(f): float(resolve_payload_flight(campaign, str(f), settings)["sonic_ins_lag_s"])
+            for f in (diagnosis.get("measured_conditions") or {})}
+    out.update(judge_hidden_lag(truth, diagnosis, base))
     return out
+
+
+def judge_hidden_lag(truth: Draw, diagnosis: Mapping[str, Any], base_lags_s: Mapping[str, float]) -> dict[str, Any]:
+    """The verdict on a hidden ``sonic_ins_lag`` (:func:`judge`), given each flight's own processing lag.
+
+    Parameters
+    ----------
+    truth : Draw
+        The hidden lag (``parameters["lag_s"]``).
+    diagnosis : mapping
+        The diagnosis, as ``diagnosis.json``.
+    base_lags_s : mapping
+        Flight -> its processing lag without the hidden one [s] (the simulator's draw, or an
+        independent world's).
+
+    Returns
+    -------
+    dict
+        ``named``, ``detected`` (nothing named), ``false_alarm``, ``wrong_cause`` (something
+        named), ``estimate`` (:func:`hidden_lag_estimate`), ``measured_lags``,
+        ``estimate_error`` (in tolerances) and ``estimate_ok``.
+    """
+    named = list(diagnosis.get("named_causes") or [])
+    estimate, lags = hidden_lag_estimate(diagnosis.get("measured_conditions"), base_lags_s)
+    error = abs(estimate - float(truth.parameters["lag_s"])) / TOLERANCES["sonic_ins_lag"]["lag_s"]
+    return {"named": named, "detected": not named, "false_alarm": False, "wrong_cause": bool(named),
+            "estimate": {"lag_s": estimate} if np.isfinite(estimate) else {}, "measured_lags": lags,
+            "estimate_error": float(error), "estimate_ok": bool(not named and np.isfinite(error) and error <= 1.0)}
 
 
 def _judged(mechanism: str, parameters: Mapping[str, Any]) -> dict[str, float]:

@@ -28,7 +28,6 @@ from dronewind.diagnose.calibration import (
     familywise_p,
     null_likelihood,
     null_reference,
-    plain_start,
     profiled_fit,
 )
 from dronewind.diagnose.covariance import Whitener, flight_correlations
@@ -264,9 +263,9 @@ def _score_round(ev: CampaignEvidence, y: np.ndarray, models: Mapping[str, Respo
     start = (total0, Whitener(fcorr0))
     scores, profiles, base = {}, {}, {}
     null = null_likelihood(y, ev.baseline, ev.sigma, ev.corr, ev.speed_ms)
-    plain = plain_start(ev.corr, ev.sigma)
     for c, m in models.items():
-        prof = profiled_fit(m, y, ev.sigma, ev.corr, ev.speed_ms, start, null=null, plain=plain)
+        prof = profiled_fit(m, y, ev.sigma, ev.corr, ev.speed_ms, start, null=null,
+                            plain=(ev.sigma, ev.sampling_whitener()))
         profiles[c] = prof
         scores[c] = dataclasses.replace(score_candidate(m, y, prof.total_sigma, alpha=alpha, corr=prof.whitener),
                                         lr_profile=prof.lr_profile)

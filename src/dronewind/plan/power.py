@@ -236,21 +236,14 @@ def forward_inputs_key(view: Mapping[str, Any], flight_id: str, conditions: Mapp
     str
         SHA-256 hex digest.
     """
-    import hashlib
-    import json
+    from dronewind.core.cf import config_hash
+    from dronewind.core.raw import content_digest
 
-    h = hashlib.sha256()
-    h.update(json.dumps({k: v for k, v in view.items() if k != "simulation"}, sort_keys=True, default=str).encode())
-    h.update(json.dumps([flight_id, dict(conditions)], sort_keys=True, default=str).encode())
-    if record is None:
-        h.update(b"no record")
-    else:
-        h.update(json.dumps(dict(record.attrs), sort_keys=True, default=str).encode())
-        for name in sorted(map(str, record.variables)):
-            values = np.ascontiguousarray(record[name].values)
-            h.update(name.encode() + str(values.dtype).encode() + str(values.shape).encode())
-            h.update(values.tobytes())
-    return h.hexdigest()
+    # the record's attributes (its noise levels) enter the runs beside its values
+    atmosphere = "" if record is None else content_digest(
+        {str(name): record[name].values for name in record.variables}, prefix=config_hash(dict(record.attrs)))
+    return config_hash({"manifest": {k: v for k, v in view.items() if k != "simulation"}, "flight": flight_id,
+                        "conditions": dict(conditions), "atmosphere": atmosphere})
 
 
 def _processed_task(task: tuple[str, dict[str, Any], str, dict[str, Any], str]
@@ -319,50 +312,38 @@ def campaign_evidences(manifests: Mapping[str, Mapping[str, Any]], config: Mappi
     tasks = [(key, view, f["id"], config, str(Path(work_dir) / str(i) / f["id"]))
              for i, (key, view) in enumerate(views.items()) for f in view["payload_flights"]]
     processed: dict[tuple[str, str], dict[str, Any]] = {}
-    runs: dict[str, dict[str, Any]] = {}
     seconds: dict[tuple[str, str], float] = {}
-
-    def record_processed(key: str, fid: str, out: dict[str, Any], wall: float, cpu: float) -> None:
-        processed[(key, fid)] = out
-        seconds[(key, fid)] = wall
-        if cpu_seconds is not None:
-            cpu_seconds.append(cpu)
-
-    def record_runs(digest: str, out: dict[str, Any], wall: float, cpu: float) -> None:
-        runs[digest] = out
-        if cpu_seconds is not None:
-            cpu_seconds.append(cpu)
-        if progress is not None:
-            for key, fid in sharing[digest]:
-                progress.add(f"{key} flight {fid} simulated, processed and forward-run"
-                             + (f" (runs shared by {len(sharing[digest])} campaigns)" if len(sharing[digest]) > 1
-                                else ""), seconds[(key, fid)] + wall / len(sharing[digest]))
-
-    # first every flight simulated and processed; then the forward runs once per distinct input
-    # (an error the chain's conditions and the mast record do not see leaves them as without it)
-    parallel = workers > 1 and len(tasks) > 1
-    pool = _pool(min(workers, len(tasks))) if parallel else None
+    sharing: dict[str, list[tuple[str, str]]] = {}  # digest of the forward inputs -> the flights with it
+    runs: dict[str, dict[str, Any]] = {}
+    pool = _pool(min(workers, len(tasks))) if workers > 1 and len(tasks) > 1 else None
+    mapped = pool.map if pool is not None else map
     try:
-        for done in (pool.map(_processed_task, tasks) if pool is not None else map(_processed_task, tasks)):
-            record_processed(*done)
-        sharing: dict[str, list[tuple[str, str]]] = {}
+        # first every flight simulated and processed; then the forward runs once per distinct input
+        # (an error the chain's conditions and the mast record do not see leaves them as without it)
+        for key, fid, out, wall, cpu in mapped(_processed_task, tasks):
+            processed[(key, fid)], seconds[(key, fid)] = out, wall
+            if cpu_seconds is not None:
+                cpu_seconds.append(cpu)
         for key, view, fid, *_ in tasks:
             p = processed[(key, fid)]
             sharing.setdefault(forward_inputs_key(view, fid, p["conditions"], p["record"]), []).append((key, fid))
-        forward_tasks = []
-        for digest, members in sharing.items():
-            key, fid = members[0]
-            p = processed[(key, fid)]
-            forward_tasks.append((digest, views[key], fid, config, p["conditions"], p["record"]))
-        for done in (pool.map(_forward_task, forward_tasks) if pool is not None
-                     else map(_forward_task, forward_tasks)):
-            record_runs(*done)
+        forward_tasks = [(digest, views[key], fid, config, processed[(key, fid)]["conditions"],
+                          processed[(key, fid)]["record"]) for digest, [(key, fid), *_] in sharing.items()]
+        for digest, out, wall, cpu in mapped(_forward_task, forward_tasks):
+            runs[digest] = out
+            if cpu_seconds is not None:
+                cpu_seconds.append(cpu)
+            members = sharing[digest]
+            for key, fid in members:
+                if progress is not None:
+                    progress.add(f"{key} flight {fid} simulated, processed and forward-run"
+                                 + (f" (runs shared by {len(members)} campaigns)" if len(members) > 1 else ""),
+                                 seconds[(key, fid)] + wall / len(members))
     finally:
         if pool is not None:
             pool.shutdown()
-    digest_of = {member: digest for digest, members in sharing.items() for member in members}
-    done = {(key, fid): {"measured": p["measured"], "statistics": p["statistics"],
-                         "forward": runs[digest_of[(key, fid)]]} for (key, fid), p in processed.items()}
+    done = {member: {"measured": processed[member]["measured"], "statistics": processed[member]["statistics"],
+                     "forward": runs[digest]} for digest, members in sharing.items() for member in members}
     result = {}
     for key, view in views.items():
         fids = [f["id"] for f in view["payload_flights"]]
