@@ -137,9 +137,9 @@ def fresh_seeds(used: Sequence[int], n: int = 2) -> tuple[int, ...]:
 SEED_DOF = 640
 #: Pooled degrees of freedom of baseline seeds that only scale the errors (no correlation
 #: estimated: the published numbers, :mod:`dronewind.diagnose.published`): a seed scale with
-#: 200 degrees of freedom has a relative standard error of 1/sqrt(2 x 200) = 5 %, small beside
-#: the published numbers' own sampling errors; the seven stationary flights of Ghirardelli et
-#: al. (2025) then take the fewest seeds per flight (:data:`MIN_SEEDS`).
+#: 200 degrees of freedom has a relative standard error of 1/sqrt(2 x 200) = 5 %; the seven
+#: stationary flights of Ghirardelli et al. (2025) then take the fewest seeds per flight
+#: (:data:`MIN_SEEDS`), and their fit still names w_gain (benchmarks/results/run_default.json's run).
 SCALE_DOF = 200
 #: Fewest baseline seeds per flight (the seed scale of every feature then has at least 29
 #: degrees of freedom on one flight).
