@@ -47,7 +47,7 @@ progress log (one JSON line per draw) goes to the output path with ``.log``; the
 file is written atomically at the end.
 
 ``--evidence DIR`` keeps each draw's diagnosis input (measured features and forward runs,
-:func:`dronewind.diagnose.experiments.campaign_evidence`) as ``DIR/draw<index>.json.gz``,
+:func:`dronewind.diagnose.in_process.campaign_evidence`) as ``DIR/draw<index>.json.gz``,
 and a draw whose file is already there is only diagnosed again: a change to the diagnosis
 itself (not to the simulator or the chain) is then measured on the very same draws in
 about a second per draw, before against after (an older source tree on ``PYTHONPATH`` rescores
@@ -80,19 +80,8 @@ import yaml
 from bench_common import git_commit
 from dronewind.diagnose import experiments as experiments_module
 from dronewind.diagnose.experiments import Draw, judge, stratified_draws, wilson_interval
+from dronewind.diagnose.in_process import diagnose_evidence
 from dronewind.manifest import with_defaults
-
-try:
-    from dronewind.diagnose.experiments import diagnose_evidence
-except ImportError:  # an older source tree (PYTHONPATH): rescore kept evidence with its diagnosis
-    def diagnose_evidence(evidence: dict[str, Any], config: dict[str, Any]) -> dict[str, Any]:
-        """``diagnosis.json`` of kept evidence, with the diagnosis of the source tree in use."""
-        from dronewind.diagnose import campaign as dc
-
-        diag = with_defaults(config)["diagnosis"]
-        result = dc.diagnose(dc.assemble(evidence["measured"], evidence["forward"]), alpha=float(diag["alpha"]),
-                             max_causes=int(diag["max_causes"]), min_gain=float(diag["min_gain"]))
-        return {**dc.to_json(result, evidence["name"]), "atmosphere": str(diag["atmosphere"])}
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -127,7 +116,7 @@ def _evidence(truth: Draw, config: dict[str, Any], path: Path | None) -> dict[st
         if kept["draw"] != json.loads(json.dumps(key)):
             raise ValueError(f"{path}: kept evidence of draw {kept['draw']}, not of {key}")
         return kept["evidence"]
-    from dronewind.diagnose.experiments import campaign_evidence
+    from dronewind.diagnose.in_process import campaign_evidence
 
     with tempfile.TemporaryDirectory() as work:
         evidence = campaign_evidence(truth, config, work)

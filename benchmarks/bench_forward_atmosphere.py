@@ -1,7 +1,7 @@
 """The forward model's atmosphere, measured against the model's: hidden-effect draws run in-process.
 
 Each case is a 4-flight virtual campaign of 12-minute hovers (dronewind.diagnose.experiments),
-simulated, processed and diagnosed in-process (experiments.run_in_process, the workflow's
+simulated, processed and diagnosed in-process (in_process.run_in_process, the workflow's
 library functions) with ``diagnosis.atmosphere: measured`` (the reference mast's L1 constrains
 the forward runs' field and gives its spectra) and, for some cases, ``model`` (similarity
 turbulence at the measured mean conditions):
@@ -30,7 +30,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from dronewind.diagnose.experiments import Draw, judge, run_in_process
+from dronewind.diagnose.experiments import Draw, judge
+from dronewind.diagnose.in_process import run_in_process
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -3,7 +3,7 @@
 For mechanisms that are not (or not yet) in ``experiments.HIDDEN_RANGES``, each case hides one
 mechanism at a stated size in the 4-flight hidden-effect campaign
 (:func:`dronewind.diagnose.experiments.campaign_manifest`), runs the in-process diagnosis with
-the default configuration (:func:`~dronewind.diagnose.experiments.run_in_process`) and records
+the default configuration (:func:`~dronewind.diagnose.in_process.run_in_process`) and records
 the verdict (:func:`~dronewind.diagnose.experiments.judge`), the named causes, ambiguity sets,
 goodness of fit and the first candidates. One draw per case: evidence for what enters the
 hidden draws, not a rate (bench_diagnosis_rates.py measures rates).
@@ -22,7 +22,8 @@ import time
 from pathlib import Path
 
 from bench_common import git_commit
-from dronewind.diagnose.experiments import Draw, judge, run_in_process
+from dronewind.diagnose.experiments import Draw, judge
+from dronewind.diagnose.in_process import run_in_process
 
 #: name -> hidden truth (mechanism, every parameter, campaign seed)
 CASES: dict[str, Draw] = {

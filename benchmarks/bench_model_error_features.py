@@ -30,13 +30,14 @@ import yaml
 
 from bench_common import git_commit
 from dronewind.diagnose import experiments as ex
+from dronewind.diagnose import in_process
 from dronewind.manifest import with_defaults
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 def measured(data: dict[str, Any], processing: dict[str, Any], work: Path) -> dict[str, dict[str, Any]]:
-    """Measured features of every flight of a hidden-effect campaign (experiments.process_virtual_flight, no probes)."""
+    """Measured features of every flight of a hidden-effect campaign (in_process.process_virtual_flight, no probes)."""
     from dronewind.diagnose import forward, probes
     from dronewind.diagnose.features import features_to_dict
 
@@ -44,7 +45,7 @@ def measured(data: dict[str, Any], processing: dict[str, Any], work: Path) -> di
     lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     for flight in data["payload_flights"]:
         fid = flight["id"]
-        v = ex.process_virtual_flight(data, flight, work, processing)
+        v = in_process.process_virtual_flight(data, flight, work, processing)
         out[fid] = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
     return out
 

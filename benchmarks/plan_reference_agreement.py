@@ -29,9 +29,11 @@ from typing import Any
 import scipy.stats
 
 from bench_common import machine
-from dronewind.diagnose.experiments import diagnose_evidence, judge, wilson_interval
+from dronewind.diagnose.experiments import judge, wilson_interval
+from dronewind.diagnose.in_process import diagnose_evidence
 from dronewind.manifest import with_defaults
 from dronewind.plan import power as pw
+from dronewind.plan import simulation as sim
 from dronewind.plan.manifest import flight_speeds
 from dronewind.plan.planner import plan_campaign, power_campaigns
 from dronewind.plan.spec import parse_plan
@@ -61,7 +63,7 @@ def _evidence(gain: float, flights: int, folder: Path) -> tuple[Any, dict[str, A
         evidences = json.loads(path.read_text())
     else:
         with tempfile.TemporaryDirectory() as tmp:
-            evidences = pw.campaign_evidences(manifests, with_defaults({}), tmp)
+            evidences = sim.campaign_evidences(manifests, with_defaults({}), tmp)
         folder.mkdir(parents=True, exist_ok=True)
         tmp_path = path.with_suffix(".tmp")
         tmp_path.write_text(json.dumps(evidences))

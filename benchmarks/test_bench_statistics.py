@@ -29,11 +29,11 @@ def _models(rng, baseline):
 
 
 def test_bootstrap_reference(benchmark):
-    """:func:`~dronewind.diagnose.calibration.null_reference` with 100 replicates on the default
+    """:func:`~dronewind.diagnose.reference.null_reference` with 100 replicates on the default
     campaign's shape: every replicate redraws seeds and measurement, re-estimates the seed scale,
     the shrunk correlation and the discrepancy, and profiles every candidate's fit."""
-    from dronewind.diagnose.calibration import null_reference
     from dronewind.diagnose.features import FEATURES
+    from dronewind.diagnose.reference import null_reference
 
     rng = np.random.default_rng(0)
     p = len(FEATURES)

@@ -8,7 +8,7 @@ nothing (null), a model error of the world (tests.worlds.WORLD_MODEL_ERRORS: ano
 Gamma, a mean-wind trend, mast flow distortion, another rope), or one catalog mechanism of
 tests.worlds.HIDDEN_MECHANISMS with a size from experiments.HIDDEN_RANGES (both sides where
 signed). The campaign is then processed and diagnosed in this process with the library
-(experiments.measured_campaign_evidence, then experiments.diagnose_evidence; default
+(in_process.measured_campaign_evidence, then in_process.diagnose_evidence; default
 configuration) and judged by experiments.judge: nulls and model errors must name nothing,
 a hidden mechanism must be the first named cause (or share an ambiguity set with it) with
 its estimate within experiments.TOLERANCES. For ``sonic_ins_lag`` the truth is the hidden

@@ -12,7 +12,7 @@ library functions in this process, then measures what a calibrated diagnosis mus
 
 Besides, per feature, the 5 %, 50 % and 95 % quantiles over all flights of each flight's own
 seed scatter relative to the pooled scale (``flight_seed_scale``: the ratio the bootstrap's
-replicates are drawn with, :func:`dronewind.diagnose.calibration.flight_seed_scale`); with
+replicates are drawn with, :func:`dronewind.diagnose.reference.flight_seed_scale`); with
 ``n`` seeds per flight chance alone spreads it by about 1/sqrt(2(n - 1)).
 
 The forward runs of every draw are kept (``--evidence-dir``, ``draw{k:03d}.json``, deterministic by
@@ -60,6 +60,7 @@ CONFIG: dict[str, Any] = {"processing": {"hover": {"min_duration_s": 300.0}}}
 def _evidence(args: tuple[int, int, float, int, str]) -> str:
     """Simulate, process and forward-run one null campaign; write its evidence JSON; return the path."""
     from dronewind.diagnose import experiments as ex
+    from dronewind.diagnose import in_process
 
     draw_index, n_flights, hover_min, seed, out_dir = args
     path = Path(out_dir) / f"draw{draw_index:03d}.json"
@@ -69,8 +70,8 @@ def _evidence(args: tuple[int, int, float, int, str]) -> str:
     speeds = tuple(float(v) for v in np.linspace(3.0, 11.0, n_flights))
     z_over_l = tuple(float(v) for v in np.linspace(-0.3, 0.1, n_flights))
     with tempfile.TemporaryDirectory() as work:
-        ev = ex.campaign_evidence(truth, CONFIG, work, n_flights=n_flights, hover_min=hover_min, speeds_ms=speeds,
-                                  z_over_l=z_over_l, name=f"null{draw_index:03d}")
+        ev = in_process.campaign_evidence(truth, CONFIG, work, n_flights=n_flights, hover_min=hover_min,
+                                          speeds_ms=speeds, z_over_l=z_over_l, name=f"null{draw_index:03d}")
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(ev))
     tmp.replace(path)

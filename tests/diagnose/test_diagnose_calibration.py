@@ -12,21 +12,19 @@ import numpy as np
 import pytest
 import scipy.stats
 
-from dronewind.diagnose.calibration import (
+from dronewind.diagnose.calibration import discrepancy, fit_dof, profiled_fit
+from dronewind.diagnose.covariance import Whitener, flight_correlations
+from dronewind.diagnose.fitting import ParameterResponse, ResponseModel
+from dronewind.diagnose.reference import (
     check_attainable,
-    discrepancy,
     empirical_p,
     familywise_p,
-    fit_dof,
     flight_seed_scale,
     mc_standard_error,
     null_reference,
     offset_trend_z,
-    profiled_fit,
     seed_scale,
 )
-from dronewind.diagnose.covariance import Whitener, flight_correlations
-from dronewind.diagnose.fitting import ParameterResponse, ResponseModel
 
 
 def test_discrepancy_recovers_a_known_scatter_and_its_interval_covers() -> None:

@@ -133,14 +133,14 @@ def test_constraint_amplitudes_need_a_constraint():
 def forward_flight(tmp_path_factory):
     """One simulated flight processed to L3, its forward conditions and the mast L1."""
     from dronewind.diagnose import experiments as ex
-    from dronewind.diagnose import forward_conditions
+    from dronewind.diagnose import forward_conditions, in_process
     from dronewind.manifest import with_defaults
 
     work = Path(tmp_path_factory.mktemp("atmosphere"))
     proc = with_defaults({})["processing"]
     data = ex.campaign_manifest(ex.Draw("none", {}, 7), n_flights=2, hover_min=6.0)
     flight = data["payload_flights"][1]
-    v = ex.process_virtual_flight(data, flight, work, proc)
+    v = in_process.process_virtual_flight(data, flight, work, proc)
     cond = forward_conditions.forward_conditions(data, flight["id"], v.l3, v.l2)
     return data, flight["id"], proc, cond, v.mast_l1, v.l2, v.l3
 

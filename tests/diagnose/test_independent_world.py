@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from dronewind.diagnose import probes
-from dronewind.diagnose.experiments import Draw, diagnose_evidence, judge, measured_campaign_evidence
+from dronewind.diagnose.experiments import Draw, judge
+from dronewind.diagnose.in_process import diagnose_evidence, measured_campaign_evidence
 from dronewind.manifest import default_config, load_campaign
 from dronewind.mast.chain import compute_mast_l1
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2

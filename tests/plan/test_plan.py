@@ -251,6 +251,7 @@ def two_flight_model(tmp_path_factory):
     from dronewind.manifest import with_defaults
     from dronewind.plan import plan_campaign
     from dronewind.plan import power as pw
+    from dronewind.plan import simulation as sim
     from dronewind.plan.planner import power_campaigns
 
     spec = parse_plan(_plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
@@ -259,7 +260,7 @@ def two_flight_model(tmp_path_factory):
     config = with_defaults({"diagnosis": {"bootstrap": 100, "seeds": list(range(1, 31))}})
     plan = plan_campaign(spec, config=config, simulate_power=False)
     manifests = power_campaigns(plan)  # as plan_campaign simulates them for the power
-    model = pw.campaign_power_model(manifests, pw.campaign_evidences(manifests, config,
+    model = pw.campaign_power_model(manifests, sim.campaign_evidences(manifests, config,
                                                                      tmp_path_factory.mktemp("power")), spec.detect)
     return model, spec.detect[0].label, config
 
@@ -272,6 +273,7 @@ def test_flights_an_error_leaves_unseen_share_the_forward_runs_they_would_have(t
     from dronewind.manifest import with_defaults
     from dronewind.plan import plan_campaign
     from dronewind.plan import power as pw
+    from dronewind.plan import simulation as sim
     from dronewind.plan.planner import power_campaigns
 
     spec = parse_plan(_plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
@@ -281,12 +283,12 @@ def test_flights_an_error_leaves_unseen_share_the_forward_runs_they_would_have(t
     manifests = power_campaigns(plan_campaign(spec, config=config, simulate_power=False))
     label = spec.detect[0].label
     cpu: list[float] = []
-    evidences = pw.campaign_evidences(manifests, config, tmp_path / "shared", cpu_seconds=cpu)
+    evidences = sim.campaign_evidences(manifests, config, tmp_path / "shared", cpu_seconds=cpu)
     fid = next(iter(evidences[pw.NO_ERROR]["forward"]))
     assert len(cpu) == 3  # two flights processed, one set of forward runs
     assert evidences[label]["forward"][fid] is evidences[pw.NO_ERROR]["forward"][fid]
     assert evidences[label]["measured"][fid] != evidences[pw.NO_ERROR]["measured"][fid]
-    own = pw.flight_evidence(pw._simulated_view(manifests[label]), fid, config, tmp_path / "own")
+    own = sim.flight_evidence(sim._simulated_view(manifests[label]), fid, config, tmp_path / "own")
     assert json.dumps(own["forward"], sort_keys=True) == json.dumps(evidences[label]["forward"][fid], sort_keys=True)
     assert own["measured"] == evidences[label]["measured"][fid]
 
@@ -297,7 +299,8 @@ def test_shared_reference_decides_as_each_draws_own(two_flight_model):
     reused on the next call); their decisions are those of a reference of each draw's own: the
     two differ only where a p-value sits near alpha, so at least 5 of 6 paired draws agree, and
     the draws are the same campaigns both ways (same seed, same features)."""
-    from dronewind.diagnose.experiments import diagnose_evidence, judge
+    from dronewind.diagnose.experiments import judge
+    from dronewind.diagnose.in_process import diagnose_evidence
     from dronewind.plan import power as pw
 
     model, label, config = two_flight_model

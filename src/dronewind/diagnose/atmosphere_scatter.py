@@ -11,9 +11,9 @@ resample what that record got wrong by chance, its spectral sampling error
 
 :func:`realisation_scatter` measures it with the project's own simulator: N virtual flights
 of one campaign's conditions with different campaign seeds (the "true" atmospheres), each
-processed as measured (:func:`dronewind.diagnose.experiments.process_virtual_flight`) and
+processed as measured (:func:`dronewind.diagnose.in_process.process_virtual_flight`) and
 forward-run with K baseline seeds of its own (:func:`dronewind.diagnose.probe_runs.probe_runs`,
-as :func:`dronewind.diagnose.experiments._process_flight` does); per feature, the ratio
+as :func:`dronewind.diagnose.in_process._process_flight` does); per feature, the ratio
 
 .. math:: R = \\frac{(1 + 1/K)\\,\\overline{s^2_{seeds}}}{\\mathrm{var}_i(y_i - \\bar b_i)}
 
@@ -116,7 +116,7 @@ def realisation_scatter(n_realisations: int, n_seeds: int, features: Sequence[st
         (per realisation) and :func:`scatter_ratios`.
     """
     from dronewind.diagnose import experiments as ex
-    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, in_process, probe_runs, probes
     from dronewind.diagnose.features import features_to_dict
     from dronewind.manifest import with_defaults
 
@@ -131,7 +131,7 @@ def realisation_scatter(n_realisations: int, n_seeds: int, features: Sequence[st
                                         speeds_ms=(speed_ms,))
             flight = data["payload_flights"][0]
             fid = flight["id"]
-            v = ex.process_virtual_flight(copy.deepcopy(data), flight, Path(folder) / f"r{i}", processing)
+            v = in_process.process_virtual_flight(copy.deepcopy(data), flight, Path(folder) / f"r{i}", processing)
             found = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
             conditions = forward_conditions.forward_conditions(data, fid, v.l3, v.l2)
             record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions)

@@ -1,9 +1,10 @@
-r"""Calibrated statistics of the campaign diagnosis: model discrepancy and bootstrap references.
+r"""Calibrated statistics of the campaign diagnosis: the model discrepancy and the profiled fits.
 
 The campaign diagnosis (:mod:`dronewind.diagnose.campaign`) compares every flight's measured
 residual features with the forward model's baseline seeds. Two questions decide whether its
 verdicts can be trusted: how large is the misfit that no candidate describes, and what
-distribution does each test statistic have when nothing is wrong. This module answers both.
+distribution does each test statistic have when nothing is wrong. This module answers the
+first, and fits every candidate under it; :mod:`dronewind.diagnose.reference` the second.
 
 Model discrepancy
 -----------------
@@ -35,28 +36,6 @@ candidate's fit, whose parameters took :math:`h_f` of each feature's degrees of 
 (:func:`fit_dof`), so that a real mechanism's signature does not inflate the discrepancy its
 own test is weighed against.
 
-Reference distributions
------------------------
-The statistics (the likelihood-ratio statistic of every candidate, the goodness of fit, the
-offset and trend tests of every feature) are referred to a parametric bootstrap over seeds
-(:func:`null_reference`). Each replicate draws what the campaign drew, under the fitted null:
-``n_seeds`` standardised baseline seeds and one standardised "measurement" per flight from
-:math:`N(0, K R^* K)` (:math:`K` the seed scale of every feature), and a discrepancy from
-:math:`N(0, \tau^2)`; then it repeats every estimate the diagnosis makes from them (the seed
-scales, the shrunk correlation, the discrepancy) and every statistic. The reference therefore
-holds the sampling error of the measured flight, that of the seeds' mean, the error of the
-covariance estimated from the seeds and of the discrepancy estimated from the flights, the
-bounds of the parameters and the piecewise-linear responses: none of the :math:`\chi^2`
-approximations is needed. The candidates' statistics are computed on every replicate as on
-the campaign, the discrepancy profiled under each. Family-wise p-values over candidates (or
-features) are Westfall and Young's (1993) single-step min-p: the share of the :math:`B + 1`
-draws (the replicates and the observed campaign) whose smallest marginal p-value over the
-family is at most the observed one. The marginal p-values are pivotal tails
-(:math:`\chi^2_k` of a likelihood-ratio statistic, the normal of a z statistic), so the
-family-wise p-value resolves down to :math:`1/(B+1)`; ranks among the replicates alone could
-not go below about :math:`m/(B+1)` for :math:`m` tests. Every p-value has the Monte-Carlo
-standard error :math:`\sqrt{p(1-p)/(B+1)}` (:func:`mc_standard_error`).
-
 References
 ----------
 Kennedy, M. C. and O'Hagan, A. (2001): Bayesian calibration of computer models. J. R. Stat.
@@ -71,13 +50,11 @@ Trials 7(3), 177-188, doi:10.1016/0197-2456(86)90046-2.
 Viechtbauer, W. (2007): Confidence intervals for the amount of heterogeneity in
 meta-analysis. Statistics in Medicine 26(1), 37-52, doi:10.1002/sim.2514.
 
-Westfall, P. H. and Young, S. S. (1993): Resampling-Based Multiple Testing. Wiley, New York.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.optimize
@@ -87,16 +64,13 @@ from dronewind.diagnose.covariance import (
     Whitener,
     flight_correlations,
     log_determinant,
-    nearest_correlation,
     row_patterns,
-    shrunk_correlation,
 )
-from dronewind.diagnose.fitting import FitResult, ResponseModel, chi2, fit_parameters, standardised_residuals
+from dronewind.diagnose.fitting import FitResult, ResponseModel, fit_parameters, standardised_residuals
 
 __all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
-           "profiled_fit", "seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference",
-           "null_reference", "empirical_p", "familywise_p", "mc_standard_error", "smallest_p", "check_attainable",
-           "MIN_FLIGHTS_TREND", "MAX_LOST_SHARE", "DEFAULT_REPLICATES"]
+           "profiled_fit", "null_likelihood", "likelihood_ratio", "MIN_FLIGHTS_TREND", "MAX_LOST_SHARE",
+           "UNEXPLAINED_ALPHA"]
 
 #: Flights needed before a trend with wind speed is removed besides the offset when the
 #: discrepancy is estimated (two degrees of freedom left). Most mechanisms' effects grow or decay
@@ -120,9 +94,6 @@ MAX_LOST_SHARE = 0.9
 #: 0.84 at 5 % (0.71 at 1 %), an offset of 2 errors with 0.99 (0.98); the noise alone reports
 #: something in 3.5 % (``tests/diagnose/test_diagnose_fitting.py``).
 UNEXPLAINED_ALPHA = 0.05
-#: Bootstrap replicates by default: a family-wise p-value of 0.01 then has a Monte-Carlo
-#: standard error of 0.004 (binomial, sqrt(0.01 x 0.99 / 600)).
-DEFAULT_REPLICATES = 600
 
 
 @dataclass(frozen=True)
@@ -505,7 +476,7 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     after that fit (DerSimonian and Laird 1986, the fit's projection accounted for in the
     moments, :func:`profiled_discrepancy`), and the candidate is fitted again under
     :math:`C_i = D_i R^* D_i + \\mathrm{diag}(\\hat\\tau^2)` (Kennedy and O'Hagan 2001). One such
-    step; :func:`null_reference` repeats it on every replicate, so the likelihood-ratio
+    step; :func:`~dronewind.diagnose.reference.null_reference` repeats it on every replicate, so the likelihood-ratio
     statistic keeps a calibrated reference whatever the step does to its distribution.
 
     The starting discrepancy holds the candidate's own signature where that signature is
@@ -633,8 +604,9 @@ def likelihood_ratio(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, cor
     the candidate explains it. The statistic compares the two hypotheses as a likelihood ratio
     does, each under its own covariance; with the misfits alone under the candidate's
     covariance, a candidate that absorbs a feature's flight-to-flight discrepancy would count
-    that discrepancy as its signal, and its null distribution (:func:`null_reference`) would
-    carry a long tail that costs every candidate of the family its power.
+    that discrepancy as its signal, and its null distribution
+    (:func:`~dronewind.diagnose.reference.null_reference`) would carry a long tail that costs every
+    candidate of the family its power.
 
     Parameters
     ----------
@@ -662,358 +634,3 @@ def likelihood_ratio(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, cor
     else:
         tau1 = tau0
     return max(neg2_null - _neg2_loglik(y, pred, sigma, corr, tau1), 0.0)
-
-
-def seed_scale(x: np.ndarray) -> np.ndarray:
-    """Pooled within-flight standard deviation of standardised seed runs, per feature.
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        Baseline runs divided by their analytic errors (n_flights, n_seeds, p); NaN: missing.
-
-    Returns
-    -------
-    numpy.ndarray
-        :math:`k_f = \\sqrt{\\sum_{i,s} (x_{isf} - \\bar x_{if})^2 / \\sum_i (n_{if} - 1)}` (p,);
-        NaN where no flight has two finite seeds. This turns a feature's analytic error into
-        the seed-to-seed scatter; it is neither floored nor widened.
-    """
-    dev2, n_i = _seed_deviations(x)
-    dof = np.where(n_i >= 2, n_i - 1, 0).sum(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sqrt(np.where(dof > 0, dev2.sum(axis=0) / np.maximum(dof, 1), np.nan))
-
-
-def _seed_deviations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Sum of squared deviations from each flight's seed mean and the finite seeds, both (n_flights, p)."""
-    finite = np.isfinite(x)
-    n_i = finite.sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.nansum(np.where(finite, x, 0.0), axis=1) / n_i
-    return np.where(finite, (x - mean[:, None, :]) ** 2, 0.0).sum(axis=1), n_i
-
-
-def flight_seed_scale(x: np.ndarray, min_seeds: int = 30) -> np.ndarray:
-    """Per-flight standard deviation of standardised seed runs, per feature.
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        Baseline runs divided by their analytic errors (n_flights, n_seeds, p); NaN: missing.
-    min_seeds : int
-        Fewest seeds of one flight whose own scatter is used (29 degrees of freedom: a relative
-        standard error of the scale of about 13 %).
-
-    Returns
-    -------
-    numpy.ndarray
-        :math:`k_{if} = \\sqrt{\\sum_s (x_{isf} - \\bar x_{if})^2 / (n_{if} - 1)}` (n_flights, p);
-        NaN where the flight has fewer than ``min_seeds`` finite seeds of the feature (the
-        bootstrap then uses the pooled :math:`k_f`, :func:`null_reference`).
-    """
-    dev2, n_i = _seed_deviations(x)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(n_i >= max(int(min_seeds), 2), np.sqrt(dev2 / (n_i - 1)), np.nan)
-
-
-def offset_trend_z(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Offset and trend statistics of every feature's residuals, with known variances.
-
-    Parameters
-    ----------
-    residual, sigma : numpy.ndarray
-        Residuals and their total errors (sampling and discrepancy) (n_flights, p).
-    speed_ms : numpy.ndarray
-        Mean wind speed of every flight (n_flights,) [m s-1].
-
-    Returns
-    -------
-    mean_z, slope_z : numpy.ndarray
-        (p,): the weighted mean residual over its standard error
-        :math:`\\sum_i w_i r_i / \\sqrt{\\sum_i w_i}`, and the weighted least-squares slope
-        against wind speed over its standard error (offset fitted with it); both standard
-        normal when the model and its errors are right. The variances are the model's, not
-        re-estimated from the residuals' scatter (a t-test over four flights with two degrees
-        of freedom could hardly reject anything). NaN where too few flights.
-    """
-    r_all = np.asarray(residual, dtype=float)
-    s_all = np.asarray(sigma, dtype=float)
-    speed = np.asarray(speed_ms, dtype=float)
-    p = r_all.shape[1]
-    mean_z = np.full(p, np.nan)
-    slope_z = np.full(p, np.nan)
-    for f in range(p):
-        ok = np.isfinite(r_all[:, f]) & np.isfinite(s_all[:, f]) & (s_all[:, f] > 0)
-        if ok.sum() < 2:
-            continue
-        w = 1.0 / s_all[ok, f] ** 2
-        mean_z[f] = float(np.sum(w * r_all[ok, f]) / np.sqrt(np.sum(w)))
-        ok_s = ok & np.isfinite(speed)
-        if ok_s.sum() >= 3 and np.ptp(speed[ok_s]) > 0:
-            w = 1.0 / s_all[ok_s, f] ** 2
-            u = speed[ok_s] - np.sum(w * speed[ok_s]) / np.sum(w)
-            sxx = float(np.sum(w * u * u))
-            slope_z[f] = float(np.sum(w * u * r_all[ok_s, f]) / np.sqrt(sxx))
-    return mean_z, slope_z
-
-
-def empirical_p(observed: float, replicates: np.ndarray) -> float:
-    """Upper-tail bootstrap p-value :math:`(1 + \\#\\{T^* \\ge T\\}) / (1 + B)` (NaN replicates dropped)."""
-    rep = np.asarray(replicates, dtype=float)
-    rep = rep[np.isfinite(rep)]
-    if not np.isfinite(observed):
-        return 1.0
-    return float((1 + np.sum(rep >= observed)) / (1 + rep.size))
-
-
-def mc_standard_error(p: float, n_replicates: int) -> float:
-    """Monte-Carlo standard error of a bootstrap p-value: :math:`\\sqrt{p(1-p)/(B+1)}`."""
-    return float(np.sqrt(max(p * (1.0 - p), 0.0) / (n_replicates + 1))) if n_replicates > 0 else float("nan")
-
-
-def smallest_p(n_replicates: int) -> float:
-    """Smallest p-value :math:`1/(B+1)` a bootstrap of ``n_replicates`` can give."""
-    return 1.0 / (n_replicates + 1)
-
-
-def check_attainable(alpha: float, n_replicates: int) -> None:
-    """Raise ValueError when a level ``alpha`` cannot be reached with ``n_replicates`` (:func:`smallest_p`)."""
-    if n_replicates > 0 and smallest_p(n_replicates) >= alpha:
-        raise ValueError(f"alpha {alpha:g} is not attainable with {n_replicates} bootstrap replicates "
-                         f"(smallest p-value 1/(B+1) = {smallest_p(n_replicates):.4g}): use at least "
-                         f"{int(np.ceil(1.0 / alpha))} replicates")
-
-
-def familywise_p(observed: Mapping[str, float], replicates: Mapping[str, np.ndarray],
-                 family: Sequence[str] | None = None,
-                 marginal: Mapping[str, Callable[[np.ndarray], np.ndarray]] | None = None) -> dict[str, float]:
-    """Westfall-Young single-step family-wise p-values of upper-tail statistics.
-
-    Parameters
-    ----------
-    observed : mapping
-        Test -> observed statistic (larger is more extreme).
-    replicates : mapping
-        Test -> its bootstrap replicates under the null (B,), the same replicates for every test.
-    family : sequence of str, optional
-        The tests the family-wise rate is taken over (default: all of ``observed``).
-    marginal : mapping, optional
-        Test -> a decreasing map of its statistic to an approximate p-value (e.g. the
-        :math:`\\chi^2_k` upper tail of a likelihood-ratio statistic). Without it each test's
-        marginal p-value is its rank among the observed and the replicates.
-
-    Returns
-    -------
-    dict
-        Test -> :math:`(1 + \\#\\{b: \\min_j u^*_{bj} \\le u_t\\}) / (1 + B)` (Westfall and Young 1993,
-        single-step min-p, Algorithm 2.5; with ``marginal`` the min-p over pivotal
-        transforms, their Section 2.6), :math:`u_t` the observed test's marginal p-value and
-        :math:`u^*_{bj}` that of replicate :math:`b` of test :math:`j`. The marginal p-values
-        need not be exact: the joint distribution of their minimum is the bootstrap's. Ranks
-        count the observed statistic among the :math:`B + 1` (it is one draw of the null), so a
-        replicate's rank p-value is on the observed's scale; the smallest family-wise p-value
-        is then about :math:`m/(B+1)` for :math:`m` tests, while the continuous ``marginal``
-        reaches :math:`1/(B+1)`.
-    """
-    names = list(observed if family is None else family)
-    if not names:
-        return {}
-    mat = np.column_stack([np.asarray(replicates[t], dtype=float) for t in names])
-    obs = np.array([float(observed[t]) for t in names])
-    u = np.ones_like(mat)
-    u_obs = np.ones(len(names))
-    for j, t in enumerate(names):
-        col = mat[:, j]
-        ok = np.isfinite(col)
-        if marginal is not None and t in marginal:
-            u[ok, j] = marginal[t](col[ok])
-            u_obs[j] = float(marginal[t](np.array([obs[j]]))[0]) if np.isfinite(obs[j]) else 1.0
-            continue
-        if not ok.any():
-            continue
-        srt = np.sort(col[ok])
-        # members (replicates and the observed) at least as large as each replicate, itself included
-        ge = ok.sum() - np.searchsorted(srt, col[ok], side="left") + (obs[j] >= col[ok]).astype(float)
-        u[ok, j] = ge / (ok.sum() + 1)
-        u_obs[j] = empirical_p(obs[j], col)
-    min_u = np.min(u, axis=1)
-    return {t: float((1 + np.sum(min_u <= u_obs[j] * (1 + 1e-12))) / (1 + min_u.size)) for j, t in enumerate(names)}
-
-
-@dataclass
-class NullReference:
-    """Bootstrap replicates of every statistic under the fitted null (:func:`null_reference`).
-
-    Attributes
-    ----------
-    n_replicates, seed : int
-        Replicates drawn and the seed of their generator.
-    baseline : numpy.ndarray
-        The baseline prediction the replicates scatter about (n_flights, p).
-    gof : numpy.ndarray
-        Baseline misfit against the sampling error alone (B,).
-    lr : dict
-        Candidate -> conditional likelihood-ratio statistic (B,) (:attr:`ProfiledFit.lr_statistic`).
-    lr_profile : dict
-        Candidate -> profile likelihood-ratio statistic (B,) (:func:`likelihood_ratio`).
-    mean_z, slope_z : numpy.ndarray
-        Offset and trend statistics of every feature (B, p), as :func:`offset_trend_z`.
-    y, sigma, total_sigma : list of numpy.ndarray
-        Each replicate's measured features, sampling and total errors (for refits after naming).
-    corr, flight_corr : list of numpy.ndarray
-        Each replicate's shrunk correlation and per-flight correlations with discrepancy.
-    y0, flight_corr0 : list
-        The same replicates without the discrepancy (the goodness of fit's null), with their
-        total errors and per-flight correlations.
-    """
-
-    n_replicates: int
-    seed: int
-    baseline: np.ndarray
-    gof: np.ndarray
-    lr: dict[str, np.ndarray] = field(default_factory=dict)
-    lr_profile: dict[str, np.ndarray] = field(default_factory=dict)
-    mean_z: np.ndarray = field(default_factory=lambda: np.empty((0, 0)))
-    slope_z: np.ndarray = field(default_factory=lambda: np.empty((0, 0)))
-    y: list[np.ndarray] = field(default_factory=list, repr=False)
-    sigma: list[np.ndarray] = field(default_factory=list, repr=False)
-    total_sigma: list[np.ndarray] = field(default_factory=list, repr=False)
-    corr: list[np.ndarray | None] = field(default_factory=list, repr=False)
-    flight_corr: list[np.ndarray] = field(default_factory=list, repr=False)
-    y0: list[np.ndarray] = field(default_factory=list, repr=False)
-    flight_corr0: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list, repr=False)
-
-    def extended_gof(self, models: Sequence[tuple[ResponseModel, np.ndarray]]) -> np.ndarray:
-        """Replicates of the extended model's misfit: the named causes refitted on each replicate without discrepancy.
-
-        Parameters
-        ----------
-        models : sequence of (ResponseModel, numpy.ndarray)
-            The named causes in naming order, with the flights' indices.
-
-        Returns
-        -------
-        numpy.ndarray
-            (B,): each replicate's misfit against the sampling error alone after removing the
-            causes' fitted effects in turn, as the diagnosis removes them.
-        """
-        out = np.empty(self.n_replicates)
-        for b in range(self.n_replicates):
-            y = self.y0[b].copy()
-            total, fcorr = self.flight_corr0[b]
-            white_total = Whitener(fcorr)
-            for model, idx in models:
-                fit = fit_parameters(model, y, total, idx, white_total)
-                effect = model.predict(fit.theta, idx) - model.baseline
-                y = y - np.where(np.isfinite(effect), effect, 0.0)
-            out[b] = float(chi2(y, self.baseline, self.sigma[b], Whitener(self.corr[b])).sum())
-        return out
-
-
-def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndarray, corr: np.ndarray | None,
-                   truth_corr: np.ndarray | None = None, tau: np.ndarray, used: np.ndarray, n_seeds: int,
-                   speed_ms: np.ndarray,
-                   models: Mapping[str, ResponseModel], n_replicates: int = DEFAULT_REPLICATES,
-                   seed: int = 0, progress: object | None = None,
-                   flight_scale: np.ndarray | None = None) -> NullReference:
-    """Parametric bootstrap over seeds of every statistic of the diagnosis (module docstring).
-
-    Parameters
-    ----------
-    baseline : numpy.ndarray
-        Mean of the baseline seeds (n_flights, p) [feature units].
-    analytic : numpy.ndarray
-        Analytic errors of the features (n_flights, p) [feature units].
-    scale : numpy.ndarray
-        Seed scale :math:`k_f` (p,) (:func:`seed_scale`).
-    corr : numpy.ndarray or None
-        Shrunk feature correlation :math:`R^*` (p, p).
-    truth_corr : numpy.ndarray, optional
-        Correlation the replicates are drawn with: the seeds' sample correlation, the unbiased
-        estimate of the truth (default ``corr``). Drawing with the shrunk matrix would make the
-        replicates' shrinkage act on weaker correlations than the data's, and understate how much
-        whitening with a shrunk estimate inflates the misfit (measured on a known Gaussian model:
-        mean misfit 32.8 against 30.4 of such replicates for 30 residuals,
-        ``tests/diagnose/test_diagnose_calibration.py``). Its eigenvalues are raised to
-        :data:`~dronewind.diagnose.covariance.MIN_EIGENVALUE` where needed.
-    tau : numpy.ndarray
-        Discrepancy standard deviation per feature (p,) [feature units].
-    used : numpy.ndarray
-        Features measured for every flight (n_flights, p) (bool).
-    n_seeds : int
-        Baseline seeds per flight.
-    speed_ms : numpy.ndarray
-        Mean wind speed of every flight (n_flights,) [m s-1].
-    models : mapping
-        Candidate -> response model (its effects are added to the baseline).
-    n_replicates : int
-        Bootstrap replicates B.
-    seed : int
-        Seed of the generator (the reference is reproducible).
-    progress : object, optional
-        Called with no argument after each replicate (a progress counter).
-    flight_scale : numpy.ndarray, optional
-        The seeds' own scatter on every flight :math:`k_{if}` (n_flights, p)
-        (:func:`flight_seed_scale`): the replicates' seeds and measurement are drawn with it,
-        while their errors are estimated with the pooled :math:`k_f` as the data's are. The
-        analytic errors give the shape of the sampling error over flights well only for the
-        features that are second moments of one series; for the mean-speed, direction and tilt
-        differences and the correlations with the payload's rotation the seeds' scatter on one
-        flight differs from :math:`k_f s_{if}` by factors of 0.3 to 2.5 within a campaign, which
-        widens the distribution of every statistic beyond what pooled Gaussian replicates give.
-        Default: :math:`k_f` on every flight.
-
-    Returns
-    -------
-    NullReference
-    """
-    rng = np.random.default_rng(seed)
-    n, p = baseline.shape
-    k = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
-    k_draw = k[None, :] if flight_scale is None else np.where(np.isfinite(flight_scale) & (flight_scale > 0),
-                                                             flight_scale, k[None, :])
-    truth = corr if truth_corr is None else truth_corr
-    r = np.eye(p) if truth is None else nearest_correlation(np.asarray(truth, dtype=float))
-    chol = np.linalg.cholesky(r)
-    tau0 = np.where(np.isfinite(tau), tau, 0.0)
-    groups = np.repeat(np.arange(n), n_seeds)
-    ref = NullReference(n_replicates, seed, baseline, np.empty(n_replicates),
-                        lr={c: np.empty(n_replicates) for c in models},
-                        lr_profile={c: np.empty(n_replicates) for c in models},
-                        mean_z=np.empty((n_replicates, p)), slope_z=np.empty((n_replicates, p)))
-    s = np.where(used, analytic, np.nan)
-    for b in range(n_replicates):
-        draws = (rng.standard_normal((n, n_seeds + 1, p)) @ chol.T) * k_draw[:, None, :]
-        seeds = np.where(used[:, None, :], draws[:, 1:, :], np.nan)
-        k_b = seed_scale(seeds)
-        k_b = np.where(np.isfinite(k_b) & (k_b > 0), k_b, 1.0)
-        corr_b = shrunk_correlation(seeds.reshape(n * n_seeds, p), groups).matrix if n_seeds >= 2 else None
-        # the goodness of fit's null has no discrepancy; the candidates' and the offset and trend
-        # tests' null has the estimated one (a plug-in parametric bootstrap)
-        resid0 = s * (draws[:, 0, :] - seeds.mean(axis=1))
-        resid = resid0 + tau0[None, :] * rng.standard_normal((n, p))
-        sigma_b = np.sqrt(1.0 + 1.0 / n_seeds) * k_b[None, :] * s
-        tau_b = discrepancy(resid, sigma_b, speed_ms, interval=False).tau_or_zero()
-        total_b, fcorr_b = flight_correlations(corr_b, sigma_b, tau_b)
-        y_b = baseline + resid
-        white_total = Whitener(fcorr_b)
-        white_plain = Whitener(corr_b)
-        ref.gof[b] = float(chi2(baseline + resid0, baseline, sigma_b, white_plain).sum())
-        tau0_b = discrepancy(resid0, sigma_b, speed_ms, interval=False).tau_or_zero()
-        ref.y0.append(baseline + resid0)
-        ref.flight_corr0.append(flight_correlations(corr_b, sigma_b, tau0_b))
-        null_b = null_likelihood(y_b, baseline, sigma_b, corr_b, speed_ms)
-        for c, model in models.items():
-            prof = profiled_fit(model, y_b, sigma_b, corr_b, speed_ms, (total_b, white_total), null=null_b,
-                                plain=(sigma_b, white_plain))
-            ref.lr[c][b], ref.lr_profile[c][b] = prof.lr_statistic, prof.lr_profile
-        ref.mean_z[b], ref.slope_z[b] = (np.abs(a) for a in offset_trend_z(resid, total_b, speed_ms))
-        ref.y.append(y_b)
-        ref.sigma.append(sigma_b)
-        ref.total_sigma.append(total_b)
-        ref.corr.append(corr_b)
-        ref.flight_corr.append(fcorr_b)
-        if progress is not None:
-            progress()  # type: ignore[operator]
-    return ref

@@ -53,7 +53,7 @@ also have made it.
 Reference distributions: the likelihood-ratio statistic of every candidate, the goodness of
 fit and the offset and trend tests of ``unexplained`` are referred to a parametric bootstrap
 over seeds that repeats every estimate above on each replicate, the profiled discrepancy of
-every candidate included (:func:`dronewind.diagnose.calibration.null_reference`). Candidates
+every candidate included (:func:`dronewind.diagnose.reference.null_reference`). Candidates
 are tested by the Westfall and Young (1993) single-step min-p over the candidates of a naming
 round, each statistic through its :math:`\chi^2_k` tail and the observed campaign counted among
 the :math:`B + 1` draws, so that p-values are :math:`(1 + \#\{T^* \ge T\})/(B + 1)`-type and

@@ -17,12 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dronewind.diagnose.calibration import (
-    MIN_FLIGHTS_TREND,
-    UNEXPLAINED_ALPHA,
-    flight_seed_scale,
-    seed_scale,
-)
+from dronewind.diagnose.calibration import MIN_FLIGHTS_TREND, UNEXPLAINED_ALPHA
 from dronewind.diagnose.covariance import ShrunkCorrelation, Whitener, flight_correlations, shrunk_correlation
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.fitting import (
@@ -30,6 +25,7 @@ from dronewind.diagnose.fitting import (
     ResponseModel,
 )
 from dronewind.diagnose.probes import MIN_SEEDS, baseline_level
+from dronewind.diagnose.reference import flight_seed_scale, seed_scale
 from dronewind.mechanisms import get_mechanism
 
 if TYPE_CHECKING:
@@ -103,7 +99,7 @@ class CampaignEvidence:
     conditioned: list[str] = field(default_factory=list)
     tau: np.ndarray | None = None
     #: the seeds' own scale on every flight :math:`k_{if}` (n_flights, p), which the bootstrap
-    #: draws its replicates with (:func:`~dronewind.diagnose.calibration.flight_seed_scale`)
+    #: draws its replicates with (:func:`~dronewind.diagnose.reference.flight_seed_scale`)
     flight_scale: np.ndarray | None = None
     #: flight -> the sonic-INS processing lag its forward runs simulate [s] (:func:`measured_conditions`)
     processing_lag_s: dict[str, float] = field(default_factory=dict)

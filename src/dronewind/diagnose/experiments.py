@@ -3,7 +3,7 @@
 A *draw* picks a mechanism (or ``none``) and its size at random (seeded), writes a small
 virtual campaign manifest with that mechanism in its ``simulation:`` section, and returns
 the truth. The campaign is then simulated, processed and diagnosed — by the Snakemake
-workflow in the tests, or in-process by :func:`run_in_process` for the rate benchmark —
+workflow in the tests, or in-process by :func:`dronewind.diagnose.in_process.run_in_process` for the rate benchmark —
 and :func:`judge` says whether the named cause and its estimate match the truth.
 
 Sizes are drawn from ranges in which the effect on a 4-flight campaign of 12-minute hovers
@@ -39,30 +39,19 @@ rev-parse HEAD`` (overridable by the ``DRONEWIND_DRAW_SEED`` environment variabl
 
 from __future__ import annotations
 
-import copy
 import os
 import subprocess
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
-import xarray as xr
-
-from dronewind.compare.chain import compute_l3
-from dronewind.diagnose.probes import resolved_seeds
-from dronewind.manifest import with_defaults
-from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
-from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
-           "stratified_draws", "campaign_manifest", "judge", "run_in_process", "campaign_evidence",
-           "diagnose_evidence", "AMBIGUOUS_WITH", "hidden_lag_estimate", "judge_hidden_lag",
-           "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE",
-           "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED", "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS",
-           "CAVEATED_MODEL_ERRORS", "model_error_draw", "VirtualFlight", "process_virtual_flight",
-           "measured_campaign_evidence"]
+           "stratified_draws", "campaign_manifest", "judge", "AMBIGUOUS_WITH", "hidden_lag_estimate",
+           "judge_hidden_lag", "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE", "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED",
+           "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS", "CAVEATED_MODEL_ERRORS", "model_error_draw"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
 #: as a distance from the parameter's centre (:data:`HIDDEN_CENTRES`, else 0), on a random
@@ -598,233 +587,3 @@ def _judged(mechanism: str, parameters: Mapping[str, Any]) -> dict[str, float]:
     if mechanism == "downwash" and {"w0_ms", "u_scale_ms"} <= set(out):
         out["downdraft_ms"] = out["w0_ms"] * float(np.exp(-DOWNWASH_REFERENCE_MS / out["u_scale_ms"]))
     return out
-
-
-class VirtualFlight(NamedTuple):
-    """One simulated flight processed as measured data (:func:`process_virtual_flight`)."""
-
-    sonic_l1: xr.Dataset
-    ins_l1: xr.Dataset
-    l2: xr.Dataset
-    mast_l1: xr.Dataset
-    l3: xr.Dataset
-
-
-def process_virtual_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
-                           processing: Mapping[str, Any]) -> VirtualFlight:
-    """Simulate one flight of a virtual campaign into ``work`` and process it to L3, in this process.
-
-    The workflow's chain in the rules' order (payload L1, L2, mast L1, L2, L3) on the files the
-    simulator writes; the campaign's first mast sonic is the reference.
-
-    Parameters
-    ----------
-    data : mapping
-        Manifest content with a ``simulation:`` section (e.g. :func:`campaign_manifest`).
-    flight : mapping
-        The payload flight's manifest entry.
-    work : Path
-        Folder for the raw files.
-    processing : mapping
-        ``processing`` settings (at least :data:`dronewind.diagnose.probes.CHAIN_SETTINGS`).
-
-    Returns
-    -------
-    VirtualFlight
-    """
-    from dronewind.diagnose import probes
-    from dronewind.simulate.payload import simulate_payload_flight
-
-    fid = flight["id"]
-    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
-    paths = simulate_payload_flight(copy.deepcopy(dict(data)), work, fid, work)
-    s1, i1 = compute_payload_l1(work / flight["sonic"]["file"], work / flight["ins"]["file"], processing["despike"])
-    l2 = compute_payload_l2(s1, i1, flight, float(data["site"]["altitude_m"]), **lag)
-    m1 = compute_mast_l1([p for p in paths if p.suffix == ".dat"], data["masts"][0]["sonics"][0],
-                         processing["despike"])
-    m2 = compute_mast_l2(m1, l2, fid, processing["drone_mast"])
-    l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
-    return VirtualFlight(s1, i1, l2, m1, l3)
-
-
-def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
-                    processing: Mapping[str, Any], seeds: tuple[int, ...],
-                    atmosphere: str = "measured") -> tuple[dict[str, Any], dict[str, Any]]:
-    """Simulate one flight of a hidden-effect campaign, process it, run its forward probes.
-
-    ``atmosphere`` is ``diagnosis.atmosphere``: with ``measured`` the forward runs take the
-    reference mast's L1 as their atmosphere, as the workflow's forward rules do.
-
-    Returns
-    -------
-    measured : dict
-        Residual features of the flight (:func:`~dronewind.diagnose.features.features_to_dict`).
-    forward_runs : dict
-        :func:`dronewind.diagnose.probe_runs.probe_runs` of the flight.
-    """
-    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
-    from dronewind.diagnose.features import features_to_dict
-
-    fid = flight["id"]
-    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
-    v = process_virtual_flight(data, flight, work, processing)
-    measured = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
-    conditions = forward_conditions.forward_conditions(data, fid, v.l3, v.l2)
-    record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if atmosphere == "measured" else None
-    return measured, probe_runs.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
-
-
-def run_in_process(truth: Draw, config: Mapping[str, Any], work_dir: str | Path, **manifest_kw: Any
-                   ) -> dict[str, Any]:
-    """Simulate, process and diagnose a hidden-effect campaign in this process (no Snakemake).
-
-    Uses the same library functions as the workflow's rules, in the same order; meant for
-    the rate benchmark, where hundreds of Snakemake jobs per draw would cost more than the
-    science. :func:`campaign_evidence` then :func:`diagnose_evidence`.
-
-    Parameters
-    ----------
-    truth : Draw
-        The hidden effect.
-    config : mapping
-        Workflow configuration, possibly partial: missing settings take their defaults
-        (:func:`dronewind.manifest.with_defaults`).
-    work_dir : str or Path
-        Folder for the raw files.
-    **manifest_kw
-        Passed to :func:`campaign_manifest`.
-
-    Returns
-    -------
-    dict
-        The diagnosis, as ``diagnosis.json``.
-    """
-    return diagnose_evidence(campaign_evidence(truth, config, work_dir, **manifest_kw), config)
-
-
-def campaign_evidence(truth: Draw, config: Mapping[str, Any], work_dir: str | Path, **manifest_kw: Any
-                      ) -> dict[str, Any]:
-    """The diagnosis' input for a hidden-effect campaign: every flight simulated, processed and forward-run.
-
-    Parameters
-    ----------
-    truth, config, work_dir, **manifest_kw
-        As :func:`run_in_process`.
-
-    Returns
-    -------
-    dict
-        ``name`` (the campaign's), ``measured`` (flight -> measured features, as
-        ``diagnosis/measured/<flight>.json`` holds them) and ``forward`` (flight -> forward
-        runs, as ``diagnosis/forward/<flight>.json``): JSON-serialisable, so that a
-        benchmark can keep it and diagnose it again with other settings
-        (:func:`diagnose_evidence`).
-    """
-    settings = with_defaults(config)
-    processing, diagnosis = settings["processing"], settings["diagnosis"]
-    data = campaign_manifest(truth, **manifest_kw)
-    measured, fwd = {}, {}
-    seeds = tuple(resolved_seeds(diagnosis["seeds"], len(data["payload_flights"])))
-    for flight in data["payload_flights"]:
-        measured[flight["id"]], fwd[flight["id"]] = _process_flight(data, flight, Path(work_dir), processing, seeds,
-                                                                    str(diagnosis["atmosphere"]))
-    return {"name": data["name"], "measured": measured, "forward": fwd}
-
-
-def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any], reference: Any = None) -> dict[str, Any]:
-    """The campaign diagnosis of :func:`campaign_evidence`'s output, as ``diagnosis.json``.
-
-    Parameters
-    ----------
-    evidence : mapping
-        Output of :func:`campaign_evidence` (or the same read back from JSON).
-    config : mapping
-        Workflow configuration (its ``diagnosis`` settings; defaults where missing).
-    reference : NullReference, optional
-        A bootstrap reference for evidence with the same forward runs
-        (:func:`dronewind.diagnose.naming.diagnose`); by default the diagnosis draws its own.
-
-    Returns
-    -------
-    dict
-        The diagnosis, as ``diagnosis.json``.
-    """
-    from dronewind.diagnose import campaign as dc
-
-    diagnosis = with_defaults(config)["diagnosis"]
-    result = dc.diagnose(dc.assemble(evidence["measured"], evidence["forward"]), alpha=float(diagnosis["alpha"]),
-                         max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]),
-                         n_replicates=int(diagnosis["bootstrap"]), reference=reference)
-    out = dc.to_json(result, evidence["name"])
-    out["atmosphere"] = str(diagnosis["atmosphere"])
-    return out
-
-
-def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, Any]) -> dict[str, Any]:
-    """The diagnosis' input for a measured campaign (a manifest without ``simulation:``), in this process.
-
-    Each payload flight goes through the workflow's chain in the rules' order, as
-    :func:`process_virtual_flight` does for a simulated one but from the campaign's files:
-    payload L1 and L2, the reference mast sonic's L1 (once per sonic, from all its files)
-    and L2, L3; then its residual features, forward conditions, atmosphere record
-    (``diagnosis.atmosphere: measured``) and forward probes, each on the one-flight view of
-    the manifest (:func:`dronewind.manifest.payload_flight_manifest`), as the per-flight
-    diagnosis rules read it. Flights whose L2 is marked unusable are left out, as the
-    campaign diagnosis leaves them out (their ids in ``unusable``).
-
-    Parameters
-    ----------
-    manifest_path : str or Path
-        Campaign manifest of measured data (its files must exist).
-    config : mapping
-        Workflow configuration, possibly partial (:func:`dronewind.manifest.with_defaults`).
-
-    Returns
-    -------
-    dict
-        ``name``, ``measured`` (flight -> features), ``forward`` (flight -> forward runs),
-        ``unusable`` (flight ids left out): the input of :func:`diagnose_evidence`.
-
-    Raises
-    ------
-    ManifestError
-        The manifest is invalid or declares a ``simulation:`` section.
-    """
-    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
-    from dronewind.diagnose.features import features_to_dict
-    from dronewind.errors import ManifestError
-    from dronewind.manifest import load_campaign, payload_flight_manifest
-
-    campaign = load_campaign(manifest_path)
-    if campaign.simulated:
-        raise ManifestError(campaign.path, "simulation", "a measured campaign is expected (no simulation: section)")
-    settings = with_defaults(config)
-    processing, diagnosis = settings["processing"], settings["diagnosis"]
-    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
-    root, sonics = campaign.data_root, campaign.mast_sonics()
-    altitude_m = float(campaign.data["site"]["altitude_m"])
-    mast_l1: dict[str, xr.Dataset] = {}
-    measured: dict[str, Any] = {}
-    fwd: dict[str, Any] = {}
-    unusable: list[str] = []
-    seeds = tuple(resolved_seeds(diagnosis["seeds"], len(campaign.payload_flights)))
-    for flight in campaign.payload_flights:
-        fid, ref = flight["id"], flight["reference"]
-        view = payload_flight_manifest(campaign.data, fid)
-        s1, i1 = compute_payload_l1(root / flight["sonic"]["file"], root / flight["ins"]["file"],
-                                    processing["despike"])
-        l2 = compute_payload_l2(s1, i1, flight, altitude_m, **lag)
-        if ref not in mast_l1:
-            mast_l1[ref] = compute_mast_l1(campaign.mast_files(ref), sonics[ref], processing["despike"])
-        m2 = compute_mast_l2(mast_l1[ref], l2, fid, processing["drone_mast"])
-        l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
-        if not int(l2.attrs.get("usable", 1)):
-            unusable.append(fid)
-            continue
-        measured[fid] = features_to_dict(forward.measured_features(view, fid, s1, i1, l2, l3, **lag))
-        conditions = forward_conditions.forward_conditions(view, fid, l3, l2)
-        record = (forward_atmosphere.atmosphere_record(mast_l1[ref], conditions)
-                  if str(diagnosis["atmosphere"]) == "measured" else None)
-        fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds,
-                                      atmosphere=record)
-    return {"name": campaign.name, "measured": measured, "forward": fwd, "unusable": unusable}

@@ -4,7 +4,7 @@ The goodness of fit compares a prediction with the flights against the sampling 
 ``unexplained`` tests every feature's residuals for a common offset and a trend with wind
 speed (family-wise over all features and both tests, Westfall and Young 1993) and reports its
 model discrepancy (DerSimonian and Laird 1986; Kennedy and O'Hagan 2001). Both are referred to
-the parametric bootstrap over seeds of :func:`dronewind.diagnose.calibration.null_reference`.
+the parametric bootstrap over seeds of :func:`dronewind.diagnose.reference.null_reference`.
 """
 
 from __future__ import annotations
@@ -15,19 +15,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import scipy.stats
 
-from dronewind.diagnose.calibration import (
-    UNEXPLAINED_ALPHA,
-    discrepancy,
-    empirical_p,
-    familywise_p,
-    mc_standard_error,
-    offset_trend_z,
-)
+from dronewind.diagnose.calibration import UNEXPLAINED_ALPHA, discrepancy
 from dronewind.diagnose.evidence import CampaignEvidence, finite_or_none
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.fitting import (
     chi2,
 )
+from dronewind.diagnose.reference import empirical_p, familywise_p, mc_standard_error, offset_trend_z
 
 if TYPE_CHECKING:
     from dronewind.diagnose.naming import DiagnosisResult
@@ -150,7 +144,7 @@ def unexplained_features(ev: CampaignEvidence, prediction: np.ndarray, alpha: fl
     The residuals' errors are the sampling error plus the discrepancy of the extended model
     (:func:`dronewind.diagnose.calibration.discrepancy`, estimated about an offset and trend,
     so neither is absorbed); the offset and trend statistics use these known variances
-    (:func:`dronewind.diagnose.calibration.offset_trend_z`). Each entry carries the feature's
+    (:func:`dronewind.diagnose.reference.offset_trend_z`). Each entry carries the feature's
     discrepancy with its interval and its Q test (:math:`Q_f \\sim \\chi^2_{n-q}` without
     discrepancy, Bonferroni over the features), which alone does not make an entry: the
     sampling error of a mast-only feature is near zero where the measured atmosphere reproduces

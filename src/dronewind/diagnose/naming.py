@@ -19,15 +19,10 @@ import numpy as np
 import scipy.stats
 
 from dronewind.diagnose.calibration import (
-    DEFAULT_REPLICATES,
     Discrepancy,
-    NullReference,
     ProfiledFit,
-    check_attainable,
     discrepancy,
-    familywise_p,
     null_likelihood,
-    null_reference,
     profiled_fit,
 )
 from dronewind.diagnose.covariance import Whitener, flight_correlations
@@ -40,6 +35,13 @@ from dronewind.diagnose.fitting import (
     score_candidate,
 )
 from dronewind.diagnose.probes import baseline_level
+from dronewind.diagnose.reference import (
+    DEFAULT_REPLICATES,
+    NullReference,
+    check_attainable,
+    familywise_p,
+    null_reference,
+)
 from dronewind.mechanisms import get_mechanism
 
 __all__ = ["AMBIGUITY_COSINE", "AT_BOUND", "MIN_GAIN", "Withheld", "DiagnosisResult", "n_tests", "simplest_variant",
@@ -204,7 +206,7 @@ def _chi2_tail(k: int) -> Any:
 def lr_marginal(scores: Mapping[str, CandidateScore]) -> dict[str, Any]:
     """Candidate -> the :math:`\\chi^2_k` upper tail of its likelihood-ratio statistic (:math:`k` its
     parameters): the pivotal transform under which the candidates' statistics enter the min-p
-    (:func:`~dronewind.diagnose.calibration.familywise_p`)."""
+    (:func:`~dronewind.diagnose.reference.familywise_p`)."""
     return {c: _chi2_tail(max(len(s.parameter_names), 1)) for c, s in scores.items()}
 
 
@@ -245,7 +247,7 @@ def _score_round(ev: CampaignEvidence, y: np.ndarray, models: Mapping[str, Respo
     The discrepancy without a candidate (of ``y`` about the baseline) starts every candidate's
     fit; :func:`~dronewind.diagnose.calibration.profiled_fit` estimates it again from what the
     candidate leaves, and the candidate is scored (fit, likelihood-ratio statistic, held-out
-    gain) under that covariance, as :func:`~dronewind.diagnose.calibration.null_reference` does
+    gain) under that covariance, as :func:`~dronewind.diagnose.reference.null_reference` does
     on every replicate.
 
     Returns
@@ -350,7 +352,7 @@ def response_ambiguity(ev: CampaignEvidence, candidate: str, effect: np.ndarray,
 
 def campaign_reference(ev: CampaignEvidence, tau: np.ndarray, n_replicates: int, seed: int = 0,
                        progress: Any = None) -> NullReference:
-    """The bootstrap reference of a campaign's statistics (:func:`~dronewind.diagnose.calibration.null_reference`).
+    """The bootstrap reference of a campaign's statistics (:func:`~dronewind.diagnose.reference.null_reference`).
 
     Parameters
     ----------

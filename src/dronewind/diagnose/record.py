@@ -6,7 +6,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from dronewind.diagnose.calibration import ProfiledFit, mc_standard_error
+from dronewind.diagnose.calibration import ProfiledFit
 from dronewind.diagnose.evidence import error_model, measured_conditions
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.fit_quality import baseline_metrics, goodness_of_fit, unexplained_features
@@ -18,6 +18,7 @@ from dronewind.diagnose.naming import (
     caveats,
     combined_prediction,
 )
+from dronewind.diagnose.reference import mc_standard_error
 
 __all__ = ["to_json", "withheld_json"]
 

@@ -28,15 +28,9 @@ from typing import Any
 from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.manifest import flight_speeds, plan_manifest
-from dronewind.plan.power import (
-    NO_ERROR,
-    PowerResult,
-    campaign_evidences,
-    campaign_power_model,
-    draw_powers,
-    with_error,
-)
+from dronewind.plan.power import NO_ERROR, PowerResult, campaign_power_model, draw_powers
 from dronewind.plan.separation import along_wind_limit_m, separation_limit_m
+from dronewind.plan.simulation import campaign_evidences, with_error
 from dronewind.plan.spec import PlanSpec
 from dronewind.plan.uncertainty import DURATION_STEP_S, PointUncertainty, point_uncertainty
 
