@@ -218,3 +218,18 @@ def test_the_forward_runs_processing_lag_is_reported_not_a_condition():
     assert reported["h01"] == pytest.approx({"sonic_ins_lag_s": -0.2, "processing_lag_s": -0.1})
     assert reported["h04"] == pytest.approx({"sonic_ins_lag_s": -0.23})
     assert all("processing_lag_s" not in c for c in ev.conditions)
+
+
+def test_the_decision_record_is_the_full_records_decision():
+    """A w gain named beside an ``ln_hf_u`` excess left unexplained: decision_json holds the
+    entries of to_json that say what is named and how large (the same values), and none of the
+    fit's quality (goodness of fit, ``unexplained``, error model); the judge reads only the former."""
+    from dronewind.diagnose.record import decision_json
+
+    measured, forward = _campaign(np.random.default_rng(21), hf_u_excess=0.2, w_gain=1.15)
+    result = dc.diagnose(dc.assemble(measured, forward), n_replicates=REPLICATES)
+    full, decision = dc.to_json(result, "synthetic"), decision_json(result, "synthetic")
+    assert full["named_causes"] == ["w_gain"] and full["unexplained"]
+    assert set(decision) == set(full) - {"goodness_of_fit", "unexplained", "baseline", "sigma_scale",
+                                         "error_model", "method"}
+    assert {key: full[key] for key in decision} == decision

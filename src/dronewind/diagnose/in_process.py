@@ -7,13 +7,14 @@ flight simulated and processed to L3 (:func:`process_virtual_flight`); a hidden-
 campaign of :mod:`dronewind.diagnose.experiments` simulated, processed and forward-run
 (:func:`campaign_evidence`); a measured campaign's files processed and forward-run
 (:func:`measured_campaign_evidence`); and the campaign diagnosis of either
-(:func:`diagnose_evidence`, :func:`run_in_process`).
+(:func:`diagnose_evidence`, :func:`run_in_process`), or only what it decides
+(:func:`decide_evidence`).
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -27,7 +28,7 @@ from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
 __all__ = ["VirtualFlight", "process_virtual_flight", "run_in_process", "campaign_evidence", "diagnose_evidence",
-           "measured_campaign_evidence"]
+           "decide_evidence", "measured_campaign_evidence"]
 
 
 class VirtualFlight(NamedTuple):
@@ -180,13 +181,44 @@ def diagnose_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any], re
     dict
         The diagnosis, as ``diagnosis.json``.
     """
+    from dronewind.diagnose.record import to_json
+
+    return _recorded(evidence, config, reference, to_json)
+
+
+def decide_evidence(evidence: Mapping[str, Any], config: Mapping[str, Any], reference: Any = None) -> dict[str, Any]:
+    """What the campaign diagnosis of ``evidence`` decides: :func:`diagnose_evidence` without the fit's quality.
+
+    The same diagnosis (the same causes named with the same estimates, the same ambiguity sets
+    and measured conditions), recorded by :func:`dronewind.diagnose.record.decision_json`: no
+    goodness of fit, whose p-value refits the named causes on every bootstrap replicate. For the
+    Monte-Carlo campaigns that are judged only by what is named (the planner's power draws).
+
+    Parameters
+    ----------
+    evidence, config, reference
+        As :func:`diagnose_evidence`.
+
+    Returns
+    -------
+    dict
+        The decision entries of ``diagnosis.json`` and ``atmosphere``.
+    """
+    from dronewind.diagnose.record import decision_json
+
+    return _recorded(evidence, config, reference, decision_json)
+
+
+def _recorded(evidence: Mapping[str, Any], config: Mapping[str, Any], reference: Any,
+              record: Callable[[Any, str], dict[str, Any]]) -> dict[str, Any]:
+    """The campaign diagnosis of ``evidence`` with the configured settings, written by ``record``."""
     from dronewind.diagnose import campaign as dc
 
     diagnosis = with_defaults(config)["diagnosis"]
     result = dc.diagnose(dc.assemble(evidence["measured"], evidence["forward"]), alpha=float(diagnosis["alpha"]),
                          max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]),
                          n_replicates=int(diagnosis["bootstrap"]), reference=reference)
-    out = dc.to_json(result, evidence["name"])
+    out = record(result, evidence["name"])
     out["atmosphere"] = str(diagnosis["atmosphere"])
     return out
 

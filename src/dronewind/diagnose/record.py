@@ -20,7 +20,7 @@ from dronewind.diagnose.naming import (
 )
 from dronewind.diagnose.reference import mc_standard_error
 
-__all__ = ["to_json", "withheld_json"]
+__all__ = ["to_json", "decision_json", "withheld_json"]
 
 def withheld_json(result: DiagnosisResult) -> list[dict[str, Any]]:
     """``diagnosis.json`` entries of the withheld candidates (:class:`Withheld`)."""
@@ -46,7 +46,61 @@ def _profiles_or_none(profiles: Sequence[ProfiledFit] | None, n: int) -> list[Pr
 
 
 def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
-    """The ``diagnosis.json`` structure of the data contract (plus evidence fields)."""
+    """The ``diagnosis.json`` structure of the data contract (plus evidence fields).
+
+    The :func:`decision_json` entries, with the fit's quality beside them: the goodness of fit
+    of the named model and of the baseline (the named model's p-value refits the named causes on
+    every bootstrap replicate), the ``unexplained`` features, the error model and the method.
+    """
+    ev = result.evidence
+    decision = decision_json(result, campaign)
+    extended = combined_prediction(result)
+    n_fitted = sum(len(s.parameter_names) for _, s in result.named)
+    return {
+        "campaign": campaign,
+        "goodness_of_fit": goodness_of_fit(ev, extended, n_fitted, result),
+        "unexplained": unexplained_features(ev, extended, result=result),
+        "baseline": {"metrics": {**baseline_metrics(ev), "heldout_chi2": float(
+            next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")},
+            "goodness_of_fit": goodness_of_fit(ev, ev.baseline, 0, result, baseline=True)},
+        **{key: value for key, value in decision.items() if key != "campaign"},
+        "sigma_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
+        "error_model": error_model(ev, result),
+        "method": "forward-model responses (simulated probes, common random numbers), bounded least squares "
+                  "whitened by the shrunk feature correlation of the baseline seeds plus the model discrepancy "
+                  "profiled under each candidate, "
+                  "leave-one-flight-out gain, likelihood-ratio test referred to a parametric bootstrap over seeds "
+                  "(Westfall-Young min-p over each naming round's candidates at alpha), greedy naming while the "
+                  "held-out gain rises by more than its uncertainty; see dronewind.diagnose",
+    }
+
+
+def decision_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
+    """What a campaign diagnosis decided, as :func:`to_json` writes it, without the fit's quality.
+
+    The candidates and the named causes with their estimates, the ambiguity sets, what was not
+    identified or withheld, the caveats and the measured conditions: every entry that says which
+    cause is named and how large it is (what :func:`dronewind.diagnose.experiments.judge`
+    reads), the same as in :func:`to_json`. Left out are the goodness of fit, ``unexplained``
+    and the error model, which describe how well the named model fits and do not change what is
+    named; the goodness of fit of a named model refits its causes on every bootstrap replicate,
+    most of the cost of a diagnosis against a given reference (the planner's Monte-Carlo draws,
+    :mod:`dronewind.plan.power`, decide hundreds of campaigns and judge only the decision).
+
+    Parameters
+    ----------
+    result : DiagnosisResult
+        The diagnosis (:func:`dronewind.diagnose.naming.diagnose`).
+    campaign : str
+        The campaign's name.
+
+    Returns
+    -------
+    dict
+        ``campaign``, ``candidates``, ``named_causes``, ``named_estimates``, ``ambiguity_sets``,
+        ``ambiguity``, ``not_identified``, ``caveats``, ``withheld``, ``measured_conditions``,
+        ``features`` and ``flights``.
+    """
     ev = result.evidence
     b = result.reference.n_replicates if result.reference is not None else 0
     candidates = []
@@ -77,15 +131,8 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
         mech = ev.mechanism_of[cand]
         if mech not in named:
             named.append(mech)
-    extended = combined_prediction(result)
-    n_fitted = sum(len(s.parameter_names) for _, s in result.named)
     return {
         "campaign": campaign,
-        "goodness_of_fit": goodness_of_fit(ev, extended, n_fitted, result),
-        "unexplained": unexplained_features(ev, extended, result=result),
-        "baseline": {"metrics": {**baseline_metrics(ev), "heldout_chi2": float(
-            next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")},
-            "goodness_of_fit": goodness_of_fit(ev, ev.baseline, 0, result, baseline=True)},
         "candidates": candidates,
         "named_causes": named,
         "named_estimates": {ev.mechanism_of[c]: {"estimate": result.estimate(c, s), "uncertainty": s.uncertainty(),
@@ -109,12 +156,4 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
         "measured_conditions": measured_conditions(ev),
         "features": list(FEATURES),
         "flights": ev.flights,
-        "sigma_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
-        "error_model": error_model(ev, result),
-        "method": "forward-model responses (simulated probes, common random numbers), bounded least squares "
-                  "whitened by the shrunk feature correlation of the baseline seeds plus the model discrepancy "
-                  "profiled under each candidate, "
-                  "leave-one-flight-out gain, likelihood-ratio test referred to a parametric bootstrap over seeds "
-                  "(Westfall-Young min-p over each naming round's candidates at alpha), greedy naming while the "
-                  "held-out gain rises by more than its uncertainty; see dronewind.diagnose",
     }

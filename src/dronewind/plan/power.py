@@ -24,9 +24,10 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    :math:`y_i = \bar b^E_i + \Delta_i + c\,D^E_i L^E \xi_i` (:math:`\xi` standard normal,
    :math:`L L^\top = R^*`, :math:`D_i = \mathrm{diag}(\sigma_{i,f})`) against the forward runs
    of the campaign with the error, and decided exactly as a measured campaign is: by
-   :func:`dronewind.diagnose.in_process.diagnose_evidence`'s call of
+   :func:`dronewind.diagnose.in_process.decide_evidence`'s call of
    :func:`dronewind.diagnose.campaign.diagnose` (the configured alpha, ``max_causes``,
-   ``min_gain`` and bootstrap replicates), judged by
+   ``min_gain`` and bootstrap replicates; the record of the decision without the goodness of
+   fit, which does not change what is named), judged by
    :func:`dronewind.diagnose.experiments.judge` against the planned manifest (the flights'
    own processing lags). The factor :math:`c` is the root mean square of the simulated null
    campaign's own standardised residuals :math:`(y - \bar b)/\sigma` over flights and
@@ -44,11 +45,13 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    campaign without the error (:math:`\Delta = 0`).
 
 Cost: a 2-flight campaign costs about 16 CPU-s to simulate, process and forward-run; a shared
-bootstrap reference about 12 CPU-s (600 replicates; throughput in
-``benchmarks/test_bench_statistics.py``) and each drawn campaign's diagnosis against it about
-0.1-0.4 CPU-s; a draw with a reference of its own about 12 CPU-s on two or three flights and 16
-on six. Full simulations of every draw would add the simulation's cost to each; they are the
-check (:func:`simulated_detection`, ``benchmarks/plan_validation.py``).
+bootstrap reference about 12 CPU-s on two flights and 24 on three (600 replicates; throughput
+in ``benchmarks/test_bench_statistics.py``) and each drawn campaign's decision against it about
+0.25 CPU-s on three flights (its goodness of fit, not computed, would add about 0.5 where a cause
+is named: the named causes refitted on every replicate); a draw with a reference of its own about
+12 CPU-s on two or three flights and 16 on six. Full simulations of every draw would add the
+simulation's cost to each; they are the check (:func:`simulated_detection`,
+``benchmarks/plan_validation.py``).
 """
 
 from __future__ import annotations
@@ -314,7 +317,7 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
         Seed of the draws.
     config : mapping, optional
         Workflow configuration (its ``diagnosis`` settings, as
-        :func:`dronewind.diagnose.in_process.diagnose_evidence` reads them).
+        :func:`dronewind.diagnose.in_process.decide_evidence` reads them).
     progress : Progress, optional
         One item per draw.
     reference : {"shared", "per_draw"}
@@ -329,7 +332,7 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
         For ``label=None``, ``detected`` counts the draws naming nothing (1 - false-alarm rate).
     """
     from dronewind.diagnose.experiments import judge
-    from dronewind.diagnose.in_process import diagnose_evidence
+    from dronewind.diagnose.in_process import decide_evidence
 
     if reference not in ("shared", "per_draw"):
         raise ValueError(f"reference {reference!r}: expected 'shared' or 'per_draw'")
@@ -344,7 +347,7 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     for k, draw in enumerate(drawn):
         ctx = progress.item(f"{label or 'no error'}, {n_flights} flights, draw {k + 1}") if progress else _null()
         with ctx:
-            out = diagnose_evidence(draw.evidence, dict(config or {}), reference=ref)
+            out = decide_evidence(draw.evidence, dict(config or {}), reference=ref)
             hits += bool(judge(draw.truth, out, draw.campaign)["detected"])
     return PowerResult(label or "none", n_flights, hits, draws)
 
@@ -453,7 +456,7 @@ class DrawnCampaign:
     ----------
     evidence : dict
         ``name``, ``measured`` (the drawn features) and ``forward`` (the case's forward runs),
-        as :func:`dronewind.diagnose.in_process.diagnose_evidence` reads it.
+        as :func:`dronewind.diagnose.in_process.decide_evidence` reads it.
     y : numpy.ndarray
         The drawn features (n_flights, p) [feature units], flights in the diagnosis' order.
     truth : dronewind.diagnose.experiments.Draw
@@ -535,7 +538,7 @@ def simulated_detection(data: Mapping[str, Any], error: Detect | None, seeds: Se
         :func:`~dronewind.plan.simulation.hover_statistics`), ``evidence_seconds`` (CPU per campaign).
     """
     from dronewind.diagnose.experiments import Draw, judge
-    from dronewind.diagnose.in_process import diagnose_evidence
+    from dronewind.diagnose.in_process import decide_evidence
 
     config = dict(config or {})
     truth = Draw(error.mechanism, dict(error.parameters), 0) if error else Draw("none", {}, 0)
@@ -547,7 +550,7 @@ def simulated_detection(data: Mapping[str, Any], error: Detect | None, seeds: Se
             ctx = progress.item(f"seed {s} ({truth.label})") if progress else _null()
             with ctx:
                 evidence = manifest_evidence(manifest, config, tmp)
-                out = diagnose_evidence(evidence, config)
+                out = decide_evidence(evidence, config)
         cpu.append(time.process_time() - t0)
         stats.append(evidence["statistics"])
         verdict = judge(truth, out, manifest)
