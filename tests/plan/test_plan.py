@@ -243,6 +243,11 @@ def test_power_of_a_two_flight_plan(tmp_path):
     assert r.power >= 0.8 and r.interval[0] - 1e-12 <= r.power <= r.interval[1] + 1e-12
     assert plan.false_alarm is not None and plan.false_alarm.power >= 0.7
     assert len(plan.manifest["payload_flights"]) == plan.n_flights
+    # the power curve stops at the first flight count that meets the target: the plan's
+    curve = plan.power_curve["w_gain gain=1.25"]
+    assert [x.n_flights for x in curve] == list(range(1, plan.n_flights + 1))
+    assert curve[-1].power >= 0.8 and all(x.power < 0.8 for x in curve[:-1])
+    assert (plan.n_flights < 2) == any("simulated up to" in note for note in plan.notes)
 
 
 @pytest.fixture(scope="module")
@@ -347,6 +352,11 @@ def test_draw_powers_in_worker_processes_are_the_calls_in_this_process(two_fligh
     kept = there.references[(label, 1)]
     assert pw.draw_powers(there, [(label, 1, 6, 4)], config, workers=2) == sequential[:1]
     assert there.references[(label, 1)] is kept
+    # one pool for several calls (the planner's flight counts in turn): the same results
+    pooled = copy.deepcopy(model)
+    pooled.references.clear()
+    with pw.power_pool(pooled, 2) as pool:
+        assert [pw.draw_powers(pooled, [call], config, workers=2, pool=pool)[0] for call in calls] == sequential
 
 
 def test_first_flights_of_a_plan_manifest_stay_a_valid_virtual_campaign():

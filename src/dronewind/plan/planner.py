@@ -10,7 +10,9 @@
   it is not (the wind range the flights should span);
 * **separation**: the largest drone-mast distance (:mod:`dronewind.plan.separation`);
 * **flights**: the smallest number whose detection power (:mod:`dronewind.plan.power`)
-  reaches the target for every error, their speeds spanning the wind range;
+  reaches the target for every error, their speeds spanning the wind range; the power is
+  simulated at one flight, two, ... up to that number (the power against flight count), then
+  with more draws at it;
 * the manifest skeleton of the planned campaign (:mod:`dronewind.plan.manifest`).
 """
 
@@ -28,7 +30,7 @@ from typing import Any
 from dronewind.core.progress import Progress
 from dronewind.manifest import with_defaults
 from dronewind.plan.manifest import flight_speeds, plan_manifest
-from dronewind.plan.power import NO_ERROR, PowerResult, campaign_power_model, draw_powers
+from dronewind.plan.power import NO_ERROR, PowerResult, campaign_power_model, draw_powers, power_pool
 from dronewind.plan.separation import along_wind_limit_m, separation_limit_m
 from dronewind.plan.simulation import campaign_evidences, with_error
 from dronewind.plan.spec import PlanSpec
@@ -255,18 +257,46 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     counts = list(range(1, spec.max_flights + 1))
     draws_curve = min(spec.curve_draws, spec.draws)
     more_draws = spec.draws - draws_curve
-    progress = Progress("power", len(labels) * len(counts) + len(labels) * (more_draws > 0) + 1, "diagnosed")
-    curve = draw_powers(model, [(label, k, draws_curve, spec.seed) for label in labels for k in counts], settings,
-                        progress, spec.reference, workers, cpu)
-    for j, label in enumerate(labels):
-        plan.power_curve[label] = curve[j * len(counts):(j + 1) * len(counts)]
-    reached = [k for k in counts if all(plan.power_curve[lab][k - 1].power >= spec.power for lab in labels)]
-    n = reached[0] if reached else spec.max_flights
-    if not reached:
-        plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for every "
-                          "error: the plan flies the most and the power target is not met")
-    final = draw_powers(model, [(label, n, more_draws, spec.seed + 1) for label in labels if more_draws > 0]
-                        + [(None, n, spec.draws, spec.seed + 2)], settings, progress, spec.reference, workers, cpu)
+    finals = len(labels) * (more_draws > 0) + 1
+    progress = Progress("power", len(labels) * len(counts) + finals, "diagnosed")
+    plan.power_curve = {label: [] for label in labels}
+    reached: int | None = None
+    pool = power_pool(model, workers) if workers > 1 else None
+    # the flight counts in turn: the first count at which every error reaches the power target is
+    # the plan's, and the counts above it (the costliest draws, their references growing with the
+    # flights) are not needed to find it. Every error's draws of a count run at once, and as many
+    # counts together as fill the workers evenly (three errors on two workers: two counts, six
+    # calls); a count computed beyond the first that meets the target is left out, so that the
+    # plan does not depend on the workers.
+    batch = max(1, workers // math.gcd(len(labels), max(1, workers)))
+    try:
+        for first in range(0, len(counts), batch):
+            ks = counts[first:first + batch]
+            results = draw_powers(model, [(label, k, draws_curve, spec.seed) for k in ks for label in labels],
+                                  settings, progress, spec.reference, workers, cpu, pool)
+            for j, k in enumerate(ks):
+                at_k = results[j * len(labels):(j + 1) * len(labels)]
+                for label, result in zip(labels, at_k, strict=True):
+                    plan.power_curve[label].append(result)
+                if all(result.power >= spec.power for result in at_k):
+                    reached = k
+                    break
+            if reached is not None:
+                break
+        n = reached or spec.max_flights
+        progress.total = progress.done + finals
+        if reached is None:
+            plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for "
+                              "every error: the plan flies the most and the power target is not met")
+        elif reached < spec.max_flights:
+            plan.notes.append(f"power against flight count simulated up to {reached} flights, the first count "
+                              f"that reaches power {spec.power:g} for every error")
+        final = draw_powers(model, [(label, n, more_draws, spec.seed + 1) for label in labels if more_draws > 0]
+                            + [(None, n, spec.draws, spec.seed + 2)], settings, progress, spec.reference, workers,
+                            cpu, pool)
+    finally:
+        if pool is not None:
+            pool.shutdown()
     for j, label in enumerate(labels):
         first = plan.power_curve[label][n - 1]
         more = final[j] if more_draws > 0 else PowerResult(label, n, 0, 0)

@@ -72,7 +72,7 @@ from dronewind.manifest import with_defaults
 from dronewind.plan.simulation import manifest_evidence, process_pool, with_error
 from dronewind.plan.spec import Detect
 
-__all__ = ["NO_ERROR", "campaign_power_model", "draw_powers", "PowerModel", "power_model", "draw_power",
+__all__ = ["NO_ERROR", "campaign_power_model", "draw_powers", "power_pool", "PowerModel", "power_model", "draw_power",
            "shared_reference", "drawn_campaigns", "DrawnCampaign", "PowerResult", "simulated_detection"]
 
 
@@ -387,10 +387,20 @@ def _draw_task(task: tuple[str | None, int, int, int, dict[str, Any], str, Any]
     return _timed_draw(_WORKER_MODEL, task)
 
 
+def power_pool(model: PowerModel, workers: int) -> Any:
+    """A pool of ``workers`` processes holding ``model``, for several :func:`draw_powers` calls.
+
+    Each process receives the model once, when it starts (:func:`~dronewind.plan.simulation.process_pool`);
+    shut it down after use (``with power_pool(model, 2) as pool: ...``). The shared references
+    made in it come back with the results and are passed to later calls by the caller's model.
+    """
+    return process_pool(workers, _set_worker_model, (model,))
+
+
 def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, int]],
                 config: Mapping[str, Any] | None = None, progress: Progress | None = None,
-                reference: str = "shared", workers: int = 1, cpu_seconds: list[float] | None = None
-                ) -> list[PowerResult]:
+                reference: str = "shared", workers: int = 1, cpu_seconds: list[float] | None = None,
+                pool: Any = None) -> list[PowerResult]:
     """Several :func:`draw_power` calls, spread over ``workers`` processes.
 
     Parameters
@@ -411,6 +421,9 @@ def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, i
         and the references by their draws, so the results do not depend on ``workers``.
     cpu_seconds : list of float, optional
         Each call's CPU time [s] is appended to it (wherever it ran).
+    pool : executor, optional
+        A :func:`power_pool` of this model to run the calls on (left open); by default a pool of
+        ``workers`` processes is started for these calls alone.
 
     Returns
     -------
@@ -431,7 +444,7 @@ def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, i
         if progress is not None:
             progress.add(f"{label or 'no error'}, {n} flights, {result.draws} draws", seconds)
 
-    if workers <= 1 or len(tasks) <= 1:
+    if pool is None and (workers <= 1 or len(tasks) <= 1):
         for task in tasks:
             record(task[0], task[1], *_timed_draw(model, task))
         return out
@@ -439,10 +452,15 @@ def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, i
     # the last calls to finish are then short ones, and no worker idles while one runs alone
     order = sorted(range(len(tasks)), key=lambda i: (-tasks[i][1], -tasks[i][2], i))
     results: dict[int, Any] = {}
-    with process_pool(min(workers, len(tasks)), _set_worker_model, (model,)) as pool:
-        for i, done in zip(order, pool.map(_draw_task, [tasks[i] for i in order]), strict=True):
+    own = pool is None
+    executor = power_pool(model, min(workers, len(tasks))) if own else pool
+    try:
+        for i, done in zip(order, executor.map(_draw_task, [tasks[i] for i in order]), strict=True):
             results[i] = done
             record(tasks[i][0], tasks[i][1], *done)
+    finally:
+        if own:
+            executor.shutdown()
     # in the order of the calls
     out[:] = [results[i][0] for i in range(len(tasks))]
     return out

@@ -10,7 +10,8 @@ Written by :func:`write_plan` into one folder:
   and the planned duration;
 * ``power_vs_flights.png`` (when the power was simulated): the detection power of each error
   against the number of flights with its 95 % Wilson interval, the target power and the
-  planned number.
+  planned number (the counts up to the first at which every error reaches the target power:
+  the planned one, :func:`~dronewind.plan.planner.plan_campaign`).
 """
 
 from __future__ import annotations
@@ -71,6 +72,8 @@ def power_figure(plan: CampaignPlan, path: str | Path) -> Path:
         ax.errorbar(k + 0.06 * (i - 1), p, yerr=[p - ci[:, 0], ci[:, 1] - p], marker="o", capsize=3, label=label)
     ax.axhline(plan.spec.power, color="k", lw=0.8, ls=":", label=f"target power {plan.spec.power:g}")
     ax.axvline(plan.n_flights, color="0.4", lw=1.0, label=f"planned: {plan.n_flights} flights")
+    # the whole range the plan may fly: counts above the first that meets the target are not simulated
+    ax.set_xlim(0.5, plan.spec.max_flights + 0.5)
     ax.set_xlabel("number of flights")
     ax.set_ylabel("detection power [1]")
     ax.set_ylim(-0.02, 1.02)
