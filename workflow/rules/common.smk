@@ -135,9 +135,12 @@ PUBLISHED_SEEDS = resolved_seeds(
 )
 
 # Job priorities (Snakemake picks among ready jobs by priority). The forward-model runs are the
-# longest jobs, so the chain that feeds them (simulation, L1-L3, measured features) and the
-# short steps that unlock the next ones (diagnosis, reruns, calibration) go first; the many
-# small per-flight quadrotor jobs fill the cores meanwhile instead of delaying the forward runs.
+# longest jobs, so the chain that feeds them (simulation, L1-L3, measured features, the tunnel
+# runs the quadrotor diagnosis reads) and the short steps that unlock the next ones (diagnosis,
+# reruns, calibration, the campaign record) go first. The quadrotor diagnosis and the campaign
+# figures, each as long as a forward run and needed by nothing but the report, run among the
+# forward runs: left for last, each ran alone at the end of a run while the other core idled.
+# The short campaign-level steps fill the cores at the end.
 PRIORITY_CHAIN = 20
 PRIORITY_FORWARD = 10
 

@@ -119,6 +119,7 @@ rule quadrotor_diagnosis:
         log_path("quadrotor_diagnosis"),
     benchmark:
         bench_path("quadrotor_diagnosis")
+    priority: PRIORITY_FORWARD
     conda:
         ENV
     threads: 1

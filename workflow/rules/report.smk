@@ -119,6 +119,7 @@ rule campaign_record:
         log_path("campaign_record"),
     benchmark:
         bench_path("campaign_record")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     threads: 1
@@ -181,6 +182,7 @@ rule figures:
         log_path("figures"),
     benchmark:
         bench_path("figures")
+    priority: PRIORITY_FORWARD
     conda:
         ENV
     threads: 1

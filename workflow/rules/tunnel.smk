@@ -11,6 +11,7 @@ rule tunnel_simulate:
         log_path("tunnel_simulate"),
     benchmark:
         bench_path("tunnel_simulate")
+    priority: PRIORITY_CHAIN
     conda:
         ENV
     threads: 1
