@@ -270,8 +270,8 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     # plan does not depend on the workers.
     batch = max(1, workers // math.gcd(len(labels), max(1, workers)))
     try:
-        for first in range(0, len(counts), batch):
-            ks = counts[first:first + batch]
+        for start in range(0, len(counts), batch):
+            ks = counts[start:start + batch]
             results = draw_powers(model, [(label, k, draws_curve, spec.seed) for k in ks for label in labels],
                                   settings, progress, spec.reference, workers, cpu, pool)
             for j, k in enumerate(ks):
