@@ -289,8 +289,9 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
             plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for "
                               "every error: the plan flies the most and the power target is not met")
         elif reached < spec.max_flights:
-            plan.notes.append(f"power against flight count simulated up to {reached} flights, the first count "
-                              f"that reaches power {spec.power:g} for every error")
+            plan.notes.append(f"power against flight count simulated up to {reached} flight"
+                              f"{'s' if reached > 1 else ''}, the first count that reaches power {spec.power:g} "
+                              "for every error")
         final = draw_powers(model, [(label, n, more_draws, spec.seed + 1) for label in labels if more_draws > 0]
                             + [(None, n, spec.draws, spec.seed + 2)], settings, progress, spec.reference, workers,
                             cpu, pool)
