@@ -50,8 +50,8 @@ file is written atomically at the end.
 :func:`dronewind.diagnose.in_process.campaign_evidence`) as ``DIR/draw<index>.json.gz``,
 and a draw whose file is already there is only diagnosed again: a change to the diagnosis
 itself (not to the simulator or the chain) is then measured on the very same draws in
-about a second per draw, before against after (an older source tree on ``PYTHONPATH`` rescores
-kept evidence with its own diagnosis)::
+about a second per draw, before against after (another source tree on ``PYTHONPATH``, with
+``dronewind.diagnose.in_process.diagnose_evidence``, rescores kept evidence with its own diagnosis)::
 
     PYTHONPATH=src .venv/bin/python benchmarks/bench_diagnosis_rates.py --draws 60 --seed 1 \\
         --workers 2 --evidence /tmp/rates_evidence --out /tmp/rates_after.json

@@ -13,7 +13,8 @@ resample what that record got wrong by chance, its spectral sampling error
 of one campaign's conditions with different campaign seeds (the "true" atmospheres), each
 processed as measured (:func:`dronewind.diagnose.in_process.process_virtual_flight`) and
 forward-run with K baseline seeds of its own (:func:`dronewind.diagnose.probe_runs.probe_runs`,
-as :func:`dronewind.diagnose.in_process._process_flight` does); per feature, the ratio
+on the conditions and record of :func:`dronewind.diagnose.in_process.forward_inputs`); per
+feature, the ratio
 
 .. math:: R = \\frac{(1 + 1/K)\\,\\overline{s^2_{seeds}}}{\\mathrm{var}_i(y_i - \\bar b_i)}
 
@@ -116,12 +117,10 @@ def realisation_scatter(n_realisations: int, n_seeds: int, features: Sequence[st
         (per realisation) and :func:`scatter_ratios`.
     """
     from dronewind.diagnose import experiments as ex
-    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, in_process, probe_runs, probes
-    from dronewind.diagnose.features import features_to_dict
+    from dronewind.diagnose import in_process, probe_runs, probes
     from dronewind.manifest import with_defaults
 
     processing = with_defaults({})["processing"]
-    lag = {k: processing[k] for k in probes.LAG_SETTINGS}
     names = list(features)
     measured, baseline, seeds_used = [], [], []
 
@@ -132,9 +131,7 @@ def realisation_scatter(n_realisations: int, n_seeds: int, features: Sequence[st
             flight = data["payload_flights"][0]
             fid = flight["id"]
             v = in_process.process_virtual_flight(copy.deepcopy(data), flight, Path(folder) / f"r{i}", processing)
-            found = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
-            conditions = forward_conditions.forward_conditions(data, fid, v.l3, v.l2)
-            record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions)
+            found, conditions, record = in_process.forward_inputs(data, fid, v, processing)
             seeds = tuple(int(5000 + 37 * (first_seed + i) + k) for k in range(n_seeds))
             runs = probe_runs.probe_runs(data, fid, conditions, processing, seeds=seeds, parts=[probes.BASELINE_PART],
                                       atmosphere=record, lag_drift="lag_drift_s" in names, features=names)

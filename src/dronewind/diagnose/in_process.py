@@ -27,12 +27,13 @@ from dronewind.manifest import with_defaults
 from dronewind.mast.chain import compute_mast_l1, compute_mast_l2
 from dronewind.payload.chain import compute_payload_l1, compute_payload_l2
 
-__all__ = ["VirtualFlight", "process_virtual_flight", "run_in_process", "campaign_evidence", "diagnose_evidence",
-           "decide_evidence", "measured_campaign_evidence"]
+__all__ = ["VirtualFlight", "process_virtual_flight", "forward_inputs", "run_in_process", "campaign_evidence",
+           "diagnose_evidence", "decide_evidence", "measured_campaign_evidence"]
 
 
 class VirtualFlight(NamedTuple):
-    """One simulated flight processed as measured data (:func:`process_virtual_flight`)."""
+    """A flight processed to L3 with its reference mast sonic's L1: a simulated one processed as
+    measured data (:func:`process_virtual_flight`), or a measured one (:func:`measured_campaign_evidence`)."""
 
     sonic_l1: xr.Dataset
     ins_l1: xr.Dataset
@@ -79,6 +80,44 @@ def process_virtual_flight(data: Mapping[str, Any], flight: Mapping[str, Any], w
     return VirtualFlight(s1, i1, l2, m1, l3)
 
 
+def forward_inputs(data: Mapping[str, Any], flight_id: str, flight: VirtualFlight, processing: Mapping[str, Any],
+                   atmosphere: str = "measured") -> tuple[dict[str, Any], dict[str, Any], xr.Dataset | None]:
+    """What a processed flight's forward runs read, as the workflow's forward job makes it.
+
+    Parameters
+    ----------
+    data : mapping
+        The campaign's manifest (or its one-flight view).
+    flight_id : str
+        Payload flight id.
+    flight : VirtualFlight
+        The flight's products.
+    processing : mapping
+        ``processing`` settings (at least :data:`dronewind.diagnose.probes.LAG_SETTINGS`).
+    atmosphere : {"measured", "model"}
+        ``diagnosis.atmosphere``.
+
+    Returns
+    -------
+    measured : dict
+        Residual features (:func:`~dronewind.diagnose.features.features_to_dict`).
+    conditions : dict
+        :func:`dronewind.diagnose.forward_conditions.forward_conditions`.
+    record : xarray.Dataset or None
+        The reference mast's record as the forward runs' atmosphere
+        (:func:`dronewind.diagnose.forward_atmosphere.atmosphere_record`); None for ``model``.
+    """
+    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probes
+    from dronewind.diagnose.features import features_to_dict
+
+    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
+    measured = features_to_dict(forward.measured_features(data, flight_id, flight.sonic_l1, flight.ins_l1, flight.l2,
+                                                          flight.l3, **lag))
+    conditions = forward_conditions.forward_conditions(data, flight_id, flight.l3, flight.l2)
+    record = forward_atmosphere.atmosphere_record(flight.mast_l1, conditions) if atmosphere == "measured" else None
+    return measured, conditions, record
+
+
 def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
                     processing: Mapping[str, Any], seeds: tuple[int, ...],
                     atmosphere: str = "measured") -> tuple[dict[str, Any], dict[str, Any]]:
@@ -94,15 +133,11 @@ def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Pa
     forward_runs : dict
         :func:`dronewind.diagnose.probe_runs.probe_runs` of the flight.
     """
-    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
-    from dronewind.diagnose.features import features_to_dict
+    from dronewind.diagnose import probe_runs
 
     fid = flight["id"]
-    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     v = process_virtual_flight(data, flight, work, processing)
-    measured = features_to_dict(forward.measured_features(data, fid, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
-    conditions = forward_conditions.forward_conditions(data, fid, v.l3, v.l2)
-    record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if atmosphere == "measured" else None
+    measured, conditions, record = forward_inputs(data, fid, v, processing, atmosphere)
     return measured, probe_runs.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
 
 
@@ -253,8 +288,7 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
     ManifestError
         The manifest is invalid or declares a ``simulation:`` section.
     """
-    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probe_runs, probes
-    from dronewind.diagnose.features import features_to_dict
+    from dronewind.diagnose import probe_runs, probes
     from dronewind.errors import ManifestError
     from dronewind.manifest import load_campaign, payload_flight_manifest
 
@@ -277,17 +311,14 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
         s1, i1 = compute_payload_l1(root / flight["sonic"]["file"], root / flight["ins"]["file"],
                                     processing["despike"])
         l2 = compute_payload_l2(s1, i1, flight, altitude_m, **lag)
+        if not int(l2.attrs.get("usable", 1)):
+            unusable.append(fid)
+            continue
         if ref not in mast_l1:
             mast_l1[ref] = compute_mast_l1(campaign.mast_files(ref), sonics[ref], processing["despike"])
         m2 = compute_mast_l2(mast_l1[ref], l2, fid, processing["drone_mast"])
         l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
-        if not int(l2.attrs.get("usable", 1)):
-            unusable.append(fid)
-            continue
-        measured[fid] = features_to_dict(forward.measured_features(view, fid, s1, i1, l2, l3, **lag))
-        conditions = forward_conditions.forward_conditions(view, fid, l3, l2)
-        record = (forward_atmosphere.atmosphere_record(mast_l1[ref], conditions)
-                  if str(diagnosis["atmosphere"]) == "measured" else None)
-        fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds,
-                                      atmosphere=record)
+        measured[fid], conditions, record = forward_inputs(view, fid, VirtualFlight(s1, i1, l2, mast_l1[ref], l3),
+                                                           processing, str(diagnosis["atmosphere"]))
+        fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
     return {"name": campaign.name, "measured": measured, "forward": fwd, "unusable": unusable}

@@ -134,21 +134,15 @@ def processed_flight(view: Mapping[str, Any], flight_id: str, config: Mapping[st
         measured atmosphere, :func:`dronewind.diagnose.forward_atmosphere.atmosphere_record`, or
         None for ``diagnosis.atmosphere: model``).
     """
-    from dronewind.diagnose import forward, forward_atmosphere, forward_conditions, probes
-    from dronewind.diagnose.features import features_to_dict
-    from dronewind.diagnose.in_process import process_virtual_flight
+    from dronewind.diagnose.in_process import forward_inputs, process_virtual_flight
 
     settings = with_defaults(dict(config))
-    processing, diagnosis = settings["processing"], settings["diagnosis"]
-    lag = {key: processing[key] for key in probes.LAG_SETTINGS}
+    processing = settings["processing"]
     flight = next(f for f in view["payload_flights"] if f["id"] == flight_id)
     work = Path(work_dir)
     work.mkdir(parents=True, exist_ok=True)
     v = process_virtual_flight(view, flight, work, processing)
-    measured = features_to_dict(forward.measured_features(view, flight_id, v.sonic_l1, v.ins_l1, v.l2, v.l3, **lag))
-    conditions = forward_conditions.forward_conditions(view, flight_id, v.l3, v.l2)
-    record = forward_atmosphere.atmosphere_record(v.mast_l1, conditions) if diagnosis["atmosphere"] == "measured" \
-        else None
+    measured, conditions, record = forward_inputs(view, flight_id, v, processing, settings["diagnosis"]["atmosphere"])
     return {"measured": measured, "statistics": hover_statistics(v.l3), "conditions": conditions, "record": record}
 
 
