@@ -47,10 +47,10 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
 Cost: a 2-flight campaign costs about 16 CPU-s to simulate, process and forward-run; a shared
 bootstrap reference about 12 CPU-s on two flights and 24 on three (600 replicates; throughput
 in ``benchmarks/test_bench_statistics.py``) and each drawn campaign's decision against it about
-0.25 CPU-s on three flights (its goodness of fit, not computed, would add about 0.5 where a cause
-is named: the named causes refitted on every replicate); a draw with a reference of its own about
-12 CPU-s on two or three flights and 16 on six. Full simulations of every draw would add the
-simulation's cost to each; they are the check (:func:`simulated_detection`,
+0.16 CPU-s on three flights (0.48 with the goodness of fit, which is not computed: it refits the
+named causes on every replicate; 20 draws of a 3 degree heading bias); a draw with a reference
+of its own about 12 CPU-s on two or three flights and 16 on six. Full simulations of every draw
+would add the simulation's cost to each; they are the check (:func:`simulated_detection`,
 ``benchmarks/plan_validation.py``).
 """
 
@@ -433,37 +433,31 @@ def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, i
     config = dict(config or {})
     tasks = [(label, int(n), int(draws), int(seed), config, reference,
               model.references.get(_reference_key(model, label, int(n)))) for label, n, draws, seed in calls]
-    out: list[PowerResult] = []
 
-    def record(label: str | None, n: int, result: PowerResult, ref: Any, seconds: float, cpu: float) -> None:
+    def record(label: str | None, n: int, result: PowerResult, ref: Any, seconds: float, cpu: float) -> PowerResult:
         if cpu_seconds is not None:
             cpu_seconds.append(cpu)
         if ref is not None:
             model.references.setdefault(_reference_key(model, label, n), ref)
-        out.append(result)
         if progress is not None:
             progress.add(f"{label or 'no error'}, {n} flights, {result.draws} draws", seconds)
+        return result
 
     if pool is None and (workers <= 1 or len(tasks) <= 1):
-        for task in tasks:
-            record(task[0], task[1], *_timed_draw(model, task))
-        return out
+        return [record(task[0], task[1], *_timed_draw(model, task)) for task in tasks]
     # the largest calls first (a reference costs about its flight count, the draws their number):
     # the last calls to finish are then short ones, and no worker idles while one runs alone
     order = sorted(range(len(tasks)), key=lambda i: (-tasks[i][1], -tasks[i][2], i))
-    results: dict[int, Any] = {}
+    results: dict[int, PowerResult] = {}
     own = pool is None
     executor = power_pool(model, min(workers, len(tasks))) if own else pool
     try:
         for i, done in zip(order, executor.map(_draw_task, [tasks[i] for i in order]), strict=True):
-            results[i] = done
-            record(tasks[i][0], tasks[i][1], *done)
+            results[i] = record(tasks[i][0], tasks[i][1], *done)
     finally:
         if own:
             executor.shutdown()
-    # in the order of the calls
-    out[:] = [results[i][0] for i in range(len(tasks))]
-    return out
+    return [results[i] for i in range(len(tasks))]  # in the order of the calls
 
 
 @dataclass
