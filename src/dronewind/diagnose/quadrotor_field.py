@@ -109,9 +109,47 @@ class FieldData:
         return tilt_from_attitude(self.roll_rad, np.radians(self.pitch - 0.0))
 
     @functools.cached_property
+    def heading_without_offset(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Heading of every block [rad] with its cosine and sine, without a yaw offset."""
+        psi = np.radians(self.yaw - 0.0)  # minus 0.0 as in the offset path of _attitude_terms
+        return psi, np.cos(psi), np.sin(psi)
+
+    @functools.cached_property
     def attitude_without_offsets(self) -> tuple[np.ndarray, ...]:
         """:func:`_attitude_terms` without pitch and yaw offsets."""
         return _attitude_terms(self, 0.0, 0.0)
+
+    @functools.cached_property
+    def _offset_indices(self) -> dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]]:
+        return {}
+
+    def offset_index(self, units: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """Where every block's flight and UAV sits among a model's per-flight offsets.
+
+        Parameters
+        ----------
+        units : sequence of str
+            The model's ``flight/uav`` units (:attr:`FieldModel.units`, sorted).
+
+        Returns
+        -------
+        index : numpy.ndarray
+            Index of each block's unit in ``units`` (int, clipped to the last one).
+        known : numpy.ndarray
+            Whether the block's unit is among ``units`` (bool): a held-out flight is not.
+
+        Notes
+        -----
+        Made once per set of units: a string search over every block at each evaluation
+        of the fitted wind was a fifth of the field diagnosis' time.
+        """
+        key = tuple(units)
+        if key not in self._offset_indices:
+            block_unit = self.unit[self.win]
+            known = np.isin(block_unit, key)
+            index = np.searchsorted(key, block_unit).clip(0, max(len(key) - 1, 0))
+            self._offset_indices[key] = (index, known)
+        return self._offset_indices[key]
 
     def subset(self, mask: np.ndarray) -> FieldData:
         """Windows where ``mask`` is true (UAV list kept, so parameter vectors align)."""
@@ -274,8 +312,7 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
         p_off: np.ndarray | float
         if model.flight_pitch:
             # a unit the training never saw (a held-out flight) keeps zero offset
-            known = np.isin(data.unit[data.win], model.units)
-            idx = np.searchsorted(model.units, data.unit[data.win]).clip(0, max(n_off - 1, 0))
+            idx, known = data.offset_index(model.units)
             p_off = np.where(known, x[nspeed:][idx], 0.0)
         else:
             p_off = x[nspeed:][data.uav_index[data.win]] if model.pitch else 0.0
@@ -313,9 +350,13 @@ def _attitude_terms(data: FieldData, p_off: np.ndarray | float, y_off: np.ndarra
         tilt, lean_rel = data.tilt_without_offset
     else:
         tilt, lean_rel = tilt_from_attitude(data.roll_rad, np.radians(data.pitch - p_off))
-    psi = np.radians(data.yaw - y_off)
+    if isinstance(y_off, float) and y_off == 0.0:  # no yaw offset (the speed fits): the heading never changes
+        psi, cos_psi, sin_psi = data.heading_without_offset
+    else:
+        psi = np.radians(data.yaw - y_off)
+        cos_psi, sin_psi = np.cos(psi), np.sin(psi)
     lean = psi + lean_rel
-    return tilt, np.cos(lean), np.sin(lean), np.cos(psi), np.sin(psi)
+    return tilt, np.cos(lean), np.sin(lean), cos_psi, sin_psi
 
 
 def predict_field(data: FieldData, fit: FieldFit) -> tuple[np.ndarray, np.ndarray]:
