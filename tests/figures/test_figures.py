@@ -81,6 +81,19 @@ def test_campaign_figures_log_each_figure(drawn_figures: tuple[Path, dict, list[
             (name, lines)
 
 
+def test_named_figures_alone_are_those_of_the_whole_set(products: Path, drawn: Path, tmp_path: Path) -> None:
+    """The workflow's two figure jobs draw subsets (``names``): the Appendix B figures drawn alone
+    are byte for byte those of the whole set, and no other file is written; an unknown name
+    stops with the valid ones listed."""
+    written = campaign.draw_all(products, tmp_path, names=campaign.APPENDIX_FIGURES)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in written)
+    assert {p.stem for p in written} == set(campaign.APPENDIX_FIGURES)
+    for path in written:
+        assert path.read_bytes() == (drawn / path.name).read_bytes(), path.name
+    with pytest.raises(ValueError, match="fig99_none.*expected names of"):
+        campaign.draw_all(products, tmp_path, names=["fig99_none"])
+
+
 def _files(root: Path, level: str, pattern: str = "*.nc") -> list[Path]:
     return sorted((root / "netcdf" / level).glob(pattern))
 

@@ -29,7 +29,7 @@ REPO = Path(__file__).resolve().parents[2]
 VENV = Path(sys.executable).parents[1]
 PLACEHOLDER = "/abs/path/to/campaign.yaml"
 #: the jobs a redraw of the default campaign plans: its figure and table jobs and the target
-REDRAW_JOBS = {"all": 1, "tables": 1, "flight_stats": 1, "figures": 1, "diagnosis_report": 1,
+REDRAW_JOBS = {"all": 1, "tables": 1, "flight_stats": 1, "figures": 1, "figures_appendix": 1, "diagnosis_report": 1,
                "quadrotor_figures": 1, "tunnel_figures": 1, "published_report": 1}
 
 
@@ -187,7 +187,8 @@ def test_the_redraw_command_of_a_payload_only_campaign(clone, tmp_path):
     assert fake_processed_campaign(clone, manifest) > 10
     proc = shell(clone, as_dry_run(command))
     assert proc.returncode == 0, proc.stderr[-3000:]
-    assert job_stats(proc.stdout) == {"all": 1, "tables": 1, "flight_stats": 1, "figures": 1, "diagnosis_report": 1}
+    assert job_stats(proc.stdout) == {"all": 1, "tables": 1, "flight_stats": 1, "figures": 1, "figures_appendix": 1,
+                                      "diagnosis_report": 1}
     shutil.rmtree(clone / "results")
 
 

@@ -25,6 +25,7 @@ from dronewind.figures.labels import (
     TUNNEL_FIGURES,
     figure_captions,
 )
+from dronewind.figures.campaign import APPENDIX_FIGURES
 from dronewind.formats import check_campaign_formats
 from dronewind.manifest import (
     confined_path,
@@ -81,6 +82,8 @@ MAST_SONICS = list(CAMPAIGN.mast_sonics())
 # flights' references and its outputs stay as they are (no blocks unless asked for by target).
 BLOCK_SONICS = MAST_SONICS if not (PAYLOAD_FLIGHTS or RIGID_FLIGHTS) else []
 FIGURES = list(figure_captions())
+# the campaign figures of the figures_appendix job (the others: the figures job)
+MAIN_FIGURES = [name for name in FIGURES if name not in APPENDIX_FIGURES]
 
 
 def canonical(value):
@@ -521,3 +524,16 @@ def autopilot_targets():
         str(RESULTS / "figures" / f"autopilot_ekf_wind_{f}.png")
         for f in AUTOPILOT_FLIGHTS
     ]
+
+
+def figure_outputs(names):
+    """The PNG (report items, in report.smk's subcategories) and PDF files of campaign figures."""
+    png = [str(RESULTS / "figures" / f"{name}.png") for name in names]
+    pdf = [str(RESULTS / "figures" / f"{name}.pdf") for name in names]
+    items = [report(path, caption=report_caption(name), category="Payload validation", subcategory=FIGURE_SUBCATEGORIES[name]) for path, name in zip(png, names)]  # fmt: skip
+    return {"png": items, "pdf": pdf}
+
+
+def results_of_l4(wildcards, input):
+    """The campaign's results folder, from the path of its first L4 product (results/<name>/netcdf/L4/...)."""
+    return str(Path(input.l4[0]).parents[2])

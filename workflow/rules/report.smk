@@ -155,7 +155,12 @@ rule tables:
         "../scripts/tables.py"
 
 
+# The campaign figures in two jobs of about equal length (the normalised spectra of Appendix B
+# take as long as the others together): each stays within the first 15 s of a job, which
+# Snakemake's benchmark samples every 0.5 s (then every 30 s), so its benchmark file holds the
+# job's whole CPU time (figure_outputs() in common.smk).
 rule figures:
+    """Ghirardelli et al. (2025) Figs 4 and 7-16 from the stored products."""
     input:
         l2=expand(
             RESULTS / "netcdf" / "L2" / "{flight}_drone.nc", flight=PAYLOAD_FLIGHTS
@@ -168,16 +173,7 @@ rule figures:
         ),
         campaign=RESULTS / "campaign.json",
     output:
-        png=[
-            report(
-                str(RESULTS / "figures" / f"{name}.png"),
-                caption=report_caption(name),
-                category="Payload validation",
-                subcategory=FIGURE_SUBCATEGORIES[name],
-            )
-            for name in FIGURES
-        ],
-        pdf=[str(RESULTS / "figures" / f"{name}.pdf") for name in FIGURES],
+        **figure_outputs(MAIN_FIGURES),
     log:
         log_path("figures"),
     benchmark:
@@ -188,6 +184,36 @@ rule figures:
     threads: 1
     resources:
         mem_mb=600,
+    params:
+        results=results_of_l4,
+        names=MAIN_FIGURES,
+    script:
+        "../scripts/figures.py"
+
+
+rule figures_appendix:
+    """Ghirardelli et al. (2025) Figs B1 and B2 (normalised spectra) from the stored L4 products."""
+    input:
+        l4=expand(
+            RESULTS / "netcdf" / "L4" / "{flight}_{sensor}.nc",
+            flight=PAYLOAD_FLIGHTS,
+            sensor=["drone", "mast"],
+        ),
+    output:
+        **figure_outputs(APPENDIX_FIGURES),
+    log:
+        log_path("figures_appendix"),
+    benchmark:
+        bench_path("figures_appendix")
+    priority: PRIORITY_FORWARD
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=600,
+    params:
+        results=results_of_l4,
+        names=list(APPENDIX_FIGURES),
     script:
         "../scripts/figures.py"
 

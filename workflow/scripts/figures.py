@@ -1,4 +1,4 @@
-"""Snakemake script: the campaign figures (PNG and PDF), drawn from stored products only."""
+"""Snakemake script: campaign figures (PNG and PDF), drawn from stored products only."""
 
 from pathlib import Path
 
@@ -7,5 +7,4 @@ from dronewind.steps import logged
 
 sm = snakemake  # noqa: F821 (snakemake is injected)
 with logged(sm.log[0]):
-    results = Path(sm.input.campaign).parent
-    draw_all(results, Path(sm.output.png[0]).parent)
+    draw_all(Path(sm.params.results), Path(sm.output.png[0]).parent, names=sm.params.names)

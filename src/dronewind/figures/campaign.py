@@ -32,7 +32,7 @@ References
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from pathlib import Path
 
 from dronewind.core.products import load_l4_products
@@ -52,7 +52,7 @@ from dronewind.figures.style import PathLike
 from dronewind.figures.synchronisation import fig04_tke_lag
 from dronewind.figures.timeseries import fig08_timeseries, fig10_temperature_series
 
-__all__ = ["FIGURE_FUNCTIONS", "draw_all", "figure_captions"]
+__all__ = ["APPENDIX_FIGURES", "FIGURE_FUNCTIONS", "draw_all", "figure_captions"]
 
 #: Figure name -> function (all take the output stem as a keyword ``out_stem``).
 FIGURE_FUNCTIONS = {
@@ -71,9 +71,14 @@ FIGURE_FUNCTIONS = {
     "figB2_normalised_temperature_spectra": figB2_normalised_temperature_spectra,
 }
 
+#: The normalised spectra of Appendix B: the workflow draws them in a job of their own
+#: (``figures_appendix``), as they take about as long as all the other figures together.
+APPENDIX_FIGURES = ("figB1_normalised_velocity_spectra", "figB2_normalised_temperature_spectra")
 
-def draw_all(results_dir: PathLike, figures_dir: PathLike, flights: Sequence[str] | None = None) -> list[Path]:
-    """Draw every campaign figure from a ``results/<campaign>/`` tree.
+
+def draw_all(results_dir: PathLike, figures_dir: PathLike, flights: Sequence[str] | None = None,
+             names: Collection[str] | None = None) -> list[Path]:
+    """Draw every campaign figure (or those named) from a ``results/<campaign>/`` tree.
 
     Parameters
     ----------
@@ -85,6 +90,8 @@ def draw_all(results_dir: PathLike, figures_dir: PathLike, flights: Sequence[str
         :func:`figure_captions`.
     flights : sequence of str, optional
         Flights shown in detail (Figs 8-11); default first and seventh.
+    names : collection of str, optional
+        Only these figures (keys of :data:`FIGURE_FUNCTIONS`); all by default.
 
     Returns
     -------
@@ -114,6 +121,11 @@ def draw_all(results_dir: PathLike, figures_dir: PathLike, flights: Sequence[str
         ("figB2_normalised_temperature_spectra",
          lambda base: figB2_normalised_temperature_spectra(l4, base, detail)),
     ]
+    if names is not None:
+        unknown = sorted(set(names) - set(FIGURE_FUNCTIONS))
+        if unknown:
+            raise ValueError(f"unknown campaign figure(s) {unknown}; expected names of {sorted(FIGURE_FUNCTIONS)}")
+        drawers = [(name, draw) for name, draw in drawers if name in set(names)]
     progress = Progress("figure", len(drawers), "drawn")
     paths: list[Path] = []
     for name, draw in drawers:
