@@ -245,6 +245,6 @@ def test_manifest_page_virtual_example_plans_every_system(clone, tmp_path):
     proc = shell(clone, f".venv/bin/snakemake -n --config campaign={path}")
     assert proc.returncode == 0, proc.stderr[-3000:]
     rules = job_stats(proc.stdout)
-    for rule in ("simulate_payload", "quadrotor_fleet", "tunnel_simulate", "l4", "quadrotor_l2",
+    for rule in ("simulate_payload", "quadrotor_simulate", "quadrotor_fleet", "tunnel_simulate", "l4", "quadrotor_l2",
                  "tunnel_figures", "diagnosis_report"):
         assert rule in rules, (rule, sorted(rules))

@@ -444,13 +444,12 @@ def quad_nc_all(level):
 
 
 def quad_fleet(flights):
-    """Params: per quadrotor flight, what the fleet's L0-L1 and windows steps read of it."""
+    """Params: per quadrotor flight, what the fleet's L1 and windows steps read of it."""
     return [
         {
             "flight": canonical(CAMPAIGN.quadrotor_flight(f)),
             "uavs": quad_uavs(f),
             "formats": [u.get("format") for u in CAMPAIGN.quadrotor_flight(f)["uavs"]],
-            "simulation": quad_simulation(f) if CAMPAIGN.simulated else None,
             "raw": quad_raw(f)[0],
             "reference": quad_raw(f)[1],
             "l1": quad_nc("L1", f),

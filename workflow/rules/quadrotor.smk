@@ -13,16 +13,47 @@ QUAD_VALIDATION = (
 )
 
 
-# The cheap per-flight stages of the whole fleet run in two jobs: simulation (virtual
-# campaigns), L1 and averaging windows of every flight in one, the L2 of every flight in one
-# after the campaign calibration. A flight's UAV files are named in the manifest (its UAV ids),
-# which no wildcard pattern describes; the two jobs list them all (docs/workflow.md).
+# The cheap per-flight stages of the whole fleet run in three jobs: the simulation of every
+# flight's logs (virtual campaigns), L1 and averaging windows of every flight in one, the L2 of
+# every flight in one after the campaign calibration. A flight's UAV files are named in the
+# manifest (its UAV ids), which no wildcard pattern describes; the jobs list them all
+# (docs/workflow.md).
+
+
+# a virtual campaign writes every quadrotor flight's UAV logs and tower reference (no output otherwise)
+rule quadrotor_simulate:
+    """The SWUF-3D fleet's logs and the tower reference of every quadrotor flight of a virtual campaign."""
+    output:
+        l0=quad_raw_all() if CAMPAIGN.simulated else [],
+    log:
+        log_path("quadrotor_simulate"),
+    benchmark:
+        bench_path("quadrotor_simulate")
+    priority: PRIORITY_CHAIN
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=600,
+    params:
+        flights=[
+            {
+                "flight": canonical(CAMPAIGN.quadrotor_flight(f)),
+                "simulation": quad_simulation(f),
+            }
+            for f in (QUAD_FLIGHTS if CAMPAIGN.simulated else [])
+        ],
+        site=SITE,
+        l0_dir=quad_l0_root,
+    script:
+        "../scripts/quadrotor_simulate.py"
+
+
 rule quadrotor_fleet:
     """Wetz et al. (2021) Sect. 5 and App. C: L1 of every UAV, 10-min and 2-min windows of every flight with the tower."""
     input:
-        raw=[] if CAMPAIGN.simulated else quad_raw_all(),
+        raw=quad_raw_all(),
     output:
-        l0=quad_raw_all() if CAMPAIGN.simulated else [],
         l1=quad_nc_all("L1"),
         windows=quad_windows("windows"),
         blocks=quad_windows("blocks"),
@@ -43,7 +74,6 @@ rule quadrotor_fleet:
         site=SITE,
         simulated=CAMPAIGN.simulated,
         attribution=ATTRIBUTION,
-        l0_dir=quad_l0_root,
         site_altitude_m=SITE["altitude_m"],
         block_s=QUAD["block_s"],
         hover=QUAD["hover"],
