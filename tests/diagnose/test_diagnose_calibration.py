@@ -368,3 +368,47 @@ def test_familywise_p_resolution_and_attainable_level() -> None:
         check_attainable(0.001, 600)
     check_attainable(0.01, 600)
     assert mc_standard_error(0.05, 600) == pytest.approx(np.sqrt(0.05 * 0.95 / 601))
+
+
+def test_a_reference_drawn_in_parts_is_the_whole_reference_number_for_number() -> None:
+    """The workflow draws the bootstrap in parts (diagnose_reference jobs): 3 parts of 11
+    replicates of a 4-flight, 3-feature campaign with a shrunk correlation and a discrepancy,
+    stored as arrays and read back, joined in order, equal every statistic and every replicate's
+    features, errors and correlations of the reference drawn at once (the generator replays the
+    earlier parts' random numbers). Parts of another seed do not join; a part outside the
+    replicates is refused."""
+    from dronewind.diagnose.covariance import shrunk_correlation
+    from dronewind.diagnose.reference import (
+        joined_reference,
+        reference_arrays,
+        reference_from_arrays,
+        replicate_part,
+    )
+
+    n, p, n_seeds = 4, 3, 30
+    rng = np.random.default_rng(5)
+    speed = np.array([3.5, 5.5, 7.5, 9.5])
+    signature = np.zeros((n, p))
+    signature[:, 0] = [1.0, -1.0, 2.0, -2.0]
+    models = {"m": _linear_model(signature)}
+    seeds = rng.normal(size=(n, n_seeds, p))
+    corr = shrunk_correlation(seeds.reshape(n * n_seeds, p), np.repeat(np.arange(n), n_seeds))
+    args = dict(baseline=rng.normal(size=(n, p)), analytic=np.full((n, p), 0.5), scale=seed_scale(seeds),
+                corr=corr.matrix, truth_corr=corr.sample, tau=np.array([0.3, 0.0, 0.1]), used=np.ones((n, p), bool),
+                n_seeds=n_seeds, speed_ms=speed, models=models, n_replicates=11, seed=3)
+    whole = null_reference(**args)
+    parts = [reference_from_arrays(reference_arrays(null_reference(**args, replicates=replicate_part(11, k, 3))))
+             for k in range(3)]
+    assert [r.n_replicates for r in parts] == [3, 4, 4]
+    joined = joined_reference(parts)
+    a, b = reference_arrays(whole), reference_arrays(joined)
+    assert a.keys() == b.keys() and "lr/m" in a
+    for key in a:
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    other = null_reference(**{**args, "seed": 4}, replicates=range(0, 2))
+    with pytest.raises(ValueError, match="different bootstrap references"):
+        joined_reference([parts[0], other])
+    with pytest.raises(ValueError, match="contiguous range within range"):
+        null_reference(**args, replicates=range(10, 12))
+    with pytest.raises(ValueError, match="expected 0 <= part < 3"):
+        replicate_part(11, 3, 3)

@@ -165,6 +165,8 @@ def only_if(condition, ids):
 
 # parts of a flight's forward-model runs when they are one job each (diagnosis.probe_jobs)
 PROBE_PARTS = list(probe_parts())
+# the parts the diagnosis' bootstrap reference is drawn in (rule diagnose_reference)
+REFERENCE_PARTS = [str(k) for k in range(DIAGNOSIS["bootstrap_jobs"])]
 
 
 wildcard_constraints:

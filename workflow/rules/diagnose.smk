@@ -132,6 +132,42 @@ rule diagnose_forward_parts:
         "../scripts/merge_forward.py"
 
 
+# The bootstrap reference of the campaign diagnosis in diagnosis.bootstrap_jobs parts, each a
+# contiguous run of the one seeded sequence of replicates (dronewind.diagnose.naming.reference_part):
+# joined in order they are the reference the diagnosis would draw itself. On 2 cores the parts
+# run beside each other and beside the report's other long jobs; each stays within the first
+# 15 s of its job, which Snakemake's benchmark samples every 0.5 s.
+rule diagnose_reference:
+    input:
+        measured=expand(
+            RESULTS / "diagnosis" / "measured" / "{flight}.json",
+            flight=PAYLOAD_FLIGHTS,
+        ),
+        forward=expand(
+            RESULTS / "diagnosis" / "forward" / "{flight}.json", flight=PAYLOAD_FLIGHTS
+        ),
+    output:
+        temp(RESULTS / "diagnosis" / "reference" / "{part}.npz"),
+    log:
+        log_path("diagnose_reference", "part"),
+    benchmark:
+        bench_path("diagnose_reference", "part")
+    wildcard_constraints:
+        part=_alternatives(REFERENCE_PARTS),
+    priority: PRIORITY_CHAIN
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=300,
+    params:
+        bootstrap=DIAGNOSIS["bootstrap"],
+        part=lambda wc: int(wc.part),
+        parts=len(REFERENCE_PARTS),
+    script:
+        "../scripts/diagnose_reference.py"
+
+
 rule diagnose:
     input:
         manifest=str(CAMPAIGN.path),
@@ -144,6 +180,9 @@ rule diagnose:
         ),
         platform=expand(
             RESULTS / "diagnosis" / "platform" / "{flight}.json", flight=RIGID_FLIGHTS
+        ),
+        reference=expand(
+            RESULTS / "diagnosis" / "reference" / "{part}.npz", part=REFERENCE_PARTS
         ),
     output:
         json=RESULTS / "diagnosis.json",

@@ -42,7 +42,7 @@ import hashlib
 import json
 import os
 import tempfile
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -617,12 +617,42 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     Path
         The written file.
     """
+    def write(handle: int) -> None:
+        with os.fdopen(handle, "w", encoding="utf-8") as stream:
+            stream.write(text)
+
+    return _atomic_write(path, write)
+
+
+def atomic_write_arrays(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
+    """Write named arrays to a NumPy ``.npz`` file atomically (:func:`numpy.savez`, no pickled objects).
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination.
+    arrays : mapping
+        Name -> array.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    def write(handle: int) -> None:
+        with os.fdopen(handle, "wb") as stream:
+            np.savez(stream, allow_pickle=False, **arrays)
+
+    return _atomic_write(path, write)
+
+
+def _atomic_write(path: str | Path, write: Callable[[int], object]) -> Path:
+    """Write through ``write`` (given the file descriptor of a temporary file in the same folder), then rename."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     handle, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(text)
+        write(handle)
         os.chmod(tmp_name, 0o644)  # mkstemp creates 0600; outputs are meant to be shared
         os.replace(tmp_name, path)
     except BaseException:

@@ -115,6 +115,7 @@ from dronewind.diagnose.naming import (
     feature_shares,
     n_tests,
     named_mechanisms,
+    reference_part,
     response_ambiguity,
     simplest_variant,
     single_feature_alias,
@@ -127,4 +128,4 @@ __all__ = ["CampaignEvidence", "assemble", "CONDITIONED", "AMBIGUITY_COSINE", "A
            "SINGLE_FEATURE_SHARE", "feature_shares", "single_feature_alias", "caveats", "Withheld", "withheld_json",
            "PARAMETER_SUBSETS", "n_tests", "simplest_variant", "error_model", "feature_correlation", "to_json",
            "best_variants", "baseline_metrics", "residual_table", "wind_speed_slopes", "combined_prediction",
-           "named_mechanisms", "summarise"]
+           "named_mechanisms", "summarise", "reference_part"]

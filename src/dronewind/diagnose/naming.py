@@ -41,13 +41,14 @@ from dronewind.diagnose.reference import (
     check_attainable,
     familywise_p,
     null_reference,
+    replicate_part,
 )
 from dronewind.mechanisms import get_mechanism
 
 __all__ = ["AMBIGUITY_COSINE", "AT_BOUND", "MIN_GAIN", "Withheld", "DiagnosisResult", "n_tests", "simplest_variant",
            "response_ambiguity", "diagnose", "best_variants", "UNCATALOGUED_ALIASES", "FEATURE_ALIASES",
            "SINGLE_FEATURE_SHARE", "feature_shares", "single_feature_alias", "caveats", "combined_prediction",
-           "named_mechanisms", "campaign_reference"]
+           "named_mechanisms", "campaign_reference", "null_discrepancy", "reference_part"]
 
 #: Cosine between a named cause's whitened fitted effect and another candidate's response
 #: subspace above which the data cannot tell them apart (the other reproduces at least 81 %
@@ -351,7 +352,7 @@ def response_ambiguity(ev: CampaignEvidence, candidate: str, effect: np.ndarray,
 
 
 def campaign_reference(ev: CampaignEvidence, tau: np.ndarray, n_replicates: int, seed: int = 0,
-                       progress: Any = None) -> NullReference:
+                       progress: Any = None, replicates: range | None = None) -> NullReference:
     """The bootstrap reference of a campaign's statistics (:func:`~dronewind.diagnose.reference.null_reference`).
 
     Parameters
@@ -366,6 +367,8 @@ def campaign_reference(ev: CampaignEvidence, tau: np.ndarray, n_replicates: int,
         Seed of the bootstrap.
     progress : callable, optional
         Called after each replicate.
+    replicates : range, optional
+        Only these replicates (one part of the reference, :func:`reference_part`).
 
     Returns
     -------
@@ -375,7 +378,37 @@ def campaign_reference(ev: CampaignEvidence, tau: np.ndarray, n_replicates: int,
     return null_reference(baseline=ev.baseline, analytic=ev.analytic_sigma, scale=ev.scale, corr=ev.corr,
                           truth_corr=None if ev.correlation is None else ev.correlation.sample, tau=tau, used=used,
                           n_seeds=ev.n_seeds, speed_ms=ev.speed_ms, models=ev.models, n_replicates=n_replicates,
-                          seed=seed, progress=progress, flight_scale=ev.flight_scale)
+                          seed=seed, progress=progress, flight_scale=ev.flight_scale, replicates=replicates)
+
+
+def null_discrepancy(ev: CampaignEvidence) -> Discrepancy:
+    """The discrepancy of the baseline's residuals, set on the evidence (the first step of :func:`diagnose`)."""
+    disc = discrepancy(ev.y - ev.baseline, ev.sigma, ev.speed_ms)
+    ev.set_discrepancy(disc.tau_or_zero())
+    return disc
+
+
+def reference_part(evidence: CampaignEvidence, n_replicates: int, part: int, parts: int, bootstrap_seed: int = 0,
+                   progress: Any = None) -> NullReference | None:
+    """One of ``parts`` parts of the bootstrap reference that :func:`diagnose` draws for this evidence.
+
+    The parts, joined in order (:func:`~dronewind.diagnose.reference.joined_reference`), are
+    the reference :func:`diagnose` would draw itself, number for number: the workflow draws
+    them in jobs of their own (``diagnose_reference``) and passes them as ``reference``.
+
+    Returns
+    -------
+    NullReference or None
+        The part's replicates (:func:`~dronewind.diagnose.reference.replicate_part`); None
+        where :func:`diagnose` draws no reference (fewer than two seeds, no candidate, no
+        replicate).
+    """
+    ev = evidence
+    disc = null_discrepancy(ev)
+    if not (ev.n_seeds >= 2 and n_replicates > 0 and ev.models):
+        return None
+    return campaign_reference(ev, disc.tau_or_zero(), int(n_replicates), int(bootstrap_seed), progress,
+                              replicate_part(int(n_replicates), int(part), int(parts)))
 
 
 def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 3,
@@ -426,8 +459,7 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
     ev = evidence
     n = len(ev.flights)
     idx = np.arange(n)
-    disc = discrepancy(ev.y - ev.baseline, ev.sigma, ev.speed_ms)
-    ev.set_discrepancy(disc.tau_or_zero())
+    disc = null_discrepancy(ev)
     if reference is None and ev.n_seeds >= 2 and n_replicates > 0 and ev.models:
         check_attainable(alpha, int(n_replicates))
         reference = campaign_reference(ev, disc.tau_or_zero(), int(n_replicates), int(bootstrap_seed), progress)

@@ -44,7 +44,8 @@ from dronewind.diagnose.covariance import Whitener, flight_correlations, nearest
 from dronewind.diagnose.fitting import ResponseModel, chi2, fit_parameters
 
 __all__ = ["seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference", "null_reference", "empirical_p",
-           "familywise_p", "mc_standard_error", "smallest_p", "check_attainable", "DEFAULT_REPLICATES"]
+           "familywise_p", "mc_standard_error", "smallest_p", "check_attainable", "DEFAULT_REPLICATES",
+           "replicate_part", "joined_reference", "reference_arrays", "reference_from_arrays"]
 
 #: Bootstrap replicates by default: a family-wise p-value of 0.01 then has a Monte-Carlo
 #: standard error of 0.004 (binomial, sqrt(0.01 x 0.99 / 600)).
@@ -304,7 +305,7 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
                    speed_ms: np.ndarray,
                    models: Mapping[str, ResponseModel], n_replicates: int = DEFAULT_REPLICATES,
                    seed: int = 0, progress: object | None = None,
-                   flight_scale: np.ndarray | None = None) -> NullReference:
+                   flight_scale: np.ndarray | None = None, replicates: range | None = None) -> NullReference:
     """Parametric bootstrap over seeds of every statistic of the diagnosis (module docstring).
 
     Parameters
@@ -351,10 +352,16 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         flight differs from :math:`k_f s_{if}` by factors of 0.3 to 2.5 within a campaign, which
         widens the distribution of every statistic beyond what pooled Gaussian replicates give.
         Default: :math:`k_f` on every flight.
+    replicates : range, optional
+        Only these replicates of the ``n_replicates`` (:func:`replicate_part`): the generator
+        still draws the random numbers of every earlier one, so the parts of one reference,
+        joined in order (:func:`joined_reference`), are the whole reference number for number.
+        All by default.
 
     Returns
     -------
     NullReference
+        The replicates asked for, in order (``n_replicates`` of them by default).
     """
     rng = np.random.default_rng(seed)
     n, p = baseline.shape
@@ -366,13 +373,22 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
     chol = np.linalg.cholesky(r)
     tau0 = np.where(np.isfinite(tau), tau, 0.0)
     groups = np.repeat(np.arange(n), n_seeds)
-    ref = NullReference(n_replicates, seed, baseline, np.empty(n_replicates),
-                        lr={c: np.empty(n_replicates) for c in models},
-                        lr_profile={c: np.empty(n_replicates) for c in models},
-                        mean_z=np.empty((n_replicates, p)), slope_z=np.empty((n_replicates, p)))
+    wanted = range(n_replicates) if replicates is None else replicates
+    if wanted.step != 1 or wanted.start < 0 or wanted.stop > n_replicates:
+        raise ValueError(f"replicates {wanted}: expected a contiguous range within range({n_replicates})")
+    size = len(wanted)
+    ref = NullReference(size, seed, baseline, np.empty(size),
+                        lr={c: np.empty(size) for c in models},
+                        lr_profile={c: np.empty(size) for c in models},
+                        mean_z=np.empty((size, p)), slope_z=np.empty((size, p)))
     s = np.where(used, analytic, np.nan)
-    for b in range(n_replicates):
-        draws = (rng.standard_normal((n, n_seeds + 1, p)) @ chol.T) * k_draw[:, None, :]
+    for b_all in range(wanted.stop):
+        normal = rng.standard_normal((n, n_seeds + 1, p))
+        discrepancy_normal = rng.standard_normal((n, p))
+        if b_all < wanted.start:
+            continue  # an earlier part's replicate: its random numbers drawn, nothing computed
+        b = b_all - wanted.start
+        draws = (normal @ chol.T) * k_draw[:, None, :]
         seeds = np.where(used[:, None, :], draws[:, 1:, :], np.nan)
         k_b = seed_scale(seeds)
         k_b = np.where(np.isfinite(k_b) & (k_b > 0), k_b, 1.0)
@@ -380,7 +396,7 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         # the goodness of fit's null has no discrepancy; the candidates' and the offset and trend
         # tests' null has the estimated one (a plug-in parametric bootstrap)
         resid0 = s * (draws[:, 0, :] - seeds.mean(axis=1))
-        resid = resid0 + tau0[None, :] * rng.standard_normal((n, p))
+        resid = resid0 + tau0[None, :] * discrepancy_normal
         sigma_b = np.sqrt(1.0 + 1.0 / n_seeds) * k_b[None, :] * s
         tau_b = discrepancy(resid, sigma_b, speed_ms, interval=False).tau_or_zero()
         total_b, fcorr_b = flight_correlations(corr_b, sigma_b, tau_b)
@@ -405,3 +421,86 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         if progress is not None:
             progress()  # type: ignore[operator]
     return ref
+
+
+def replicate_part(n_replicates: int, part: int, parts: int) -> range:
+    """The replicates of one of ``parts`` near-equal parts of a bootstrap (``replicates`` of :func:`null_reference`).
+
+    Examples
+    --------
+    >>> [replicate_part(600, k, 4) for k in range(4)]
+    [range(0, 150), range(150, 300), range(300, 450), range(450, 600)]
+    """
+    if not 0 <= int(part) < int(parts):
+        raise ValueError(f"part {part}: expected 0 <= part < {parts}")
+    return range(int(part) * int(n_replicates) // int(parts), (int(part) + 1) * int(n_replicates) // int(parts))
+
+
+def joined_reference(parts: Sequence[NullReference]) -> NullReference:
+    """The parts of one bootstrap reference (:func:`null_reference` with ``replicates``), in order, as one.
+
+    Raises
+    ------
+    ValueError
+        No part, or parts of different seeds, baselines or candidates.
+    """
+    if not parts:
+        raise ValueError("no part of a bootstrap reference to join")
+    first = parts[0]
+    for other in parts[1:]:
+        if (other.seed != first.seed or set(other.lr) != set(first.lr)
+                or not np.array_equal(other.baseline, first.baseline, equal_nan=True)):
+            raise ValueError("the parts come from different bootstrap references (seed, baseline or candidates)")
+    return NullReference(
+        sum(r.n_replicates for r in parts), first.seed, first.baseline, np.concatenate([r.gof for r in parts]),
+        lr={c: np.concatenate([r.lr[c] for r in parts]) for c in first.lr},
+        lr_profile={c: np.concatenate([r.lr_profile[c] for r in parts]) for c in first.lr_profile},
+        mean_z=np.concatenate([r.mean_z for r in parts]), slope_z=np.concatenate([r.slope_z for r in parts]),
+        y=[a for r in parts for a in r.y], sigma=[a for r in parts for a in r.sigma],
+        total_sigma=[a for r in parts for a in r.total_sigma], corr=[a for r in parts for a in r.corr],
+        flight_corr=[a for r in parts for a in r.flight_corr], y0=[a for r in parts for a in r.y0],
+        flight_corr0=[a for r in parts for a in r.flight_corr0])
+
+
+def reference_arrays(ref: NullReference) -> dict[str, np.ndarray]:
+    """A bootstrap reference as named arrays (for ``numpy.savez``; :func:`reference_from_arrays` reads them back).
+
+    The per-replicate lists are stacked along a first axis; a replicate without a shrunk
+    correlation (fewer than two seeds) keeps NaN in its place. Candidates' statistics are
+    ``lr/<candidate>`` and ``lr_profile/<candidate>``.
+    """
+    b, (n, p) = ref.n_replicates, ref.baseline.shape
+
+    def stacked(items: Sequence[np.ndarray | None], shape: tuple[int, ...]) -> np.ndarray:
+        out = np.full((b, *shape), np.nan)
+        for k, a in enumerate(items):
+            if a is not None:
+                out[k] = a
+        return out
+
+    arrays = {"n_replicates": np.array(b), "seed": np.array(ref.seed), "baseline": ref.baseline, "gof": ref.gof,
+              "mean_z": ref.mean_z, "slope_z": ref.slope_z, "y": stacked(ref.y, (n, p)),
+              "sigma": stacked(ref.sigma, (n, p)), "total_sigma": stacked(ref.total_sigma, (n, p)),
+              "corr": stacked(ref.corr, (p, p)), "has_corr": np.array([c is not None for c in ref.corr], dtype=bool),
+              "flight_corr": stacked(ref.flight_corr, (n, p, p)), "y0": stacked(ref.y0, (n, p)),
+              "total_sigma0": stacked([t for t, _ in ref.flight_corr0], (n, p)),
+              "flight_corr0": stacked([f for _, f in ref.flight_corr0], (n, p, p))}
+    arrays.update({f"lr/{c}": v for c, v in ref.lr.items()})
+    arrays.update({f"lr_profile/{c}": v for c, v in ref.lr_profile.items()})
+    return arrays
+
+
+def reference_from_arrays(arrays: Mapping[str, np.ndarray]) -> NullReference:
+    """The bootstrap reference of :func:`reference_arrays`' arrays (e.g. a loaded ``.npz`` file)."""
+    b = int(arrays["n_replicates"])
+    has_corr = np.asarray(arrays["has_corr"], dtype=bool)
+    return NullReference(
+        b, int(arrays["seed"]), np.asarray(arrays["baseline"]), np.asarray(arrays["gof"]),
+        lr={k.split("/", 1)[1]: np.asarray(v) for k, v in arrays.items() if k.startswith("lr/")},
+        lr_profile={k.split("/", 1)[1]: np.asarray(v) for k, v in arrays.items() if k.startswith("lr_profile/")},
+        mean_z=np.asarray(arrays["mean_z"]), slope_z=np.asarray(arrays["slope_z"]),
+        y=list(np.asarray(arrays["y"])), sigma=list(np.asarray(arrays["sigma"])),
+        total_sigma=list(np.asarray(arrays["total_sigma"])),
+        corr=[c if ok else None for c, ok in zip(np.asarray(arrays["corr"]), has_corr, strict=True)],
+        flight_corr=list(np.asarray(arrays["flight_corr"])), y0=list(np.asarray(arrays["y0"])),
+        flight_corr0=list(zip(np.asarray(arrays["total_sigma0"]), np.asarray(arrays["flight_corr0"]), strict=True)))

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from dronewind.core.cf import atomic_write_text
+from dronewind.core.cf import atomic_write_arrays, atomic_write_text
 from dronewind.core.cf_names import strip_cf, track_from_cf
 from dronewind.core.products import open_product
 from dronewind.core.yamltext import load_yaml
@@ -267,11 +267,59 @@ def extended_manifest(campaign_data: Mapping[str, Any], conditions: Mapping[str,
     return data
 
 
+def diagnosis_reference(measured_files: Sequence[str | Path], forward_files: Sequence[str | Path],
+                        output: str | Path, *, bootstrap: int, part: int, parts: int) -> Path:
+    """One part of the campaign diagnosis' bootstrap reference, as a NumPy ``.npz`` file.
+
+    The ``diagnose_reference`` jobs draw the ``bootstrap`` replicates in ``parts`` parts
+    (:func:`dronewind.diagnose.naming.reference_part`); :func:`diagnose_campaign` joins them
+    into the reference it would otherwise draw itself, number for number. A campaign for which
+    the diagnosis draws no reference (fewer than two usable flights or seeds, no candidate)
+    gets a file without replicates (``n_replicates`` 0).
+    """
+    from dronewind.diagnose.reference import reference_arrays, replicate_part
+
+    ev = _evidence(measured_files, forward_files)
+    ref = None
+    if len(ev.flights) >= 2:
+        replicates = len(replicate_part(int(bootstrap), int(part), int(parts)))
+        ref = dc.reference_part(ev, int(bootstrap), int(part), int(parts),
+                                progress=_replicate_counter(replicates, every=50))
+    arrays = {"n_replicates": np.array(0)} if ref is None else reference_arrays(ref)
+    LOG.info("bootstrap part %d of %d: %d replicates", int(part) + 1, int(parts), int(arrays["n_replicates"]))
+    return atomic_write_arrays(output, arrays)
+
+
+def _joined_reference(files: Sequence[str | Path], bootstrap: int) -> Any:
+    """The bootstrap reference of the ``diagnose_reference`` parts (None when they hold none).
+
+    Raises
+    ------
+    InputError
+        The parts do not add up to ``bootstrap`` replicates (files of another setting).
+    """
+    from dronewind.diagnose.reference import joined_reference, reference_from_arrays
+    from dronewind.errors import InputError
+
+    parts = []
+    for path in files:
+        with np.load(path) as data:
+            arrays = {k: data[k] for k in data.files}
+        if int(arrays["n_replicates"]) == 0:
+            return None
+        parts.append(reference_from_arrays(arrays))
+    ref = joined_reference(parts)
+    if ref.n_replicates != int(bootstrap):
+        raise InputError(str(files[0]), f"the reference parts hold {ref.n_replicates} replicates; diagnosis.bootstrap "
+                         f"is {int(bootstrap)} (rerun diagnose_reference)")
+    return ref
+
+
 def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path],
                       forward_files: Sequence[str | Path], output_json: str | Path,
                       output_manifest: str | Path, *, alpha: float, max_causes: int, min_gain: float,
                       platform_files: Sequence[str | Path] = (), atmosphere: str = "model",
-                      bootstrap: int = 600) -> Path:
+                      bootstrap: int = 600, reference_files: Sequence[str | Path] = ()) -> Path:
     """Fit and score every candidate, name causes; write diagnosis.json and the extended manifest.
 
     ``alpha``, ``max_causes``, ``min_gain`` and ``bootstrap`` (replicates of the reference
@@ -280,7 +328,8 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
     is recorded in diagnosis.json after checking that every forward file was run with it.
     ``platform_files``: the rigid-mount flights' platform-response results
     (:func:`platform_diagnosis`), added to the candidates, named causes and a ``rigid_mount``
-    section (:func:`platform_entries`).
+    section (:func:`platform_entries`). ``reference_files``: the bootstrap reference in parts
+    (:func:`diagnosis_reference`, in order), joined instead of drawn here.
     """
 
     campaign = load_campaign(manifest)
@@ -296,8 +345,13 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
         atomic_write_text(output_manifest, yaml.safe_dump(extended_manifest(campaign.data, conditions, []),
                                                           sort_keys=False))
         return Path(output_json)
+    reference = _joined_reference(reference_files, int(bootstrap)) if reference_files else None
+    if reference is not None:
+        from dronewind.diagnose.reference import check_attainable
+
+        check_attainable(float(alpha), reference.n_replicates)
     result = dc.diagnose(ev, alpha=float(alpha), max_causes=int(max_causes), min_gain=float(min_gain),
-                         n_replicates=int(bootstrap), progress=_replicate_counter(int(bootstrap)))
+                         n_replicates=int(bootstrap), progress=_replicate_counter(int(bootstrap)), reference=reference)
     out = dc.to_json(result, campaign.name)
     out["atmosphere"] = atmosphere
     out["baseline"]["residuals"] = dc.residual_table(ev)
