@@ -26,7 +26,8 @@ def test_forward_run(benchmark, measured_json, setup):
 
 
 def test_diagnosis_of_one_flight(benchmark, flight, measured_json, setup, tmp_path):
-    """The flight's diagnosis job: the baseline seeds and every probe of the catalog (diagnose_forward)."""
+    """A flight's forward runs for the diagnosis: the baseline seeds and every probe of the catalog (the
+    workflow runs them in two jobs, diagnose_probes and diagnose_forward)."""
     from dronewind.diagnose.probes import resolved_seeds
     from dronewind.manifest import payload_flight_manifest
     from dronewind.steps import diagnosis

@@ -17,7 +17,7 @@ import pytest
 from dronewind.core.raw import RawRecord
 from dronewind.core.reuse import StepStore, reusing
 from dronewind.diagnose import forward, forward_atmosphere, probe_runs
-from dronewind.diagnose.probes import PROBES, probe_parts
+from dronewind.diagnose.probes import PROBES, probe_parts, seed_part
 from dronewind.errors import InputError
 from dronewind.manifest import default_config
 from dronewind.mechanisms import get_mechanism
@@ -247,6 +247,21 @@ def test_parts_run_apart_merge_into_the_whole_flight(atmosphere):
     assert merged == whole
     with pytest.raises(InputError, match="expected each of"):
         probe_runs.merge_probe_runs(parts[1:], probes)
+    # the workflow's two jobs of a flight: every probe with the first third of the seeds, then
+    # the other two thirds (which do not hold the first seed)
+    seeds = (0, 1, 2)
+    whole = probe_runs.probe_runs(camp, "f1", conditions, proc, seeds=seeds, probes=probes, atmosphere=record)
+    jobs = [probe_runs.probe_runs(camp, "f1", conditions, proc, seeds=seeds, probes=probes,
+                                  parts=[seed_part(1, 3), *probe_parts(probes)[1:]], atmosphere=record),
+            probe_runs.probe_runs(camp, "f1", conditions, proc, seeds=seeds, probes=probes,
+                                  parts=[seed_part(3, 3), seed_part(2, 3)], atmosphere=record)]
+    assert [len(j["baseline"]) for j in jobs] == [1, 2]
+    joined = probe_runs.merge_probe_runs(jobs[::-1], probes)
+    assert joined.pop("reused_products") == whole.pop("reused_products")  # the probes share the first seed's
+    joined.pop("reused_steps"), whole.pop("reused_steps")
+    assert joined == whole
+    with pytest.raises(InputError, match="seed part"):
+        probe_runs.merge_probe_runs(jobs[1:], probes)
     # the diagnosis takes the errors from the baseline seeds: a probe carries values only
     assert all(v is not None for b in whole["baseline"] for k, v in b["sigma"].items() if b["values"][k] is not None)
     assert any(v is not None for r in whole["probes"] for v in r["features"]["values"].values())

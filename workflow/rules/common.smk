@@ -18,6 +18,7 @@ from dronewind.diagnose.probes import (
     fresh_seeds,
     probe_parts,
     resolved_seeds,
+    seed_part,
 )
 from dronewind.figures.labels import (
     BLOCK_FIGURE,

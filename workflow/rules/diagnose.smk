@@ -4,11 +4,18 @@
 # atmosphere (dronewind.diagnose.forward_atmosphere.atmosphere_record).
 
 
-# The forward-model runs of a flight: one job per flight (diagnosis.probe_jobs: flight, the
-# default), or one job per flight and part (the baseline seeds, each mechanism's probes) joined
-# by diagnose_forward_parts (probe_jobs: mechanism). The wildcard of the other mode's rules
-# matches no flight.
+# The forward-model runs of a flight: two jobs per flight (diagnosis.probe_jobs: flight, the
+# default: diagnose_probes, the measured features, the first third of the baseline seeds and
+# every probe, which reuse the first seed's products; then diagnose_forward, the other two
+# thirds of the seeds, joined with the first job's runs), or one job per flight and part (the
+# baseline seeds, each mechanism's probes) joined by diagnose_forward_parts (probe_jobs:
+# mechanism). The wildcard of the other mode's rules matches no flight. Two jobs rather than
+# one keep each within the first 15 s of its run, which Snakemake's benchmark samples every
+# 0.5 s (later every 30 s), so that its benchmark file holds its whole CPU time.
 FORWARD_BY_FLIGHT = DIAGNOSIS["probe_jobs"] == "flight"
+# the parts of a flight's runs in its two jobs (dronewind.diagnose.probes.seed_part)
+WITH_PROBES = [seed_part(1, 3)] + PROBE_PARTS[1:]
+OTHER_SEEDS = [seed_part(2, 3), seed_part(3, 3)]
 # the measured-features step's settings (dronewind.steps.diagnosis.measured_features)
 MEASURED_PARAMS = dict(
     campaign=flight_manifest,
@@ -48,7 +55,7 @@ rule diagnose_measured:
         "../scripts/diagnose_measured.py"
 
 
-rule diagnose_forward:
+rule diagnose_probes:
     input:
         sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
         ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
@@ -57,11 +64,13 @@ rule diagnose_forward:
         mast=reference_of,
     output:
         measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
-        forward=RESULTS / "diagnosis" / "forward" / "{flight}.json",
+        probes=temp(
+            RESULTS / "diagnosis" / "forward" / "parts" / "{flight}" / "probes.json"
+        ),
     log:
-        log_path("diagnose_forward", "flight"),
+        log_path("diagnose_probes", "flight"),
     benchmark:
-        bench_path("diagnose_forward", "flight")
+        bench_path("diagnose_probes", "flight")
     wildcard_constraints:
         flight=only_if(FORWARD_BY_FLIGHT, PAYLOAD_FLIGHTS),
     priority: PRIORITY_FORWARD
@@ -75,6 +84,37 @@ rule diagnose_forward:
         processing=CHAIN,
         seeds=DIAGNOSIS["seeds"],
         atmosphere=DIAGNOSIS["atmosphere"],
+        parts=WITH_PROBES,
+    script:
+        "../scripts/diagnose_probes.py"
+
+
+rule diagnose_forward:
+    input:
+        measured=RESULTS / "diagnosis" / "measured" / "{flight}.json",
+        probes=RESULTS / "diagnosis" / "forward" / "parts" / "{flight}" / "probes.json",
+        mast=reference_of,
+    output:
+        RESULTS / "diagnosis" / "forward" / "{flight}.json",
+    log:
+        log_path("diagnose_forward", "flight"),
+    benchmark:
+        bench_path("diagnose_forward", "flight")
+    wildcard_constraints:
+        flight=only_if(FORWARD_BY_FLIGHT, PAYLOAD_FLIGHTS),
+    priority: PRIORITY_FORWARD
+    conda:
+        ENV
+    threads: 1
+    resources:
+        mem_mb=800,
+    params:
+        campaign=flight_manifest,
+        flight_id="{flight}",
+        processing=CHAIN,
+        seeds=DIAGNOSIS["seeds"],
+        atmosphere=DIAGNOSIS["atmosphere"],
+        parts=OTHER_SEEDS,
     script:
         "../scripts/diagnose_forward.py"
 
@@ -103,7 +143,7 @@ rule diagnose_probe:
         processing=CHAIN,
         seeds=DIAGNOSIS["seeds"],
         atmosphere=DIAGNOSIS["atmosphere"],
-        part="{part}",
+        parts=lambda wc: [wc.part],
     script:
         "../scripts/diagnose_probe.py"
 

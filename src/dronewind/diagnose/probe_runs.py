@@ -28,6 +28,7 @@ from dronewind.diagnose.probes import (
     TRUTH_MECHANISMS,
     Probe,
     baseline_level,
+    part_seeds,
     probe_parts,
 )
 from dronewind.errors import InputError
@@ -85,8 +86,9 @@ def probe_runs(
     probes : tuple of Probe
         Probes to run.
     parts : sequence of str, optional
-        Run only these parts (:func:`probe_parts`: ``"baseline"`` and mechanism names);
-        all by default.
+        Run only these parts (:func:`probe_parts`: ``"baseline"`` and mechanism names, or a
+        share of the baseline seeds, :func:`~dronewind.diagnose.probes.seed_part`); all by
+        default.
     atmosphere : xarray.Dataset, optional
         The reference mast's measured record of the flight (:func:`atmosphere_record`,
         ``diagnosis.atmosphere: measured``); the similarity model's field without it.
@@ -136,15 +138,16 @@ def probe_runs(
     from dronewind.simulate.payload import payload_truth
 
     parts = tuple(probe_parts(probes)) if parts is None else tuple(parts)
-    unknown = sorted(set(parts) - set(probe_parts(probes)))
+    unknown = sorted(set(parts) - set(probe_parts(probes)) - {p for p in parts if _is_seed_part(p)})
     if unknown:
-        raise InputError("parts", f"unknown forward-run part(s) {unknown}; expected some of {probe_parts(probes)}")
+        raise InputError("parts", f"unknown forward-run part(s) {unknown}; expected some of {probe_parts(probes)} "
+                         "or seed parts 'baseline:k/n'")
     out: dict[str, Any] = {"flight": flight_id, "conditions": dict(conditions), "seeds": list(seeds),
                            "parts": list(parts), "baseline": [], "probes": [],
                            "atmosphere": "model" if atmosphere is None else "measured", "lag_drift": bool(lag_drift),
                            "features": list(FEATURES) if features is None else [f for f in FEATURES if f in features]}
     levels = [(probe, level) for probe in probes if probe.mechanism in parts for level in probe.levels]
-    run_seeds = seeds if BASELINE_PART in parts else ()
+    run_seeds = [seed for part in sorted(parts, key=_seed_part_index) for seed in (part_seeds(part, seeds) or [])]
     progress = Progress("probe", len(run_seeds) + len(levels), "run")
     measured = atmosphere is not None
     cache = ForwardCache()  # the products of the runs, reused where a probe leaves a record unchanged
@@ -155,6 +158,10 @@ def probe_runs(
     if base_lag is not None:
         out["simulated_sonic_ins_lag_s"] = base_lag
         conditions = {**dict(conditions), "sonic_ins_lag_s": base_lag}
+    if run_seeds and run_seeds[0] != seeds[0]:
+        # a later share of the seeds: the cache keeps the first seed's products (the lag step's),
+        # as a whole flight's run keeps those of its first seed; no later seed's are stored
+        cache.freeze()
     for seed in run_seeds:
         with progress.item(f"flight {flight_id} baseline seed {seed}"):
             feats, products = run_forward(forward_manifest(campaign_data, flight_id, conditions, None, seed, measured),
@@ -333,15 +340,26 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
                 raise InputError(f"parts: {key}", f"forward-run parts disagree on {key}: {part.get(key)!r} and "
                                  f"{first.get(key)!r}")
         names += list(part["parts"])
-    if sorted(names) != sorted(probe_parts(probes)):
+        own = sorted(_seed_part_index(n) for n in part["parts"] if _is_seed_part(n))
+        if own and own != list(range(own[0], own[0] + len(own))):
+            raise InputError("parts", f"forward-run part with the seed parts {part['parts']}: expected consecutive "
+                             "ones (a contiguous share of the seeds)")
+    seed_parts = sorted((n for n in names if _is_seed_part(n)), key=_seed_part_index)
+    whole = [BASELINE_PART if n == seed_parts[0] else n for n in names if n not in seed_parts[1:]] if seed_parts \
+        else names
+    shares = [part_seeds(n, first["seeds"]) for n in seed_parts]
+    if sorted(whole) != sorted(probe_parts(probes)) or (
+            seed_parts and (len({n.split("/")[1] for n in seed_parts}) != 1
+                            or int(seed_parts[0].split("/")[1]) != len(seed_parts)
+                            or [s for share in shares for s in (share or [])] != list(first["seeds"]))):
         raise InputError("parts", f"forward-run parts {sorted(names)}; expected each of {list(probe_parts(probes))} "
-                         "once")
+                         "once (the baseline whole or in every seed part 'baseline:k/n')")
     order = {(p.candidate, p.parameter, float(level)): k for k, (p, level) in
              enumerate((p, level) for p in probes for level in p.levels)}
     out: dict[str, Any] = {"flight": first["flight"], "conditions": first["conditions"], "seeds": first["seeds"],
                            "atmosphere": first.get("atmosphere"), "lag_drift": first.get("lag_drift", True),
                            "features": first.get("features", list(FEATURES)), "parts": list(probe_parts(probes)),
-                           "baseline": next(p["baseline"] for p in parts if BASELINE_PART in p["parts"]),
+                           "baseline": _joined_baseline(parts, seed_parts),
                            "probes": sorted((r for p in parts for r in p["probes"]),
                                             key=lambda r: order[(r["candidate"], r["parameter"], float(r["level"]))])}
     skipped = sorted((r for p in parts for r in p.get("skipped_probes", [])),
@@ -356,6 +374,29 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     for key in ("reused_products", "reused_steps"):
         out[key] = {k: sum(int(p.get(key, {}).get(k, 0)) for p in parts) for k in ("hits", "misses")}
     return out
+
+
+def _is_seed_part(name: str) -> bool:
+    """Whether a part name is a share of the baseline seeds (``baseline:k/n``)."""
+    try:
+        return part_seeds(name, []) is not None and name != BASELINE_PART
+    except ValueError:
+        return False
+
+
+def _seed_part_index(name: str) -> int:
+    """``k`` of a seed part ``baseline:k/n`` (0 for any other part)."""
+    return int(name.split(":")[1].split("/")[0]) if _is_seed_part(name) else 0
+
+
+def _joined_baseline(parts: Sequence[Mapping[str, Any]], seed_parts: Sequence[str]) -> list[Any]:
+    """The baseline runs of the whole seed list: the ``baseline`` part's, or those of the parts that
+    hold seed parts, in the order of their shares (each holds a contiguous share, in order)."""
+    if not seed_parts:
+        return list(next(p["baseline"] for p in parts if BASELINE_PART in p["parts"]))
+    holders = [p for p in parts if any(_is_seed_part(n) for n in p["parts"])]
+    holders.sort(key=lambda p: min(_seed_part_index(n) for n in p["parts"] if _is_seed_part(n)))
+    return [run for p in holders for run in p["baseline"]]
 
 
 def _other_parameters(mechanism: str, parameter: str) -> list[str]:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 __all__ = ["CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS", "ATMOSPHERES", "Probe", "MECHANISM_BASELINES",
            "PROBES", "fresh_seeds", "baseline_level", "BASELINE_PART", "probe_parts", "SEED_DOF", "SCALE_DOF",
-           "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds"]
+           "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds", "seed_part", "part_seeds"]
 
 
 #: Keys of ``processing`` that the chain up to L3 uses (what a forward run depends on).
@@ -199,3 +199,49 @@ def probe_parts(probes: tuple[Probe, ...] = PROBES) -> tuple[str, ...]:
     them into what :func:`dronewind.diagnose.forward.probe_runs` returns for the whole flight.
     """
     return (BASELINE_PART, *dict.fromkeys(p.mechanism for p in probes))
+
+
+def seed_part(k: int, n_parts: int) -> str:
+    """Name of the ``k``-th (from 1) of ``n_parts`` parts of the baseline seeds (:func:`part_seeds`).
+
+    Examples
+    --------
+    >>> seed_part(1, 2)
+    'baseline:1/2'
+    """
+    if not 1 <= int(k) <= int(n_parts):
+        raise ValueError(f"seed part {k} of {n_parts}: expected 1 <= k <= {n_parts}")
+    return f"{BASELINE_PART}:{int(k)}/{int(n_parts)}"
+
+
+def part_seeds(part: str, seeds: Sequence[int]) -> list[int] | None:
+    """The baseline seeds a part runs: all for ``baseline``, a contiguous share for a seed part.
+
+    Parameters
+    ----------
+    part : str
+        A part name (:func:`probe_parts`, :func:`seed_part`).
+    seeds : sequence of int
+        The flight's baseline seeds.
+
+    Returns
+    -------
+    list of int or None
+        The ``k``-th of ``n`` near-equal contiguous shares of ``seeds`` for ``baseline:k/n``
+        (their order kept), all of them for ``baseline``; None for a mechanism's part.
+
+    Examples
+    --------
+    >>> part_seeds("baseline:2/2", [101, 202, 303, 404, 505])
+    [303, 404, 505]
+    """
+    if part == BASELINE_PART:
+        return list(seeds)
+    if not part.startswith(BASELINE_PART + ":"):
+        return None
+    try:
+        k, n = (int(x) for x in part.split(":", 1)[1].split("/"))
+    except ValueError:
+        raise ValueError(f"seed part {part!r}: expected 'baseline:k/n'") from None
+    seed_part(k, n)  # validates k and n
+    return list(seeds)[(k - 1) * len(seeds) // n:k * len(seeds) // n]

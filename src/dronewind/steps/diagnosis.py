@@ -110,8 +110,9 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
 
 
 def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: Mapping[str, Any], flight_id: str,
-                   processing: Mapping[str, Any], seeds: Sequence[int], part: str | None = None,
-                   mast_l1: str | Path | None = None, atmosphere: str = "model") -> Path:
+                   processing: Mapping[str, Any], seeds: Sequence[int], parts: Sequence[str] | None = None,
+                   mast_l1: str | Path | None = None, atmosphere: str = "model",
+                   joined_with: Sequence[str | Path] = ()) -> Path:
     """Forward-model runs (baseline seeds and every probe, or one part of them) of one flight, as JSON.
 
     Parameters
@@ -128,15 +129,19 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
         ``processing`` settings of the chain (:data:`dronewind.diagnose.probes.CHAIN_SETTINGS`).
     seeds : sequence of int
         ``diagnosis.seeds``.
-    part : str, optional
-        Only this part (``"baseline"`` or a mechanism,
-        :func:`dronewind.diagnose.probes.probe_parts`); all by default.
+    parts : sequence of str, optional
+        Only these parts (``"baseline"``, a share of its seeds ``"baseline:k/n"`` or a
+        mechanism, :func:`dronewind.diagnose.probes.probe_parts`); all by default.
     mast_l1 : str or Path, optional
         L1 of the flight's reference mast sonic (needed for ``atmosphere="measured"``).
     atmosphere : {"model", "measured"}
         ``diagnosis.atmosphere``: the forward runs' turbulence is the similarity model's, or
         the reference mast's measured record
         (:func:`dronewind.diagnose.forward_atmosphere.atmosphere_record`).
+    joined_with : sequence of str or Path
+        Outputs of this function for the flight's other parts: the file written is the
+        flight's runs of all parts joined (:func:`dronewind.diagnose.probe_runs.merge_probe_runs`),
+        the same as one job of the whole flight writes.
 
     Returns
     -------
@@ -156,7 +161,9 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
                                    "atmosphere": atmosphere})
     record = _atmosphere(mast_l1, atmosphere, measured["conditions"])
     runs = probe_runs.probe_runs(campaign, flight_id, measured["conditions"], processing, seeds=tuple(seeds),
-                              parts=None if part is None else [part], atmosphere=record)
+                              parts=None if parts is None else list(parts), atmosphere=record)
+    if joined_with:
+        runs = probe_runs.merge_probe_runs([*(json.loads(Path(f).read_text()) for f in joined_with), runs])
     return write_json(output, runs)
 
 
