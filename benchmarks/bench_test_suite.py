@@ -97,7 +97,9 @@ def main(argv: list[str] | None = None) -> int:
         lines = proc.stdout.strip().splitlines()
         result = {
             "commit": git_commit(), "command": " ".join(cmd[1:]), "returncode": proc.returncode,
-            "summary": lines[-1] if lines else proc.stderr[-500:], "wall_s": round(wall_s, 1),
+            "summary": lines[-1] if lines else proc.stderr[-500:],
+            "failed": [line for line in lines if line.startswith(("FAILED ", "ERROR "))],
+            "wall_s": round(wall_s, 1),
             "cores": os.cpu_count(), "machine_busy_cpu_s": round(busy1 - busy0, 1),
             "machine_idle_cpu_s": round(idle1 - idle0, 1),
             "pytest_tree_cpu_s": round(tree_cpu_s, 1),

@@ -27,6 +27,7 @@ from dronewind.figures import (
     synchronisation,
     timeseries,
 )
+from dronewind.figures.labels import APPENDIX_FIGURES
 from dronewind.figures.style import DPI
 from tests.products_fixture import set_nan, write_products
 
@@ -85,9 +86,9 @@ def test_named_figures_alone_are_those_of_the_whole_set(products: Path, drawn: P
     """The workflow's two figure jobs draw subsets (``names``): the Appendix B figures drawn alone
     are byte for byte those of the whole set, and no other file is written; an unknown name
     stops with the valid ones listed."""
-    written = campaign.draw_all(products, tmp_path, names=campaign.APPENDIX_FIGURES)
+    written = campaign.draw_all(products, tmp_path, names=APPENDIX_FIGURES)
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in written)
-    assert {p.stem for p in written} == set(campaign.APPENDIX_FIGURES)
+    assert {p.stem for p in written} == set(APPENDIX_FIGURES)
     for path in written:
         assert path.read_bytes() == (drawn / path.name).read_bytes(), path.name
     with pytest.raises(ValueError, match="fig99_none.*expected names of"):

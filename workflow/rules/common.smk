@@ -21,12 +21,12 @@ from dronewind.diagnose.probes import (
     seed_part,
 )
 from dronewind.figures.labels import (
+    APPENDIX_FIGURES,
     BLOCK_FIGURE,
     QUAD_FIGURES,
     TUNNEL_FIGURES,
     figure_captions,
 )
-from dronewind.figures.campaign import APPENDIX_FIGURES
 from dronewind.formats import check_campaign_formats
 from dronewind.manifest import (
     confined_path,

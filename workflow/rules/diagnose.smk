@@ -107,7 +107,7 @@ rule diagnose_forward:
         ENV
     threads: 1
     resources:
-        mem_mb=800,
+        mem_mb=700,
     params:
         campaign=flight_manifest,
         flight_id="{flight}",

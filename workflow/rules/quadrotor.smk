@@ -67,7 +67,7 @@ rule quadrotor_fleet:
         ENV
     threads: 1
     resources:
-        mem_mb=600,
+        mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
         flights=quad_fleet(QUAD_FLIGHTS),

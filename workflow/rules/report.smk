@@ -210,7 +210,7 @@ rule figures_appendix:
         ENV
     threads: 1
     resources:
-        mem_mb=600,
+        mem_mb=400,
     params:
         results=results_of_l4,
         names=list(APPENDIX_FIGURES),

@@ -52,7 +52,7 @@ from dronewind.figures.style import PathLike
 from dronewind.figures.synchronisation import fig04_tke_lag
 from dronewind.figures.timeseries import fig08_timeseries, fig10_temperature_series
 
-__all__ = ["APPENDIX_FIGURES", "FIGURE_FUNCTIONS", "draw_all", "figure_captions"]
+__all__ = ["FIGURE_FUNCTIONS", "draw_all", "figure_captions"]
 
 #: Figure name -> function (all take the output stem as a keyword ``out_stem``).
 FIGURE_FUNCTIONS = {
@@ -70,10 +70,6 @@ FIGURE_FUNCTIONS = {
     "figB1_normalised_velocity_spectra": figB1_normalised_velocity_spectra,
     "figB2_normalised_temperature_spectra": figB2_normalised_temperature_spectra,
 }
-
-#: The normalised spectra of Appendix B: the workflow draws them in a job of their own
-#: (``figures_appendix``), as they take about as long as all the other figures together.
-APPENDIX_FIGURES = ("figB1_normalised_velocity_spectra", "figB2_normalised_temperature_spectra")
 
 
 def draw_all(results_dir: PathLike, figures_dir: PathLike, flights: Sequence[str] | None = None,

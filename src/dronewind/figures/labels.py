@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 __all__ = ["HEIGHT_MARKERS", "PAPERS", "REFERENCES", "PathLike", "figure_captions", "BLOCK_FIGURE",
-           "QUAD_FIGURES", "TUNNEL_FIGURES", "REPORT_TABLES"]
+           "QUAD_FIGURES", "TUNNEL_FIGURES", "REPORT_TABLES", "APPENDIX_FIGURES"]
 
 PathLike = str | Path
 
@@ -96,6 +96,11 @@ def figure_captions() -> dict[str, str]:
 
 #: Name of the block-series figure (output stem and report key; :mod:`dronewind.figures.blocks`).
 BLOCK_FIGURE = "block_series"
+
+#: The normalised spectra of Appendix B of Ghirardelli et al. (2025): the workflow draws them in a
+#: job of their own (``figures_appendix``), as they take about as long as all the other campaign
+#: figures together.
+APPENDIX_FIGURES = ("figB1_normalised_velocity_spectra", "figB2_normalised_temperature_spectra")
 
 #: Quadrotor figures: file stem -> caption.
 QUAD_FIGURES: dict[str, str] = {

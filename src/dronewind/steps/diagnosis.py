@@ -199,9 +199,9 @@ def merge_forward_parts(part_files: Sequence[str | Path], output: str | Path) ->
     ----------
     part_files : sequence of str or Path
         Outputs of :func:`forward_probes` (or :func:`dronewind.steps.published.published_forward`)
-        with ``part``, one per part.
+        with ``parts``, together covering the flight's parts once.
     output : str or Path
-        JSON file to write (the same content as one job per flight writes).
+        JSON file to write (the same content as one run of the whole flight writes).
 
     Returns
     -------

@@ -5,14 +5,16 @@ Each function reads its inputs, calls the library (:mod:`dronewind.quadrotor.cha
 writes its outputs: NetCDF through :func:`dronewind.core.cf.write_netcdf`, tables
 atomically. The settings and manifest entries a step uses are its arguments (Snakemake
 passes them as ``params``). Snakemake scripts in ``workflow/scripts/quadrotor_*.py`` and
-``workflow/scripts/tunnel_*.py`` call them; they can be rerun by hand.
+``workflow/scripts/tunnel_*.py`` call them; they can be rerun by hand. The workflow runs the
+fleet's per-flight steps for every flight in one job each (the simulation, L1 and windows, L2):
+a flight's UAV files are named by the manifest, which no wildcard pattern describes.
 
 Steps and products (``R = results/<name>``):
 
 * :func:`simulate_quadrotor` / :func:`simulate_tunnel` (virtual campaigns only): L0 files.
-* :func:`quadrotor_l1_flight` (one job per flight; :func:`quadrotor_l1` for each of its UAVs):
+* :func:`quadrotor_l1_flight` (per flight; :func:`quadrotor_l1` for each of its UAVs):
   ``R/netcdf/L1/quadrotor/<flight>_<uav>.nc`` (attitude and GNSS log in CF form).
-* :func:`quadrotor_windows` (one job per flight): the flight's averaging windows
+* :func:`quadrotor_windows` (per flight): the flight's averaging windows
   ``R/quadrotor/windows/<flight>_{windows,blocks,problems}.csv`` (10-min and 2-min windows,
   Wetz et al. (2021), Sect. 5 and App. C; UAV logs that cannot be used are listed, never dropped
   silently).
@@ -20,7 +22,7 @@ Steps and products (``R = results/<name>``):
   contract table), ``quadrotor_table2/3/C1/C2.csv``, ``quadrotor_direction.csv``,
   ``quadrotor_windows.csv`` (per-window predictions that the figures plot),
   ``quadrotor_profiles.csv``, ``quadrotor_problems.csv`` and ``R/quadrotor/calibration.json``.
-* :func:`quadrotor_l2_flight` (one job per flight; :func:`quadrotor_l2` for each of its UAVs):
+* :func:`quadrotor_l2_flight` (per flight; :func:`quadrotor_l2` for each of its UAVs):
   ``R/netcdf/L2/quadrotor/<flight>_<uav>.nc``, the calibrated 1 Hz wind of the UAV (Wetz et al. (2021)
   Sect. 6).
 * :func:`quadrotor_diagnosis` (campaign): ``R/quadrotor_diagnosis.json``.
