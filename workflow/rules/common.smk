@@ -17,6 +17,7 @@ from dronewind.diagnose.probes import (
     SCALE_DOF,
     fresh_seeds,
     probe_parts,
+    reference_jobs,
     resolved_seeds,
     seed_part,
 )
@@ -166,8 +167,12 @@ def only_if(condition, ids):
 
 # parts of a flight's forward-model runs when they are one job each (diagnosis.probe_jobs)
 PROBE_PARTS = list(probe_parts())
-# the parts the diagnosis' bootstrap reference is drawn in (rule diagnose_reference)
-REFERENCE_PARTS = [str(k) for k in range(DIAGNOSIS["bootstrap_jobs"])]
+# the parts the diagnosis' bootstrap reference is drawn in by rule diagnose_reference, about 10 s
+# of work each, at most diagnosis.bootstrap_jobs
+N_REFERENCE = reference_jobs(
+    len(PAYLOAD_FLIGHTS), DIAGNOSIS["bootstrap"], DIAGNOSIS["bootstrap_jobs"]
+)
+REFERENCE_PARTS = [str(k) for k in range(N_REFERENCE)]
 
 
 wildcard_constraints:

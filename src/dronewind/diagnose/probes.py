@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 __all__ = ["CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS", "ATMOSPHERES", "Probe", "MECHANISM_BASELINES",
            "PROBES", "fresh_seeds", "baseline_level", "BASELINE_PART", "probe_parts", "SEED_DOF", "SCALE_DOF",
-           "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds", "seed_part", "part_seeds"]
+           "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds", "seed_part", "part_seeds",
+           "reference_jobs"]
 
 
 #: Keys of ``processing`` that the chain up to L3 uses (what a forward run depends on).
@@ -175,6 +176,31 @@ def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS
     """
     n = min(int(maximum), max(int(minimum), -(-int(dof) // max(int(n_flights), 1)) + 1))
     return [101 * (k + 1) for k in range(n)]
+
+
+#: CPU seconds of one bootstrap replicate per payload flight of the campaign (measured on the
+#: default campaign: 600 replicates of 10 flights in 34 CPU-s).
+REPLICATE_CPU_S_PER_FLIGHT = 0.006
+#: CPU seconds of work a part of the bootstrap reference is sized to (:func:`reference_jobs`).
+REFERENCE_JOB_CPU_S = 10.0
+
+
+def reference_jobs(n_flights: int, replicates: int, most: int) -> int:
+    """Jobs the diagnosis' bootstrap reference is drawn in (``diagnosis.bootstrap_jobs`` at most).
+
+    Parts of about :data:`REFERENCE_JOB_CPU_S` of work each: a part costs a job's start-up
+    (about 1 CPU-s) besides its replicates, so a campaign whose whole bootstrap is short takes
+    fewer, and one without a reference (fewer than two payload flights) one.
+
+    Examples
+    --------
+    >>> reference_jobs(10, 600, 4), reference_jobs(4, 600, 4), reference_jobs(1, 600, 4)
+    (4, 2, 1)
+    """
+    if int(n_flights) < 2:
+        return 1
+    work_s = int(n_flights) * int(replicates) * REPLICATE_CPU_S_PER_FLIGHT
+    return max(1, min(int(most), -(-int(work_s) // int(REFERENCE_JOB_CPU_S))))
 
 
 def resolved_seeds(seeds: Sequence[int] | None, n_flights: int, dof: int = SEED_DOF) -> list[int]:
