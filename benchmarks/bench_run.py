@@ -9,7 +9,8 @@ Two runs, each into a fresh results folder, on the cores given (default 2):
   then declared as measured data (no ``simulation:`` section), run to everything the
   workflow makes for a measured campaign (chain, tables, figures, diagnosis, report).
 
-The CPU seconds per stage come from the rules' benchmark files (:mod:`bench_workflow_rules`). Examples::
+The CPU seconds per stage and rule come from the rules' benchmark files (:mod:`bench_workflow_rules`),
+beside those of the jobs' logs (each job's process, read when it ends) and of all processes. Examples::
 
     .venv/bin/python benchmarks/bench_run.py default --out benchmarks/results/run_default.json
     .venv/bin/python benchmarks/bench_run.py measured6 --out benchmarks/results/run_measured6.json
@@ -97,14 +98,15 @@ def run(kind: str, cores: int, extra_config: list[str], keep: Path | None = None
         name = "measured6" if kind == "measured6" else "mosai2023"
         jobs = collect(tmp_path / "results" / name)
     stages = jobs.groupby("stage").agg(jobs=("job", "count"), wall_s=("wall_s", "sum"), cpu_s=("cpu_s", "sum"))
-    rules = jobs.groupby("rule").agg(jobs=("job", "count"), cpu_s=("cpu_s", "sum"))
+    rules = jobs.groupby("rule").agg(jobs=("job", "count"), cpu_s=("cpu_s", "sum"), log_cpu_s=("log_cpu_s", "sum"))
     return {"run": kind, "cores": cores, "config": extra_config, "wall_s": round(wall, 1),
             "n_jobs": int(len(jobs)), "cpu_s_total": round(float(jobs["cpu_s"].sum()), 1),
             "cpu_s_all_processes": round(process_cpu_s, 1),
+            "cpu_s_job_logs": round(float(jobs["log_cpu_s"].sum()), 1),
             "stages": {k: {"jobs": int(v["jobs"]), "cpu_s": round(float(v["cpu_s"]), 1)} for k, v in
                        stages.iterrows()},
-            "rules": {k: {"jobs": int(v["jobs"]), "cpu_s": round(float(v["cpu_s"]), 1)} for k, v in
-                      rules.iterrows()},
+            "rules": {k: {"jobs": int(v["jobs"]), "cpu_s": round(float(v["cpu_s"]), 1),
+                          "log_cpu_s": round(float(v["log_cpu_s"]), 1)} for k, v in rules.iterrows()},
             "load_average_at_end": os.getloadavg()}
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -32,13 +33,25 @@ def stage_of(rule: str) -> str:
     return STAGES[best] if best else "other"
 
 
+#: The last line of a job's log: its process' own CPU time when it ended (dronewind.steps.logged).
+LOG_CPU = re.compile(r"done in [0-9.]+ s; process: ([0-9.]+) CPU-s")
+
+
+def log_cpu_s(log: Path) -> float:
+    """The CPU seconds a job's log gives for its process (NaN without the closing line)."""
+    found = LOG_CPU.findall(log.read_text()) if log.exists() else []
+    return float(found[-1]) if found else float("nan")
+
+
 def collect(results: Path) -> pd.DataFrame:
-    """One row per job: rule, job, wall s, CPU s, max RSS MB (the job's last benchmark line)."""
+    """One row per job: rule, job, wall s, CPU s, max RSS MB (the job's last benchmark line) and the
+    CPU s its log gives (``log_cpu_s``)."""
     rows = []
     for tsv in sorted((results / "benchmarks").glob("*/*.tsv")):
         df = pd.read_csv(tsv, sep="\t")
         rows.append({"rule": tsv.parent.name, "job": tsv.stem, "wall_s": float(df["s"].iloc[-1]),
-                     "cpu_s": float(df["cpu_time"].iloc[-1]), "max_rss_mb": float(df["max_rss"].iloc[-1])})
+                     "cpu_s": float(df["cpu_time"].iloc[-1]), "max_rss_mb": float(df["max_rss"].iloc[-1]),
+                     "log_cpu_s": log_cpu_s(results / "logs" / tsv.parent.name / f"{tsv.stem}.log")})
     if not rows:
         raise SystemExit(f"{results}: no benchmark files under benchmarks/ (run the workflow first)")
     out = pd.DataFrame(rows)
