@@ -21,6 +21,7 @@ position-hold hover drift of the null records for comparison.
 
 from __future__ import annotations
 
+import argparse
 import json
 import tempfile
 import time
@@ -83,6 +84,9 @@ def wilson(k: int, n: int) -> list[float]:
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                            epilog="example: PYTHONPATH=src nice .venv/bin/python "
+                                   "benchmarks/bench_platform_response_rates.py").parse_args()
     start = time.process_time()
     null, gained = [], []
     with tempfile.TemporaryDirectory() as d:

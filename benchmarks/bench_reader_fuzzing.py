@@ -11,6 +11,7 @@ their outcomes, the failures (none expected), the command and the time taken.
 
 from __future__ import annotations
 
+import argparse
 import collections
 import json
 import sys
@@ -59,7 +60,11 @@ def fuzz_reader(name: str, folder: Path, max_examples: int) -> dict:
 
 
 def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 600
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        epilog="example: PYTHONPATH=src .venv/bin/python benchmarks/bench_reader_fuzzing.py 600")
+    parser.add_argument("examples", nargs="?", type=int, default=600, help="examples per reader (default 600)")
+    n = parser.parse_args().examples
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         readers = {r.name: fuzz_reader(r.name, Path(tmp) / r.name, n) for r in READERS}

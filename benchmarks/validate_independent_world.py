@@ -62,14 +62,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from tests.worlds import WorldSettings, stratified_world_draws, write_campaign  # noqa: E402
 
 from bench_common import git_commit, machine  # noqa: E402
-from dronewind.diagnose.experiments import (  # noqa: E402
-    Draw,
-    diagnose_evidence,
-    judge,
-    judge_hidden_lag,
-    measured_campaign_evidence,
-    wilson_interval,
-)
+from dronewind.diagnose.experiments import Draw, judge, judge_hidden_lag, wilson_interval  # noqa: E402
+from dronewind.diagnose.in_process import diagnose_evidence, measured_campaign_evidence  # noqa: E402
 from dronewind.manifest import default_config  # noqa: E402
 
 #: Targets the rates are read against (reported, never tuned to).
