@@ -168,3 +168,21 @@ def test_a_pitch_alone_is_named_as_the_variant_when_a_roll_could_be_seen(draw):
     measured, forward = _campaign(pitch, rng, roll_moves=True)
     result = dc.diagnose(dc.assemble(measured, forward), alpha=0.01, max_causes=3, n_replicates=REPLICATES)
     assert [c for c, _ in result.named] == [VARIANT]
+
+
+def test_a_given_reference_must_resolve_alpha_as_a_drawn_one_must():
+    """A reference passed in (the workflow's joined parts, the planner's shared one) is held to the
+    replicate count a drawn one needs: 20 replicates cannot give a family-wise p below 0.01; the
+    parts of 100 replicates joined decide as the reference the diagnosis draws itself."""
+    from dronewind.diagnose.reference import joined_reference
+
+    measured, forward = _campaign(4.0, np.random.default_rng(7))
+    small = dc.reference_part(dc.assemble(measured, forward), 20, 0, 1)
+    assert small is not None and small.n_replicates == 20
+    with pytest.raises(ValueError, match="not attainable with 20 bootstrap replicates"):
+        dc.diagnose(dc.assemble(measured, forward), alpha=0.01, reference=small)
+    parts = [dc.reference_part(dc.assemble(measured, forward), 100, k, 2) for k in range(2)]
+    given = dc.to_json(dc.diagnose(dc.assemble(measured, forward), alpha=0.01, n_replicates=100,
+                                   reference=joined_reference(parts)), "variants")
+    drawn = dc.to_json(dc.diagnose(dc.assemble(measured, forward), alpha=0.01, n_replicates=100), "variants")
+    assert given == drawn

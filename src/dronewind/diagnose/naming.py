@@ -388,6 +388,12 @@ def null_discrepancy(ev: CampaignEvidence) -> Discrepancy:
     return disc
 
 
+def _draws_reference(ev: CampaignEvidence, n_replicates: int) -> bool:
+    """Whether :func:`diagnose` draws a bootstrap reference for this evidence (two seeds or more,
+    a candidate, a replicate); without one it refers its statistics to their chi-square tails."""
+    return bool(ev.n_seeds >= 2 and int(n_replicates) > 0 and ev.models)
+
+
 def reference_part(evidence: CampaignEvidence, n_replicates: int, part: int, parts: int, bootstrap_seed: int = 0,
                    progress: Any = None) -> NullReference | None:
     """One of ``parts`` parts of the bootstrap reference that :func:`diagnose` draws for this evidence.
@@ -405,7 +411,7 @@ def reference_part(evidence: CampaignEvidence, n_replicates: int, part: int, par
     """
     ev = evidence
     disc = null_discrepancy(ev)
-    if not (ev.n_seeds >= 2 and n_replicates > 0 and ev.models):
+    if not _draws_reference(ev, n_replicates):
         return None
     return campaign_reference(ev, disc.tau_or_zero(), int(n_replicates), int(bootstrap_seed), progress,
                               replicate_part(int(n_replicates), int(part), int(parts)))
@@ -448,7 +454,8 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
         A bootstrap reference made for evidence with the same forward runs (seeds, errors,
         candidates), e.g. by an earlier call's result (``DiagnosisResult.reference``), used
         instead of drawing one: Monte-Carlo studies of one planned campaign draw many
-        measurements against one set of forward runs.
+        measurements against one set of forward runs. Its replicates must resolve ``alpha``,
+        as drawn ones must (:func:`~dronewind.diagnose.reference.check_attainable`).
 
     Returns
     -------
@@ -460,7 +467,9 @@ def diagnose(evidence: CampaignEvidence, alpha: float = 0.01, max_causes: int = 
     n = len(ev.flights)
     idx = np.arange(n)
     disc = null_discrepancy(ev)
-    if reference is None and ev.n_seeds >= 2 and n_replicates > 0 and ev.models:
+    if reference is not None:
+        check_attainable(alpha, reference.n_replicates)
+    elif _draws_reference(ev, n_replicates):
         check_attainable(alpha, int(n_replicates))
         reference = campaign_reference(ev, disc.tau_or_zero(), int(n_replicates), int(bootstrap_seed), progress)
     white = ev.whitener()

@@ -28,6 +28,7 @@ from dronewind.diagnose.probes import (
     TRUTH_MECHANISMS,
     Probe,
     baseline_level,
+    parse_seed_part,
     part_seeds,
     probe_parts,
 )
@@ -349,8 +350,7 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
         else names
     shares = [part_seeds(n, first["seeds"]) for n in seed_parts]
     if sorted(whole) != sorted(probe_parts(probes)) or (
-            seed_parts and (len({n.split("/")[1] for n in seed_parts}) != 1
-                            or int(seed_parts[0].split("/")[1]) != len(seed_parts)
+            seed_parts and ({_seed_share(n)[1] for n in seed_parts} != {len(seed_parts)}
                             or [s for share in shares for s in (share or [])] != list(first["seeds"]))):
         raise InputError("parts", f"forward-run parts {sorted(names)}; expected each of {list(probe_parts(probes))} "
                          "once (the baseline whole or in every seed part 'baseline:k/n')")
@@ -376,17 +376,22 @@ def merge_probe_runs(parts: Sequence[Mapping[str, Any]], probes: tuple[Probe, ..
     return out
 
 
+def _seed_share(name: str) -> tuple[int, int]:
+    """``(k, n)`` of a seed part ``baseline:k/n`` (:func:`parse_seed_part`); ``(0, 0)`` for any other part."""
+    try:
+        return parse_seed_part(name) or (0, 0)
+    except ValueError:
+        return 0, 0
+
+
 def _is_seed_part(name: str) -> bool:
     """Whether a part name is a share of the baseline seeds (``baseline:k/n``)."""
-    try:
-        return part_seeds(name, []) is not None and name != BASELINE_PART
-    except ValueError:
-        return False
+    return _seed_share(name)[0] > 0
 
 
 def _seed_part_index(name: str) -> int:
     """``k`` of a seed part ``baseline:k/n`` (0 for any other part)."""
-    return int(name.split(":")[1].split("/")[0]) if _is_seed_part(name) else 0
+    return _seed_share(name)[0]
 
 
 def _joined_baseline(parts: Sequence[Mapping[str, Any]], seed_parts: Sequence[str]) -> list[Any]:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 __all__ = ["CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS", "ATMOSPHERES", "Probe", "MECHANISM_BASELINES",
            "PROBES", "fresh_seeds", "baseline_level", "BASELINE_PART", "probe_parts", "SEED_DOF", "SCALE_DOF",
            "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds", "seed_part", "part_seeds",
-           "reference_jobs"]
+           "parse_seed_part", "reference_jobs"]
 
 
 #: Keys of ``processing`` that the chain up to L3 uses (what a forward run depends on).
@@ -263,6 +263,26 @@ def part_seeds(part: str, seeds: Sequence[int]) -> list[int] | None:
     """
     if part == BASELINE_PART:
         return list(seeds)
+    share = parse_seed_part(part)
+    if share is None:
+        return None
+    k, n = share
+    return list(seeds)[(k - 1) * len(seeds) // n:k * len(seeds) // n]
+
+
+def parse_seed_part(part: str) -> tuple[int, int] | None:
+    """``(k, n)`` of a seed part ``baseline:k/n`` (:func:`seed_part`); None for any other part name.
+
+    Raises
+    ------
+    ValueError
+        A name that starts as a seed part but is not one (``baseline:two``, ``baseline:4/3``).
+
+    Examples
+    --------
+    >>> parse_seed_part("baseline:2/3"), parse_seed_part("baseline"), parse_seed_part("w_gain")
+    ((2, 3), None, None)
+    """
     if not part.startswith(BASELINE_PART + ":"):
         return None
     try:
@@ -270,4 +290,4 @@ def part_seeds(part: str, seeds: Sequence[int]) -> list[int] | None:
     except ValueError:
         raise ValueError(f"seed part {part!r}: expected 'baseline:k/n'") from None
     seed_part(k, n)  # validates k and n
-    return list(seeds)[(k - 1) * len(seeds) // n:k * len(seeds) // n]
+    return k, n

@@ -353,10 +353,6 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
                                                           sort_keys=False))
         return Path(output_json)
     reference = _joined_reference(reference_files, int(bootstrap)) if reference_files else None
-    if reference is not None:
-        from dronewind.diagnose.reference import check_attainable
-
-        check_attainable(float(alpha), reference.n_replicates)
     result = dc.diagnose(ev, alpha=float(alpha), max_causes=int(max_causes), min_gain=float(min_gain),
                          n_replicates=int(bootstrap), progress=_replicate_counter(int(bootstrap)), reference=reference)
     out = dc.to_json(result, campaign.name)
