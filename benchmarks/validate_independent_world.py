@@ -121,7 +121,11 @@ def run_draw(job: tuple[int, Draw, Mapping[str, Any], WorldSettings, str | None,
         return out
     evidence = stored["evidence"]
     c2 = time.process_time()
-    diagnosis = diagnose_evidence(evidence, config)
+    try:
+        diagnosis = diagnose_evidence(evidence, config)
+    except Exception as exc:  # a failing diagnosis is a result of the draw, counted as such; the study goes on
+        out["error"] = f"diagnosis: {type(exc).__name__}: {exc}"
+        return out
     out["cpu_diagnose_s"] = time.process_time() - c2
     base_lags = stored["base_lags_s"]
     out["judged"] = judge(truth, diagnosis) if truth.mechanism != "sonic_ins_lag" else judge_hidden_lag(
@@ -131,6 +135,8 @@ def run_draw(job: tuple[int, Draw, Mapping[str, Any], WorldSettings, str | None,
                          for c in diagnosis.get("candidates", [])[:4]]
     out["unexplained"] = diagnosis.get("unexplained", [])
     out["unusable"] = evidence.get("unusable", [])
+    if diagnosis.get("note"):  # too few usable flights: nothing diagnosed (record.not_diagnosed_json)
+        out["not_diagnosed"] = diagnosis["note"]
     out["base_lags_s"] = base_lags
     return out
 
@@ -172,8 +178,10 @@ def rates(records: list[dict[str, Any]]) -> dict[str, Any]:
       (experiments.judge) AND the first named cause (or ambiguous with it) AND whose
       estimate is within tolerance;
     * wrong_cause: mechanism draws naming a cause neither the truth nor ambiguous with it;
-    * errors: draws where writing or processing failed (counted as failures of every rate
-      they enter).
+    * errors: draws where writing, processing or the diagnosis failed (counted as failures of
+      every rate they enter);
+    * not_diagnosed: draws whose chain left fewer usable flights than the diagnosis needs (it
+      names nothing and says so: a pass for a null or model error, a miss for a mechanism).
     """
     records = [r for r in records if not r.get("evidence_only")]
     ok = [r for r in records if "judged" in r]
@@ -188,6 +196,7 @@ def rates(records: list[dict[str, Any]]) -> dict[str, Any]:
         "detected": _rate(sum(1 for r in mechs if "judged" in r and r["judged"]["detected"]), len(mechs)),
         "wrong_cause": _rate(wrong, len(mechs)),
         "errors": len(records) - len(ok),
+        "not_diagnosed": sum(1 for r in ok if r.get("not_diagnosed")),
         "by_label": {},
     }
     for r in records:

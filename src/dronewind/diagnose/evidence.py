@@ -246,16 +246,18 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
         Arrays and response models; flights in sorted order.
     """
     flights = sorted(measured)
-    y = np.array([_vec(measured[f], "values") for f in flights])
-    s_meas = np.array([_vec(measured[f], "sigma") for f in flights])
+    p = len(FEATURES)
+    # shaped arrays also for a campaign without a usable flight (every one left out by the chain)
+    y = np.array([_vec(measured[f], "values") for f in flights]).reshape(len(flights), p)
+    s_meas = np.array([_vec(measured[f], "sigma") for f in flights]).reshape(len(flights), p)
     base_runs = [[_vec(b, "values") for b in forward[f]["baseline"]] for f in flights]
     base_sig = [[_vec(b, "sigma") for b in forward[f]["baseline"]] for f in flights]
-    n_seeds = min(len(r) for r in base_runs)
-    runs = np.array([r[:n_seeds] for r in base_runs])  # (n_flights, n_seeds, n_features)
+    n_seeds = min((len(r) for r in base_runs), default=0)
+    runs = np.array([r[:n_seeds] for r in base_runs]).reshape(len(flights), n_seeds, p)  # (n_flights, n_seeds, p)
     with warnings.catch_warnings():  # a feature no run has (e.g. lag_drift_s without lag_drift) stays NaN
         warnings.simplefilter("ignore", RuntimeWarning)
-        sigma, analytic, scale, flight_scale = _calibrated_errors(y, s_meas, runs,
-                                                                  np.array([s[:n_seeds] for s in base_sig]))
+        sigma, analytic, scale, flight_scale = _calibrated_errors(
+            y, s_meas, runs, np.array([s[:n_seeds] for s in base_sig]).reshape(runs.shape))
         mean_runs = np.nanmean(runs, axis=1)
     conditions = [dict(forward[f]["conditions"]) for f in flights]
     # the processing lag the forward runs simulate where the chain measured one (a condition)
@@ -271,7 +273,8 @@ def assemble(measured: Mapping[str, Mapping[str, Any]], forward: Mapping[str, Ma
     for feat in conditioned:  # a measured condition of the forward runs is not evidence
         y[:, FEATURES.index(feat)] = np.nan
         used_runs[:, :, FEATURES.index(feat)] = np.nan
-    ev = CampaignEvidence(flights, y, sigma, analytic, scale, mean_runs, runs[:, 0, :], conditions,
+    seed0 = runs[:, 0, :] if n_seeds else np.full((len(flights), p), np.nan)
+    ev = CampaignEvidence(flights, y, sigma, analytic, scale, mean_runs, seed0, conditions,
                           correlation=feature_correlation(used_runs, analytic), n_seeds=n_seeds,
                           conditioned=conditioned, flight_scale=flight_scale, processing_lag_s=processing_lags)
     dropped = {CONDITIONED[key][1] for key in CONDITIONED if CONDITIONED[key][0] in conditioned}

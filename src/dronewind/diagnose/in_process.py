@@ -248,12 +248,17 @@ def _recorded(evidence: Mapping[str, Any], config: Mapping[str, Any], reference:
               record: Callable[[Any, str], dict[str, Any]]) -> dict[str, Any]:
     """The campaign diagnosis of ``evidence`` with the configured settings, written by ``record``."""
     from dronewind.diagnose import campaign as dc
+    from dronewind.diagnose.record import MIN_FLIGHTS, not_diagnosed_json
 
     diagnosis = with_defaults(config)["diagnosis"]
-    result = dc.diagnose(dc.assemble(evidence["measured"], evidence["forward"]), alpha=float(diagnosis["alpha"]),
-                         max_causes=int(diagnosis["max_causes"]), min_gain=float(diagnosis["min_gain"]),
-                         n_replicates=int(diagnosis["bootstrap"]), reference=reference)
-    out = record(result, evidence["name"])
+    ev = dc.assemble(evidence["measured"], evidence["forward"])
+    if len(ev.flights) < MIN_FLIGHTS:  # as the workflow's diagnose step (steps.diagnosis.diagnose_campaign)
+        out = not_diagnosed_json(evidence["name"], len(ev.flights), evidence.get("unusable", ()))
+    else:
+        result = dc.diagnose(ev, alpha=float(diagnosis["alpha"]), max_causes=int(diagnosis["max_causes"]),
+                             min_gain=float(diagnosis["min_gain"]), n_replicates=int(diagnosis["bootstrap"]),
+                             reference=reference)
+        out = record(result, evidence["name"])
     out["atmosphere"] = str(diagnosis["atmosphere"])
     return out
 

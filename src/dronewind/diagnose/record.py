@@ -20,7 +20,43 @@ from dronewind.diagnose.naming import (
 )
 from dronewind.diagnose.reference import mc_standard_error
 
-__all__ = ["to_json", "decision_json", "withheld_json"]
+__all__ = ["to_json", "decision_json", "withheld_json", "not_diagnosed_json", "MIN_FLIGHTS"]
+
+#: Fewest usable payload flights a campaign diagnosis needs: its held-out gain scores each
+#: candidate on a flight left out of the fit.
+MIN_FLIGHTS = 2
+
+
+def not_diagnosed_json(campaign: str, n_usable: int, unusable: Sequence[str] = ()) -> dict[str, Any]:
+    """The ``diagnosis.json`` record of a campaign with fewer than :data:`MIN_FLIGHTS` usable payload flights.
+
+    Nothing is fitted or named; ``note`` says why and ``unusable`` lists the flights the chain
+    left out (each flight's L2 gives its reason, ``unusable_reason``). A campaign whose every
+    flight is unusable is reported so, as one with a single usable flight is, and the run goes on.
+
+    Parameters
+    ----------
+    campaign : str
+        Campaign name.
+    n_usable : int
+        Usable payload flights.
+    unusable : sequence of str
+        Ids of the flights left out.
+
+    Returns
+    -------
+    dict
+        ``campaign``, empty ``baseline.metrics``, ``candidates``, ``named_causes``,
+        ``ambiguity_sets`` and ``unexplained``, ``unusable`` and ``note``.
+
+    Examples
+    --------
+    >>> not_diagnosed_json("demo", 0, ["s01", "s02"])["note"]
+    '0 usable flight(s): held-out scoring needs at least 2'
+    """
+    return {"campaign": campaign, "baseline": {"metrics": {}}, "candidates": [], "named_causes": [],
+            "ambiguity_sets": [], "unexplained": [], "unusable": sorted(unusable),
+            "note": f"{int(n_usable)} usable flight(s): held-out scoring needs at least {MIN_FLIGHTS}"}
 
 def withheld_json(result: DiagnosisResult) -> list[dict[str, Any]]:
     """``diagnosis.json`` entries of the withheld candidates (:class:`Withheld`)."""

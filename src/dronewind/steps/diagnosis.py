@@ -30,6 +30,7 @@ from dronewind.core.cf_names import strip_cf, track_from_cf
 from dronewind.core.products import open_product
 from dronewind.core.yamltext import load_yaml
 from dronewind.diagnose import campaign as dc
+from dronewind.diagnose.record import MIN_FLIGHTS, not_diagnosed_json
 from dronewind.manifest import load_campaign
 from dronewind.steps.common import LOG
 
@@ -288,7 +289,7 @@ def diagnosis_reference(measured_files: Sequence[str | Path], forward_files: Seq
 
     ev = _evidence(measured_files, forward_files)
     ref = None
-    if len(ev.flights) >= 2:
+    if len(ev.flights) >= MIN_FLIGHTS:
         replicates = len(replicate_part(int(bootstrap), int(part), int(parts)))
         ref = dc.reference_part(ev, int(bootstrap), int(part), int(parts),
                                 progress=_replicate_counter(replicates, every=50))
@@ -342,11 +343,10 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
     campaign = load_campaign(manifest)
     _check_atmosphere(forward_files, atmosphere)
     ev = _evidence(measured_files, forward_files)
-    if len(ev.flights) < 2:
-        result_json = {"campaign": campaign.name, "atmosphere": atmosphere, "baseline": {"metrics": {}},
-                       "candidates": [],
-                       "named_causes": [], "ambiguity_sets": [],
-                       "note": f"{len(ev.flights)} usable flight(s): held-out scoring needs at least 2"}
+    if len(ev.flights) < MIN_FLIGHTS:
+        records = [json.loads(Path(path).read_text()) for path in measured_files]
+        unusable = [m["flight"] for m in records if not m.get("usable", 1)]
+        result_json = {**not_diagnosed_json(campaign.name, len(ev.flights), unusable), "atmosphere": atmosphere}
         write_json(output_json, _with_platform(result_json, platform_files))
         conditions = _rerun_conditions(ev, forward_files)
         atomic_write_text(output_manifest, yaml.safe_dump(extended_manifest(campaign.data, conditions, []),
