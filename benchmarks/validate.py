@@ -74,8 +74,11 @@ STUDIES: dict[str, Study] = {
                               ("--draws", "60", "--workers", "2", "--replicates", "200"),
                               "calibration of the diagnosis on null campaigns, offsets and trends"),
     "diagnosis_independent_world": Study("validate_independent_world.py",
-                                         ("--draws", "60", "--seed", "11", "--workers", "1", "--order", "interleaved"),
+                                         ("--draws", "60", "--seed", "11", "--workers", "2", "--order", "interleaved"),
                                          "rates on campaigns written by an independent simulated world"),
+    "diagnosis_independent_world_seed12": Study(
+        "validate_independent_world.py", ("--draws", "60", "--seed", "12", "--workers", "2", "--order", "interleaved"),
+        "the same rates on a second plan of 60 draws (docs/diagnosis.md pools the two)"),
     "hidden_identifiability": Study("bench_identifiability.py", (),
                                     "is each mechanism identifiable at a physical size"),
     "model_error_features": Study("bench_model_error_features.py", ("--draws", "12", "--seed", "1"),
