@@ -20,6 +20,7 @@ from dronewind.diagnose import campaign as dc
 from dronewind.diagnose.features import FEATURES
 from dronewind.diagnose.in_process import diagnose_evidence
 from dronewind.diagnose.record import MIN_FLIGHTS, not_diagnosed_json
+from dronewind.diagnose.report import markdown
 from dronewind.manifest import default_config
 
 REPO = Path(__file__).resolve().parents[2]
@@ -52,9 +53,13 @@ def test_a_campaign_without_a_usable_flight_assembles_to_no_flights():
 def test_in_process_diagnosis_names_nothing_and_says_why(n_usable):
     measured, forward = _one_flight(np.random.default_rng(3)) if n_usable else ({}, {})
     unusable = ["w02", "w01", "w03", "w04"][: 4 - n_usable]
-    evidence = {"name": "world", "measured": measured, "forward": forward, "unusable": unusable}
+    reasons = {f: "hover window 85.0 s shorter than 600 s" for f in unusable}
+    evidence = {"name": "world", "measured": measured, "forward": forward, "unusable": unusable,
+                "unusable_reasons": reasons}
     out = diagnose_evidence(evidence, default_config())
-    assert out["named_causes"] == [] and out["candidates"] == [] and out["unexplained"] == []
+    assert out["unusable_reasons"] == reasons
+    assert out["named_causes"] == [] and out["candidates"] == []
+    assert "unexplained" not in out  # nothing was tested: no "nothing remains unexplained"
     assert out["note"] == f"{n_usable} usable flight(s): held-out scoring needs at least {MIN_FLIGHTS}"
     assert out["unusable"] == sorted(unusable)
     assert out["atmosphere"] == default_config()["diagnosis"]["atmosphere"]
@@ -73,7 +78,12 @@ def test_workflow_step_writes_the_same_record_and_an_empty_reference(tmp_path):
                             tmp_path / "diagnosis.json", tmp_path / "extended.yaml", alpha=0.01, max_causes=3,
                             min_gain=0.05, atmosphere="measured")
     record = json.loads(out.read_text())
-    assert record == {**not_diagnosed_json("mosai2023", 0, ["s01", "s02"]), "atmosphere": "measured"}
+    reasons = {f: "hover window 220.6 s shorter than 600 s" for f in ("s01", "s02")}
+    assert record == {**not_diagnosed_json("mosai2023", 0, ["s01", "s02"], reasons), "atmosphere": "measured"}
+    text = markdown(record, {}, {}, [])
+    assert "**Not diagnosed:** 0 usable flight(s)" in text
+    assert "**Flights left out (unusable):** s01 (hover window 220.6 s shorter than 600 s); s02 (" in text
+    assert "Nothing remains unexplained" not in text
     ref = diagnosis_reference(measured_files, [], tmp_path / "part.npz", bootstrap=600, part=0, parts=1)
     with np.load(ref) as arrays:
         assert int(arrays["n_replicates"]) == 0

@@ -253,7 +253,8 @@ def _recorded(evidence: Mapping[str, Any], config: Mapping[str, Any], reference:
     diagnosis = with_defaults(config)["diagnosis"]
     ev = dc.assemble(evidence["measured"], evidence["forward"])
     if len(ev.flights) < MIN_FLIGHTS:  # as the workflow's diagnose step (steps.diagnosis.diagnose_campaign)
-        out = not_diagnosed_json(evidence["name"], len(ev.flights), evidence.get("unusable", ()))
+        out = not_diagnosed_json(evidence["name"], len(ev.flights), evidence.get("unusable", ()),
+                                 evidence.get("unusable_reasons"))
     else:
         result = dc.diagnose(ev, alpha=float(diagnosis["alpha"]), max_causes=int(diagnosis["max_causes"]),
                              min_gain=float(diagnosis["min_gain"]), n_replicates=int(diagnosis["bootstrap"]),
@@ -273,7 +274,8 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
     (``diagnosis.atmosphere: measured``) and forward probes, each on the one-flight view of
     the manifest (:func:`dronewind.manifest.payload_flight_manifest`), as the per-flight
     diagnosis rules read it. Flights whose L2 is marked unusable are left out, as the
-    campaign diagnosis leaves them out (their ids in ``unusable``).
+    campaign diagnosis leaves them out (their ids in ``unusable``, their L2's reasons in
+    ``unusable_reasons``).
 
     Parameters
     ----------
@@ -286,7 +288,8 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
     -------
     dict
         ``name``, ``measured`` (flight -> features), ``forward`` (flight -> forward runs),
-        ``unusable`` (flight ids left out): the input of :func:`diagnose_evidence`.
+        ``unusable`` (flight ids left out) and ``unusable_reasons`` (flight -> why): the input
+        of :func:`diagnose_evidence`.
 
     Raises
     ------
@@ -309,6 +312,7 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
     measured: dict[str, Any] = {}
     fwd: dict[str, Any] = {}
     unusable: list[str] = []
+    reasons: dict[str, str] = {}
     seeds = tuple(resolved_seeds(diagnosis["seeds"], len(campaign.payload_flights)))
     for flight in campaign.payload_flights:
         fid, ref = flight["id"], flight["reference"]
@@ -318,6 +322,7 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
         l2 = compute_payload_l2(s1, i1, flight, altitude_m, **lag)
         if not int(l2.attrs.get("usable", 1)):
             unusable.append(fid)
+            reasons[fid] = str(l2.attrs.get("unusable_reason") or "the payload L2 is marked unusable")
             continue
         if ref not in mast_l1:
             mast_l1[ref] = compute_mast_l1(campaign.mast_files(ref), sonics[ref], processing["despike"])
@@ -326,4 +331,5 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
         measured[fid], conditions, record = forward_inputs(view, fid, VirtualFlight(s1, i1, l2, mast_l1[ref], l3),
                                                            processing, str(diagnosis["atmosphere"]))
         fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
-    return {"name": campaign.name, "measured": measured, "forward": fwd, "unusable": unusable}
+    return {"name": campaign.name, "measured": measured, "forward": fwd, "unusable": unusable,
+            "unusable_reasons": reasons}

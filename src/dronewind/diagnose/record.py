@@ -3,7 +3,7 @@ r"""The ``diagnosis.json`` record of a campaign diagnosis (docs/data-contract.md
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from dronewind.diagnose.calibration import ProfiledFit
@@ -27,12 +27,15 @@ __all__ = ["to_json", "decision_json", "withheld_json", "not_diagnosed_json", "M
 MIN_FLIGHTS = 2
 
 
-def not_diagnosed_json(campaign: str, n_usable: int, unusable: Sequence[str] = ()) -> dict[str, Any]:
+def not_diagnosed_json(campaign: str, n_usable: int, unusable: Sequence[str] = (),
+                       reasons: Mapping[str, str] | None = None) -> dict[str, Any]:
     """The ``diagnosis.json`` record of a campaign with fewer than :data:`MIN_FLIGHTS` usable payload flights.
 
     Nothing is fitted or named; ``note`` says why and ``unusable`` lists the flights the chain
-    left out (each flight's L2 gives its reason, ``unusable_reason``). A campaign whose every
-    flight is unusable is reported so, as one with a single usable flight is, and the run goes on.
+    left out, ``unusable_reasons`` why where known (a flight's L2 ``unusable_reason``). Nothing
+    was tested either, so the record has no ``unexplained`` entry (an empty one would read as
+    "nothing remains unexplained"). A campaign whose every flight is unusable is reported so, as
+    one with a single usable flight is, and the run goes on.
 
     Parameters
     ----------
@@ -42,21 +45,26 @@ def not_diagnosed_json(campaign: str, n_usable: int, unusable: Sequence[str] = (
         Usable payload flights.
     unusable : sequence of str
         Ids of the flights left out.
+    reasons : mapping, optional
+        Flight id -> why it was left out.
 
     Returns
     -------
     dict
-        ``campaign``, empty ``baseline.metrics``, ``candidates``, ``named_causes``,
-        ``ambiguity_sets`` and ``unexplained``, ``unusable`` and ``note``.
+        ``campaign``, empty ``baseline.metrics``, ``candidates``, ``named_causes`` and
+        ``ambiguity_sets``, ``unusable``, ``unusable_reasons`` (with ``reasons``) and ``note``.
 
     Examples
     --------
     >>> not_diagnosed_json("demo", 0, ["s01", "s02"])["note"]
     '0 usable flight(s): held-out scoring needs at least 2'
     """
-    return {"campaign": campaign, "baseline": {"metrics": {}}, "candidates": [], "named_causes": [],
-            "ambiguity_sets": [], "unexplained": [], "unusable": sorted(unusable),
-            "note": f"{int(n_usable)} usable flight(s): held-out scoring needs at least {MIN_FLIGHTS}"}
+    out: dict[str, Any] = {"campaign": campaign, "baseline": {"metrics": {}}, "candidates": [], "named_causes": [],
+                           "ambiguity_sets": [], "unusable": sorted(unusable),
+                           "note": f"{int(n_usable)} usable flight(s): held-out scoring needs at least {MIN_FLIGHTS}"}
+    if reasons:
+        out["unusable_reasons"] = {f: str(reasons[f]) for f in sorted(reasons)}
+    return out
 
 def withheld_json(result: DiagnosisResult) -> list[dict[str, Any]]:
     """``diagnosis.json`` entries of the withheld candidates (:class:`Withheld`)."""

@@ -165,6 +165,10 @@ def markdown(diag: Mapping[str, Any], before: Mapping[str, float], after: Mappin
         lines += [f"**Note:** {diag['note']}", ""]
     label, _, rest = head.partition(":")
     lines.append(f"**{label}:**{rest}")
+    if diag.get("unusable"):
+        reasons = diag.get("unusable_reasons") or {}
+        lines += ["", "**Flights left out (unusable):** " + "; ".join(
+            f"{f} ({reasons[f]})" if reasons.get(f) else f for f in diag["unusable"]) + "."]
     lines += ["", *_fit_lines(diag), *_error_model_lines(diag)]
     lines += ["", "## What the baseline simulation gets wrong", "",
               "The forward model without any mechanism was run for every flight with the conditions measured "

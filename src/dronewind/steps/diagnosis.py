@@ -106,8 +106,10 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
                                       hover=hover, max_missing_fraction=max_missing_fraction)
     conditions = forward_conditions.forward_conditions(campaign, flight_id, l3, l2)
     LOG.info("flight %s: features %s", flight_id, feats.values)
+    usable = int(l2.attrs.get("usable", 1))
+    left_out = {} if usable else {"reason": str(l2.attrs.get("unusable_reason") or "the payload L2 is marked unusable")}
     return write_json(output, {"flight": flight_id, "features": features_to_dict(feats), "conditions": conditions,
-                               "usable": int(l2.attrs.get("usable", 1)), "spectra": binned_spectra(l3)})
+                               "usable": usable, **left_out, "spectra": binned_spectra(l3)})
 
 
 def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: Mapping[str, Any], flight_id: str,
@@ -115,6 +117,9 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
                    mast_l1: str | Path | None = None, atmosphere: str = "model",
                    joined_with: Sequence[str | Path] = ()) -> Path:
     """Forward-model runs (baseline seeds and every probe, or one part of them) of one flight, as JSON.
+
+    A flight the campaign diagnosis leaves out (no reference mast sonic over it, or its payload
+    L2 unusable) gets a placeholder without runs (``usable`` 0 and the reason).
 
     Parameters
     ----------
@@ -157,7 +162,9 @@ def forward_probes(measured_json: str | Path, output: str | Path, *, campaign: M
 
     from dronewind.diagnose import probe_runs
     measured = json.loads(Path(measured_json).read_text())
-    if measured.get("conditions") is None:  # a flight left out of the diagnosis (measured_features)
+    if measured.get("conditions") is None or not measured.get("usable", 1):
+        # a flight the campaign diagnosis leaves out (no reference, or its L2 unusable: measured_features)
+        # has no forward runs: nothing would read them
         return write_json(output, {"flight": flight_id, "usable": 0, "reason": measured.get("reason", ""),
                                    "atmosphere": atmosphere})
     record = _atmosphere(mast_l1, atmosphere, measured["conditions"])
@@ -226,7 +233,8 @@ def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str 
         if m.get("usable", 1):
             measured[m["flight"]] = m["features"]
         else:
-            LOG.warning("flight %s is unusable: left out of the diagnosis", m["flight"])
+            LOG.warning("flight %s is unusable: left out of the diagnosis (%s)", m["flight"],
+                        m.get("reason") or "no reason recorded")
     for path in forward_files:
         f = json.loads(Path(path).read_text())
         if f["flight"] in measured:
@@ -345,8 +353,9 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
     ev = _evidence(measured_files, forward_files)
     if len(ev.flights) < MIN_FLIGHTS:
         records = [json.loads(Path(path).read_text()) for path in measured_files]
-        unusable = [m["flight"] for m in records if not m.get("usable", 1)]
-        result_json = {**not_diagnosed_json(campaign.name, len(ev.flights), unusable), "atmosphere": atmosphere}
+        left_out = {m["flight"]: m.get("reason") or "" for m in records if not m.get("usable", 1)}
+        result_json = {**not_diagnosed_json(campaign.name, len(ev.flights), list(left_out),
+                                            {f: r for f, r in left_out.items() if r}), "atmosphere": atmosphere}
         write_json(output_json, _with_platform(result_json, platform_files))
         conditions = _rerun_conditions(ev, forward_files)
         atomic_write_text(output_manifest, yaml.safe_dump(extended_manifest(campaign.data, conditions, []),
