@@ -248,13 +248,15 @@ def _recorded(evidence: Mapping[str, Any], config: Mapping[str, Any], reference:
               record: Callable[[Any, str], dict[str, Any]]) -> dict[str, Any]:
     """The campaign diagnosis of ``evidence`` with the configured settings, written by ``record``."""
     from dronewind.diagnose import campaign as dc
-    from dronewind.diagnose.record import MIN_FLIGHTS, not_diagnosed_json
+    from dronewind.diagnose.probes import MIN_FLIGHTS
+    from dronewind.diagnose.record import not_diagnosed_json
 
     diagnosis = with_defaults(config)["diagnosis"]
     ev = dc.assemble(evidence["measured"], evidence["forward"])
     if len(ev.flights) < MIN_FLIGHTS:  # as the workflow's diagnose step (steps.diagnosis.diagnose_campaign)
-        out = not_diagnosed_json(evidence["name"], len(ev.flights), evidence.get("unusable", ()),
-                                 evidence.get("unusable_reasons"))
+        reasons = evidence.get("unusable_reasons") or {}
+        out = not_diagnosed_json(evidence["name"], len(ev.flights),
+                                 {f: reasons.get(f, "") for f in evidence.get("unusable", ())})
     else:
         result = dc.diagnose(ev, alpha=float(diagnosis["alpha"]), max_causes=int(diagnosis["max_causes"]),
                              min_gain=float(diagnosis["min_gain"]), n_replicates=int(diagnosis["bootstrap"]),
@@ -322,7 +324,7 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
         l2 = compute_payload_l2(s1, i1, flight, altitude_m, **lag)
         if not int(l2.attrs.get("usable", 1)):
             unusable.append(fid)
-            reasons[fid] = str(l2.attrs.get("unusable_reason") or "the payload L2 is marked unusable")
+            reasons[fid] = str(l2.attrs.get("unusable_reason", ""))
             continue
         if ref not in mast_l1:
             mast_l1[ref] = compute_mast_l1(campaign.mast_files(ref), sonics[ref], processing["despike"])

@@ -13,8 +13,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 __all__ = ["CHAIN_SETTINGS", "LAG_SETTINGS", "TRUTH_MECHANISMS", "ATMOSPHERES", "Probe", "MECHANISM_BASELINES",
-           "PROBES", "fresh_seeds", "baseline_level", "BASELINE_PART", "probe_parts", "SEED_DOF", "SCALE_DOF",
-           "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds", "seed_part", "part_seeds",
+           "MIN_FLIGHTS", "PROBES", "fresh_seeds", "baseline_level", "BASELINE_PART", "probe_parts", "SEED_DOF",
+           "SCALE_DOF", "MIN_SEEDS", "MAX_SEEDS", "baseline_seeds", "resolved_seeds", "seed_part", "part_seeds",
            "parse_seed_part", "reference_jobs"]
 
 
@@ -145,6 +145,10 @@ SCALE_DOF = 200
 #: Fewest baseline seeds per flight (the seed scale of every feature then has at least 29
 #: degrees of freedom on one flight).
 MIN_SEEDS = 30
+#: Fewest usable payload flights a campaign diagnosis needs: its held-out gain scores each
+#: candidate on a flight left out of the fit. With fewer the campaign is not diagnosed
+#: (:func:`dronewind.diagnose.record.not_diagnosed_json`) and draws no bootstrap reference.
+MIN_FLIGHTS = 2
 #: Most baseline seeds per flight by default: campaigns of one to seven flights stop here
 #: (89 to 623 pooled degrees of freedom) instead of paying up to 641 runs per flight.
 MAX_SEEDS = 90
@@ -200,7 +204,7 @@ def reference_jobs(n_flights: int, replicates: int, most: int) -> int:
     >>> reference_jobs(10, 600, 4), reference_jobs(4, 600, 4), reference_jobs(1, 600, 4)
     (4, 2, 1)
     """
-    if int(n_flights) < 2:
+    if int(n_flights) < MIN_FLIGHTS:
         return 1
     work_s = int(n_flights) * int(replicates) * REPLICATE_CPU_S_PER_FLIGHT
     return max(1, min(int(most), -(-int(work_s) // int(REFERENCE_JOB_CPU_S))))

@@ -18,21 +18,17 @@ from dronewind.diagnose.naming import (
     caveats,
     combined_prediction,
 )
+from dronewind.diagnose.probes import MIN_FLIGHTS
 from dronewind.diagnose.reference import mc_standard_error
 
-__all__ = ["to_json", "decision_json", "withheld_json", "not_diagnosed_json", "MIN_FLIGHTS"]
+__all__ = ["to_json", "decision_json", "withheld_json", "not_diagnosed_json"]
 
-#: Fewest usable payload flights a campaign diagnosis needs: its held-out gain scores each
-#: candidate on a flight left out of the fit.
-MIN_FLIGHTS = 2
+def not_diagnosed_json(campaign: str, n_usable: int, left_out: Mapping[str, str]) -> dict[str, Any]:
+    """The ``diagnosis.json`` record of a campaign with fewer than :data:`~dronewind.diagnose.probes.MIN_FLIGHTS`
+    usable payload flights.
 
-
-def not_diagnosed_json(campaign: str, n_usable: int, unusable: Sequence[str] = (),
-                       reasons: Mapping[str, str] | None = None) -> dict[str, Any]:
-    """The ``diagnosis.json`` record of a campaign with fewer than :data:`MIN_FLIGHTS` usable payload flights.
-
-    Nothing is fitted or named; ``note`` says why and ``unusable`` lists the flights the chain
-    left out, ``unusable_reasons`` why where known (a flight's L2 ``unusable_reason``). Nothing
+    Nothing is fitted or named; ``note`` says why, ``unusable`` lists the flights the chain left
+    out and ``unusable_reasons`` why, where known (a flight's L2 ``unusable_reason``). Nothing
     was tested either, so the record has no ``unexplained`` entry (an empty one would read as
     "nothing remains unexplained"). A campaign whose every flight is unusable is reported so, as
     one with a single usable flight is, and the run goes on.
@@ -43,28 +39,31 @@ def not_diagnosed_json(campaign: str, n_usable: int, unusable: Sequence[str] = (
         Campaign name.
     n_usable : int
         Usable payload flights.
-    unusable : sequence of str
-        Ids of the flights left out.
-    reasons : mapping, optional
-        Flight id -> why it was left out.
+    left_out : mapping
+        Id of every flight left out -> why ("" where no reason was recorded).
 
     Returns
     -------
     dict
         ``campaign``, empty ``baseline.metrics``, ``candidates``, ``named_causes`` and
-        ``ambiguity_sets``, ``unusable``, ``unusable_reasons`` (with ``reasons``) and ``note``.
+        ``ambiguity_sets``, ``unusable``, ``unusable_reasons`` (the known ones) and ``note``.
 
     Examples
     --------
-    >>> not_diagnosed_json("demo", 0, ["s01", "s02"])["note"]
-    '0 usable flight(s): held-out scoring needs at least 2'
+    >>> not_diagnosed_json("demo", 0, {"s02": "", "s01": "hover window 85 s shorter than 600 s"})
+    ... # doctest: +NORMALIZE_WHITESPACE
+    {'campaign': 'demo', 'baseline': {'metrics': {}}, 'candidates': [], 'named_causes': [], 'ambiguity_sets': [],
+     'unusable': ['s01', 's02'], 'note': '0 usable flight(s): held-out scoring needs at least 2',
+     'unusable_reasons': {'s01': 'hover window 85 s shorter than 600 s'}}
     """
     out: dict[str, Any] = {"campaign": campaign, "baseline": {"metrics": {}}, "candidates": [], "named_causes": [],
-                           "ambiguity_sets": [], "unusable": sorted(unusable),
+                           "ambiguity_sets": [], "unusable": sorted(left_out),
                            "note": f"{int(n_usable)} usable flight(s): held-out scoring needs at least {MIN_FLIGHTS}"}
+    reasons = {f: str(left_out[f]) for f in sorted(left_out) if left_out[f]}
     if reasons:
-        out["unusable_reasons"] = {f: str(reasons[f]) for f in sorted(reasons)}
+        out["unusable_reasons"] = reasons
     return out
+
 
 def withheld_json(result: DiagnosisResult) -> list[dict[str, Any]]:
     """``diagnosis.json`` entries of the withheld candidates (:class:`Withheld`)."""

@@ -30,7 +30,8 @@ from dronewind.core.cf_names import strip_cf, track_from_cf
 from dronewind.core.products import open_product
 from dronewind.core.yamltext import load_yaml
 from dronewind.diagnose import campaign as dc
-from dronewind.diagnose.record import MIN_FLIGHTS, not_diagnosed_json
+from dronewind.diagnose.probes import MIN_FLIGHTS
+from dronewind.diagnose.record import not_diagnosed_json
 from dronewind.manifest import load_campaign
 from dronewind.steps.common import LOG
 
@@ -107,7 +108,7 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
     conditions = forward_conditions.forward_conditions(campaign, flight_id, l3, l2)
     LOG.info("flight %s: features %s", flight_id, feats.values)
     usable = int(l2.attrs.get("usable", 1))
-    left_out = {} if usable else {"reason": str(l2.attrs.get("unusable_reason") or "the payload L2 is marked unusable")}
+    left_out = {} if usable else {"reason": str(l2.attrs.get("unusable_reason", ""))}
     return write_json(output, {"flight": flight_id, "features": features_to_dict(feats), "conditions": conditions,
                                "usable": usable, **left_out, "spectra": binned_spectra(l3)})
 
@@ -224,22 +225,25 @@ def merge_forward_parts(part_files: Sequence[str | Path], output: str | Path) ->
     return write_json(output, probe_runs.merge_probe_runs(parts))
 
 
-def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str | Path]) -> dc.CampaignEvidence:
-    """The campaign evidence of the usable flights' measured and forward-model feature files."""
+def _evidence(measured_files: Sequence[str | Path], forward_files: Sequence[str | Path]
+              ) -> tuple[dc.CampaignEvidence, dict[str, str]]:
+    """The campaign evidence of the usable flights' measured and forward-model feature files, and
+    the flights left out (flight -> the reason its measured file gives, "" where none)."""
 
-    measured, fwd = {}, {}
+    measured, fwd, left_out = {}, {}, {}
     for path in measured_files:
         m = json.loads(Path(path).read_text())
         if m.get("usable", 1):
             measured[m["flight"]] = m["features"]
         else:
+            left_out[m["flight"]] = str(m.get("reason") or "")
             LOG.warning("flight %s is unusable: left out of the diagnosis (%s)", m["flight"],
-                        m.get("reason") or "no reason recorded")
+                        left_out[m["flight"]] or "no reason recorded")
     for path in forward_files:
         f = json.loads(Path(path).read_text())
         if f["flight"] in measured:
             fwd[f["flight"]] = f
-    return dc.assemble(measured, fwd)
+    return dc.assemble(measured, fwd), left_out
 
 
 def _rerun_conditions(ev: dc.CampaignEvidence, forward_files: Sequence[str | Path]) -> dict[str, dict[str, Any]]:
@@ -295,7 +299,7 @@ def diagnosis_reference(measured_files: Sequence[str | Path], forward_files: Seq
     """
     from dronewind.diagnose.reference import reference_arrays, replicate_part
 
-    ev = _evidence(measured_files, forward_files)
+    ev, _ = _evidence(measured_files, forward_files)
     ref = None
     if len(ev.flights) >= MIN_FLIGHTS:
         replicates = len(replicate_part(int(bootstrap), int(part), int(parts)))
@@ -350,12 +354,9 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
 
     campaign = load_campaign(manifest)
     _check_atmosphere(forward_files, atmosphere)
-    ev = _evidence(measured_files, forward_files)
+    ev, left_out = _evidence(measured_files, forward_files)
     if len(ev.flights) < MIN_FLIGHTS:
-        records = [json.loads(Path(path).read_text()) for path in measured_files]
-        left_out = {m["flight"]: m.get("reason") or "" for m in records if not m.get("usable", 1)}
-        result_json = {**not_diagnosed_json(campaign.name, len(ev.flights), list(left_out),
-                                            {f: r for f, r in left_out.items() if r}), "atmosphere": atmosphere}
+        result_json = {**not_diagnosed_json(campaign.name, len(ev.flights), left_out), "atmosphere": atmosphere}
         write_json(output_json, _with_platform(result_json, platform_files))
         conditions = _rerun_conditions(ev, forward_files)
         atomic_write_text(output_manifest, yaml.safe_dump(extended_manifest(campaign.data, conditions, []),
@@ -487,7 +488,7 @@ def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | 
     from dronewind.figures import diagnosis as diagnosis_figures
 
     diag = json.loads(Path(diagnosis_json).read_text())
-    ev = _evidence(measured_files, forward_files)
+    ev, _ = _evidence(measured_files, forward_files)
     extended, model_spectra = {}, {}
     for path in extended_files:
         e = json.loads(Path(path).read_text())
