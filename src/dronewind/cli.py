@@ -359,7 +359,7 @@ SUBCOMMANDS: list[Subcommand] = [
         "Cost of the power simulation (2 cores): each error to detect that moves what the chain measures\n"
         "(a heading bias the wind direction, a sonic-INS lag the lag found) needs forward runs of its own.\n"
         "Six 12.5-min flights with one error to detect (a w gain) take about 1.5 min; the example's three\n"
-        "errors about 5.5 min.",
+        "errors about 3.7 min.",
         _plan_args,
         _plan,
     ),

@@ -328,6 +328,23 @@ def test_shared_reference_decides_as_each_draws_own(two_flight_model):
 
 
 @pytest.mark.slow
+def test_draws_of_one_flight_are_not_diagnosed_and_draw_no_reference(two_flight_model):
+    """A campaign of fewer flights than the diagnosis needs is not diagnosed (nothing named), as a
+    measured one is; its draws get no bootstrap reference, which would be drawn for nothing."""
+    from dronewind.diagnose.in_process import decide_evidence
+    from dronewind.diagnose.probes import MIN_FLIGHTS
+    from dronewind.plan import power as pw
+
+    model, label, config = two_flight_model
+    assert MIN_FLIGHTS == 2
+    draws = list(pw.drawn_campaigns(model, label, 1, 3, 5))
+    assert pw.shared_reference(draws, config) is None
+    assert all(decide_evidence(d.evidence, config)["named_causes"] == [] for d in draws)
+    result = pw.draw_power(model, label, 1, 3, 5, config)
+    assert model.references[(label, 1)] is None and result.detected == 0 and result.draws == 3
+
+
+@pytest.mark.slow
 def test_draw_powers_in_worker_processes_are_the_calls_in_this_process(two_flight_model):
     """The Monte-Carlo calls spread over two worker processes give the same detections and the
     same shared references as the same calls one after the other here (the draws are seeded by

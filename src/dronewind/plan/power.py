@@ -267,7 +267,9 @@ def shared_reference(draws: Sequence[DrawnCampaign], config: Mapping[str, Any] |
     -------
     dronewind.diagnose.reference.NullReference or None
         None where there are no draws, fewer than two seeds or no candidates (the diagnosis then
-        uses its chi-square tails, as for a measured campaign).
+        uses its chi-square tails, as for a measured campaign), or fewer flights than the
+        campaign diagnosis needs (:data:`dronewind.diagnose.probes.MIN_FLIGHTS`: the draws are
+        then not diagnosed, and a reference would be drawn for nothing).
 
     Notes
     -----
@@ -283,6 +285,7 @@ def shared_reference(draws: Sequence[DrawnCampaign], config: Mapping[str, Any] |
     from dronewind.diagnose import campaign as dc
     from dronewind.diagnose.calibration import discrepancy
     from dronewind.diagnose.naming import campaign_reference
+    from dronewind.diagnose.probes import MIN_FLIGHTS
 
     if not draws:
         return None
@@ -290,7 +293,7 @@ def shared_reference(draws: Sequence[DrawnCampaign], config: Mapping[str, Any] |
     # the draws share everything but their features: one assembly, each draw's features in its
     # measured entries (a feature the campaign does not use stays out, as assemble leaves it)
     ev = dc.assemble(draws[0].evidence["measured"], draws[0].evidence["forward"])
-    if ev.n_seeds < 2 or n_replicates <= 0 or not ev.models:
+    if ev.n_seeds < 2 or n_replicates <= 0 or not ev.models or len(ev.flights) < MIN_FLIGHTS:
         return None
     used = np.isfinite(ev.y)
     tau2 = [discrepancy(np.where(used, d.y, np.nan) - ev.baseline, ev.sigma, ev.speed_ms,
