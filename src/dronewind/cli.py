@@ -22,6 +22,7 @@ examples:
   dronewind check-cf results/mosai2023/netcdf/L1/s01_sonic.nc
   dronewind show-config config/config.yaml
   dronewind plan config/plans/example_plan.yaml --out results/plans/example
+  dronewind model-error results/*/diagnosis.json
 
   dronewind run my_campaign.yaml                 # the whole workflow, then the HTML report
 
@@ -210,6 +211,30 @@ def _plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _model_error_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("diagnoses", type=Path, nargs="+", help="diagnosis.json files, one per campaign")
+    parser.add_argument("--alpha", type=float, default=None,
+                        help="family-wise false-alarm rate over the features (default: the unexplained test's, "
+                             "0.05)")
+    parser.add_argument("--out", type=Path, default=None, help="also write the result as JSON to this file")
+
+
+def _model_error(args: argparse.Namespace) -> int:
+    from dronewind.core.cf import atomic_write_text
+    from dronewind.diagnose.calibration import UNEXPLAINED_ALPHA
+    from dronewind.diagnose.pooled import offsets_table, pool_diagnoses, read_campaign, result_json
+
+    alpha = UNEXPLAINED_ALPHA if args.alpha is None else args.alpha
+    if not 0.0 < alpha < 1.0:
+        raise InputError("--alpha", f"{alpha:g}: expected a rate between 0 and 1")
+    result = pool_diagnoses([read_campaign(p) for p in args.diagnoses], alpha)
+    print(offsets_table(result))
+    if args.out is not None:
+        atomic_write_text(args.out, result_json(result))
+        print(f"written: {args.out}")
+    return 0
+
+
 def _run_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cores", type=int, default=os.cpu_count() or 1,
                         help="CPU cores Snakemake may use (default: all of this machine's, here %(default)s)")
@@ -362,6 +387,20 @@ SUBCOMMANDS: list[Subcommand] = [
         "errors about 3.7 min.",
         _plan_args,
         _plan,
+    ),
+    Subcommand(
+        "model-error",
+        "what the forward model gets wrong on every campaign: each residual feature's mean standardised "
+        "residual over several campaigns' diagnoses, tested over the campaigns",
+        "examples:\n  dronewind model-error results/*/diagnosis.json\n"
+        "  dronewind model-error site_a/diagnosis.json site_b/diagnosis.json --out model_error.json\n\n"
+        "One campaign's diagnosis lists a feature as unexplained only where its offset stands above that\n"
+        "campaign's few flights; physics the forward model lacks moves the feature alike on every campaign.\n"
+        "Per campaign the mean over its flights of (measured - forward baseline) / error is taken, and its mean\n"
+        "over the campaigns is tested by a t-test on their spread (Bonferroni over the features). A campaign\n"
+        "that was not diagnosed (too few usable flights) is left out and listed.",
+        _model_error_args,
+        _model_error,
     ),
 ]
 
