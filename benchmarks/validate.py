@@ -75,7 +75,8 @@ STUDIES: dict[str, Study] = {
                               "calibration of the diagnosis on null campaigns, offsets and trends"),
     "diagnosis_independent_world": Study("validate_independent_world.py",
                                          ("--draws", "60", "--seed", "11", "--workers", "2", "--order", "interleaved"),
-                                         "rates on campaigns written by an independent simulated world"),
+                                         "rates on campaigns written by an independent simulated world, and what the "
+                                         "forward model gets wrong there by feature (`feature_offsets`)"),
     "diagnosis_independent_world_seed12": Study(
         "validate_independent_world.py", ("--draws", "60", "--seed", "12", "--workers", "2", "--order", "interleaved"),
         "the same rates on a second plan of 60 draws (docs/diagnosis.md pools the two)"),

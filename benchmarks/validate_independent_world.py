@@ -34,6 +34,15 @@ world's base lags are kept in ``--evidence-dir`` as ``draw{k:03d}.json``: a late
 same plan reuses them and only diagnoses again (``--evidence-only`` writes evidence without
 diagnosing). The results file holds every draw of the plan whose evidence is kept.
 
+The results also hold ``feature_offsets``: what the forward model gets wrong in this world,
+feature by feature (each draw's mean standardised baseline residual, ``baseline_mean_z``,
+pooled over the null and model-error draws and tested over them by
+dronewind.diagnose.pooled.pooled_offsets, as ``dronewind model-error`` does for measured
+campaigns; with the share of those draws whose own diagnosis lists the feature unexplained, and
+the mean per label, so that a hidden mechanism's signal can be read against the nulls').
+``wall_s`` is the time of this run: a run on kept evidence only diagnoses (about 8 min for 60
+draws on two workers, against about 30 min with the processing).
+
 A progress log (one JSON line per draw) goes to the output path with ``.log``; the results
 file is rewritten after every draw (so a stopped run keeps what it measured).
 """
@@ -62,8 +71,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from tests.worlds import WorldSettings, stratified_world_draws, write_campaign  # noqa: E402
 
 from bench_common import git_commit, machine  # noqa: E402
+from dronewind.diagnose.campaign import assemble  # noqa: E402
+from dronewind.diagnose.evidence import finite_or_none  # noqa: E402
 from dronewind.diagnose.experiments import Draw, judge, judge_hidden_lag, wilson_interval  # noqa: E402
+from dronewind.diagnose.features import FEATURES  # noqa: E402
 from dronewind.diagnose.in_process import diagnose_evidence, measured_campaign_evidence  # noqa: E402
+from dronewind.diagnose.pooled import campaign_mean_z, pooled_offsets  # noqa: E402
 from dronewind.manifest import default_config  # noqa: E402
 
 #: Targets the rates are read against (reported, never tuned to).
@@ -134,6 +147,9 @@ def run_draw(job: tuple[int, Draw, Mapping[str, Any], WorldSettings, str | None,
     out["candidates"] = [{k: c.get(k) for k in ("mechanism", "estimate", "gain", "significant", "p_value")}
                          for c in diagnosis.get("candidates", [])[:4]]
     out["unexplained"] = diagnosis.get("unexplained", [])
+    ev = assemble(evidence["measured"], evidence["forward"])
+    # the forward baseline's misfit by feature (what the model gets wrong in this world: feature_offsets)
+    out["baseline_mean_z"] = {f: finite_or_none(z) for f, z in campaign_mean_z(ev).items()} if ev.flights else {}
     out["unusable"] = evidence.get("unusable", [])
     if diagnosis.get("note"):  # too few usable flights: nothing diagnosed (record.not_diagnosed_json)
         out["not_diagnosed"] = diagnosis["note"]
@@ -211,6 +227,35 @@ def rates(records: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def feature_offsets(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """What the forward model gets wrong in this world, feature by feature.
+
+    * pooled: over the null and model-error draws (nothing hidden that the catalog names), each
+      feature's mean standardised baseline residual, tested over the campaigns
+      (:func:`dronewind.diagnose.fit_quality.pooled_offsets`, Bonferroni over the features);
+    * unexplained_share: the share of those draws whose diagnosis lists the feature as
+      ``unexplained`` (the per-campaign test);
+    * by_label: the mean standardised baseline residual of every feature per label, so that a
+      hidden mechanism's signal can be read against the nulls' offset.
+    """
+    quiet = [r for r in records if r["case"] in ("null", "model_error") and r.get("baseline_mean_z")]
+    z = [{f: (v if v is not None else math.nan) for f, v in r["baseline_mean_z"].items()} for r in quiet]
+    pooled = pooled_offsets(z)
+    by_label: dict[str, dict[str, Any]] = {}
+    for label in sorted({r["label"] for r in records}):
+        rows = [r["baseline_mean_z"] for r in records if r["label"] == label and r.get("baseline_mean_z")]
+        vals = {f: [v[f] for v in rows if v.get(f) is not None] for f in FEATURES}
+        by_label[label] = {"n": len(rows), **{f: finite_or_none(sum(v) / len(v)) if v else None
+                                              for f, v in vals.items()}}
+    listed = [{u["feature"] for u in r.get("unexplained", [])} for r in quiet]
+    return {"pooled": {f: {k: finite_or_none(v) if isinstance(v, float) else v for k, v in e.items()}
+                       for f, e in pooled.items()},
+            "n_campaigns": len(quiet),
+            "unexplained_share": {f: (sum(f in s for s in listed) / len(listed)) if listed else None
+                                  for f in FEATURES},
+            "by_label": by_label}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--draws", type=int, default=8, help="number of draws (default 8)")
@@ -277,7 +322,7 @@ def main(argv: list[str] | None = None) -> int:
             result = {**head, "n_draws": len(records), "wall_s": time.perf_counter() - wall0,
                       "cpu_s_per_draw": {"mean": sum(cpu) / len(cpu), "max": max(cpu),
                                          "diagnose_mean": sum(diag) / len(diag) if diag else None},
-                      "rates": rates(records), "draws": records}
+                      "rates": rates(records), "feature_offsets": feature_offsets(records), "draws": records}
             if args.evidence_only:
                 continue
             tmp = args.out.with_suffix(".tmp")
