@@ -144,6 +144,8 @@ def test_pool_rejects_a_campaign_given_twice(tmp_path):
     ("[1, 2]", "not a diagnosis.json"),
     ('{"campaign": "c", "baseline": {}}', r"\[baseline.residuals\]: expected the list"),
     ('{"campaign": "c", "baseline": {"residuals": [{"feature": "ln_hf_u"}]}}', r"\[baseline.residuals\]\[0\]"),
+    ('{"campaign": "c", "baseline": {"residuals": [{"feature": "ln_hf_u", "z": 1}, {"feature": "ln_hf_u", '
+     '"z": "x"}]}}', r"\[baseline.residuals\]\[1\]: expected a row with 'feature' and a number"),
 ])
 def test_read_campaign_names_the_file_and_what_is_wrong(tmp_path, text, match):
     from dronewind.diagnose.pooled import read_campaign

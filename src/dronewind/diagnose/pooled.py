@@ -62,9 +62,10 @@ def pooled_offsets(campaigns: Sequence[dict[str, float]], alpha: float = UNEXPLA
                    features: Sequence[str] = FEATURES) -> dict[str, dict[str, Any]]:
     r"""Model error common to several campaigns: each feature's mean standardised residual over them, tested.
 
-    One campaign's ``unexplained`` test (:func:`unexplained_features`) sees an offset of a
-    feature only where it stands above that campaign's few flights; an offset the forward
-    model carries on every campaign (physics it lacks) shows in the mean over campaigns.
+    One campaign's ``unexplained`` test
+    (:func:`dronewind.diagnose.fit_quality.unexplained_features`) sees an offset of a feature
+    only where it stands above that campaign's few flights; an offset the forward model carries
+    on every campaign (physics it lacks) shows in the mean over campaigns.
 
     Parameters
     ----------
@@ -188,9 +189,11 @@ def read_campaign(path: str | Path) -> CampaignResiduals:
         raise InputError(f"{p} [baseline.residuals]", "expected the list of per-flight residual rows of a "
                          "diagnosis.json")
     flights = {str(r.get("flight")) for r in rows if isinstance(r, Mapping)}
-    bad = [k for k, r in enumerate(rows) if not isinstance(r, Mapping) or "feature" not in r or "z" not in r]
+    bad = [k for k, r in enumerate(rows) if not isinstance(r, Mapping) or "feature" not in r or "z" not in r
+           or not (r["z"] is None or (isinstance(r["z"], (int, float)) and not isinstance(r["z"], bool)))]
     if bad:
-        raise InputError(f"{p} [baseline.residuals][{bad[0]}]", "expected a row with 'feature' and 'z'")
+        raise InputError(f"{p} [baseline.residuals][{bad[0]}]", "expected a row with 'feature' and a number or "
+                         "null 'z'")
     return CampaignResiduals(str(p), name, residual_mean_z(rows), len(flights),
                              sorted({str(u.get("feature")) for u in doc.get("unexplained") or []}))
 
