@@ -348,13 +348,14 @@ def test_draws_of_one_flight_are_not_diagnosed_and_draw_no_reference(two_flight_
 def test_draw_powers_in_worker_processes_are_the_calls_in_this_process(two_flight_model):
     """The Monte-Carlo calls spread over two worker processes give the same detections and the
     same shared references as the same calls one after the other here (the draws are seeded by
-    their arguments, the references by their draws); a call whose reference exists reuses it."""
+    their arguments, the references by their draws; a one-flight campaign has none); a call whose
+    reference exists reuses it."""
     import copy
 
     from dronewind.plan import power as pw
 
     model, label, config = two_flight_model
-    calls = [(label, 1, 6, 4), (None, 2, 6, 5)]
+    calls = [(label, 1, 3, 4), (label, 2, 6, 4), (None, 2, 6, 5)]
     here, there = copy.deepcopy(model), copy.deepcopy(model)
     here.references.clear()
     there.references.clear()
@@ -362,13 +363,15 @@ def test_draw_powers_in_worker_processes_are_the_calls_in_this_process(two_fligh
     sequential = pw.draw_powers(here, calls, config)
     parallel = pw.draw_powers(there, calls, config, workers=2, cpu_seconds=cpu)
     assert parallel == sequential
-    assert set(there.references) == set(here.references) == {(label, 1), (None, 2)}
+    assert set(there.references) == set(here.references) == {(label, 1), (label, 2), (None, 2)}
+    assert here.references[(label, 1)] is None and there.references[(label, 1)] is None
     for key, ref in here.references.items():
-        assert np.array_equal(there.references[key].lr[next(iter(ref.lr))], ref.lr[next(iter(ref.lr))])
-    assert len(cpu) == 2 and all(c > 0 for c in cpu)
-    kept = there.references[(label, 1)]
-    assert pw.draw_powers(there, [(label, 1, 6, 4)], config, workers=2) == sequential[:1]
-    assert there.references[(label, 1)] is kept
+        if ref is not None:
+            assert np.array_equal(there.references[key].lr[next(iter(ref.lr))], ref.lr[next(iter(ref.lr))])
+    assert len(cpu) == 3 and all(c > 0 for c in cpu)
+    kept = there.references[(label, 2)]
+    assert pw.draw_powers(there, [(label, 2, 6, 4)], config, workers=2) == sequential[1:2]
+    assert there.references[(label, 2)] is kept
     # one pool for several calls (the planner's flight counts in turn): the same results
     pooled = copy.deepcopy(model)
     pooled.references.clear()

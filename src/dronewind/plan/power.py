@@ -440,7 +440,7 @@ def draw_powers(model: PowerModel, calls: Sequence[tuple[str | None, int, int, i
     def record(label: str | None, n: int, result: PowerResult, ref: Any, seconds: float, cpu: float) -> PowerResult:
         if cpu_seconds is not None:
             cpu_seconds.append(cpu)
-        if ref is not None:
+        if reference == "shared":  # kept also where there is none (too few flights or seeds), as draw_power keeps it
             model.references.setdefault(_reference_key(model, label, n), ref)
         if progress is not None:
             progress.add(f"{label or 'no error'}, {n} flights, {result.draws} draws", seconds)
