@@ -182,11 +182,10 @@ def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS
     return [101 * (k + 1) for k in range(n)]
 
 
-#: CPU seconds of the reference jobs per bootstrap replicate and payload flight: the default
-#: campaign's four diagnose_reference jobs take 35.8 CPU-s for 600 replicates of 10 flights
-#: (their benchmark files, ``benchmarks/results/run_default.json``), of which the replicates alone
-#: are 22 CPU-s in one process (:func:`dronewind.steps.diagnosis.diagnosis_reference` with
-#: ``parts=1``) and the rest each job's start-up and reading of the evidence.
+#: CPU seconds of the reference jobs per bootstrap replicate and payload flight, an upper figure:
+#: the default campaign's four diagnose_reference jobs take 24.9 CPU-s for 600 replicates of 10
+#: flights (0.004 per replicate and flight; their benchmark files, ``benchmarks/results/run_default.json``),
+#: each job's start-up and reading of the evidence included.
 REPLICATE_CPU_S_PER_FLIGHT = 0.006
 #: CPU seconds of work a part of the bootstrap reference is sized to (:func:`reference_jobs`).
 REFERENCE_JOB_CPU_S = 10.0
