@@ -80,6 +80,10 @@ STUDIES: dict[str, Study] = {
     "diagnosis_independent_world_seed12": Study(
         "validate_independent_world.py", ("--draws", "60", "--seed", "12", "--workers", "2", "--order", "interleaved"),
         "the same rates on a second plan of 60 draws (docs/diagnosis.md pools the two)"),
+    "diagnosis_independent_world_6flights": Study(
+        "validate_independent_world.py", ("--draws", "60", "--seed", "11", "--flights", "6", "--workers", "2",
+                                          "--order", "interleaved"),
+        "the first plan's draws with six flights per campaign instead of four"),
     "hidden_identifiability": Study("bench_identifiability.py", (),
                                     "is each mechanism identifiable at a physical size"),
     "model_error_features": Study("bench_model_error_features.py", ("--draws", "12", "--seed", "1"),

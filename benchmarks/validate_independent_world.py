@@ -232,7 +232,7 @@ def feature_offsets(records: list[dict[str, Any]]) -> dict[str, Any]:
 
     * pooled: over the null and model-error draws (nothing hidden that the catalog names), each
       feature's mean standardised baseline residual, tested over the campaigns
-      (:func:`dronewind.diagnose.fit_quality.pooled_offsets`, Bonferroni over the features);
+      (:func:`dronewind.diagnose.pooled.pooled_offsets`, Bonferroni over the features);
     * unexplained_share: the share of those draws whose diagnosis lists the feature as
       ``unexplained`` (the per-campaign test);
     * by_label: the mean standardised baseline residual of every feature per label, so that a
