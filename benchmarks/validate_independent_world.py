@@ -71,12 +71,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from tests.worlds import WorldSettings, stratified_world_draws, write_campaign  # noqa: E402
 
 from bench_common import git_commit, machine  # noqa: E402
-from dronewind.diagnose.campaign import assemble  # noqa: E402
 from dronewind.diagnose.evidence import finite_or_none  # noqa: E402
 from dronewind.diagnose.experiments import Draw, judge, judge_hidden_lag, wilson_interval  # noqa: E402
 from dronewind.diagnose.features import FEATURES  # noqa: E402
 from dronewind.diagnose.in_process import diagnose_evidence, measured_campaign_evidence  # noqa: E402
-from dronewind.diagnose.pooled import campaign_mean_z, pooled_offsets  # noqa: E402
+from dronewind.diagnose.pooled import pooled_offsets, residual_mean_z  # noqa: E402
 from dronewind.manifest import default_config  # noqa: E402
 
 #: Targets the rates are read against (reported, never tuned to).
@@ -147,9 +146,9 @@ def run_draw(job: tuple[int, Draw, Mapping[str, Any], WorldSettings, str | None,
     out["candidates"] = [{k: c.get(k) for k in ("mechanism", "estimate", "gain", "significant", "p_value")}
                          for c in diagnosis.get("candidates", [])[:4]]
     out["unexplained"] = diagnosis.get("unexplained", [])
-    ev = assemble(evidence["measured"], evidence["forward"])
     # the forward baseline's misfit by feature (what the model gets wrong in this world: feature_offsets)
-    out["baseline_mean_z"] = {f: finite_or_none(z) for f, z in campaign_mean_z(ev).items()} if ev.flights else {}
+    residuals = diagnosis["baseline"].get("residuals")
+    out["baseline_mean_z"] = {f: finite_or_none(z) for f, z in residual_mean_z(residuals).items()} if residuals else {}
     out["unusable"] = evidence.get("unusable", [])
     if diagnosis.get("note"):  # too few usable flights: nothing diagnosed (record.not_diagnosed_json)
         out["not_diagnosed"] = diagnosis["note"]

@@ -220,9 +220,9 @@ def _model_error_args(parser: argparse.ArgumentParser) -> None:
 
 
 def _model_error(args: argparse.Namespace) -> int:
-    from dronewind.core.cf import atomic_write_text
     from dronewind.diagnose.calibration import UNEXPLAINED_ALPHA
-    from dronewind.diagnose.pooled import offsets_table, pool_diagnoses, read_campaign, result_json
+    from dronewind.diagnose.pooled import offsets_table, pool_diagnoses, read_campaign
+    from dronewind.steps.diagnosis import write_json
 
     alpha = UNEXPLAINED_ALPHA if args.alpha is None else args.alpha
     if not 0.0 < alpha < 1.0:
@@ -230,7 +230,7 @@ def _model_error(args: argparse.Namespace) -> int:
     result = pool_diagnoses([read_campaign(p) for p in args.diagnoses], alpha)
     print(offsets_table(result))
     if args.out is not None:
-        atomic_write_text(args.out, result_json(result))
+        write_json(args.out, result)
         print(f"written: {args.out}")
     return 0
 

@@ -6,11 +6,13 @@ import numpy as np
 import pytest
 
 from dronewind.diagnose.features import FEATURES
-from dronewind.diagnose.pooled import campaign_mean_z, pooled_offsets
+from dronewind.diagnose.fit_quality import residual_table
+from dronewind.diagnose.pooled import pooled_offsets, residual_mean_z
 
 
-def test_campaign_mean_z_known_answer():
-    """Two flights: (y - b) / sigma averaged over the flights where the feature is measured."""
+def test_residual_mean_z_known_answer():
+    """Two flights, rows written by the diagnosis' residual_table: (y - b) / sigma averaged over
+    the flights where the feature is measured."""
     p = len(FEATURES)
     y = np.zeros((2, p))
     baseline = np.zeros((2, p))
@@ -19,11 +21,13 @@ def test_campaign_mean_z_known_answer():
     sigma[:, 0] = [0.1, 0.2]           # z = 2 and 3
     y[1, 1] = np.nan                   # feature 1 measured on the first flight only: z = 0
     sigma[:, 2] = 0.0                  # no error: not standardised
-    out = campaign_mean_z(SimpleNamespace(y=y, baseline=baseline, sigma=sigma))
+    ev = SimpleNamespace(flights=["f1", "f2"], y=y, baseline=baseline, sigma=sigma,
+                         conditions=[{"mean_speed_ms": 5.0}] * 2)
+    out = residual_mean_z(residual_table(ev))
     assert out[FEATURES[0]] == pytest.approx(2.5)
     assert out[FEATURES[1]] == 0.0
     assert np.isnan(out[FEATURES[2]])
-    moved = campaign_mean_z(SimpleNamespace(y=y, baseline=baseline, sigma=sigma), prediction=baseline + 0.1)
+    moved = residual_mean_z(residual_table(ev, baseline + 0.1))
     assert moved[FEATURES[0]] == pytest.approx(((0.1 / 0.1) + (0.5 / 0.2)) / 2)
 
 

@@ -3,10 +3,10 @@ r"""Model error common to several campaigns: what the forward model gets wrong o
 One campaign's ``unexplained`` test (:func:`dronewind.diagnose.fit_quality.unexplained_features`)
 sees a feature's offset only where it stands above that campaign's few flights. Physics the
 forward model lacks moves a feature the same way on every campaign, so it shows in the mean
-standardised residual over campaigns: :func:`campaign_mean_z` (one campaign's evidence) or
-:func:`residual_mean_z` (the ``baseline.residuals`` rows of a ``diagnosis.json``), pooled and
-tested by :func:`pooled_offsets`; :func:`read_campaign` and :func:`pool_diagnoses` do it for
-``diagnosis.json`` files (``dronewind model-error``).
+standardised residual over campaigns: :func:`residual_mean_z` of each campaign's
+``baseline.residuals`` (:func:`dronewind.diagnose.fit_quality.residual_table`, in every
+diagnosis record), pooled and tested by :func:`pooled_offsets`; :func:`read_campaign` and
+:func:`pool_diagnoses` do it for ``diagnosis.json`` files (``dronewind model-error``).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import scipy.stats
@@ -25,37 +25,8 @@ from dronewind.diagnose.calibration import UNEXPLAINED_ALPHA
 from dronewind.diagnose.features import FEATURES
 from dronewind.errors import InputError
 
-if TYPE_CHECKING:
-    from dronewind.diagnose.evidence import CampaignEvidence
-
-__all__ = ["campaign_mean_z", "residual_mean_z", "pooled_offsets", "CampaignResiduals", "read_campaign",
-           "pool_diagnoses", "offsets_table", "result_json"]
-
-
-def campaign_mean_z(ev: CampaignEvidence, prediction: np.ndarray | None = None) -> dict[str, float]:
-    r"""Mean standardised residual of every feature over a campaign's flights.
-
-    Parameters
-    ----------
-    ev : CampaignEvidence
-        Measured features, their calibrated errors and the forward baseline.
-    prediction : numpy.ndarray, optional
-        Predicted features (n_flights, n_features); the forward baseline by default.
-
-    Returns
-    -------
-    dict
-        Feature -> :math:`\bar z_f = \frac{1}{n_f} \sum_i (y_{if} - \hat y_{if}) / \sigma_{if}` over
-        the flights where the feature is measured [-] (NaN where no flight has it).
-    """
-    pred = ev.baseline if prediction is None else prediction
-    with np.errstate(invalid="ignore", divide="ignore"):
-        z = (ev.y - pred) / np.where(ev.sigma > 0, ev.sigma, np.nan)
-    out = {}
-    for j, feat in enumerate(FEATURES):
-        col = z[:, j][np.isfinite(z[:, j])]
-        out[feat] = float(col.mean()) if col.size else float("nan")
-    return out
+__all__ = ["residual_mean_z", "pooled_offsets", "CampaignResiduals", "read_campaign", "pool_diagnoses",
+           "offsets_table"]
 
 
 def pooled_offsets(campaigns: Sequence[dict[str, float]], alpha: float = UNEXPLAINED_ALPHA,
@@ -71,7 +42,7 @@ def pooled_offsets(campaigns: Sequence[dict[str, float]], alpha: float = UNEXPLA
     ----------
     campaigns : sequence of dict
         Per campaign, feature -> mean standardised residual over its flights
-        (:func:`campaign_mean_z`) [-].
+        (:func:`residual_mean_z`) [-].
     alpha : float
         Family-wise false-alarm rate over the features (Bonferroni).
     features : sequence of str
@@ -131,8 +102,7 @@ def residual_mean_z(rows: Sequence[Mapping[str, Any]]) -> dict[str, float]:
     Returns
     -------
     dict
-        Feature -> mean of its finite ``z`` [-] (NaN where no flight has one), as
-        :func:`campaign_mean_z` gives from the evidence.
+        Feature -> mean of its finite ``z`` [-] (NaN where no flight has one).
     """
     values: dict[str, list[float]] = {f: [] for f in FEATURES}
     for row in rows:
@@ -260,17 +230,3 @@ def offsets_table(result: Mapping[str, Any]) -> str:
         lines.append(f"  left out: {c['campaign']} ({c['path']}): {c['note']}")
     return "\n".join(lines)
 
-
-def result_json(result: Mapping[str, Any]) -> str:
-    """:func:`pool_diagnoses` as JSON text (a non-finite number, such as the p-value of one campaign, as null)."""
-
-    def clean(x: Any) -> Any:
-        if isinstance(x, float):
-            return x if math.isfinite(x) else None
-        if isinstance(x, Mapping):
-            return {str(k): clean(v) for k, v in x.items()}
-        if isinstance(x, (list, tuple)):
-            return [clean(v) for v in x]
-        return x
-
-    return json.dumps(clean(result), indent=1, allow_nan=False) + "\n"

@@ -9,7 +9,7 @@ from typing import Any
 from dronewind.diagnose.calibration import ProfiledFit
 from dronewind.diagnose.evidence import error_model, measured_conditions
 from dronewind.diagnose.features import FEATURES
-from dronewind.diagnose.fit_quality import baseline_metrics, goodness_of_fit, unexplained_features
+from dronewind.diagnose.fit_quality import baseline_metrics, goodness_of_fit, residual_table, unexplained_features
 from dronewind.diagnose.naming import (
     FEATURE_ALIASES,
     DiagnosisResult,
@@ -93,7 +93,9 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
 
     The :func:`decision_json` entries, with the fit's quality beside them: the goodness of fit
     of the named model and of the baseline (the named model's p-value refits the named causes on
-    every bootstrap replicate), the ``unexplained`` features, the error model and the method.
+    every bootstrap replicate), the baseline's per-flight residuals
+    (:func:`~dronewind.diagnose.fit_quality.residual_table`, what ``dronewind model-error`` pools
+    over campaigns), the ``unexplained`` features, the error model and the method.
     """
     ev = result.evidence
     decision = decision_json(result, campaign)
@@ -105,7 +107,8 @@ def to_json(result: DiagnosisResult, campaign: str) -> dict[str, Any]:
         "unexplained": unexplained_features(ev, extended, result=result),
         "baseline": {"metrics": {**baseline_metrics(ev), "heldout_chi2": float(
             next(iter(result.scores.values())).heldout_chi2_baseline.sum()) if result.scores else float("nan")},
-            "goodness_of_fit": goodness_of_fit(ev, ev.baseline, 0, result, baseline=True)},
+            "goodness_of_fit": goodness_of_fit(ev, ev.baseline, 0, result, baseline=True),
+            "residuals": residual_table(ev)},
         **{key: value for key, value in decision.items() if key != "campaign"},
         "sigma_scale": {f: float(k) for f, k in zip(FEATURES, ev.scale, strict=True)},
         "error_model": error_model(ev, result),

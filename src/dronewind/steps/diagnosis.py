@@ -367,7 +367,6 @@ def diagnose_campaign(manifest: str | Path, measured_files: Sequence[str | Path]
                          n_replicates=int(bootstrap), progress=_replicate_counter(int(bootstrap)), reference=reference)
     out = dc.to_json(result, campaign.name)
     out["atmosphere"] = atmosphere
-    out["baseline"]["residuals"] = dc.residual_table(ev)
     out["baseline"]["wind_speed_slopes"] = dc.wind_speed_slopes(ev)
     out["extended"] = {"prediction_metrics": dc.baseline_metrics(ev, dc.combined_prediction(result)),
                        "mechanisms": dc.named_mechanisms(result)}
