@@ -25,6 +25,8 @@ Examples::
         --draws 60 --seed 1 --workers 2 --out benchmarks/results/diagnosis_independent_world.json
     # base lags of 50-150 ms of either sign instead of the paper's -0.185..0 s
     ... --base-lag symmetric
+    # the forward model's payload attitude following the line (diagnosis.forward_payload)
+    ... --forward-payload rope_pitch_fraction=1,rope_roll_fraction=1 --evidence-dir EVIDENCE_ROPE
 
 The plan of draws is fixed by ``--draws`` and ``--seed`` (draw ``k`` is the same whatever
 subset runs); ``--indices`` runs part of it, by default in an interleaved order (nulls, model
@@ -93,6 +95,9 @@ def draw_evidence(index: int, truth: Draw, config: Mapping[str, Any], settings: 
     and world, else written, processed and kept (a failing chain is kept as the draw's error)."""
     path = _evidence_path(evidence_dir, index)
     key = {"truth": asdict(truth), "world": _world(settings)}
+    forward_payload = dict(config["diagnosis"].get("forward_payload") or {})
+    if forward_payload:  # the forward runs depend on it (evidence kept without it has none)
+        key["forward_payload"] = forward_payload
     if path.exists():
         stored = json.loads(path.read_text())
         if stored.get("key") == json.loads(json.dumps(key, default=str)):
@@ -278,10 +283,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--order", choices=["interleaved", "index"], default="interleaved",
                         help="order of the draws (default interleaved: every prefix a fair sample of the plan)")
     parser.add_argument("--evidence-only", action="store_true", help="make and keep the evidence, do not diagnose")
+    parser.add_argument("--forward-payload", default="", metavar="KEY=VALUE,...",
+                        help="diagnosis.forward_payload: the forward model's payload settings, e.g. "
+                             "rope_pitch_fraction=1,rope_roll_fraction=1 (default: none, the SAMURAI-S defaults); "
+                             "use another --evidence-dir, the kept forward runs depend on it")
     args = parser.parse_args(argv)
 
     settings = WorldSettings(n_flights=args.flights, hover_s=60.0 * args.hover_min, base_lag=args.base_lag)
     config = default_config()
+    config["diagnosis"]["forward_payload"] = {key: float(value) for key, value in
+                                              (item.split("=", 1) for item in args.forward_payload.split(",") if item)}
     draws = stratified_world_draws(args.draws, args.seed, args.null_share, args.model_error_share)
     chosen = _indices(args.indices, len(draws))
     order = interleaved(draws) if args.order == "interleaved" else list(range(len(draws)))

@@ -233,3 +233,19 @@ def test_the_decision_record_is_the_full_records_decision():
     assert set(decision) == set(full) - {"goodness_of_fit", "unexplained", "baseline", "sigma_scale",
                                          "error_model", "method"}
     assert {key: full[key] for key in decision} == decision
+
+
+def test_the_forward_payload_is_stated_in_the_error_model_and_the_report():
+    """diagnosis.forward_payload (carried by the conditions) is part of the error model the report states."""
+    from dronewind.diagnose.report import markdown
+
+    measured, forward = _campaign(np.random.default_rng(31))
+    default = _diagnosis(measured, forward)
+    assert default["error_model"]["forward_payload"] == {}
+    assert "payload of the forward runs: the simulator's SAMURAI-S defaults" in markdown(default, {}, {}, [])
+    for flight in forward:
+        forward[flight]["conditions"]["payload"] = {"rope_pitch_fraction": 1.0}
+    diag = _diagnosis(measured, forward)
+    assert diag["error_model"]["forward_payload"] == {"rope_pitch_fraction": 1.0}
+    assert "payload of the forward runs: rope_pitch_fraction = 1 (diagnosis.forward_payload)" in markdown(
+        diag, {}, {}, [])

@@ -108,3 +108,35 @@ def test_parts_with_the_lag_condition_merge_into_the_whole_flight(measured):
         whole.pop(key), merged.pop(key)
     assert merged == whole
     assert {p["simulated_sonic_ins_lag_s"] for p in parts} == {whole["simulated_sonic_ins_lag_s"]}
+
+
+def test_the_declared_payload_travels_with_the_conditions_into_every_forward_manifest(measured):
+    """diagnosis.forward_payload (the platform flown) is simulated by the forward runs and the extended model."""
+    from dronewind.errors import InputError
+    from dronewind.steps.diagnosis import extended_manifest
+
+    camp, conditions, _ = measured
+    records, _ = payload_records(camp, "f1")
+    _, products = forward.process_forward_flight(camp, "f1", records, _processing())
+    declared = {"rope_pitch_fraction": 1.0, "pendulum_length_m": 12.0}
+    with_payload = forward_conditions.forward_conditions(camp, "f1", products["l3"], products["l2"], declared)
+    assert with_payload == {**conditions, "payload": declared}
+    flight, payload = forward_conditions.split_payload(with_payload)
+    assert flight == conditions and payload == declared
+    manifest = forward_manifest(camp, "f1", with_payload)
+    assert manifest["simulation"]["payload"] == declared
+    assert "payload" not in manifest["simulation"]["payload_flights"]["f1"]
+    assert resolve_payload_flight(manifest, "f1")["payload"]["pendulum_length_m"] == 12.0
+    assert "payload" not in forward_manifest(camp, "f1", conditions)["simulation"]
+    extended = extended_manifest(camp, {"f1": with_payload}, [])
+    assert extended["simulation"]["payload"] == declared
+    assert extended["simulation"]["payload_flights"] == {"f1": conditions}
+    with pytest.raises(InputError) as err:
+        extended_manifest(camp, {"f1": with_payload, "f2": {**conditions, "payload": {"mass_kg": 6.0}}}, [])
+    assert err.value.where == "diagnosis.forward_payload"
+    for bad, where in (({"rope_length": 3.0}, "diagnosis.forward_payload.rope_length"),
+                       ({"rope_pitch_fraction": 2.0}, "diagnosis.forward_payload.rope_pitch_fraction"),
+                       ({"defects": {}}, "diagnosis.forward_payload.defects")):
+        with pytest.raises(InputError) as err:
+            forward_conditions.forward_conditions(camp, "f1", products["l3"], products["l2"], bad)
+        assert err.value.where == where, str(err.value)

@@ -24,7 +24,7 @@ from scipy import signal
 from dronewind.core.geo import local_tangent_plane_m
 from dronewind.errors import InputError
 from dronewind.simulate.payload import simulate_payload_flight
-from dronewind.simulate.payload_motion import body_to_ned, pendulum_period_s
+from dronewind.simulate.payload_motion import body_to_ned, pendulum_period_s, rope_attitude_deg
 from dronewind.simulate.settings import flight_seed, resolve_payload_flight, validate_simulation
 from dronewind.simulate.writers import INS_HEADER, SONIC_HEADER
 
@@ -261,6 +261,48 @@ def test_reruns_bit_identical_and_seed_matters(tmp_path, base):
     changed = simulate_payload_flight(other, tmp_path, "f1", tmp_path / "other")
     assert all(a != b for a, b in zip(_sha(changed), _sha(base["files"]), strict=True))
     assert flight_seed(42, "f1") == int.from_bytes(hashlib.sha256(b"42:f1").digest()[:8], "little")
+
+
+# ------------------------------------------------------------------ attitude following the line
+def test_rope_attitude_known_answers():
+    # heading north, the payload 1.8 m south of the drone on an 18 m line: it trails, nose down 0.1 rad
+    roll, pitch = rope_attitude_deg(np.array([-1.8]), np.array([0.0]), 18.0, np.array([0.0]))
+    assert pitch[0] == pytest.approx(-math.degrees(0.1)) and roll[0] == pytest.approx(0.0, abs=1e-12)
+    # heading east, the payload 1.8 m north of the drone (to its left): right wing down 0.1 rad
+    roll, pitch = rope_attitude_deg(np.array([1.8]), np.array([0.0]), 18.0, np.array([90.0]))
+    assert roll[0] == pytest.approx(math.degrees(0.1)) and pitch[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_rope_attitude_puts_the_body_z_axis_along_the_line():
+    # for small swings the body z axis (third column of the body-to-NED rotation) points along the
+    # line: its horizontal components are the payload's offset over the line length
+    rng = np.random.default_rng(3)
+    north, east, yaw = rng.normal(0, 0.3, 50), rng.normal(0, 0.3, 50), rng.uniform(0, 360, 50)
+    roll, pitch = rope_attitude_deg(north, east, 18.0, yaw)
+    z_axis = body_to_ned(roll, pitch, yaw)[:, :, 2]
+    np.testing.assert_allclose(z_axis[:, 0], north / 18.0, atol=2e-4)  # second order in 1.7 degree swings
+    np.testing.assert_allclose(z_axis[:, 1], east / 18.0, atol=2e-4)
+
+
+def test_payload_attitude_follows_the_line_swing_only_when_asked(tmp_path, base):
+    """rope_pitch_fraction / rope_roll_fraction 0 (SAMURAI-S) leave every record as it was; 1 adds the
+    line's swing to that axis alone, with its power at the pendulum frequency (Sect. 2.3: 8.5 s)."""
+    zero = _campaign()
+    zero["simulation"]["payload"].update(rope_pitch_fraction=0.0, rope_roll_fraction=0.0)
+    assert _sha(simulate_payload_flight(zero, tmp_path, "f1", tmp_path / "zero")) == _sha(base["files"])
+    f_pendulum = 1.0 / pendulum_period_s(18.0)
+    hover = _hover(base["ins"])
+    for axis, other in (("pitch", "roll"), ("roll", "pitch")):
+        camp = _campaign()
+        camp["simulation"]["payload"][f"rope_{axis}_fraction"] = 1.0
+        ins = _run(tmp_path, camp, axis)["ins"]
+        assert np.array_equal(ins[f"{other}_deg"].to_numpy(), base["ins"][f"{other}_deg"].to_numpy())
+        swing = (ins[f"{axis}_deg"] - base["ins"][f"{axis}_deg"]).to_numpy()[hover]
+        assert 0.3 < np.std(swing) < 10.0
+        f_hz, psd = signal.welch(swing - swing.mean(), fs=50.0, nperseg=4096)
+        assert abs(f_hz[1:][np.argmax(psd[1:])] - f_pendulum) < 0.02  # measured 0.110 and 0.122 Hz
+        band = (f_hz > 0.08) & (f_hz < 0.17)
+        assert psd[band].sum() > 0.5 * psd[1:].sum()  # measured 0.66 (pitch) and 0.80 (roll)
 
 
 # ------------------------------------------------------------------ mechanisms

@@ -23,6 +23,7 @@ MEASURED_PARAMS = dict(
     sonic_ins_lag=PROCESSING["sonic_ins_lag"],
     hover=PROCESSING["hover"],
     max_missing_fraction=PROCESSING["max_missing_fraction"],
+    forward_payload=DIAGNOSIS["forward_payload"],
 )
 
 

@@ -4,7 +4,7 @@ from dronewind.steps import logged
 from dronewind.steps.diagnosis import forward_probes, measured_features
 
 #: The rule's params that the measured-features step takes (the others are the forward runs').
-MEASURED_KEYS = ("campaign", "flight_id", "sonic_ins_lag", "hover", "max_missing_fraction")
+MEASURED_KEYS = ("campaign", "flight_id", "sonic_ins_lag", "hover", "max_missing_fraction", "forward_payload")
 FORWARD_KEYS = ("campaign", "flight_id", "processing", "seeds", "atmosphere", "parts")
 
 sm = snakemake  # noqa: F821 (snakemake is injected)

@@ -323,9 +323,12 @@ def error_model(ev: CampaignEvidence, result: DiagnosisResult | None = None) -> 
     dict
         Seeds, pooled degrees of freedom, shrinkage, the seed scale of every feature, the
         discrepancy of every feature with its interval, the features left out as measured
-        conditions and the bootstrap's replicates and seed.
+        conditions, the bootstrap's replicates and seed, and ``forward_payload``: the payload
+        settings the forward runs simulated (``diagnosis.forward_payload``; empty: the
+        simulator's SAMURAI-S defaults).
     """
     out: dict[str, Any] = {
+        "forward_payload": next((dict(c["payload"]) for c in ev.conditions if c and c.get("payload")), {}),
         "n_seeds": int(ev.n_seeds),
         "covariance": "shrunk correlation" if ev.correlation is not None else "diagonal",
         "shrinkage_target": "identity (Schaefer and Strimmer 2005, target D)",

@@ -5,7 +5,10 @@ length at its height (:func:`mast_surface_layer`, Monin-Obukhov similarity of
 :mod:`dronewind.core.surface_layer`), the drone's hover height, position relative to the
 mast and hover window (:func:`forward_conditions`), and the simulator's manifest of one
 flight built from them (:func:`forward_manifest`). Nothing is read from the campaign's own
-``simulation:`` section (for a virtual campaign that would be reading the answer).
+``simulation:`` section (for a virtual campaign that would be reading the answer). What the
+user declares of the payload platform (``diagnosis.forward_payload``: its line length, mass,
+drag area, how its attitude follows the line; :data:`dronewind.simulate.defaults.PAYLOAD_DEFAULTS`)
+travels with the conditions as their ``payload`` entry (:func:`split_payload`).
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ from dronewind.manifest import payload_flight_manifest
 __all__ = [
     "forward_conditions",
     "forward_manifest",
+    "split_payload",
+    "PAYLOAD_KEY",
     "processing_window",
     "measured_span",
     "WINDOW_PAD_S",
@@ -116,11 +121,35 @@ def hover_offset_enu_m(campaign_data: Mapping[str, Any], flight: Mapping[str, An
     return float(east[0]), float(north[0])
 
 
+#: Key of the conditions that holds the forward model's payload settings (``simulation.payload``).
+PAYLOAD_KEY = "payload"
+
+
+def split_payload(conditions: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """A flight's conditions without their ``payload`` entry, and that entry (empty without one).
+
+    Parameters
+    ----------
+    conditions : mapping
+        Output of :func:`forward_conditions`.
+
+    Returns
+    -------
+    flight : dict
+        The keys of ``simulation.payload_flights.<id>``.
+    payload : dict
+        The keys of ``simulation.payload`` (the forward model's payload settings).
+    """
+    flight = {k: v for k, v in conditions.items() if k != PAYLOAD_KEY}
+    return flight, dict(conditions.get(PAYLOAD_KEY) or {})
+
+
 def forward_conditions(
     campaign_data: Mapping[str, Any],
     flight_id: str,
     l3: xr.Dataset,
     l2_drone: xr.Dataset,
+    payload: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Simulator conditions of one flight, estimated from its processed data.
 
@@ -149,8 +178,18 @@ def forward_conditions(
         every sonic-INS system has a processing lag of its own, different per flight
         (Ghirardelli et al. 2025, Sect. 3.3, Fig. 4), which the forward runs reproduce
         (:func:`simulated_sonic_ins_lag_s`). A condition of the forward model, the lag is
-        then no evidence of the diagnosis.
+        then no evidence of the diagnosis. With ``payload`` also :data:`PAYLOAD_KEY`.
+
+    Other Parameters
+    ----------------
+    payload : mapping, optional
+        The forward model's payload settings (``diagnosis.forward_payload``, keys of
+        ``simulation.payload``), declared by the user for the platform flown; the
+        simulator's defaults (SAMURAI-S) where absent.
     """
+    from dronewind.simulate.settings import check_payload_settings
+
+    payload = check_payload_settings(payload, "diagnosis.forward_payload")
     layer = mast_surface_layer(l3)
     m = list(np.asarray(l3["sensor"].values).astype(str)).index("mast")
     flight = next(f for f in campaign_data["payload_flights"] if f["id"] == flight_id)
@@ -171,6 +210,7 @@ def forward_conditions(
         "roughness_length_m": roughness_length_m(layer),
         "theta_mean_k": float(min(max(layer.theta_mean_k, 221.0), 329.0)),
         **({} if lag is None else {"sonic_ins_lag_s": lag}),
+        **({PAYLOAD_KEY: dict(payload)} if payload else {}),
     }
 
 
@@ -299,7 +339,8 @@ def forward_manifest(
         mast sonic (:func:`dronewind.manifest.payload_flight_manifest`) and a
         ``simulation:`` section. The flight's sonic-INS processing lag is the conditions'
         ``sonic_ins_lag_s``, or 0 without one (not the simulator's per-flight draw, which
-        would give every seed another lag).
+        would give every seed another lag); the conditions' ``payload`` entry, if any, is
+        ``simulation.payload``.
     """
     data = payload_flight_manifest(campaign_data, flight_id)
     flight = data["payload_flights"][0]
@@ -307,12 +348,15 @@ def forward_manifest(
     if measured_atmosphere:
         flight["window"] = processing_window(conditions)
     data["name"] = f"{campaign_data['name']}_forward_{flight_id}"
+    flight_conditions, payload = split_payload(conditions)
     data["simulation"] = {
         "seed": int(seed),
-        "payload_flights": {flight_id: {**dict(conditions), "sonic_ins_lag_s": float(conditions.get("sonic_ins_lag_s",
-                                                                                                    0.0))}},
+        "payload_flights": {flight_id: {**flight_conditions,
+                                        "sonic_ins_lag_s": float(conditions.get("sonic_ins_lag_s", 0.0))}},
         "mechanisms": [dict(m) for m in (mechanisms or [])],
     }
+    if payload:
+        data["simulation"]["payload"] = payload
     if measured_atmosphere:
         data["simulation"]["mast"] = {"noise_ms": 0.0, "temperature_noise_k": 0.0}
     return data

@@ -81,7 +81,8 @@ def process_virtual_flight(data: Mapping[str, Any], flight: Mapping[str, Any], w
 
 
 def forward_inputs(data: Mapping[str, Any], flight_id: str, flight: VirtualFlight, processing: Mapping[str, Any],
-                   atmosphere: str = "measured") -> tuple[dict[str, Any], dict[str, Any], xr.Dataset | None]:
+                   atmosphere: str = "measured", forward_payload: Mapping[str, Any] | None = None
+                   ) -> tuple[dict[str, Any], dict[str, Any], xr.Dataset | None]:
     """What a processed flight's forward runs read, as the workflow's forward job makes it.
 
     Parameters
@@ -96,6 +97,8 @@ def forward_inputs(data: Mapping[str, Any], flight_id: str, flight: VirtualFligh
         ``processing`` settings (at least :data:`dronewind.diagnose.probes.LAG_SETTINGS`).
     atmosphere : {"measured", "model"}
         ``diagnosis.atmosphere``.
+    forward_payload : mapping, optional
+        ``diagnosis.forward_payload`` (the conditions' ``payload``).
 
     Returns
     -------
@@ -113,18 +116,20 @@ def forward_inputs(data: Mapping[str, Any], flight_id: str, flight: VirtualFligh
     lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     measured = features_to_dict(forward.measured_features(data, flight_id, flight.sonic_l1, flight.ins_l1, flight.l2,
                                                           flight.l3, **lag))
-    conditions = forward_conditions.forward_conditions(data, flight_id, flight.l3, flight.l2)
+    conditions = forward_conditions.forward_conditions(data, flight_id, flight.l3, flight.l2, forward_payload)
     record = forward_atmosphere.atmosphere_record(flight.mast_l1, conditions) if atmosphere == "measured" else None
     return measured, conditions, record
 
 
 def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Path,
                     processing: Mapping[str, Any], seeds: tuple[int, ...],
-                    atmosphere: str = "measured") -> tuple[dict[str, Any], dict[str, Any]]:
+                    atmosphere: str = "measured", forward_payload: Mapping[str, Any] | None = None
+                    ) -> tuple[dict[str, Any], dict[str, Any]]:
     """Simulate one flight of a hidden-effect campaign, process it, run its forward probes.
 
     ``atmosphere`` is ``diagnosis.atmosphere``: with ``measured`` the forward runs take the
-    reference mast's L1 as their atmosphere, as the workflow's forward rules do.
+    reference mast's L1 as their atmosphere, as the workflow's forward rules do;
+    ``forward_payload`` is ``diagnosis.forward_payload``.
 
     Returns
     -------
@@ -137,7 +142,7 @@ def _process_flight(data: Mapping[str, Any], flight: Mapping[str, Any], work: Pa
 
     fid = flight["id"]
     v = process_virtual_flight(data, flight, work, processing)
-    measured, conditions, record = forward_inputs(data, fid, v, processing, atmosphere)
+    measured, conditions, record = forward_inputs(data, fid, v, processing, atmosphere, forward_payload)
     return measured, probe_runs.probe_runs(data, fid, conditions, processing, seeds=seeds, atmosphere=record)
 
 
@@ -194,7 +199,8 @@ def campaign_evidence(truth: Draw, config: Mapping[str, Any], work_dir: str | Pa
     seeds = tuple(resolved_seeds(diagnosis["seeds"], len(data["payload_flights"])))
     for flight in data["payload_flights"]:
         measured[flight["id"]], fwd[flight["id"]] = _process_flight(data, flight, Path(work_dir), processing, seeds,
-                                                                    str(diagnosis["atmosphere"]))
+                                                                    str(diagnosis["atmosphere"]),
+                                                                    diagnosis["forward_payload"])
     return {"name": data["name"], "measured": measured, "forward": fwd}
 
 
@@ -331,7 +337,8 @@ def measured_campaign_evidence(manifest_path: str | Path, config: Mapping[str, A
         m2 = compute_mast_l2(mast_l1[ref], l2, fid, processing["drone_mast"])
         l3 = compute_l3(l2, m2, flight, processing["drone_mast"], processing["rotation"])
         measured[fid], conditions, record = forward_inputs(view, fid, VirtualFlight(s1, i1, l2, mast_l1[ref], l3),
-                                                           processing, str(diagnosis["atmosphere"]))
+                                                           processing, str(diagnosis["atmosphere"]),
+                                                           diagnosis["forward_payload"])
         fwd[fid] = probe_runs.probe_runs(view, fid, conditions, processing, seeds=seeds, atmosphere=record)
     return {"name": campaign.name, "measured": measured, "forward": fwd, "unusable": unusable,
             "unusable_reasons": reasons}

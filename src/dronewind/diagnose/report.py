@@ -91,6 +91,10 @@ def _error_model_lines(diag: Mapping[str, Any]) -> list[str]:
            f"- reference distributions: {(em.get('reference') or {}).get('method', '–')}"
            + (f", {em['reference']['replicates']} replicates" if (em.get("reference") or {}).get("replicates")
               else "")]
+    payload = em.get("forward_payload") or {}
+    out.append("- payload of the forward runs: " + (", ".join(f"{k} = {_fmt(v)}" for k, v in sorted(payload.items()))
+                                                    + " (diagnosis.forward_payload), SAMURAI-S defaults otherwise"
+                                                    if payload else "the simulator's SAMURAI-S defaults"))
     disc = (em.get("discrepancy") or {}).get("per_feature") or {}
     nonzero = {f: d for f, d in disc.items() if d.get("tau")}
     out.append("- model discrepancy (scatter across flights beyond sampling error, in every candidate test): "

@@ -142,7 +142,8 @@ def processed_flight(view: Mapping[str, Any], flight_id: str, config: Mapping[st
     work = Path(work_dir)
     work.mkdir(parents=True, exist_ok=True)
     v = process_virtual_flight(view, flight, work, processing)
-    measured, conditions, record = forward_inputs(view, flight_id, v, processing, settings["diagnosis"]["atmosphere"])
+    measured, conditions, record = forward_inputs(view, flight_id, v, processing, settings["diagnosis"]["atmosphere"],
+                                                  settings["diagnosis"]["forward_payload"])
     return {"measured": measured, "statistics": hover_statistics(v.l3), "conditions": conditions, "record": record}
 
 

@@ -55,6 +55,8 @@ whole numbers of Hz::
         drone_roll_jitter_deg: 0.5            # [0, 10] degree
         pitch_trim_deg: 1                     # [-15, 15] degree
         pitch_jitter_deg: 1                   # [0, 10] degree
+        rope_pitch_fraction: 0                # [0, 1] share of the line's angle in the pitch
+        rope_roll_fraction: 0                 # [0, 1] share of the line's angle in the roll
         yaw_time_constant_s: 15               # [0.1, 600] s
         yaw_jitter_deg: 3                     # [0, 30] degree
         attitude_jitter_time_s: 0.5           # [0.05, 60] s

@@ -68,6 +68,12 @@ PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
     "drone_roll_jitter_deg": (0.5, 0.0, 10.0, "degree"),
     "pitch_trim_deg": (1.0, -15.0, 15.0, "degree"),
     "pitch_jitter_deg": (1.0, 0.0, 10.0, "degree"),
+    # share of the line's angle the payload's pitch and roll follow (rope_attitude_deg): 0 for
+    # SAMURAI-S, which pitches freely about the axis of its rope attachments and takes its roll
+    # from the drone (Ghirardelli et al. 2025, Sect. 2.3, Fig. 3c); 1 for a payload hung rigidly
+    # from its line
+    "rope_pitch_fraction": (0.0, 0.0, 1.0, "1"),
+    "rope_roll_fraction": (0.0, 0.0, 1.0, "1"),
     "yaw_time_constant_s": (15.0, 0.1, 600.0, "s"),
     "yaw_jitter_deg": (3.0, 0.0, 30.0, "degree"),
     "attitude_jitter_time_s": (0.5, 0.05, 60.0, "s"),        # time scale of the attitude jitter

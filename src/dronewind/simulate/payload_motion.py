@@ -19,7 +19,9 @@ Physics (Ghirardelli et al. 2025, Sects. 2-3):
   z_drone - sqrt(l^2 - r^2).
 * Attitude: roll transferred from the drone, which banks into lateral gusts
   (phi = rho C_dA,drone U v' / (m_drone g), 0.5 s lag) plus jitter; pitch = balance trim
-  plus jitter; yaw weathervanes to the direction the relative air comes from
+  plus jitter; a share ``rope_pitch_fraction`` and ``rope_roll_fraction`` (0 by default) of
+  the line's swing angle added to pitch and roll (:func:`rope_attitude_deg`, a payload hung
+  rigidly from its line); yaw weathervanes to the direction the relative air comes from
   (first order, ``yaw_time_constant_s``) plus jitter (Sect. 2.3).
 """
 
@@ -48,6 +50,7 @@ from dronewind.simulate.settings import (
 __all__ = [
     "body_to_ned",
     "pendulum_period_s",
+    "rope_attitude_deg",
 ]
 
 
@@ -191,7 +194,7 @@ def _jitter(p: Mapping[str, float], rng: np.random.Generator, n: int, fs_hz: flo
 
 def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e_u: np.ndarray,
               e_v: np.ndarray, jitter: _Jitter,
-              fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Payload position: linearised pendulum under a jittering drone, forced by the turbulent drag.
 
     Ghirardelli et al. (2025), Sect. 2.3 (see the module docstring); the drone's hover jitter is ``jitter``'s.
@@ -200,6 +203,8 @@ def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e
     -------
     east_m, north_m, up_m : numpy.ndarray
         Payload position (ENU from the site) [m].
+    line_east_m, line_north_m : numpy.ndarray
+        Horizontal offset of the payload from the drone [m] (the line's swing).
     """
     airborne = air.airborne
     l_m = p["pendulum_length_m"]
@@ -217,7 +222,45 @@ def _pendulum(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoints, e
     z_pay = air.z_nominal_m + airborne * (jit_z + l_m - np.sqrt(np.maximum(l_m**2 - r_h**2, 0.0)))
     pos_e = field.hover_e_m + p_a * e_u[0] + p_c * e_v[0]
     pos_n = field.hover_n_m + p_a * e_u[1] + p_c * e_v[1]
-    return pos_e, pos_n, z_pay
+    line_a, line_c = p_a - d_a, p_c - d_c
+    return pos_e, pos_n, z_pay, line_a * e_u[0] + line_c * e_v[0], line_a * e_u[1] + line_c * e_v[1]
+
+
+def rope_attitude_deg(line_north_m: np.ndarray, line_east_m: np.ndarray, length_m: float,
+                      yaw_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""Roll and pitch of a payload whose vertical axis lies along its line [degree].
+
+    A payload hung rigidly from its line turns with the line's swing. With the payload's
+    horizontal offset :math:`\mathbf h = (h_N, h_E)` from the drone, :math:`l` the line's
+    length and :math:`\psi` the heading, its body z axis (down) along the line has the
+    horizontal components :math:`\mathbf h / l`; for small angles the third column of the
+    body-to-NED rotation (Ghirardelli et al. 2025, Appendix A) then gives
+
+    .. math::
+        \theta = \frac{h_N \cos\psi + h_E \sin\psi}{l}, \qquad
+        \phi = \frac{h_N \sin\psi - h_E \cos\psi}{l}
+
+    (nose down when the payload trails behind the drone, right wing down when it hangs to
+    the left).
+
+    Parameters
+    ----------
+    line_north_m, line_east_m : numpy.ndarray
+        Horizontal offset of the payload from the drone [m].
+    length_m : float
+        Line length [m].
+    yaw_deg : numpy.ndarray
+        Heading of the body x axis [degree].
+
+    Returns
+    -------
+    roll_deg, pitch_deg : numpy.ndarray
+        Roll and pitch [degree].
+    """
+    psi = deg2rad(np.asarray(yaw_deg, dtype=float))
+    h_n, h_e = np.asarray(line_north_m, dtype=float) / length_m, np.asarray(line_east_m, dtype=float) / length_m
+    cos_psi, sin_psi = np.cos(psi), np.sin(psi)
+    return rad2deg(h_n * sin_psi - h_e * cos_psi), rad2deg(h_n * cos_psi + h_e * sin_psi)
 
 
 def _slope_at_knots(spline: CubicSpline) -> np.ndarray:
@@ -241,11 +284,12 @@ def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoi
     """Pendulum path and attitude (Ghirardelli et al. 2025, Sect. 2.3).
 
     Roll: the drone banks into lateral gusts (0.5 s lag) plus jitter; pitch: trim plus
-    jitter; yaw weathervanes to the direction the relative air comes from (first order)
-    plus jitter (:func:`_jitter`).
+    jitter; shares of the line's swing angle added to both (:func:`rope_attitude_deg`); yaw
+    weathervanes to the direction the relative air comes from (first order) plus jitter
+    (:func:`_jitter`).
     """
     t = air.t_s
-    pos_e, pos_n, z_pay = _pendulum(p, air, field, spec.e_u, spec.e_v, jitter, fs_hz)
+    pos_e, pos_n, z_pay, line_e, line_n = _pendulum(p, air, field, spec.e_u, spec.e_v, jitter, fs_hz)
     u_mean = max(air.mean_hover_ms, 0.1)
     roll_k = AIR_DENSITY_KGM3 * p["drone_drag_area_m2"] * u_mean / (p["drone_mass_kg"] * _G)
     roll = rad2deg(_first_order(roll_k * air.v_fluct_ms, 0.5, fs_hz)) * air.airborne + jitter.roll_deg
@@ -254,6 +298,13 @@ def _payload_motion(p: Mapping[str, float], air: _AirAtPayload, field: _FieldPoi
     rel_e, rel_n = air.wind_e_ms - _slope_at_knots(spl_e), air.wind_n_ms - _slope_at_knots(spl_n)
     from_dir = unwrap_rad(np.arctan2(-rel_e, -rel_n))          # direction the relative air comes from
     yaw = rad2deg(_first_order(from_dir, p["yaw_time_constant_s"], fs_hz)) + jitter.yaw_deg
+    if p["rope_pitch_fraction"] > 0 or p["rope_roll_fraction"] > 0:
+        # the swing about the mean trail (the balance trim holds the mean attitude)
+        airborne = air.airborne > 0
+        swing = [np.where(airborne, x - (x[airborne].mean() if airborne.any() else 0.0), 0.0) for x in (line_n, line_e)]
+        rope_roll, rope_pitch = rope_attitude_deg(swing[0], swing[1], p["pendulum_length_m"], yaw)
+        roll = roll + p["rope_roll_fraction"] * rope_roll
+        pitch = pitch + p["rope_pitch_fraction"] * rope_pitch
     return _Motion(t, spl_e, spl_n, spl_z, roll, pitch, yaw, body_to_ned(roll, pitch, yaw))
 
 

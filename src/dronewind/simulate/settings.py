@@ -46,6 +46,7 @@ __all__ = [
     "processing_lag_s",
     "validate_simulation",
     "resolve_payload_flight",
+    "check_payload_settings",
 ]
 
 
@@ -276,6 +277,36 @@ def _block(section: Mapping[str, Any] | None, defaults: dict[str, tuple[float, f
     return out
 
 
+#: Payload settings whose lower bound is excluded (a line, a mass and a drag area are positive).
+PAYLOAD_EXCLUSIVE: tuple[str, ...] = ("pendulum_length_m", "mass_kg", "drag_area_m2")
+
+
+def check_payload_settings(section: Mapping[str, Any] | None, where: str = "simulation.payload") -> dict[str, float]:
+    """Payload settings checked against :data:`~dronewind.simulate.defaults.PAYLOAD_DEFAULTS` (no ``defects``).
+
+    Parameters
+    ----------
+    section : mapping or None
+        Settings to check (keys of ``simulation.payload``).
+    where : str
+        Name of the section in error messages.
+
+    Returns
+    -------
+    dict
+        The settings given, as floats (defaults not filled in).
+
+    Raises
+    ------
+    InputError
+        An unknown key, or a value that is not a number within its range.
+    """
+    if section is not None and not isinstance(section, Mapping):
+        raise InputError(where, "expected a mapping of payload settings")
+    checked = _block(section, PAYLOAD_DEFAULTS, where, exclusive=PAYLOAD_EXCLUSIVE)
+    return {key: checked[key] for key in (section or {})}
+
+
 def _mechanisms(sim: Mapping[str, Any], flight_ids: set[str]) -> list[MechanismEntry]:
     """The ``simulation.mechanisms`` list checked against the catalog and the flight ids."""
     items = sim.get("mechanisms") or []
@@ -330,7 +361,7 @@ def _payload_settings(sim: Mapping[str, Any]) -> tuple[dict[str, float], dict[st
     if bad:
         raise InputError(f"simulation.payload.defects.{bad[0]}", "unknown key; expected sonic or ins")
     payload = _block(payload_raw, PAYLOAD_DEFAULTS, "simulation.payload",
-                     exclusive=("pendulum_length_m", "mass_kg", "drag_area_m2"))
+                     exclusive=PAYLOAD_EXCLUSIVE)
     if payload["sonic_ins_lag_low_s"] > payload["sonic_ins_lag_high_s"]:
         raise InputError("simulation.payload.sonic_ins_lag_low_s",
                          f"{payload['sonic_ins_lag_low_s']} s is above sonic_ins_lag_high_s = "

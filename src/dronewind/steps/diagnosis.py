@@ -71,7 +71,8 @@ def _load_flight(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | Path,
 
 def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | Path, l3_file: str | Path,
                       output: str | Path, *, campaign: Mapping[str, Any], flight_id: str,
-                      sonic_ins_lag: Mapping[str, Any], hover: Mapping[str, Any], max_missing_fraction: float) -> Path:
+                      sonic_ins_lag: Mapping[str, Any], hover: Mapping[str, Any], max_missing_fraction: float,
+                      forward_payload: Mapping[str, Any] | None = None) -> Path:
     """Residual features of one processed flight, and the forward model's conditions, as JSON.
 
     Parameters
@@ -86,6 +87,9 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
         Payload flight id.
     sonic_ins_lag, hover, max_missing_fraction
         ``processing`` settings of the sonic-INS lag feature.
+    forward_payload : mapping, optional
+        ``diagnosis.forward_payload``: the forward model's payload settings, carried by the
+        conditions (:func:`dronewind.diagnose.forward_conditions.forward_conditions`).
 
     Returns
     -------
@@ -105,7 +109,7 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
                                    "reason": reason})
     feats = forward.measured_features(campaign, flight_id, sonic, ins, l2, l3, sonic_ins_lag=sonic_ins_lag,
                                       hover=hover, max_missing_fraction=max_missing_fraction)
-    conditions = forward_conditions.forward_conditions(campaign, flight_id, l3, l2)
+    conditions = forward_conditions.forward_conditions(campaign, flight_id, l3, l2, forward_payload)
     LOG.info("flight %s: features %s", flight_id, feats.values)
     usable = int(l2.attrs.get("usable", 1))
     left_out = {} if usable else {"reason": str(l2.attrs.get("unusable_reason", ""))}
@@ -282,8 +286,19 @@ def extended_manifest(campaign_data: Mapping[str, Any], conditions: Mapping[str,
     data["payload_flights"] = flights
     data["quadrotor_flights"] = []
     data.pop("tunnel", None)
-    data["simulation"] = {"seed": int(seed), "payload_flights": {k: dict(v) for k, v in conditions.items()},
+    from dronewind.diagnose.forward_conditions import split_payload
+    from dronewind.errors import InputError
+
+    split = {k: split_payload(v) for k, v in conditions.items()}
+    payloads = {repr(sorted(payload.items())): payload for _, payload in split.values()}
+    if len(payloads) > 1:
+        raise InputError("diagnosis.forward_payload", "the flights' forward payload settings differ; expected one "
+                         "setting for the campaign")
+    data["simulation"] = {"seed": int(seed), "payload_flights": {k: flight for k, (flight, _) in split.items()},
                           "mechanisms": mechanisms}
+    payload = next(iter(payloads.values()), {})
+    if payload:
+        data["simulation"]["payload"] = payload
     return data
 
 
