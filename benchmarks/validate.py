@@ -84,6 +84,13 @@ STUDIES: dict[str, Study] = {
         "validate_independent_world.py", ("--draws", "60", "--seed", "11", "--flights", "6", "--workers", "2",
                                           "--order", "interleaved"),
         "the first plan's draws with six flights per campaign instead of four"),
+    "diagnosis_independent_world_rope": Study(
+        "validate_independent_world.py",
+        ("--draws", "60", "--seed", "11", "--workers", "2", "--order", "interleaved", "--forward-payload",
+         "rope_pitch_fraction=1,rope_roll_fraction=1", "--evidence-dir",
+         "benchmarks/results/diagnosis_independent_world_rope_evidence"),
+        "the first plan's draws with the forward model's payload attitude following its line "
+        "(diagnosis.forward_payload), as that world's payload hangs"),
     "hidden_identifiability": Study("bench_identifiability.py", (),
                                     "is each mechanism identifiable at a physical size"),
     "model_error_features": Study("bench_model_error_features.py", ("--draws", "12", "--seed", "1"),
