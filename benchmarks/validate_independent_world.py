@@ -162,7 +162,10 @@ def run_draw(job: tuple[int, Draw, Mapping[str, Any], WorldSettings, str | None,
 
 
 def _world(settings: WorldSettings) -> dict[str, Any]:
-    return {**asdict(replace(settings)), "line": asdict(settings.line), "ins_errors": asdict(settings.ins_errors)}
+    out = {**asdict(replace(settings)), "line": asdict(settings.line), "ins_errors": asdict(settings.ins_errors)}
+    if not out["inertial_topup"]:
+        del out["inertial_topup"]  # the key of evidence kept before the setting existed
+    return out
 
 
 def interleaved(draws: list[Draw]) -> list[int]:
@@ -283,13 +286,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--order", choices=["interleaved", "index"], default="interleaved",
                         help="order of the draws (default interleaved: every prefix a fair sample of the plan)")
     parser.add_argument("--evidence-only", action="store_true", help="make and keep the evidence, do not diagnose")
+    parser.add_argument("--inertial-topup", action="store_true",
+                        help="the world's sensors get the inertial subrange its Mann box lacks above about 1 Hz "
+                             "(tests.worlds.turbulence.WindField.topup_enu); use another --evidence-dir")
     parser.add_argument("--forward-payload", default="", metavar="KEY=VALUE,...",
                         help="diagnosis.forward_payload: the forward model's payload settings, e.g. "
                              "rope_pitch_fraction=1,rope_roll_fraction=1 (default: none, the SAMURAI-S defaults); "
                              "use another --evidence-dir, the kept forward runs depend on it")
     args = parser.parse_args(argv)
 
-    settings = WorldSettings(n_flights=args.flights, hover_s=60.0 * args.hover_min, base_lag=args.base_lag)
+    settings = WorldSettings(n_flights=args.flights, hover_s=60.0 * args.hover_min, base_lag=args.base_lag,
+                             inertial_topup=args.inertial_topup)
     config = default_config()
     config["diagnosis"]["forward_payload"] = {key: float(value) for key, value in
                                               (item.split("=", 1) for item in args.forward_payload.split(",") if item)}

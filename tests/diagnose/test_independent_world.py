@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.signal
 
 from dronewind.diagnose import probes
 from dronewind.diagnose.experiments import Draw, judge
@@ -40,6 +41,46 @@ def test_mann_box_variances_and_inertial_slope() -> None:
     band = (k > 4 / 17.7) & (k < np.pi / 4)
     slope = np.polyfit(np.log(k[band]), np.log(spec[band]), 1)[0]
     assert slope == pytest.approx(-5 / 3, abs=0.2)     # 2 decades of a 1-realisation spectrum
+
+
+def test_inertial_deficit_known_answer() -> None:
+    """A spectrum that follows -5/3 up to 1 rad/m and falls as k^-4 beyond: the level is read in
+    the fit band, nothing is added below its top, the law minus the box above, all of it beyond
+    the box's last wavenumber."""
+    k = np.linspace(0.0, 5.0, 501)
+    law = 0.2 * np.where(k > 0, k, np.inf) ** (-5 / 3)
+    box = np.where(k <= 1.0, law, 0.2 * np.where(k > 0, k, np.inf) ** -4.0)
+    box = np.broadcast_to(box, (3, k.size)) * np.array([[1.0], [4 / 3], [4 / 3]])
+    k_out, deficit = turbulence.inertial_deficit(k, box, (0.3, 0.8), k_max_rad_m=50.0)
+    assert k_out[0] == 0.0 and k_out[-1] == pytest.approx(50.0) and np.all(np.diff(k_out) > 0)
+    assert np.all(deficit[:, k_out <= 0.8] == 0.0)
+    above = (k_out > 1.0) & (k_out <= 5.0)
+    expected = 0.2 * (k_out[above] ** (-5 / 3) - k_out[above] ** -4.0)
+    np.testing.assert_allclose(deficit[0, above], expected, rtol=1e-9)
+    np.testing.assert_allclose(deficit[2, above], 4 / 3 * expected, rtol=1e-9)
+    beyond = k_out > 5.0
+    np.testing.assert_allclose(deficit[1, beyond], 4 / 3 * 0.2 * k_out[beyond] ** (-5 / 3), rtol=1e-9)
+
+
+def test_topup_series_has_the_deficit_spectrum() -> None:
+    """A sensor's top-up at 20 Hz: variance the integral of the deficit over the record's band
+    (Taylor: f = k U / 2 pi), its spectrum -5/3, independent between calls (sensors)."""
+    k = np.geomspace(1e-3, 100.0, 4000)
+    deficit = np.where(k > 1.0, 0.05 * k ** (-5 / 3), 0.0)
+    field = turbulence.WindField(np.zeros((3, 8, 2, 2), np.float32), (1.0, 4.0, 4.0), 6.0, 1.0, 0.0, 6.0, 270.0,
+                                 30.0, 0.4, 0.05, math.inf, topup=(k, np.stack([deficit] * 3)))
+    rng = np.random.default_rng(5)
+    a, b = field.topup_enu(rng, 2**16, 20.0), field.topup_enu(rng, 2**16, 20.0)
+    k_band = np.linspace(1.0, 2 * np.pi * 10.0 / 6.0, 20000)
+    expected = np.trapezoid(0.05 * k_band ** (-5 / 3), k_band)      # over 1 rad/m .. the 10 Hz Nyquist
+    assert a[:, 2].var() == pytest.approx(expected, rel=0.05)      # 2**16 samples: about 1 % error
+    assert a[:, 0].var() + a[:, 1].var() == pytest.approx(2 * expected, rel=0.05)   # u, v turned to east, north
+    assert abs(np.corrcoef(a[:, 2], b[:, 2])[0, 1]) < 0.02
+    f, p = scipy.signal.welch(a[:, 2], fs=20.0, nperseg=4096)
+    band = (f > 1.5) & (f < 8.0)      # the deficit starts at 1 rad/m: 0.95 Hz at 6 m/s
+    assert np.polyfit(np.log(f[band]), np.log(p[band]), 1)[0] == pytest.approx(-5 / 3, abs=0.1)
+    assert np.all(turbulence.WindField(np.zeros((3, 8, 2, 2), np.float32), (1.0, 4.0, 4.0), 6.0, 1.0, 0.0, 6.0,
+                                       270.0, 30.0, 0.4, 0.05, math.inf).topup_enu(rng, 100, 20.0) == 0.0)
 
 
 def test_turbulence_from_the_nearest_node() -> None:

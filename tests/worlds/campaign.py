@@ -85,6 +85,9 @@ class WorldSettings:
         Along-wind points of the Mann box (16 crosswind, 12 vertical at 4 m).
     line : pendulum.LineSettings
     ins_errors : ins.InsErrors
+    inertial_topup : bool
+        Each sensor's record gets the inertial subrange the box's coarse grid lacks above
+        about 1 Hz (:meth:`turbulence.WindField.topup_enu`); off: the box alone.
     """
 
     n_flights: int = 4
@@ -97,6 +100,7 @@ class WorldSettings:
     nx: int = 16384
     line: pendulum.LineSettings = field(default_factory=pendulum.LineSettings)
     ins_errors: ins.InsErrors = field(default_factory=ins.InsErrors)
+    inertial_topup: bool = False
 
 
 SITE = {"name": "independent world", "latitude": 45.2, "longitude": 5.7, "altitude_m": 410.0}
@@ -212,12 +216,14 @@ def build_field(cond: dict[str, float], settings: WorldSettings, world: dict[str
     uvw = turbulence.mann_box(turbulence.mann_length_m(z, cond["zeta"]), world.get("gamma", 3.9), sig_u, nxyz,
                               dxyz, seed)
     a, b = turbulence.heat_gains(ustar, ell, cond["theta_k"], float(uvw[2].std()), float(uvw[1].std()))
+    topup = turbulence.inertial_deficit(*turbulence.box_spectra(uvw, dx)) if settings.inertial_topup else None
     return turbulence.WindField(uvw=uvw, dxyz_m=dxyz, z_bottom_m=6.0, y_centre_m=32.0,
                                 x_offset_m=abs(cond["along_m"]) + 50.0, speed_ms=cond["speed_ms"],
                                 wind_from_deg=cond["wind_from_deg"], z_ref_m=z, ustar_ms=ustar, z0_m=cond["z0_m"],
                                 obukhov_m=ell, speed_trend_ms_per_s=world.get("speed_trend_ms_per_h", 0.0) / 3600,
                                 direction_trend_deg_per_s=world.get("direction_trend_deg_per_h", 0.0) / 3600,
-                                theta_k=cond["theta_k"], heat_w_gain_k_per_ms=a, heat_v_gain_k_per_ms=b)
+                                theta_k=cond["theta_k"], heat_w_gain_k_per_ms=a, heat_v_gain_k_per_ms=b,
+                                topup=topup)
 
 
 def _logger_us(t_s: np.ndarray, cond: dict[str, float]) -> np.ndarray:
@@ -277,6 +283,11 @@ def _write_flight(folder: Path, fid: str, cond: dict[str, float], start: np.date
     pos, vel, axes = payload_at(t_s)
     wind, theta = wf.sample(t_s, pos[:, 0], pos[:, 1], pos[:, 2],
                             nominal(pos[:, 0], pos[:, 1], cond["payload_height_m"]))
+    # the inertial subrange the box lacks, independent at each sensor (a stream of its own, drawn
+    # only when asked for, so that the other streams stay as they were without it)
+    topup_rng = np.random.default_rng(int(rng.integers(1, 2**31 - 1))) if wf.topup is not None else None
+    if topup_rng is not None:
+        wind = wind + wf.topup_enu(topup_rng, n_s, SONIC_HZ)
     rel_enu = wind - vel
     v_body = np.einsum("nji,nj->ni", axes, rel_enu)                     # axes^T rel: body components
     mount = np.eye(3) if fid_mount(fid) == "upside_down" else np.diag([1.0, -1.0, -1.0])
@@ -326,6 +337,8 @@ def _write_flight(folder: Path, fid: str, cond: dict[str, float], start: np.date
     n_m = int(duration * MAST_HZ)
     t_m = np.arange(n_m) / MAST_HZ
     wind_m, theta_m = wf.sample(t_m, 0.0, 0.0, MAST["height_m"])
+    if topup_rng is not None:
+        wind_m = wind_m + wf.topup_enu(topup_rng, n_m, MAST_HZ)
     if "speed_deficit" in world:                                          # tower flow distortion
         d, tilt = world["speed_deficit"], math.radians(world["tilt_deg"])
         wind_m[:, :2] *= 1.0 - d

@@ -82,6 +82,12 @@ class WindField:
     power halfway between nodes), but none from one on a node. Along the wind (0.2-0.6 m
     spacing) it is linear.
 
+    The box's coarse crosswind grid holds little of the inertial subrange above about 1 Hz at
+    the sensors (its 30 m spectra fall with slopes of -2.2 to -2.5 over 1-3 Hz); with ``topup``
+    each sensor's record gets, on top, an independent series with the spectrum the box lacks
+    there (:func:`inertial_deficit`, :meth:`topup_enu`): eddies that small are incoherent over
+    the drone-mast separation.
+
     Attributes
     ----------
     uvw : numpy.ndarray
@@ -123,6 +129,9 @@ class WindField:
     theta_k: float = 293.0
     heat_w_gain_k_per_ms: float = 0.0
     heat_v_gain_k_per_ms: float = 0.0
+    #: inertial-subrange top-up (:func:`inertial_deficit`): wavenumbers [rad m-1] and the
+    #: spectra the box lacks there (3, nk) [m3 s-2]; None: the box alone
+    topup: tuple[np.ndarray, np.ndarray] | None = None
 
     def _axes(self, wind_from_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Unit vectors (east, north) along the wind (towards) and to its left."""
@@ -143,6 +152,34 @@ class WindField:
                            np.round((np.asarray(up_m) - self.z_bottom_m) / dz)])
         return np.stack([map_coordinates(self.uvw[c], coords, order=1, mode="grid-wrap") for c in range(3)],
                         axis=-1)
+
+    def topup_enu(self, rng: np.random.Generator, n: int, fs_hz: float) -> np.ndarray:
+        r"""The inertial-subrange top-up of one sensor's record (east, north, up) [m s-1], (n, 3); zeros without it.
+
+        Each component is Gaussian with the one-sided frequency spectrum
+        :math:`S(f) = D(k_1)\,2\pi/U` at :math:`k_1 = 2\pi f/U` (Taylor), :math:`D` the box's
+        deficit (:func:`inertial_deficit`), synthesised with random phases over the record.
+        """
+        out = np.zeros((n, 3))
+        if self.topup is None or n < 4:
+            return out
+        k_grid, deficit = self.topup
+        f_hz = np.fft.rfftfreq(n, 1.0 / fs_hz)
+        k = 2 * np.pi * f_hz / self.speed_ms
+        df = fs_hz / n
+        turb = np.empty((n, 3))
+        for c in range(3):
+            s = np.interp(k, k_grid, deficit[c], right=0.0) * 2 * np.pi / self.speed_ms
+            s[0] = 0.0
+            if n % 2 == 0:
+                s[-1] = 0.0
+            coef = n * np.sqrt(s * df / 4.0) * (rng.standard_normal(k.size) + 1j * rng.standard_normal(k.size))
+            turb[:, c] = np.fft.irfft(coef, n)
+        ex, ey = self._axes(np.array(self.wind_from_deg))
+        out[:, 0] = turb[:, 0] * ex[0] + turb[:, 1] * ey[0]
+        out[:, 1] = turb[:, 0] * ex[1] + turb[:, 1] * ey[1]
+        out[:, 2] = turb[:, 2]
+        return out
 
     def sample(self, t_s: np.ndarray, east_m: np.ndarray, north_m: np.ndarray, up_m: np.ndarray,
                turbulence_at: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -197,6 +234,58 @@ def mann_box(length_scale_m: float, gamma: float, sigma_u_ms: float, nxyz: tuple
     uvw = np.asarray(field.uvw, dtype=np.float32)
     uvw -= uvw.mean(axis=(1, 2, 3), keepdims=True)
     return uvw * np.float32(sigma_u_ms / float(uvw[0].std()))
+
+
+def box_spectra(uvw: np.ndarray, dx_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided along-wind wavenumber spectra of a box's u, v, w, averaged over its lines.
+
+    Returns
+    -------
+    k_rad_m : numpy.ndarray
+        Wavenumbers [rad m-1], (nk,).
+    spectra : numpy.ndarray
+        (3, nk) [m3 s-2]: each component's variance is their sum times the wavenumber step.
+    """
+    n = uvw.shape[1]
+    dk = 2 * np.pi / (n * dx_m)
+    power = np.zeros((3, n // 2 + 1))
+    for c in range(3):  # one component at a time: the transform of the box is large
+        power[c] = np.mean(np.abs(np.fft.rfft(uvw[c].astype(float), axis=0)) ** 2, axis=(1, 2))
+    spectra = 2.0 * power / (n * n * dk)
+    spectra[:, 0] = 0.0
+    return np.arange(n // 2 + 1) * dk, spectra
+
+
+#: Wavenumbers [rad m-1] where the box is in the inertial subrange and resolved (4 m crosswind
+#: spacing: crosswind wavelengths down to 8 m), where its level is read (:func:`inertial_deficit`).
+INERTIAL_FIT_RAD_M = (0.3, 0.8)
+
+
+def inertial_deficit(k_rad_m: np.ndarray, spectra: np.ndarray,
+                     fit_rad_m: tuple[float, float] = INERTIAL_FIT_RAD_M, k_max_rad_m: float = 200.0
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    r"""What a box lacks of the inertial subrange above its resolved band, per component.
+
+    The level :math:`C` of :math:`F(k_1) = C k_1^{-5/3}` (Kolmogorov) is the median of
+    :math:`F k_1^{5/3}` over ``fit_rad_m``; above that band the deficit is
+    :math:`\max(0, C k_1^{-5/3} - F)`, and beyond the box's Nyquist wavenumber all of
+    :math:`C k_1^{-5/3}` (up to ``k_max_rad_m``).
+
+    Returns
+    -------
+    k_rad_m : numpy.ndarray
+        Wavenumbers [rad m-1] (the box's, then a logarithmic extension).
+    deficit : numpy.ndarray
+        (3, nk) [m3 s-2].
+    """
+    band = (k_rad_m >= fit_rad_m[0]) & (k_rad_m <= fit_rad_m[1])
+    level = np.median(spectra[:, band] * k_rad_m[band] ** (5.0 / 3.0), axis=1)
+    extra = np.geomspace(k_rad_m[-1] * 1.01, k_max_rad_m, 200)
+    k = np.concatenate([k_rad_m, extra])
+    box = np.concatenate([spectra, np.zeros((3, extra.size))], axis=1)
+    law = level[:, None] * np.where(k > 0, k, np.inf) ** (-5.0 / 3.0)
+    deficit = np.where(k[None, :] > fit_rad_m[1], np.maximum(law - box, 0.0), 0.0)
+    return k, deficit
 
 
 def heat_gains(ustar_ms: float, obukhov_m: float, theta_k: float, sigma_w_ms: float, sigma_v_ms: float
