@@ -91,6 +91,12 @@ STUDIES: dict[str, Study] = {
          "benchmarks/results/diagnosis_independent_world_rope_evidence"),
         "the first plan's draws with the forward model's payload attitude following its line "
         "(diagnosis.forward_payload), as that world's payload hangs"),
+    "diagnosis_independent_world_topup": Study(
+        "validate_independent_world.py",
+        ("--draws", "60", "--seed", "11", "--workers", "2", "--order", "interleaved", "--inertial-topup",
+         "--evidence-dir", "benchmarks/results/diagnosis_independent_world_topup_evidence"),
+        "the first plan's draws in the world with its sensors topped up to the inertial subrange above "
+        "its Mann box's resolution"),
     "hidden_identifiability": Study("bench_identifiability.py", (),
                                     "is each mechanism identifiable at a physical size"),
     "model_error_features": Study("bench_model_error_features.py", ("--draws", "12", "--seed", "1"),
