@@ -46,6 +46,19 @@ def leaves(schema: dict, path: tuple[str, ...] = ()) -> Iterator[tuple[tuple[str
             yield (*path, key), sub
 
 
+def default_value(defaults: dict, path: tuple[str, ...]) -> Any:
+    """A setting's default; for the optional ``diagnosis.forward_payload`` keys (none set by
+    default) the simulator's own value."""
+    from dronewind.simulate.defaults import PAYLOAD_DEFAULTS
+
+    if path[:2] == ("diagnosis", "forward_payload"):
+        return PAYLOAD_DEFAULTS[path[2]][0]
+    value = defaults
+    for key in path:
+        value = value[key]
+    return value
+
+
 def nest(path: tuple[str, ...], value: Any) -> dict:
     out: Any = value
     for key in reversed(path):
@@ -88,9 +101,7 @@ def test_every_setting_round_trips_through_text():
     for path, _ in leaves(config_schema()):
         if path[0] in BASE:
             continue
-        value = defaults
-        for key in path:
-            value = value[key]
+        value = default_value(defaults, path)
         typed = check_config({**BASE, **nest(path, as_text(value))})
         got = typed
         for key in path:
@@ -179,9 +190,7 @@ def test_every_setting_is_accepted_with_config_as_the_readme_says(small):
     for path, _ in leaves(config_schema()):
         if path[0] in BASE:
             continue
-        value = defaults
-        for key in path:
-            value = value[key]
+        value = default_value(defaults, path)
         inner = yaml.safe_dump(nest(path[1:], value), default_flow_style=True).strip()
         pairs.append(f"{path[0]}={inner}")
     pairs.append("processing={max_missing_fraction: 0.05, despike: {n_mad: 5}}")
@@ -216,3 +225,15 @@ def test_no_shell_command_noise():
     assert "shell:" not in rules
     profile = yaml.safe_load((REPO / "profiles" / "default" / "profile.yaml").read_text())
     assert not profile.get("printshellcmds")
+
+
+def test_the_forward_payload_schema_is_the_simulators_payload_table():
+    """diagnosis.forward_payload takes exactly the payload settings of the simulator, with their ranges."""
+    from dronewind.simulate.defaults import PAYLOAD_DEFAULTS
+    from dronewind.simulate.settings import PAYLOAD_EXCLUSIVE
+
+    props = config_schema()["properties"]["diagnosis"]["properties"]["forward_payload"]["properties"]
+    assert list(props) == list(PAYLOAD_DEFAULTS)
+    for key, (_, lo, hi, _) in PAYLOAD_DEFAULTS.items():
+        low = props[key].get("exclusiveMinimum") if key in PAYLOAD_EXCLUSIVE else props[key].get("minimum")
+        assert (low, props[key]["maximum"]) == (lo, hi), key
