@@ -327,8 +327,11 @@ def error_model(ev: CampaignEvidence, result: DiagnosisResult | None = None) -> 
         settings the forward runs simulated (``diagnosis.forward_payload``; empty: the
         simulator's SAMURAI-S defaults).
     """
+    from dronewind.diagnose.forward_conditions import split_payload
+
     out: dict[str, Any] = {
-        "forward_payload": next((dict(c["payload"]) for c in ev.conditions if c and c.get("payload")), {}),
+        "forward_payload": next((payload for payload in (split_payload(c)[1] for c in ev.conditions if c) if payload),
+                                {}),
         "n_seeds": int(ev.n_seeds),
         "covariance": "shrunk correlation" if ev.correlation is not None else "diagonal",
         "shrinkage_target": "identity (Schaefer and Strimmer 2005, target D)",

@@ -290,13 +290,13 @@ def extended_manifest(campaign_data: Mapping[str, Any], conditions: Mapping[str,
     from dronewind.errors import InputError
 
     split = {k: split_payload(v) for k, v in conditions.items()}
-    payloads = {repr(sorted(payload.items())): payload for _, payload in split.values()}
-    if len(payloads) > 1:
+    payloads = [payload for _, payload in split.values()]
+    if any(p != payloads[0] for p in payloads):
         raise InputError("diagnosis.forward_payload", "the flights' forward payload settings differ; expected one "
                          "setting for the campaign")
     data["simulation"] = {"seed": int(seed), "payload_flights": {k: flight for k, (flight, _) in split.items()},
                           "mechanisms": mechanisms}
-    payload = next(iter(payloads.values()), {})
+    payload = payloads[0] if payloads else {}
     if payload:
         data["simulation"]["payload"] = payload
     return data
