@@ -375,6 +375,18 @@ def test_drone_mast_lag_recovered(lag_true, fs_mast):
     assert ds.attrs["lag_at_search_edge"] == 0 and ds.attrs["lag_xcorr_max"] > 0.9
 
 
+@pytest.mark.parametrize("fs_mast", [10.0, 20.0])
+def test_l3_records_the_rates_of_the_records_aligned(fs_mast):
+    """The inverse median step without a ``sampling_rate_hz`` attribute (32 Hz drone, 10 or 20
+    Hz mast), the attribute where the L1 readers wrote one."""
+    drone, mast = _mast_drone(1.0, fs_mast=fs_mast, duration_s=300.0)
+    ds = align.align_drone_mast(drone, mast)
+    assert ds.attrs["drone_sampling_rate_hz"] == pytest.approx(32.0, rel=1e-9)
+    assert ds.attrs["mast_sampling_rate_hz"] == pytest.approx(fs_mast, rel=1e-9)
+    mast.attrs["sampling_rate_hz"] = 12.0
+    assert align.align_drone_mast(drone, mast).attrs["mast_sampling_rate_hz"] == 12.0
+
+
 def test_upwind_drone_gives_positive_lag():
     """Frozen turbulence advected eastwards at 5 m/s; the drone hovers 15 m west (upwind) of
     the mast, so it sees each structure 3 s earlier: lag_drone_mast_s = +3 s."""

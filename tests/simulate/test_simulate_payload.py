@@ -465,11 +465,55 @@ def _bad(mutator):
      "simulation.payload_flights.f1.sonic_ins_lag_s"),
     (lambda c: c["simulation"]["payload"].update(sonic_ins_lag_low_s=0.1, sonic_ins_lag_high_s=0.0),
      "simulation.payload.sonic_ins_lag_low_s"),
+    (lambda c: c["simulation"]["payload_flights"]["f1"].update(mast_rate_hz=0.5),
+     "simulation.payload_flights.f1.mast_rate_hz"),
+    (lambda c: c["simulation"]["payload_flights"]["f1"].update(sonic_rate_hz=20.5),
+     "simulation.payload_flights.f1.sonic_rate_hz"),
+    (lambda c: c["simulation"]["payload_flights"]["f1"].update(ins_rate_hz=400),
+     "simulation.payload_flights.f1.ins_rate_hz"),
 ])
 def test_bad_settings_rejected_with_the_setting_named(mutator, where):
     with pytest.raises(InputError) as err:
         validate_simulation(_bad(mutator))
     assert err.value.where == where, str(err.value)
+
+
+def test_flight_rates_override_the_payload_and_mast_blocks(tmp_path):
+    """A flight's own sonic, INS and mast rates (a measured flight's forward model records at the
+    rates it was recorded at): its files are written at them, the campaign's blocks untouched."""
+    camp = _campaign(sonic_rate_hz=20, ins_rate_hz=100, mast_rate_hz=20)
+    settings = validate_simulation(camp)
+    cond = resolve_payload_flight(camp, "f1", settings)
+    assert (cond["payload"]["sonic_rate_hz"], cond["payload"]["ins_rate_hz"], cond["mast"]["rate_hz"]) == (20, 100, 20)
+    assert (settings["payload"]["sonic_rate_hz"], settings["mast"]["rate_hz"]) == (32, 10)
+    run = _run(tmp_path, camp, "rates")
+    step_s = {name: float(np.median(np.diff(np.sort(run[name].rpi_time_us.to_numpy())))) * 1e-6
+              for name in ("sonic", "ins")}
+    assert step_s["sonic"] == pytest.approx(1 / 20, rel=1e-3) and step_s["ins"] == pytest.approx(1 / 100, rel=1e-3)
+    # TOA5 RECORD numbers advance by one per sample: 20 per second of the logger's time stamps
+    m = run["masts"]["mast60"]
+    stamps = pd.to_datetime(m.TIMESTAMP, format="ISO8601")
+    span_s = (stamps.iloc[-1] - stamps.iloc[0]).total_seconds()
+    assert (m.RECORD.iloc[-1] - m.RECORD.iloc[0]) / span_s == pytest.approx(20.0, rel=1e-3)
+
+
+def test_recorded_span_ends_at_gaps_outside_the_hover():
+    """Known answers: a 10 Hz record from 0 to 1000 s with a hover window 300-700 s."""
+    from dronewind.simulate.payload_wind import recorded_span_s
+
+    t = np.round(np.arange(0.0, 1000.0, 0.1), 6)
+    hover = (300.0, 700.0)
+    assert recorded_span_s(t, hover, 0.1) == (0.0, t[-1], 0)
+    # a 0.8 s dropout is bridged (not longer than MAX_BRIDGED_GAP_S)
+    short = t[(t < 150.0) | (t >= 150.8)]
+    assert recorded_span_s(short, hover, 0.1) == (0.0, t[-1], 0)
+    # gaps of 100 s before and 50 s after the hover end the span
+    gappy = t[((t < 100.0) | (t >= 200.0)) & ((t < 800.0) | (t >= 850.0))]
+    lo, hi, n_cut = recorded_span_s(gappy, hover, 0.1)
+    assert (lo, n_cut) == (200.0, 2) and hi == pytest.approx(799.9)
+    # a gap inside the hover window is bridged whatever its length
+    inside = t[(t < 400.0) | (t >= 500.0)]
+    assert recorded_span_s(inside, hover, 0.1) == (0.0, t[-1], 0)
 
 
 def test_processing_lag_is_drawn_per_flight_in_the_range_of_fig4_and_overridable():

@@ -43,6 +43,7 @@ __all__ = [
     "fir_decimate",
     "drone_mast_lag",
     "align_drone_mast",
+    "input_rate_hz",
 ]
 
 _NS = NS_PER_S
@@ -631,8 +632,22 @@ def _l3_dataset(x8: np.ndarray, time8: np.ndarray, r: _Rotated, height_m: np.nda
     return ds
 
 
+def input_rate_hz(l2: xr.Dataset, t_s: np.ndarray) -> float:
+    """Sampling rate of a record that enters the alignment [Hz].
+
+    Its ``sampling_rate_hz`` attribute (the nominal rate the L1 readers record), else the
+    inverse of its median sample step; NaN for fewer than two samples.
+    """
+    if "sampling_rate_hz" in l2.attrs:
+        return float(l2.attrs["sampling_rate_hz"])
+    if t_s.size < 2:
+        return float("nan")
+    return float(1.0 / np.median(np.diff(t_s)))
+
+
 def _l3_attrs(lag: float, xcorr: np.ndarray, at_edge: bool, rotation: str, r: _Rotated, fs_out: float,
-              taps: np.ndarray, n_samples: int, counts: dict[str, int], log: list[str]) -> dict[str, object]:
+              taps: np.ndarray, n_samples: int, counts: dict[str, int], log: list[str],
+              input_rates_hz: tuple[float, float]) -> dict[str, object]:
     """The L3 dataset attributes (see :func:`align_drone_mast`, Returns)."""
     return {
         "lag_drone_mast_s": float(lag),
@@ -642,6 +657,10 @@ def _l3_attrs(lag: float, xcorr: np.ndarray, at_edge: bool, rotation: str, r: _R
         "rotation_method_drone": r.methods[0],
         "rotation_method_mast": r.methods[1],
         "sampling_rate_hz": float(fs_out),
+        # the rates of the records aligned: their linear interpolation to the common grid
+        # damps the high frequencies of a slower record more (_common_grid)
+        "drone_sampling_rate_hz": float(input_rates_hz[0]),
+        "mast_sampling_rate_hz": float(input_rates_hz[1]),
         "fir_design": (f"Kaiser-window FIR, {taps.size} taps, cutoff {fs_out * 0.4375:g} Hz, transition "
                        f"{default_passband_edge_hz(fs_out):g}-{0.5 * fs_out:g} Hz, 60 dB, centred (zero phase)"),
         "fir_passband_edge_hz": default_passband_edge_hz(fs_out),
@@ -692,8 +711,9 @@ def align_drone_mast(
         (mean direction before rotation), ``height_m(sensor)``,
         ``rotation_yaw_deg/pitch_deg/roll_deg(sensor)``, and on ``lag``: ``lag_s``,
         ``xcorr`` (drone-mast correlation curve). attrs: ``lag_drone_mast_s``,
-        ``lag_xcorr_max``, ``rotation_method``, ``sampling_rate_hz``, FIR design, counts
-        ``n_*`` and ``processing_log``.
+        ``lag_xcorr_max``, ``rotation_method``, ``sampling_rate_hz``,
+        ``drone_sampling_rate_hz`` and ``mast_sampling_rate_hz`` (the rates of the records
+        aligned, :func:`input_rate_hz`), FIR design, counts ``n_*`` and ``processing_log``.
 
     Notes
     -----
@@ -719,6 +739,7 @@ def align_drone_mast(
         drone_height_m = drone_l2.attrs.get("height_m", drone_l2.attrs.get("target_height_m", np.nan))
     heights = np.array([float(drone_height_m), float(mast_l2.attrs.get("height_m", np.nan))])
     ds = _l3_dataset(x8, time8, rotated, heights, lag_grid, xcorr)
+    rates = (input_rate_hz(drone_l2, sensors.t_drone_s), input_rate_hz(mast_l2, sensors.t_mast_s))
     ds.attrs.update(_l3_attrs(lag, xcorr, at_edge, rotation, rotated, fs_common_hz / decimate, taps,
-                              time8.size, counts, log))
+                              time8.size, counts, log, rates))
     return ds

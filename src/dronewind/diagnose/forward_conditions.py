@@ -27,6 +27,7 @@ from dronewind.manifest import payload_flight_manifest
 
 __all__ = [
     "forward_conditions",
+    "measured_rates_hz",
     "forward_manifest",
     "split_payload",
     "PAYLOAD_KEY",
@@ -144,12 +145,64 @@ def split_payload(conditions: Mapping[str, Any]) -> tuple[dict[str, Any], dict[s
     return flight, dict(conditions.get(PAYLOAD_KEY) or {})
 
 
+#: Per-flight rate conditions (keys of ``simulation.payload_flights.<id>``), the product they are
+#: read from, its attribute, and the simulator's range (:data:`dronewind.simulate.defaults.PAYLOAD_DEFAULTS`,
+#: ``MAST_DEFAULTS``).
+_RATES = (("sonic_rate_hz", "l2_drone", "sampling_rate_hz", "payload", "sonic_rate_hz"),
+          ("ins_rate_hz", "ins_l1", "sampling_rate_hz", "payload", "ins_rate_hz"),
+          ("mast_rate_hz", "l3", "mast_sampling_rate_hz", "mast", "rate_hz"))
+
+
+def measured_rates_hz(l3: xr.Dataset, l2_drone: xr.Dataset, ins_l1: xr.Dataset | None = None) -> dict[str, float]:
+    r"""The rates a flight was recorded at, as the forward model's per-flight conditions [Hz].
+
+    Parameters
+    ----------
+    l3 : xarray.Dataset
+        The flight's L3 (attribute ``mast_sampling_rate_hz``: the reference mast record's rate).
+    l2_drone : xarray.Dataset
+        The drone's L2 (attribute ``sampling_rate_hz``: the payload sonic's rate).
+    ins_l1 : xarray.Dataset, optional
+        The payload INS L1 (attribute ``sampling_rate_hz``).
+
+    Returns
+    -------
+    dict
+        ``sonic_rate_hz``, ``ins_rate_hz``, ``mast_rate_hz``, each where its product records
+        a finite rate: rounded to a whole number of Hz and brought into the simulator's range
+        (the sonic 4-32 Hz, the INS 1-200 Hz, the mast 1-60 Hz).
+
+    Notes
+    -----
+    The alignment interpolates both records linearly to its 32 Hz grid, which on average
+    multiplies the power at frequency :math:`f` of a record sampled at :math:`f_s` by
+    :math:`(2 + \cos 2\pi f/f_s)/3` (:func:`dronewind.compare.align.align_drone_mast`):
+    over 1.5-3 Hz a 20 Hz mast record keeps about 0.93 of its power (a -5/3 spectrum), a 10 Hz one
+    about 0.75.
+    A forward model that records its mast at another rate than the measured one predicts
+    another drone/mast power ratio there (the ``ln_hf`` features) for that reason alone.
+    """
+    from dronewind.simulate.defaults import MAST_DEFAULTS, PAYLOAD_DEFAULTS
+
+    products = {"l3": l3, "l2_drone": l2_drone, "ins_l1": ins_l1}
+    tables = {"payload": PAYLOAD_DEFAULTS, "mast": MAST_DEFAULTS}
+    out = {}
+    for key, product, attr, table, name in _RATES:
+        ds = products[product]
+        rate = float(ds.attrs.get(attr, np.nan)) if ds is not None else math.nan
+        if math.isfinite(rate) and rate > 0:
+            _, lo, hi, _ = tables[table][name]
+            out[key] = float(min(max(round(rate), lo), hi))
+    return out
+
+
 def forward_conditions(
     campaign_data: Mapping[str, Any],
     flight_id: str,
     l3: xr.Dataset,
     l2_drone: xr.Dataset,
     payload: Mapping[str, Any] | None = None,
+    ins_l1: xr.Dataset | None = None,
 ) -> dict[str, Any]:
     """Simulator conditions of one flight, estimated from its processed data.
 
@@ -178,14 +231,19 @@ def forward_conditions(
         every sonic-INS system has a processing lag of its own, different per flight
         (Ghirardelli et al. 2025, Sect. 3.3, Fig. 4), which the forward runs reproduce
         (:func:`simulated_sonic_ins_lag_s`). A condition of the forward model, the lag is
-        then no evidence of the diagnosis. With ``payload`` also :data:`PAYLOAD_KEY`.
+        then no evidence of the diagnosis. The rates the flight was recorded at
+        (:func:`measured_rates_hz`: ``sonic_rate_hz``, ``ins_rate_hz`` with ``ins_l1``,
+        ``mast_rate_hz``), which the forward runs record at. With ``payload`` also
+        :data:`PAYLOAD_KEY`.
 
     Other Parameters
     ----------------
     payload : mapping, optional
         The forward model's payload settings (``diagnosis.forward_payload``, keys of
         ``simulation.payload``), declared by the user for the platform flown; the
-        simulator's defaults (SAMURAI-S) where absent.
+        simulator's defaults (SAMURAI-S) where absent. Its rates give way to the measured ones.
+    ins_l1 : xarray.Dataset, optional
+        The payload INS L1 (its rate).
     """
     from dronewind.simulate.settings import check_payload_settings
 
@@ -210,6 +268,7 @@ def forward_conditions(
         "roughness_length_m": roughness_length_m(layer),
         "theta_mean_k": float(min(max(layer.theta_mean_k, 221.0), 329.0)),
         **({} if lag is None else {"sonic_ins_lag_s": lag}),
+        **measured_rates_hz(l3, l2_drone, ins_l1),
         **({PAYLOAD_KEY: dict(payload)} if payload else {}),
     }
 

@@ -116,7 +116,8 @@ def forward_inputs(data: Mapping[str, Any], flight_id: str, flight: VirtualFligh
     lag = {key: processing[key] for key in probes.LAG_SETTINGS}
     measured = features_to_dict(forward.measured_features(data, flight_id, flight.sonic_l1, flight.ins_l1, flight.l2,
                                                           flight.l3, **lag))
-    conditions = forward_conditions.forward_conditions(data, flight_id, flight.l3, flight.l2, forward_payload)
+    conditions = forward_conditions.forward_conditions(data, flight_id, flight.l3, flight.l2, forward_payload,
+                                                       flight.ins_l1)
     record = forward_atmosphere.atmosphere_record(flight.mast_l1, conditions) if atmosphere == "measured" else None
     return measured, conditions, record
 

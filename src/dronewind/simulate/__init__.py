@@ -130,6 +130,9 @@ whole numbers of Hz::
           roughness_length_m: 0.3     # overrides of the atmosphere block
           theta_mean_k: 299.0
           boundary_layer_height_m: 1500
+          sonic_rate_hz: 20           # overrides of payload.sonic_rate_hz, payload.ins_rate_hz
+          ins_rate_hz: 100            #   and mast.rate_hz for this flight (their ranges; a
+          mast_rate_hz: 20            #   forward flight records at the measured rates)
       mechanisms:                     # list; empty or absent = baseline
         - mechanism: attitude_lag     # a name of dronewind.mechanisms.CATALOG
           parameters: {lag_s: 0.08}   # exactly the catalog's parameters, in range

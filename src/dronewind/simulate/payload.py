@@ -363,11 +363,14 @@ class _MastTruth:
     first_record: int
 
 
-def _mast_truth(settings: SimulationSettings, clock: _FlightClock, field: _FieldPoints,
+def _mast_truth(mast_settings: Mapping[str, float], clock: _FlightClock, field: _FieldPoints,
                 spec: atm.FieldSpec) -> _MastTruth:
-    """The field at the mast sonics on the logger's grid (RECORD counted from 2020-01-01)."""
+    """The field at the mast sonics on the logger's grid (RECORD counted from 2020-01-01).
+
+    ``mast_settings`` is the flight's ``mast`` block (its rate, :func:`resolve_payload_flight`).
+    """
     us = np.timedelta64(1, "us")
-    fs_m = settings["mast"]["rate_hz"]
+    fs_m = mast_settings["rate_hz"]
     m0 = int(math.ceil((clock.mast_lo - clock.field_t0) / us * 1e-6 * fs_m))
     m1 = int(math.floor(clock.mast_end_field_s * fs_m))
     masts = list(range(len(field.mast_ids)))
@@ -383,14 +386,14 @@ def _mast_truth(settings: SimulationSettings, clock: _FlightClock, field: _Field
     return _MastTruth(series, times, rec0)
 
 
-def _mast_logs(cond: PayloadFlightConditions, settings: SimulationSettings, field: _FieldPoints,
-               mast: _MastTruth, streams: _Streams) -> list[RawRecord]:
+def _mast_logs(cond: PayloadFlightConditions, field: _FieldPoints, mast: _MastTruth,
+               streams: _Streams) -> list[RawRecord]:
     """One TOA5 per mast sonic over the mast span (CSAT3 measurement model)."""
     out = []
     for k, sid in enumerate(field.mast_ids):
         sonic = cond["mast_sonics"][sid]
         meas = mast_measurement(mast.series[k, 0], mast.series[k, 1], mast.series[k, 2], mast.series[k, 3],
-                                float(sonic["azimuth_deg"]), settings["mast"], streams("mast", k),
+                                float(sonic["azimuth_deg"]), cond["mast"], streams("mast", k),
                                 cond["mechanisms"], mast.first_record)
         keep = meas.keep
         out.append(toa5_record(_mast_file(list(sonic["files"]), cond["flight_id"], sid), mast.times[keep],
@@ -490,7 +493,7 @@ def payload_truth(campaign: CampaignLike, flight_id: str, atmosphere: xr.Dataset
 def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadFlightConditions,
            atmosphere: xr.Dataset | None = None) -> PayloadTruth:
     p, streams = cond["payload"], _Streams(cond["seed"])
-    fs_s, fs_m = p["sonic_rate_hz"], settings["mast"]["rate_hz"]
+    fs_s, fs_m = p["sonic_rate_hz"], cond["mast"]["rate_hz"]
     clock = _flight_clock(data, settings, cond, fs_s, fs_m)
     field = _field_points(cond)  # turbulence at the mast sonics (first) and the hover point
     spec, info = _turbulence(cond, clock, field, fs_s, fs_m, streams("turbulence"), atmosphere,
@@ -504,7 +507,7 @@ def _truth(data: Mapping[str, Any], settings: SimulationSettings, cond: PayloadF
     jitter = reused("payload jitter", {}, repr((int(cond["seed"]), jitter_settings, clock.n_sonic, fs_s)),
                     lambda: _jitter(jitter_settings, streams("motion"), clock.n_sonic, fs_s))
     motion = _payload_motion(p, air, field, spec, jitter, fs_s)
-    mast = _mast_truth(settings, clock, field, spec)
+    mast = _mast_truth(cond["mast"], clock, field, spec)
     masts = list(range(len(field.mast_ids)))
     t_mast = (mast.times - clock.field_t0) / np.timedelta64(1, "us") * 1e-6
     mast = dataclasses.replace(mast, series=_with_trend(cond, clock, spec, mast.series, masts, t_mast))
@@ -581,9 +584,9 @@ def payload_records(campaign: CampaignLike, flight_id: str, truth: PayloadTruth 
         rec = _add_ins_errors(cond, _ins_truth(cond, motion, track), noise)
         return _ins_log(str(flight["ins"]["file"]), cond, rec, _ins_validity(cond, rec.t_s), motion.t_s[0], streams)
 
-    records = [_measured(truth, cond, settings, "sonic", sonic), _measured(truth, cond, settings, "ins", ins)]
-    return records + _measured(truth, cond, settings, "mast",
-                               lambda: _mast_logs(cond, settings, truth.field, truth.mast, streams)), truth
+    records = [_measured(truth, cond, "sonic", sonic), _measured(truth, cond, "ins", ins)]
+    return records + _measured(truth, cond, "mast",
+                               lambda: _mast_logs(cond, truth.field, truth.mast, streams)), truth
 
 
 #: The mechanisms that act on each instrument's record (all others act on the true state).
@@ -594,7 +597,7 @@ INSTRUMENT_MECHANISMS: dict[str, frozenset[str]] = {
 }
 
 
-def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: SimulationSettings, instrument: str,
+def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, instrument: str,
               measure: Callable[[], Any]) -> Any:
     """An instrument's record from a truth: measured once where no mechanism acts on the instrument.
 
@@ -610,7 +613,7 @@ def _measured(truth: PayloadTruth, cond: PayloadFlightConditions, settings: Simu
     if any(name in cond["mechanisms"] for name in INSTRUMENT_MECHANISMS[instrument]):
         return measure()
     lag = (cond["sonic_ins_lag_s"],) if instrument == "sonic" else ()
-    key = (instrument, repr((cond["payload"], cond["defects"], settings["mast"], str(cond["start"]),
+    key = (instrument, repr((cond["payload"], cond["defects"], cond["mast"], str(cond["start"]),
                              str(flight_timeline(cond)), *lag)))
     return _remembered(truth.memo, key, measure)
 

@@ -34,6 +34,8 @@ from dronewind.simulate.settings import (
 
 __all__ = [
     "measured_constraint",
+    "recorded_span_s",
+    "MAX_BRIDGED_GAP_S",
     "check_atmosphere_record",
 ]
 
@@ -144,7 +146,8 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
     info : dict
         ``record_covered_s`` (field time the record covers), ``mirrored_s`` (field time
         outside the record, filled by mirroring the record at its ends),
-        ``interpolated_samples`` (missing samples inside it, interpolated linearly).
+        ``interpolated_samples`` (missing samples inside it, interpolated linearly),
+        ``record_rate_hz``, ``gaps_cut`` (gaps that ended the span, :func:`recorded_span_s`).
 
     Raises
     ------
@@ -156,9 +159,10 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
     -----
     The record is put on the field's grid at its own rate from ``field_t0``; where the field
     period reaches beyond the record (the forward flight's log span plus mast margin may be
-    wider than what was recorded around the measured flight), it is mirrored at the record's
-    ends, which keeps its spectrum and continuity. Only the hover window enters the
-    features; that part must be measured.
+    wider than what was recorded around the measured flight) or beyond a gap of more than
+    :data:`MAX_BRIDGED_GAP_S` outside the hover window (:func:`recorded_span_s`), it is
+    mirrored at the span's ends, which keeps its spectrum and continuity. Only the hover
+    window enters the features; that part must be measured.
     """
     where = "atmosphere record"
     check_atmosphere_record(record, where)
@@ -171,15 +175,20 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
     dt = float(np.median(np.diff(t_rec)))
     n = int(round(period_s / dt))
     grid = np.arange(n) * dt
-    lo, hi = float(t_rec[finite][0]), float(t_rec[finite][-1])
     hover = (clock.hover_start_field_s, clock.hover_start_field_s + hover_duration_s)
+    lo, hi, n_cut = recorded_span_s(t_rec[finite], hover, dt)
     if lo > hover[0] + dt or hi < hover[1] - dt:
         raise InputError(where, f"the record covers field time {lo:.1f}..{hi:.1f} s, not the hover window "
                                 f"{hover[0]:.1f}..{hover[1]:.1f} s")
     if 2 * (hi - lo) < period_s:
-        raise InputError(where, f"the record covers {hi - lo:.1f} s, less than half the field period {period_s:.1f} s")
-    # mirror at the ends: t < lo -> 2 lo - t, t > hi -> 2 hi - t
-    mirrored = np.where(grid < lo, 2 * lo - grid, np.where(grid > hi, 2 * hi - grid, grid))
+        raise InputError(where, f"the record covers {hi - lo:.1f} s without a gap of more than "
+                                f"{MAX_BRIDGED_GAP_S:g} s around the hover, less than half the field period "
+                                f"{period_s:.1f} s")
+    # mirror at the ends: t < lo -> 2 lo - t, t > hi -> 2 hi - t (reflected again, should
+    # that leave the span: a triangle wave of period 2 (hi - lo), which stays in it)
+    span = hi - lo
+    u = np.mod(grid - lo, 2 * span)
+    mirrored = lo + np.where(u <= span, u, 2 * span - u)
     inside = (t_rec >= lo) & (t_rec <= hi)
     data = {}
     n_interp = 0
@@ -197,7 +206,54 @@ def measured_constraint(record: xr.Dataset, clock: _FlightClock, point_enu_m: np
                                      temperature_noise_k=float(record.attrs.get("temperature_noise_k", 0.0)))
     covered = max(0.0, min(hi, grid[-1]) - max(lo, 0.0))
     return con, {"record_covered_s": covered, "mirrored_s": float(n * dt - covered),
-                 "interpolated_samples": n_interp, "record_rate_hz": 1.0 / dt}
+                 "interpolated_samples": n_interp, "record_rate_hz": 1.0 / dt, "gaps_cut": n_cut}
+
+
+#: Longest gap of a measured record bridged by linear interpolation outside the hover window
+#: [s] (:func:`recorded_span_s`).
+MAX_BRIDGED_GAP_S = 1.0
+
+
+def recorded_span_s(t_finite_s: np.ndarray, hover_s: tuple[float, float], dt_s: float) -> tuple[float, float, int]:
+    """The span of a record around the hover window without a gap longer than :data:`MAX_BRIDGED_GAP_S`.
+
+    Parameters
+    ----------
+    t_finite_s : numpy.ndarray
+        Times of the record's valid samples [s], increasing.
+    hover_s : tuple of float
+        Start and end of the hover window [s].
+    dt_s : float
+        The record's sample step [s].
+
+    Returns
+    -------
+    lo, hi : float
+        First and last valid time of the span [s]: the record's ends, or the last valid
+        sample before the first longer gap on either side of the hover window.
+    n_cut : int
+        Gaps that ended the span (0-2).
+
+    Notes
+    -----
+    A measured mast record seldom runs without a break from before a flight to after it: its
+    files may stop between flights, the logger may drop out. Linear interpolation across a
+    gap of seconds to minutes is a straight line without fluctuations; in a forward flight's
+    field period it would lower the record's spectral level, which the constraint carries to
+    the hover point (:func:`dronewind.simulate.constraint.constraint_from_record`), by the
+    share of the period the gap fills (a 110 s gap in a 19 min period: about 10 % of the
+    power at every frequency). The span therefore ends at such a gap, and
+    :func:`measured_constraint` mirrors the record beyond it. Gaps inside the hover window
+    are bridged whatever their length: the hover is what the forward runs reproduce, and the
+    chain bridges them alike.
+    """
+    t = np.asarray(t_finite_s, float)
+    long = np.flatnonzero(np.diff(t) > max(MAX_BRIDGED_GAP_S, 1.5 * dt_s))  # gap between t[k] and t[k+1]
+    before = long[t[long + 1] <= hover_s[0] + dt_s]
+    after = long[t[long] >= hover_s[1] - dt_s]
+    lo = float(t[before[-1] + 1]) if before.size else float(t[0])
+    hi = float(t[after[0]]) if after.size else float(t[-1])
+    return lo, hi, int(before.size > 0) + int(after.size > 0)
 
 
 def check_atmosphere_record(record: xr.Dataset, where: str) -> None:

@@ -53,7 +53,12 @@ __all__ = [
 _FLIGHT_KEYS = {
     "mean_speed_ms", "wind_from_deg", "z_over_L", "obukhov_length_m", "z_ref_m", "hover_height_m",
     "start", "duration_s", "flight_duration_s", "hover_offset_enu_m", "sonic_ins_lag_s", *ATMOSPHERE_DEFAULTS,
+    "sonic_rate_hz", "ins_rate_hz", "mast_rate_hz",
 }
+
+#: Per-flight rate keys of ``simulation.payload_flights.<id>``: the block and key each overrides.
+_FLIGHT_RATES = {"sonic_rate_hz": ("payload", "sonic_rate_hz"), "ins_rate_hz": ("payload", "ins_rate_hz"),
+                 "mast_rate_hz": ("mast", "rate_hz")}
 
 
 class ManifestLike(Protocol):
@@ -619,6 +624,28 @@ def _flight_lag_s(cond: Mapping[str, Any], where: str, payload: Mapping[str, flo
     return processing_lag_s(seed, payload["sonic_ins_lag_low_s"], payload["sonic_ins_lag_high_s"])
 
 
+def _flight_rates(cond: Mapping[str, Any], where: str, payload: dict[str, float], mast: dict[str, float]
+                  ) -> tuple[dict[str, float], dict[str, float]]:
+    """The payload and mast settings with the flight's own sonic, INS and mast rates, if it gives them.
+
+    A measured flight's forward model records at the rates the flight was recorded at
+    (:func:`dronewind.diagnose.forward_conditions.forward_conditions`): the alignment
+    interpolates each record linearly to its common grid, which damps the high frequencies
+    of a slower record more. Each rate is checked against the range of the block it
+    overrides and must be a whole number of Hz.
+    """
+    blocks = {"payload": dict(payload), "mast": dict(mast)}
+    tables = {"payload": PAYLOAD_DEFAULTS, "mast": MAST_DEFAULTS}
+    for key, (block, name) in _FLIGHT_RATES.items():
+        if key in cond:
+            _, lo, hi, unit = tables[block][name]
+            rate = _number(cond[key], f"{where}.{key}", lo, hi, unit)
+            if not rate.is_integer():
+                raise InputError(f"{where}.{key}", f"expected a whole number of Hz, got {rate}")
+            blocks[block][name] = rate
+    return blocks["payload"], blocks["mast"]
+
+
 def _sonic_mount(flight: Mapping[str, Any], flight_id: str) -> str:
     """``upside_down`` (default) or ``upright``."""
     mount = str((flight.get("sonic") or {}).get("mount", "upside_down"))
@@ -671,7 +698,7 @@ def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
     hover = cond.get("hover_height_m", flight.get("target_height_m", sonics[ref]["height_m"]))
     hover_height = _number(hover, f"{where}.hover_height_m", 0.0, 500.0, "m", lower_exclusive=True)
     start, duration = _hover_window(cond, flight, where, flight_id)
-    payload = settings["payload"]
+    payload, mast = _flight_rates(cond, where, settings["payload"], settings["mast"])
     mechs = _flight_mechanisms(settings["mechanisms"], flight_id)
     _check_hover_height(hover_height, mechs, flight_id)
     seed = flight_seed(settings["seed"], flight_id)
@@ -682,7 +709,7 @@ def resolve_payload_flight(campaign: CampaignLike, flight_id: str,
         boundary_layer_height_m=atmosphere["boundary_layer_height_m"], theta_mean_k=atmosphere["theta_mean_k"],
         turbulence=settings["turbulence"],
         hover_height_m=hover_height, start=start, duration_s=duration, payload=payload,
-        defects=settings["defects"], mast=settings["mast"], mechanisms=mechs,
+        defects=settings["defects"], mast=mast, mechanisms=mechs,
         flight_duration_s=_flight_duration_s(cond, where, duration, hover_height, payload),
         hover_offset_enu_m=_hover_offset_enu_m(cond, where, wind["wind_from_deg"]),
         seed=seed, sonic_mount=_sonic_mount(flight, flight_id),

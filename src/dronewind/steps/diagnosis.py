@@ -109,7 +109,7 @@ def measured_features(sonic_l1: str | Path, ins_l1: str | Path, drone_l2: str | 
                                    "reason": reason})
     feats = forward.measured_features(campaign, flight_id, sonic, ins, l2, l3, sonic_ins_lag=sonic_ins_lag,
                                       hover=hover, max_missing_fraction=max_missing_fraction)
-    conditions = forward_conditions.forward_conditions(campaign, flight_id, l3, l2, forward_payload)
+    conditions = forward_conditions.forward_conditions(campaign, flight_id, l3, l2, forward_payload, ins)
     LOG.info("flight %s: features %s", flight_id, feats.values)
     usable = int(l2.attrs.get("usable", 1))
     left_out = {} if usable else {"reason": str(l2.attrs.get("unusable_reason", ""))}
