@@ -146,11 +146,9 @@ def split_payload(conditions: Mapping[str, Any]) -> tuple[dict[str, Any], dict[s
 
 
 #: Per-flight rate conditions (keys of ``simulation.payload_flights.<id>``), the product they are
-#: read from, its attribute, and the simulator's range (:data:`dronewind.simulate.defaults.PAYLOAD_DEFAULTS`,
-#: ``MAST_DEFAULTS``).
-_RATES = (("sonic_rate_hz", "l2_drone", "sampling_rate_hz", "payload", "sonic_rate_hz"),
-          ("ins_rate_hz", "ins_l1", "sampling_rate_hz", "payload", "ins_rate_hz"),
-          ("mast_rate_hz", "l3", "mast_sampling_rate_hz", "mast", "rate_hz"))
+#: read from and its attribute.
+_RATES = (("sonic_rate_hz", "l2_drone", "sampling_rate_hz"), ("ins_rate_hz", "ins_l1", "sampling_rate_hz"),
+          ("mast_rate_hz", "l3", "mast_sampling_rate_hz"))
 
 
 def measured_rates_hz(l3: xr.Dataset, l2_drone: xr.Dataset, ins_l1: xr.Dataset | None = None) -> dict[str, float]:
@@ -182,16 +180,15 @@ def measured_rates_hz(l3: xr.Dataset, l2_drone: xr.Dataset, ins_l1: xr.Dataset |
     A forward model that records its mast at another rate than the measured one predicts
     another drone/mast power ratio there (the ``ln_hf`` features) for that reason alone.
     """
-    from dronewind.simulate.defaults import MAST_DEFAULTS, PAYLOAD_DEFAULTS
+    from dronewind.simulate.settings import flight_rate_range_hz
 
     products = {"l3": l3, "l2_drone": l2_drone, "ins_l1": ins_l1}
-    tables = {"payload": PAYLOAD_DEFAULTS, "mast": MAST_DEFAULTS}
     out = {}
-    for key, product, attr, table, name in _RATES:
+    for key, product, attr in _RATES:
         ds = products[product]
         rate = float(ds.attrs.get(attr, np.nan)) if ds is not None else math.nan
         if math.isfinite(rate) and rate > 0:
-            _, lo, hi, _ = tables[table][name]
+            lo, hi = flight_rate_range_hz(key)
             out[key] = float(min(max(round(rate), lo), hi))
     return out
 

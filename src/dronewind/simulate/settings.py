@@ -47,6 +47,7 @@ __all__ = [
     "validate_simulation",
     "resolve_payload_flight",
     "check_payload_settings",
+    "flight_rate_range_hz",
 ]
 
 
@@ -59,6 +60,14 @@ _FLIGHT_KEYS = {
 #: Per-flight rate keys of ``simulation.payload_flights.<id>``: the block and key each overrides.
 _FLIGHT_RATES = {"sonic_rate_hz": ("payload", "sonic_rate_hz"), "ins_rate_hz": ("payload", "ins_rate_hz"),
                  "mast_rate_hz": ("mast", "rate_hz")}
+
+
+def flight_rate_range_hz(key: str) -> tuple[float, float]:
+    """Range [Hz] of a per-flight rate key (``sonic_rate_hz``, ``ins_rate_hz``, ``mast_rate_hz``):
+    that of the ``simulation.payload`` or ``simulation.mast`` setting it overrides."""
+    block, name = _FLIGHT_RATES[key]
+    _, lo, hi, _ = (PAYLOAD_DEFAULTS if block == "payload" else MAST_DEFAULTS)[name]
+    return lo, hi
 
 
 class ManifestLike(Protocol):
@@ -635,11 +644,9 @@ def _flight_rates(cond: Mapping[str, Any], where: str, payload: dict[str, float]
     overrides and must be a whole number of Hz.
     """
     blocks = {"payload": dict(payload), "mast": dict(mast)}
-    tables = {"payload": PAYLOAD_DEFAULTS, "mast": MAST_DEFAULTS}
     for key, (block, name) in _FLIGHT_RATES.items():
         if key in cond:
-            _, lo, hi, unit = tables[block][name]
-            rate = _number(cond[key], f"{where}.{key}", lo, hi, unit)
+            rate = _number(cond[key], f"{where}.{key}", *flight_rate_range_hz(key), "Hz")
             if not rate.is_integer():
                 raise InputError(f"{where}.{key}", f"expected a whole number of Hz, got {rate}")
             blocks[block][name] = rate
