@@ -91,6 +91,22 @@ def test_judge_mast_attenuation_named_as_drone_w_gain_only_with_the_measured_atm
     assert not model["detected"] and model["wrong_cause"]
 
 
+def test_judge_takes_the_estimate_of_a_named_exact_equivalent_translated():
+    # a hidden drone w gain of 1.30 named as a mast attenuation of 0.78 (= a w gain of 1.282):
+    # judged on that estimate, not on the unnamed w_gain candidate's 1.249 (0.051 off, beyond
+    # the 0.05 tolerance); with the model atmosphere the two are not equivalent
+    truth = ex.Draw("w_gain", {"gain": 1.30}, 1)
+    diag = {"named_causes": ["mast_w_attenuation"], "ambiguity_sets": [],
+            "named_estimates": {"mast_w_attenuation": {"estimate": {"gain": 0.78}}},
+            "candidates": [{"mechanism": "w_gain", "estimate": {"gain": 1.249}}]}
+    measured = ex.judge(truth, {**diag, "atmosphere": "measured"})
+    assert measured["detected"] and measured["estimate_ok"]
+    assert measured["estimate"]["gain"] == pytest.approx(1.0 / 0.78)
+    assert measured["estimate_error"] == pytest.approx(abs(1.0 / 0.78 - 1.30) / 0.05)
+    model = ex.judge(truth, {**diag, "atmosphere": "model"})
+    assert model["estimate"]["gain"] == 1.249 and not model["estimate_ok"]
+
+
 def test_draw_seed_from_the_environment_the_commit_or_fixed(tmp_path, monkeypatch):
     monkeypatch.setenv(ex.DRAW_SEED_ENV, "123")
     assert ex.draw_seed(tmp_path) == (123, f"${ex.DRAW_SEED_ENV}")

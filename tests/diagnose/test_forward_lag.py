@@ -83,14 +83,17 @@ def test_forward_runs_find_the_measured_lag_and_probes_add_to_it(measured):
 
 def test_the_lag_drift_does_not_see_a_constant_lag():
     """lag_drift_s (second half's lag minus the first's) of one true state with processing lags
-    0 and -0.125 s (4 steps): the same drift, the lag moved by the 4 steps."""
+    0 and -0.125 s (4 steps): the lag moved by the 4 steps, the same drift within a tenth of a
+    step. The halves' lags lie between the grid's lags (lag_search.subgrid_minimum); the 50 Hz
+    INS is interpolated at other phases when the sonic moves by 4 of its 32 Hz samples, which
+    moves the parabola's vertex by about a millisecond (measured 1.1 ms)."""
     camp = _campaign()
     conditions = dict(camp["simulation"]["payload_flights"]["f1"])
     none, products = forward.run_forward(forward_manifest(camp, "f1", conditions), "f1", _processing())
     lagged, _ = forward.run_forward(forward_manifest(camp, "f1", {**conditions, "sonic_ins_lag_s": -0.125}),
                                     "f1", _processing(), truth=products["truth"])
     assert lagged.values["lag_sonic_ins_s"] - none.values["lag_sonic_ins_s"] == pytest.approx(-0.125, abs=1e-9)
-    assert lagged.values["lag_drift_s"] == pytest.approx(none.values["lag_drift_s"], abs=1e-9)
+    assert lagged.values["lag_drift_s"] == pytest.approx(none.values["lag_drift_s"], abs=0.1 * STEP_S)
 
 
 def test_parts_with_the_lag_condition_merge_into_the_whole_flight(measured):

@@ -169,3 +169,26 @@ def test_whole_curve_from_the_halves_equals_its_own_correlation(lag_true, lever,
     for (lo, hi), half in zip(((0, k), (k, n)), halves, strict=True):
         ref = _tke_fftconvolve(rot[lo:hi + 2 * n_half], v[lo:hi + 2 * n_half], b[lo:hi], hi - lo, n_half)
         np.testing.assert_allclose(half, ref, rtol=1e-10)
+
+
+@pytest.mark.parametrize("vertex_s", [0.0, 0.0117, -0.0151, 0.2031])
+def test_subgrid_minimum_finds_a_parabolas_vertex_between_the_grid_lags(vertex_s):
+    """A TKE curve that is a parabola in the lag (plus a constant) on a 1/32 s grid: the vertex
+    comes back to rounding error, wherever it lies between two grid lags; the grid minimum is
+    off by up to half a step (0.0156 s)."""
+    lags = np.arange(-16, 17) / 32.0
+    tke = 0.4 + 3.0 * (lags - vertex_s) ** 2
+    assert lag_search.subgrid_minimum(lags, tke) == pytest.approx(vertex_s, abs=1e-12)
+    assert abs(lag_search.find_sonic_ins_lag(lags, tke)[0] - vertex_s) <= 0.5 / 32 + 1e-12
+
+
+def test_subgrid_minimum_stays_on_the_grid_at_an_end_or_beside_a_missing_value():
+    """At an end of the grid, or beside a lag without a TKE (NaN), there is no parabola
+    through the minimum: the grid minimum is returned. Two equal lowest values put the vertex
+    half-way between them."""
+    lags = np.arange(-4, 5) / 32.0
+    assert lag_search.subgrid_minimum(lags, lags + 1.0) == lags[0]
+    gap = np.array([3.0, 2.0, np.nan, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0])
+    assert lag_search.subgrid_minimum(lags, gap) == lags[3]
+    tie = np.array([3.0, 2.0, 1.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    assert lag_search.subgrid_minimum(lags, tie) == pytest.approx((lags[2] + lags[3]) / 2.0, abs=1e-15)

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import os
 import subprocess
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -51,7 +51,8 @@ import numpy as np
 __all__ = ["HIDDEN_RANGES", "HIDDEN_CENTRES", "MODEL_ERRORS", "TOLERANCES", "Draw", "draw", "draw_seed",
            "stratified_draws", "campaign_manifest", "judge", "AMBIGUOUS_WITH", "hidden_lag_estimate",
            "judge_hidden_lag", "AMBIGUOUS_WITH_MEASURED_ATMOSPHERE", "DRAW_SEED_ENV", "FALLBACK_DRAW_SEED",
-           "wilson_interval", "HIDDEN_FIXED", "DOWNWASH_REFERENCE_MS", "CAVEATED_MODEL_ERRORS", "model_error_draw"]
+           "wilson_interval", "HIDDEN_FIXED", "EQUIVALENT_ESTIMATES", "DOWNWASH_REFERENCE_MS",
+           "CAVEATED_MODEL_ERRORS", "model_error_draw"]
 
 #: mechanism -> parameter -> (low, high, signed): the size is drawn uniformly in [low, high]
 #: as a distance from the parameter's centre (:data:`HIDDEN_CENTRES`, else 0), on a random
@@ -169,6 +170,14 @@ AMBIGUOUS_WITH: dict[str, set[str]] = {
 AMBIGUOUS_WITH_MEASURED_ATMOSPHERE: dict[str, set[str]] = {
     "w_gain": {"mast_w_attenuation"},
     "mast_w_attenuation": {"w_gain"},
+}
+#: The estimate of a named mechanism as that of its exact equivalent under the measured
+#: atmosphere: (named, hidden) -> the hidden mechanism's parameters. A mast reading w times g
+#: is a drone reading it times 1/g (:data:`AMBIGUOUS_WITH_MEASURED_ATMOSPHERE`), so a named
+#: mast attenuation of 0.78 estimates a hidden w gain of 1.28.
+EQUIVALENT_ESTIMATES: dict[tuple[str, str], Callable[[Mapping[str, Any]], dict[str, float]]] = {
+    ("mast_w_attenuation", "w_gain"): lambda p: {"gain": 1.0 / float(p["gain"])},
+    ("w_gain", "mast_w_attenuation"): lambda p: {"gain": 1.0 / float(p["gain"])},
 }
 
 
@@ -487,7 +496,9 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any], campaign: Mapping[str, Any]
         ``false_alarm`` (something
         named although no catalog mechanism was hidden: a false attribution for a model
         error), ``wrong_cause`` (a mechanism draw where a named cause is neither the truth
-        nor ambiguous with it), ``estimate_ok`` (every parameter within :data:`TOLERANCES`),
+        nor ambiguous with it), ``estimate_ok`` (every parameter within :data:`TOLERANCES`;
+        the hidden mechanism's estimate, or, named as its exact equivalent under the measured
+        atmosphere, that one's translated, :data:`EQUIVALENT_ESTIMATES`),
         ``estimate_error`` (the largest |estimate - truth| / tolerance over the parameters;
         NaN without an estimate), ``named`` and the estimate. For a hidden ``sonic_ins_lag``:
         ``detected`` = nothing named, ``wrong_cause`` = something named, ``estimate_ok`` =
@@ -519,6 +530,11 @@ def judge(truth: Draw, diagnosis: Mapping[str, Any], campaign: Mapping[str, Any]
     out["false_alarm"] = False
     out["wrong_cause"] = bool(set(named) - explained)
     est = (diagnosis.get("named_estimates") or {}).get(truth.mechanism, {}).get("estimate")
+    if est is None and diagnosis.get("atmosphere") == "measured":
+        # named as its exact equivalent: that estimate, translated (EQUIVALENT_ESTIMATES)
+        est = next((EQUIVALENT_ESTIMATES[(name, truth.mechanism)](entry["estimate"])
+                    for name, entry in (diagnosis.get("named_estimates") or {}).items()
+                    if (name, truth.mechanism) in EQUIVALENT_ESTIMATES and entry.get("estimate")), None)
     if est is None:
         est = next((c["estimate"] for c in diagnosis.get("candidates", []) if c["mechanism"] == truth.mechanism), {})
     out["estimate"] = est

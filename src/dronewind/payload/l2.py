@@ -61,7 +61,15 @@ from dronewind.core.timeseries import (
 )
 from dronewind.errors import InputError
 from dronewind.payload import checks, motion
-from dronewind.payload.lag_search import _INS_VARS, _NS, _SONIC_VARS, _tke_curves, find_sonic_ins_lag, interpolate_ins
+from dronewind.payload.lag_search import (
+    _INS_VARS,
+    _NS,
+    _SONIC_VARS,
+    _tke_curves,
+    find_sonic_ins_lag,
+    interpolate_ins,
+    subgrid_minimum,
+)
 
 __all__ = [
     "payload_l2",
@@ -451,7 +459,9 @@ def _sonic_ins_lag(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndar
         The TKE curve (:func:`tke_vs_lag`).
     halves_s : tuple of float or None
         With ``halves``: the lags of minimum TKE on the search grid's samples in the first
-        and the second half of the hover window (NaN for a half too short to search) [s].
+        and the second half of the hover window, between the grid's lags
+        (:func:`~dronewind.payload.lag_search.subgrid_minimum`; NaN for a half too short to
+        search) [s].
     """
     h0, h1 = hover_s
     in_hover = (seg.time_s >= h0) & (seg.time_s <= h1)
@@ -463,7 +473,9 @@ def _sonic_ins_lag(seg: _SonicSegment, hover_s: tuple[float, float], ti: np.ndar
                                               h0 + (h1 - h0) / 2.0 if halves else None)
     halves_s = None
     if halves:
-        first, second = (float("nan") if c is None else find_sonic_ins_lag(lag_grid, c)[0] for c in parts)
+        # between the grid's lags: their difference measures a clock drift, which whole grid
+        # steps would quantise (lag_search.subgrid_minimum)
+        first, second = (float("nan") if c is None else subgrid_minimum(lag_grid, c) for c in parts)
         halves_s = (first, second)
         tr.log.append(f"sync: lags of minimum TKE on the hover window's halves {first:+.5f} s and {second:+.5f} s")
     lag, at_edge = find_sonic_ins_lag(lag_grid, tke)
@@ -727,7 +739,8 @@ def payload_l2(
     lag_halves : bool
         Also find the lag on each half of the hover window (the search grid's samples
         before and after the window's middle, with the same sonic and INS): attrs
-        ``lag_first_half_s`` and ``lag_second_half_s`` [s], NaN for a half too short to
+        ``lag_first_half_s`` and ``lag_second_half_s`` [s] (between the grid's lags:
+        :func:`dronewind.payload.lag_search.subgrid_minimum`), NaN for a half too short to
         search. Their difference shows a drift of the sonic clock against the INS.
 
     Returns

@@ -37,6 +37,7 @@ __all__ = [
     "interpolate_ins",
     "tke_vs_lag",
     "find_sonic_ins_lag",
+    "subgrid_minimum",
 ]
 
 
@@ -513,3 +514,49 @@ def find_sonic_ins_lag(lag_s: np.ndarray, tke_m2s2: np.ndarray) -> tuple[float, 
     """
     k = int(np.nanargmin(tke_m2s2))
     return float(lag_s[k]), bool(k == 0 or k == len(lag_s) - 1)
+
+
+def subgrid_minimum(lag_s: np.ndarray, tke_m2s2: np.ndarray) -> float:
+    """Lag of minimum TKE between the grid's lags: the vertex of the parabola through the minimum.
+
+    Parameters
+    ----------
+    lag_s, tke_m2s2 : numpy.ndarray
+        Output of :func:`tke_vs_lag` (an evenly spaced lag grid).
+
+    Returns
+    -------
+    float
+        Lag of minimum TKE [s]: the grid minimum moved to the vertex of the parabola through it
+        and its two neighbours; the grid minimum itself where it lies at an end of the grid or
+        the three points are not convex.
+
+    Notes
+    -----
+    With :math:`k` the grid minimum, :math:`\\Delta` the grid step and
+    :math:`E_j` the TKE at lag :math:`j`,
+
+    .. math::
+
+        \\tau = \\tau_k + \\frac{\\Delta}{2}\\,
+        \\frac{E_{k-1} - E_{k+1}}{E_{k-1} - 2E_k + E_{k+1}} .
+
+    Near its minimum the TKE grows with the square of the lag error (the motion left in the
+    wind is proportional to it), so the parabola is its leading term. The applied lag stays
+    on the grid (:func:`find_sonic_ins_lag`, as in Ghirardelli et al. (2025), Sect. 3.3);
+    this estimate serves where the lag's change matters more than its value, e.g. the drift
+    between the two halves of a hover: on the grid it moves in whole steps (1/32 s at
+    32 Hz), a quantisation of the same order as a clock drift of a few hundred ppm over a
+    ten-minute hover.
+    """
+    lag = np.asarray(lag_s, dtype=float)
+    tke = np.asarray(tke_m2s2, dtype=float)
+    k = int(np.nanargmin(tke))
+    if k == 0 or k == len(lag) - 1:
+        return float(lag[k])
+    e0, e1, e2 = (float(x) for x in tke[k - 1:k + 2])
+    curvature = e0 - 2.0 * e1 + e2
+    if not (np.isfinite(curvature) and curvature > 0):
+        return float(lag[k])
+    # the vertex lies within half a step of the grid minimum (e1 is the smallest of the three)
+    return float(lag[k] + 0.5 * (lag[k + 1] - lag[k]) * (e0 - e2) / curvature)
