@@ -175,9 +175,14 @@ AMBIGUOUS_WITH_MEASURED_ATMOSPHERE: dict[str, set[str]] = {
 #: atmosphere: (named, hidden) -> the hidden mechanism's parameters. A mast reading w times g
 #: is a drone reading it times 1/g (:data:`AMBIGUOUS_WITH_MEASURED_ATMOSPHERE`), so a named
 #: mast attenuation of 0.78 estimates a hidden w gain of 1.28.
+def _reciprocal_gain(parameters: Mapping[str, Any]) -> dict[str, float]:
+    """A gain g read as the equivalent gain 1/g on the other sensor."""
+    return {"gain": 1.0 / float(parameters["gain"])}
+
+
 EQUIVALENT_ESTIMATES: dict[tuple[str, str], Callable[[Mapping[str, Any]], dict[str, float]]] = {
-    ("mast_w_attenuation", "w_gain"): lambda p: {"gain": 1.0 / float(p["gain"])},
-    ("w_gain", "mast_w_attenuation"): lambda p: {"gain": 1.0 / float(p["gain"])},
+    ("mast_w_attenuation", "w_gain"): _reciprocal_gain,
+    ("w_gain", "mast_w_attenuation"): _reciprocal_gain,
 }
 
 
