@@ -205,3 +205,30 @@ def test_tunnel_response_lag_recovered_or_not_named(tmp_path, lag_s, seed):
         assert not lag["significant"] and lag["gain"] < 0.05
     side = next(c for c in res["candidates"] if c["mechanism"] == "sideslip")
     assert side["gain"] > 0.3  # lateral law (b_y, c_y) = (0.86, 5.6) vs longitudinal (0.88, 7.6)
+
+
+def test_offset_attitude_terms_equal_the_direct_evaluation():
+    """The fits' tilt and lean with pitch offsets (angle-sum formulas on cached cosines and sines)
+    equal tilt_from_attitude at the offset pitch to rounding, upright blocks included."""
+    from dronewind.quadrotor.drag import tilt_from_attitude
+
+    rng = np.random.default_rng(3)
+    n = 400
+    roll = rng.uniform(-12.0, 12.0, n)
+    pitch = rng.uniform(-15.0, 15.0, n)
+    roll[:3], pitch[:3] = 0.0, [0.0, 1.5, -2.0]  # upright at 0 offset, and upright after the offsets below
+    uav = np.array(["q1", "q2"])[rng.integers(0, 2, n)]
+    uav[:3] = ["q1", "q1", "q2"]
+    data = quadrotor_field.FieldData(win=np.arange(n), roll=roll, pitch=pitch, yaw=rng.uniform(0.0, 360.0, n),
+                                     vn=np.zeros(n), ve=np.zeros(n), ref_speed=np.ones(n), ref_from=np.zeros(n),
+                                     flight=np.array(["f1"] * n), uav=uav, uavs=["q1", "q2"])
+    offsets = np.array([1.5, -2.0])  # [degree]
+    index = data.uav_index[data.win]
+    tilt, cos_lean, sin_lean, cos_psi, sin_psi = quadrotor_field._attitude_terms(data, (offsets, index), 0.0)
+    tilt_ref, lean_rel = tilt_from_attitude(np.radians(roll), np.radians(pitch - offsets[index]))
+    lean = np.radians(data.yaw) + lean_rel
+    # rounding: a few ulp of the unit-size terms, the tilt within 1e-15 rad of about 0.3 rad
+    np.testing.assert_allclose(tilt, tilt_ref, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(cos_lean, np.cos(lean), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sin_lean, np.sin(lean), rtol=0, atol=1e-12)
+    assert tilt[1] == tilt[2] == 0.0

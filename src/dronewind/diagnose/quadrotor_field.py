@@ -103,6 +103,13 @@ class FieldData:
         return np.radians(self.roll)
 
     @functools.cached_property
+    def attitude_trig(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Cosine and sine of every block's roll and pitch: the offset path (:func:`_attitude_terms`)
+        turns the pitch by the angle-sum formulas instead of evaluating them again per block."""
+        pitch = np.radians(self.pitch)
+        return np.cos(self.roll_rad), np.sin(self.roll_rad), np.cos(pitch), np.sin(pitch)
+
+    @functools.cached_property
     def tilt_without_offset(self) -> tuple[np.ndarray, np.ndarray]:
         """Tilt and lean direction relative to the nose [rad] of every block, without a pitch offset."""
         # minus 0.0 as in the fitted path (_attitude_terms): a logged -0.0 becomes 0.0 there too
@@ -309,13 +316,13 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
     n_off = len(model.offset_names(data.uavs))
     nspeed = len(model.speed_names(data.uavs)) - n_off
     if n_off or (model.yaw and yaw_deg is not None):
-        p_off: np.ndarray | float
+        p_off: tuple[np.ndarray, np.ndarray] | float
         if model.flight_pitch:
             # a unit the training never saw (a held-out flight) keeps zero offset
             idx, known = data.offset_index(model.units)
-            p_off = np.where(known, x[nspeed:][idx], 0.0)
+            p_off = (np.append(x[nspeed:], 0.0), np.where(known, idx, x[nspeed:].size))
         else:
-            p_off = x[nspeed:][data.uav_index[data.win]] if model.pitch else 0.0
+            p_off = (x[nspeed:], data.uav_index[data.win]) if model.pitch else 0.0
         y_off = yaw_deg[data.uav_index[data.win]] if (model.yaw and yaw_deg is not None) else 0.0
         terms = _attitude_terms(data, p_off, y_off)
     else:
@@ -343,20 +350,46 @@ def _wind(data: FieldData, model: FieldModel, x: np.ndarray, yaw_deg: np.ndarray
     return mean(sp), mean(signed), mean(wn), mean(we)
 
 
-def _attitude_terms(data: FieldData, p_off: np.ndarray | float, y_off: np.ndarray | float
+def _attitude_terms(data: FieldData, p_off: tuple[np.ndarray, np.ndarray] | float, y_off: np.ndarray | float
                     ) -> tuple[np.ndarray, ...]:
-    """Tilt [rad] and the cosines and sines of the lean and heading angles, with the offsets [degree] removed."""
-    if isinstance(p_off, float):  # no pitch offset fitted (0): the tilt and its direction never change
-        tilt, lean_rel = data.tilt_without_offset
-    else:
-        tilt, lean_rel = tilt_from_attitude(data.roll_rad, np.radians(data.pitch - p_off))
+    r"""Tilt [rad] and the cosines and sines of the lean and heading angles, with the offsets [degree] removed.
+
+    ``p_off`` is 0.0 (no pitch offset) or the offsets of the model's units [degree] with every
+    block's index into them.
+
+    Notes
+    -----
+    The tilt and lean are those of :func:`~dronewind.quadrotor.drag.tilt_from_attitude` at the
+    pitch :math:`\theta - p`. The fits evaluate them thousands of times with new offsets, so they
+    are written here with the blocks' cosines and sines made once (:attr:`FieldData.attitude_trig`)
+    and the angle-sum formulas, :math:`\sin(\theta - p) = \sin\theta\cos p - \cos\theta\sin p`,
+    with the trigonometric functions of the few offsets only; the lean's cosine and sine are the
+    thrust axis' horizontal components over their norm, turned by the heading. Equal to the direct
+    evaluation to rounding (``tests/diagnose/test_diagnose_quadrotor.py``).
+    """
     if isinstance(y_off, float) and y_off == 0.0:  # no yaw offset (the speed fits): the heading never changes
         psi, cos_psi, sin_psi = data.heading_without_offset
     else:
         psi = np.radians(data.yaw - y_off)
         cos_psi, sin_psi = np.cos(psi), np.sin(psi)
-    lean = psi + lean_rel
-    return tilt, np.cos(lean), np.sin(lean), cos_psi, sin_psi
+    if isinstance(p_off, float):  # no pitch offset fitted (0): the tilt and its direction never change
+        tilt, lean_rel = data.tilt_without_offset
+        lean = psi + lean_rel
+        return tilt, np.cos(lean), np.sin(lean), cos_psi, sin_psi
+    offsets, index = p_off
+    p = np.radians(np.asarray(offsets, dtype=float))
+    cos_p, sin_p = np.cos(p)[index], np.sin(p)[index]
+    cos_phi, sin_phi, cos_th, sin_th = data.attitude_trig
+    # the thrust axis (forward, right, up) at the pitch theta - p (tilt_from_attitude's Notes)
+    fwd = -(sin_th * cos_p - cos_th * sin_p) * cos_phi
+    up = (cos_th * cos_p + sin_th * sin_p) * cos_phi
+    horizontal = np.hypot(fwd, sin_phi)
+    tilt = np.arctan2(horizontal, up)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # an upright block: the lean of atan2(0, +-0), 0 or pi (its tilt and speed are 0 either way)
+        cos_rel = np.where(horizontal > 0, fwd / horizontal, np.copysign(1.0, fwd))
+        sin_rel = np.where(horizontal > 0, sin_phi / horizontal, 0.0)
+    return (tilt, cos_psi * cos_rel - sin_psi * sin_rel, sin_psi * cos_rel + cos_psi * sin_rel, cos_psi, sin_psi)
 
 
 def predict_field(data: FieldData, fit: FieldFit) -> tuple[np.ndarray, np.ndarray]:
