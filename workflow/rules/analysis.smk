@@ -1,8 +1,9 @@
 # L2 -> L3 (mast cut to the flight, alignment, decimation, rotation) and L3 -> L4 (statistics, spectra, ...).
 
 
-# The reference mast cut to a flight's hover window (mast L2) and the flight's L3 (alignment,
-# decimation, rotation) in one job.
+# The reference mast cut to a rigid-mount flight's hover window (mast L2) and the flight's L3
+# (alignment, decimation, rotation) in one job; a payload flight's are made by its chain's job
+# (payload_chain).
 rule l3:
     input:
         drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
@@ -15,7 +16,7 @@ rule l3:
     benchmark:
         bench_path("l3", "flight")
     wildcard_constraints:
-        flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
+        flight=_alternatives(RIGID_MAST_FLIGHTS),
     priority: PRIORITY_CHAIN
     conda:
         ENV
@@ -90,19 +91,21 @@ rule l4_drone_only:
         "../scripts/l4.py"
 
 
-# the L4 of a flight's drone and reference mast in one job (two files)
+# The L4 of every flight's drone and reference mast in one job: a flight's L4 is a few tenths
+# of a CPU-s of work where a job starts in about 1 CPU-s, and only campaign-level steps (flight
+# statistics, tables, figures, report) read the L4 files, which rerun whenever any of them changes.
 rule l4:
     input:
-        l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
+        l3=expand(RESULTS / "netcdf" / "L3" / "{flight}.nc", flight=MAST_FLIGHTS),
     output:
-        drone=RESULTS / "netcdf" / "L4" / "{flight}_drone.nc",
-        mast=RESULTS / "netcdf" / "L4" / "{flight}_mast.nc",
+        drone=expand(
+            RESULTS / "netcdf" / "L4" / "{flight}_drone.nc", flight=MAST_FLIGHTS
+        ),
+        mast=expand(RESULTS / "netcdf" / "L4" / "{flight}_mast.nc", flight=MAST_FLIGHTS),
     log:
-        log_path("l4", "flight"),
+        log_path("l4"),
     benchmark:
-        bench_path("l4", "flight")
-    wildcard_constraints:
-        flight=_alternatives(PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS),
+        bench_path("l4")
     priority: PRIORITY_CHAIN
     conda:
         ENV
@@ -111,8 +114,8 @@ rule l4:
         mem_mb=300,
     params:
         campaign=CAMPAIGN.name,
-        flight_id="{flight}",
-        reference=reference_sonic,
+        flights=MAST_FLIGHTS,
+        references={f: reference_sonic_of(f) for f in MAST_FLIGHTS},
         spectra=PROCESSING["spectra"],
         quadrant=PROCESSING["quadrant"],
         detrending=PROCESSING["detrending"],

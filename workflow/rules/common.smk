@@ -77,6 +77,8 @@ DRONE_ONLY_FLIGHTS = [
     f["id"] for f in CAMPAIGN.payload_flights if is_rigid(f) and not f.get("reference")
 ]
 RIGID_MAST_FLIGHTS = [f for f in RIGID_FLIGHTS if f not in DRONE_ONLY_FLIGHTS]
+# the flights compared with a reference mast sonic (mast L2, L3 and both L4 files)
+MAST_FLIGHTS = PAYLOAD_FLIGHTS + RIGID_MAST_FLIGHTS
 QUAD_FLIGHTS = [f["id"] for f in CAMPAIGN.quadrotor_flights]
 MAST_SONICS = list(CAMPAIGN.mast_sonics())
 # Tower- and mast-only campaigns (no payload or rigid-mount flight): the mast sonics are
@@ -167,7 +169,7 @@ def only_if(condition, ids):
 
 # parts of a flight's forward-model runs when they are one job each (diagnosis.probe_jobs)
 PROBE_PARTS = list(probe_parts())
-# the parts the diagnosis' bootstrap reference is drawn in by rule diagnose_reference, about 10 s
+# the parts the diagnosis' bootstrap reference is drawn in by rule diagnose_reference, about 12 s
 # of work each, at most diagnosis.bootstrap_jobs
 N_REFERENCE = reference_jobs(
     len(PAYLOAD_FLIGHTS), DIAGNOSIS["bootstrap"], DIAGNOSIS["bootstrap_jobs"]
@@ -295,10 +297,15 @@ def simulated_payload_patterns():
     return patterns
 
 
-def reference_of(wc):
+def reference_l1(flight_id):
     """L1 file of the mast sonic a payload flight is compared with."""
-    ref = CAMPAIGN.payload_flight(wc.flight)["reference"]
+    ref = CAMPAIGN.payload_flight(flight_id)["reference"]
     return str(RESULTS / "netcdf" / "L1" / f"mast_{ref}.nc")
+
+
+def reference_of(wc):
+    """Input function: :func:`reference_l1` of the job's flight."""
+    return reference_l1(wc.flight)
 
 
 def l0_root(wildcards, output):
@@ -345,9 +352,14 @@ def flight_sensors(flight_id):
     return ["drone"] if flight_id in DRONE_ONLY_FLIGHTS else ["drone", "mast"]
 
 
+def reference_sonic_of(flight_id):
+    """The manifest entry of a flight's reference sonic."""
+    return CAMPAIGN.mast_sonics()[CAMPAIGN.payload_flight(flight_id)["reference"]]
+
+
 def reference_sonic(wc):
-    """Params function: the manifest entry of a payload flight's reference sonic."""
-    return CAMPAIGN.mast_sonics()[CAMPAIGN.payload_flight(wc.flight)["reference"]]
+    """Params function: :func:`reference_sonic_of` the job's flight."""
+    return reference_sonic_of(wc.flight)
 
 
 def flight_manifest(wc):
@@ -355,14 +367,19 @@ def flight_manifest(wc):
     return payload_flight_manifest(CAMPAIGN.data, wc.flight)
 
 
-def published_manifest(wc):
-    """Params function: the one-flight manifest with the flight's simulated atmosphere.
+def published_manifest_of(flight_id):
+    """The one-flight manifest with the flight's simulated atmosphere.
 
     The published-numbers diagnosis takes the atmosphere settings that the paper does not
     print (roughness length, temperature, boundary-layer depth) from the campaign that
     reconstructs the experiment.
     """
-    return payload_flight_manifest(CAMPAIGN.data, wc.flight, atmosphere=True)
+    return payload_flight_manifest(CAMPAIGN.data, flight_id, atmosphere=True)
+
+
+def published_manifest(wc):
+    """Params function: :func:`published_manifest_of` the job's flight."""
+    return published_manifest_of(wc.flight)
 
 
 # what the payload simulator reads of the manifest (its jobs' rerun trigger)

@@ -209,6 +209,9 @@ rule diagnose_reference:
         "../scripts/diagnose_reference.py"
 
 
+# The campaign diagnosis, then the extended model (named causes at their fitted values, fresh
+# seeds) rerun for every flight in the same job: a flight's rerun is a few forward runs (about
+# 0.3 CPU-s) where a job starts in about 1 CPU-s, and all of them read what the diagnosis wrote.
 rule diagnose:
     input:
         manifest=str(CAMPAIGN.path),
@@ -225,9 +228,14 @@ rule diagnose:
         reference=expand(
             RESULTS / "diagnosis" / "reference" / "{part}.npz", part=REFERENCE_PARTS
         ),
+        masts=sorted({reference_l1(f) for f in PAYLOAD_FLIGHTS}),
     output:
         json=RESULTS / "diagnosis.json",
         manifest=RESULTS / "diagnosis" / "extended_campaign.yaml",
+        extended=expand(
+            RESULTS / "diagnosis" / "extended" / "{flight}.json",
+            flight=PAYLOAD_FLIGHTS,
+        ),
     log:
         log_path("diagnose"),
     benchmark:
@@ -244,6 +252,10 @@ rule diagnose:
         min_gain=DIAGNOSIS["min_gain"],
         atmosphere=DIAGNOSIS["atmosphere"],
         bootstrap=DIAGNOSIS["bootstrap"],
+        flights=PAYLOAD_FLIGHTS,
+        masts={f: reference_l1(f) for f in PAYLOAD_FLIGHTS},
+        processing=CHAIN,
+        fresh_seeds=fresh_seeds(DIAGNOSIS["seeds"]),
     script:
         "../scripts/diagnose.py"
 
@@ -308,31 +320,6 @@ rule diagnose_rigid:
 
 
 ruleorder: diagnose_rigid > diagnose
-
-
-rule diagnose_extended:
-    input:
-        manifest=RESULTS / "diagnosis" / "extended_campaign.yaml",
-        mast=reference_of,
-    output:
-        RESULTS / "diagnosis" / "extended" / "{flight}.json",
-    log:
-        log_path("diagnose_extended", "flight"),
-    benchmark:
-        bench_path("diagnose_extended", "flight")
-    priority: PRIORITY_CHAIN
-    conda:
-        ENV
-    threads: 1
-    resources:
-        mem_mb=700,
-    params:
-        flight_id="{flight}",
-        processing=CHAIN,
-        seeds=fresh_seeds(DIAGNOSIS["seeds"]),
-        atmosphere=DIAGNOSIS["atmosphere"],
-    script:
-        "../scripts/diagnose_extended.py"
 
 
 rule diagnosis_report:

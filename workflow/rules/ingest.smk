@@ -1,20 +1,26 @@
-# L0 -> L1: raw records to UTC, CF NetCDF with range/spike/gap QC flags (payload flights: and L2).
+# L0 -> L1: raw records to UTC, CF NetCDF with range/spike/gap QC flags (payload flights: on to L3).
 
 
-# A payload flight's sonic and INS to L1 and on to L2 in one job (both steps are cheap): L2 is
-# the hover window, the sonic-INS lag and the motion correction (Ghirardelli et al. 2025, Sect. 3).
-rule payload_l1_l2:
+# A payload flight's chain in one job, each step cheap beside a job's start-up: sonic and INS to
+# L1 and on to L2 (the hover window, the sonic-INS lag and the motion correction, Ghirardelli et
+# al. 2025, Sect. 3), the reference mast cut to the hover (mast L2) and the L3 (alignment,
+# decimation, rotation). Every later step of the flight reads its L3, so a change of any of these
+# steps reruns the same jobs as when they were apart.
+rule payload_chain:
     input:
         sonic=payload_file("sonic"),
         ins=payload_file("ins"),
+        mast=reference_of,
     output:
         sonic=RESULTS / "netcdf" / "L1" / "{flight}_sonic.nc",
         ins=RESULTS / "netcdf" / "L1" / "{flight}_ins.nc",
         drone=RESULTS / "netcdf" / "L2" / "{flight}_drone.nc",
+        mast=RESULTS / "netcdf" / "L2" / "{flight}_mast.nc",
+        l3=RESULTS / "netcdf" / "L3" / "{flight}.nc",
     log:
-        log_path("payload_l1_l2", "flight"),
+        log_path("payload_chain", "flight"),
     benchmark:
-        bench_path("payload_l1_l2", "flight")
+        bench_path("payload_chain", "flight")
     wildcard_constraints:
         flight=_alternatives(PAYLOAD_FLIGHTS),
     priority: PRIORITY_CHAIN
@@ -22,7 +28,7 @@ rule payload_l1_l2:
         ENV
     threads: 1
     resources:
-        mem_mb=300,
+        mem_mb=400,
     params:
         campaign=CAMPAIGN.name,
         flight_id="{flight}",
@@ -38,8 +44,11 @@ rule payload_l1_l2:
         sonic_ins_lag=PROCESSING["sonic_ins_lag"],
         hover=PROCESSING["hover"],
         max_missing_fraction=PROCESSING["max_missing_fraction"],
+        reference=reference_sonic,
+        drone_mast=PROCESSING["drone_mast"],
+        rotation=PROCESSING["rotation"],
     script:
-        "../scripts/payload_l1_l2.py"
+        "../scripts/payload_chain.py"
 
 
 rule mast_l1:

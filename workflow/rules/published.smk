@@ -85,6 +85,8 @@ rule published_forward_parts:
         "../scripts/merge_forward.py"
 
 
+# Every mechanism fitted to the published numbers, then the extended model rerun for every
+# sample in the same job (a sample's rerun is a few forward runs, about 0.5 CPU-s).
 rule published_diagnosis:
     input:
         published=PUBLISHED_INPUT,
@@ -93,7 +95,10 @@ rule published_diagnosis:
             flight=PUBLISHED_FLIGHTS,
         ),
     output:
-        RESULTS / "published" / "diagnosis.json",
+        json=RESULTS / "published" / "diagnosis.json",
+        rerun=expand(
+            RESULTS / "published" / "rerun" / "{flight}.json", flight=PUBLISHED_FLIGHTS
+        ),
     log:
         log_path("published_diagnosis"),
     benchmark:
@@ -107,33 +112,12 @@ rule published_diagnosis:
     params:
         alpha=DIAGNOSIS["alpha"],
         max_causes=DIAGNOSIS["max_causes"],
-    script:
-        "../scripts/published_diagnosis.py"
-
-
-rule published_rerun:
-    input:
-        published=PUBLISHED_INPUT,
-        diagnosis=RESULTS / "published" / "diagnosis.json",
-    output:
-        RESULTS / "published" / "rerun" / "{flight}.json",
-    log:
-        log_path("published_rerun", "flight"),
-    benchmark:
-        bench_path("published_rerun", "flight")
-    priority: PRIORITY_CHAIN
-    conda:
-        ENV
-    threads: 1
-    resources:
-        mem_mb=800,
-    params:
-        campaign=published_manifest,
-        flight_id="{flight}",
+        flights=PUBLISHED_FLIGHTS,
+        campaigns={f: published_manifest_of(f) for f in PUBLISHED_FLIGHTS},
         processing=CHAIN,
         seeds=fresh_seeds(PUBLISHED_SEEDS),
     script:
-        "../scripts/published_rerun.py"
+        "../scripts/published_diagnosis.py"
 
 
 rule published_report:

@@ -182,13 +182,13 @@ def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS
     return [101 * (k + 1) for k in range(n)]
 
 
-#: CPU seconds of the reference jobs per bootstrap replicate and payload flight, an upper figure:
-#: the default campaign's four diagnose_reference jobs take 24.9 CPU-s for 600 replicates of 10
-#: flights (0.004 per replicate and flight; their benchmark files, ``benchmarks/results/run_default.json``),
-#: each job's start-up and reading of the evidence included.
-REPLICATE_CPU_S_PER_FLIGHT = 0.006
-#: CPU seconds of work a part of the bootstrap reference is sized to (:func:`reference_jobs`).
-REFERENCE_JOB_CPU_S = 10.0
+#: CPU seconds of the reference jobs per bootstrap replicate and payload flight, each job's
+#: start-up and reading of the evidence included: the default campaign's diagnose_reference jobs
+#: take 6.0 CPU-s for 150 replicates of 10 flights each (their logs, ``bench_run.py default``).
+REPLICATE_CPU_S_PER_FLIGHT = 0.004
+#: CPU seconds of work a part of the bootstrap reference is sized to (:func:`reference_jobs`): a
+#: part stays within the first 15 s of its job, which Snakemake's benchmark samples every 0.5 s.
+REFERENCE_JOB_CPU_S = 12.0
 
 
 def reference_jobs(n_flights: int, replicates: int, most: int) -> int:
@@ -200,8 +200,8 @@ def reference_jobs(n_flights: int, replicates: int, most: int) -> int:
 
     Examples
     --------
-    >>> reference_jobs(10, 600, 4), reference_jobs(4, 600, 4), reference_jobs(1, 600, 4)
-    (4, 2, 1)
+    >>> reference_jobs(10, 600, 4), reference_jobs(20, 600, 4), reference_jobs(4, 600, 4)
+    (2, 4, 1)
     """
     if int(n_flights) < MIN_FLIGHTS:
         return 1

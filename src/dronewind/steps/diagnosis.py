@@ -9,8 +9,8 @@ manifest (:func:`dronewind.manifest.payload_flight_manifest`) and the ``processi
    every candidate mechanism at its probe levels, processed like the measured flight.
 3. :func:`diagnose_campaign`: fit, cross-validate, name causes, write ``diagnosis.json``
    and the extended campaign manifest.
-4. :func:`extended_run` (per flight): the extended model (named causes at their fitted
-   values) rerun for the flight.
+4. :func:`extended_run` (per flight; :func:`extended_runs` runs every flight in one job): the
+   extended model (named causes at their fitted values) rerun for the flight.
 5. :func:`diagnosis_report`: before/after numbers, Markdown report and figures.
 """
 
@@ -492,6 +492,39 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
         del products  # not read again: freed before the next seed's run (one run's datasets at a time)
     return write_json(output, out)
 
+
+
+def extended_runs(extended_manifest_file: str | Path, outputs: Mapping[str, str | Path], *,
+                  processing: Mapping[str, Any], seeds: Sequence[int],
+                  mast_l1: Mapping[str, str | Path] | None = None, atmosphere: str = "model") -> list[Path]:
+    """:func:`extended_run` for several flights in one job (the workflow's ``diagnose``, after the diagnosis).
+
+    A flight's rerun is a few forward runs (about 0.3 CPU-s on the default campaign) where a job
+    starts in about 1 CPU-s, and every flight's rerun reads the one extended manifest, so that a
+    change of it reruns them all: the flights share one job.
+
+    Parameters
+    ----------
+    extended_manifest_file : str or Path
+        The extended campaign manifest (:func:`diagnose_campaign`).
+    outputs : mapping
+        Flight id -> the JSON file of its rerun, in the order they are run.
+    processing, seeds, atmosphere
+        As for :func:`extended_run`.
+    mast_l1 : mapping, optional
+        Flight id -> L1 of its reference mast sonic (needed for ``atmosphere="measured"``).
+
+    Returns
+    -------
+    list of Path
+        The written files, in the order of ``outputs``.
+    """
+    written = []
+    for k, (flight_id, output) in enumerate(outputs.items(), start=1):
+        written.append(extended_run(extended_manifest_file, output, flight_id=flight_id, processing=processing,
+                                    seeds=seeds, mast_l1=(mast_l1 or {}).get(flight_id), atmosphere=atmosphere))
+        LOG.info("extended rerun %d/%d: flight %s written", k, len(outputs), flight_id)
+    return written
 
 def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | Path],
                      forward_files: Sequence[str | Path], extended_files: Sequence[str | Path],

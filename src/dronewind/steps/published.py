@@ -3,8 +3,8 @@
 1. :func:`published_forward` (per stationary sample): forward-model baseline and probe
    runs at the Table 4 conditions.
 2. :func:`published_diagnosis`: fit every mechanism to Table 5 and the claims; JSON.
-3. :func:`published_rerun` (per sample): baseline and extended model rerun with fresh
-   seeds; Table 5-like statistics.
+3. :func:`published_rerun` (per sample; :func:`published_reruns` runs every sample in one job):
+   baseline and extended model rerun with fresh seeds; Table 5-like statistics.
 4. :func:`published_report`: Markdown report and the before/after figure.
 
 The per-sample steps take the one-flight view of the manifest (with the flight's
@@ -23,7 +23,7 @@ from dronewind.core.cf import atomic_write_text
 from dronewind.steps.common import LOG
 from dronewind.steps.diagnosis import write_json
 
-__all__ = ["published_forward", "published_diagnosis", "published_rerun", "published_report"]
+__all__ = ["published_forward", "published_diagnosis", "published_rerun", "published_reruns", "published_report"]
 
 
 def published_forward(published_file: str | Path, output: str | Path, *, campaign: Mapping[str, Any],
@@ -124,6 +124,34 @@ def published_rerun(published_file: str | Path, diagnosis_json: str | Path, outp
         LOG.info("sample %s: seed %d rerun done", flight_id, seed)
     return write_json(output, out)
 
+
+
+def published_reruns(published_file: str | Path, diagnosis_json: str | Path, outputs: Mapping[str, str | Path], *,
+                     campaigns: Mapping[str, Mapping[str, Any]], processing: Mapping[str, Any],
+                     seeds: Sequence[int]) -> list[Path]:
+    """:func:`published_rerun` for several samples in one job (the workflow's ``published_diagnosis``, after the fit).
+
+    A sample's rerun is a few forward runs (about 0.5 CPU-s) where a job starts in about 1 CPU-s,
+    and every sample's rerun reads the one published-numbers diagnosis, so that a change of it
+    reruns them all: the samples share one job.
+
+    Parameters
+    ----------
+    published_file, diagnosis_json, processing, seeds
+        As for :func:`published_rerun`.
+    outputs : mapping
+        Sample id -> the JSON file of its rerun, in the order they are run.
+    campaigns : mapping
+        Sample id -> its one-flight view of the manifest.
+
+    Returns
+    -------
+    list of Path
+        The written files, in the order of ``outputs``.
+    """
+    return [published_rerun(published_file, diagnosis_json, output, campaign=campaigns[flight_id],
+                            flight_id=flight_id, processing=processing, seeds=seeds)
+            for flight_id, output in outputs.items()]
 
 def published_report(published_file: str | Path, diagnosis_json: str | Path, rerun_files: Sequence[str | Path],
                      output_md: str | Path, output_json: str | Path, figure_png: str | Path,
