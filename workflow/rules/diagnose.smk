@@ -245,7 +245,7 @@ rule diagnose:
         ENV
     threads: 1
     resources:
-        mem_mb=300,
+        mem_mb=700,
     params:
         alpha=DIAGNOSIS["alpha"],
         max_causes=DIAGNOSIS["max_causes"],

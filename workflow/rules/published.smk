@@ -108,7 +108,7 @@ rule published_diagnosis:
         ENV
     threads: 1
     resources:
-        mem_mb=300,
+        mem_mb=800,
     params:
         alpha=DIAGNOSIS["alpha"],
         max_causes=DIAGNOSIS["max_causes"],

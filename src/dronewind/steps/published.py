@@ -149,9 +149,14 @@ def published_reruns(published_file: str | Path, diagnosis_json: str | Path, out
     list of Path
         The written files, in the order of ``outputs``.
     """
-    return [published_rerun(published_file, diagnosis_json, output, campaign=campaigns[flight_id],
-                            flight_id=flight_id, processing=processing, seeds=seeds)
-            for flight_id, output in outputs.items()]
+    import gc
+
+    written = []
+    for flight_id, output in outputs.items():
+        written.append(published_rerun(published_file, diagnosis_json, output, campaign=campaigns[flight_id],
+                                       flight_id=flight_id, processing=processing, seeds=seeds))
+        gc.collect()  # the sample's datasets, held in reference cycles (extended_runs): one sample's peak
+    return written
 
 def published_report(published_file: str | Path, diagnosis_json: str | Path, rerun_files: Sequence[str | Path],
                      output_md: str | Path, output_json: str | Path, figure_png: str | Path,
