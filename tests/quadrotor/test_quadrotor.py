@@ -308,3 +308,24 @@ def test_wetz2021_tables_generic_flight_ids():
     assert list(t.columns[:5]) == ["uav", "pitch_offset_deg", "yaw_offset_deg", "rmse_ms", "bias_ms"]
     assert np.allclose(t["pitch_offset_deg"], [1.0, -1.0], atol=0.05)
     assert np.allclose(t["yaw_offset_deg"], [5.0, -3.0], atol=1.0)
+
+
+def test_lean_from_trig_equals_tilt_from_attitude_turned_by_the_heading():
+    """The fits' tilt and lean from cosines and sines (angle-sum formulas for a pitch offset) equal
+    tilt_from_attitude's at the offset pitch, turned by the heading, to rounding; upright included."""
+    from dronewind.quadrotor.drag import lean_from_trig, tilt_from_attitude
+
+    rng = np.random.default_rng(5)
+    roll, pitch, yaw = (np.radians(rng.uniform(-lim, lim, 500)) for lim in (15.0, 15.0, 180.0))
+    offset = np.radians(rng.choice([-2.5, 0.0, 1.75], 500))
+    roll[:2], pitch[:2], offset[:2] = 0.0, [0.0, 0.03], [0.0, 0.03]  # upright, before and after the offset
+    tilt, cos_lean, sin_lean = lean_from_trig(np.cos(roll), np.sin(roll),
+                                              np.cos(pitch) * np.cos(offset) + np.sin(pitch) * np.sin(offset),
+                                              np.sin(pitch) * np.cos(offset) - np.cos(pitch) * np.sin(offset),
+                                              np.cos(yaw), np.sin(yaw))
+    tilt_ref, lean_rel = tilt_from_attitude(roll, pitch - offset)
+    # rounding of unit-size terms: a few ulp; the tilt within 1e-15 rad of tilts up to 0.37 rad
+    np.testing.assert_allclose(tilt, tilt_ref, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(cos_lean, np.cos(yaw + lean_rel), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sin_lean, np.sin(yaw + lean_rel), rtol=0, atol=1e-12)
+    assert tilt[0] == 0.0 and abs(tilt[1]) < 1e-15

@@ -25,7 +25,7 @@ import scipy.stats
 from dronewind.core.constants import AIR_DENSITY_KGM3, GRAVITY_MS2
 from dronewind.errors import InputError
 from dronewind.quadrotor.calibration import BOUNDS
-from dronewind.quadrotor.drag import speed_from_tilt, tilt_from_attitude
+from dronewind.quadrotor.drag import lean_from_trig, speed_from_tilt, tilt_from_attitude
 
 __all__ = [
     "FieldData",
@@ -360,12 +360,8 @@ def _attitude_terms(data: FieldData, p_off: tuple[np.ndarray, np.ndarray] | floa
     Notes
     -----
     The tilt and lean are those of :func:`~dronewind.quadrotor.drag.tilt_from_attitude` at the
-    pitch :math:`\theta - p`. The fits evaluate them thousands of times with new offsets, so they
-    are written here with the blocks' cosines and sines made once (:attr:`FieldData.attitude_trig`)
-    and the angle-sum formulas, :math:`\sin(\theta - p) = \sin\theta\cos p - \cos\theta\sin p`,
-    with the trigonometric functions of the few offsets only; the lean's cosine and sine are the
-    thrust axis' horizontal components over their norm, turned by the heading. Equal to the direct
-    evaluation to rounding (``tests/diagnose/test_diagnose_quadrotor.py``).
+    pitch :math:`\theta - p`, made by :func:`~dronewind.quadrotor.drag.lean_from_trig` from the
+    blocks' cosines and sines (:attr:`FieldData.attitude_trig`) and those of the few offsets.
     """
     if isinstance(y_off, float) and y_off == 0.0:  # no yaw offset (the speed fits): the heading never changes
         psi, cos_psi, sin_psi = data.heading_without_offset
@@ -380,16 +376,10 @@ def _attitude_terms(data: FieldData, p_off: tuple[np.ndarray, np.ndarray] | floa
     p = np.radians(np.asarray(offsets, dtype=float))
     cos_p, sin_p = np.cos(p)[index], np.sin(p)[index]
     cos_phi, sin_phi, cos_th, sin_th = data.attitude_trig
-    # the thrust axis (forward, right, up) at the pitch theta - p (tilt_from_attitude's Notes)
-    fwd = -(sin_th * cos_p - cos_th * sin_p) * cos_phi
-    up = (cos_th * cos_p + sin_th * sin_p) * cos_phi
-    horizontal = np.hypot(fwd, sin_phi)
-    tilt = np.arctan2(horizontal, up)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # an upright block: the lean of atan2(0, +-0), 0 or pi (its tilt and speed are 0 either way)
-        cos_rel = np.where(horizontal > 0, fwd / horizontal, np.copysign(1.0, fwd))
-        sin_rel = np.where(horizontal > 0, sin_phi / horizontal, 0.0)
-    return (tilt, cos_psi * cos_rel - sin_psi * sin_rel, sin_psi * cos_rel + cos_psi * sin_rel, cos_psi, sin_psi)
+    # the pitch theta - p by the angle-sum formulas (lean_from_trig's Notes)
+    tilt, cos_lean, sin_lean = lean_from_trig(cos_phi, sin_phi, cos_th * cos_p + sin_th * sin_p,
+                                              sin_th * cos_p - cos_th * sin_p, cos_psi, sin_psi)
+    return tilt, cos_lean, sin_lean, cos_psi, sin_psi
 
 
 def predict_field(data: FieldData, fit: FieldFit) -> tuple[np.ndarray, np.ndarray]:

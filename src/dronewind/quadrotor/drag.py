@@ -57,7 +57,7 @@ from dronewind.errors import InputError
 
 __all__ = [
     "MIN_DRAG_AREA_M2", "DragLaw",
-    "rotation_body_to_ned", "drag_area_m2", "speed_from_tilt", "tilt_from_attitude",
+    "rotation_body_to_ned", "drag_area_m2", "speed_from_tilt", "tilt_from_attitude", "lean_from_trig",
     "body_accelerations_ms2", "body_axis_relative_air",
 ]
 
@@ -253,6 +253,50 @@ def tilt_from_attitude(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.
     tilt = np.arctan2(np.hypot(fwd, right), np.cos(th) * np.cos(phi))
     return tilt, np.arctan2(right, fwd)
 
+
+
+def lean_from_trig(cos_roll: np.ndarray, sin_roll: np.ndarray, cos_pitch: np.ndarray, sin_pitch: np.ndarray,
+                   cos_yaw: np.ndarray, sin_yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Tilt and lean direction (:func:`tilt_from_attitude`, turned by the heading) from the angles' cosines and sines.
+
+    Parameters
+    ----------
+    cos_roll, sin_roll, cos_pitch, sin_pitch, cos_yaw, sin_yaw : numpy.ndarray
+        Cosines and sines of roll :math:`\phi`, pitch :math:`\theta` and heading :math:`\psi`.
+
+    Returns
+    -------
+    tilt_rad : numpy.ndarray
+        Angle between the thrust axis and the vertical [rad], >= 0.
+    cos_lean, sin_lean : numpy.ndarray
+        Cosine and sine of the direction the thrust axis leans to, clockwise from north.
+
+    Notes
+    -----
+    The thrust axis in the heading frame is :math:`(f, r, u) = (-\sin\theta\cos\phi,\ \sin\phi,\
+    \cos\theta\cos\phi)` (:func:`tilt_from_attitude`, Wetz et al. (2021), Eq. D1), so with
+    :math:`h = \sqrt{f^2 + r^2}`
+
+    .. math:: \gamma = \operatorname{atan2}(h, u),\qquad
+              \cos\lambda = \frac{f\cos\psi - r\sin\psi}{h},\qquad
+              \sin\lambda = \frac{f\sin\psi + r\cos\psi}{h}
+
+    for the lean :math:`\lambda = \psi + \operatorname{atan2}(r, f)`. Fits that move the pitch by an
+    offset :math:`p` evaluate this thousands of times: with the blocks' cosines and sines made once
+    and :math:`\sin(\theta - p) = \sin\theta\cos p - \cos\theta\sin p` (likewise the cosine),
+    only the offsets' own trigonometric functions are evaluated again. An upright vehicle
+    (:math:`h = 0`) leans as :math:`\operatorname{atan2}(0, \pm 0)`, along the heading or against it
+    (its tilt, and the drag balance's speed, are 0 either way). Equal to
+    :func:`tilt_from_attitude` to rounding (``tests/quadrotor/test_quadrotor.py``).
+    """
+    fwd = -sin_pitch * cos_roll
+    up = cos_pitch * cos_roll
+    horizontal = np.hypot(fwd, sin_roll)
+    tilt = np.arctan2(horizontal, up)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos_rel = np.where(horizontal > 0, fwd / horizontal, np.copysign(1.0, fwd))
+        sin_rel = np.where(horizontal > 0, sin_roll / horizontal, 0.0)
+    return tilt, cos_yaw * cos_rel - sin_yaw * sin_rel, sin_yaw * cos_rel + cos_yaw * sin_rel
 
 def body_accelerations_ms2(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Horizontal body-axis wind accelerations of a vehicle at rest (Wetz et al. (2021), Eqs. 9-10, 13).

@@ -26,7 +26,7 @@ import pandas as pd
 import xarray as xr
 
 from dronewind.errors import InputError
-from dronewind.quadrotor.drag import DragLaw
+from dronewind.quadrotor.drag import DragLaw, lean_from_trig
 from dronewind.quadrotor.ekf_wind import air_density_kgm3
 from dronewind.quadrotor.hover import hover_segment
 from dronewind.quadrotor.io import read_quadrotor
@@ -595,9 +595,26 @@ class WindowArrays:
         if key not in self._direction:
             if len(self._direction) >= 8:  # bounded: the oldest goes
                 del self._direction[next(iter(self._direction))]
-            phi, th, psi = corrected_attitude_rad(self.roll, self.pitch, self.yaw, pitch_offset_deg=pitch_offset_deg)
-            self._direction[key] = drag_balance_direction(phi, th, psi, method)
+            if method == "tilt":
+                # the pitch theta - p by the angle-sum formulas on the blocks' cosines and sines,
+                # made once (lean_from_trig's Notes): the fits change the offsets thousands of times
+                cos_phi, sin_phi, cos_th, sin_th = self._attitude_trig
+                cos_psi, sin_psi = self._yaw_cos_sin
+                p = np.radians(offset)
+                cos_p, sin_p = np.cos(p), np.sin(p)
+                self._direction[key] = lean_from_trig(cos_phi, sin_phi, cos_th * cos_p + sin_th * sin_p,
+                                                      sin_th * cos_p - cos_th * sin_p, cos_psi, sin_psi)
+            else:
+                phi, th, psi = corrected_attitude_rad(self.roll, self.pitch, self.yaw,
+                                                      pitch_offset_deg=pitch_offset_deg)
+                self._direction[key] = drag_balance_direction(phi, th, psi, method)
         return self._direction[key]
+
+    @functools.cached_property
+    def _attitude_trig(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Cosine and sine of the logged roll and pitch, once (:meth:`_balance_direction`)."""
+        phi, th = np.radians(self.roll), np.radians(self.pitch)
+        return np.cos(phi), np.sin(phi), np.cos(th), np.sin(th)
 
 
 def select_windows(blocks: pd.DataFrame, windows: pd.DataFrame, flights: Iterable[str] | None,
