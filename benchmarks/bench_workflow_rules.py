@@ -19,9 +19,8 @@ import pandas as pd
 
 #: Rule name prefix -> stage.
 STAGES = {
-    "simulate": "simulate", "payload_chain": "payload chain", "payload_l1": "payload chain",
-    "mast_l1": "payload chain", "payload_l2": "payload chain",
-    "mast_l2": "payload chain", "l3": "payload chain", "l4": "analysis", "flight_stats": "analysis",
+    "simulate": "simulate", "payload_chain": "payload chain", "mast_l1": "payload chain", "l3": "payload chain",
+    "l4": "analysis", "flight_stats": "analysis",
     "tables": "analysis", "figures": "analysis", "campaign_record": "analysis",
     "diagnose": "diagnosis", "diagnosis_report": "diagnosis", "published": "published numbers",
     "quadrotor": "quadrotor", "tunnel": "tunnel",

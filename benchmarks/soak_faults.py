@@ -264,8 +264,9 @@ def run(manifest: Path, results: Path, config: Path) -> float:
 
 def _named_error(logs: Path, fid: str) -> str:
     """The error a flight's jobs stopped with (last error line of its logs), or ''."""
-    for rule in ("payload_l1", "payload_l2", "mast_l1", "mast_l2", "l3", "l4"):
-        for log in sorted((logs / rule).glob(f"{fid}*.log")) + sorted((logs / rule).glob("mast30*.log")):
+    for rule in ("payload_chain", "mast_l1", "l3", "l4"):  # l4: one job for every flight (all.log)
+        for log in [*sorted((logs / rule).glob(f"{fid}*.log")), *sorted((logs / rule).glob("mast30*.log")),
+                    *sorted((logs / rule).glob("all.log"))]:
             hits = [ln for ln in log.read_text(errors="replace").splitlines()
                     if re.search(r"(InputError|ClockJumpError|ManifestError|ProcessingError|Error):", ln)]
             if hits:

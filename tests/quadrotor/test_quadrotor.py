@@ -319,10 +319,8 @@ def test_lean_from_trig_equals_tilt_from_attitude_turned_by_the_heading():
     roll, pitch, yaw = (np.radians(rng.uniform(-lim, lim, 500)) for lim in (15.0, 15.0, 180.0))
     offset = np.radians(rng.choice([-2.5, 0.0, 1.75], 500))
     roll[:2], pitch[:2], offset[:2] = 0.0, [0.0, 0.03], [0.0, 0.03]  # upright, before and after the offset
-    tilt, cos_lean, sin_lean = lean_from_trig(np.cos(roll), np.sin(roll),
-                                              np.cos(pitch) * np.cos(offset) + np.sin(pitch) * np.sin(offset),
-                                              np.sin(pitch) * np.cos(offset) - np.cos(pitch) * np.sin(offset),
-                                              np.cos(yaw), np.sin(yaw))
+    tilt, cos_lean, sin_lean = lean_from_trig(np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw),
+                                              np.sin(yaw), pitch_offset=(np.cos(offset), np.sin(offset)))
     tilt_ref, lean_rel = tilt_from_attitude(roll, pitch - offset)
     # rounding of unit-size terms: a few ulp; the tilt within 1e-15 rad of tilts up to 0.37 rad
     np.testing.assert_allclose(tilt, tilt_ref, rtol=0, atol=1e-14)

@@ -375,10 +375,7 @@ def _attitude_terms(data: FieldData, p_off: tuple[np.ndarray, np.ndarray] | floa
     offsets, index = p_off
     p = np.radians(np.asarray(offsets, dtype=float))
     cos_p, sin_p = np.cos(p)[index], np.sin(p)[index]
-    cos_phi, sin_phi, cos_th, sin_th = data.attitude_trig
-    # the pitch theta - p by the angle-sum formulas (lean_from_trig's Notes)
-    tilt, cos_lean, sin_lean = lean_from_trig(cos_phi, sin_phi, cos_th * cos_p + sin_th * sin_p,
-                                              sin_th * cos_p - cos_th * sin_p, cos_psi, sin_psi)
+    tilt, cos_lean, sin_lean = lean_from_trig(*data.attitude_trig, cos_psi, sin_psi, pitch_offset=(cos_p, sin_p))
     return tilt, cos_lean, sin_lean, cos_psi, sin_psi
 
 

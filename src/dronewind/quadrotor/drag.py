@@ -254,15 +254,18 @@ def tilt_from_attitude(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.
     return tilt, np.arctan2(right, fwd)
 
 
-
 def lean_from_trig(cos_roll: np.ndarray, sin_roll: np.ndarray, cos_pitch: np.ndarray, sin_pitch: np.ndarray,
-                   cos_yaw: np.ndarray, sin_yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   cos_yaw: np.ndarray, sin_yaw: np.ndarray, pitch_offset: tuple[np.ndarray, np.ndarray] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""Tilt and lean direction (:func:`tilt_from_attitude`, turned by the heading) from the angles' cosines and sines.
 
     Parameters
     ----------
     cos_roll, sin_roll, cos_pitch, sin_pitch, cos_yaw, sin_yaw : numpy.ndarray
         Cosines and sines of roll :math:`\phi`, pitch :math:`\theta` and heading :math:`\psi`.
+    pitch_offset : (numpy.ndarray, numpy.ndarray), optional
+        Cosine and sine of a pitch offset :math:`p` (logged minus true): the pitch is then
+        :math:`\theta - p`. None: no offset.
 
     Returns
     -------
@@ -289,6 +292,9 @@ def lean_from_trig(cos_roll: np.ndarray, sin_roll: np.ndarray, cos_pitch: np.nda
     (its tilt, and the drag balance's speed, are 0 either way). Equal to
     :func:`tilt_from_attitude` to rounding (``tests/quadrotor/test_quadrotor.py``).
     """
+    if pitch_offset is not None:
+        cos_p, sin_p = pitch_offset
+        cos_pitch, sin_pitch = cos_pitch * cos_p + sin_pitch * sin_p, sin_pitch * cos_p - cos_pitch * sin_p
     fwd = -sin_pitch * cos_roll
     up = cos_pitch * cos_roll
     horizontal = np.hypot(fwd, sin_roll)
@@ -297,6 +303,7 @@ def lean_from_trig(cos_roll: np.ndarray, sin_roll: np.ndarray, cos_pitch: np.nda
         cos_rel = np.where(horizontal > 0, fwd / horizontal, np.copysign(1.0, fwd))
         sin_rel = np.where(horizontal > 0, sin_roll / horizontal, 0.0)
     return tilt, cos_yaw * cos_rel - sin_yaw * sin_rel, sin_yaw * cos_rel + cos_yaw * sin_rel
+
 
 def body_accelerations_ms2(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Horizontal body-axis wind accelerations of a vehicle at rest (Wetz et al. (2021), Eqs. 9-10, 13).

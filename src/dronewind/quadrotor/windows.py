@@ -598,12 +598,9 @@ class WindowArrays:
             if method == "tilt":
                 # the pitch theta - p by the angle-sum formulas on the blocks' cosines and sines,
                 # made once (lean_from_trig's Notes): the fits change the offsets thousands of times
-                cos_phi, sin_phi, cos_th, sin_th = self._attitude_trig
-                cos_psi, sin_psi = self._yaw_cos_sin
                 p = np.radians(offset)
-                cos_p, sin_p = np.cos(p), np.sin(p)
-                self._direction[key] = lean_from_trig(cos_phi, sin_phi, cos_th * cos_p + sin_th * sin_p,
-                                                      sin_th * cos_p - cos_th * sin_p, cos_psi, sin_psi)
+                self._direction[key] = lean_from_trig(*self._attitude_trig, *self._yaw_cos_sin,
+                                                      pitch_offset=(np.cos(p), np.sin(p)))
             else:
                 phi, th, psi = corrected_attitude_rad(self.roll, self.pitch, self.yaw,
                                                       pitch_offset_deg=pitch_offset_deg)

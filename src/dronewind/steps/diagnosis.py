@@ -16,6 +16,7 @@ manifest (:func:`dronewind.manifest.payload_flight_manifest`) and the ``processi
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 from collections.abc import Mapping, Sequence
@@ -493,7 +494,6 @@ def extended_run(extended_manifest_file: str | Path, output: str | Path, *, flig
     return write_json(output, out)
 
 
-
 def extended_runs(extended_manifest_file: str | Path, outputs: Mapping[str, str | Path], *,
                   processing: Mapping[str, Any], seeds: Sequence[int],
                   mast_l1: Mapping[str, str | Path] | None = None, atmosphere: str = "model") -> list[Path]:
@@ -519,18 +519,17 @@ def extended_runs(extended_manifest_file: str | Path, outputs: Mapping[str, str 
     list of Path
         The written files, in the order of ``outputs``.
     """
-    import gc
-
     written = []
     for k, (flight_id, output) in enumerate(outputs.items(), start=1):
         written.append(extended_run(extended_manifest_file, output, flight_id=flight_id, processing=processing,
                                     seeds=seeds, mast_l1=(mast_l1 or {}).get(flight_id), atmosphere=atmosphere))
         # a run's datasets sit in reference cycles until the cyclic collector passes: collected
-        # here, the job's peak memory is one flight's (seven published samples in a row peaked at
-        # 1000 MB without, 500 MB with, one at a time 320-500 MB)
+        # here, the job's peak memory is one flight's (the default campaign's ten flights: 588 MB
+        # without, 446 MB with; published_reruns' seven samples: 1104 and 499 MB)
         gc.collect()
         LOG.info("extended rerun %d/%d: flight %s written", k, len(outputs), flight_id)
     return written
+
 
 def diagnosis_report(diagnosis_json: str | Path, measured_files: Sequence[str | Path],
                      forward_files: Sequence[str | Path], extended_files: Sequence[str | Path],

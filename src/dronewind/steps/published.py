@@ -14,6 +14,7 @@ uses) and the ``processing`` and ``diagnosis`` settings of their rule as argumen
 
 from __future__ import annotations
 
+import gc
 import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -125,7 +126,6 @@ def published_rerun(published_file: str | Path, diagnosis_json: str | Path, outp
     return write_json(output, out)
 
 
-
 def published_reruns(published_file: str | Path, diagnosis_json: str | Path, outputs: Mapping[str, str | Path], *,
                      campaigns: Mapping[str, Mapping[str, Any]], processing: Mapping[str, Any],
                      seeds: Sequence[int]) -> list[Path]:
@@ -149,14 +149,13 @@ def published_reruns(published_file: str | Path, diagnosis_json: str | Path, out
     list of Path
         The written files, in the order of ``outputs``.
     """
-    import gc
-
     written = []
     for flight_id, output in outputs.items():
         written.append(published_rerun(published_file, diagnosis_json, output, campaign=campaigns[flight_id],
                                        flight_id=flight_id, processing=processing, seeds=seeds))
         gc.collect()  # the sample's datasets, held in reference cycles (extended_runs): one sample's peak
     return written
+
 
 def published_report(published_file: str | Path, diagnosis_json: str | Path, rerun_files: Sequence[str | Path],
                      output_md: str | Path, output_json: str | Path, figure_png: str | Path,
