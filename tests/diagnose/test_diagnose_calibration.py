@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import scipy.stats
 
-from dronewind.diagnose.calibration import discrepancy, fit_dof, profiled_fit
+from dronewind.diagnose.calibration import discrepancy, fit_dof, profiled_discrepancy, profiled_fit
 from dronewind.diagnose.covariance import Whitener, flight_correlations
 from dronewind.diagnose.fitting import ParameterResponse, ResponseModel
 from dronewind.diagnose.reference import (
@@ -85,6 +85,40 @@ def test_batched_moments_are_the_written_out_ones() -> None:
                 q, k_eff, tau2 = _moments_of_one_feature(r[:, f], sigma[:, f], speeds, lost[f])
                 np.testing.assert_allclose([d.q_statistic[f], d.dof[f], d.tau[f] ** 2], [q, k_eff, tau2],
                                            rtol=1e-10, atol=1e-12, equal_nan=True)
+
+
+def test_profiled_moments_about_zero_are_the_written_out_ones() -> None:
+    """The discrepancy after a fit, moments about zero (the likelihood ratio's), equals its
+    docstring's formula written out with dense matrices: :math:`B_f = W^{1/2}(E_f - J_f K)`,
+    :math:`E[Q_f]` from the sampling variances, the feature's own discrepancy and the others'
+    leaking through the fit (to rounding, 1e-10), with a missing flight."""
+    rng = np.random.default_rng(11)
+    n, p, m = 7, 4, 2
+    sigma = rng.uniform(0.2, 0.6, (n, p))
+    fit_sigma = sigma * rng.uniform(1.0, 1.5, (n, p))
+    r = rng.normal(0, 0.5, (n, p))
+    r[2, 1] = np.nan
+    jac = rng.normal(0, 1, (n, p, m))
+    tau_start = rng.uniform(0.0, 0.3, p)
+    d = profiled_discrepancy(r, sigma, None, jac, fit_sigma, tau_start, about_zero=True)
+    used = np.isfinite(r)
+    a = np.where(used[..., None], jac / fit_sigma[..., None], 0.0).reshape(n * p, m)
+    k_map = np.where(used.reshape(1, -1), np.linalg.inv(a.T @ a) @ a.T / fit_sigma.reshape(1, -1), 0.0)
+    var = np.where(used, sigma**2, 0.0).reshape(-1)
+    tau2_of = np.where(used, tau_start[None, :] ** 2, 0.0).reshape(-1)
+    feature_of = np.tile(np.arange(p), n)
+    for f in range(p):
+        rows = np.flatnonzero(used[:, f])
+        select = np.zeros((rows.size, n * p))
+        select[np.arange(rows.size), rows * p + f] = 1.0
+        b = (select - jac[rows, f, :] @ k_map) / sigma[rows, f][:, None]
+        col = np.sum(b**2, axis=0)
+        own = feature_of == f
+        expected0 = col @ var + np.sum(col[~own] * tau2_of[~own])
+        q = np.sum(r[rows, f] ** 2 / sigma[rows, f] ** 2)
+        tau2 = max(0.0, (q - expected0) / col[own].sum())
+        np.testing.assert_allclose([d.q_statistic[f], d.dof[f], d.tau[f] ** 2], [q, col @ var, tau2],
+                                   rtol=1e-10, atol=1e-12)
 
 
 def test_discrepancy_is_zero_without_scatter_and_a_trend_is_not_scatter() -> None:

@@ -408,17 +408,22 @@ def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.n
     trend = np.zeros(p, dtype=bool)
     for feats, rows, x, with_trend in _feature_groups(r_all, s_all, speed, about_zero):
         w = 1.0 / s_all[np.ix_(rows, feats)].T ** 2  # (g, n_ok)
-        maker, _, _ = _wls_batch(r_all[np.ix_(rows, feats)].T, 1.0 / w, x)
+        r_group = r_all[np.ix_(rows, feats)].T
         # d_f = E_f - J_f K: the fitted residuals of feature f as a map of all residuals
         d = (-np.einsum("igm,mk->gik", jacobian[np.ix_(rows, feats)], k_map) if m
              else np.zeros((feats.size, rows.size, n * p)))
         d[np.arange(feats.size)[:, None], np.arange(rows.size)[None, :], rows[None, :] * p + feats[:, None]] += 1.0
-        b2 = (np.sqrt(w)[:, :, None] * np.einsum("gij,gjk->gik", maker, d)) ** 2
+        if x.shape[1]:
+            maker, _, _ = _wls_batch(r_group, 1.0 / w, x)
+            b2 = (np.sqrt(w)[:, :, None] * np.einsum("gij,gjk->gik", maker, d)) ** 2
+            e = np.einsum("gij,gj->gi", maker, r_group)
+        else:  # moments about zero: the residual maker is the identity (the likelihood ratio's every call)
+            b2 = (np.sqrt(w)[:, :, None] * d) ** 2
+            e = r_group
         col = b2.sum(axis=1)  # (g, n p)
         own = feature_of[None, :] == feats[:, None]
         expected0 = col @ var0 + np.sum(np.where(own, 0.0, col) * tau2_other[None, :], axis=1)
         c = np.sum(np.where(own, col, 0.0), axis=1)
-        e = np.einsum("gij,gj->gi", maker, r_all[np.ix_(rows, feats)].T)
         q = np.sum(w * e * e, axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
             tau2[feats] = np.where(c > 0, np.maximum(0.0, (q - expected0) / c), 0.0)
