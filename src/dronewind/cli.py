@@ -383,8 +383,9 @@ SUBCOMMANDS: list[Subcommand] = [
         "Schema: workflow/schemas/plan.schema.json; example: config/plans/example_plan.yaml.\n\n"
         "Cost of the power simulation (2 cores): each error to detect that moves what the chain measures\n"
         "(a heading bias the wind direction, a sonic-INS lag the lag found) needs forward runs of its own.\n"
-        "Six 12.5-min flights with one error to detect (a w gain) take about 1.5 min; the example's three\n"
-        "errors about 3.7 min.",
+        "The flights are simulated two at a time, up to the first count that reaches the power target: up\n"
+        "to six 12.5-min flights with one error to detect (a w gain, reached at two flights) take about\n"
+        "1 min; the example's three errors (reached at four flights) about 3 min.",
         _plan_args,
         _plan,
     ),

@@ -220,10 +220,22 @@ def test_cli_plan_bad_file(tmp_path, capsys):
     assert "bad.yaml [targets.max_flights]" in err
 
 
+def test_power_stages_add_two_flights_at_a_time():
+    """The power's flights are simulated two at a time, the first stage at the fewest flights a
+    campaign diagnosis takes, the last at the plan's most."""
+    from dronewind.plan.planner import power_stages
+
+    assert power_stages(6) == [2, 4, 6]
+    assert power_stages(7) == [2, 4, 6, 7]
+    assert power_stages(2) == [2] and power_stages(1) == [1]
+    assert power_stages(5, step=3) == [3, 5]
+
+
 # ---------------------------------------------------------------- power (slow)
 @pytest.mark.slow
 def test_power_of_a_two_flight_plan(tmp_path):
-    """A 2-flight plan (its flights and draws in two worker processes): a large w gain is detected
+    """A plan of at most four flights (its flights and draws in two worker processes) that reaches its
+    target at two, simulating only those (the first stage): a large w gain is detected
     in nearly every draw, the false-alarm rate is small (the diagnosis' calibration: 0 of 12 null
     draws named a cause). Ten draws per rate,
     30 baseline seeds per flight (the least the error model takes; the default for two flights
@@ -232,7 +244,7 @@ def test_power_of_a_two_flight_plan(tmp_path):
     from dronewind.plan import plan_campaign
 
     body = _plan(targets={"relative_uncertainty": {"sigma_w": 0.1},
-                          "detect": [{"mechanism": "w_gain", "parameters": {"gain": 1.25}}], "max_flights": 2},
+                          "detect": [{"mechanism": "w_gain", "parameters": {"gain": 1.25}}], "max_flights": 4},
                  monte_carlo={"draws": 10, "curve_draws": 10, "seed": 3})
     config = {"diagnosis": {"bootstrap": 100, "seeds": list(range(1, 31))}}
     plan = plan_campaign(parse_plan(body, "p.yaml"), config=config, work_dir=tmp_path, workers=2)
@@ -247,7 +259,35 @@ def test_power_of_a_two_flight_plan(tmp_path):
     curve = plan.power_curve["w_gain gain=1.25"]
     assert [x.n_flights for x in curve] == list(range(1, plan.n_flights + 1))
     assert curve[-1].power >= 0.8 and all(x.power < 0.8 for x in curve[:-1])
-    assert (plan.n_flights < 2) == any("simulated up to" in note for note in plan.notes)
+    # reached at two of four flights: the flights above the first stage were not simulated
+    assert plan.n_flights == 2 and plan.simulated_flights == 2
+    assert any("simulated up to 2 flights" in note and "(2 of 4 flights simulated)" in note for note in plan.notes)
+    assert plan.to_json()["simulated_flights"] == 2 and "about the 2-flight campaign" in plan.power_note
+
+
+@pytest.mark.slow
+def test_flights_simulated_in_stages_have_the_evidence_of_one_call(tmp_path):
+    """A campaign's flights simulated one call at a time (the power's stages) get the measured
+    features, runs and statistics they get when simulated together: the campaign stays whole
+    (two flights, two seeds)."""
+    from dronewind.manifest import with_defaults
+    from dronewind.plan import plan_campaign
+    from dronewind.plan import power as pw
+    from dronewind.plan import simulation as sim
+    from dronewind.plan.planner import power_campaigns
+
+    spec = parse_plan(_plan(targets={"relative_uncertainty": {"sigma_w": 0.1}, "max_flights": 2}), "p.yaml")
+    config = with_defaults({"diagnosis": {"seeds": [1, 2]}})
+    manifests = {pw.NO_ERROR: power_campaigns(plan_campaign(spec, config=config, simulate_power=False))[pw.NO_ERROR]}
+    whole = sim.campaign_evidences(manifests, config, tmp_path / "whole")[pw.NO_ERROR]
+    fids = list(whole["forward"])
+    assert len(fids) == 2
+    parts = [sim.campaign_evidences(manifests, config, tmp_path / "staged", flights=[fid])[pw.NO_ERROR]
+             for fid in fids]
+    for fid, part in zip(fids, parts, strict=True):
+        assert list(part["forward"]) == [fid]
+        for key in ("measured", "forward", "statistics"):
+            assert json.dumps(part[key][fid], sort_keys=True) == json.dumps(whole[key][fid], sort_keys=True)
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,10 @@
 * **flights**: the smallest number whose detection power (:mod:`dronewind.plan.power`)
   reaches the target for every error, their speeds spanning the wind range; the power is
   simulated at one flight, two, ... up to that number (the power against flight count), then
-  with more draws at it;
+  with more draws at it. The campaign's flights are simulated in stages (:func:`power_stages`:
+  the first two, then two more at a time), each before the counts it adds, and the counts of a
+  stage are drawn about the flights simulated up to it; a plan that reaches its target at a
+  count does not simulate the flights beyond that count's stage;
 * the manifest skeleton of the planned campaign (:mod:`dronewind.plan.manifest`).
 """
 
@@ -36,7 +39,11 @@ from dronewind.plan.simulation import campaign_evidences, with_error
 from dronewind.plan.spec import PlanSpec
 from dronewind.plan.uncertainty import DURATION_STEP_S, PointUncertainty, point_uncertainty
 
-__all__ = ["CampaignPlan", "plan_campaign", "power_campaigns", "plan_uncertainty", "HOVER_MARGIN_S"]
+__all__ = ["CampaignPlan", "plan_campaign", "power_campaigns", "power_stages", "plan_uncertainty", "HOVER_MARGIN_S",
+           "STAGE_FLIGHTS"]
+
+#: Flights added to the power simulation at each stage after the first (:func:`power_stages`).
+STAGE_FLIGHTS = 2
 
 #: Margin added to the chain's shortest usable hover [s]: the hover window found in the INS
 #: track is a few seconds shorter than the planned one (a planned 600 s gave 596 s).
@@ -67,6 +74,8 @@ class CampaignPlan:
     manifest: dict[str, Any] = field(default_factory=dict)
     points: dict[float, PointUncertainty] = field(default_factory=dict, repr=False)
     seconds: dict[str, float] = field(default_factory=dict)
+    #: flights of the campaign simulated for the power (:func:`power_stages`; 0 without the power)
+    simulated_flights: int = 0
 
     def to_json(self) -> dict[str, Any]:
         """The plan as JSON-serialisable data."""
@@ -87,7 +96,8 @@ class CampaignPlan:
             "power": {k: pr(v) for k, v in self.power.items()},
             "no_false_alarm": None if self.false_alarm is None else pr(self.false_alarm),
             "power_curve": {k: [pr(r) for r in v] for k, v in self.power_curve.items()},
-            "power_method": self.power_note, "notes": self.notes, "seconds": self.seconds,
+            "power_method": self.power_note, "simulated_flights": self.simulated_flights, "notes": self.notes,
+            "seconds": self.seconds,
         }
 
     def table(self) -> str:
@@ -237,79 +247,130 @@ def power_campaigns(plan: CampaignPlan) -> dict[str, dict[str, Any]]:
     return {NO_ERROR: with_error(full, None)} | {e.label: with_error(full, e) for e in spec.detect}
 
 
+def power_stages(max_flights: int, step: int = STAGE_FLIGHTS) -> list[int]:
+    """Flight counts simulated for the power before each search step (module docstring).
+
+    Parameters
+    ----------
+    max_flights : int
+        The plan's most flights.
+    step : int
+        Flights added at each stage after the first, which holds
+        :data:`~dronewind.diagnose.probes.MIN_FLIGHTS` (the fewest a campaign diagnosis takes).
+
+    Returns
+    -------
+    list of int
+        Increasing flight counts ending at ``max_flights``.
+
+    Examples
+    --------
+    >>> power_stages(6), power_stages(2), power_stages(7), power_stages(1)
+    ([2, 4, 6], [2], [2, 4, 6, 7], [1])
+    """
+    from dronewind.diagnose.probes import MIN_FLIGHTS
+
+    most = max(1, int(max_flights))
+    stages = [min(most, max(MIN_FLIGHTS, int(step)))]
+    while stages[-1] < most:
+        stages.append(min(most, stages[-1] + max(1, int(step))))
+    return stages
+
+
+def _merge_evidence(into: dict[str, dict[str, Any]], new: Mapping[str, Mapping[str, Any]]) -> None:
+    """Add the flights of ``new`` (:func:`~dronewind.plan.simulation.campaign_evidences`) to ``into``."""
+    for key, ev in new.items():
+        have = into.setdefault(key, {"name": ev["name"], "measured": {}, "forward": {}, "statistics": {}})
+        for part in ("measured", "forward", "statistics"):
+            have[part].update(ev[part])
+
+
 def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path | None, workers: int) -> float:
-    """Simulate the campaign of ``max_flights`` without and with each error, then the power curve and the power.
+    """Simulate the campaign without and with each error in stages of flights, each stage followed by
+    the power at its flight counts, until every error reaches the target; then the power at that count.
 
     Returns the CPU time of the tasks that ran in worker processes [s] (0 with one worker).
     """
     spec = plan.spec
-    t0 = time.perf_counter()
-    progress = Progress("plan flight", spec.max_flights * (1 + len(spec.detect)), "done")
     cpu: list[float] = []  # CPU time of every task [s]
     manifests = power_campaigns(plan)
-    with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
-        evidence = campaign_evidences(manifests, settings, tmp, progress, workers, cpu)
-    progress.finished()
-    model = campaign_power_model(manifests, evidence, spec.detect)
-    plan.seconds["simulation"] = time.perf_counter() - t0
-    t1 = time.perf_counter()
+    flight_ids = [f["id"] for f in manifests[NO_ERROR]["payload_flights"]]
     labels = [e.label for e in spec.detect]
-    counts = list(range(1, spec.max_flights + 1))
     draws_curve = min(spec.curve_draws, spec.draws)
     more_draws = spec.draws - draws_curve
     finals = len(labels) * (more_draws > 0) + 1
-    progress = Progress("power", len(labels) * len(counts) + finals, "diagnosed")
     plan.power_curve = {label: [] for label in labels}
+    plan.seconds["simulation"] = plan.seconds["power_draws"] = 0.0
+    evidence: dict[str, dict[str, Any]] = {}
     reached: int | None = None
-    pool = power_pool(model, workers) if workers > 1 else None
-    # the flight counts in turn: the first count at which every error reaches the power target is
-    # the plan's, and the counts above it (the costliest draws, their references growing with the
-    # flights) are not needed to find it. Every error's draws of a count run at once, and as many
-    # counts together as fill the workers evenly (three errors on two workers: two counts, six
-    # calls); a count computed beyond the first that meets the target is left out, so that the
+    simulated = 0
+    # Counts in turn: the first count at which every error reaches the power target is the plan's,
+    # and the flights and counts above it are not needed to find it. The flights are simulated in
+    # stages (power_stages); the counts of a stage are drawn about the flights simulated so far, in
+    # batches of as many counts as fill the workers evenly (three errors on two workers: two counts,
+    # six calls). A count computed beyond the first that meets the target is left out, so that the
     # plan does not depend on the workers.
     batch = max(1, workers // math.gcd(len(labels), max(1, workers)))
-    try:
-        for start in range(0, len(counts), batch):
-            ks = counts[start:start + batch]
-            results = draw_powers(model, [(label, k, draws_curve, spec.seed) for k in ks for label in labels],
-                                  settings, progress, spec.reference, workers, cpu, pool)
-            for j, k in enumerate(ks):
-                at_k = results[j * len(labels):(j + 1) * len(labels)]
-                for label, result in zip(labels, at_k, strict=True):
-                    plan.power_curve[label].append(result)
-                if all(result.power >= spec.power for result in at_k):
-                    reached = k
-                    break
+    progress_power = Progress("power", 0, "diagnosed")
+    with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
+        for stage in power_stages(spec.max_flights):
+            t0 = time.perf_counter()
+            progress = Progress("plan flight", (stage - simulated) * (1 + len(labels)), "done")
+            _merge_evidence(evidence, campaign_evidences(manifests, settings, tmp, progress, workers, cpu,
+                                                         flights=flight_ids[simulated:stage]))
+            progress.finished()
+            model = campaign_power_model(manifests, evidence, spec.detect)
+            plan.seconds["simulation"] += time.perf_counter() - t0
+            t1 = time.perf_counter()
+            counts = list(range(simulated + 1, stage + 1))
+            simulated = stage
+            progress_power.total += len(labels) * len(counts)
+            pool = power_pool(model, workers) if workers > 1 else None
+            try:
+                for start in range(0, len(counts), batch):
+                    ks = counts[start:start + batch]
+                    results = draw_powers(model, [(label, k, draws_curve, spec.seed) for k in ks for label in labels],
+                                          settings, progress_power, spec.reference, workers, cpu, pool)
+                    for j, k in enumerate(ks):
+                        at_k = results[j * len(labels):(j + 1) * len(labels)]
+                        for label, result in zip(labels, at_k, strict=True):
+                            plan.power_curve[label].append(result)
+                        if all(result.power >= spec.power for result in at_k):
+                            reached = k
+                            break
+                    if reached is not None:
+                        break
+                if reached is not None or stage == spec.max_flights:
+                    n = reached or spec.max_flights
+                    progress_power.total = progress_power.done + finals
+                    final = draw_powers(model, [(label, n, more_draws, spec.seed + 1) for label in labels
+                                                if more_draws > 0] + [(None, n, spec.draws, spec.seed + 2)],
+                                        settings, progress_power, spec.reference, workers, cpu, pool)
+            finally:
+                if pool is not None:
+                    pool.shutdown()
+            plan.seconds["power_draws"] += time.perf_counter() - t1
             if reached is not None:
                 break
-        n = reached or spec.max_flights
-        progress.total = progress.done + finals
-        if reached is None:
-            plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for "
-                              "every error: the plan flies the most and the power target is not met")
-        elif reached < spec.max_flights:
-            plan.notes.append(f"power against flight count simulated up to {reached} flight"
-                              f"{'s' if reached > 1 else ''}, the first count that reaches power {spec.power:g} "
-                              "for every error")
-        final = draw_powers(model, [(label, n, more_draws, spec.seed + 1) for label in labels if more_draws > 0]
-                            + [(None, n, spec.draws, spec.seed + 2)], settings, progress, spec.reference, workers,
-                            cpu, pool)
-    finally:
-        if pool is not None:
-            pool.shutdown()
+    progress_power.finished()
+    plan.simulated_flights = simulated
+    if reached is None:
+        plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for "
+                          "every error: the plan flies the most and the power target is not met")
+    elif reached < spec.max_flights:
+        plan.notes.append(f"power against flight count simulated up to {reached} flight"
+                          f"{'s' if reached > 1 else ''}, the first count that reaches power {spec.power:g} "
+                          f"for every error ({simulated} of {spec.max_flights} flights simulated)")
     for j, label in enumerate(labels):
         first = plan.power_curve[label][n - 1]
         more = final[j] if more_draws > 0 else PowerResult(label, n, 0, 0)
         plan.power[label] = PowerResult(label, n, first.detected + more.detected, first.draws + more.draws)
     plan.false_alarm = final[-1]
-    progress.finished()
-    plan.seconds["power_draws"] = time.perf_counter() - t1
     plan.n_flights = n
     plan.speeds_ms = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)[:n]
     plan.speed_range_ms = (min(plan.speeds_ms), max(plan.speeds_ms)) if n > 1 else plan.speed_range_ms
     plan.manifest = plan_manifest(spec, n, plan.duration_s, plan.speeds_ms, plan.distance_m)
-    plan.power_note = (f"power: {spec.draws} Monte-Carlo campaigns per error drawn about the {spec.max_flights}-flight "
+    plan.power_note = (f"power: {spec.draws} Monte-Carlo campaigns per error drawn about the {simulated}-flight "
                        f"campaign simulated with the error (its effect: the residuals' difference from the same "
                        f"campaign without it; noise factor {model.noise_factor:.2f}), each diagnosed and judged as a "
                        f"measured campaign"

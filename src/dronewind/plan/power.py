@@ -13,7 +13,9 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    lag the chain finds) has the effect on the residual features that the diagnosis sees.
    A flight whose chain measured exactly the conditions of the campaign without the error,
    over the same mast record, has the same forward runs; they are made once
-   (:func:`~dronewind.plan.simulation.campaign_evidences`).
+   (:func:`~dronewind.plan.simulation.campaign_evidences`). The flights are simulated in
+   stages (:func:`dronewind.plan.planner.power_stages`), and the model of a stage's flight
+   counts is assembled from the flights simulated up to it (:func:`campaign_power_model`).
    Through :func:`dronewind.diagnose.campaign.assemble` each campaign gives its forward
    baseline :math:`\bar b_{i,f}`, residual errors :math:`\sigma_{i,f}`, shrunk feature
    correlation :math:`R^*` and candidates' responses (the diagnosis' probes).
@@ -194,7 +196,9 @@ def campaign_power_model(manifests: Mapping[str, Mapping[str, Any]], evidences: 
         :data:`NO_ERROR` -> the campaign without an error; error label -> the same campaign with
         that error hidden (same seed).
     evidences : mapping
-        The same keys -> their :func:`~dronewind.plan.simulation.campaign_evidences`.
+        The same keys -> their :func:`~dronewind.plan.simulation.campaign_evidences`: the same
+        flights of each (all, or the first ones, simulated so far); the models are assembled from
+        those flights.
     errors : sequence of Detect
         The errors (their labels are keys of ``manifests``).
 

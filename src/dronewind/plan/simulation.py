@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import copy
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -223,8 +223,8 @@ def process_pool(workers: int, initializer: Any = None, initargs: tuple[Any, ...
 
 
 def campaign_evidences(manifests: Mapping[str, Mapping[str, Any]], config: Mapping[str, Any], work_dir: str | Path,
-                       progress: Progress | None = None, workers: int = 1, cpu_seconds: list[float] | None = None
-                       ) -> dict[str, dict[str, Any]]:
+                       progress: Progress | None = None, workers: int = 1, cpu_seconds: list[float] | None = None,
+                       flights: Sequence[str] | None = None) -> dict[str, dict[str, Any]]:
     """:func:`manifest_evidence` of several campaigns, their flights spread over ``workers`` processes.
 
     Every flight is simulated and processed on its own (seeded by the manifest); then the
@@ -249,16 +249,24 @@ def campaign_evidences(manifests: Mapping[str, Mapping[str, Any]], config: Mappi
     cpu_seconds : list of float, optional
         The CPU time [s] of every task (a flight processed, a flight's forward runs) is
         appended to it (wherever it ran).
+    flights : sequence of str, optional
+        Only these payload flights of every campaign (all by default). A flight's evidence does
+        not depend on which others are simulated with it: the campaign stays whole (its flight
+        count sets the baseline seeds, :func:`flight_forward_runs`), so evidences of
+        successive calls with the same ``work_dir`` add up to that of one call.
 
     Returns
     -------
     dict
-        Key -> ``name``, ``measured``, ``forward`` and ``statistics`` (:func:`manifest_evidence`).
+        Key -> ``name``, ``measured``, ``forward`` and ``statistics`` (:func:`manifest_evidence`)
+        of the flights simulated.
     """
     config = dict(config)
     views = {key: _simulated_view(data) for key, data in manifests.items()}
+    wanted = None if flights is None else set(flights)
     tasks = [(key, view, f["id"], config, str(Path(work_dir) / str(i) / f["id"]))
-             for i, (key, view) in enumerate(views.items()) for f in view["payload_flights"]]
+             for i, (key, view) in enumerate(views.items()) for f in view["payload_flights"]
+             if wanted is None or f["id"] in wanted]
     processed: dict[tuple[str, str], dict[str, Any]] = {}
     seconds: dict[tuple[str, str], float] = {}
     sharing: dict[str, list[tuple[str, str]]] = {}  # digest of the forward inputs -> the flights with it
@@ -294,7 +302,7 @@ def campaign_evidences(manifests: Mapping[str, Mapping[str, Any]], config: Mappi
                      "forward": runs[digest]} for digest, members in sharing.items() for member in members}
     result = {}
     for key, view in views.items():
-        fids = [f["id"] for f in view["payload_flights"]]
+        fids = [f["id"] for f in view["payload_flights"] if wanted is None or f["id"] in wanted]
         result[key] = {"name": view["name"], "measured": {f: done[(key, f)]["measured"] for f in fids},
                        "forward": {f: done[(key, f)]["forward"] for f in fids},
                        "statistics": {f: done[(key, f)]["statistics"] for f in fids}}
