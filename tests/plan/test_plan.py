@@ -231,6 +231,45 @@ def test_power_stages_add_two_flights_at_a_time():
     assert power_stages(5, step=3) == [3, 5]
 
 
+def test_count_search_draws_each_error_until_it_reaches_the_target():
+    """Known powers per error and flight count: each error is drawn up to its first count at or above
+    the target, a count below the fewest flights a diagnosis takes alone, the rest in batches that
+    fill the workers; what is kept does not depend on the workers, and an error that never reaches
+    the target is drawn at every count."""
+    from dronewind.plan.planner import search_counts
+    from dronewind.plan.power import PowerResult
+
+    detected = {"a": [0, 18, 20, 20, 20, 20], "b": [0, 0, 8, 20, 20, 20], "c": [20, 20, 20, 20, 20, 20],
+                "d": [0, 2, 3, 4, 5, 6]}
+    for labels, expect in ((["a", "b", "c"], {"a": 2, "b": 4, "c": 1}), (["a", "d"], {"a": 2, "d": None})):
+        kept = []
+        for workers in (1, 2, 3):
+            calls: list[list[tuple[str, int]]] = []
+
+            def draw(batch, calls=calls):
+                calls.append(batch)
+                return [PowerResult(label, k, detected[label][k - 1], 20) for label, k in batch]
+
+            reach = dict.fromkeys(labels)
+            curve = {label: [] for label in labels}
+            search_counts(labels, [1, 2, 3], reach, curve, 0.8, workers, draw)
+            search_counts(labels, [4, 5, 6], reach, curve, 0.8, workers, draw)
+            assert reach == expect
+            assert calls[0] == [(label, 1) for label in labels]  # the free count first, alone
+            for label in labels:
+                last = reach[label] or 6
+                assert [r.n_flights for r in curve[label]] == list(range(1, last + 1))
+            kept.append((reach, curve))
+        assert kept[0] == kept[1] == kept[2]
+    # three errors on two workers: two counts per batch; one left: two counts
+    calls = []
+    search_counts(["a", "b", "c"], [1, 2, 3, 4, 5, 6], dict.fromkeys("abc"), {k: [] for k in "abc"}, 0.8, 2,
+                  lambda batch: calls.append(batch) or [PowerResult(lab, k, detected[lab][k - 1], 20)
+                                                         for lab, k in batch])
+    # only the errors still below the target are drawn: c reached it at one flight, a at two
+    assert calls == [[("a", 1), ("b", 1), ("c", 1)], [("a", 2), ("b", 2)], [("b", 3), ("b", 4)]]
+
+
 # ---------------------------------------------------------------- power (slow)
 @pytest.mark.slow
 def test_power_of_a_two_flight_plan(tmp_path):
@@ -261,7 +300,8 @@ def test_power_of_a_two_flight_plan(tmp_path):
     assert curve[-1].power >= 0.8 and all(x.power < 0.8 for x in curve[:-1])
     # reached at two of four flights: the flights above the first stage were not simulated
     assert plan.n_flights == 2 and plan.simulated_flights == 2
-    assert any("simulated up to 2 flights" in note and "(2 of 4 flights simulated)" in note for note in plan.notes)
+    assert any("(w_gain gain=1.25: 2), then at the plan's 2 flights" in note and "(2 of 4 flights simulated)" in note
+               for note in plan.notes)
     assert plan.to_json()["simulated_flights"] == 2 and "about the 2-flight campaign" in plan.power_note
 
 

@@ -9,13 +9,16 @@
   platform's longest hover is too short at the lowest speed, the lowest speed is raised until
   it is not (the wind range the flights should span);
 * **separation**: the largest drone-mast distance (:mod:`dronewind.plan.separation`);
-* **flights**: the smallest number whose detection power (:mod:`dronewind.plan.power`)
-  reaches the target for every error, their speeds spanning the wind range; the power is
-  simulated at one flight, two, ... up to that number (the power against flight count), then
-  with more draws at it. The campaign's flights are simulated in stages (:func:`power_stages`:
-  the first two, then two more at a time), each before the counts it adds, and the counts of a
-  stage are drawn about the flights simulated up to it; a plan that reaches its target at a
-  count does not simulate the flights beyond that count's stage;
+* **flights**: the smallest number by which the detection power (:mod:`dronewind.plan.power`)
+  of every error has reached the target, their speeds spanning the wind range: each error's
+  power is simulated at one flight, two, ... up to the first count at which it reaches the
+  target (the power against flight count; the power grows with the flights, so an error is not
+  drawn again at the counts between that one and the plan's), and the plan's count is the
+  largest of these; there every error's power is drawn with all its draws. The campaign's
+  flights are simulated in stages (:func:`power_stages`: the first two, then two more at a
+  time), each before the counts it adds, and the counts of a stage are drawn about the flights
+  simulated up to it; a plan that reaches its target at a count does not simulate the flights
+  beyond that count's stage;
 * the manifest skeleton of the planned campaign (:mod:`dronewind.plan.manifest`).
 """
 
@@ -25,7 +28,7 @@ import logging
 import math
 import tempfile
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,8 +42,8 @@ from dronewind.plan.simulation import campaign_evidences, with_error
 from dronewind.plan.spec import PlanSpec
 from dronewind.plan.uncertainty import DURATION_STEP_S, PointUncertainty, point_uncertainty
 
-__all__ = ["CampaignPlan", "plan_campaign", "power_campaigns", "power_stages", "plan_uncertainty", "HOVER_MARGIN_S",
-           "STAGE_FLIGHTS"]
+__all__ = ["CampaignPlan", "plan_campaign", "power_campaigns", "power_stages", "search_counts", "plan_uncertainty",
+           "HOVER_MARGIN_S", "STAGE_FLIGHTS"]
 
 #: Flights added to the power simulation at each stage after the first (:func:`power_stages`).
 STAGE_FLIGHTS = 2
@@ -277,6 +280,51 @@ def power_stages(max_flights: int, step: int = STAGE_FLIGHTS) -> list[int]:
     return stages
 
 
+def search_counts(labels: Sequence[str], counts: Sequence[int], reach: dict[str, int | None],
+                  curve: dict[str, list[PowerResult]], target: float, workers: int,
+                  draw: Callable[[list[tuple[str, int]]], list[PowerResult]]) -> None:
+    """Each error's power at ``counts`` in turn, until the first count at which it reaches ``target``.
+
+    The power grows with the flights: an error that reached the target is not drawn at later
+    counts. The counts are drawn in batches of as many as fill ``workers`` evenly with the errors
+    still drawn (three errors on two workers: two counts, six calls; two errors: one count; one
+    error: two counts); a count below :data:`~dronewind.diagnose.probes.MIN_FLIGHTS` (its draws
+    are not diagnosed, it costs nothing) alone. A result beyond an error's first count that
+    reaches the target is left out, so that ``reach`` and ``curve`` do not depend on ``workers``.
+
+    Parameters
+    ----------
+    labels : sequence of str
+        The errors.
+    counts : sequence of int
+        Increasing flight counts to draw.
+    reach : dict
+        Error -> the first count at which it reached the target, or None; updated.
+    curve : dict
+        Error -> its power at each count drawn, in order; extended.
+    target : float
+        Power target [1].
+    workers : int
+        Processes ``draw`` spreads its calls over.
+    draw : callable
+        ``[(error, count), ...]`` -> their :class:`~dronewind.plan.power.PowerResult`, in order.
+    """
+    from dronewind.diagnose.probes import MIN_FLIGHTS
+
+    todo = list(counts)
+    while todo and any(reach[label] is None for label in labels):
+        pending = [label for label in labels if reach[label] is None]
+        ks = todo[:1] if todo[0] < MIN_FLIGHTS else todo[:max(1, workers // math.gcd(len(pending), max(1, workers)))]
+        todo = todo[len(ks):]
+        results = draw([(label, k) for k in ks for label in pending])
+        for j, k in enumerate(ks):
+            for label, result in zip(pending, results[j * len(pending):(j + 1) * len(pending)], strict=True):
+                if reach[label] is None:
+                    curve[label].append(result)
+                    if result.power >= target:
+                        reach[label] = k
+
+
 def _merge_evidence(into: dict[str, dict[str, Any]], new: Mapping[str, Mapping[str, Any]]) -> None:
     """Add the flights of ``new`` (:func:`~dronewind.plan.simulation.campaign_evidences`) to ``into``."""
     for key, ev in new.items():
@@ -298,19 +346,18 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     labels = [e.label for e in spec.detect]
     draws_curve = min(spec.curve_draws, spec.draws)
     more_draws = spec.draws - draws_curve
-    finals = len(labels) * (more_draws > 0) + 1
     plan.power_curve = {label: [] for label in labels}
     plan.seconds["simulation"] = plan.seconds["power_draws"] = 0.0
     evidence: dict[str, dict[str, Any]] = {}
-    reached: int | None = None
+    #: error -> the first flight count at which its power reached the target
+    reach: dict[str, int | None] = dict.fromkeys(labels)
+    final: dict[str | None, PowerResult] = {}
+    n = spec.max_flights
     simulated = 0
-    # Counts in turn: the first count at which every error reaches the power target is the plan's,
-    # and the flights and counts above it are not needed to find it. The flights are simulated in
-    # stages (power_stages); the counts of a stage are drawn about the flights simulated so far, in
-    # batches of as many counts as fill the workers evenly (three errors on two workers: two counts,
-    # six calls). A count computed beyond the first that meets the target is left out, so that the
-    # plan does not depend on the workers.
-    batch = max(1, workers // math.gcd(len(labels), max(1, workers)))
+    # Counts in turn, each error until the first count at which its power reaches the target
+    # (search_counts); the plan's count is the largest of these first counts, and the flights and
+    # counts above it are not needed to find it. The flights are simulated in stages (power_stages);
+    # the counts of a stage are drawn about the flights simulated so far.
     progress_power = Progress("power", 0, "diagnosed")
     with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
         for stage in power_stages(spec.max_flights):
@@ -324,48 +371,52 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
             t1 = time.perf_counter()
             counts = list(range(simulated + 1, stage + 1))
             simulated = stage
-            progress_power.total += len(labels) * len(counts)
             pool = power_pool(model, workers) if workers > 1 else None
+
+            def draw_curve(calls: list[tuple[str, int]], model: Any = model, pool: Any = pool) -> list[PowerResult]:
+                progress_power.total += len(calls)
+                return draw_powers(model, [(label, k, draws_curve, spec.seed) for label, k in calls], settings,
+                                   progress_power, spec.reference, workers, cpu, pool)
+
             try:
-                for start in range(0, len(counts), batch):
-                    ks = counts[start:start + batch]
-                    results = draw_powers(model, [(label, k, draws_curve, spec.seed) for k in ks for label in labels],
-                                          settings, progress_power, spec.reference, workers, cpu, pool)
-                    for j, k in enumerate(ks):
-                        at_k = results[j * len(labels):(j + 1) * len(labels)]
-                        for label, result in zip(labels, at_k, strict=True):
-                            plan.power_curve[label].append(result)
-                        if all(result.power >= spec.power for result in at_k):
-                            reached = k
-                            break
-                    if reached is not None:
-                        break
-                if reached is not None or stage == spec.max_flights:
-                    n = reached or spec.max_flights
-                    progress_power.total = progress_power.done + finals
-                    final = draw_powers(model, [(label, n, more_draws, spec.seed + 1) for label in labels
-                                                if more_draws > 0] + [(None, n, spec.draws, spec.seed + 2)],
-                                        settings, progress_power, spec.reference, workers, cpu, pool)
+                search_counts(labels, counts, reach, plan.power_curve, spec.power, workers, draw_curve)
+                done = all(reach[label] is not None for label in labels)
+                if done or stage == spec.max_flights:
+                    # the plan's count; every error's power there from all its draws, and the false alarms
+                    n = max(r for r in reach.values() if r is not None) if done else spec.max_flights
+                    calls: list[tuple[str | None, int, int, int]] = [(None, n, spec.draws, spec.seed + 2)]
+                    for label in labels:
+                        if reach[label] in (None, n):  # drawn at n already: the more draws
+                            calls += [(label, n, more_draws, spec.seed + 1)] if more_draws > 0 else []
+                        else:  # reached at fewer flights: all its draws at n
+                            calls.append((label, n, spec.draws, spec.seed))
+                    progress_power.total += len(calls)
+                    final = dict(zip([c[0] for c in calls],
+                                     draw_powers(model, calls, settings, progress_power, spec.reference, workers,
+                                                 cpu, pool), strict=True))
             finally:
                 if pool is not None:
                     pool.shutdown()
             plan.seconds["power_draws"] += time.perf_counter() - t1
-            if reached is not None:
+            if final:
                 break
     progress_power.finished()
     plan.simulated_flights = simulated
-    if reached is None:
+    if not all(reach[label] is not None for label in labels):
         plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for "
                           "every error: the plan flies the most and the power target is not met")
-    elif reached < spec.max_flights:
-        plan.notes.append(f"power against flight count simulated up to {reached} flight"
-                          f"{'s' if reached > 1 else ''}, the first count that reaches power {spec.power:g} "
-                          f"for every error ({simulated} of {spec.max_flights} flights simulated)")
-    for j, label in enumerate(labels):
-        first = plan.power_curve[label][n - 1]
-        more = final[j] if more_draws > 0 else PowerResult(label, n, 0, 0)
+    elif n < spec.max_flights:
+        plan.notes.append(f"power against flight count drawn for each error up to the first count that reaches power "
+                          f"{spec.power:g} ("
+                          + ", ".join(f"{label}: {reach[label]}" for label in labels)
+                          + f"), then at the plan's {n} flight{'s' if n > 1 else ''}, the largest of these "
+                          f"({simulated} of {spec.max_flights} flights simulated)")
+    for label in labels:
+        at_n = [r for r in plan.power_curve[label] if r.n_flights == n]
+        more = final.get(label, PowerResult(label, n, 0, 0))
+        first = at_n[0] if at_n and reach[label] in (None, n) else PowerResult(label, n, 0, 0)
         plan.power[label] = PowerResult(label, n, first.detected + more.detected, first.draws + more.draws)
-    plan.false_alarm = final[-1]
+    plan.false_alarm = final[None]
     plan.n_flights = n
     plan.speeds_ms = flight_speeds(plan.speed_range_ms[0], plan.speed_range_ms[1], spec.max_flights)[:n]
     plan.speed_range_ms = (min(plan.speeds_ms), max(plan.speeds_ms)) if n > 1 else plan.speed_range_ms

@@ -69,7 +69,15 @@ def power_figure(plan: CampaignPlan, path: str | Path) -> Path:
         k = np.array([r.n_flights for r in curve])
         p = np.array([r.power for r in curve])
         ci = np.array([r.interval for r in curve])
-        ax.errorbar(k + 0.06 * (i - 1), p, yerr=[p - ci[:, 0], ci[:, 1] - p], marker="o", capsize=3, label=label)
+        # the Wilson bounds of 0 and all draws are 0 and 1 to rounding
+        bars = ax.errorbar(k + 0.06 * (i - 1), p, yerr=np.clip([p - ci[:, 0], ci[:, 1] - p], 0.0, None), marker="o",
+                           capsize=3, label=label)
+        final = plan.power.get(label)
+        if final is not None:  # the power at the plan's count, from all its draws
+            lo, hi = final.interval
+            ax.errorbar([final.n_flights + 0.06 * (i - 1) + 0.2], [final.power],
+                        yerr=[[max(final.power - lo, 0.0)], [max(hi - final.power, 0.0)]], marker="*", ms=9, capsize=3,
+                        color=bars.lines[0].get_color(), ls="none")
     ax.axhline(plan.spec.power, color="k", lw=0.8, ls=":", label=f"target power {plan.spec.power:g}")
     ax.axvline(plan.n_flights, color="0.4", lw=1.0, label=f"planned: {plan.n_flights} flights")
     # the whole range the plan may fly: counts above the first that meets the target are not simulated
@@ -78,7 +86,9 @@ def power_figure(plan: CampaignPlan, path: str | Path) -> Path:
     ax.set_ylabel("detection power [1]")
     ax.set_ylim(-0.02, 1.02)
     draws = next(iter(plan.power_curve.values()))[0].draws if plan.power_curve else 0
-    ax.set_title(f"{plan.spec.name}: power ({draws} draws per point, 95 % Wilson intervals)")
+    finals = next(iter(plan.power.values())).draws if plan.power else 0
+    ax.set_title(f"{plan.spec.name}: detection power\n{draws} draws per point, {finals} per star (the plan's count), "
+                 "95 % Wilson intervals", fontsize=9)
     ax.legend(fontsize=7)
     out = Path(path)
     fig.savefig(out, dpi=120)
