@@ -383,9 +383,9 @@ SUBCOMMANDS: list[Subcommand] = [
         "Schema: workflow/schemas/plan.schema.json; example: config/plans/example_plan.yaml.\n\n"
         "Cost of the power simulation (2 cores): each error to detect that moves what the chain measures\n"
         "(a heading bias the wind direction, a sonic-INS lag the lag found) needs forward runs of its own.\n"
-        "The flights are simulated two at a time, up to the first count that reaches the power target: up\n"
-        "to six 12.5-min flights with one error to detect (a w gain, reached at two flights) take about\n"
-        "1 min; the example's three errors (reached at four flights) about 3 min.",
+        "The flights are simulated two at a time, and each error's power drawn up to the first count\n"
+        "that reaches the target: up to six 12.5-min flights with one error to detect (a w gain, reached\n"
+        "at two flights) take about 1 min; the example's three errors (reached at four flights) 2.5 min.",
         _plan_args,
         _plan,
     ),
