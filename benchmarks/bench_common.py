@@ -61,6 +61,32 @@ def machine() -> dict[str, Any]:
             "python": platform.python_version()}
 
 
+def reference_workload_s(repeats: int = 3) -> float:
+    """CPU seconds of a fixed single-threaded workload, the least of ``repeats``.
+
+    The workload: 20 seeded series of 2^20 numbers, each sorted, Fourier-transformed and
+    filtered by a moving median (bottleneck), as the chain and the forward runs do. The same
+    code's CPU time moves with the machine's state (a shared virtual machine ran the same
+    workflow's jobs in 318 to 362 CPU-s on one day): a run's times compare with another's in
+    proportion to this number measured beside them.
+    """
+    import time
+
+    import bottleneck as bn
+    import numpy as np
+
+    data = np.random.default_rng(0).standard_normal((20, 2**20))
+    best = float("inf")
+    for _ in range(repeats):
+        c0 = time.process_time()
+        for row in data:
+            np.sort(row)
+            np.fft.rfft(row)
+            bn.move_median(row[: 2**16], window=201)
+        best = min(best, time.process_time() - c0)
+    return round(best, 3)
+
+
 def print_and_write(result: Any, out: Path | None, indent: int = 1) -> None:
     """Print ``result`` as JSON and write the same text to ``out`` (its folder created) when given.
 

@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_common import git_commit, print_and_write  # noqa: E402
+from bench_common import git_commit, print_and_write, reference_workload_s  # noqa: E402
 from bench_workflow_rules import collect  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -119,7 +119,9 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, help="run into this new folder and keep it (default: a temporary one)")
     args = parser.parse_args()
     args.out = args.out or Path(__file__).resolve().parent / "results" / f"run_{args.kind}.json"
-    result = {**run(args.kind, args.cores, args.config, args.keep), "commit": git_commit()}
+    before = reference_workload_s()
+    result = {**run(args.kind, args.cores, args.config, args.keep), "commit": git_commit(),
+              "reference_workload_s": {"before": before, "after": reference_workload_s()}}
     print_and_write(result, args.out)
 
 
