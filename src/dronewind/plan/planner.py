@@ -358,7 +358,6 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
     # (search_counts); the plan's count is the largest of these first counts, and the flights and
     # counts above it are not needed to find it. The flights are simulated in stages (power_stages);
     # the counts of a stage are drawn about the flights simulated so far.
-    progress_power = Progress("power", 0, "diagnosed")
     with tempfile.TemporaryDirectory(dir=work_dir) as tmp:
         for stage in power_stages(spec.max_flights):
             t0 = time.perf_counter()
@@ -372,8 +371,10 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
             counts = list(range(simulated + 1, stage + 1))
             simulated = stage
             pool = power_pool(model, workers) if workers > 1 else None
+            progress_power = Progress("power", 0, "diagnosed")  # this stage's draws
 
-            def draw_curve(calls: list[tuple[str, int]], model: Any = model, pool: Any = pool) -> list[PowerResult]:
+            def draw_curve(calls: list[tuple[str, int]], model: Any = model, pool: Any = pool,
+                           progress_power: Progress = progress_power) -> list[PowerResult]:
                 progress_power.total += len(calls)
                 return draw_powers(model, [(label, k, draws_curve, spec.seed) for label, k in calls], settings,
                                    progress_power, spec.reference, workers, cpu, pool)
@@ -397,10 +398,10 @@ def _power(plan: CampaignPlan, settings: Mapping[str, Any], work_dir: str | Path
             finally:
                 if pool is not None:
                     pool.shutdown()
+            progress_power.finished()
             plan.seconds["power_draws"] += time.perf_counter() - t1
             if final:
                 break
-    progress_power.finished()
     plan.simulated_flights = simulated
     if not all(reach[label] is not None for label in labels):
         plan.notes.append(f"no number of flights up to {spec.max_flights} reaches power {spec.power:g} for "
