@@ -25,7 +25,7 @@ import scipy.stats
 from dronewind.core.constants import AIR_DENSITY_KGM3, GRAVITY_MS2
 from dronewind.errors import InputError
 from dronewind.quadrotor.calibration import BOUNDS
-from dronewind.quadrotor.drag import lean_from_trig, speed_from_tilt, tilt_from_attitude
+from dronewind.quadrotor.drag import attitude_trig, lean_from_trig, speed_from_tilt, tilt_from_attitude
 
 __all__ = [
     "FieldData",
@@ -106,8 +106,7 @@ class FieldData:
     def attitude_trig(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Cosine and sine of every block's roll and pitch: the offset path (:func:`_attitude_terms`)
         turns the pitch by the angle-sum formulas instead of evaluating them again per block."""
-        pitch = np.radians(self.pitch)
-        return np.cos(self.roll_rad), np.sin(self.roll_rad), np.cos(pitch), np.sin(pitch)
+        return attitude_trig(self.roll_rad, np.radians(self.pitch))
 
     @functools.cached_property
     def tilt_without_offset(self) -> tuple[np.ndarray, np.ndarray]:

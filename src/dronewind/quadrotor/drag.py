@@ -57,7 +57,7 @@ from dronewind.errors import InputError
 
 __all__ = [
     "MIN_DRAG_AREA_M2", "DragLaw",
-    "rotation_body_to_ned", "drag_area_m2", "speed_from_tilt", "tilt_from_attitude", "lean_from_trig",
+    "rotation_body_to_ned", "drag_area_m2", "speed_from_tilt", "tilt_from_attitude", "attitude_trig", "lean_from_trig",
     "body_accelerations_ms2", "body_axis_relative_air",
 ]
 
@@ -252,6 +252,21 @@ def tilt_from_attitude(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.
     right = np.sin(phi)
     tilt = np.arctan2(np.hypot(fwd, right), np.cos(th) * np.cos(phi))
     return tilt, np.arctan2(right, fwd)
+
+
+def attitude_trig(roll_rad: np.ndarray, pitch_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Cosine and sine of roll and pitch, the first four arguments of :func:`lean_from_trig`.
+
+    Parameters
+    ----------
+    roll_rad, pitch_rad : numpy.ndarray
+        Roll and pitch [rad].
+
+    Returns
+    -------
+    cos_roll, sin_roll, cos_pitch, sin_pitch : numpy.ndarray
+    """
+    return np.cos(roll_rad), np.sin(roll_rad), np.cos(pitch_rad), np.sin(pitch_rad)
 
 
 def lean_from_trig(cos_roll: np.ndarray, sin_roll: np.ndarray, cos_pitch: np.ndarray, sin_pitch: np.ndarray,

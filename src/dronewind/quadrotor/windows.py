@@ -26,7 +26,7 @@ import pandas as pd
 import xarray as xr
 
 from dronewind.errors import InputError
-from dronewind.quadrotor.drag import DragLaw, lean_from_trig
+from dronewind.quadrotor.drag import DragLaw, attitude_trig, lean_from_trig
 from dronewind.quadrotor.ekf_wind import air_density_kgm3
 from dronewind.quadrotor.hover import hover_segment
 from dronewind.quadrotor.io import read_quadrotor
@@ -610,8 +610,7 @@ class WindowArrays:
     @functools.cached_property
     def _attitude_trig(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Cosine and sine of the logged roll and pitch, once (:meth:`_balance_direction`)."""
-        phi, th = np.radians(self.roll), np.radians(self.pitch)
-        return np.cos(phi), np.sin(phi), np.cos(th), np.sin(th)
+        return attitude_trig(np.radians(self.roll), np.radians(self.pitch))
 
 
 def select_windows(blocks: pd.DataFrame, windows: pd.DataFrame, flights: Iterable[str] | None,
