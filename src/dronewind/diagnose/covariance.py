@@ -218,6 +218,53 @@ def row_patterns(mask: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(mask[rows[0]], np.asarray(rows)) for rows in groups.values()]
 
 
+def inverse_factors(corr: np.ndarray | None, use: np.ndarray, per_row: bool = False) -> np.ndarray:
+    """Inverse Cholesky factors of every row's used sub-matrix, zero-padded (:meth:`Whitener.padded`).
+
+    Parameters
+    ----------
+    corr : numpy.ndarray or None
+        Correlation matrices: ``(..., p, p)`` shared by every row, or ``(..., n, p, p)`` one per
+        row (``per_row``); leading axes are independent problems of the same shape (the
+        replicates of a bootstrap, :mod:`dronewind.diagnose.replicates`). None: the identity.
+    use : numpy.ndarray
+        Features used in every row (n, p) (bool), the same for every leading index.
+    per_row : bool
+        Whether ``corr`` has a matrix per row.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., n, p, p)``: for row :math:`i` the inverse Cholesky factor of the sub-matrix of its
+        used features in their rows and columns, zero elsewhere.
+
+    Notes
+    -----
+    Rows with the same pattern of used features are factored in one batched call (the fits
+    evaluate residuals thousands of times with a few fixed patterns; a Python loop of one
+    LAPACK call per row was most of their time).
+    """
+    use = np.asarray(use, dtype=bool)
+    n, p = use.shape
+    if corr is None:
+        out = np.zeros((n, p, p))
+        out[:, np.arange(p), np.arange(p)] = use
+        return out
+    corr = np.asarray(corr, dtype=float)
+    lead = corr.shape[:-3] if per_row else corr.shape[:-2]
+    out = np.zeros((*lead, n, p, p))
+    for pattern, rows in row_patterns(use):
+        if not pattern.any():
+            continue
+        idx = np.flatnonzero(pattern)
+        mats = corr[..., rows, :, :] if per_row else corr[..., None, :, :]
+        sub = mats[..., idx[:, None], idx[None, :]]
+        # (..., rows or 1, q, q): a matrix shared by the rows is factored once and broadcast
+        out[..., rows[:, None, None], idx[None, :, None], idx[None, None, :]] = np.tril(
+            np.linalg.inv(np.linalg.cholesky(sub)))
+    return out
+
+
 class Whitener:
     """Whitening of standardised residuals by a correlation matrix (sub-matrix per missing pattern).
 
@@ -267,25 +314,9 @@ class Whitener:
         """
         use = np.asarray(use, dtype=bool)
         key = (use.shape, use.tobytes())
-        if key in self._padded:
-            return self._padded[key]
-        n, p = use.shape
-        out = np.zeros((n, p, p))
-        if self.corr is None:
-            out[:, np.arange(p), np.arange(p)] = use
-            self._padded[key] = out
-            return out
-        for pattern, rows in row_patterns(use):
-            if not pattern.any():
-                continue
-            idx = np.flatnonzero(pattern)
-            mats = self.corr[rows] if self.per_row else self.corr[None]
-            sub = mats[:, idx[:, None], idx[None, :]]
-            inverse = np.tril(np.linalg.inv(np.linalg.cholesky(sub)))
-            out[np.ix_(rows, idx, idx)] = inverse if self.per_row else np.broadcast_to(
-                inverse, (rows.size, idx.size, idx.size))
-        self._padded[key] = out
-        return out
+        if key not in self._padded:
+            self._padded[key] = inverse_factors(self.corr, use, self.per_row)
+        return self._padded[key]
 
     def subset(self, rows: np.ndarray) -> Whitener:
         """The whitener of the rows ``rows`` (itself when every row shares one matrix)."""
@@ -328,6 +359,10 @@ def flight_correlations(corr: np.ndarray | None, sigma: np.ndarray, tau: np.ndar
     tau : numpy.ndarray
         Discrepancy standard deviation :math:`\tau_f` per feature (p,) [feature units].
 
+    Every argument may carry the same leading axes (``(..., p, p)``, ``(..., n, p)``,
+    ``(..., p)``): independent campaigns of one shape, as the replicates of a bootstrap
+    (:mod:`dronewind.diagnose.replicates`); the outputs then carry them too.
+
     Returns
     -------
     total_sigma : numpy.ndarray
@@ -339,13 +374,15 @@ def flight_correlations(corr: np.ndarray | None, sigma: np.ndarray, tau: np.ndar
     """
     sigma = np.asarray(sigma, dtype=float)
     tau2 = np.asarray(tau, dtype=float) ** 2
-    p = sigma.shape[1]
+    p = sigma.shape[-1]
     r = np.eye(p) if corr is None else np.asarray(corr, dtype=float)
-    total = np.sqrt(sigma**2 + tau2[None, :])
+    total = np.sqrt(sigma**2 + tau2[..., None, :])
     s = np.where(np.isfinite(sigma), sigma, 0.0)
     t = np.where(np.isfinite(total) & (total > 0), total, 1.0)
-    out = (r[None] * s[:, :, None] * s[:, None, :] + np.diag(tau2)[None]) / (t[:, :, None] * t[:, None, :])
-    out[:, np.arange(p), np.arange(p)] = 1.0
+    diag = tau2[..., :, None] * np.eye(p)  # diag(tau^2) of every leading index
+    out = ((r[..., None, :, :] * s[..., :, None] * s[..., None, :] + diag[..., None, :, :])
+           / (t[..., :, None] * t[..., None, :]))
+    out[..., np.arange(p), np.arange(p)] = 1.0
     return total, out
 
 

@@ -332,6 +332,26 @@ def _probe_point(lo: float, hi: float, level_span: float) -> tuple[float, float]
     return 0.0, level_span / 2.0
 
 
+def linear_cells(parameters: Sequence[ParameterResponse]
+                 ) -> list[tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """The cells of :func:`piecewise_linear_least_squares`: every combination of the parameters' linear segments.
+
+    Returns
+    -------
+    list of (segments, lo, hi, centre, steps)
+        The segment index of every parameter (:meth:`ParameterResponse.linear_segments`), the
+        cell's bounds (m,), a point inside it and a step along each parameter that stays inside
+        (m,), in the order of ``itertools.product`` over the parameters' segments.
+    """
+    spans = [float(np.ptp(np.asarray(p.levels, dtype=float))) or 1.0 for p in parameters]
+    out = []
+    for cell in itertools.product(*(p.linear_segments() for p in parameters)):
+        points = [_probe_point(a, b, s) for (_, a, b), s in zip(cell, spans, strict=True)]
+        out.append((tuple(c[0] for c in cell), np.array([c[1] for c in cell]), np.array([c[2] for c in cell]),
+                    np.array([c for c, _ in points]), np.array([h for _, h in points])))
+    return out
+
+
 def _cell_floors(forms: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
                  ) -> tuple[list[int], np.ndarray]:
     """Order in which to solve the cells, and a lower bound of each cell's bounded misfit.
@@ -354,13 +374,68 @@ def _cell_floors(forms: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
     n_par = forms[0][4].shape[1] if forms else 0
     if n_par < 2:
         return list(range(len(forms))), np.full(len(forms), -np.inf)
-    jac = np.stack([f[4] for f in forms])
-    r0 = np.stack([f[3] for f in forms])
-    g = np.einsum("cik,ci->ck", jac, r0)
-    step = np.einsum("ckl,cl->ck", np.linalg.pinv(np.einsum("cik,cil->ckl", jac, jac)), g)
-    floor = np.einsum("ci,ci->c", r0, r0) - np.einsum("ck,ck->c", g, step)
-    floor = floor - 1e-9 * np.abs(floor) - 1e-12
+    floor = unbounded_floor(np.stack([f[3] for f in forms]), np.stack([f[4] for f in forms]))
     return [int(c) for c in np.argsort(floor, kind="stable")], floor
+
+
+def unbounded_floor(r0: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    r"""Lower bound of a cell's bounded misfit: its unbounded minimum :math:`|r_0|^2 - g^\top G^{+} g`.
+
+    Parameters
+    ----------
+    r0 : numpy.ndarray
+        Residuals at the cell's centre (..., N).
+    jac : numpy.ndarray
+        Their Jacobian (..., N, m).
+
+    Returns
+    -------
+    numpy.ndarray
+        (...): the minimum lowered by a relative 1e-9 and 1e-12 absolute (rounding, :func:`_cell_floors`).
+    """
+    g = np.einsum("...ik,...i->...k", jac, r0)
+    step = np.einsum("...kl,...l->...k", np.linalg.pinv(np.einsum("...ik,...il->...kl", jac, jac)), g)
+    floor = np.einsum("...i,...i->...", r0, r0) - np.einsum("...k,...k->...", g, step)
+    return floor - 1e-9 * np.abs(floor) - 1e-12
+
+
+def solve_cell(lo: np.ndarray, hi: np.ndarray, centre: np.ndarray, r0: np.ndarray, jac: np.ndarray,
+               base: np.ndarray) -> tuple[np.ndarray, float]:
+    """Bounded linear least squares on one cell of :func:`piecewise_linear_least_squares`.
+
+    Parameters
+    ----------
+    lo, hi : numpy.ndarray
+        The cell's bounds of every parameter (m,).
+    centre : numpy.ndarray
+        The point the cell's linear form is taken at (m,).
+    r0, jac : numpy.ndarray
+        Residuals at ``centre`` (N,) and their Jacobian (N, m): ``r(theta) = r0 + J (theta - centre)``.
+    base : numpy.ndarray
+        Baseline level of every parameter (m,).
+
+    Returns
+    -------
+    theta : numpy.ndarray
+        The minimiser within the bounds (``scipy.optimize.lsq_linear``'s bounded-variable least
+        squares, or the clipped normal equation for one moving parameter); a parameter that moves
+        no residual stays at the point of its interval nearest the baseline level.
+    value : float
+        :math:`|r(\theta)|^2` from the linear form (the residuals are linear on the cell).
+    """
+    norms = np.sqrt(np.sum(jac * jac, axis=0))
+    moving = norms > 1e-12 * max(float(norms.max(initial=0.0)), 1e-300)
+    theta = np.clip(base, lo, hi)  # a parameter that moves nothing: nearest its baseline
+    if moving.any():
+        j, rhs = jac[:, moving], -(r0 + jac[:, ~moving] @ (theta[~moving] - centre[~moving]))
+        d_lo, d_hi = lo[moving] - centre[moving], hi[moving] - centre[moving]
+        if j.shape[1] == 1:
+            d = np.clip(float(j[:, 0] @ rhs) / float(j[:, 0] @ j[:, 0]), d_lo, d_hi)
+        else:
+            d = scipy.optimize.lsq_linear(j, rhs, bounds=(d_lo, d_hi), method="bvls").x
+        theta[moving] = np.clip(centre[moving] + d, lo[moving], hi[moving])
+    r = r0 + jac @ (theta - centre)
+    return theta, float(r @ r)
 
 
 def piecewise_linear_least_squares(
@@ -409,50 +484,32 @@ def piecewise_linear_least_squares(
         Always true (the minimum is exact).
     message : str
     """
-    cells = [p.linear_segments() for p in parameters]
-    spans = [float(np.ptp(np.asarray(p.levels, dtype=float))) or 1.0 for p in parameters]
     base = np.array([p.baseline_level for p in parameters], dtype=float)
     forms = []
-    for cell in itertools.product(*cells):
-        lo = np.array([c[1] for c in cell])
-        hi = np.array([c[2] for c in cell])
-        points = [_probe_point(a, b, s) for (_, a, b), s in zip(cell, spans, strict=True)]
-        centre = np.array([c for c, _ in points])
+    grid = linear_cells(parameters)
+    for segments, lo, hi, centre, steps in grid:
         if cell_form is not None:
-            at_zero, jac = cell_form(tuple(c[0] for c in cell))
+            at_zero, jac = cell_form(segments)
             r0 = at_zero + jac @ centre
         else:
             r0 = np.asarray(residuals(centre), dtype=float)
             jac = np.empty((r0.size, len(parameters)))
-            for k, (_, h) in enumerate(points):
+            for k, h in enumerate(steps):
                 step = centre.copy()
                 step[k] += h
                 jac[:, k] = (np.asarray(residuals(step), dtype=float) - r0) / h
         forms.append((lo, hi, centre, r0, jac))
     order, floor = _cell_floors(forms)
-    best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
+    best: tuple[float, np.ndarray, np.ndarray] | None = None
     for c in order:
         if best is not None and floor[c] > best[0]:
             break  # no later cell can do better than its unbounded minimum
         lo, hi, centre, r0, jac = forms[c]
-        norms = np.sqrt(np.sum(jac * jac, axis=0))
-        moving = norms > 1e-12 * max(float(norms.max(initial=0.0)), 1e-300)
-        theta = np.clip(base, lo, hi)  # a parameter that moves nothing: nearest its baseline
-        if moving.any():
-            j, rhs = jac[:, moving], -(r0 + jac[:, ~moving] @ (theta[~moving] - centre[~moving]))
-            d_lo, d_hi = lo[moving] - centre[moving], hi[moving] - centre[moving]
-            if j.shape[1] == 1:
-                d = np.clip(float(j[:, 0] @ rhs) / float(j[:, 0] @ j[:, 0]), d_lo, d_hi)
-            else:
-                d = scipy.optimize.lsq_linear(j, rhs, bounds=(d_lo, d_hi), method="bvls").x
-            theta[moving] = np.clip(centre[moving] + d, lo[moving], hi[moving])
-        # the residuals are linear on the cell: its minimum from the probes, without another evaluation
-        r = r0 + jac @ (theta - centre)
-        value = float(r @ r)
+        theta, value = solve_cell(lo, hi, centre, r0, jac, base)
         if best is None or value < best[0]:
-            best = (value, theta, jac, r)
+            best = (value, theta, jac)
     assert best is not None
-    _, theta, jac, _ = best
+    _, theta, jac = best
     r = np.asarray(residuals(theta), dtype=float)  # the winner's misfit evaluated, not extrapolated
     value = float(r @ r)
     dof = max(r.size - len(parameters), 1)
@@ -461,7 +518,7 @@ def piecewise_linear_least_squares(
         std = np.sqrt(np.clip(np.diag(cov), 0, None) * max(1.0, value / dof))
     except np.linalg.LinAlgError:
         std = np.full(len(parameters), np.nan)
-    return theta, std, value, True, f"exact minimum over {int(np.prod([len(c) for c in cells]))} linear cells"
+    return theta, std, value, True, f"exact minimum over {len(grid)} linear cells"
 
 
 def fit_parameters(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, flights: np.ndarray,

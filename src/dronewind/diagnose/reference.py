@@ -39,8 +39,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dronewind.diagnose import replicates
 from dronewind.diagnose.calibration import discrepancy, null_likelihood, profiled_fit
-from dronewind.diagnose.covariance import Whitener, flight_correlations, nearest_correlation, shrunk_correlation
+from dronewind.diagnose.covariance import (
+    Whitener,
+    flight_correlations,
+    inverse_factors,
+    nearest_correlation,
+    shrunk_correlation,
+)
 from dronewind.diagnose.fitting import ResponseModel, chi2, fit_parameters
 
 __all__ = ["seed_scale", "flight_seed_scale", "offset_trend_z", "NullReference", "null_reference", "empirical_p",
@@ -382,6 +389,8 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
                         lr_profile={c: np.empty(size) for c in models},
                         mean_z=np.empty((size, p)), slope_z=np.empty((size, p)))
     s = np.where(used, analytic, np.nan)
+    chunk = _chunk_size(n, p)
+    pending: list[tuple[int, tuple[np.ndarray, float]]] = []  # replicates whose batched fits are due
     for b_all in range(wanted.stop):
         normal = rng.standard_normal((n, n_seeds + 1, p))
         discrepancy_normal = rng.standard_normal((n, p))
@@ -401,26 +410,70 @@ def null_reference(*, baseline: np.ndarray, analytic: np.ndarray, scale: np.ndar
         tau_b = discrepancy(resid, sigma_b, speed_ms, interval=False).tau_or_zero()
         total_b, fcorr_b = flight_correlations(corr_b, sigma_b, tau_b)
         y_b = baseline + resid
-        white_total = Whitener(fcorr_b)
         white_plain = Whitener(corr_b)
         ref.gof[b] = float(chi2(baseline + resid0, baseline, sigma_b, white_plain).sum())
         tau0_b = discrepancy(resid0, sigma_b, speed_ms, interval=False).tau_or_zero()
         ref.y0.append(baseline + resid0)
         ref.flight_corr0.append(flight_correlations(corr_b, sigma_b, tau0_b))
         null_b = null_likelihood(y_b, baseline, sigma_b, corr_b, speed_ms)
-        for c, model in models.items():
-            prof = profiled_fit(model, y_b, sigma_b, corr_b, speed_ms, (total_b, white_total), null=null_b,
-                                plain=(sigma_b, white_plain))
-            ref.lr[c][b], ref.lr_profile[c][b] = prof.lr_statistic, prof.lr_profile
         ref.mean_z[b], ref.slope_z[b] = (np.abs(a) for a in offset_trend_z(resid, total_b, speed_ms))
         ref.y.append(y_b)
         ref.sigma.append(sigma_b)
         ref.total_sigma.append(total_b)
         ref.corr.append(corr_b)
         ref.flight_corr.append(fcorr_b)
+        pending.append((b, null_b))
+        if len(pending) == chunk or b_all == wanted.stop - 1:
+            _candidate_statistics(ref, pending, models, speed_ms, progress)
+            pending = []
+    return ref
+
+
+def _chunk_size(n_flights: int, n_features: int) -> int:
+    """Replicates whose candidate fits are made together: up to 100, fewer where a replicate's
+    largest array of :func:`dronewind.diagnose.replicates.profiled_discrepancy` (features x flights
+    x flights x features) would pass about 2 million numbers (16 MB) for the chunk."""
+    per_replicate = max(n_features * n_flights * n_flights * n_features, 1)
+    return int(max(1, min(100, 2_000_000 // per_replicate)))
+
+
+def _candidate_statistics(ref: NullReference, pending: Sequence[tuple[int, tuple[np.ndarray, float]]],
+                          models: Mapping[str, ResponseModel], speed_ms: np.ndarray,
+                          progress: object | None) -> None:
+    """Every candidate's likelihood-ratio statistics on the replicates ``pending`` (index, null likelihood).
+
+    The candidates :func:`dronewind.diagnose.replicates.supported` are fitted on all of them at
+    once (:func:`dronewind.diagnose.replicates.profiled_fit`), the others one replicate at a time
+    (:func:`~dronewind.diagnose.calibration.profiled_fit`): the statistics are the same either way.
+    """
+    rows = [b for b, _ in pending]
+    y = np.stack([ref.y[b] for b in rows])
+    sigma = np.stack([ref.sigma[b] for b in rows])
+    try:
+        used = replicates.used_features(y, sigma)
+    except ValueError:  # replicates of different used features: every candidate one replicate at a time
+        used = np.zeros(y.shape[1:], dtype=bool)
+    batched = {c: m for c, m in models.items() if used.any() and replicates.supported(m, used)}
+    if batched:
+        p = y.shape[2]
+        corr = np.stack([np.eye(p) if (r := ref.corr[b]) is None else r for b in rows])
+        total = np.stack([ref.total_sigma[b] for b in rows])
+        start = (total, inverse_factors(np.stack([ref.flight_corr[b] for b in rows]), used, per_row=True))
+        plain = (sigma, inverse_factors(corr, used))
+        null = (np.stack([nb[0] for _, nb in pending]), np.array([nb[1] for _, nb in pending]))
+        for c, model in batched.items():
+            ref.lr[c][rows], ref.lr_profile[c][rows] = replicates.profiled_fit(model, y, sigma, corr, speed_ms,
+                                                                               start, plain, null)
+    for b, null_b in pending:
+        white_total, white_plain = Whitener(ref.flight_corr[b]), Whitener(ref.corr[b])
+        for c, model in models.items():
+            if c in batched:
+                continue
+            prof = profiled_fit(model, ref.y[b], ref.sigma[b], ref.corr[b], speed_ms,
+                                (ref.total_sigma[b], white_total), null=null_b, plain=(ref.sigma[b], white_plain))
+            ref.lr[c][b], ref.lr_profile[c][b] = prof.lr_statistic, prof.lr_profile
         if progress is not None:
             progress()  # type: ignore[operator]
-    return ref
 
 
 def replicate_part(n_replicates: int, part: int, parts: int) -> range:
