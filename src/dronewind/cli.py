@@ -385,7 +385,8 @@ SUBCOMMANDS: list[Subcommand] = [
         "(a heading bias the wind direction, a sonic-INS lag the lag found) needs forward runs of its own.\n"
         "The flights are simulated two at a time, and each error's power drawn up to the first count\n"
         "that reaches the target: up to six 12.5-min flights with one error to detect (a w gain, reached\n"
-        "at two flights) take about 1 min; the example's three errors (reached at four flights) 2.5 min.",
+        "at two flights) take about 30 s; the example's three errors (reached at four flights) about\n"
+        "100 s; the three where they need all six flights simulated about 2.5 min.",
         _plan_args,
         _plan,
     ),

@@ -32,12 +32,13 @@ def test_part_names():
 
 
 def test_reference_parts_of_about_twelve_cpu_seconds():
-    """600 replicates at 0.004 CPU-s per flight: 24 CPU-s on 10 flights (2 parts), 48 on 20 (4),
-    9.6 on 4 (1), none drawn on 1 flight (1 part); never more than the setting, never none."""
-    assert reference_jobs(10, 600, 4) == 2
-    assert reference_jobs(20, 600, 4) == 4
-    assert reference_jobs(20, 600, 3) == 3
+    """600 replicates at 0.0013 CPU-s per flight: 7.8 CPU-s on 10 flights (1 part), 15.6 on 20 (2),
+    31.2 on 40 (3), none drawn on 1 flight (1 part); never more than the setting, never none."""
+    assert reference_jobs(10, 600, 4) == 1
+    assert reference_jobs(20, 600, 4) == 2
+    assert reference_jobs(40, 600, 4) == 3
+    assert reference_jobs(40, 600, 2) == 2
     assert reference_jobs(4, 600, 4) == 1
     assert reference_jobs(1, 600, 4) == 1
     assert reference_jobs(2, 50, 4) == 1
-    assert reference_jobs(30, 5000, 100) == 50
+    assert reference_jobs(30, 5000, 100) == 17

@@ -182,10 +182,10 @@ def baseline_seeds(n_flights: int, dof: int = SEED_DOF, minimum: int = MIN_SEEDS
     return [101 * (k + 1) for k in range(n)]
 
 
-#: CPU seconds of the reference jobs per bootstrap replicate and payload flight, each job's
-#: start-up and reading of the evidence included: the default campaign's diagnose_reference jobs
-#: take 6.0 CPU-s for 150 replicates of 10 flights each (their logs, ``bench_run.py default``).
-REPLICATE_CPU_S_PER_FLIGHT = 0.004
+#: CPU seconds of the bootstrap per replicate and payload flight: a diagnose_reference job of the
+#: default campaign takes 4.4 CPU-s for 300 replicates of 10 flights, of which 0.5 CPU-s are its
+#: start-up and reading of the evidence (its log, ``bench_run.py default``).
+REPLICATE_CPU_S_PER_FLIGHT = 0.0013
 #: CPU seconds of work a part of the bootstrap reference is sized to (:func:`reference_jobs`): a
 #: part stays within the first 15 s of its job, which Snakemake's benchmark samples every 0.5 s.
 REFERENCE_JOB_CPU_S = 12.0
@@ -200,8 +200,8 @@ def reference_jobs(n_flights: int, replicates: int, most: int) -> int:
 
     Examples
     --------
-    >>> reference_jobs(10, 600, 4), reference_jobs(20, 600, 4), reference_jobs(4, 600, 4)
-    (2, 4, 1)
+    >>> reference_jobs(10, 600, 4), reference_jobs(40, 600, 4), reference_jobs(4, 600, 4)
+    (1, 3, 1)
     """
     if int(n_flights) < MIN_FLIGHTS:
         return 1

@@ -47,11 +47,11 @@ Main path (:func:`dronewind.plan.planner.plan_campaign`), per plan:
    campaign without the error (:math:`\Delta = 0`).
 
 Cost: a 2-flight campaign costs about 16 CPU-s to simulate, process and forward-run; a shared
-bootstrap reference about 12 CPU-s on two flights and 24 on three (600 replicates; throughput
-in ``benchmarks/test_bench_statistics.py``) and each drawn campaign's decision against it about
-0.16 CPU-s on three flights (0.48 with the goodness of fit, which is not computed: it refits the
-named causes on every replicate; 20 draws of a 3 degree heading bias); a draw with a reference
-of its own about 12 CPU-s on two or three flights and 16 on six. Full simulations of every draw
+bootstrap reference about 2.7 CPU-s on two flights and 3.3 on three (600 replicates of the
+example plan's campaigns; throughput in ``benchmarks/test_bench_statistics.py``) and each drawn
+campaign's decision against it about 0.16 CPU-s on three flights (0.48 with the goodness of fit,
+which is not computed: it refits the named causes on every replicate; 20 draws of a 3 degree
+heading bias); a draw with a reference of its own as much as a shared one. Full simulations of every draw
 would add the simulation's cost to each; they are the check (:func:`simulated_detection`,
 ``benchmarks/plan_validation.py``).
 """
@@ -330,8 +330,8 @@ def draw_power(model: PowerModel, label: str | None, n_flights: int, draws: int,
     reference : {"shared", "per_draw"}
         ``shared``: one bootstrap reference for all draws of this case and flight count
         (:func:`shared_reference`, kept in ``model.references``); ``per_draw``: each draw's
-        diagnosis draws its own, exactly as a measured campaign's does (about 12 CPU-s per draw against
-        0.1-0.4, ``benchmarks/results/plan_reference_agreement.json``).
+        diagnosis draws its own, exactly as a measured campaign's does (about 3 CPU-s per draw on two or
+        three flights against 0.1-0.4, ``benchmarks/results/plan_reference_agreement.json``).
 
     Returns
     -------
