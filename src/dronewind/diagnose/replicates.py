@@ -12,8 +12,9 @@ for one: the same formulas in the same order, so each replicate's statistics are
 ``tests/diagnose/test_diagnose_replicates.py``).
 
 Written here rather than taken from a library because the work is this project's own
-statistic; done per replicate it was tens of thousands of numpy calls on arrays of a few
-dozen numbers, whose call overhead, not arithmetic, was the bootstrap's cost.
+statistic. Done one replicate at a time it is tens of thousands of numpy calls on arrays of a
+few dozen numbers, whose call overhead, not their arithmetic, is the cost: on the example
+plan's three-flight campaign (twelve candidates) a replicate takes 23 ms that way and 6 ms here.
 
 What the replicates cannot share is solved per replicate: the bounded least squares of a cell
 of several parameters (``scipy.optimize.lsq_linear``, :func:`~dronewind.diagnose.fitting.solve_cell`)
