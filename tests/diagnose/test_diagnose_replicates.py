@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
 
 from dronewind.diagnose import replicates
 from dronewind.diagnose.calibration import (
@@ -182,3 +184,55 @@ def test_replicates_of_different_used_features_are_refused() -> None:
     y[1, 0, 0] = np.nan
     with pytest.raises(ValueError, match="one pattern of used features"):
         replicates.used_features(y, np.ones_like(y))
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# a replicate whose first step ends at the plain start's own fit: the two statistics of the choice
+# of step tie and differ by rounding only (calibration.more_likely)
+@example(n=2, p=3, seed=22883, hole=False, tau=0.1326080660966763, levels=4)
+@given(n=st.integers(2, 5), p=st.integers(2, 4), seed=st.integers(0, 2**16), hole=st.booleans(),
+       tau=st.floats(0.0, 0.5), levels=st.sampled_from([3, 4]))
+def test_random_campaigns_give_the_single_campaign_statistics(n, p, seed, hole, tau, levels) -> None:
+    """Random small campaigns (two to five flights, so with and without the wind-speed trend in the
+    moments; a feature unused on one flight or none; with and without a discrepancy; tables of three
+    or four levels; candidates of one and of two parameters): every replicate's statistics are
+    :func:`profiled_fit`'s."""
+    rng = np.random.default_rng(seed)
+    baseline = rng.normal(size=(n, p))
+    used = np.ones((n, p), bool)
+    if hole:
+        used[rng.integers(n), rng.integers(p)] = False
+    grid = np.linspace(-1.0, 1.0, levels) if levels == 3 else np.array([-1.0, 0.0, 0.5, 1.0])
+
+    def par(name):
+        table = baseline[:, None, :] + rng.normal(0.0, 0.5, (n, grid.size, p)) * grid[None, :, None]
+        return ParameterResponse(name, grid, table, 0.0, -1.3, 1.3)
+
+    models = {"one": ResponseModel("one", baseline, [par("a")]),
+              "two": ResponseModel("two", baseline, [par("a"), par("b")])}
+    n_seeds = 8
+    seeds = rng.normal(size=(n, n_seeds, p))
+    corr = shrunk_correlation(seeds.reshape(n * n_seeds, p), np.repeat(np.arange(n), n_seeds))
+    speed = np.sort(rng.uniform(3.0, 10.0, n))
+    ref = null_reference(baseline=baseline, analytic=rng.uniform(0.3, 0.6, (n, p)), scale=seed_scale(seeds),
+                         corr=corr.matrix, truth_corr=corr.sample, tau=np.full(p, tau), used=used, n_seeds=n_seeds,
+                         speed_ms=speed, models=models, n_replicates=6, seed=seed)
+    for b in range(ref.n_replicates):
+        null = null_likelihood(ref.y[b], baseline, ref.sigma[b], ref.corr[b], speed)
+        for c, model in models.items():
+            prof = profiled_fit(model, ref.y[b], ref.sigma[b], ref.corr[b], speed,
+                                (ref.total_sigma[b], Whitener(ref.flight_corr[b])), null=null,
+                                plain=(ref.sigma[b], Whitener(ref.corr[b])))
+            _close(ref.lr[c][b], prof.lr_statistic)
+            _close(ref.lr_profile[c][b], prof.lr_profile)
+
+
+def test_a_tie_of_profile_statistics_is_not_more_likely() -> None:
+    """Two statistics within rounding of each other tie (neither is the more likely), a margin above
+    1e-9 relative is larger, elementwise on arrays."""
+    from dronewind.diagnose.calibration import more_likely
+
+    assert not more_likely(1.0802998943658384, 1.080299894365817)
+    assert not more_likely(1.080299894365817, 1.0802998943658384)
+    assert more_likely(1.0803, 1.0802)
+    np.testing.assert_array_equal(more_likely(np.array([2.0, 1.0 + 1e-12, 0.5]), np.ones(3)), [True, False, False])

@@ -70,7 +70,7 @@ from dronewind.diagnose.fitting import FitResult, ResponseModel, fit_parameters,
 
 __all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
            "profiled_fit", "null_likelihood", "likelihood_ratio", "MIN_FLIGHTS_TREND", "MAX_LOST_SHARE",
-           "UNEXPLAINED_ALPHA"]
+           "UNEXPLAINED_ALPHA", "TIE_MARGIN", "more_likely"]
 
 #: Flights needed before a trend with wind speed is removed besides the offset when the
 #: discrepancy is estimated (two degrees of freedom left). Most mechanisms' effects grow or decay
@@ -490,7 +490,8 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     may stay at the baseline. With ``plain`` the step is also made from the covariance without
     discrepancy, and the one of larger profile likelihood (:func:`likelihood_ratio`) is kept:
     a maximum-likelihood choice between two starts, repeated on every replicate (the second
-    step is completed only where its first fit is already the likelier).
+    step is completed only where its first fit is already the likelier, by more than rounding:
+    :func:`more_likely`).
 
     Parameters
     ----------
@@ -525,11 +526,30 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     first = fit_parameters(model, y, plain[0], idx, plain[1])
     # the second step is completed only where its first fit is already the more likely one
     # (it then moves only to a likelier point): the same rule on every replicate
-    if likelihood_ratio(model, y, sigma, corr, speed_ms, first.theta, plain[0], null) > best.lr_profile:
+    if more_likely(likelihood_ratio(model, y, sigma, corr, speed_ms, first.theta, plain[0], null), best.lr_profile):
         other = _profiled_step(model, y, sigma, corr, speed_ms, plain, idx, null, first)
-        if other.lr_profile > best.lr_profile:
+        if more_likely(other.lr_profile, best.lr_profile):
             best = other
     return best
+
+
+#: Relative margin by which a profile likelihood-ratio statistic must exceed another to count as
+#: larger in :func:`profiled_fit`'s choice of step (:func:`more_likely`).
+TIE_MARGIN = 1e-9
+
+
+def more_likely(statistic: float | np.ndarray, than: float | np.ndarray) -> bool | np.ndarray:
+    r"""Whether a profile statistic is larger than another by more than rounding.
+
+    :func:`profiled_fit` completes its second step where the first fit from the plain start is
+    already the more likely, and keeps that step where it is the more likely. Where the first step
+    ends at the plain start's own fit (its profiled discrepancy is zero), the two statistics are
+    the same number computed along two routes and differ by rounding (1e-14 relative); comparing
+    them as they stand would let that rounding pick the step. A tie, within
+    :data:`TIE_MARGIN` x (1 + ``|than|``), counts as not larger, the same way on the campaign and on
+    every bootstrap replicate.
+    """
+    return np.asarray(statistic) > np.asarray(than) + TIE_MARGIN * (1.0 + np.abs(np.asarray(than)))
 
 
 def _profiled_step(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: np.ndarray | None,

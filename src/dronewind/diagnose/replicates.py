@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dronewind.diagnose.calibration import _feature_groups, _wls_batch
+from dronewind.diagnose.calibration import _feature_groups, _wls_batch, more_likely
 from dronewind.diagnose.covariance import flight_correlations, inverse_factors
 from dronewind.diagnose.fitting import (
     ParameterResponse,
@@ -377,11 +377,12 @@ def profiled_fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr: n
     lr_profile = best.lr_profile.copy()
     first = fit(model, y, plain[0], plain[1])
     # the second step is completed only where its first fit is already the more likely one
-    ahead = np.flatnonzero(likelihood_ratio(model, y, sigma, corr, speed_ms, first.theta, plain[0], null) > lr_profile)
+    ahead = np.flatnonzero(more_likely(likelihood_ratio(model, y, sigma, corr, speed_ms, first.theta, plain[0], null),
+                                       lr_profile))
     if ahead.size:
         other = _profiled_step(model, y[ahead], sigma[ahead], corr[ahead], speed_ms,
                                (plain[0][ahead], plain[1][ahead]), (null[0][ahead], null[1][ahead]), first.take(ahead))
-        better = other.lr_profile > lr_profile[ahead]
+        better = more_likely(other.lr_profile, lr_profile[ahead])
         rows = ahead[better]
         lr_stat[rows] = np.maximum(other.fit.chi2_baseline[better] - other.fit.chi2[better], 0.0)
         lr_profile[rows] = other.lr_profile[better]
