@@ -142,7 +142,7 @@ def test_profiled_discrepancy_is_the_single_campaign_one(about_zero: bool) -> No
     model = args["models"]["three"]
     ref, y, sigma, total = _replicate_inputs(args)
     theta = np.column_stack([np.linspace(-1.2, 0.5, y.shape[0]), np.full(y.shape[0], 0.3), np.full(y.shape[0], 1.2)])
-    resid = y - replicates.predict(model, theta)
+    resid = y - model.predict_each(theta)
     tau_start = np.abs(np.random.default_rng(1).normal(0.2, 0.1, (y.shape[0], y.shape[2])))
     got = replicates.profiled_discrepancy(resid, sigma, args["speed_ms"], replicates.fit_jacobian(model, theta),
                                           total, tau_start, about_zero=about_zero)
@@ -154,7 +154,7 @@ def test_profiled_discrepancy_is_the_single_campaign_one(about_zero: bool) -> No
         want = profiled_discrepancy(resid[b], sigma[b], args["speed_ms"], jac, total[b], tau_start[b],
                                     about_zero=about_zero).tau_or_zero()
         _close(got[b], want)
-        np.testing.assert_array_equal(replicates.predict(model, theta[b:b + 1])[0], model.predict(theta[b], idx))
+        np.testing.assert_array_equal(model.predict_each(theta[b:b + 1])[0], model.predict(theta[b], idx))
 
 
 def test_leading_axes_of_the_covariance_helpers() -> None:

@@ -70,7 +70,7 @@ from dronewind.diagnose.fitting import FitResult, ResponseModel, fit_parameters,
 
 __all__ = ["Discrepancy", "discrepancy", "fit_dof", "fit_jacobian", "profiled_discrepancy", "ProfiledFit",
            "profiled_fit", "null_likelihood", "likelihood_ratio", "MIN_FLIGHTS_TREND", "MAX_LOST_SHARE",
-           "UNEXPLAINED_ALPHA", "TIE_MARGIN", "more_likely"]
+           "UNEXPLAINED_ALPHA", "TIE_MARGIN", "more_likely", "group_moments"]
 
 #: Flights needed before a trend with wind speed is removed besides the offset when the
 #: discrepancy is estimated (two degrees of freedom left). Most mechanisms' effects grow or decay
@@ -413,23 +413,54 @@ def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.n
         d = (-np.einsum("igm,mk->gik", jacobian[np.ix_(rows, feats)], k_map) if m
              else np.zeros((feats.size, rows.size, n * p)))
         d[np.arange(feats.size)[:, None], np.arange(rows.size)[None, :], rows[None, :] * p + feats[:, None]] += 1.0
-        if x.shape[1]:
-            maker, _, _ = _wls_batch(r_group, 1.0 / w, x)
-            b2 = (np.sqrt(w)[:, :, None] * np.einsum("gij,gjk->gik", maker, d)) ** 2
-            e = np.einsum("gij,gj->gi", maker, r_group)
-        else:  # moments about zero: the residual maker is the identity (the likelihood ratio's every call)
-            b2 = (np.sqrt(w)[:, :, None] * d) ** 2
-            e = r_group
-        col = b2.sum(axis=1)  # (g, n p)
         own = feature_of[None, :] == feats[:, None]
-        expected0 = col @ var0 + np.sum(np.where(own, 0.0, col) * tau2_other[None, :], axis=1)
-        c = np.sum(np.where(own, col, 0.0), axis=1)
-        q = np.sum(w * e * e, axis=1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            tau2[feats] = np.where(c > 0, np.maximum(0.0, (q - expected0) / c), 0.0)
-        q_stat[feats], dof[feats], trend[feats] = q, col @ var0, with_trend
+        tau2[feats], q_stat[feats], dof[feats] = group_moments(w, r_group, d, x, own, var0, tau2_other)
+        trend[feats] = with_trend
     nan = np.full(p, np.nan)
     return Discrepancy(np.sqrt(tau2), nan, nan, q_stat, dof, trend)
+
+
+def group_moments(w: np.ndarray, r_group: np.ndarray, d: np.ndarray, x: np.ndarray, own: np.ndarray,
+                  var0: np.ndarray, tau2_other: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""The moment equation of :func:`profiled_discrepancy` for one group of features sharing their flights.
+
+    Parameters
+    ----------
+    w, r_group : numpy.ndarray
+        Weights :math:`1/\sigma^2` and residuals of the group's features on its flights (..., g, n_ok).
+    d : numpy.ndarray
+        :math:`E_f - J_f K`: each feature's fitted residuals as a map of all residuals (..., g, n_ok, n p).
+    x : numpy.ndarray
+        The offset-and-trend design (n_ok, q); no column: the moments about zero.
+    own : numpy.ndarray
+        Which of the n p residuals belong to each feature (g, n p) (bool).
+    var0, tau2_other : numpy.ndarray
+        Sampling variances and the other features' discrepancy variances of all residuals (..., n p).
+
+    Leading axes are independent campaigns of one shape (the replicates of a bootstrap,
+    :func:`dronewind.diagnose.replicates.profiled_discrepancy`).
+
+    Returns
+    -------
+    tau2, q, dof : numpy.ndarray
+        (..., g): :math:`\hat\tau_f^2`, :math:`Q_f` and the expected :math:`Q_f` without discrepancy.
+    """
+    if x.shape[1]:
+        lead, n_ok = w.shape[:-1], w.shape[-1]
+        maker = _wls_batch(r_group.reshape(-1, n_ok), (1.0 / w).reshape(-1, n_ok), x)[0].reshape(*lead, n_ok, n_ok)
+        b2 = (np.sqrt(w)[..., None] * np.einsum("...ij,...jk->...ik", maker, d)) ** 2
+        e = np.einsum("...ij,...j->...i", maker, r_group)
+    else:  # moments about zero: the residual maker is the identity (the likelihood ratio's every call)
+        b2 = (np.sqrt(w)[..., None] * d) ** 2
+        e = r_group
+    col = b2.sum(axis=-2)  # (..., g, n p)
+    dof = col @ var0 if var0.ndim == 1 else np.einsum("...gk,...k->...g", col, var0)
+    expected0 = dof + np.sum(np.where(own, 0.0, col) * tau2_other[..., None, :], axis=-1)
+    c = np.sum(np.where(own, col, 0.0), axis=-1)
+    q = np.sum(w * e * e, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        tau2 = np.where(c > 0, np.maximum(0.0, (q - expected0) / c), 0.0)
+    return tau2, q, dof
 
 
 @dataclass(frozen=True)

@@ -76,8 +76,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["MIN_EIGENVALUE", "ShrunkCorrelation", "shrunk_correlation", "whiten", "Whitener", "flight_correlations",
-           "log_determinant",
-           "nearest_correlation", "row_patterns"]
+           "log_determinant", "inverse_factors", "nearest_correlation", "row_patterns"]
 
 #: Smallest eigenvalue of a shrunk correlation matrix: whitening divides by the square root
 #: of the eigenvalues, so a near-singular pairwise estimate would amplify a residual

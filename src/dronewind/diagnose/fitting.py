@@ -136,6 +136,27 @@ class ParameterResponse:
         at_value = self.features[flights, j, :] * (1.0 - w) + self.features[flights, j + 1, :] * w
         return at_value - self.features[flights, base_index, :]
 
+    def effects(self, values: np.ndarray) -> np.ndarray:
+        """:meth:`effect` of every flight at each of several values (the replicates of a bootstrap).
+
+        Parameters
+        ----------
+        values : numpy.ndarray
+            (B,) [its unit].
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, n_flights, n_features): row b is ``effect(values[b], all flights)``, number for number.
+        """
+        levels = np.asarray(self.level_list)
+        # the segment of effect(): searchsorted (left side) - 1, clipped to the segments; NaN sorts last
+        j = np.clip(np.searchsorted(levels, values, side="left") - 1, 0, levels.size - 2)
+        w = ((values - levels[j]) / (levels[j + 1] - levels[j]))[:, None, None]
+        f = self.features
+        at_value = f[:, j, :].transpose(1, 0, 2) * (1.0 - w) + f[:, j + 1, :].transpose(1, 0, 2) * w
+        return at_value - f[None, :, self.base_index, :]
+
     def linear_intervals(self) -> list[tuple[float, float]]:
         """The parameter intervals on which :meth:`effect` is linear, within the bounds [its unit].
 
@@ -211,6 +232,24 @@ class ResponseModel:
         out = np.array(self.baseline[flights], dtype=float, copy=True)
         for value, response in zip(theta, self.parameters, strict=True):
             out += response.effect(float(value), flights)
+        return out
+
+    def predict_each(self, theta: np.ndarray) -> np.ndarray:
+        """:meth:`predict` of every flight for each of several parameter vectors (the replicates of a bootstrap).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (B, m) [parameter units].
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, n_flights, n_features): row b is ``predict(theta[b], all flights)``, number for number.
+        """
+        out = np.repeat(np.asarray(self.baseline, dtype=float)[None], theta.shape[0], axis=0)
+        for k, response in enumerate(self.parameters):
+            out += response.effects(theta[:, k])
         return out
 
     def baseline_theta(self) -> np.ndarray:
@@ -577,13 +616,13 @@ def _tabulated_cell_form(model: ResponseModel, yf: np.ndarray, sf: np.ndarray, f
     whitened residuals are ``W((y - baseline - sum a_k) / s) - sum_k theta_k W(b_k / s)``. The
     lines of every segment are whitened once per fit; a cell then costs a few additions where
     the probing of the residual function cost ``m + 1`` evaluations. None (probe instead) where
-    a used feature's baseline or table value is missing: a missing prediction counts as no
-    misfit, which is not linear across the cells.
+    a used feature's baseline or table value is missing (:func:`tabulated`).
+
+    ``yf`` and ``sf`` may carry leading axes of independent campaigns that share ``mask`` (the
+    replicates of a bootstrap, :func:`dronewind.diagnose.replicates.fit`), with ``whiten_used``
+    keeping them: the form's residuals (..., N) and Jacobian (..., N, m) then have them too.
     """
-    if model.n_parameters == 0:
-        return None
-    if not np.isfinite(model.baseline[flights][mask]).all() or any(
-            (~np.isfinite(par.features[flights]) & mask[:, None, :]).any() for par in model.parameters):
+    if not tabulated(model, flights, mask):
         return None
     scale = np.where(mask, sf, 1.0)
 
@@ -601,14 +640,24 @@ def _tabulated_cell_form(model: ResponseModel, yf: np.ndarray, sf: np.ndarray, f
 
     def form(segments: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
         at_zero = start.copy()
-        jac = np.empty((start.size, len(segments)))
+        jac = np.empty((*start.shape, len(segments)))
         for k, j in enumerate(segments):
             a_w, b_w = lines[k][j]
             at_zero -= a_w
-            jac[:, k] = b_w
+            jac[..., k] = b_w
         return at_zero, jac
 
     return form
+
+
+def tabulated(model: ResponseModel, flights: np.ndarray, mask: np.ndarray) -> bool:
+    """Whether a candidate's fit reads its cells off the tables (:func:`_tabulated_cell_form`): it has
+    a parameter, and its baseline and every table are finite on the used features ``mask``
+    (len(flights), p); a missing prediction counts as no misfit, which is not linear across the cells."""
+    if model.n_parameters == 0:
+        return False
+    return bool(np.isfinite(model.baseline[flights][mask]).all()) and not any(
+        (~np.isfinite(par.features[flights]) & mask[:, None, :]).any() for par in model.parameters)
 
 
 @dataclass(frozen=True)

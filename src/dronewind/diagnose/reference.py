@@ -464,11 +464,11 @@ def _candidate_statistics(ref: NullReference, pending: Sequence[tuple[int, tuple
         for c, model in batched.items():
             ref.lr[c][rows], ref.lr_profile[c][rows] = replicates.profiled_fit(model, y, sigma, corr, speed_ms,
                                                                                start, plain, null)
+    single = {c: m for c, m in models.items() if c not in batched}
     for b, null_b in pending:
-        white_total, white_plain = Whitener(ref.flight_corr[b]), Whitener(ref.corr[b])
-        for c, model in models.items():
-            if c in batched:
-                continue
+        if single:
+            white_total, white_plain = Whitener(ref.flight_corr[b]), Whitener(ref.corr[b])
+        for c, model in single.items():
             prof = profiled_fit(model, ref.y[b], ref.sigma[b], ref.corr[b], speed_ms,
                                 (ref.total_sigma[b], white_total), null=null_b, plain=(ref.sigma[b], white_plain))
             ref.lr[c][b], ref.lr_profile[c][b] = prof.lr_statistic, prof.lr_profile

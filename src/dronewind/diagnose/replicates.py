@@ -31,18 +31,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dronewind.diagnose.calibration import _feature_groups, _wls_batch, more_likely
+from dronewind.diagnose.calibration import _feature_groups, group_moments, more_likely
 from dronewind.diagnose.covariance import flight_correlations, inverse_factors
 from dronewind.diagnose.fitting import (
-    ParameterResponse,
     ResponseModel,
+    _tabulated_cell_form,
     linear_cells,
     solve_cell,
     standardised_residuals,
+    tabulated,
     unbounded_floor,
 )
 
-__all__ = ["ReplicateFits", "used_features", "supported", "predict", "fit", "fit_jacobian", "profiled_discrepancy",
+__all__ = ["ReplicateFits", "used_features", "supported", "fit", "fit_jacobian", "profiled_discrepancy",
            "neg2_loglik", "likelihood_ratio", "profiled_fit"]
 
 
@@ -77,44 +78,10 @@ def used_features(y: np.ndarray, sigma: np.ndarray) -> np.ndarray:
 
 
 def supported(model: ResponseModel, used: np.ndarray) -> bool:
-    """Whether the candidate's fit is made here (its cells read off the tables, as
-    :func:`~dronewind.diagnose.fitting.fit_parameters` reads them): at least one parameter and
-    a finite baseline and response on every used feature (n, p)."""
-    if model.n_parameters == 0 or not np.isfinite(model.baseline[used]).all():
-        return False
-    return all(np.isfinite(par.features.transpose(1, 0, 2)[:, used]).all() for par in model.parameters)
-
-
-def _effect(par: ParameterResponse, values: np.ndarray) -> np.ndarray:
-    """:meth:`~dronewind.diagnose.fitting.ParameterResponse.effect` at one value per replicate (B,) -> (B, n, p)."""
-    levels = np.asarray(par.level_list)
-    # the segment: searchsorted (left side) - 1, clipped to the segments; NaN sorts last
-    j = np.clip(np.searchsorted(levels, values, side="left") - 1, 0, levels.size - 2)
-    w = ((values - levels[j]) / (levels[j + 1] - levels[j]))[:, None, None]
-    f = par.features
-    at_value = f[:, j, :].transpose(1, 0, 2) * (1.0 - w) + f[:, j + 1, :].transpose(1, 0, 2) * w
-    return at_value - f[None, :, par.base_index, :]
-
-
-def predict(model: ResponseModel, theta: np.ndarray) -> np.ndarray:
-    """:meth:`~dronewind.diagnose.fitting.ResponseModel.predict` of every flight for one parameter vector per replicate.
-
-    Parameters
-    ----------
-    model : ResponseModel
-        The candidate's responses.
-    theta : numpy.ndarray
-        (B, m) [parameter units].
-
-    Returns
-    -------
-    numpy.ndarray
-        (B, n_flights, p) [feature units].
-    """
-    out = np.repeat(np.asarray(model.baseline, dtype=float)[None], theta.shape[0], axis=0)
-    for k, par in enumerate(model.parameters):
-        out += _effect(par, theta[:, k])
-    return out
+    """Whether the candidate's fit is made here: its cells are read off the tables, as
+    :func:`~dronewind.diagnose.fitting.fit_parameters` reads them (:func:`~dronewind.diagnose.fitting.tabulated`
+    on every flight, ``used`` (n, p))."""
+    return tabulated(model, np.arange(used.shape[0]), used)
 
 
 def _whitened_sum(factors: np.ndarray, z: np.ndarray, use: np.ndarray) -> np.ndarray:
@@ -143,29 +110,22 @@ def fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, factors: np.ndar
     """
     n_rep = y.shape[0]
     mask = used_features(y, sigma)
-    scale = np.where(mask, sigma, 1.0)
 
-    def whitened(v: np.ndarray) -> np.ndarray:
+    def whiten_used(v: np.ndarray) -> np.ndarray:
         """Whitened standardised values, as (B, N) of the used ones."""
-        return np.einsum("bipq,biq->bip", factors, np.where(mask, v / scale, 0.0))[:, mask]
+        return np.einsum("bipq,biq->bip", factors, v)[:, mask]
 
     base_theta = np.repeat(model.baseline_theta()[None], n_rep, axis=0)
-    z_base = standardised_residuals(y, predict(model, base_theta), sigma)
+    z_base = standardised_residuals(y, model.predict_each(base_theta), sigma)
     chi2_base = _whitened_sum(factors, z_base, mask)
-    start = whitened(y - model.baseline[None])
-    lines = [{j: (whitened(a[None]), -whitened(b[None])) for j, a, b in
-              ((j, *par.segment_line(j, np.arange(y.shape[1]))) for j, _, _ in par.linear_segments())}
-             for par in model.parameters]
+    form = _tabulated_cell_form(model, y, sigma, np.arange(y.shape[1]), mask, whiten_used)
+    if form is None:
+        raise ValueError(f"{model.mechanism}: its cells are not read off the tables (replicates.supported)")
     base = model.baseline_theta()
     cells = linear_cells(model.parameters)
     r0s, jacs = [], []
     for segments, _, _, centre, _ in cells:
-        at_zero = start.copy()
-        jac = np.empty((*start.shape, len(segments)))
-        for k, j in enumerate(segments):
-            a_w, b_w = lines[k][j]
-            at_zero -= a_w
-            jac[..., k] = b_w
+        at_zero, jac = form(segments)
         r0s.append(at_zero + jac @ centre)
         jacs.append(jac)
     r0 = np.stack(r0s, axis=1)  # (B, C, N)
@@ -186,7 +146,7 @@ def fit(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, factors: np.ndar
                     best = (value, t)
             assert best is not None
             theta[b] = best[1]
-    z = standardised_residuals(y, predict(model, theta), sigma)  # the winner's misfit evaluated
+    z = standardised_residuals(y, model.predict_each(theta), sigma)  # the winner's misfit evaluated
     return ReplicateFits(theta, _whitened_sum(factors, z, mask), chi2_base)
 
 
@@ -216,7 +176,7 @@ def fit_jacobian(model: ResponseModel, theta: np.ndarray) -> np.ndarray:
     function leaves it out; every use of the Jacobian here (:func:`profiled_discrepancy`) goes
     through a pseudo-inverse, to which a zero column is the same as none.
     """
-    base = predict(model, theta)
+    base = model.predict_each(theta)
     cols = []
     for k, par in enumerate(model.parameters):
         span = float(par.upper - par.lower)
@@ -226,7 +186,7 @@ def fit_jacobian(model: ResponseModel, theta: np.ndarray) -> np.ndarray:
         moved = theta.copy()
         moved[:, k] += step
         with np.errstate(invalid="ignore", divide="ignore"):
-            d = (predict(model, moved) - base) / step[:, None, None]
+            d = (model.predict_each(moved) - base) / step[:, None, None]
         cols.append(np.where(np.isfinite(d) & free[:, None, None], d, 0.0))
     return np.stack(cols, axis=3)
 
@@ -269,22 +229,7 @@ def profiled_discrepancy(residual: np.ndarray, sigma: np.ndarray, speed_ms: np.n
         r_group = np.ascontiguousarray(residual[:, rows][:, :, feats].transpose(0, 2, 1))
         d = -np.einsum("bigm,bmk->bgik", np.ascontiguousarray(jacobian[:, rows][:, :, feats]), k_map)
         d[:, np.arange(g)[:, None], np.arange(nr)[None, :], rows[None, :] * p + feats[:, None]] += 1.0
-        if x.shape[1]:
-            maker, _, _ = _wls_batch(r_group.reshape(n_rep * g, nr), (1.0 / w).reshape(n_rep * g, nr), x)
-            maker = maker.reshape(n_rep, g, nr, nr)
-            b2 = (np.sqrt(w)[..., None] * np.einsum("bgij,bgjk->bgik", maker, d)) ** 2
-            e = np.einsum("bgij,bgj->bgi", maker, r_group)
-        else:
-            b2 = (np.sqrt(w)[..., None] * d) ** 2
-            e = r_group
-        col = b2.sum(axis=2)  # (B, g, n p)
-        own = feature_of[None, :] == feats[:, None]
-        expected0 = (np.einsum("bgk,bk->bg", col, var0)
-                     + np.sum(np.where(own, 0.0, col) * tau2_other[:, None, :], axis=2))
-        c = np.sum(np.where(own, col, 0.0), axis=2)
-        q = np.sum(w * e * e, axis=2)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            tau2[:, feats] = np.where(c > 0, np.maximum(0.0, (q - expected0) / c), 0.0)
+        tau2[:, feats] = group_moments(w, r_group, d, x, feature_of[None, :] == feats[:, None], var0, tau2_other)[0]
     return np.sqrt(np.nan_to_num(tau2, nan=0.0))
 
 
@@ -298,6 +243,9 @@ def neg2_loglik(y: np.ndarray, prediction: np.ndarray, sigma: np.ndarray, corr: 
     z = standardised_residuals(y, prediction, total)
     use = used_features(z, total)
     factors = inverse_factors(fcorr, use, per_row=True)
+    # log|C| as covariance.log_determinant takes it, summed over each replicate's whole (n, p) block:
+    # numpy's sum of the used values along one axis of several replicates is not the same number
+    # as that of each replicate alone, which would make a replicate depend on its chunk
     t = np.where(use, total, 1.0)
     diag = np.diagonal(factors, axis1=2, axis2=3)
     log_det = 2.0 * np.sum(np.where(use, np.log(t), 0.0), axis=(1, 2)) - 2.0 * np.sum(
@@ -313,7 +261,7 @@ def likelihood_ratio(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, cor
     discrepancy (B, p) and minus twice its log-likelihood (B,).
     """
     tau0, neg2_null = null
-    pred = predict(model, theta)
+    pred = model.predict_each(theta)
     tau1 = profiled_discrepancy(y - pred, sigma, speed_ms, fit_jacobian(model, theta), fit_sigma, tau0,
                                 about_zero=True)
     return np.maximum(neg2_null - neg2_loglik(y, pred, sigma, corr, tau1), 0.0)
@@ -334,7 +282,7 @@ def _profiled_step(model: ResponseModel, y: np.ndarray, sigma: np.ndarray, corr:
     total0, factors0 = start
     if first is None:
         first = fit(model, y, total0, factors0)
-    resid = y - predict(model, first.theta)
+    resid = y - model.predict_each(first.theta)
     with np.errstate(invalid="ignore"):
         excess = np.where(np.isfinite(total0) & np.isfinite(sigma), np.maximum(total0**2 - sigma**2, 0.0), 0.0)
     tau_start = np.sqrt(excess.max(axis=1))
