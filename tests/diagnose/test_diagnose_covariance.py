@@ -21,7 +21,8 @@ import pytest
 import scipy.stats
 
 from dronewind.diagnose.covariance import MIN_EIGENVALUE, Whitener, flight_correlations, shrunk_correlation, whiten
-from dronewind.diagnose.fitting import ParameterResponse, ResponseModel, chi2, score_candidate
+from dronewind.diagnose.fitting import ParameterResponse, ResponseModel, chi2
+from dronewind.diagnose.scoring import score_candidate
 
 
 def _equicorrelated(p: int, rho: float) -> np.ndarray:

@@ -10,13 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dronewind.diagnose.fitting import (
-    ParameterResponse,
-    ResponseModel,
-    ambiguity_sets,
-    fit_parameters,
-    score_candidate,
-)
+from dronewind.diagnose.fitting import ParameterResponse, ResponseModel, fit_parameters
+from dronewind.diagnose.scoring import ambiguity_sets, score_candidate
 
 N_FLIGHTS, N_FEATURES = 10, 6
 

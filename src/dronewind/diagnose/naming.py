@@ -28,12 +28,7 @@ from dronewind.diagnose.calibration import (
 from dronewind.diagnose.covariance import Whitener, flight_correlations
 from dronewind.diagnose.evidence import CampaignEvidence
 from dronewind.diagnose.features import FEATURES
-from dronewind.diagnose.fitting import (
-    CandidateScore,
-    ResponseModel,
-    chi2,
-    score_candidate,
-)
+from dronewind.diagnose.fitting import ResponseModel, chi2
 from dronewind.diagnose.probes import baseline_level
 from dronewind.diagnose.reference import (
     DEFAULT_REPLICATES,
@@ -43,6 +38,7 @@ from dronewind.diagnose.reference import (
     null_reference,
     replicate_part,
 )
+from dronewind.diagnose.scoring import CandidateScore, score_candidate
 from dronewind.mechanisms import get_mechanism
 
 __all__ = ["AMBIGUITY_COSINE", "AT_BOUND", "MIN_GAIN", "Withheld", "DiagnosisResult", "n_tests", "simplest_variant",
@@ -216,7 +212,7 @@ def _calibrated(scores: Mapping[str, CandidateScore], reference: NullReference |
     """Scores with their p-values from the bootstrap reference (family-wise over ``scores``).
 
     Without a reference (fewer than two seeds) the chi-square p-values of
-    :func:`~dronewind.diagnose.fitting.score_candidate` are Bonferroni-corrected with ``divisors``.
+    :func:`~dronewind.diagnose.scoring.score_candidate` are Bonferroni-corrected with ``divisors``.
     With one, the test statistic of a candidate is its profile likelihood ratio (each
     hypothesis under its own model discrepancy,
     :func:`~dronewind.diagnose.calibration.likelihood_ratio`), and the family-wise p-value is
@@ -225,7 +221,7 @@ def _calibrated(scores: Mapping[str, CandidateScore], reference: NullReference |
     p-value is :math:`1/(B+1)`; a candidate is significant when its p-value is below ``alpha``.
     The profile statistic's null distribution stays close to :math:`\\chi^2_k` whatever the
     discrepancy; the misfits' difference under the candidate's discrepancy alone (the
-    conditional statistic, :attr:`~dronewind.diagnose.fitting.CandidateScore.lr_statistic`)
+    conditional statistic, :attr:`~dronewind.diagnose.scoring.CandidateScore.lr_statistic`)
     grows a long tail where the discrepancy is large (a candidate's fit absorbs part of it), and
     in the min-p that tail would set every candidate's p-value.
     """
