@@ -75,6 +75,7 @@ whole numbers of Hz::
         ins_horizontal_position_noise_m: 0.01 # [0, 5] m
         ins_vertical_position_noise_m: 0.02   # [0, 5] m
         ins_noise_time_s: 1                   # [0, 100] s
+        ins_heading_offset_deg: 0             # [0, 5] degree: heading error held over the flight
         ascent_rate_ms: 1.5                   # [0.1, 10] m s-1
         descent_rate_ms: 1                    # [0.1, 10] m s-1
         ground_before_s: 60                   # [0, 3600] s

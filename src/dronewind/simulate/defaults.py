@@ -92,6 +92,12 @@ PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
     "ins_horizontal_position_noise_m": (0.01, 0.0, 5.0, "m"),  # Table 3
     "ins_vertical_position_noise_m": (0.02, 0.0, 5.0, "m"),    # Table 3
     "ins_noise_time_s": (1.0, 0.0, 100.0, "s"),            # Gauss-Markov correlation time
+    # a heading error held over the whole flight (standard deviation; one draw per flight and
+    # seed), beside the fast heading noise above: a dual-antenna GNSS heading errs by carrier-
+    # phase multipath, which changes with the satellites' geometry over minutes to tens of
+    # minutes for a (nearly) still antenna pair (Georgiadou and Kleusberg 1988), i.e. it holds
+    # over a hover; 0.4 is the Table 3 heading accuracy held (Ghirardelli et al. 2025), 0 none
+    "ins_heading_offset_deg": (0.0, 0.0, 5.0, "degree"),
     "ascent_rate_ms": (1.5, 0.1, 10.0, "m s-1"),
     "descent_rate_ms": (1.0, 0.1, 10.0, "m s-1"),
     "ground_before_s": (60.0, 0.0, 3600.0, "s"),

@@ -246,16 +246,18 @@ def _ins_truth(cond: PayloadFlightConditions, motion: _Motion, track: tuple[np.n
 #: Payload settings the INS errors depend on (:func:`_ins_noise`).
 _INS_NOISE_KEYS: tuple[str, ...] = ("ins_noise_time_s", "ins_velocity_noise_ms", "ins_roll_pitch_noise_deg",
                                     "ins_heading_noise_deg", "ins_horizontal_position_noise_m",
-                                    "ins_vertical_position_noise_m")
+                                    "ins_vertical_position_noise_m", "ins_heading_offset_deg")
 
 
 def _ins_noise(p: Mapping[str, Any], n: int, rng: np.random.Generator, fs_hz: float) -> tuple[np.ndarray, ...]:
     """Gauss-Markov errors of the Table 3 accuracies (Ghirardelli et al. 2025) for ``n`` INS rows.
 
     ``rng`` (the INS-noise stream) is drawn in the order vel N, E, D, roll, pitch, yaw,
-    position E, N, up; the arrays are returned in that order, read-only. They depend on the
-    stream, the payload's noise settings, ``n`` and ``fs_hz`` only, so every INS probe of a
-    truth shares them (:func:`payload_records`).
+    position E, N, up, then (only when ``ins_heading_offset_deg`` is not 0, so that the other
+    errors do not depend on it) the heading offset held over the flight; the arrays are
+    returned in that order, read-only, the offset as a 0-d array (0 when not drawn). They
+    depend on the stream, the payload's noise settings, ``n`` and ``fs_hz`` only, so every INS
+    probe of a truth shares them (:func:`payload_records`).
     """
     tau = p["ins_noise_time_s"]
 
@@ -268,6 +270,8 @@ def _ins_noise(p: Mapping[str, Any], n: int, rng: np.random.Generator, fs_hz: fl
         p["ins_heading_noise_deg"], p["ins_horizontal_position_noise_m"], p["ins_horizontal_position_noise_m"],
         p["ins_vertical_position_noise_m"])
     noise = tuple(gm(sigma) for sigma in sigmas)
+    sigma_offset = float(p["ins_heading_offset_deg"])
+    noise += (np.asarray(sigma_offset * rng.standard_normal() if sigma_offset > 0 else 0.0),)
     for arr in noise:
         arr.setflags(write=False)
     return noise
@@ -276,13 +280,15 @@ def _ins_noise(p: Mapping[str, Any], n: int, rng: np.random.Generator, fs_hz: fl
 def _add_ins_errors(cond: PayloadFlightConditions, ins: _InsRecord, noise: Sequence[np.ndarray]) -> _InsRecord:
     """The INS errors (:func:`_ins_noise`) and ``heading_bias`` added; yaw wrapped to (-180, 180]."""
     mech = cond["mechanisms"]
-    n_vn, n_ve, n_vd, n_roll, n_pitch, n_yaw, n_e, n_n, n_up = noise
+    n_vn, n_ve, n_vd, n_roll, n_pitch, n_yaw, n_e, n_n, n_up, yaw_offset = noise
     vn = ins.vel_n_ms + n_vn
     ve = ins.vel_e_ms + n_ve
     vd = ins.vel_d_ms + n_vd
     roll_i = ins.roll_deg + n_roll
     pitch_i = ins.pitch_deg + n_pitch
     yaw_unw = ins.yaw_deg + n_yaw + mech.get("heading_bias", {}).get("deg", 0.0)
+    if yaw_offset:  # none drawn: the yaw as before, bit for bit
+        yaw_unw = yaw_unw + float(yaw_offset)
     yaw_i = (yaw_unw + 180.0) % 360.0 - 180.0  # unwrapped over the turns: seldom in range for wrap_180
     yaw_i = np.where(yaw_i == -180.0, 180.0, yaw_i)
     pe = ins.east_m + n_e
