@@ -95,7 +95,8 @@ PAYLOAD_DEFAULTS: dict[str, tuple[float, float, float, str]] = {
     # a heading error held over the whole flight (standard deviation; one draw per flight and
     # seed), beside the fast heading noise above: a dual-antenna GNSS heading errs by carrier-
     # phase multipath, which changes with the satellites' geometry over minutes to tens of
-    # minutes for a (nearly) still antenna pair (Georgiadou and Kleusberg 1988), i.e. it holds
+    # minutes for a (nearly) still antenna pair (Georgiadou, Y. and Kleusberg, A., 1988: On carrier
+    # signal multipath effects in relative GPS positioning, Manuscripta Geodaetica 13, 172-179), i.e. it holds
     # over a hover; 0.4 is the Table 3 heading accuracy held (Ghirardelli et al. 2025), 0 none
     "ins_heading_offset_deg": (0.0, 0.0, 5.0, "degree"),
     "ascent_rate_ms": (1.5, 0.1, 10.0, "m s-1"),
