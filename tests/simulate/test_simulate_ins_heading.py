@@ -8,12 +8,11 @@ else. Its default, 0, leaves every record as it was, bit for bit.
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import pytest
 
 from dronewind.diagnose.experiments import Draw, campaign_manifest
+from dronewind.errors import InputError
 from dronewind.simulate.defaults import PAYLOAD_DEFAULTS
 from dronewind.simulate.payload import _ins_noise, payload_records
 
@@ -81,7 +80,5 @@ def test_offsets_over_seeds_have_the_standard_deviation_set_and_leave_the_other_
 
 
 def test_offset_outside_its_range_is_refused():
-    data = copy.deepcopy(_campaign(None))
-    data["simulation"]["payload"] = {"ins_heading_offset_deg": -0.1}
-    with pytest.raises(Exception, match="ins_heading_offset_deg"):
-        payload_records(data, "h01")
+    with pytest.raises(InputError, match=r"simulation\.payload\.ins_heading_offset_deg: -0\.1 outside"):
+        payload_records(_campaign(-0.1), "h01")

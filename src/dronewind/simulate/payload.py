@@ -286,9 +286,8 @@ def _add_ins_errors(cond: PayloadFlightConditions, ins: _InsRecord, noise: Seque
     vd = ins.vel_d_ms + n_vd
     roll_i = ins.roll_deg + n_roll
     pitch_i = ins.pitch_deg + n_pitch
-    yaw_unw = ins.yaw_deg + n_yaw + mech.get("heading_bias", {}).get("deg", 0.0)
-    if yaw_offset:  # none drawn: the yaw as before, bit for bit
-        yaw_unw = yaw_unw + float(yaw_offset)
+    # the offset held over the flight last: where none is drawn, adding 0.0 leaves every yaw as it was
+    yaw_unw = ins.yaw_deg + n_yaw + mech.get("heading_bias", {}).get("deg", 0.0) + float(yaw_offset)
     yaw_i = (yaw_unw + 180.0) % 360.0 - 180.0  # unwrapped over the turns: seldom in range for wrap_180
     yaw_i = np.where(yaw_i == -180.0, 180.0, yaw_i)
     pe = ins.east_m + n_e
