@@ -32,7 +32,8 @@ run: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadgroup --no-loadscope-reorder
 
-# the fast tier: unit, property and known-answer tests of the library (no workflow runs), under a minute
+# the fast tier: unit, property and known-answer tests of the library (no workflow runs, Monte-Carlo rate
+# checks or fleet diagnoses: marked slow), under a minute
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -n $(TEST_WORKERS) -m "not slow" -q
 

@@ -130,6 +130,7 @@ def _evidence(y, sigma, speeds):
                             [{"mean_speed_ms": float(s)} for s in speeds])
 
 
+@pytest.mark.slow
 def test_unexplained_rates_at_the_default_level():
     """At the default family-wise level (5 %) the Bonferroni form of 'unexplained' reports
     something on at most 5 % of pure-noise campaigns, and finds a trend of 1.5 errors per SD

@@ -30,6 +30,9 @@ from dronewind.core.constants import AIR_DENSITY_KGM3, WETZ2021_AERO
 from dronewind.diagnose import quadrotor as dq
 from dronewind.quadrotor.drag import speed_from_tilt
 
+#: fleet diagnoses of eight flights each (seconds apiece): outside the fast tier
+pytestmark = pytest.mark.slow
+
 UAVS = ("q01", "q02", "q03")
 FLIGHTS = tuple(f"d{k // 4 + 1}f{k + 1}" for k in range(8))
 TILT_GRID = np.radians(np.linspace(0.0, 25.0, 25001))

@@ -96,6 +96,7 @@ def test_the_lag_drift_does_not_see_a_constant_lag():
     assert lagged.values["lag_drift_s"] == pytest.approx(none.values["lag_drift_s"], abs=0.1 * STEP_S)
 
 
+@pytest.mark.slow
 def test_parts_with_the_lag_condition_merge_into_the_whole_flight(measured):
     """Each part finds the same simulated lag on its own (the first seed's flight), so the
     per-mechanism jobs merge, bit for bit, into one job's runs."""

@@ -184,6 +184,7 @@ def _l2_lag_s(folder, manifest) -> float:
                                     ).attrs["lag_sonic_ins_s"])
 
 
+@pytest.mark.slow
 def test_sonic_ins_lag_applied_as_declared(short_campaign, tmp_path) -> None:
     """The same flight without the hidden lag: every sonic stamp 0.4 s later (to the
     microsecond, the contract's sign: lag_s is added to the sonic clock to align it), and the

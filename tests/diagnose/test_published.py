@@ -176,6 +176,7 @@ def test_held_out_gains_only_where_they_decide_give_the_same_result(monkeypatch,
 # ----------------------------------------------------------------------------- file steps
 
 
+@pytest.mark.slow
 def test_file_steps_write_diagnosis_rerun_report_and_figure(tmp_path):
     """published_diagnosis -> published_rerun (real forward model, one sample) -> published_report."""
     import json

@@ -28,6 +28,9 @@ from dronewind.steps import payload as steps
 from dronewind.steps.payload import simulate_payload, simulation_manifest
 from tests.small_campaign import write_small_campaign
 
+#: a small campaign simulated and carried through the file steps: outside the fast tier
+pytestmark = pytest.mark.slow
+
 PROCESSING = default_config()["processing"]
 HOVER = {**PROCESSING["hover"], "min_duration_s": 300.0}
 FLIGHTS = ("s01", "s02")

@@ -59,6 +59,7 @@ def test_offset_moves_the_ins_yaw_by_one_constant_and_nothing_else(plain):
     assert 0.0 < abs(diff[0]) < 5 * SIGMA_DEG
 
 
+@pytest.mark.slow
 def test_offsets_over_seeds_have_the_standard_deviation_set_and_leave_the_other_errors():
     settings = {"ins_noise_time_s": 1.0, "ins_velocity_noise_ms": 0.03, "ins_roll_pitch_noise_deg": 0.05,
                 "ins_heading_noise_deg": 0.4, "ins_horizontal_position_noise_m": 0.01,
