@@ -210,6 +210,9 @@ class Reader:
         ``full(path)``: the public reader on one file.
     ops : tuple of str
         Fault classes that apply.
+    records : tuple of str
+        The real records (:mod:`dronewind.datasets`) the samples are cut from, where they have no
+        synthetic sample: without them the reader has no sample.
     """
 
     name: str
@@ -220,6 +223,13 @@ class Reader:
     rows: Callable[[Path], tuple[dict[int, tuple], dict[str, int]]] | None
     full: Callable[[Path], Any]
     ops: tuple[str, ...]
+    records: tuple[str, ...] = ()
+
+    def missing(self) -> str:
+        """Why the reader has no sample: its records, the data folder and the command that fetches them."""
+        return (f"no sample of {self.name}: real record(s) {', '.join(self.records)} not in the data folder "
+                f"{datasets.data_dir()} (set {datasets.ENV_VAR}, or fetch: {datasets.FETCH_COMMAND} "
+                f"{' '.join(self.records)})")
 
 
 def _head(path: Path, n_lines: int, gz: bool = False) -> bytes:
@@ -529,8 +539,9 @@ READERS: list[Reader] = [
     Reader("payload_ins", "ins.csv", 1, False, _ins_samples, _payload_rows(*_ins_kinds()), _ins_full, _TEXT_OPS),
     Reader("quadrotor_csv", "q01.csv", 1, False, _quad_samples, _quad_rows, _quad_full, _TEXT_OPS),
     Reader("tower_reference", "reference.csv", 1, False, _tower_samples, _tower_rows, _tower_full, _TEXT_OPS),
-    Reader("px4_ulog", "log.ulg", 0, False, _ulog_samples, None, _ulog_full, BINARY_OPS),
-    Reader("ardupilot_bin", "log.bin", 0, False, _dataflash_samples, None, _dataflash_full, BINARY_OPS),
+    Reader("px4_ulog", "log.ulg", 0, False, _ulog_samples, None, _ulog_full, BINARY_OPS, ("px4_ulog",)),
+    Reader("ardupilot_bin", "log.bin", 0, False, _dataflash_samples, None, _dataflash_full, BINARY_OPS,
+           ("ardupilot_dataflash",)),
 ]
 
 

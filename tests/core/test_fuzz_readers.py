@@ -35,7 +35,7 @@ def prepared(tmp_path_factory) -> dict[str, Prepared]:
 def test_reader_takes_random_faults(prepared, name):
     prep = prepared[name]
     if not prep.clean:
-        pytest.skip(f"no sample of {name} (the real records are not beside the checkout)")
+        pytest.skip(prep.reader.missing())
     outcomes: list[str] = []
 
     @settings(max_examples=MAX_EXAMPLES, deadline=None, derandomize=True, database=None,
@@ -56,7 +56,7 @@ def test_every_fault_class_once(prepared, name, op):
     """Each fault class at a fixed place: the property, and what a row fault costs."""
     prep = prepared[name]
     if not prep.clean:
-        pytest.skip(f"no sample of {name} (the real records are not beside the checkout)")
+        pytest.skip(prep.reader.missing())
     sample = sorted(prep.clean)[0]
     outcome = check(prep, sample, op, (0.5, 0.5, 0.3), bytes(range(7, 250, 3)))
     row_faults = ("cut_row_joined", "nul_block", "garbage_block", "duplicate_block", "reverse_block")
