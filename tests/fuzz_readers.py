@@ -225,12 +225,6 @@ class Reader:
     ops: tuple[str, ...]
     records: tuple[str, ...] = ()
 
-    def missing(self) -> str:
-        """Why the reader has no sample: its records, the data folder and the command that fetches them."""
-        return (f"no sample of {self.name}: real record(s) {', '.join(self.records)} not in the data folder "
-                f"{datasets.data_dir()} (set {datasets.ENV_VAR}, or fetch: {datasets.FETCH_COMMAND} "
-                f"{' '.join(self.records)})")
-
 
 def _head(path: Path, n_lines: int, gz: bool = False) -> bytes:
     opener = gzip.open if gz else open
